@@ -1,0 +1,44 @@
+"""Typed exceptions. Each carries the one line that the CLI prints (file, key, problem)."""
+
+from __future__ import annotations
+
+
+class TumbleError(Exception):
+    """Base class of every error tumble raises on purpose."""
+
+
+class InputError(TumbleError, ValueError):
+    """Bad input: a scene file, a keyword argument, a mesh file.
+
+    ``str(err)`` is one line ``"FILE: KEY: PROBLEM"`` (parts that are not known are
+    left out). The CLI prints exactly that line and exits with status 2.
+
+    Args:
+        problem: what is wrong, e.g. ``"must be positive, got -1.0"``.
+        key: key path into the scene, e.g. ``"bodies[1].mass"`` (or the keyword name).
+        file: the file the input came from.
+    """
+
+    def __init__(self, problem: str, key: str | None = None, file: str | None = None):
+        self.problem = problem
+        self.key = key
+        self.file = file
+        super().__init__(self._line())
+
+    def _line(self) -> str:
+        parts = [p for p in (self.file, self.key) if p]
+        return ": ".join(parts + [self.problem])
+
+    def within(self, key_prefix: str | None = None, file: str | None = None) -> "InputError":
+        """The same error, seen from an outer key (``bodies[2]``) or a file."""
+        key = self.key
+        if key_prefix:
+            key = f"{key_prefix}.{key}" if key and not key.startswith("[") else f"{key_prefix}{key or ''}"
+        return type(self)(self.problem, key, file or self.file)
+
+    def __str__(self) -> str:  # keep the line current if attributes were changed
+        return self._line()
+
+
+class SimulationError(TumbleError, RuntimeError):
+    """The state of a run went bad (non-finite numbers, a quaternion off unit length)."""

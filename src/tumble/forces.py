@@ -1,0 +1,261 @@
+"""Force generators (Baraff 2001 §2.7 "force and torque"): public records and their tables.
+
+The records below are what users and scene files create. ``World`` turns them
+into flat tables that the kernels read (``build_force_tables``):
+
+* unary forces, one row per (generator, body), sorted by body with CSR offsets
+  ``uforce_start`` (N+1,), so a kernel can sum a body's forces alone;
+* springs, one row per spring (they couple two bodies);
+* gravity is a world vector applied as m g to every moving body.
+
+Impulses happen at one instant and are applied between steps by the
+simulator; ``CustomForce`` calls user Python and takes the slow path.
+``tumble.reference.compute_force_and_torque`` evaluates the same records per
+body in plain Python, and the tests compare the two.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import math
+
+import numpy as np
+
+from .errors import InputError
+from .shapes import finite_vector
+
+# Unary force kinds (column 0 of the table is the kind, the rest parameters).
+UFORCE_DRAG, UFORCE_CONSTANT, UFORCE_POINT_WORLD, UFORCE_POINT_BODY = range(4)
+UFORCE_PARAMS = 10
+
+
+def _nonnegative(value, key):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"expected a number, got {value!r}", key) from None
+    if not math.isfinite(v) or v < 0.0:
+        raise InputError(f"must be a finite number >= 0, got {v}", key)
+    return v
+
+
+@dataclass
+class Drag:
+    """Drag relative to the air, which moves at ``wind`` (m/s, world).
+
+    Force  F   = -(linear + quadratic |u|) u,           u = v - wind       (N)
+    Torque tau = -(angular_linear + angular_quadratic |omega|) omega       (N m)
+
+    Args:
+        linear: N s/m. quadratic: N s^2/m^2. angular_linear: N m s.
+        angular_quadratic: N m s^2. wind: (3,) m/s, world.
+        bodies: bodies (or names) it acts on; None means every moving body.
+    """
+
+    linear: float = 0.0
+    quadratic: float = 0.0
+    angular_linear: float = 0.0
+    angular_quadratic: float = 0.0
+    wind: Sequence[float] = (0.0, 0.0, 0.0)
+    bodies: Sequence[Any] | None = None
+
+    def __post_init__(self):
+        for key in ("linear", "quadratic", "angular_linear", "angular_quadratic"):
+            setattr(self, key, _nonnegative(getattr(self, key), key))
+        self.wind = tuple(finite_vector(self.wind, "wind"))
+
+
+def Wind(velocity=(0.0, 0.0, 0.0), linear=0.0, quadratic=0.0, bodies=None) -> Drag:
+    """Wind: drag relative to air moving at ``velocity`` (m/s, world). A ``Drag`` with a wind."""
+    return Drag(linear=linear, quadratic=quadratic, wind=velocity, bodies=bodies)
+
+
+@dataclass
+class ConstantForce:
+    """Constant ``force`` (N) through the centre of mass and ``torque`` (N m), both world frame, on ``body``."""
+
+    body: Any
+    force: Sequence[float] = (0.0, 0.0, 0.0)
+    torque: Sequence[float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        self.force = tuple(finite_vector(self.force, "force"))
+        self.torque = tuple(finite_vector(self.torque, "torque"))
+
+
+@dataclass
+class PointForce:
+    """Constant ``force`` (N, world) applied at ``point`` (m), giving torque (p - x) x F (Baraff 2001 eq. 2-37).
+
+    ``frame="world"``: the point is fixed in the world (e.g. a thruster's
+    target). ``frame="body"``: the point is fixed on the body, given in the
+    body frame (centre-of-mass origin), and moves with it.
+    """
+
+    body: Any
+    force: Sequence[float]
+    point: Sequence[float]
+    frame: str = "world"
+
+    def __post_init__(self):
+        self.force = tuple(finite_vector(self.force, "force"))
+        self.point = tuple(finite_vector(self.point, "point"))
+        if self.frame not in ("world", "body"):
+            raise InputError(f"must be 'world' or 'body', got {self.frame!r}", "frame")
+
+
+@dataclass
+class Spring:
+    """Damped spring between a point on ``body_a`` and a point on ``body_b`` (or a world anchor).
+
+    Baraff's damped spring: with d = p_a - p_b, l = |d|, u = d / l,
+        F_a = -(stiffness (l - rest_length) + damping (v_pa - v_pb) . u) u,  F_b = -F_a,
+    applied at p_a and p_b (each giving torque about its body's centre).
+
+    Args:
+        body_a: body (or name). anchor_a: (3,) m, body_a's frame (centre-of-mass origin).
+        body_b: body (or name), or None for a world anchor.
+        anchor_b: (3,) m, body_b's frame, or world coordinates when body_b is None.
+        stiffness: N/m, >= 0. damping: N s/m, >= 0.
+        rest_length: m, >= 0; None means the distance when the spring is added.
+    """
+
+    body_a: Any
+    body_b: Any = None
+    anchor_a: Sequence[float] = (0.0, 0.0, 0.0)
+    anchor_b: Sequence[float] = (0.0, 0.0, 0.0)
+    stiffness: float = 0.0
+    damping: float = 0.0
+    rest_length: float | None = None
+
+    def __post_init__(self):
+        self.anchor_a = tuple(finite_vector(self.anchor_a, "anchor_a"))
+        self.anchor_b = tuple(finite_vector(self.anchor_b, "anchor_b"))
+        self.stiffness = _nonnegative(self.stiffness, "stiffness")
+        self.damping = _nonnegative(self.damping, "damping")
+        if self.rest_length is not None:
+            self.rest_length = _nonnegative(self.rest_length, "rest_length")
+
+
+@dataclass
+class Impulse:
+    """Instantaneous ``impulse`` (N s, world) on ``body`` at world ``point`` (None: the centre of mass).
+
+    Applied once, before the first step that starts at or after ``time`` (s):
+    P += J, L += (p - x) x J.
+    """
+
+    body: Any
+    impulse: Sequence[float]
+    point: Sequence[float] | None = None
+    time: float = 0.0
+
+    def __post_init__(self):
+        self.impulse = tuple(finite_vector(self.impulse, "impulse"))
+        if self.point is not None:
+            self.point = tuple(finite_vector(self.point, "point"))
+        self.time = _nonnegative(self.time, "time")
+
+
+@dataclass
+class CustomForce:
+    """A user Python function adding force and torque (slow path: called every stage).
+
+    ``function(t, body) -> (force (3,), torque (3,))`` in N and N m, world
+    frame, torque about the centre of mass. ``body`` has read-only attributes
+    ``x, R, q, P, L, v, omega, mass`` for the state being evaluated (so it is
+    right inside Runge-Kutta stages). ``bodies=None`` means every moving body.
+    """
+
+    function: Callable
+    bodies: Sequence[Any] | None = None
+
+    def __post_init__(self):
+        if not callable(self.function):
+            raise InputError(f"must be callable, got {self.function!r}", "function")
+
+
+FORCE_TYPES = {
+    "drag": Drag,
+    "wind": Wind,
+    "constant": ConstantForce,
+    "point": PointForce,
+    "spring": Spring,
+    "impulse": Impulse,
+}
+
+
+@dataclass
+class ForceTables:
+    """Flat arrays the kernels read. U unary rows, S springs; N bodies.
+
+    uforce_kind: (U,) int64 kind ids. uforce_param: (U, 10) parameters:
+      drag [linear, quadratic, angular_linear, angular_quadratic, wind xyz];
+      constant [F xyz, tau xyz]; point [F xyz, p xyz].
+    uforce_start: (N+1,) int64: rows of body i are uforce_start[i]:uforce_start[i+1].
+    spring_body: (S, 2) int64 (-1: world). spring_anchor: (S, 2, 3) m.
+    spring_param: (S, 3) [stiffness, damping, rest_length].
+    """
+
+    uforce_kind: np.ndarray
+    uforce_param: np.ndarray
+    uforce_start: np.ndarray
+    spring_body: np.ndarray
+    spring_anchor: np.ndarray
+    spring_param: np.ndarray
+    custom: list = field(default_factory=list)  # (CustomForce, body index array)
+
+
+def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> ForceTables:
+    """Turn force records into ``ForceTables``.
+
+    Args:
+        forces: the records, in the order they were added.
+        body_count: N.
+        moving: (N,) bool, False for fixed bodies (they get no forces).
+        resolve: function mapping a body, a name or an index to an index.
+    """
+    rows = []  # (body, order, kind, params)
+    springs = []
+    custom = []
+    all_moving = np.flatnonzero(moving)
+    for order, f in enumerate(forces):
+        if isinstance(f, Drag):
+            targets = all_moving if f.bodies is None else [resolve(b) for b in f.bodies]
+            params = [f.linear, f.quadratic, f.angular_linear, f.angular_quadratic, *f.wind]
+            rows += [(int(i), order, UFORCE_DRAG, params) for i in targets]
+        elif isinstance(f, ConstantForce):
+            rows.append((resolve(f.body), order, UFORCE_CONSTANT, [*f.force, *f.torque]))
+        elif isinstance(f, PointForce):
+            kind = UFORCE_POINT_WORLD if f.frame == "world" else UFORCE_POINT_BODY
+            rows.append((resolve(f.body), order, kind, [*f.force, *f.point]))
+        elif isinstance(f, Spring):
+            a = resolve(f.body_a)
+            b = -1 if f.body_b is None else resolve(f.body_b)
+            springs.append((a, b, f.anchor_a, f.anchor_b, [f.stiffness, f.damping, f.rest_length]))
+        elif isinstance(f, CustomForce):
+            targets = all_moving if f.bodies is None else np.array([resolve(b) for b in f.bodies], dtype=np.int64)
+            custom.append((f, np.asarray(targets, dtype=np.int64)))
+        elif isinstance(f, Impulse):
+            continue  # applied by the simulator between steps
+        else:
+            raise InputError(f"unknown force record {f!r}", "forces")
+    rows = [r for r in rows if moving[r[0]]]
+    # Sort by body, then by the order the user added the generators: a body's
+    # force is summed in that fixed order, so results are reproducible.
+    rows.sort(key=lambda r: (r[0], r[1]))
+    U = len(rows)
+    kind = np.array([r[2] for r in rows], dtype=np.int64)
+    param = np.zeros((U, UFORCE_PARAMS))
+    for k, r in enumerate(rows):
+        param[k, : len(r[3])] = r[3]
+    counts = np.bincount(np.array([r[0] for r in rows], dtype=np.int64), minlength=body_count) if U else np.zeros(body_count, np.int64)
+    start = np.zeros(body_count + 1, dtype=np.int64)
+    start[1:] = np.cumsum(counts)
+    S = len(springs)
+    spring_body = np.array([[s[0], s[1]] for s in springs], dtype=np.int64).reshape(S, 2)
+    spring_anchor = np.array([[s[2], s[3]] for s in springs], dtype=float).reshape(S, 2, 3)
+    spring_param = np.array([s[4] for s in springs], dtype=float).reshape(S, 3)
+    return ForceTables(kind, param, start, spring_body, spring_anchor, spring_param, custom)

@@ -1,0 +1,212 @@
+"""Rotation kernels: the star matrix, quaternions, re-orthonormalisation.
+
+Conventions (DESIGN.md): quaternions are (w, x, y, z), unit, body to world;
+``R`` maps body to world, its columns are the body axes in world coordinates.
+All functions are Numba-compiled and work on plain NumPy arrays so that both the
+kernels and Python code (tests, scene building) can call them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# One cache flag for every kernel: the first run compiles, later runs load from
+# __pycache__ (or NUMBA_CACHE_DIR), so tests and the CLI share compiled code.
+JIT = dict(cache=True, nogil=True, fastmath=False)
+
+
+@njit(**JIT)
+def star(w):
+    """The matrix w* of the cross product: ``star(w) @ a == cross(w, a)``.
+
+    ERRATA 1: the slide prints ``[[0,-wz,-wy],[-wz,0,-wx],[-wy,-wx,0]]``; that
+    matrix is symmetric and cannot be a cross product. Baraff 2001, eq. (2-8).
+
+    Args:
+        w: (3,) vector.
+    Returns:
+        (3, 3) skew-symmetric matrix.
+    """
+    m = np.zeros((3, 3))
+    m[0, 1] = -w[2]
+    m[0, 2] = w[1]
+    m[1, 0] = w[2]
+    m[1, 2] = -w[0]
+    m[2, 0] = -w[1]
+    m[2, 1] = w[0]
+    return m
+
+
+@njit(**JIT)
+def quat_multiply(a, b):
+    """Hamilton product a b of (w, x, y, z) quaternions, (4,) each."""
+    out = np.empty(4)
+    out[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3]
+    out[1] = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2]
+    out[2] = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1]
+    out[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]
+    return out
+
+
+@njit(**JIT)
+def quat_to_matrix_into(q, out):
+    """Write the rotation matrix of unit quaternion ``q`` (4,) into ``out`` (3, 3).
+
+    The formula assumes |q| = 1; callers keep q normalised.
+    """
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    out[0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    out[0, 1] = 2.0 * (x * y - w * z)
+    out[0, 2] = 2.0 * (x * z + w * y)
+    out[1, 0] = 2.0 * (x * y + w * z)
+    out[1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    out[1, 2] = 2.0 * (y * z - w * x)
+    out[2, 0] = 2.0 * (x * z - w * y)
+    out[2, 1] = 2.0 * (y * z + w * x)
+    out[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+
+
+@njit(**JIT)
+def quat_to_matrix(q):
+    """Rotation matrix (3, 3) of the unit quaternion q (4,)."""
+    out = np.empty((3, 3))
+    quat_to_matrix_into(q, out)
+    return out
+
+
+@njit(**JIT)
+def matrix_to_quat_into(R, out):
+    """Unit quaternion (w >= 0) of rotation matrix R (3, 3), written into out (4,).
+
+    Shepperd's method: take the largest of the four squared components to
+    divide by, so the result is accurate for every rotation.
+    """
+    t = R[0, 0] + R[1, 1] + R[2, 2]
+    if t >= R[0, 0] and t >= R[1, 1] and t >= R[2, 2]:
+        s = math.sqrt(1.0 + t) * 2.0
+        out[0] = 0.25 * s
+        out[1] = (R[2, 1] - R[1, 2]) / s
+        out[2] = (R[0, 2] - R[2, 0]) / s
+        out[3] = (R[1, 0] - R[0, 1]) / s
+    elif R[0, 0] >= R[1, 1] and R[0, 0] >= R[2, 2]:
+        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2.0
+        out[0] = (R[2, 1] - R[1, 2]) / s
+        out[1] = 0.25 * s
+        out[2] = (R[0, 1] + R[1, 0]) / s
+        out[3] = (R[0, 2] + R[2, 0]) / s
+    elif R[1, 1] >= R[2, 2]:
+        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2.0
+        out[0] = (R[0, 2] - R[2, 0]) / s
+        out[1] = (R[0, 1] + R[1, 0]) / s
+        out[2] = 0.25 * s
+        out[3] = (R[1, 2] + R[2, 1]) / s
+    else:
+        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2.0
+        out[0] = (R[1, 0] - R[0, 1]) / s
+        out[1] = (R[0, 2] + R[2, 0]) / s
+        out[2] = (R[1, 2] + R[2, 1]) / s
+        out[3] = 0.25 * s
+    n = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2 + out[3] ** 2)
+    sign = -1.0 if out[0] < 0.0 else 1.0
+    for k in range(4):
+        out[k] = sign * out[k] / n
+
+
+@njit(**JIT)
+def matrix_to_quat(R):
+    """Unit quaternion (4,) with w >= 0 of the rotation matrix R (3, 3)."""
+    out = np.empty(4)
+    matrix_to_quat_into(R, out)
+    return out
+
+
+@njit(**JIT)
+def normalize_quat_inplace(q):
+    """Scale q (4,) back to unit length (ERRATA 5: keep the layout on SO(3))."""
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    for k in range(4):
+        q[k] /= n
+
+
+@njit(**JIT)
+def orthonormalize_inplace(R):
+    """Gram-Schmidt on the columns of R (3, 3): the nearest-by-construction rotation.
+
+    ERRATA 5: explicit Euler on ``dR/dt = w* R`` grows R by (1 + h^2 |w|^2)
+    a step; this pulls it back onto SO(3). Columns are the body axes
+    (Baraff 2001 §2.3), so the first axis keeps its direction, the second is
+    made orthogonal to it, the third is their cross product (right-handed).
+    ``tumble.reference.orthonormalize`` does the same arithmetic in plain Python.
+    """
+    n0 = math.sqrt(R[0, 0] ** 2 + R[1, 0] ** 2 + R[2, 0] ** 2)
+    a0 = R[0, 0] / n0
+    a1 = R[1, 0] / n0
+    a2 = R[2, 0] / n0
+    d = a0 * R[0, 1] + a1 * R[1, 1] + a2 * R[2, 1]
+    b0 = R[0, 1] - d * a0
+    b1 = R[1, 1] - d * a1
+    b2 = R[2, 1] - d * a2
+    n1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    b0 /= n1
+    b1 /= n1
+    b2 /= n1
+    R[0, 0] = a0
+    R[1, 0] = a1
+    R[2, 0] = a2
+    R[0, 1] = b0
+    R[1, 1] = b1
+    R[2, 1] = b2
+    R[0, 2] = a1 * b2 - a2 * b1
+    R[1, 2] = a2 * b0 - a0 * b2
+    R[2, 2] = a0 * b1 - a1 * b0
+
+
+@njit(**JIT)
+def quat_exp_multiply_inplace(q, wx, wy, wz, h):
+    """q <- exp(h/2 (0, w)) q: rotate q (4,) by the angle h|w| about the world axis w.
+
+    Exact for constant world angular velocity w (rad/s) over h (s); leaves q
+    unit (up to rounding) without any projection.
+    """
+    n = math.sqrt(wx * wx + wy * wy + wz * wz)
+    half = 0.5 * h * n
+    c = math.cos(half)
+    # sin(half)/n, with its limit h/2 for tiny |w| (the series keeps full precision)
+    if half > 1e-4:
+        s = math.sin(half) / n
+    else:
+        s = 0.5 * h * (1.0 - half * half / 6.0)
+    dw, dx, dy, dz = c, s * wx, s * wy, s * wz
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    q[0] = dw * w - dx * x - dy * y - dz * z
+    q[1] = dw * x + dx * w + dy * z - dz * y
+    q[2] = dw * y - dx * z + dy * w + dz * x
+    q[3] = dw * z + dx * y - dy * x + dz * w
+
+
+def quat_from_euler_deg(angles_deg) -> np.ndarray:
+    """Quaternion (4,) from intrinsic z-y'-x'' (yaw, pitch, roll) angles in degrees.
+
+    ``euler_deg = [roll_x, pitch_y, yaw_z]`` as scene files give it; the
+    rotation applied is Rz(yaw) Ry(pitch) Rx(roll), as in aerospace and ROS.
+    """
+    from scipy.spatial.transform import Rotation
+
+    roll, pitch, yaw = (float(a) for a in angles_deg)
+    xyzw = Rotation.from_euler("ZYX", [yaw, pitch, roll], degrees=True).as_quat()
+    q = np.array([xyzw[3], xyzw[0], xyzw[1], xyzw[2]])
+    return q if q[0] >= 0 else -q
+
+
+def random_quaternions(count: int, rng: np.random.Generator) -> np.ndarray:
+    """(count, 4) uniformly distributed unit quaternions (Shoemake 1992)."""
+    u1, u2, u3 = rng.random((3, count))
+    a, b = np.sqrt(1 - u1), np.sqrt(u1)
+    q = np.stack(
+        [a * np.sin(2 * np.pi * u2), a * np.cos(2 * np.pi * u2), b * np.sin(2 * np.pi * u3), b * np.cos(2 * np.pi * u3)],
+        axis=1,
+    )
+    return q

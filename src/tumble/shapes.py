@@ -1,0 +1,238 @@
+"""Shape records, defined in the shape's own frame (metres).
+
+A shape says what a body is made of; ``tumble.mass`` turns it into mass
+properties, and later the collision stages read the same records. When a
+shape's centre of mass is off its origin (a cone, a particle set, a mesh),
+``World.add_body`` moves the body frame to the centre of mass and keeps the
+offset (DESIGN.md, conventions).
+
+Each record validates its own numbers and raises ``InputError`` naming the key.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+# Type ids in the order collision pair routines will dispatch on (STYLE 5.2).
+SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER, SHAPE_CONE, SHAPE_BOX, SHAPE_CONVEX, SHAPE_MESH, SHAPE_PARTICLES = range(9)
+
+
+def positive(value, key: str) -> float:
+    """``value`` as a finite float > 0, or an InputError naming ``key``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"expected a number, got {value!r}", key) from None
+    if not math.isfinite(v):
+        raise InputError(f"must be a finite number, got {v}", key)
+    if v <= 0.0:
+        raise InputError(f"must be positive, got {v:g}", key)
+    return v
+
+
+def finite_vector(value, key: str, length: int = 3) -> np.ndarray:
+    """``value`` as a finite float array of shape (length,), or an InputError naming ``key``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"expected {length} numbers, got {value!r}", key) from None
+    if arr.shape != (length,):
+        raise InputError(f"expected {length} numbers, got {value!r}", key)
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"must be finite numbers, got {arr.tolist()}", key)
+    return arr
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """Solid sphere of ``radius`` (m), centred on its origin."""
+
+    radius: float
+    type_id = SHAPE_SPHERE
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", positive(self.radius, "radius"))
+
+
+@dataclass(frozen=True)
+class Box:
+    """Solid box with full side lengths ``size`` (m) along x, y, z, centred on its origin."""
+
+    size: tuple
+    type_id = SHAPE_BOX
+
+    def __post_init__(self):
+        size = finite_vector(self.size, "size")
+        for k, s in enumerate(size):
+            positive(s, f"size[{k}]")
+        object.__setattr__(self, "size", tuple(float(s) for s in size))
+
+    @property
+    def half_extents(self) -> np.ndarray:
+        return 0.5 * np.asarray(self.size)
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """Solid cylinder of ``radius`` and ``length`` (m) along z, centred on its origin."""
+
+    radius: float
+    length: float
+    type_id = SHAPE_CYLINDER
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", positive(self.radius, "radius"))
+        object.__setattr__(self, "length", positive(self.length, "length"))
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """Cylinder of ``length`` (m, between the two hemisphere centres) capped by hemispheres of ``radius``, along z, centred."""
+
+    radius: float
+    length: float
+    type_id = SHAPE_CAPSULE
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", positive(self.radius, "radius"))
+        object.__setattr__(self, "length", positive(self.length, "length"))
+
+
+@dataclass(frozen=True)
+class Cone:
+    """Solid right circular cone: base disc of ``radius`` centred on the origin in the xy plane, apex at z = ``height``.
+
+    Its centre of mass is at z = height / 4, so a body made of it is re-centred.
+    """
+
+    radius: float
+    height: float
+    type_id = SHAPE_CONE
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", positive(self.radius, "radius"))
+        object.__setattr__(self, "height", positive(self.height, "height"))
+
+
+@dataclass(frozen=True)
+class Plane:
+    """Static half-space boundary ``normal . p = offset`` (normal made unit). Only for fixed bodies."""
+
+    normal: tuple = (0.0, 0.0, 1.0)
+    offset: float = 0.0
+    type_id = SHAPE_PLANE
+
+    def __post_init__(self):
+        n = finite_vector(self.normal, "normal")
+        length = float(np.linalg.norm(n))
+        if length == 0.0:
+            raise InputError("must not be the zero vector", "normal")
+        off = float(self.offset)
+        if not math.isfinite(off):
+            raise InputError(f"must be a finite number, got {off}", "offset")
+        object.__setattr__(self, "normal", tuple(float(c) for c in n / length))
+        object.__setattr__(self, "offset", off)
+
+
+@dataclass(frozen=True)
+class Particles:
+    """The course's discretised body: point masses ``masses`` (n,) kg at ``points`` (n, 3) m in the shape frame.
+
+    Its centre of mass is wherever the points put it; the body is re-centred.
+    """
+
+    points: np.ndarray
+    masses: np.ndarray
+    type_id = SHAPE_PARTICLES
+
+    def __post_init__(self):
+        try:
+            pts = np.asarray(self.points, dtype=float)
+            m = np.asarray(self.masses, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError("points and masses must be numbers", "points") from None
+        if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
+            raise InputError(f"expected a non-empty list of [x, y, z] points, got shape {pts.shape}", "points")
+        if m.ndim == 0:
+            m = np.full(len(pts), float(m))
+        if m.shape != (len(pts),):
+            raise InputError(f"expected {len(pts)} masses (one per point), got {m.size}", "masses")
+        if not (np.all(np.isfinite(pts))):
+            raise InputError("must be finite numbers", "points")
+        if not np.all(np.isfinite(m)) or np.any(m <= 0):
+            raise InputError("every mass must be a positive finite number", "masses")
+        pts.setflags(write=False)
+        m.setflags(write=False)
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "masses", m)
+
+    def __eq__(self, other):
+        return isinstance(other, Particles) and np.array_equal(self.points, other.points) and np.array_equal(self.masses, other.masses)
+
+    __hash__ = None
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """Closed triangle mesh, from a file (OBJ, STL, PLY... through trimesh) or inline arrays.
+
+    Args:
+        path: mesh file; relative paths are resolved by the caller (the scene
+            loader resolves them against the scene file's folder).
+        vertices: (V, 3) m, shape frame.
+        faces: (F, 3) vertex indices, counter-clockwise seen from outside.
+    """
+
+    path: str | None = None
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
+    type_id = SHAPE_MESH
+    _mesh: object = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self):
+        from .mass import load_closed_mesh  # trimesh is imported only when a mesh is used
+
+        mesh = load_closed_mesh(self.path, self.vertices, self.faces)
+        object.__setattr__(self, "_mesh", mesh)
+        object.__setattr__(self, "vertices", np.asarray(mesh.vertices, dtype=float))
+        object.__setattr__(self, "faces", np.asarray(mesh.faces, dtype=np.int64))
+
+    @property
+    def trimesh(self):
+        """The validated ``trimesh.Trimesh`` (closed, consistently wound)."""
+        return self._mesh
+
+
+@dataclass(frozen=True, eq=False)
+class Convex(Mesh):
+    """Convex hull of ``points`` (n, 3) m, or of a mesh file's vertices."""
+
+    points: np.ndarray | None = None
+    type_id = SHAPE_CONVEX
+
+    def __post_init__(self):
+        from .mass import convex_hull_mesh
+
+        mesh = convex_hull_mesh(self.path, self.points if self.points is not None else self.vertices)
+        object.__setattr__(self, "_mesh", mesh)
+        object.__setattr__(self, "vertices", np.asarray(mesh.vertices, dtype=float))
+        object.__setattr__(self, "faces", np.asarray(mesh.faces, dtype=np.int64))
+
+
+SHAPE_TYPES = {
+    "sphere": Sphere,
+    "box": Box,
+    "cylinder": Cylinder,
+    "capsule": Capsule,
+    "cone": Cone,
+    "plane": Plane,
+    "particles": Particles,
+    "mesh": Mesh,
+    "convex": Convex,
+}
