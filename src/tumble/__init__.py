@@ -1,3 +1,33 @@
-"""tumble: rigid-body dynamics after Baraff's SIGGRAPH 2001 notes, vectorised and compiled."""
+"""tumble: rigid-body dynamics after Baraff's SIGGRAPH 2001 notes, vectorised and compiled.
+
+Quick start::
+
+    import tumble as tb
+    world = tb.World(gravity=(0, 0, -9.81))
+    box = world.add_body(tb.Box(size=(0.2, 0.6, 1.0)), mass=2.0, angular_velocity=(2, 1, 3))
+    traj = tb.Simulator(world, dt=1/240, integrator="rk4").run(duration=10.0)
+"""
 
 __version__ = "0.1.0"
+
+from .errors import InputError, SimulationError, TumbleError
+from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
+from .shapes import Box, Capsule, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
+from .simulator import Simulator
+from .trajectory import Trajectory, load_trajectory
+from .world import Body, Material, World
+
+
+def load_scene(path):
+    """Read a scene file (TOML or JSON) into a ``Scene`` (its World and settings). See tumble.scene."""
+    from .scene import load_scene as _load
+
+    return _load(path)
+
+
+__all__ = [
+    "World", "Body", "Material", "Simulator", "Trajectory", "load_trajectory", "load_scene",
+    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex",
+    "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
+    "TumbleError", "InputError", "SimulationError",
+]

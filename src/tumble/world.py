@@ -1,0 +1,572 @@
+"""World: every body's quantities as structure-of-arrays, and ``Body`` views onto their rows.
+
+Four groups of arrays (STYLE 5.6 rule 2), bodies along axis 0:
+
+constants  ``mass`` (N,) kg, ``inv_mass`` (N,) 1/kg (0 for fixed bodies),
+           ``inertia_body`` (N, 3, 3) kg m^2 and ``inertia_body_inv`` (N, 3, 3)
+           (Ibody, Ibody^-1, body frame), ``principal_q`` (N, 4) principal axes
+           to body axes, ``principal_moments`` (N, 3) ascending, ``moving`` (N,)
+           bool, ``com_offset`` (N, 3) m: the shape origin's place in the
+           body frame is ``-com_offset`` (the centre of mass seen from the
+           shape origin is ``com_offset``).
+state      ``x`` (N, 3) m, ``q`` (N, 4) (w, x, y, z) or ``R`` (N, 3, 3), ``P``
+           (N, 3) kg m/s, ``L`` (N, 3) kg m^2/s, all world frame; the layout
+           ("quaternion", 13 numbers a body, or the course's "matrix", 18)
+           says which of q and R is state; the other is kept in step.
+derived    ``v`` (N, 3) m/s, ``omega`` (N, 3) rad/s, ``I_inv`` (N, 3, 3) world.
+accumulated ``force`` (N, 3) N, ``torque`` (N, 3) N m, world, about the centre of mass.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+
+from . import integrators as K
+from .errors import InputError
+from .forces import (
+    ConstantForce,
+    CustomForce,
+    Drag,
+    Impulse,
+    PointForce,
+    Spring,
+    build_force_tables,
+)
+from .mass import mass_properties
+from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
+from .shapes import Plane, finite_vector, positive
+
+
+@dataclass(frozen=True)
+class Material:
+    """Surface material: Coulomb ``friction`` coefficient (>= 0) and ``restitution`` (0..1)."""
+
+    friction: float = 0.5
+    restitution: float = 0.0
+
+    def __post_init__(self):
+        f = float(self.friction)
+        e = float(self.restitution)
+        if not math.isfinite(f) or f < 0:
+            raise InputError(f"must be a finite number >= 0, got {self.friction}", "friction")
+        if not math.isfinite(e) or not 0.0 <= e <= 1.0:
+            raise InputError(f"must be between 0 and 1, got {self.restitution}", "restitution")
+        object.__setattr__(self, "friction", f)
+        object.__setattr__(self, "restitution", e)
+
+    @classmethod
+    def coerce(cls, value) -> "Material":
+        if value is None:
+            return cls()
+        if isinstance(value, Material):
+            return value
+        if isinstance(value, Mapping):
+            unknown = set(value) - {"friction", "restitution"}
+            if unknown:
+                raise InputError(f"unknown key {sorted(unknown)[0]!r} (expected friction, restitution)", "material")
+            return cls(**value)
+        raise InputError(f"expected a Material or a mapping, got {value!r}", "material")
+
+
+def unit_quaternion(value, key="orientation") -> np.ndarray:
+    """(4,) unit quaternion from ``value`` (w, x, y, z); refuses the zero quaternion."""
+    q = finite_vector(value, key, 4)
+    n = float(np.linalg.norm(q))
+    if n < 1e-12:
+        raise InputError("quaternion must not be zero (w, x, y, z = 0, 0, 0, 0)", key)
+    return q / n
+
+
+_CONSTANT_ARRAYS = {
+    "mass": (), "inv_mass": (), "inertia_body": (3, 3), "inertia_body_inv": (3, 3),
+    "principal_q": (4,), "principal_moments": (3,), "com_offset": (3,),
+}
+_STATE_ARRAYS = {"x": (3,), "q": (4,), "R": (3, 3), "P": (3,), "L": (3,)}
+_DERIVED_ARRAYS = {"v": (3,), "omega": (3,), "I_inv": (3, 3), "force": (3,), "torque": (3,)}
+
+
+class World:
+    """All bodies of a scene, their forces and gravity.
+
+    Args:
+        gravity: (3,) m/s^2, world frame. Default (0, 0, -9.81), z up.
+        layout: "quaternion" (13 numbers a body, the default) or "matrix" (the
+            course's 18: x, R, P, L). Both are kept on SO(3) after every step.
+    """
+
+    def __init__(self, gravity=(0.0, 0.0, -9.81), layout: str = "quaternion"):
+        self.gravity = finite_vector(gravity, "gravity")
+        if layout not in K.LAYOUT_IDS:
+            raise InputError(f"unknown layout {layout!r} (expected 'quaternion' or 'matrix')", "layout")
+        self.layout = layout
+        self.t = 0.0
+        self.body_count = 0
+        self._capacity = 0
+        self._arrays: dict[str, np.ndarray] = {}
+        self._allocate(8)
+        self.names: list[str] = []
+        self.shapes: list[Any] = []
+        self.materials: list[Material] = []
+        self.forces: list[Any] = []
+        self._tables = None
+
+    # ------------------------------------------------------------------ storage
+    def _allocate(self, capacity: int):
+        new = {}
+        for group in (_CONSTANT_ARRAYS, _STATE_ARRAYS, _DERIVED_ARRAYS):
+            for name, shape in group.items():
+                arr = np.zeros((capacity,) + shape)
+                if name in self._arrays:
+                    arr[: self.body_count] = self._arrays[name][: self.body_count]
+                new[name] = arr
+        moving = np.zeros(capacity, dtype=bool)
+        if "moving" in self._arrays:
+            moving[: self.body_count] = self._arrays["moving"][: self.body_count]
+        new["moving"] = moving
+        self._arrays = new
+        self._capacity = capacity
+
+    def __getattr__(self, name):
+        # The SoA arrays, trimmed to the bodies that exist: views, never copies.
+        arrays = self.__dict__.get("_arrays")
+        if arrays is not None and name in arrays:
+            return arrays[name][: self.__dict__["body_count"]]
+        raise AttributeError(name)
+
+    @property
+    def fixed(self) -> np.ndarray:
+        """(N,) bool: True for fixed (static) bodies."""
+        return ~self.moving
+
+    # ------------------------------------------------------------------ building
+    def add_body(
+        self,
+        shape,
+        *,
+        mass: float | None = None,
+        density: float | None = None,
+        position=(0.0, 0.0, 0.0),
+        orientation=None,
+        euler_deg=None,
+        velocity=(0.0, 0.0, 0.0),
+        angular_velocity=(0.0, 0.0, 0.0),
+        angular_velocity_frame: str = "world",
+        material=None,
+        fixed: bool = False,
+        name: str | None = None,
+    ) -> "Body":
+        """Add one body and return its view.
+
+        Args:
+            shape: a shape record of ``tumble.shapes`` (Plane only with fixed=True).
+            mass: kg, or ``density`` kg/m^3 (exactly one; neither for particles
+                or fixed bodies).
+            position: (3,) m, world: where the shape's origin is. When the
+                centre of mass is off the origin, the body frame moves to it
+                (``com_offset`` keeps the difference for display and export).
+            orientation: (4,) unit quaternion (w, x, y, z), body to world, or
+                ``euler_deg`` (roll x, pitch y, yaw z in degrees, applied z-y'-x'').
+            velocity: (3,) m/s of the centre of mass, world.
+            angular_velocity: (3,) rad/s, world (or body axes with
+                ``angular_velocity_frame="body"``).
+            material: ``Material`` or a mapping with its keys.
+            fixed: a static body: infinite mass, never moves.
+            name: unique; default "body<i>".
+        """
+        if name is None:
+            name = f"body{self.body_count}"
+        if not isinstance(name, str) or not name:
+            raise InputError(f"must be a non-empty string, got {name!r}", "name")
+        if name in self.names:
+            raise InputError(f"duplicate body name {name!r}", "name")
+        if orientation is not None and euler_deg is not None:
+            raise InputError("give orientation or euler_deg, not both", "orientation")
+        if euler_deg is not None:
+            q = quat_from_euler_deg(finite_vector(euler_deg, "euler_deg"))
+        else:
+            q = unit_quaternion((1.0, 0.0, 0.0, 0.0) if orientation is None else orientation)
+        position = finite_vector(position, "position")
+        velocity = finite_vector(velocity, "velocity")
+        angular_velocity = finite_vector(angular_velocity, "angular_velocity")
+        if angular_velocity_frame not in ("world", "body"):
+            raise InputError(f"must be 'world' or 'body', got {angular_velocity_frame!r}", "angular_velocity_frame")
+        material = Material.coerce(material)
+        R = quat_to_matrix(q)
+
+        if fixed:
+            if isinstance(shape, Plane) or (mass is None and density is None):
+                props = None
+            else:
+                props = mass_properties(shape, mass=mass, density=density)
+        else:
+            if isinstance(shape, Plane):
+                raise InputError("a plane can only be a fixed body (set fixed = true)", "fixed")
+            props = mass_properties(shape, mass=mass, density=density)
+            _check_inertia(props.inertia)
+
+        i = self.body_count
+        if i == self._capacity:
+            self._allocate(2 * self._capacity)
+        self.body_count += 1
+        a = self._arrays
+        center = np.zeros(3) if props is None else np.asarray(props.center, dtype=float)
+        a["com_offset"][i] = center
+        a["x"][i] = position + R @ center
+        a["q"][i] = q
+        a["R"][i] = R
+        a["moving"][i] = not fixed
+        if fixed or props is None:
+            a["mass"][i] = math.inf
+            a["inv_mass"][i] = 0.0
+            a["inertia_body"][i] = np.eye(3) * math.inf if props is None else props.inertia
+            a["inertia_body_inv"][i] = 0.0
+            a["principal_q"][i] = (1.0, 0.0, 0.0, 0.0)
+            a["principal_moments"][i] = math.inf
+        else:
+            a["mass"][i] = props.mass
+            a["inv_mass"][i] = 1.0 / props.mass
+            a["inertia_body"][i] = props.inertia
+            a["inertia_body_inv"][i] = np.linalg.inv(props.inertia)
+            moments, axes = props.principal()
+            a["principal_q"][i] = matrix_to_quat(np.ascontiguousarray(axes))
+            a["principal_moments"][i] = moments
+            omega = angular_velocity if angular_velocity_frame == "world" else R @ angular_velocity
+            a["P"][i] = props.mass * velocity
+            a["L"][i] = R @ props.inertia @ R.T @ omega
+            a["v"][i] = velocity
+            a["omega"][i] = omega
+            a["I_inv"][i] = R @ a["inertia_body_inv"][i] @ R.T
+        self.names.append(name)
+        self.shapes.append(shape)
+        self.materials.append(material)
+        self._tables = None
+        # force/torque are filled by the simulator's first evaluation (or update_derived())
+        return Body(self, i)
+
+    def add_force(self, force):
+        """Add a force record of ``tumble.forces`` (Drag, Wind, ConstantForce, PointForce,
+        Spring, Impulse, CustomForce). A spring with ``rest_length=None`` takes the
+        distance between its anchors now."""
+        if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, CustomForce)):
+            raise InputError(f"not a force record: {force!r}", "forces")
+        for attr in ("body", "body_a", "body_b"):
+            b = getattr(force, attr, None)
+            if b is not None:
+                self.index_of(b)
+        for b in getattr(force, "bodies", None) or ():
+            self.index_of(b)
+        if isinstance(force, Spring) and force.rest_length is None:
+            pa, pb = self.spring_endpoints(force)
+            force.rest_length = float(np.linalg.norm(pa - pb))
+        self.forces.append(force)
+        self._tables = None
+        return force
+
+    def index_of(self, body) -> int:
+        """Index of a body given as a ``Body``, a name or an index."""
+        if isinstance(body, Body):
+            if body.world is not self:
+                raise InputError("body belongs to another world", "body")
+            return body.index
+        if isinstance(body, str):
+            try:
+                return self.names.index(body)
+            except ValueError:
+                raise InputError(f"unknown body {body!r}", "body") from None
+        if isinstance(body, (int, np.integer)) and 0 <= int(body) < self.body_count:
+            return int(body)
+        raise InputError(f"unknown body {body!r}", "body")
+
+    def body(self, key) -> "Body":
+        """The view of a body by name or index."""
+        return Body(self, self.index_of(key))
+
+    @property
+    def bodies(self) -> list["Body"]:
+        return [Body(self, i) for i in range(self.body_count)]
+
+    def spring_endpoints(self, spring: Spring):
+        """World points (3,), (3,) m at the two ends of ``spring``."""
+        a = self.index_of(spring.body_a)
+        pa = self.R[a] @ np.asarray(spring.anchor_a) + self.x[a]
+        if spring.body_b is None:
+            return pa, np.asarray(spring.anchor_b, dtype=float)
+        b = self.index_of(spring.body_b)
+        return pa, self.R[b] @ np.asarray(spring.anchor_b) + self.x[b]
+
+    @property
+    def tables(self):
+        """The force tables the kernels read (rebuilt when forces or bodies change)."""
+        if self._tables is None:
+            self._tables = build_force_tables(self.forces, self.body_count, self.moving, self.index_of)
+        return self._tables
+
+    @property
+    def impulses(self) -> list[Impulse]:
+        return [f for f in self.forces if isinstance(f, Impulse)]
+
+    # ------------------------------------------------------------------ the course's state vector
+    @property
+    def layout_id(self) -> int:
+        return K.LAYOUT_IDS[self.layout]
+
+    @property
+    def state_size(self) -> int:
+        """Numbers per body in ``state()``: 13 (quaternion layout) or 18 (matrix layout, ERRATA 6)."""
+        return K.STATE_WIDTH[self.layout_id]
+
+    def pack(self) -> np.ndarray:
+        """The state as (N, W) rows x | R (row-major) or q | P | L (a new array)."""
+        n = self.body_count
+        orient = self.R.reshape(n, 9) if self.layout == "matrix" else self.q
+        return np.ascontiguousarray(np.concatenate([self.x, orient, self.P, self.L], axis=1))
+
+    def unpack(self, Y: np.ndarray):
+        """Set x, R or q, P, L from (N, W) rows, and bring the other orientation and derived quantities up to date."""
+        n = self.body_count
+        W = self.state_size
+        Y = np.asarray(Y, dtype=float).reshape(n, W)
+        self.x[:] = Y[:, :3]
+        if self.layout == "matrix":
+            self.R[:] = Y[:, 3:12].reshape(n, 3, 3)
+        else:
+            self.q[:] = Y[:, 3:7]
+        self.P[:] = Y[:, W - 6:W - 3]
+        self.L[:] = Y[:, W - 3:]
+        self.update_derived()
+
+    def state(self) -> np.ndarray:
+        """The course's state vector X (N * W,): per body x, R or q, P, L (Algorithm 2, "BodiesToArray")."""
+        return self.pack().ravel()
+
+    def set_state(self, X):
+        """Inverse of ``state()`` (the course's "ArrayToBodies")."""
+        self.unpack(np.asarray(X, dtype=float).reshape(self.body_count, self.state_size))
+
+    def dxdt(self, t: float, X: np.ndarray) -> np.ndarray:
+        """dX/dt at time t for the state vector X (N * W,), without touching the world's state.
+
+        Course Algorithm 4 ("Dxdt"): derived quantities, forces and torques,
+        then (v, omega* R, F, tau) per body. Suitable for
+        ``scipy.integrate.solve_ivp(world.dxdt, ...)``.
+        """
+        n = self.body_count
+        Y = np.ascontiguousarray(np.asarray(X, dtype=float).reshape(n, self.state_size))
+        scratch = Scratch(n, self.state_size)
+        self.evaluate_forces(t, Y, scratch)
+        dY = np.empty_like(Y)
+        K.derivative_kernel(self.layout_id, Y, scratch.R, scratch.v, scratch.omega, self.moving, scratch.F, scratch.T, dY)
+        return dY.ravel()
+
+    def evaluate_forces(self, t: float, Y: np.ndarray, scratch: "Scratch"):
+        """Fill scratch.R, v, omega, F, T for the state rows Y (N, W) at time t: kernels, then user callables."""
+        tb = self.tables
+        K.accumulate_forces_kernel(
+            self.layout_id, Y, self.mass, self.inv_mass, self.inertia_body_inv, self.moving, self.gravity,
+            tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param,
+            scratch.R, scratch.v, scratch.omega, scratch.F, scratch.T,
+        )
+        for force, targets in tb.custom:
+            for i in targets:
+                view = _StageBody(self, i, Y, scratch)
+                f, tau = force.function(t, view)
+                f = np.asarray(f, dtype=float)
+                tau = np.asarray(tau, dtype=float)
+                if f.shape != (3,) or tau.shape != (3,) or not (np.all(np.isfinite(f)) and np.all(np.isfinite(tau))):
+                    raise InputError(f"custom force must return two finite (3,) vectors, got {f!r}, {tau!r}", "forces")
+                scratch.F[i] += f
+                scratch.T[i] += tau
+
+    def update_derived(self):
+        """Recompute the non-state orientation, v, omega, I^-1 and the accumulated forces from the state."""
+        n = self.body_count
+        if n == 0:
+            return
+        if self.layout == "matrix":
+            for i in range(n):
+                qn = matrix_to_quat(np.ascontiguousarray(self.R[i]))
+                # keep q on the hemisphere of the previous frame: no sign jumps for export
+                self.q[i] = -qn if np.dot(qn, self.q[i]) < 0 else qn
+        else:
+            qn = self.q / np.linalg.norm(self.q, axis=1, keepdims=True)
+            w, x, y, z = qn.T
+            R = self.R
+            R[:, 0, 0] = 1 - 2 * (y * y + z * z)
+            R[:, 0, 1] = 2 * (x * y - w * z)
+            R[:, 0, 2] = 2 * (x * z + w * y)
+            R[:, 1, 0] = 2 * (x * y + w * z)
+            R[:, 1, 1] = 1 - 2 * (x * x + z * z)
+            R[:, 1, 2] = 2 * (y * z - w * x)
+            R[:, 2, 0] = 2 * (x * z - w * y)
+            R[:, 2, 1] = 2 * (y * z + w * x)
+            R[:, 2, 2] = 1 - 2 * (x * x + y * y)
+        Y = self.pack()
+        scratch = Scratch(n, self.state_size)
+        if not self.tables.custom:
+            self.evaluate_forces(self.t, Y, scratch)
+        else:  # no user code outside a step: kernels only
+            tb = self.tables
+            K.accumulate_forces_kernel(
+                self.layout_id, Y, self.mass, self.inv_mass, self.inertia_body_inv, self.moving, self.gravity,
+                tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param,
+                scratch.R, scratch.v, scratch.omega, scratch.F, scratch.T,
+            )
+        self.v[:] = scratch.v
+        self.omega[:] = scratch.omega
+        self.I_inv[:] = np.einsum("nij,njk,nlk->nil", self.R, self.inertia_body_inv, self.R)
+        self.force[:] = scratch.F
+        self.torque[:] = scratch.T
+
+    # ------------------------------------------------------------------ diagnostics
+    def kinetic_energy(self) -> float:
+        """Total 1/2 P.v + 1/2 L.omega, J (moving bodies)."""
+        m = self.moving
+        return float(0.5 * np.sum(self.P[m] * self.v[m]) + 0.5 * np.sum(self.L[m] * self.omega[m]))
+
+    def potential_energy(self) -> float:
+        """Total -m g.x over moving bodies plus 1/2 k (l - l0)^2 over springs, J."""
+        m = self.moving
+        e = float(-np.sum(self.mass[m] * (self.x[m] @ self.gravity)))
+        for f in self.forces:
+            if isinstance(f, Spring):
+                pa, pb = self.spring_endpoints(f)
+                e += 0.5 * f.stiffness * (float(np.linalg.norm(pa - pb)) - f.rest_length) ** 2
+        return e
+
+    def linear_momentum(self) -> np.ndarray:
+        """Total P (3,) kg m/s of moving bodies."""
+        return self.P[self.moving].sum(axis=0)
+
+    def angular_momentum(self) -> np.ndarray:
+        """Total angular momentum (3,) about the world origin: sum of L + x cross P, kg m^2/s."""
+        m = self.moving
+        return (self.L[m] + np.cross(self.x[m], self.P[m])).sum(axis=0)
+
+    def orthonormality_error(self) -> float:
+        """Largest |R^T R - 1| entry over all bodies (of the state orientation)."""
+        if self.body_count == 0:
+            return 0.0
+        if self.layout == "quaternion":
+            return float(np.max(np.abs(np.linalg.norm(self.q, axis=1) ** 2 - 1.0)))
+        RtR = np.einsum("nji,njk->nik", self.R, self.R)
+        return float(np.max(np.abs(RtR - np.eye(3))))
+
+
+def _check_inertia(I):
+    I = np.asarray(I, dtype=float)
+    if I.shape != (3, 3) or not np.all(np.isfinite(I)) or not np.allclose(I, I.T, rtol=1e-9, atol=1e-15):
+        raise InputError("inertia must be a finite symmetric 3x3 matrix", "inertia")
+    eig = np.linalg.eigvalsh(I)
+    if eig[0] <= 0.0 or eig[0] <= 1e-14 * eig[-1]:
+        raise InputError(f"inertia is not positive definite (eigenvalues {eig.tolist()})", "inertia")
+    # triangle inequality of principal moments: a real body has I1 + I2 >= I3
+    if eig[0] + eig[1] < eig[2] * (1 - 1e-9):
+        raise InputError(f"inertia violates the triangle inequality I1 + I2 >= I3 (eigenvalues {eig.tolist()})", "inertia")
+
+
+class Scratch:
+    """Work arrays for one force/derivative evaluation of N bodies (allocated once per run)."""
+
+    def __init__(self, n: int, width: int):
+        self.R = np.zeros((n, 3, 3))
+        self.v = np.zeros((n, 3))
+        self.omega = np.zeros((n, 3))
+        self.F = np.zeros((n, 3))
+        self.T = np.zeros((n, 3))
+        self.Y1 = np.zeros((n, width))
+        self.K = np.zeros((n, width))
+        self.Kacc = np.zeros((n, width))
+
+
+class _StageBody:
+    """Read-only view of one body at a stage state, handed to ``CustomForce`` functions."""
+
+    def __init__(self, world, i, Y, scratch):
+        W = Y.shape[1]
+        self.index = int(i)
+        self.name = world.names[i]
+        self.mass = float(world.mass[i])
+        self.x = Y[i, :3].copy()
+        self.R = scratch.R[i].copy()
+        self.q = Y[i, 3:7].copy() if W == 13 else matrix_to_quat(np.ascontiguousarray(self.R))
+        self.P = Y[i, W - 6:W - 3].copy()
+        self.L = Y[i, W - 3:].copy()
+        self.v = scratch.v[i].copy()
+        self.omega = scratch.omega[i].copy()
+
+
+class Body:
+    """A view of one body: reads and writes go to the World's arrays (never a copy that can fall out of sync).
+
+    Reading ``x``, ``q``, ``R``, ``P``, ``L``, ``v``, ``omega``, ``force``,
+    ``torque`` gives (3,) / (4,) / (3, 3) views of the current rows. Setting
+    ``x``, ``q``, ``R``, ``P``, ``L``, ``v`` (P = m v) or ``omega`` (L = I omega)
+    updates the state and the derived quantities.
+    """
+
+    __slots__ = ("world", "index")
+
+    def __init__(self, world: World, index: int):
+        self.world = world
+        self.index = index
+
+    def __repr__(self):
+        return f"Body({self.name!r}, x={self.x.tolist()})"
+
+    def __eq__(self, other):
+        return isinstance(other, Body) and other.world is self.world and other.index == self.index
+
+    def __hash__(self):
+        return hash((id(self.world), self.index))
+
+    name = property(lambda self: self.world.names[self.index])
+    shape = property(lambda self: self.world.shapes[self.index])
+    material = property(lambda self: self.world.materials[self.index])
+    fixed = property(lambda self: not bool(self.world.moving[self.index]))
+    mass = property(lambda self: float(self.world.mass[self.index]))
+    inertia_body = property(lambda self: self.world.inertia_body[self.index])
+    inertia_body_inv = property(lambda self: self.world.inertia_body_inv[self.index])
+    com_offset = property(lambda self: self.world.com_offset[self.index])
+    I_inv = property(lambda self: self.world.I_inv[self.index])
+    force = property(lambda self: self.world.force[self.index])
+    torque = property(lambda self: self.world.torque[self.index])
+
+    def _set(self, name, value, shape):
+        arr = np.asarray(value, dtype=float)
+        if arr.shape != shape or not np.all(np.isfinite(arr)):
+            raise InputError(f"expected finite numbers of shape {shape}, got {value!r}", name)
+        getattr(self.world, name)[self.index] = arr
+        if name == "q":
+            self.world.R[self.index] = quat_to_matrix(unit_quaternion(arr, "q"))
+            self.world.q[self.index] = unit_quaternion(arr, "q")
+        elif name == "R":
+            self.world.q[self.index] = matrix_to_quat(np.ascontiguousarray(arr))
+        self.world.update_derived()
+
+    x = property(lambda self: self.world.x[self.index], lambda self, v: self._set("x", v, (3,)))
+    q = property(lambda self: self.world.q[self.index], lambda self, v: self._set("q", v, (4,)))
+    R = property(lambda self: self.world.R[self.index], lambda self, v: self._set("R", v, (3, 3)))
+    P = property(lambda self: self.world.P[self.index], lambda self, v: self._set("P", v, (3,)))
+    L = property(lambda self: self.world.L[self.index], lambda self, v: self._set("L", v, (3,)))
+
+    @property
+    def v(self):
+        return self.world.v[self.index]
+
+    @v.setter
+    def v(self, value):
+        self.P = self.mass * finite_vector(value, "v")
+
+    @property
+    def omega(self):
+        return self.world.omega[self.index]
+
+    @omega.setter
+    def omega(self, value):
+        w = finite_vector(value, "omega")
+        R = self.R
+        self.L = R @ self.inertia_body @ R.T @ w
