@@ -1,0 +1,495 @@
+"""Mass properties: the course's particle sums, closed forms for primitives, exact polyhedral integrals.
+
+Reads a shape record (``tumble.shapes``) and a mass or a density; returns a
+``MassProperties`` (mass, centre of mass, inertia about the centre of mass, shape axes).
+Also validates and builds the closed triangle meshes that ``Mesh`` and ``Convex`` hold.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .shapes import Box, Capsule, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
+
+
+@dataclass(frozen=True, eq=False)
+class MassProperties:
+    """What the course calls ``mass`` and ``Ibody``, plus where the centre of mass sits in the shape.
+
+    Attributes:
+        mass: total mass, kg.
+        center: (3,) centre of mass, shape frame, m. The body frame's origin
+            goes there (DESIGN.md, conventions).
+        inertia: (3, 3) inertia tensor about the centre of mass, along the shape
+            axes, kg m^2. Symmetric positive definite (semi-definite for
+            collinear particles).
+    """
+
+    mass: float
+    center: np.ndarray
+    inertia: np.ndarray
+
+    def __post_init__(self):
+        center = np.array(self.center, dtype=float).reshape(3)
+        inertia = np.array(self.inertia, dtype=float).reshape(3, 3)
+        inertia = 0.5 * (inertia + inertia.T)  # exact symmetry; round-off only
+        center.setflags(write=False)
+        inertia.setflags(write=False)
+        object.__setattr__(self, "mass", float(self.mass))
+        object.__setattr__(self, "center", center)
+        object.__setattr__(self, "inertia", inertia)
+
+    def principal(self) -> tuple[np.ndarray, np.ndarray]:
+        """Principal moments and axes of ``inertia``.
+
+        Returns:
+            moments: (3,) principal moments, ascending, kg m^2.
+            axes: (3, 3) unit principal axes as columns, shape frame; a proper
+                rotation (det = +1), so ``inertia = axes @ diag(moments) @ axes.T``.
+        """
+        moments, axes = np.linalg.eigh(self.inertia)
+        if np.linalg.det(axes) < 0.0:
+            axes = axes.copy()
+            axes[:, 2] = -axes[:, 2]
+        return moments, axes
+
+    def __eq__(self, other):
+        return (
+            isinstance(other, MassProperties)
+            and self.mass == other.mass
+            and np.array_equal(self.center, other.center)
+            and np.array_equal(self.inertia, other.inertia)
+        )
+
+    __hash__ = None
+
+
+# ---------- input checks ----------
+
+
+def _positive_amount(value, key: str) -> float:
+    """A mass or density as a finite float > 0, or an InputError naming ``key``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"expected a number, got {value!r}", key) from None
+    if not math.isfinite(v):
+        raise InputError(f"must be positive and finite, got {v}", key)
+    if v <= 0.0:
+        raise InputError(f"must be positive, got {v:g}", key)
+    return v
+
+
+def _mass_or_density(mass, density) -> tuple[float | None, float | None]:
+    if mass is not None and density is not None:
+        raise InputError("give either mass or density, not both", "mass")
+    if mass is None and density is None:
+        raise InputError("give either mass or density", "mass")
+    if mass is not None:
+        return _positive_amount(mass, "mass"), None
+    return None, _positive_amount(density, "density")
+
+
+# ---------- mass properties ----------
+
+
+def mass_properties(shape, mass=None, density=None) -> MassProperties:
+    """Mass, centre of mass and inertia about the centre of mass of ``shape``.
+
+    Args:
+        shape: a record from ``tumble.shapes`` (not ``Plane``: a plane has no mass).
+        mass: total mass, kg; or
+        density: uniform density, kg/m^3. Solid shapes take exactly one of the two.
+            ``Particles`` carry their own masses and take no density; if ``mass``
+            is given they are all scaled by the same factor so that they add up
+            to it (the centre of mass does not move, the inertia scales).
+
+    Returns:
+        MassProperties in the shape frame.
+
+    Raises:
+        InputError: key ``"mass"``, ``"density"`` or ``"shape"``.
+    """
+    if isinstance(shape, Plane):
+        raise InputError("a plane has no mass: make it fixed", "shape")
+    if isinstance(shape, Particles):
+        if density is not None:
+            raise InputError("particles carry their own masses: give no density (mass rescales them)", "density")
+        masses = shape.masses
+        if mass is not None:
+            masses = masses * (_positive_amount(mass, "mass") / masses.sum())
+        return particle_mass_properties(shape.points, masses)
+    mass, density = _mass_or_density(mass, density)
+    if isinstance(shape, Mesh):  # Convex is a Mesh
+        return _mesh_mass_properties(shape.trimesh, mass, density)
+    volume_of = {
+        Sphere: lambda s: 4.0 / 3.0 * math.pi * s.radius**3,
+        Box: lambda s: float(np.prod(s.size)),
+        Cylinder: lambda s: math.pi * s.radius**2 * s.length,
+        Capsule: lambda s: math.pi * s.radius**2 * (s.length + 4.0 / 3.0 * s.radius),
+        Cone: lambda s: math.pi * s.radius**2 * s.height / 3.0,
+    }
+    if type(shape) not in volume_of:
+        raise InputError(f"cannot compute mass properties of {type(shape).__name__}", "shape")
+    if mass is None:
+        mass = density * volume_of[type(shape)](shape)
+    return _primitive_mass_properties(shape, mass)
+
+
+def _primitive_mass_properties(shape, m: float) -> MassProperties:
+    """Closed forms for a uniform solid of mass ``m``, about its centre of mass (any statics text)."""
+    center = np.zeros(3)
+    if isinstance(shape, Sphere):
+        moments = np.full(3, 0.4 * m * shape.radius**2)
+    elif isinstance(shape, Box):
+        a, b, c = shape.size
+        moments = m / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+    elif isinstance(shape, Cylinder):
+        r, h = shape.radius, shape.length
+        ixx = m / 12.0 * (3.0 * r * r + h * h)
+        moments = np.array([ixx, ixx, 0.5 * m * r * r])
+    elif isinstance(shape, Capsule):
+        moments = _capsule_moments(shape.radius, shape.length, m)
+    else:  # Cone
+        r, h = shape.radius, shape.height
+        # the centroid of a cone is a quarter of the way up from the base
+        center[2] = 0.25 * h
+        ixx = 3.0 / 20.0 * m * r * r + 3.0 / 80.0 * m * h * h
+        moments = np.array([ixx, ixx, 0.3 * m * r * r])
+    return MassProperties(m, center, np.diag(moments))
+
+
+def _capsule_moments(r: float, length: float, m: float) -> np.ndarray:
+    """Principal moments (x, y, z) of a capsule of total mass ``m``: a cylinder of ``length`` plus two hemispheres.
+
+    The mass splits by volume: cylinder pi r^2 L, each hemisphere 2/3 pi r^3.
+    A hemisphere of mass mh about a diameter of its flat face has 2/5 mh r^2
+    (half a sphere); its centroid is 3r/8 from that face, so about its centroid
+    it has (2/5 - 9/64) mh r^2 = 83/320 mh r^2, and about the capsule centre,
+    at d = L/2 + 3r/8, it has mh (83/320 r^2 + d^2) = mh (2/5 r^2 + L^2/4 + 3 L r/8).
+    """
+    v_cyl = math.pi * r * r * length
+    v_hemi = 2.0 / 3.0 * math.pi * r**3
+    m_cyl = m * v_cyl / (v_cyl + 2.0 * v_hemi)
+    m_hemi = m * v_hemi / (v_cyl + 2.0 * v_hemi)
+    ixx = m_cyl * (3.0 * r * r + length * length) / 12.0 + 2.0 * m_hemi * (
+        0.4 * r * r + 0.25 * length * length + 0.375 * length * r
+    )
+    izz = 0.5 * m_cyl * r * r + 2.0 * 0.4 * m_hemi * r * r
+    return np.array([ixx, ixx, izz])
+
+
+def particle_mass_properties(points, masses) -> MassProperties:
+    """The course's sums over a discretised body (Baraff 2001, "Mass of a body", "Inertia tensor"; ERRATA 2).
+
+    M = sum m_i,  c = sum m_i r_i / M,
+    I = sum m_i ((r'_i . r'_i) 1 - r'_i r'_i^T)  with r'_i = r_i - c.
+
+    Args:
+        points: (n, 3) particle positions r_i, shape frame, m.
+        masses: (n,) particle masses m_i, kg.
+    """
+    r = np.asarray(points, dtype=float)
+    m = np.asarray(masses, dtype=float)
+    total = m.sum()
+    center = (m[:, None] * r).sum(axis=0) / total
+    rp = r - center
+    # sum m_i (r'_i . r'_i) 1  minus  sum m_i r'_i r'_i^T, each sum over the particles
+    inertia = np.sum(m * np.sum(rp * rp, axis=1)) * np.eye(3) - (m[:, None] * rp).T @ rp
+    return MassProperties(total, center, inertia)
+
+
+def _mesh_mass_properties(mesh, mass: float | None, density: float | None) -> MassProperties:
+    """Exact volume integrals of a closed, outward-wound triangle mesh, done by trimesh.
+
+    ``trimesh.triangles.mass_properties`` implements Eberly, "Polyhedral Mass
+    Properties (Revisited)", Geometric Tools 2002 (the divergence-theorem
+    reduction of Mirtich, "Fast and Accurate Computation of Polyhedral Mass
+    Properties", JGT 1996): integrals of 1, x, y, z, x^2, ..., xy, ... over the
+    solid as sums over faces, then the inertia shifted to the centre of mass
+    (trimesh returns it about the centre of mass; tests/test_mass.py checks).
+    """
+    import trimesh
+
+    # NOTE: that shift subtracts V c c^T from integrals taken about the origin,
+    # which cancels digits when the mesh sits far from its origin. I integrate
+    # about the bounding-box centre instead and add it back to the centre.
+    origin = 0.5 * (mesh.bounds[0] + mesh.bounds[1])
+    triangles = np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces)] - origin
+    props = trimesh.triangles.mass_properties(triangles, density=1.0)
+    volume = float(props.volume)
+    if not volume > 0.0:
+        raise InputError(f"mesh encloses no volume (volume = {volume:g} m^3)", "shape")
+    rho = density if density is not None else mass / volume
+    return MassProperties(rho * volume, np.asarray(props.center_mass) + origin, rho * np.asarray(props.inertia))
+
+
+# ---------- the course's discretised body ----------
+
+
+def particles_from_shape(shape, n: int, mass: float) -> Particles:
+    """Discretise a Box, Sphere or Cylinder into equal-mass particles, as the course discretises a body.
+
+    The bounding box is cut into n x n x n equal cells; each cell centre that
+    lies in the solid (all of them for a box) becomes one particle, and the
+    particles share ``mass`` equally. For the box this is the midpoint rule,
+    whose inertia error is exactly a factor (1 - 1/n^2).
+
+    Args:
+        shape: ``Box``, ``Sphere`` or ``Cylinder``.
+        n: cells along each axis of the bounding box, >= 1.
+        mass: total mass, kg.
+
+    Returns:
+        Particles with points (k, 3) m in the shape frame and masses (k,) kg, k <= n^3.
+    """
+    mass = _positive_amount(mass, "mass")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InputError(f"must be a whole number >= 1, got {n!r}", "n")
+    if isinstance(shape, Box):
+        half = shape.half_extents
+    elif isinstance(shape, Sphere):
+        half = np.full(3, shape.radius)
+    elif isinstance(shape, Cylinder):
+        half = np.array([shape.radius, shape.radius, 0.5 * shape.length])
+    else:
+        raise InputError(f"can discretise a box, sphere or cylinder, not {type(shape).__name__}", "shape")
+    axes = [-h + (np.arange(n) + 0.5) * (2.0 * h / n) for h in half]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    if isinstance(shape, Sphere):
+        points = points[np.einsum("ij,ij->i", points, points) <= shape.radius**2]
+    elif isinstance(shape, Cylinder):
+        points = points[points[:, 0] ** 2 + points[:, 1] ** 2 <= shape.radius**2]
+    if len(points) == 0:
+        raise InputError(f"no cell centre falls inside the {type(shape).__name__.lower()}: use a larger n", "n")
+    return Particles(points, np.full(len(points), mass / len(points)))
+
+
+# ---------- meshes ----------
+
+
+def _inline_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    """Check inline mesh arrays: vertices (V, 3) finite floats, faces (F, 3) ints in [0, V)."""
+    try:
+        v = np.asarray(vertices, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("vertices must be numbers", "vertices") from None
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
+        raise InputError(f"expected a non-empty (V, 3) array of vertices, got shape {v.shape}", "vertices")
+    if not np.all(np.isfinite(v)):
+        raise InputError("vertices must be finite numbers", "vertices")
+    whole = InputError("faces must be whole numbers (vertex indices)", "faces")
+    try:
+        f_raw = np.asarray(faces)
+        if f_raw.dtype.kind not in "iu":
+            f_raw = f_raw.astype(float)
+    except (TypeError, ValueError):
+        raise whole from None
+    if f_raw.ndim != 2 or f_raw.shape[1] != 3 or len(f_raw) == 0:
+        raise InputError(f"expected a non-empty (F, 3) array of triangles, got shape {f_raw.shape}", "faces")
+    if f_raw.dtype.kind == "f" and not (np.all(np.isfinite(f_raw)) and np.array_equal(f_raw, np.round(f_raw))):
+        raise whole
+    f = f_raw.astype(np.int64)
+    if f.min() < 0 or f.max() >= len(v):
+        raise InputError(f"vertex indices must lie in [0, {len(v) - 1}], got {f.min()}..{f.max()}", "faces")
+    return v, f
+
+
+def _read_mesh_file(path):
+    """``trimesh.load`` a mesh file, with InputErrors (key "path") for a missing or unreadable file."""
+    import trimesh
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"mesh file not found: {path}", "path")
+    try:
+        mesh = trimesh.load(str(p), force="mesh", process=True)
+    except Exception as exc:  # trimesh raises many types for bad files
+        raise InputError(f"cannot read mesh file {path}: {exc}", "path") from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InputError(f"mesh file holds no triangles: {path}", "path")
+    return mesh
+
+
+def load_closed_mesh(path=None, vertices=None, faces=None):
+    """A closed, consistently and outward wound triangle mesh from a file or inline arrays.
+
+    Args:
+        path: mesh file (OBJ, STL, PLY, ... anything ``trimesh.load`` reads); or
+        vertices: (V, 3) vertex positions, shape frame, m; and
+        faces: (F, 3) vertex indices per triangle.
+
+    Returns:
+        ``trimesh.Trimesh`` with duplicate vertices merged, every edge shared by
+        exactly two faces, faces wound counter-clockwise seen from outside
+        (repaired in place when they are not; see ``_orient_outward``) and volume > 0.
+
+    Raises:
+        InputError: key ``"path"`` for file problems, ``"vertices"``/``"faces"``
+            for inline arrays (a mesh that is not closed or has no volume is
+            reported on ``"path"`` or ``"vertices"``, whichever gave it).
+    """
+    import trimesh
+
+    inline = vertices is not None or faces is not None
+    if path is not None and inline:
+        raise InputError("give either a mesh file path or inline vertices and faces, not both", "path")
+    if path is None and not inline:
+        raise InputError("give a mesh file path or inline vertices and faces", "path")
+    if path is not None:
+        key = "path"
+        mesh = _read_mesh_file(path)
+    else:
+        key = "vertices"
+        if vertices is None:
+            raise InputError("faces were given without vertices", "vertices")
+        if faces is None:
+            raise InputError("vertices were given without faces", "faces")
+        v, f = _inline_arrays(vertices, faces)
+        mesh = trimesh.Trimesh(vertices=v, faces=f, process=True)
+        if len(mesh.faces) == 0:
+            raise InputError("mesh has no non-degenerate triangles", "faces")
+    _check_closed(mesh, key)
+    if not _orient_outward(mesh):
+        raise InputError("mesh faces cannot be wound consistently (non-orientable surface)", key)
+    extent = float(np.max(mesh.extents))
+    volume = float(_signed_volumes(mesh).sum())
+    # NOTE: relative threshold: a closed mesh flattened to a sheet has volume ~ round-off * extent^3
+    if not volume > 1e-12 * extent**3:
+        raise InputError(f"mesh encloses no volume (volume = {volume:g} m^3)", key)
+    return mesh
+
+
+def _signed_volumes(mesh, faces=None) -> np.ndarray:
+    """(F,) signed volume of the tetrahedron from the bounding-box centre to each face, m^3."""
+    origin = 0.5 * (mesh.bounds[0] + mesh.bounds[1])
+    t = np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces if faces is None else faces)] - origin
+    return np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])) / 6.0
+
+
+def _orient_outward(mesh) -> bool:
+    """Wind a closed mesh's faces consistently, each connected body outward; in place.
+
+    Returns False if no consistent winding exists (a non-orientable surface).
+    """
+    # NOTE: trimesh.repair.fix_normals does this too, but needs networkx, which
+    # tumble does not depend on. Two faces agree when they run their shared edge
+    # in opposite directions; a breadth-first walk over the face adjacency
+    # flips each face that disagrees with the (already fixed) face it came from.
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import breadth_first_order, connected_components
+
+    faces = np.asarray(mesh.faces, dtype=np.int64).copy()
+    n = len(faces)
+    pairs = np.asarray(mesh.face_adjacency, dtype=np.int64).reshape(-1, 2)
+    u, v = np.asarray(mesh.face_adjacency_edges, dtype=np.int64).reshape(-1, 2).T
+
+    def runs_u_to_v(face_ids):
+        f = faces[face_ids]
+        return np.any((f == u[:, None]) & (np.roll(f, -1, axis=1) == v[:, None]), axis=1)
+
+    same_way = runs_u_to_v(pairs[:, 0]) == runs_u_to_v(pairs[:, 1])
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)).tocsr()
+    count, labels = connected_components(graph, directed=False)
+    flip = np.zeros(n, dtype=bool)
+    if np.any(same_way):
+        disagree = {}
+        for (a, b), s in zip(pairs.tolist(), same_way.tolist()):
+            disagree[(a, b)] = disagree[(b, a)] = s
+        for root in np.unique(labels, return_index=True)[1]:
+            order, parent = breadth_first_order(graph, root, directed=False, return_predecessors=True)
+            for face in order[1:].tolist():
+                flip[face] = flip[parent[face]] ^ disagree[(int(parent[face]), face)]
+        if np.any(same_way ^ flip[pairs[:, 0]] ^ flip[pairs[:, 1]]):
+            return False  # some edge disagrees whichever way we turn: non-orientable
+        faces[flip] = faces[flip, ::-1]
+    # a body whose faces enclose negative volume is inside out: turn it
+    body_volume = np.bincount(labels, _signed_volumes(mesh, faces), minlength=count)
+    inverted = (body_volume < 0.0)[labels]
+    faces[inverted] = faces[inverted, ::-1]
+    if np.any(flip) or np.any(inverted):
+        mesh.faces = faces
+    return True
+
+
+def _check_closed(mesh, key: str) -> None:
+    """Every edge must be shared by exactly two faces (watertight)."""
+    import trimesh
+
+    if mesh.is_watertight:
+        return
+    edges = mesh.edges_sorted
+    boundary = len(trimesh.grouping.group_rows(edges, require_count=1))
+    if boundary:
+        raise InputError(f"mesh is not closed (watertight): {boundary} boundary edges", key)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    shared = int(np.sum(counts > 2))
+    raise InputError(f"mesh is not closed (watertight): {shared} edges shared by more than two faces", key)
+
+
+def convex_hull_mesh(path=None, points=None):
+    """The convex hull of ``points`` or of a mesh file's vertices, as a closed outward-wound mesh.
+
+    Args:
+        path: mesh file whose vertices are hulled (it need not be closed); or
+        points: (n, 3) points, shape frame, m.
+
+    Returns:
+        ``trimesh.Trimesh`` of the hull (scipy Qhull through trimesh), volume > 0.
+
+    Raises:
+        InputError: key ``"path"`` or ``"points"``.
+    """
+    import trimesh
+
+    if path is not None and points is not None:
+        raise InputError("give either a mesh file path or points, not both", "path")
+    if path is None and points is None:
+        raise InputError("give a mesh file path or points", "points")
+    if path is not None:
+        pts = np.asarray(_read_mesh_file(path).vertices, dtype=float)
+    else:
+        try:
+            pts = np.asarray(points, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError("points must be numbers", "points") from None
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise InputError(f"expected a list of [x, y, z] points, got shape {pts.shape}", "points")
+        if not np.all(np.isfinite(pts)):
+            raise InputError("points must be finite numbers", "points")
+    degenerate = InputError("convex hull needs at least 4 points not all in one plane", "points")
+    if len(pts) < 4:
+        raise degenerate
+    # the smallest singular value of the centred cloud measures its thickness
+    sv = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False)
+    if not sv[2] > 1e-10 * sv[0]:
+        raise degenerate
+    try:
+        hull = trimesh.convex.convex_hull(pts)
+    except Exception:  # scipy QhullError on nearly flat input
+        raise degenerate from None
+    if not (hull.is_watertight and hull.volume > 0.0):
+        raise degenerate
+    return hull
+
+
+def box_mesh(size) -> tuple[np.ndarray, np.ndarray]:
+    """A closed, outward-wound box mesh centred on the origin.
+
+    Args:
+        size: (3,) full side lengths along x, y, z, m.
+
+    Returns:
+        vertices: (8, 3) corners, m.
+        faces: (12, 3) vertex indices, counter-clockwise seen from outside.
+    """
+    import trimesh
+
+    box = Box(size)  # validates the sizes
+    mesh = trimesh.creation.box(extents=box.size)
+    return np.asarray(mesh.vertices, dtype=float).copy(), np.asarray(mesh.faces, dtype=np.int64).copy()
