@@ -149,6 +149,7 @@ class World:
         *,
         mass: float | None = None,
         density: float | None = None,
+        inertia=None,
         position=(0.0, 0.0, 0.0),
         orientation=None,
         euler_deg=None,
@@ -173,6 +174,9 @@ class World:
             velocity: (3,) m/s of the centre of mass, world.
             angular_velocity: (3,) rad/s, world (or body axes with
                 ``angular_velocity_frame="body"``).
+            inertia: optional override of Ibody, kg m^2, body frame about the
+                centre of mass: (3, 3) symmetric positive definite, or (3,) the
+                diagonal. The shape still gives the mass and centre of mass.
             material: ``Material`` or a mapping with its keys.
             fixed: a static body: infinite mass, never moves.
             name: unique; default "body<i>".
@@ -206,6 +210,8 @@ class World:
             if isinstance(shape, Plane):
                 raise InputError("a plane can only be a fixed body (set fixed = true)", "fixed")
             props = mass_properties(shape, mass=mass, density=density)
+            if inertia is not None:
+                props = _override_inertia(props, inertia)
             _check_inertia(props.inertia)
 
         i = self.body_count
@@ -454,6 +460,22 @@ class World:
             return float(np.max(np.abs(np.linalg.norm(self.q, axis=1) ** 2 - 1.0)))
         RtR = np.einsum("nji,njk->nik", self.R, self.R)
         return float(np.max(np.abs(RtR - np.eye(3))))
+
+
+def _override_inertia(props, inertia):
+    from dataclasses import replace
+
+    try:
+        I = np.asarray(inertia, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"expected 3 numbers or a 3x3 matrix, got {inertia!r}", "inertia") from None
+    if I.shape == (3,):
+        I = np.diag(I)
+    if I.shape != (3, 3):
+        raise InputError(f"expected 3 numbers or a 3x3 matrix, got shape {I.shape}", "inertia")
+    if not np.all(np.isfinite(I)):
+        raise InputError("must be finite numbers", "inertia")
+    return replace(props, inertia=I)
 
 
 def _check_inertia(I):
