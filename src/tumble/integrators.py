@@ -37,10 +37,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from .forces import UFORCE_CONSTANT, UFORCE_DRAG, UFORCE_POINT_BODY, UFORCE_POINT_WORLD
-from .math3d import JIT, normalize_quat_inplace, orthonormalize_inplace
+from .forces import UFORCE_CONSTANT, UFORCE_DRAG, UFORCE_POINT_WORLD
+from .math3d import JIT, matrix_to_quat_into, normalize_quat_inplace, orthonormalize_inplace
 
 LAYOUT_QUATERNION, LAYOUT_MATRIX = 0, 1
 LAYOUT_IDS = {"quaternion": LAYOUT_QUATERNION, "matrix": LAYOUT_MATRIX}
@@ -277,279 +277,367 @@ def accumulate_forces_kernel(
         _spring_forces(Y, Rs, vs, omegas, moving, spring_body, spring_anchor, spring_param, F, T)
 
 
-@njit(**JIT)
-def derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, dY):
-    """dX/dt = (v, omega* R, F, tau) per body (course Algorithm 4; ERRATA 1), or
-    (v, 1/2 (0, omega) q, F, tau) in the quaternion layout (Baraff 2001 eq. 4-2).
-
-    Writes dY (N, W). Fixed bodies have a zero derivative.
-    """
-    n = Y.shape[0]
-    W = Y.shape[1]
-    for i in range(n):
-        if not moving[i]:
-            for k in range(W):
-                dY[i, k] = 0.0
-            continue
-        w0, w1, w2 = omegas[i, 0], omegas[i, 1], omegas[i, 2]
-        for k in range(3):
-            dY[i, k] = vs[i, k]
-        if layout == LAYOUT_MATRIX:
-            # (omega* R)[r, c] = (omega x R[:, c])[r]
-            for c in range(3):
-                r0, r1, r2 = Y[i, 3 + c], Y[i, 6 + c], Y[i, 9 + c]
-                dY[i, 3 + c] = w1 * r2 - w2 * r1
-                dY[i, 6 + c] = w2 * r0 - w0 * r2
-                dY[i, 9 + c] = w0 * r1 - w1 * r0
-        else:
-            qw, qx, qy, qz = Y[i, 3], Y[i, 4], Y[i, 5], Y[i, 6]
-            dY[i, 3] = 0.5 * (-w0 * qx - w1 * qy - w2 * qz)
-            dY[i, 4] = 0.5 * (w0 * qw + w1 * qz - w2 * qy)
-            dY[i, 5] = 0.5 * (-w0 * qz + w1 * qw + w2 * qx)
-            dY[i, 6] = 0.5 * (w0 * qy - w1 * qx + w2 * qw)
-        for k in range(3):
-            dY[i, W - 6 + k] = F[i, k]
-            dY[i, W - 3 + k] = T[i, k]
+# --------------------------------------------------------------------------- per-row operations
+# Every integrator is written once in terms of these row functions; the
+# all-bodies kernels below and the per-body fast path (``_advance_body``) call
+# the same functions in the same order, so both give the same bits.
 
 
 @njit(**JIT)
-def project_orientation_kernel(layout, Y, moving):
-    """Pull every orientation back onto SO(3) (ERRATA 5): normalise q, or Gram-Schmidt R."""
-    for i in range(Y.shape[0]):
-        if not moving[i]:
-            continue
-        if layout == LAYOUT_MATRIX:
-            R = Y[i, 3:12].reshape((3, 3))
-            orthonormalize_inplace(R)
-        else:
-            normalize_quat_inplace(Y[i, 3:7])
+def _row_derivative(layout, y, v, omega, F, T, dy):
+    """dX/dt of one body: (v, omega* R, F, tau) (course Algorithm 4; ERRATA 1), or
+    (v, 1/2 (0, omega) q, F, tau) in the quaternion layout (Baraff 2001 eq. 4-2)."""
+    W = y.shape[0]
+    w0, w1, w2 = omega[0], omega[1], omega[2]
+    for k in range(3):
+        dy[k] = v[k]
+    if layout == LAYOUT_MATRIX:
+        # (omega* R)[r, c] = (omega x R[:, c])[r]
+        for c in range(3):
+            r0, r1, r2 = y[3 + c], y[6 + c], y[9 + c]
+            dy[3 + c] = w1 * r2 - w2 * r1
+            dy[6 + c] = w2 * r0 - w0 * r2
+            dy[9 + c] = w0 * r1 - w1 * r0
+    else:
+        qw, qx, qy, qz = y[3], y[4], y[5], y[6]
+        dy[3] = 0.5 * (-w0 * qx - w1 * qy - w2 * qz)
+        dy[4] = 0.5 * (w0 * qw + w1 * qz - w2 * qy)
+        dy[5] = 0.5 * (-w0 * qz + w1 * qw + w2 * qx)
+        dy[6] = 0.5 * (w0 * qy - w1 * qx + w2 * qw)
+    for k in range(3):
+        dy[W - 6 + k] = F[k]
+        dy[W - 3 + k] = T[k]
 
 
 @njit(**JIT)
-def _rotate_orientation(layout, y, wx, wy, wz, h):
-    """Apply the exact rotation of constant world angular velocity w over h to the orientation of row y.
+def _axpy_row(y0, a, dy, out):
+    """out = y0 + a dy for one row (W,)."""
+    for k in range(y0.shape[0]):
+        out[k] = y0[k] + a * dy[k]
+
+
+@njit(**JIT)
+def _kick_row(y, F, T, h):
+    """P += h F, L += h tau (the 'kick' of the symplectic methods)."""
+    W = y.shape[0]
+    for k in range(3):
+        y[W - 6 + k] += h * F[k]
+        y[W - 3 + k] += h * T[k]
+
+
+@njit(**JIT)
+def _project_row(layout, y):
+    """Pull the orientation back onto SO(3) (ERRATA 5): normalise q, or Gram-Schmidt R."""
+    if layout == LAYOUT_MATRIX:
+        orthonormalize_inplace(y[3:12].reshape((3, 3)))
+    else:
+        normalize_quat_inplace(y[3:7])
+
+
+@njit(**JIT)
+def _set_matrix_of_quat(q0, q1, q2, q3, M):
+    """M (3, 3) <- rotation matrix of the unit quaternion (q0, q1, q2, q3)."""
+    M[0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
+    M[0, 1] = 2.0 * (q1 * q2 - q0 * q3)
+    M[0, 2] = 2.0 * (q1 * q3 + q0 * q2)
+    M[1, 0] = 2.0 * (q1 * q2 + q0 * q3)
+    M[1, 1] = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
+    M[1, 2] = 2.0 * (q2 * q3 - q0 * q1)
+    M[2, 0] = 2.0 * (q1 * q3 - q0 * q2)
+    M[2, 1] = 2.0 * (q2 * q3 + q0 * q1)
+    M[2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+
+
+@njit(**JIT)
+def _rotate_row(layout, y, wx, wy, wz, h, M):
+    """Turn the orientation of row y by the exact rotation of constant world angular velocity w over h.
 
     Quaternion: q <- exp(h/2 (0, w)) q. Matrix: R <- Rodrigues(h w) R.
+    M (3, 3) is scratch.
     """
     n = math.sqrt(wx * wx + wy * wy + wz * wz)
-    angle = h * n
+    half = 0.5 * h * n
+    c = math.cos(half)
+    # sin(half)/n, with its series for tiny |w| (no 0/0, full precision)
+    s = math.sin(half) / n if half > 1e-4 else 0.5 * h * (1.0 - half * half / 6.0)
+    dw, dx, dy, dz = c, s * wx, s * wy, s * wz
     if layout == LAYOUT_QUATERNION:
-        half = 0.5 * angle
-        c = math.cos(half)
-        s = math.sin(half) / n if half > 1e-4 else 0.5 * h * (1.0 - half * half / 6.0)
-        dw, dx, dy, dz = c, s * wx, s * wy, s * wz
         w, x, yy, z = y[3], y[4], y[5], y[6]
         y[3] = dw * w - dx * x - dy * yy - dz * z
         y[4] = dw * x + dx * w + dy * z - dz * yy
         y[5] = dw * yy - dx * z + dy * w + dz * x
         y[6] = dw * z + dx * yy - dy * x + dz * w
     else:
-        if angle == 0.0:
-            return
-        ax, ay, az = wx / n, wy / n, wz / n
-        c = math.cos(angle)
-        s = math.sin(angle)
-        t = 1.0 - c
-        Q = np.empty((3, 3))
-        Q[0, 0] = c + ax * ax * t
-        Q[0, 1] = ax * ay * t - az * s
-        Q[0, 2] = ax * az * t + ay * s
-        Q[1, 0] = ay * ax * t + az * s
-        Q[1, 1] = c + ay * ay * t
-        Q[1, 2] = ay * az * t - ax * s
-        Q[2, 0] = az * ax * t - ay * s
-        Q[2, 1] = az * ay * t + ax * s
-        Q[2, 2] = c + az * az * t
-        _left_multiply_rows(y, Q)
+        _set_matrix_of_quat(dw, dx, dy, dz, M)
+        for col in range(3):
+            r0, r1, r2 = y[3 + col], y[6 + col], y[9 + col]
+            y[3 + col] = M[0, 0] * r0 + M[0, 1] * r1 + M[0, 2] * r2
+            y[6 + col] = M[1, 0] * r0 + M[1, 1] * r1 + M[1, 2] * r2
+            y[9 + col] = M[2, 0] * r0 + M[2, 1] * r1 + M[2, 2] * r2
 
 
 @njit(**JIT)
-def _left_multiply_rows(y, Q):
-    """R <- Q R for the row-major R stored at y[3:12]."""
-    R = np.empty((3, 3))
-    for r in range(3):
-        for c in range(3):
-            R[r, c] = y[3 + 3 * r + c]
-    for r in range(3):
-        for c in range(3):
-            y[3 + 3 * r + c] = Q[r, 0] * R[0, c] + Q[r, 1] * R[1, c] + Q[r, 2] * R[2, c]
+def _principal_flow(k, tau, Ik, l0, l1, l2, d):
+    """The exact flow of H_k = Lk^2 / (2 Ik) over tau: the frame turns about principal axis k
+    by theta = tau Lk / Ik. Returns L seen from the turned frame (Rot_k(theta)^T L) and
+    d (cos theta/2, sin theta/2 e_k) (a body-frame turn composes on the right)."""
+    d0, d1, d2, d3 = d
+    lk = l0 if k == 0 else (l1 if k == 1 else l2)
+    theta = tau * lk / Ik
+    c = math.cos(theta)
+    s = math.sin(theta)
+    ch = math.cos(0.5 * theta)
+    sh = math.sin(0.5 * theta)
+    if k == 0:
+        l1, l2 = c * l1 + s * l2, -s * l1 + c * l2
+        d = (d0 * ch - d1 * sh, d0 * sh + d1 * ch, d2 * ch + d3 * sh, d3 * ch - d2 * sh)
+    elif k == 1:
+        l2, l0 = c * l2 + s * l0, -s * l2 + c * l0
+        d = (d0 * ch - d2 * sh, d1 * ch - d3 * sh, d0 * sh + d2 * ch, d3 * ch + d1 * sh)
+    else:
+        l0, l1 = c * l0 + s * l1, -s * l0 + c * l1
+        d = (d0 * ch - d3 * sh, d1 * ch + d2 * sh, d2 * ch - d1 * sh, d0 * sh + d3 * ch)
+    return l0, l1, l2, d
 
 
 @njit(**JIT)
-def _free_rotation_split(layout, y, principal_q, principal_moments, h):
+def _split_rotation_row(layout, y, principal_q, principal_moments, h, R, M):
     """Free rigid-body rotation over h by Strang splitting into exact principal-axis rotations.
 
     The torque-free Hamiltonian H = sum_k Lk^2 / (2 Ik) (L in the principal
-    body frame) splits into three parts, each of which is a rotation about one
-    principal axis at the constant rate Lk / Ik: the body turns, world L
-    stays. Composition 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) is symmetric, so
-    second order and time-reversible; every factor is a rotation, so R stays on
-    SO(3), and world L is never written, so it is conserved to the bit.
+    body frame) splits into three parts, each a rotation about one principal
+    axis at the constant rate Lk / Ik: the body turns, world L stays. The
+    composition 1(h/2) 2(h/2) 3(h) 2(h/2) 1(h/2) is symmetric, so second order
+    and time-reversible; every factor is a rotation, so R stays on SO(3); and
+    world L is never written, so without torque it is conserved to the bit.
     McLachlan, "Explicit Lie-Poisson integration and the Euler equations",
     PRL 71 (1993); Touma & Wisdom, AJ 107 (1994); Dullweber, Leimkuhler &
     McLachlan, J. Chem. Phys. 107 (1997) §3.
 
-    NOTE: the axis order (largest moment in the middle) follows Dullweber et al.,
-    whose experiments found it the most accurate; principal_moments are sorted
-    ascending, so the middle flow is the largest moment.
-
-    principal_q (4,): rotation from principal axes to body axes. principal_moments (3,) kg m^2.
+    principal_q (4,): principal axes to body axes (Ibody = Q diag(I) Q^T);
+    principal_moments (3,) kg m^2, ascending, so the middle (full-h) flow is
+    about the largest moment. R, M (3, 3) are scratch.
     """
-    W = 13 if layout == LAYOUT_QUATERNION else 18
-    lb = W - 3
-    # Rp = R Qp: principal axes in world coordinates.
-    Rb = np.empty((3, 3))
-    _orientation_matrix(layout, y, Rb)
-    Qp = np.empty((3, 3))
+    W = y.shape[0]
+    _orientation_matrix(layout, y, R)
     pw, px, py, pz = principal_q[0], principal_q[1], principal_q[2], principal_q[3]
-    Qp[0, 0] = 1.0 - 2.0 * (py * py + pz * pz)
-    Qp[0, 1] = 2.0 * (px * py - pw * pz)
-    Qp[0, 2] = 2.0 * (px * pz + pw * py)
-    Qp[1, 0] = 2.0 * (px * py + pw * pz)
-    Qp[1, 1] = 1.0 - 2.0 * (px * px + pz * pz)
-    Qp[1, 2] = 2.0 * (py * pz - pw * px)
-    Qp[2, 0] = 2.0 * (px * pz - pw * py)
-    Qp[2, 1] = 2.0 * (py * pz + pw * px)
-    Qp[2, 2] = 1.0 - 2.0 * (px * px + py * py)
-    Rp = Rb @ Qp
-    Lw = y[lb:lb + 3]
-    Lp = Rp.T @ Lw  # L in the principal frame
-    # The five sub-flows: (axis, fraction of h)
-    for stage in range(5):
-        if stage == 0 or stage == 4:
-            k, frac = 0, 0.5
-        elif stage == 1 or stage == 3:
-            k, frac = 1, 0.5
-        else:
-            k, frac = 2, 1.0
-        theta = frac * h * Lp[k] / principal_moments[k]
-        c = math.cos(theta)
-        s = math.sin(theta)
-        a = (k + 1) % 3
-        b = (k + 2) % 3
-        # Rp <- Rp Rot_k(theta): columns a, b of Rp turn about column k.
-        for r in range(3):
-            ra = Rp[r, a]
-            rbv = Rp[r, b]
-            Rp[r, a] = c * ra + s * rbv
-            Rp[r, b] = -s * ra + c * rbv
-        # Lp <- Rot_k(theta)^T Lp (the same world vector seen from the turned frame)
-        la = Lp[a]
-        lbv = Lp[b]
-        Lp[a] = c * la + s * lbv
-        Lp[b] = -s * la + c * lbv
-    Rnew = Rp @ Qp.T
-    if layout == LAYOUT_MATRIX:
-        for r in range(3):
-            for cc in range(3):
-                y[3 + 3 * r + cc] = Rnew[r, cc]
+    _set_matrix_of_quat(pw, px, py, pz, M)
+    # L in the principal frame: Lp = Q^T R^T L
+    L0, L1, L2 = y[W - 3], y[W - 2], y[W - 1]
+    b0 = R[0, 0] * L0 + R[1, 0] * L1 + R[2, 0] * L2
+    b1 = R[0, 1] * L0 + R[1, 1] * L1 + R[2, 1] * L2
+    b2 = R[0, 2] * L0 + R[1, 2] * L1 + R[2, 2] * L2
+    l0 = M[0, 0] * b0 + M[1, 0] * b1 + M[2, 0] * b2
+    l1 = M[0, 1] * b0 + M[1, 1] * b1 + M[2, 1] * b2
+    l2 = M[0, 2] * b0 + M[1, 2] * b1 + M[2, 2] * b2
+    # d: the turn of the principal frame over h, as a quaternion, from the five flows
+    I0, I1, I2 = principal_moments[0], principal_moments[1], principal_moments[2]
+    d = (1.0, 0.0, 0.0, 0.0)
+    l0, l1, l2, d = _principal_flow(0, 0.5 * h, I0, l0, l1, l2, d)
+    l0, l1, l2, d = _principal_flow(1, 0.5 * h, I1, l0, l1, l2, d)
+    l0, l1, l2, d = _principal_flow(2, h, I2, l0, l1, l2, d)
+    l0, l1, l2, d = _principal_flow(1, 0.5 * h, I1, l0, l1, l2, d)
+    l0, l1, l2, d = _principal_flow(0, 0.5 * h, I0, l0, l1, l2, d)
+    # the same rotation in body axes: g = pq d conj(pq)
+    d0, d1, d2, d3 = d
+    t0 = pw * d0 - px * d1 - py * d2 - pz * d3
+    t1 = pw * d1 + px * d0 + py * d3 - pz * d2
+    t2 = pw * d2 - px * d3 + py * d0 + pz * d1
+    t3 = pw * d3 + px * d2 - py * d1 + pz * d0
+    g0 = t0 * pw + t1 * px + t2 * py + t3 * pz
+    g1 = -t0 * px + t1 * pw - t2 * pz + t3 * py
+    g2 = -t0 * py + t1 * pz + t2 * pw - t3 * px
+    g3 = -t0 * pz - t1 * py + t2 * px + t3 * pw
+    if layout == LAYOUT_QUATERNION:
+        # q <- q g
+        w, x, yy, z = y[3], y[4], y[5], y[6]
+        y[3] = w * g0 - x * g1 - yy * g2 - z * g3
+        y[4] = w * g1 + x * g0 + yy * g3 - z * g2
+        y[5] = w * g2 - x * g3 + yy * g0 + z * g1
+        y[6] = w * g3 + x * g2 - yy * g1 + z * g0
     else:
-        qn = np.empty(4)
-        _matrix_to_quat_signed(Rnew, y[3:7], qn)
-        for k in range(4):
-            y[3 + k] = qn[k]
+        # R <- R M(g)
+        _set_matrix_of_quat(g0, g1, g2, g3, M)
+        for r in range(3):
+            r0, r1, r2 = y[3 + 3 * r], y[4 + 3 * r], y[5 + 3 * r]
+            y[3 + 3 * r] = r0 * M[0, 0] + r1 * M[1, 0] + r2 * M[2, 0]
+            y[4 + 3 * r] = r0 * M[0, 1] + r1 * M[1, 1] + r2 * M[2, 1]
+            y[5 + 3 * r] = r0 * M[0, 2] + r1 * M[1, 2] + r2 * M[2, 2]
 
 
 @njit(**JIT)
-def _matrix_to_quat_signed(R, q_old, out):
-    """Quaternion of R (3, 3) on the same hemisphere as q_old (4,), so q stays continuous in time."""
-    t = R[0, 0] + R[1, 1] + R[2, 2]
-    if t >= R[0, 0] and t >= R[1, 1] and t >= R[2, 2]:
-        s = math.sqrt(1.0 + t) * 2.0
-        out[0] = 0.25 * s
-        out[1] = (R[2, 1] - R[1, 2]) / s
-        out[2] = (R[0, 2] - R[2, 0]) / s
-        out[3] = (R[1, 0] - R[0, 1]) / s
-    elif R[0, 0] >= R[1, 1] and R[0, 0] >= R[2, 2]:
-        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2.0
-        out[0] = (R[2, 1] - R[1, 2]) / s
-        out[1] = 0.25 * s
-        out[2] = (R[0, 1] + R[1, 0]) / s
-        out[3] = (R[0, 2] + R[2, 0]) / s
-    elif R[1, 1] >= R[2, 2]:
-        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2.0
-        out[0] = (R[0, 2] - R[2, 0]) / s
-        out[1] = (R[0, 1] + R[1, 0]) / s
-        out[2] = 0.25 * s
-        out[3] = (R[1, 2] + R[2, 1]) / s
+def _drift_row(layout, split, h, y, inv_mass, ibody_inv, principal_q, principal_moments, R, v, omega, M):
+    """x += h P / M, and the orientation turned over h: at the constant omega = I^-1(R) L
+    (split=False, semi-implicit Euler) or by the free-rotation splitting (split=True)."""
+    W = y.shape[0]
+    for k in range(3):
+        y[k] += h * y[W - 6 + k] * inv_mass
+    if split:
+        _split_rotation_row(layout, y, principal_q, principal_moments, h, R, M)
     else:
-        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2.0
-        out[0] = (R[1, 0] - R[0, 1]) / s
-        out[1] = (R[0, 2] + R[2, 0]) / s
-        out[2] = (R[1, 2] + R[2, 1]) / s
-        out[3] = 0.25 * s
-    n = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2 + out[3] ** 2)
-    dot = out[0] * q_old[0] + out[1] * q_old[1] + out[2] * q_old[2] + out[3] * q_old[3]
-    sign = -1.0 if dot < 0.0 else 1.0
-    for k in range(4):
-        out[k] = sign * out[k] / n
+        _velocities(layout, y, inv_mass, ibody_inv, R, v, omega)
+        _rotate_row(layout, y, omega[0], omega[1], omega[2], h, M)
+
+
+# --------------------------------------------------------------------------- all-bodies kernels
+
+
+@njit(**JIT)
+def derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, dY):
+    """dX/dt (N, W) for all bodies from the derived quantities and forces (zero for fixed bodies)."""
+    for i in range(Y.shape[0]):
+        if moving[i]:
+            _row_derivative(layout, Y[i], vs[i], omegas[i], F[i], T[i], dY[i])
+        else:
+            dY[i, :] = 0.0
+
+
+@njit(**JIT)
+def project_orientation_kernel(layout, Y, moving):
+    """Every moving body's orientation back onto SO(3) (ERRATA 5)."""
+    for i in range(Y.shape[0]):
+        if moving[i]:
+            _project_row(layout, Y[i])
 
 
 @njit(**JIT)
 def kick_kernel(layout, Y, moving, F, T, h):
-    """P += h F, L += h tau for every moving body (the 'kick' of symplectic methods)."""
-    W = Y.shape[1]
+    """P += h F, L += h tau for every moving body."""
     for i in range(Y.shape[0]):
         if moving[i]:
-            for k in range(3):
-                Y[i, W - 6 + k] += h * F[i, k]
-                Y[i, W - 3 + k] += h * T[i, k]
+            _kick_row(Y[i], F[i], T[i], h)
 
 
 @njit(**JIT)
 def drift_kernel(layout, Y, moving, inv_mass, inertia_body_inv, principal_q, principal_moments, split, h):
-    """x += h P / M, and the orientation turned by the current angular momentum over h.
-
-    split=False: exact rotation at the constant omega = I^-1(R) L (semi-implicit Euler).
-    split=True: the free-rotation splitting (see ``_free_rotation_split``).
-    """
-    W = Y.shape[1]
+    """``_drift_row`` for every moving body."""
     R = np.empty((3, 3))
+    M = np.empty((3, 3))
     v = np.empty(3)
     omega = np.empty(3)
     for i in range(Y.shape[0]):
-        if not moving[i]:
-            continue
-        for k in range(3):
-            Y[i, k] += h * Y[i, W - 6 + k] * inv_mass[i]
-        if split:
-            _free_rotation_split(layout, Y[i], principal_q[i], principal_moments[i], h)
-        else:
-            _velocities(layout, Y[i], inv_mass[i], inertia_body_inv[i], R, v, omega)
-            _rotate_orientation(layout, Y[i], omega[0], omega[1], omega[2], h)
+        if moving[i]:
+            _drift_row(layout, split, h, Y[i], inv_mass[i], inertia_body_inv[i], principal_q[i], principal_moments[i], R, v, omega, M)
 
 
 @njit(**JIT)
 def axpy_kernel(Y0, a, dY, out):
-    """out = Y0 + a dY (N, W), elementwise; the building block of the Runge-Kutta stages."""
+    """out = Y0 + a dY (N, W), row by row; the building block of the Runge-Kutta stages."""
     for i in range(Y0.shape[0]):
-        for k in range(Y0.shape[1]):
-            out[i, k] = Y0[i, k] + a * dY[i, k]
+        _axpy_row(Y0[i], a, dY[i], out[i])
 
 
-# --------------------------------------------------------------------------- fused stepping
+# --------------------------------------------------------------------------- stepping
 
 
 @njit(**JIT)
+def _body_forces(layout, i, y, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T):
+    _velocities(layout, y, inv_mass, ibody_inv, R, v, omega)
+    _unary_forces(i, y, R, v, omega, mass, gravity, uforce_kind, uforce_param, uforce_start, F, T)
+
+
+@njit(**JIT)
+def _advance_body(
+    integrator, layout, h, n_steps, i, y, mass, inv_mass, ibody_inv, principal_q, principal_moments, gravity,
+    uforce_kind, uforce_param, uforce_start,
+    # scratch
+    y1, k, kacc, R, v, omega, F, T, M,
+):
+    """n_steps steps of one body whose forces depend on itself only (no springs):
+    the same row operations, in the same order, as ``_one_step`` over all bodies."""
+    for _ in range(n_steps):
+        if integrator == EXPLICIT_EULER:
+            _body_forces(layout, i, y, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T)
+            _row_derivative(layout, y, v, omega, F, T, k)
+            _axpy_row(y, h, k, y)
+        elif integrator == MIDPOINT:
+            _body_forces(layout, i, y, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T)
+            _row_derivative(layout, y, v, omega, F, T, k)
+            _axpy_row(y, 0.5 * h, k, y1)
+            _body_forces(layout, i, y1, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T)
+            _row_derivative(layout, y1, v, omega, F, T, k)
+            _axpy_row(y, h, k, y)
+        elif integrator == RK4:
+            _body_forces(layout, i, y, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T)
+            _row_derivative(layout, y, v, omega, F, T, k)
+            _axpy_row(k, 0.0, k, kacc)
+            _axpy_row(y, 0.5 * h, k, y1)
+            for stage in range(3):
+                _body_forces(layout, i, y1, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T)
+                _row_derivative(layout, y1, v, omega, F, T, k)
+                if stage < 2:
+                    _axpy_row(kacc, 2.0, k, kacc)
+                    _axpy_row(y, 0.5 * h if stage == 0 else h, k, y1)
+                else:
+                    _axpy_row(kacc, 1.0, k, kacc)
+            _axpy_row(y, h / 6.0, kacc, y)
+        elif integrator == SEMI_IMPLICIT_EULER:
+            _body_forces(layout, i, y, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T)
+            _kick_row(y, F, T, h)
+            _drift_row(layout, False, h, y, inv_mass, ibody_inv, principal_q, principal_moments, R, v, omega, M)
+        else:  # SPLITTING, SPLITTING4
+            n_sub = 1 if integrator == SPLITTING else 3
+            for sub in range(n_sub):
+                hh = h if n_sub == 1 else (_YOSHIDA_W0 * h if sub == 1 else _YOSHIDA_W1 * h)
+                _body_forces(layout, i, y, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T)
+                _kick_row(y, F, T, 0.5 * hh)
+                _drift_row(layout, True, hh, y, inv_mass, ibody_inv, principal_q, principal_moments, R, v, omega, M)
+                _body_forces(layout, i, y, mass, inv_mass, ibody_inv, gravity, uforce_kind, uforce_param, uforce_start, R, v, omega, F, T)
+                _kick_row(y, F, T, 0.5 * hh)
+        _project_row(layout, y)
+
+
+# Bodies per task of the parallel loop: large enough that the scratch allocations
+# are amortised, small enough that both cores get work at N = 1000.
+BODY_CHUNK = 64
+
+
+@njit(cache=True, nogil=True, fastmath=False, parallel=True)
 def step_kernel(
     integrator, layout, h, n_steps,
     Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
     uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
-    # scratch (N, W) x 3 and (N, 3, 3), (N, 3) x 4
+    # scratch (N, W) x 3, (N, 3, 3), (N, 3) x 4
     Y1, K, Kacc, Rs, vs, omegas, F, T,
 ):
     """Advance Y (N, W) by n_steps steps of h seconds with a fixed-step integrator, in place.
 
-    The whole loop runs compiled: no Python between steps. Built-in forces only
-    (``CustomForce`` takes ``Simulator``'s stage-by-stage path, which calls the
-    same kernels in the same order and so gives the same bits).
+    The whole loop runs compiled: no Python between steps. Without springs,
+    bodies are independent: each body takes all its steps while its row is in
+    cache, and chunks of bodies run on all cores (each task writes only its
+    own rows, so the result is the same bits for any thread count). With
+    springs, all bodies advance stage by stage together (``_one_step``).
+    Built-in forces only: ``CustomForce`` takes ``Simulator``'s stage-by-stage
+    path, which calls the same row functions in the same order.
     """
-    for _ in range(n_steps):
-        _one_step(
-            integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-            uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
-            Y1, K, Kacc, Rs, vs, omegas, F, T,
-        )
+    n = Y.shape[0]
+    W = Y.shape[1]
+    if spring_body.shape[0] == 0:
+        n_chunks = (n + BODY_CHUNK - 1) // BODY_CHUNK
+        for c in prange(n_chunks):
+            y1 = np.empty(W)
+            k = np.empty(W)
+            kacc = np.empty(W)
+            R = np.empty((3, 3))
+            M = np.empty((3, 3))
+            v = np.empty(3)
+            omega = np.empty(3)
+            Fi = np.empty(3)
+            Ti = np.empty(3)
+            for i in range(c * BODY_CHUNK, min(n, (c + 1) * BODY_CHUNK)):
+                if moving[i]:
+                    _advance_body(
+                        integrator, layout, h, n_steps, i, Y[i], mass[i], inv_mass[i], inertia_body_inv[i],
+                        principal_q[i], principal_moments[i], gravity, uforce_kind, uforce_param, uforce_start,
+                        y1, k, kacc, R, v, omega, Fi, Ti, M,
+                    )
+    else:
+        for _ in range(n_steps):
+            _one_step(
+                integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+                uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
+                Y1, K, Kacc, Rs, vs, omegas, F, T,
+            )
 
 
 @njit(**JIT)
@@ -559,6 +647,7 @@ def _one_step(
     uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
     Y1, K, Kacc, Rs, vs, omegas, F, T,
 ):
+    """One step of all bodies together, stage by stage (springs couple them)."""
     if integrator == EXPLICIT_EULER:
         # X(t + h) = X(t) + h dX/dt  (course, "Schéma d'Euler explicite")
         accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
@@ -593,8 +682,9 @@ def _one_step(
     elif integrator == SPLITTING:
         _split_step(layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
     elif integrator == SPLITTING4:
-        for w in (_YOSHIDA_W1, _YOSHIDA_W0, _YOSHIDA_W1):
-            _split_step(layout, w * h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+        for sub in range(3):
+            hh = _YOSHIDA_W0 * h if sub == 1 else _YOSHIDA_W1 * h
+            _split_step(layout, hh, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
     project_orientation_kernel(layout, Y, moving)
 
 
@@ -609,3 +699,15 @@ def _split_step(
     drift_kernel(layout, Y, moving, inv_mass, inertia_body_inv, principal_q, principal_moments, True, h)
     accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
     kick_kernel(layout, Y, moving, F, T, 0.5 * h)
+
+
+@njit(**JIT)
+def matrices_to_quaternions_kernel(R, q_prev, out):
+    """out (N, 4): unit quaternions of R (N, 3, 3), each on the hemisphere of q_prev (N, 4)
+    so that recorded orientations never jump sign between frames."""
+    for i in range(R.shape[0]):
+        matrix_to_quat_into(R[i], out[i])
+        dot = out[i, 0] * q_prev[i, 0] + out[i, 1] * q_prev[i, 1] + out[i, 2] * q_prev[i, 2] + out[i, 3] * q_prev[i, 3]
+        if dot < 0.0:
+            for k in range(4):
+                out[i, k] = -out[i, k]

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .shapes import Box, Capsule, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
+from .shapes import Box, Capsule, Cone, Cylinder, Mesh, Particles, Plane, Sphere
 
 
 @dataclass(frozen=True, eq=False)

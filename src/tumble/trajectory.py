@@ -69,19 +69,9 @@ class Trajectory:
 
     def save(self, path) -> Path:
         """Write the .npz atomically (temporary file in the same folder, then rename)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
         arrays["names"] = np.asarray(self.names, dtype=str)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez_compressed(fh, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return path
+        return write_atomic(path, lambda fh: np.savez_compressed(fh, **arrays))
 
 
 def load_trajectory(path) -> Trajectory:
@@ -100,20 +90,32 @@ def load_trajectory(path) -> Trajectory:
     return Trajectory(**values)
 
 
-def write_json_atomic(path, obj) -> Path:
-    """Write ``obj`` as indented JSON under a temporary name, then rename into place."""
+def write_atomic(path, write) -> Path:
+    """Call ``write(binary file)`` on a temporary file beside ``path``, then rename it into place.
+
+    A reader sees the old file or the whole new one, never half a file; the new
+    file gets the ordinary permissions of the umask (mkstemp makes 0600).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump(obj, fh, indent=2, default=_json_default)
-            fh.write("\n")
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def write_json_atomic(path, obj) -> Path:
+    """Write ``obj`` as indented JSON, atomically (``write_atomic``)."""
+    text = json.dumps(obj, indent=2, default=_json_default) + "\n"
+    return write_atomic(path, lambda fh: fh.write(text.encode()))
 
 
 def _json_default(o):

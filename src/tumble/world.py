@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Iterable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -38,7 +38,7 @@ from .forces import (
 )
 from .mass import mass_properties
 from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
-from .shapes import Plane, finite_vector, positive
+from .shapes import Plane, finite_vector
 
 
 @dataclass(frozen=True)
@@ -198,7 +198,10 @@ class World:
         angular_velocity = finite_vector(angular_velocity, "angular_velocity")
         if angular_velocity_frame not in ("world", "body"):
             raise InputError(f"must be 'world' or 'body', got {angular_velocity_frame!r}", "angular_velocity_frame")
-        material = Material.coerce(material)
+        try:
+            material = Material.coerce(material)
+        except InputError as err:
+            raise err.within("material") from None
         R = quat_to_matrix(q)
 
         if fixed:
@@ -228,7 +231,7 @@ class World:
         if fixed or props is None:
             a["mass"][i] = math.inf
             a["inv_mass"][i] = 0.0
-            a["inertia_body"][i] = np.eye(3) * math.inf if props is None else props.inertia
+            a["inertia_body"][i] = np.diag([math.inf] * 3) if props is None else props.inertia
             a["inertia_body_inv"][i] = 0.0
             a["principal_q"][i] = (1.0, 0.0, 0.0, 0.0)
             a["principal_moments"][i] = math.inf
@@ -393,10 +396,8 @@ class World:
         if n == 0:
             return
         if self.layout == "matrix":
-            for i in range(n):
-                qn = matrix_to_quat(np.ascontiguousarray(self.R[i]))
-                # keep q on the hemisphere of the previous frame: no sign jumps for export
-                self.q[i] = -qn if np.dot(qn, self.q[i]) < 0 else qn
+            # q on the hemisphere of the previous q: no sign jumps between recorded frames
+            K.matrices_to_quaternions_kernel(np.ascontiguousarray(self.R), self.q.copy(), self.q)
         else:
             qn = self.q / np.linalg.norm(self.q, axis=1, keepdims=True)
             w, x, y, z = qn.T

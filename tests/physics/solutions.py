@@ -2,7 +2,6 @@
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.spatial.transform import Rotation
 
 
 def euler_top_dop853(I_body_diag, omega0_body, duration, t_eval=None, rtol=1e-12, atol=1e-14):

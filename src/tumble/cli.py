@@ -1,0 +1,214 @@
+"""The ``tumble`` command: ``demo``, ``run SCENE``, ``validate SCENE``.
+
+Outputs of a run go to one folder: ``trajectory.npz`` (DESIGN.md's trajectory
+file), ``summary.json`` (the scene, the settings, the versions, the run's
+figures) and a copy of the scene file. Nothing already there is overwritten
+without ``--force``.
+
+Exit status: 0 success; 2 bad input (one line ``tumble: error: FILE: KEY:
+problem`` on stderr, never a traceback; also command-line usage errors);
+3 the simulation went bad (``SimulationError``); 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import platform
+import sys
+from importlib import resources
+from pathlib import Path
+
+from . import __version__
+from .errors import InputError, SimulationError
+from .scene import Scene, load_scene
+from .trajectory import write_atomic, write_json_atomic
+
+EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED = 0, 2, 3, 130
+OUTPUT_NAMES = ("trajectory.npz", "summary.json")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (exit status 2), like every other bad input."""
+
+    def error(self, message):
+        raise _UsageError(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)")
+
+
+class _UsageError(Exception):
+    pass
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="tumble", description="Rigid-body dynamics after Baraff's course notes: run and check scene files.")
+    parser.add_argument("--version", action="version", version=f"tumble {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    def outputs(p, default_help):
+        p.add_argument("--out", metavar="DIR", help=f"output folder (default {default_help})")
+        p.add_argument("--force", action="store_true", help="overwrite trajectory.npz and summary.json if they exist")
+        p.add_argument("--duration", type=_seconds, metavar="S", help="simulated time, s (default: the scene's)")
+        p.add_argument("--integrator", metavar="NAME", help="integrator (default: the scene's), e.g. rk4, splitting, dop853")
+        p.add_argument("--no-progress", action="store_true", help="never show a progress bar")
+
+    demo = sub.add_parser("demo", help="run the built-in demo scene and write its outputs")
+    outputs(demo, "./tumble-demo")
+    run = sub.add_parser("run", help="run a scene file (TOML or JSON) and write its outputs")
+    run.add_argument("scene", metavar="SCENE", help="scene file, .toml or .json")
+    outputs(run, "./out/<scene name>")
+    val = sub.add_parser("validate", help="check a scene file and build its world without running it")
+    val.add_argument("scene", metavar="SCENE", help="scene file, .toml or .json")
+    return parser
+
+
+def _seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not math.isfinite(v) or v <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
+    return v
+
+
+def main(argv=None) -> int:
+    """Entry point of the console script; returns the exit status."""
+    try:
+        try:
+            args = build_parser().parse_args(argv)
+        except _UsageError as exc:
+            print(exc, file=sys.stderr)
+            return EXIT_INPUT
+        except SystemExit as exc:  # --help, --version
+            return exc.code if isinstance(exc.code, int) else EXIT_OK
+        if args.command == "validate":
+            return cmd_validate(args)
+        return cmd_run(args)
+    except InputError as err:
+        print(f"tumble: error: {_one_line(str(err))}", file=sys.stderr)
+        return EXIT_INPUT
+    except SimulationError as err:
+        print(f"tumble: simulation failed: {_one_line(str(err))}", file=sys.stderr)
+        return EXIT_SIMULATION
+    except KeyboardInterrupt:
+        print("tumble: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def cmd_validate(args) -> int:
+    scene = load_scene(args.scene)
+    w = scene.world
+    print(f"{args.scene}: ok ({_count(w.body_count, 'body', 'bodies')}, {_count(len(w.forces), 'force', 'forces')}, "
+          f"integrator {scene.integrator}, duration {scene.duration:g} s)")
+    return EXIT_OK
+
+
+def _count(n, one, many):
+    return f"{n} {one if n == 1 else many}"
+
+
+def cmd_run(args) -> int:
+    if args.command == "demo":
+        ref = resources.files("tumble").joinpath("scenes", "demo.toml")
+        with resources.as_file(ref) as path:
+            scene = load_scene(path)
+            scene_text = Path(path).read_bytes()
+        label = "demo"
+        out = Path(args.out if args.out is not None else "tumble-demo")
+        copy_name = "scene.toml"
+    else:
+        scene = load_scene(args.scene)
+        scene_text = Path(args.scene).read_bytes()
+        label = str(args.scene)
+        out = Path(args.out if args.out is not None else Path("out") / Path(args.scene).stem)
+        copy_name = "scene" + Path(args.scene).suffix.lower()
+    _apply_overrides(scene, args)
+
+    targets = [out / name for name in OUTPUT_NAMES + (copy_name,)]
+    if out.exists() and not out.is_dir():
+        raise InputError("exists and is not a folder (choose another --out)", None, str(out))
+    if not args.force:
+        for t in targets:
+            if t.exists():
+                raise InputError("exists (pass --force to overwrite)", None, str(t))
+
+    sim = scene.simulator()
+    progress = (not args.no_progress) and sys.stderr.isatty()
+    traj = sim.run(scene.duration, scene.frame_rate, progress=progress)
+
+    summary = make_summary(scene, sim, traj)
+    traj_path, summary_path, copy_path = targets
+    try:
+        traj.save(traj_path)
+        _write_bytes_atomic(copy_path, scene_text)
+        write_json_atomic(summary_path, summary)
+    except OSError as exc:
+        raise InputError(f"cannot write outputs: {exc.strerror or exc}", None, str(exc.filename or out)) from None
+
+    r = summary["run"]
+    print(f"{label}: {_count(scene.world.body_count, 'body', 'bodies')}, {r['frames']} frames "
+          f"({scene.duration:g} s at {scene.frame_rate:g} fps), {r['steps']} steps of {scene.integrator} "
+          f"in {r['wall_time_s']:.2f} s wall time")
+    drift = r["energy_drift_relative"]
+    drift_text = "n/a" if drift is None else f"{drift:+.3g}"
+    print(f"energy: {r['energy_initial']:.6g} J -> {r['energy_final']:.6g} J (relative drift {drift_text})")
+    print(f"wrote {traj_path}, {summary_path}, {copy_path}")
+    return EXIT_OK
+
+
+def _apply_overrides(scene: Scene, args):
+    for option, attr in (("--duration", "duration"), ("--integrator", "integrator")):
+        value = getattr(args, attr)
+        if value is None:
+            continue
+        setattr(scene, attr, value)
+        try:
+            scene.check()
+        except InputError as err:
+            if err.key == f"simulation.{attr}":
+                raise InputError(err.problem, option) from None
+            raise
+
+
+def make_summary(scene: Scene, sim, traj) -> dict:
+    """summary.json (DESIGN.md): the scene, the settings, the versions and the run's figures."""
+    import numba
+    import numpy as np
+    import scipy
+
+    energy = traj.total_energy
+    e0, e1 = float(energy[0]), float(energy[-1])
+    drift = (e1 - e0) / max(abs(e0), float(np.finfo(float).tiny))
+    return {
+        "tumble_version": __version__,
+        "scene": {"source": None if scene.source is None else str(scene.source), "data": scene.data},
+        "settings": scene.settings(),
+        "versions": {
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+            "numba": numba.__version__,
+        },
+        "run": {
+            "frames": int(traj.frame_count),
+            "steps": int(sim.stats["steps"]),
+            "wall_time_s": float(sim.stats.get("wall_time_s", 0.0)),
+            "energy_initial": e0,
+            "energy_final": e1,
+            "energy_drift_relative": drift if math.isfinite(drift) else None,  # None: E_0 = 0 and it overflowed
+            "max_orthonormality_error": float(np.max(traj.orthonormality_error)),
+            "largest_penetration_m": None,  # no contacts yet
+        },
+    }
+
+
+def _write_bytes_atomic(path: Path, data: bytes):
+    write_atomic(path, lambda fh: fh.write(data))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,271 @@
+"""Tests for tumble/cli.py: demo, run, validate; outputs, no overwriting, one-line errors with exit status 2."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tumble.cli import main
+from tumble.errors import SimulationError
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+SCENE = """
+[simulation]
+duration = 1.0
+integrator = "rk4"
+
+[[bodies]]
+name = "box"
+shape = { type = "box", size = [0.2, 0.6, 1.0] }
+mass = 2.0
+angular_velocity = [0.01, 5, 0.01]
+angular_velocity_frame = "body"
+
+[[bodies]]
+name = "ball"
+shape = { type = "sphere", radius = 0.1 }
+mass = 1.0
+position = [1, 0, 0]
+
+[[forces]]
+type = "spring"
+body_a = "ball"
+anchor_b = [1, 0, 1]
+stiffness = 20
+damping = 0.1
+"""
+
+TRAJECTORY_KEYS = {
+    "time", "names", "position", "orientation", "velocity", "angular_velocity",
+    "linear_momentum", "angular_momentum", "kinetic_energy", "potential_energy",
+}
+RUN_KEYS = {
+    "frames", "steps", "wall_time_s", "energy_initial", "energy_final", "energy_drift_relative",
+    "max_orthonormality_error", "largest_penetration_m",
+}
+
+
+@pytest.fixture
+def scene_file(tmp_path):
+    path = tmp_path / "spin.toml"
+    path.write_text(SCENE)
+    return path
+
+
+def snapshot(folder):
+    return {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in sorted(Path(folder).iterdir())}
+
+
+def check_outputs(out, frames, names):
+    with np.load(out / "trajectory.npz", allow_pickle=False) as data:
+        assert TRAJECTORY_KEYS <= set(data.files)
+        assert data["position"].shape == (frames, len(names), 3)
+        assert data["names"].tolist() == names
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary) == {"tumble_version", "scene", "settings", "versions", "run"}
+    assert {"source", "data"} <= set(summary["scene"])
+    assert {"dt", "integrator", "substeps", "layout", "duration", "frame_rate", "gravity"} <= set(summary["settings"])
+    assert set(summary["versions"]) == {"python", "numpy", "scipy", "numba"}
+    assert set(summary["run"]) == RUN_KEYS
+    assert summary["run"]["frames"] == frames
+    assert summary["run"]["largest_penetration_m"] is None
+    return summary
+
+
+def test_demo_writes_outputs_and_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--duration", "0.5"]) == 0
+    stdout = capsys.readouterr().out
+    assert "3 bodies" in stdout and str(out / "trajectory.npz") in stdout
+    summary = check_outputs(out, 13, ["flipper", "projectile", "lantern"])
+    assert summary["settings"]["duration"] == 0.5 and summary["settings"]["integrator"] == "rk4"
+    assert summary["run"]["steps"] == 120
+    assert summary["scene"]["data"]["simulation"]["duration"] == 5.0  # the scene as written
+    assert (out / "scene.toml").read_text().startswith("# tumble's built-in demo")
+    assert (out / "scene.toml").stat().st_mode & 0o044  # an ordinary readable file, not mkstemp's 0600
+
+    before = snapshot(out)
+    assert main(["demo", "--out", str(out), "--duration", "0.5"]) == 2
+    captured = capsys.readouterr()
+    assert captured.err == f"tumble: error: {out / 'trajectory.npz'}: exists (pass --force to overwrite)\n"
+    assert captured.out == ""
+    assert snapshot(out) == before
+
+    for p in out.iterdir():
+        os.utime(p, ns=(1, 1))
+    assert main(["demo", "--out", str(out), "--duration", "0.5", "--force"]) == 0
+    assert all(p.stat().st_mtime_ns > 1 for p in out.iterdir())
+    check_outputs(out, 13, ["flipper", "projectile", "lantern"])
+
+
+def test_only_summary_existing_also_refuses(tmp_path, capsys):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "summary.json").write_text("{}")
+    assert main(["demo", "--out", str(out), "--duration", "0.5"]) == 2
+    assert capsys.readouterr().err == f"tumble: error: {out / 'summary.json'}: exists (pass --force to overwrite)\n"
+    assert (out / "summary.json").read_text() == "{}"
+    assert not (out / "trajectory.npz").exists()
+
+
+def test_run_scene_file(scene_file, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(scene_file), "--duration", "0.5", "--integrator", "splitting", "--no-progress"]) == 0
+    out = tmp_path / "out" / "spin"  # default ./out/<scene stem>
+    summary = check_outputs(out, 13, ["box", "ball"])
+    assert summary["settings"]["integrator"] == "splitting"
+    assert summary["scene"]["source"] == str(scene_file)
+    assert summary["scene"]["data"]["bodies"][1]["name"] == "ball"
+    assert (out / "spin.toml").exists() is False and (out / "scene.toml").read_text() == SCENE
+    assert "2 bodies" in capsys.readouterr().out
+
+
+def test_run_json_scene_keeps_its_suffix(tmp_path, capsys):
+    import tomllib
+
+    path = tmp_path / "spin.json"
+    path.write_text(json.dumps(tomllib.loads(SCENE)))
+    assert main(["run", str(path), "--out", str(tmp_path / "j"), "--duration", "0.5"]) == 0
+    assert (tmp_path / "j" / "scene.json").read_text() == path.read_text()
+
+
+def test_validate(scene_file, capsys):
+    assert main(["validate", str(scene_file)]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == f"{scene_file}: ok (2 bodies, 1 force, integrator rk4, duration 1 s)\n"
+    assert captured.err == ""
+
+
+def _bad(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+BAD = [
+    # (id, scene text or None, file name, extra args, expected key in the line)
+    ("unknown-key", SCENE.replace('mass = 1.0', 'mass = 1.0\ncolour = "red"'), "s.toml", [], "bodies[1].colour: unknown key"),
+    ("negative-mass", SCENE.replace("mass = 2.0", "mass = -1"), "s.toml", [], "bodies[0].mass: must be positive, got -1"),
+    ("zero-size", SCENE.replace("[0.2, 0.6, 1.0]", "[0.2, 0.6, 0]"), "s.toml", [], "bodies[0].shape.size[2]: must be positive, got 0"),
+    ("unknown-integrator", SCENE.replace('"rk4"', '"rk5"'), "s.toml", [], "simulation.integrator: unknown integrator 'rk5'"),
+    ("unknown-body", SCENE.replace('body_a = "ball"', 'body_a = "bal"'), "s.toml", [], "forces[0].body_a: unknown body 'bal'"),
+    ("toml-syntax", SCENE.replace("mass = 2.0", "mass = = 2.0"), "s.toml", [], "invalid TOML: Invalid value (at line"),
+    ("json-syntax", '{"bodies": [}', "s.json", [], "invalid JSON: Expecting value (at line 1, column 13)"),
+    ("nan", SCENE.replace("mass = 2.0", "mass = nan"), "s.toml", [], "bodies[0].mass: must be a finite number, got nan"),
+    ("missing-file", None, "nothere.toml", [], "nothere.toml: file not found"),
+    ("dt", SCENE.replace('integrator = "rk4"', "dt = 0.01"), "s.toml", [], "simulation.dt: must divide 1 / frame_rate"),
+]
+
+
+@pytest.mark.parametrize("command", ["run", "validate"])
+@pytest.mark.parametrize("text, name, extra, expected", [b[1:] for b in BAD], ids=[b[0] for b in BAD])
+def test_bad_input_is_one_line_and_status_2(tmp_path, capsys, command, text, name, extra, expected):
+    path = tmp_path / name if text is None else _bad(tmp_path, name, text)
+    args = [command, str(path)] + (["--out", str(tmp_path / "out")] if command == "run" else []) + extra
+    assert main(args) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1, captured.err
+    assert lines[0].startswith(f"tumble: error: {path}: "), lines[0]
+    assert expected in lines[0]
+    assert "Traceback" not in captured.err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (["run", "{scene}", "--integrator", "rk5"], "tumble: error: --integrator: unknown integrator 'rk5' (expected one of "),
+        (["run", "{scene}", "--duration", "0.3"], "tumble: error: --duration: must be a whole number of frames at 24 per second, got 0.3 s"),
+        (["run", "{scene}", "--duration", "-1"], "tumble run: error: argument --duration: must be a positive number of seconds, got '-1'"),
+        (["run", "{scene}", "--duration", "abc"], "tumble run: error: argument --duration: expected a number of seconds, got 'abc'"),
+        (["run"], "tumble run: error: the following arguments are required: SCENE"),
+        (["fly"], "tumble: error: argument COMMAND: invalid choice: 'fly'"),
+        ([], "tumble: error: the following arguments are required: COMMAND"),
+        (["validate", "{scene}", "--force"], "tumble: error: unrecognized arguments: --force"),
+        (["run", "{dir}"], "tumble: error: {dir}: unknown scene file type"),
+    ],
+)
+def test_bad_command_line_is_one_line_and_status_2(scene_file, tmp_path, capsys, args, expected):
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    fill = {"scene": str(scene_file), "dir": str(folder)}
+    args = [a.format(**fill) for a in args]
+    assert main(args) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1, captured.err
+    assert lines[0].startswith(expected.format(**fill)), lines[0]
+    assert "Traceback" not in captured.err
+
+
+def test_out_is_a_file(scene_file, tmp_path, capsys):
+    target = tmp_path / "taken"
+    target.write_text("x")
+    assert main(["run", str(scene_file), "--out", str(target), "--duration", "0.5"]) == 2
+    assert capsys.readouterr().err == f"tumble: error: {target}: exists and is not a folder (choose another --out)\n"
+
+
+def test_simulation_error_is_status_3(scene_file, tmp_path, capsys, monkeypatch):
+    from tumble import simulator
+
+    def blow_up(self, *args, **kwargs):
+        raise SimulationError("body 'box': non-finite state at t = 0.5 s (integrator rk4, dt = 0.00416667 s)")
+
+    monkeypatch.setattr(simulator.Simulator, "run", blow_up)
+    assert main(["run", str(scene_file), "--out", str(tmp_path / "o")]) == 3
+    err = capsys.readouterr().err
+    assert err == "tumble: simulation failed: body 'box': non-finite state at t = 0.5 s (integrator rk4, dt = 0.00416667 s)\n"
+    assert not (tmp_path / "o").exists()
+
+
+def test_help_and_version(capsys):
+    assert main(["--help"]) == 0
+    assert "demo" in capsys.readouterr().out
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("tumble ")
+
+
+# ---------------------------------------------------------------------- a real process
+
+
+def _tumble(*args, cwd):
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(SRC) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    return subprocess.run([sys.executable, "-m", "tumble.cli", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+
+
+def test_subprocess_demo_then_refuse_then_force(tmp_path):
+    out = tmp_path / "demo"
+    first = _tumble("demo", "--out", str(out), "--duration", "0.5", cwd=tmp_path)
+    assert first.returncode == 0, first.stderr
+    assert first.stderr == ""
+    check_outputs(out, 13, ["flipper", "projectile", "lantern"])
+    before = snapshot(out)
+
+    again = _tumble("demo", "--out", str(out), "--duration", "0.5", cwd=tmp_path)
+    assert again.returncode == 2
+    assert again.stderr == f"tumble: error: {out / 'trajectory.npz'}: exists (pass --force to overwrite)\n"
+    assert snapshot(out) == before
+
+    forced = _tumble("demo", "--out", str(out), "--duration", "0.5", "--force", cwd=tmp_path)
+    assert forced.returncode == 0, forced.stderr
+    check_outputs(out, 13, ["flipper", "projectile", "lantern"])
+
+
+def test_subprocess_bad_scene(tmp_path):
+    path = _bad(tmp_path, "bad.toml", SCENE.replace("mass = 2.0", "mass = true"))
+    result = _tumble("run", str(path), cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stdout == ""
+    assert result.stderr == f"tumble: error: {path}: bodies[0].mass: expected a number, got true (a boolean)\n"
+    assert not (tmp_path / "out").exists()
+
+    ok = _tumble("validate", str(_bad(tmp_path, "good.toml", SCENE)), cwd=tmp_path)
+    assert ok.returncode == 0 and ok.stdout.endswith(": ok (2 bodies, 1 force, integrator rk4, duration 1 s)\n")
