@@ -590,9 +590,65 @@ def _advance_body(
 # Bodies per task of the parallel loop: large enough that the scratch allocations
 # are amortised, small enough that both cores get work at N = 1000.
 BODY_CHUNK = 64
+# Below this many bodies the serial kernel is used: launching threads costs more
+# than it saves (and oversubscribed cores make each launch slower still).
+PARALLEL_MIN_BODIES = 512
+
+
+@njit(**JIT)
+def _advance_chunk(
+    c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+    uforce_kind, uforce_param, uforce_start,
+):
+    """``_advance_body`` for the bodies of chunk c, with scratch allocated once for the chunk."""
+    W = Y.shape[1]
+    n = Y.shape[0]
+    y1 = np.empty(W)
+    k = np.empty(W)
+    kacc = np.empty(W)
+    R = np.empty((3, 3))
+    M = np.empty((3, 3))
+    v = np.empty(3)
+    omega = np.empty(3)
+    F = np.empty(3)
+    T = np.empty(3)
+    for i in range(c * BODY_CHUNK, min(n, (c + 1) * BODY_CHUNK)):
+        if moving[i]:
+            _advance_body(
+                integrator, layout, h, n_steps, i, Y[i], mass[i], inv_mass[i], inertia_body_inv[i],
+                principal_q[i], principal_moments[i], gravity, uforce_kind, uforce_param, uforce_start,
+                y1, k, kacc, R, v, omega, F, T, M,
+            )
 
 
 @njit(cache=True, nogil=True, fastmath=False, parallel=True)
+def step_bodies_parallel_kernel(
+    integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+    uforce_kind, uforce_param, uforce_start,
+):
+    """``step_bodies_kernel`` with the chunks spread over all cores. Each task writes only
+    its own rows, so the bits are the same as the serial kernel's for any thread count."""
+    n_chunks = (Y.shape[0] + BODY_CHUNK - 1) // BODY_CHUNK
+    for c in prange(n_chunks):
+        _advance_chunk(c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
+
+
+@njit(**JIT)
+def step_bodies_kernel(
+    integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+    uforce_kind, uforce_param, uforce_start,
+):
+    """Advance Y (N, W) by n_steps steps of h when no force couples two bodies (no springs).
+
+    Each body takes all its steps while its row is in cache (``_advance_body``):
+    the same row operations in the same order as ``step_kernel``, so the same bits.
+    """
+    n_chunks = (Y.shape[0] + BODY_CHUNK - 1) // BODY_CHUNK
+    for c in range(n_chunks):
+        _advance_chunk(c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
+
+
+@njit(**JIT)
 def step_kernel(
     integrator, layout, h, n_steps,
     Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
@@ -600,44 +656,19 @@ def step_kernel(
     # scratch (N, W) x 3, (N, 3, 3), (N, 3) x 4
     Y1, K, Kacc, Rs, vs, omegas, F, T,
 ):
-    """Advance Y (N, W) by n_steps steps of h seconds with a fixed-step integrator, in place.
+    """Advance Y (N, W) by n_steps steps of h seconds with a fixed-step integrator, in place,
+    all bodies together stage by stage (springs couple them).
 
-    The whole loop runs compiled: no Python between steps. Without springs,
-    bodies are independent: each body takes all its steps while its row is in
-    cache, and chunks of bodies run on all cores (each task writes only its
-    own rows, so the result is the same bits for any thread count). With
-    springs, all bodies advance stage by stage together (``_one_step``).
-    Built-in forces only: ``CustomForce`` takes ``Simulator``'s stage-by-stage
-    path, which calls the same row functions in the same order.
+    The whole loop runs compiled: no Python between steps. Built-in forces only:
+    ``CustomForce`` takes ``Simulator``'s stage-by-stage path, which calls the
+    same kernels in the same order and so gives the same bits.
     """
-    n = Y.shape[0]
-    W = Y.shape[1]
-    if spring_body.shape[0] == 0:
-        n_chunks = (n + BODY_CHUNK - 1) // BODY_CHUNK
-        for c in prange(n_chunks):
-            y1 = np.empty(W)
-            k = np.empty(W)
-            kacc = np.empty(W)
-            R = np.empty((3, 3))
-            M = np.empty((3, 3))
-            v = np.empty(3)
-            omega = np.empty(3)
-            Fi = np.empty(3)
-            Ti = np.empty(3)
-            for i in range(c * BODY_CHUNK, min(n, (c + 1) * BODY_CHUNK)):
-                if moving[i]:
-                    _advance_body(
-                        integrator, layout, h, n_steps, i, Y[i], mass[i], inv_mass[i], inertia_body_inv[i],
-                        principal_q[i], principal_moments[i], gravity, uforce_kind, uforce_param, uforce_start,
-                        y1, k, kacc, R, v, omega, Fi, Ti, M,
-                    )
-    else:
-        for _ in range(n_steps):
-            _one_step(
-                integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-                uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
-                Y1, K, Kacc, Rs, vs, omegas, F, T,
-            )
+    for _ in range(n_steps):
+        _one_step(
+            integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+            uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
+            Y1, K, Kacc, Rs, vs, omegas, F, T,
+        )
 
 
 @njit(**JIT)
@@ -711,3 +742,34 @@ def matrices_to_quaternions_kernel(R, q_prev, out):
         if dot < 0.0:
             for k in range(4):
                 out[i, k] = -out[i, k]
+
+
+@njit(**JIT)
+def update_derived_kernel(
+    layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity,
+    uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
+    # outputs
+    q, R, v, omega, I_inv, F, T,
+):
+    """Everything derived from the state rows Y (N, W), world frame: the other
+    orientation (q from R in the matrix layout, on the hemisphere of the previous
+    q; R from q otherwise), v, omega, I^-1 = R Ibody^-1 R^T, and the built-in
+    forces F, T (course "ArrayToBodies" followed by "ComputeForceAndTorque")."""
+    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, R, v, omega, F, T)
+    tmp = np.empty(4)
+    for i in range(Y.shape[0]):
+        if layout == LAYOUT_MATRIX:
+            matrix_to_quat_into(R[i], tmp)
+            sign = -1.0 if tmp[0] * q[i, 0] + tmp[1] * q[i, 1] + tmp[2] * q[i, 2] + tmp[3] * q[i, 3] < 0.0 else 1.0
+            for k in range(4):
+                q[i, k] = sign * tmp[k]
+        else:
+            for k in range(4):
+                q[i, k] = Y[i, 3 + k]
+        for r in range(3):
+            for c in range(3):
+                acc = 0.0
+                for a in range(3):
+                    for b in range(3):
+                        acc += R[i, r, a] * inertia_body_inv[i, a, b] * R[i, c, b]
+                I_inv[i, r, c] = acc

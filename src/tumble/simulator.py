@@ -128,7 +128,12 @@ class Simulator:
 
     def _advance_compiled(self, Y, n, s: Scratch):
         h = self.dt / self.substeps
-        K.step_kernel(self.integrator_id, self.world.layout_id, h, n * self.substeps, Y, *self._kernel_args(), s.Y1, s.K, s.Kacc, s.R, s.v, s.omega, s.F, s.T)
+        args = self._kernel_args()
+        if len(args[-3]):  # springs couple bodies: all bodies advance stage by stage
+            K.step_kernel(self.integrator_id, self.world.layout_id, h, n * self.substeps, Y, *args, s.Y1, s.K, s.Kacc, s.R, s.v, s.omega, s.F, s.T)
+        else:  # independent bodies: each takes all its steps in cache, in parallel chunks when many
+            kernel = K.step_bodies_parallel_kernel if len(Y) >= K.PARALLEL_MIN_BODIES else K.step_bodies_kernel
+            kernel(self.integrator_id, self.world.layout_id, h, n * self.substeps, Y, *args[:-3])
 
     def _advance_stagewise(self, Y, n, s: Scratch):
         """The same steps as ``integrators._one_step``, stage by stage, with user callables between the kernels."""

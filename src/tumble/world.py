@@ -130,13 +130,6 @@ class World:
         self._arrays = new
         self._capacity = capacity
 
-    def __getattr__(self, name):
-        # The SoA arrays, trimmed to the bodies that exist: views, never copies.
-        arrays = self.__dict__.get("_arrays")
-        if arrays is not None and name in arrays:
-            return arrays[name][: self.__dict__["body_count"]]
-        raise AttributeError(name)
-
     @property
     def fixed(self) -> np.ndarray:
         """(N,) bool: True for fixed (static) bodies."""
@@ -346,7 +339,7 @@ class World:
             self.q[:] = Y[:, 3:7]
         self.P[:] = Y[:, W - 6:W - 3]
         self.L[:] = Y[:, W - 3:]
-        self.update_derived()
+        self.update_derived(np.ascontiguousarray(Y))
 
     def state(self) -> np.ndarray:
         """The course's state vector X (N * W,): per body x, R or q, P, L (Algorithm 2, "BodiesToArray")."""
@@ -390,43 +383,19 @@ class World:
                 scratch.F[i] += f
                 scratch.T[i] += tau
 
-    def update_derived(self):
-        """Recompute the non-state orientation, v, omega, I^-1 and the accumulated forces from the state."""
-        n = self.body_count
-        if n == 0:
+    def update_derived(self, Y: np.ndarray | None = None):
+        """Recompute the non-state orientation, v, omega, I^-1 and the accumulated forces
+        (built-in ones; user callables are called inside steps only) from the state."""
+        if self.body_count == 0:
             return
-        if self.layout == "matrix":
-            # q on the hemisphere of the previous q: no sign jumps between recorded frames
-            K.matrices_to_quaternions_kernel(np.ascontiguousarray(self.R), self.q.copy(), self.q)
-        else:
-            qn = self.q / np.linalg.norm(self.q, axis=1, keepdims=True)
-            w, x, y, z = qn.T
-            R = self.R
-            R[:, 0, 0] = 1 - 2 * (y * y + z * z)
-            R[:, 0, 1] = 2 * (x * y - w * z)
-            R[:, 0, 2] = 2 * (x * z + w * y)
-            R[:, 1, 0] = 2 * (x * y + w * z)
-            R[:, 1, 1] = 1 - 2 * (x * x + z * z)
-            R[:, 1, 2] = 2 * (y * z - w * x)
-            R[:, 2, 0] = 2 * (x * z - w * y)
-            R[:, 2, 1] = 2 * (y * z + w * x)
-            R[:, 2, 2] = 1 - 2 * (x * x + y * y)
-        Y = self.pack()
-        scratch = Scratch(n, self.state_size)
-        if not self.tables.custom:
-            self.evaluate_forces(self.t, Y, scratch)
-        else:  # no user code outside a step: kernels only
-            tb = self.tables
-            K.accumulate_forces_kernel(
-                self.layout_id, Y, self.mass, self.inv_mass, self.inertia_body_inv, self.moving, self.gravity,
-                tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param,
-                scratch.R, scratch.v, scratch.omega, scratch.F, scratch.T,
-            )
-        self.v[:] = scratch.v
-        self.omega[:] = scratch.omega
-        self.I_inv[:] = np.einsum("nij,njk,nlk->nil", self.R, self.inertia_body_inv, self.R)
-        self.force[:] = scratch.F
-        self.torque[:] = scratch.T
+        if Y is None:
+            Y = self.pack()
+        tb = self.tables
+        K.update_derived_kernel(
+            self.layout_id, Y, self.mass, self.inv_mass, self.inertia_body_inv, self.moving, self.gravity,
+            tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param,
+            self.q, self.R, self.v, self.omega, self.I_inv, self.force, self.torque,
+        )
 
     # ------------------------------------------------------------------ diagnostics
     def kinetic_energy(self) -> float:
@@ -477,6 +446,18 @@ def _override_inertia(props, inertia):
     if not np.all(np.isfinite(I)):
         raise InputError("must be finite numbers", "inertia")
     return replace(props, inertia=I)
+
+
+def _array_property(name):
+    def get(self):
+        return self._arrays[name][: self.body_count]
+
+    get.__doc__ = f"``{name}``: a view of the rows of the existing bodies."
+    return property(get)
+
+
+for _name in (*_CONSTANT_ARRAYS, *_STATE_ARRAYS, *_DERIVED_ARRAYS, "moving"):
+    setattr(World, _name, _array_property(_name))
 
 
 def _check_inertia(I):
