@@ -67,9 +67,9 @@ class Simulator:
         self.substeps = int(substeps)
         self.rtol = float(rtol)
         self.atol = float(atol)
-        self.step_index = 0  # steps of dt taken since t = 0
+        # steps of dt since t = 0: a Simulator on a world that has already run goes on from its time
+        self.step_index = int(round(world.t / dt))
         self.stats = {"steps": 0, "derivative_evaluations": 0}
-        self._applied_impulses: set[int] = set()
 
     # ------------------------------------------------------------------ stepping
     def step(self, count: int = 1):
@@ -107,8 +107,9 @@ class Simulator:
     def _apply_due_impulses(self, Y: np.ndarray):
         """P += J, L += (p - x) x J for impulses due at this step (in the order they were added)."""
         W = Y.shape[1]
-        for n, imp in enumerate(self.world.impulses):
-            if n in self._applied_impulses or self._impulse_step(imp) > self.step_index:
+        applied = self.world.applied_impulses
+        for imp in self.world.impulses:
+            if id(imp) in applied or self._impulse_step(imp) > self.step_index:
                 continue
             i = self.world.index_of(imp.body)
             if self.world.moving[i]:
@@ -116,7 +117,7 @@ class Simulator:
                 p = Y[i, :3] if imp.point is None else np.asarray(imp.point)
                 Y[i, W - 6:W - 3] += J
                 Y[i, W - 3:] += np.cross(p - Y[i, :3], J)
-            self._applied_impulses.add(n)
+            applied.add(id(imp))
 
     def _kernel_args(self):
         w = self.world
@@ -294,6 +295,12 @@ class _Recorder:
         self.orthonormality_error = np.zeros(capacity)
 
     def record(self):
+        # A run heading for a blow-up may overflow the diagnostics before the state
+        # itself turns non-finite: record inf, and let _check_finite report the body.
+        with np.errstate(over="ignore", invalid="ignore"):
+            self._record()
+
+    def _record(self):
         w, k = self.world, self.count
         self.time[k] = w.t
         self.position[k] = w.x

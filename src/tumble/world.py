@@ -14,7 +14,9 @@ state      ``x`` (N, 3) m, ``q`` (N, 4) (w, x, y, z) or ``R`` (N, 3, 3), ``P``
            ("quaternion", 13 numbers a body, or the course's "matrix", 18)
            says which of q and R is state; the other is kept in step.
 derived    ``v`` (N, 3) m/s, ``omega`` (N, 3) rad/s, ``I_inv`` (N, 3, 3) world.
-accumulated ``force`` (N, 3) N, ``torque`` (N, 3) N m, world, about the centre of mass.
+accumulated ``force`` (N, 3) N, ``torque`` (N, 3) N m, world, about the centre of mass,
+           from the built-in forces at the current state (user ``CustomForce``
+           functions are called inside steps only, never by reading the world).
 """
 
 from __future__ import annotations
@@ -112,6 +114,7 @@ class World:
         self.shapes: list[Any] = []
         self.materials: list[Material] = []
         self.forces: list[Any] = []
+        self.applied_impulses: set[int] = set()  # ids of Impulse records already applied (once each)
         self._tables = None
 
     # ------------------------------------------------------------------ storage
