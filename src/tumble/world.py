@@ -111,6 +111,7 @@ class World:
         self._arrays: dict[str, np.ndarray] = {}
         self._allocate(8)
         self.names: list[str] = []
+        self._index_by_name: dict[str, int] = {}
         self.shapes: list[Any] = []
         self.materials: list[Material] = []
         self.forces: list[Any] = []
@@ -181,7 +182,7 @@ class World:
             name = f"body{self.body_count}"
         if not isinstance(name, str) or not name:
             raise InputError(f"must be a non-empty string, got {name!r}", "name")
-        if name in self.names:
+        if name in self._index_by_name:
             raise InputError(f"duplicate body name {name!r}", "name")
         if orientation is not None and euler_deg is not None:
             raise InputError("give orientation or euler_deg, not both", "orientation")
@@ -246,6 +247,7 @@ class World:
             a["omega"][i] = omega
             a["I_inv"][i] = R @ a["inertia_body_inv"][i] @ R.T
         self.names.append(name)
+        self._index_by_name[name] = i
         self.shapes.append(shape)
         self.materials.append(material)
         self._tables = None
@@ -279,8 +281,8 @@ class World:
             return body.index
         if isinstance(body, str):
             try:
-                return self.names.index(body)
-            except ValueError:
+                return self._index_by_name[body]
+            except KeyError:
                 raise InputError(f"unknown body {body!r}", "body") from None
         if isinstance(body, (int, np.integer)) and 0 <= int(body) < self.body_count:
             return int(body)
