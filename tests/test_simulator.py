@@ -61,6 +61,8 @@ def test_trajectory_diagnostics_and_file_round_trip(tmp_path):
     for key in ("time", "position", "orientation", "velocity", "angular_velocity", "linear_momentum", "angular_momentum", "kinetic_energy", "potential_energy"):
         np.testing.assert_array_equal(getattr(back, key), getattr(traj, key))
     assert list(back.names) == ["box"]
+    assert back.shape(0) == tb.Box(size=(0.2, 0.6, 1.0))  # the file alone describes the bodies
+    assert list(back.fixed) == [False]
     with np.load(path, allow_pickle=False) as data:  # DESIGN.md: loadable without pickles
         assert data["position"].shape == (25, 1, 3)
     assert not list(tmp_path.glob("out/.*tmp"))  # no temporary file left behind

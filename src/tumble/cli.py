@@ -25,6 +25,10 @@ from .scene import Scene, load_scene
 from .trajectory import write_atomic, write_json_atomic
 
 EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED = 0, 2, 3, 130
+# Subcommands that live with their feature (export, render, plot, view): each
+# module has ``add_commands(subparsers) -> {name: handler}``, a handler takes the
+# parsed args and returns the exit status, and raises InputError on bad input.
+COMMAND_MODULES = ("tumble.export.commands", "tumble.viewer.commands")
 OUTPUT_NAMES = ("trajectory.npz", "summary.json")
 
 
@@ -58,7 +62,19 @@ def build_parser() -> argparse.ArgumentParser:
     outputs(run, "./out/<scene name>")
     val = sub.add_parser("validate", help="check a scene file and build its world without running it")
     val.add_argument("scene", metavar="SCENE", help="scene file, .toml or .json")
+    parser._handlers_table = {}
+    for module in _command_modules():
+        parser._handlers_table.update(module.add_commands(sub))
     return parser
+
+
+def _command_modules():
+    import importlib
+    import importlib.util
+
+    for name in COMMAND_MODULES:
+        if importlib.util.find_spec(name.rsplit(".", 1)[0]) and importlib.util.find_spec(name):
+            yield importlib.import_module(name)
 
 
 def _seconds(text: str) -> float:
@@ -74,8 +90,9 @@ def _seconds(text: str) -> float:
 def main(argv=None) -> int:
     """Entry point of the console script; returns the exit status."""
     try:
+        parser = build_parser()
         try:
-            args = build_parser().parse_args(argv)
+            args = parser.parse_args(argv)
         except _UsageError as exc:
             print(exc, file=sys.stderr)
             return EXIT_INPUT
@@ -83,6 +100,9 @@ def main(argv=None) -> int:
             return exc.code if isinstance(exc.code, int) else EXIT_OK
         if args.command == "validate":
             return cmd_validate(args)
+        handler = getattr(parser, "_handlers_table", {}).get(args.command)
+        if handler is not None:
+            return handler(args)
         return cmd_run(args)
     except InputError as err:
         print(f"tumble: error: {_one_line(str(err))}", file=sys.stderr)

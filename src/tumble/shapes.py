@@ -235,3 +235,36 @@ SHAPE_TYPES = {
     "mesh": Mesh,
     "convex": Convex,
 }
+
+
+def shape_to_dict(shape) -> dict:
+    """A JSON-ready description of a shape record: ``{"type": ..., its parameters}``.
+
+    Meshes and convex hulls carry their (cleaned) vertices and faces inline, so
+    a trajectory file alone is enough to draw and export every body.
+    """
+    for name, cls in SHAPE_TYPES.items():
+        if type(shape) is cls:
+            kind = name
+            break
+    else:
+        raise InputError(f"not a shape record: {shape!r}", "shape")
+    if kind in ("mesh", "convex"):
+        return {"type": kind, "vertices": np.asarray(shape.vertices).tolist(), "faces": np.asarray(shape.faces).tolist()}
+    if kind == "particles":
+        return {"type": kind, "points": shape.points.tolist(), "masses": shape.masses.tolist()}
+    out = {"type": kind}
+    for key in shape.__dataclass_fields__:
+        if not key.startswith("_"):
+            value = getattr(shape, key)
+            out[key] = list(value) if isinstance(value, tuple) else value
+    return out
+
+
+def shape_from_dict(data: dict):
+    """Inverse of ``shape_to_dict``."""
+    data = dict(data)
+    kind = data.pop("type")
+    if kind == "convex":
+        return Convex(points=np.asarray(data["vertices"], dtype=float))
+    return SHAPE_TYPES[kind](**data)

@@ -14,6 +14,7 @@ stage from Python with the callables in between, in the same order.
 
 from __future__ import annotations
 
+import json
 import math
 import time as _time
 
@@ -21,6 +22,7 @@ import numpy as np
 
 from . import integrators as K
 from .errors import InputError, SimulationError
+from .shapes import shape_to_dict
 from .trajectory import Trajectory
 from .world import Scratch, World
 
@@ -333,4 +335,6 @@ class _Recorder:
             total_angular_momentum=self.total_angular_momentum[:k].copy(),
             orthonormality_error=self.orthonormality_error[:k].copy(),
             com_offset=self.world.com_offset.copy(),
+            shapes=np.array([json.dumps(shape_to_dict(sh)) for sh in self.world.shapes], dtype=str),
+            fixed=self.world.fixed.copy(),
         )

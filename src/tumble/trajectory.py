@@ -35,6 +35,9 @@ class Trajectory:
         orthonormality_error: (F,) largest |R^T R - 1| entry (|q|^2 - 1 for quaternions).
         com_offset: (N, 3) m, centre of mass seen from each shape's origin, body frame
             (the shape origin is at position - R com_offset), for display and export.
+        shapes: (N,) JSON text of each body's shape (``shapes.shape_to_dict``), so that
+            the file alone is enough to draw and export the bodies (None in old files).
+        fixed: (N,) bool, True for fixed bodies (None in old files).
     """
 
     time: np.ndarray
@@ -51,6 +54,10 @@ class Trajectory:
     total_angular_momentum: np.ndarray
     orthonormality_error: np.ndarray
     com_offset: np.ndarray
+    shapes: np.ndarray | None = None
+    fixed: np.ndarray | None = None
+
+    OPTIONAL = ("shapes", "fixed")
 
     @property
     def frame_count(self) -> int:
@@ -59,6 +66,14 @@ class Trajectory:
     @property
     def total_energy(self) -> np.ndarray:
         return self.kinetic_energy + self.potential_energy
+
+    def shape(self, index: int):
+        """The shape record of body ``index`` (rebuilt from ``shapes``), or None."""
+        if self.shapes is None:
+            return None
+        from .shapes import shape_from_dict
+
+        return shape_from_dict(json.loads(str(self.shapes[index])))
 
     def body(self, name: str) -> int:
         """Column index of the body called ``name``."""
@@ -69,8 +84,10 @@ class Trajectory:
 
     def save(self, path) -> Path:
         """Write the .npz atomically (temporary file in the same folder, then rename)."""
-        arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
+        arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self) if getattr(self, f.name) is not None}
         arrays["names"] = np.asarray(self.names, dtype=str)
+        if self.shapes is not None:
+            arrays["shapes"] = np.asarray(self.shapes, dtype=str)
         return write_atomic(path, lambda fh: np.savez_compressed(fh, **arrays))
 
 
@@ -84,7 +101,7 @@ def load_trajectory(path) -> Trajectory:
             values = {f.name: data[f.name] for f in fields(Trajectory) if f.name in data.files}
     except Exception as exc:  # a damaged or foreign file: one clear line
         raise InputError(f"not a readable trajectory file ({type(exc).__name__}: {exc})", None, str(path)) from None
-    missing = [f.name for f in fields(Trajectory) if f.name not in values]
+    missing = [f.name for f in fields(Trajectory) if f.name not in values and f.name not in Trajectory.OPTIONAL]
     if missing:
         raise InputError(f"not a trajectory file: missing {', '.join(missing)}", None, str(path))
     return Trajectory(**values)
