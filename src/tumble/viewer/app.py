@@ -1,0 +1,600 @@
+"""The interactive browser viewer: a viser server that plays a ``Trajectory``.
+
+``view(traj_or_path)`` starts the server in background threads and returns a
+``Viewer`` at once (``.url``, ``.stop()``); ``tumble view`` blocks on top of it.
+
+What it shows (z up, metres, DESIGN.md's conventions):
+
+* every body's mesh, tessellated from its shape record (``tumble.viewer.meshes``)
+  and shifted by ``-com_offset``, so that it appears where the user put it while
+  the body is posed at its centre of mass; planes are drawn as grids, and a
+  ground grid lies in z = 0;
+* GUI: Play / Pause, a frame slider to scrub, a speed factor, looping;
+* picking: click a body (or choose it in the "Body" list) to see the course's
+  quantities at the current frame: x, v, omega, P, L and its kinetic energy
+  ``(v . P + omega . L) / 2``, beside the total kinetic and potential energy;
+* toggles: body axes (a frame at each centre of mass, red/green/blue = body
+  x/y/z), contact points and contact forces, the ground grid.
+
+Contacts. Trajectories carry no contact data yet. The toggles exist already and
+draw whatever the trajectory provides under these optional names (attributes of
+the ``Trajectory``, or keys of the ``.npz`` file), and nothing otherwise:
+
+* ``contact_point``: (F, C, 3) world points, m; rows with a non-finite entry are
+  padding (frames have different numbers of contacts);
+* ``contact_force``: (F, C, 3) world force at the same rows, N (optional);
+  drawn as arrows from the point, scaled so that the largest force of the run
+  is a quarter of the scene's size;
+* ``contact_count``: (F,) number of valid rows per frame (optional; when given,
+  only the first ``contact_count[k]`` rows of frame k are used).
+
+The server binds to 127.0.0.1 unless another ``host`` is given. If ``port`` is
+busy, viser takes the next free one; ``Viewer.port`` and ``Viewer.url`` say
+which (``port=0`` lets the system choose).
+"""
+
+from __future__ import annotations
+
+import threading
+import time as _time
+import webbrowser
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..trajectory import Trajectory, load_trajectory
+from .meshes import body_mesh, particle_radius
+
+CONTACT_KEYS = ("contact_point", "contact_force", "contact_count")
+SCENE_SUFFIXES = (".toml", ".json")
+TRAJECTORY_SUFFIXES = (".npz",)
+
+PALETTE = (
+    (66, 135, 245), (245, 130, 48), (60, 180, 75), (230, 25, 75), (145, 30, 180),
+    (70, 200, 200), (240, 50, 230), (170, 110, 40), (128, 128, 0), (0, 0, 128),
+)
+SELECTED_COLOR = (255, 215, 0)
+PLANE_COLOR = (120, 120, 120)
+CONTACT_POINT_COLOR = (255, 40, 40)
+CONTACT_FORCE_COLOR = (255, 140, 0)
+PLAYBACK_TICK_S = 1.0 / 60.0
+
+
+def load_input(path, progress: bool | None = None) -> tuple[Trajectory, dict]:
+    """A trajectory from ``path``: a ``.npz`` is read as is, a scene (``.toml``/``.json``) is run.
+
+    Returns ``(trajectory, extras)`` where ``extras`` holds the optional contact
+    arrays found in a ``.npz`` (``CONTACT_KEYS``). Bad input raises ``InputError``.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in SCENE_SUFFIXES + TRAJECTORY_SUFFIXES:
+        raise InputError(f"unknown file type {path.suffix!r} (expected a trajectory .npz or a scene .toml/.json)", None, str(path))
+    if not path.exists():
+        raise InputError("file not found", None, str(path))
+    if not path.is_file():
+        raise InputError("not a file", None, str(path))
+    if suffix in TRAJECTORY_SUFFIXES:
+        traj = load_trajectory(path)
+        extras = {}
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                extras = {k: np.asarray(data[k]) for k in CONTACT_KEYS if k in data.files}
+        except Exception:  # already read once by load_trajectory; extras are optional
+            extras = {}
+        return traj, extras
+    from ..scene import load_scene
+
+    scene = load_scene(path)
+    return scene.run(progress=progress), {}
+
+
+def view(traj_or_scene_path, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = False,
+         *, play: bool = True, progress: bool | None = None) -> "Viewer":
+    """Start the viewer on a ``Trajectory`` or a file (trajectory ``.npz``, scene ``.toml``/``.json``).
+
+    Non-blocking: the server runs in background threads. Returns the ``Viewer``
+    (``.url``, ``.stop()``, and handles such as ``.frame_slider``).
+
+    Args:
+        traj_or_scene_path: a ``Trajectory``, or a path (a scene is run first).
+        host: address to bind; 127.0.0.1 (this machine only) unless asked.
+        port: port to bind (the next free one if busy; 0: any free port).
+        open_browser: open the page in the system's browser.
+        play: start playing at once (False: paused at the first frame).
+        progress: progress bar while a scene runs (None: tqdm's default).
+    """
+    if isinstance(traj_or_scene_path, Trajectory):
+        traj, extras = traj_or_scene_path, {}
+    elif isinstance(traj_or_scene_path, (str, Path)):
+        traj, extras = load_input(traj_or_scene_path, progress=progress)
+    else:
+        raise InputError(f"expected a Trajectory or a file path, got {type(traj_or_scene_path).__name__}", "traj_or_scene_path")
+    viewer = Viewer(traj, host=host, port=port, play=play, extras=extras)
+    if open_browser:
+        try:
+            webbrowser.open(viewer.url)
+        except Exception:  # no browser here: the URL is still printed by the CLI
+            pass
+    return viewer
+
+
+def _check_trajectory(traj: Trajectory):
+    F, N = len(traj.time), len(traj.names)
+    if F == 0:
+        raise InputError("the trajectory has no frames", "time")
+    for key, shape in (("position", (F, N, 3)), ("orientation", (F, N, 4)), ("com_offset", (N, 3))):
+        value = np.shape(getattr(traj, key))
+        if value != shape:
+            raise InputError(f"expected shape {shape}, got {value}", key)
+
+
+def check_address(host: str, port: int):
+    """Raise ``InputError`` unless ``host`` is an address of this machine and ``port`` a port number.
+
+    viser retries the next port on any bind error and never returns when none
+    works (an unknown host name), so the address is tried here first.
+    """
+    import socket
+
+    if not isinstance(port, int) or isinstance(port, bool) or not 0 <= port <= 65535:
+        raise InputError(f"must be a port number between 0 and 65535, got {port!r}", "port")
+    try:
+        infos = socket.getaddrinfo(host, 0, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError) as exc:
+        raise InputError(f"cannot resolve host {host!r} ({exc})", "host") from None
+    family, _, _, _, sockaddr = infos[0]
+    try:
+        with socket.socket(family, socket.SOCK_STREAM) as sock:
+            sock.bind(sockaddr[:2] if family == socket.AF_INET else sockaddr)
+    except OSError as exc:
+        raise InputError(f"cannot bind to host {host!r} ({exc.strerror or exc})", "host") from None
+
+
+def _fmt(v) -> str:
+    return " | ".join(f"{float(c):+.4g}" for c in v)
+
+
+class Viewer:
+    """A running viewer. Use ``view()`` to make one; ``stop()`` ends it.
+
+    Attributes:
+        server: the ``viser.ViserServer``.
+        url: the page's address.  host, port: where the server is bound.
+        frame_slider, speed_slider, play_button, pause_button, loop_checkbox,
+        axes_checkbox, contact_points_checkbox, contact_forces_checkbox,
+        grid_checkbox, body_dropdown, info: the GUI handles.
+        body_nodes: per body, the scene frame posed at its centre of mass.
+    """
+
+    def __init__(self, traj: Trajectory, host: str = "127.0.0.1", port: int = 8080, *, play: bool = True,
+                 extras: dict | None = None):
+        import viser
+
+        _check_trajectory(traj)
+        self.traj = traj
+        self.time = np.asarray(traj.time, dtype=float)
+        self.position = np.asarray(traj.position, dtype=float)
+        self.orientation = np.asarray(traj.orientation, dtype=float)
+        self.names = [str(n) for n in np.asarray(traj.names)]
+        self.frame_count = len(self.time)
+        self.body_count = len(self.names)
+        self.contacts = self._contact_arrays(traj, extras or {})
+
+        self._lock = threading.RLock()
+        self._stop_event = threading.Event()
+        self._stopped = False
+        self._frame = 0
+        self._selected: int | None = None
+        self._internal_update = False
+        self._playing = False
+        self._t = float(self.time[0])
+
+        check_address(host, port)
+        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.host = self.server.get_host()
+        self.port = self.server.get_port()
+        try:
+            self._build_scene()
+            self._build_gui()
+            self._show_frame(0)
+        except BaseException:
+            self.server.stop()
+            raise
+        if play and self.frame_count > 1:
+            self.play()
+        self._thread = threading.Thread(target=self._playback_loop, name="tumble-viewer-playback", daemon=True)
+        self._thread.start()
+
+    # ---- public API -------------------------------------------------------------------------
+
+    @property
+    def url(self) -> str:
+        host = self.host
+        if host in ("0.0.0.0", "", "::"):
+            host = "127.0.0.1"
+        if ":" in host:
+            host = f"[{host}]"
+        return f"http://{host}:{self.port}/"
+
+    @property
+    def frame(self) -> int:
+        """The frame shown now."""
+        return self._frame
+
+    @property
+    def playing(self) -> bool:
+        return self._playing
+
+    @property
+    def selected(self) -> int | None:
+        """Index of the picked body, or None."""
+        return self._selected
+
+    def set_frame(self, k: int):
+        """Show frame ``k`` (as moving the slider does)."""
+        self.frame_slider.value = int(np.clip(k, 0, self.frame_count - 1))
+
+    def play(self):
+        with self._lock:
+            if self._frame >= self.frame_count - 1 and not self.loop_checkbox.value:
+                self._t = float(self.time[0])
+            self._playing = True
+        self.play_button.visible = False
+        self.pause_button.visible = True
+
+    def pause(self):
+        self._playing = False
+        self.play_button.visible = True
+        self.pause_button.visible = False
+
+    def select(self, index: int | None):
+        """Pick body ``index`` (None: none): highlight it and show its quantities."""
+        with self._lock:
+            old = self._selected
+            self._selected = None if index is None else int(index)
+            if old is not None and old != self._selected and self.mesh_nodes[old] is not None:
+                self.mesh_nodes[old].color = self.colors[old]
+            if self._selected is not None and self.mesh_nodes[self._selected] is not None:
+                self.mesh_nodes[self._selected].color = SELECTED_COLOR
+            label = "(none)" if self._selected is None else self._body_label(self._selected)
+            if self.body_dropdown.value != label:
+                self._internal_update = True
+                try:
+                    self.body_dropdown.value = label
+                finally:
+                    self._internal_update = False
+            self._update_info()
+
+    def body_info(self, i: int, k: int | None = None) -> dict:
+        """The course's quantities of body ``i`` at frame ``k`` (default: the frame shown)."""
+        k = self._frame if k is None else k
+        t = self.traj
+        v = np.asarray(t.velocity[k, i], float)
+        w = np.asarray(t.angular_velocity[k, i], float)
+        P = np.asarray(t.linear_momentum[k, i], float)
+        L = np.asarray(t.angular_momentum[k, i], float)
+        return {
+            "name": self.names[i], "frame": k, "time": float(self.time[k]),
+            "x": self.position[k, i], "q": self.orientation[k, i], "v": v, "omega": w, "P": P, "L": L,
+            "kinetic_energy": 0.5 * float(v @ P + w @ L),
+            "kinetic_energy_total": float(t.kinetic_energy[k]),
+            "potential_energy_total": float(t.potential_energy[k]),
+        }
+
+    def stop(self):
+        """Stop playback and the server (idempotent)."""
+        if self._stopped:
+            return
+        self._stopped = True
+        self._stop_event.set()
+        if self._thread.is_alive() and self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        self.server.stop()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stop()
+
+    # ---- scene ------------------------------------------------------------------------------
+
+    def _body_label(self, i: int) -> str:
+        return f"{i}: {self.names[i]}"
+
+    def _build_scene(self):
+        scene = self.server.scene
+        scene.set_up_direction("+z")
+        self.colors = [PALETTE[i % len(PALETTE)] for i in range(self.body_count)]
+        fixed = np.zeros(self.body_count, bool) if self.traj.fixed is None else np.asarray(self.traj.fixed, bool)
+        com_offset = np.asarray(self.traj.com_offset, float)
+
+        self.body_nodes, self.mesh_nodes, self.axes_nodes, self.plane_nodes = [], [], [], []
+        radii = np.zeros(self.body_count)
+        is_plane = np.zeros(self.body_count, bool)
+        for i in range(self.body_count):
+            shape = self.traj.shape(i)
+            is_plane[i] = shape is not None and type(shape).__name__ == "Plane"
+            node = scene.add_frame(f"/bodies/b{i}", show_axes=False,
+                                   position=self.position[0, i], wxyz=self.orientation[0, i])
+            self.body_nodes.append(node)
+            mesh_node = None
+            if is_plane[i]:
+                self.plane_nodes.append(self._add_plane(i, shape, com_offset[i]))
+            else:
+                geometry = body_mesh(shape, com_offset[i]) if shape is not None else None
+                if geometry is None and shape is not None and type(shape).__name__ == "Particles":
+                    pts = np.asarray(shape.points, float) - com_offset[i]
+                    r = particle_radius(shape.points)
+                    scene.add_point_cloud(f"/bodies/b{i}/points", pts, self.colors[i], point_size=2 * r,
+                                          point_shape="circle")
+                    radii[i] = float(np.max(np.linalg.norm(pts, axis=1)))
+                else:
+                    if geometry is None:  # no shape recorded (old file): a small ball
+                        from .meshes import shape_mesh
+                        from ..shapes import Sphere
+
+                        m = shape_mesh(Sphere(0.05))
+                        geometry = (np.asarray(m.vertices), np.asarray(m.faces))
+                    vertices, faces = geometry
+                    color = tuple(int(0.6 * c + 0.4 * 160) for c in self.colors[i]) if fixed[i] else self.colors[i]
+                    self.colors[i] = color
+                    mesh_node = scene.add_mesh_simple(f"/bodies/b{i}/mesh", vertices, faces, color=color,
+                                                      flat_shading=len(faces) <= 24)
+                    mesh_node.on_click(lambda event, i=i: self.select(i))
+                    radii[i] = float(np.max(np.linalg.norm(vertices, axis=1)))
+            self.mesh_nodes.append(mesh_node)
+            length = max(1.4 * radii[i], 0.1) if radii[i] > 0 else 0.3
+            self.axes_nodes.append(scene.add_frame(f"/bodies/b{i}/axes", show_axes=True, axes_length=length,
+                                                   axes_radius=0.03 * length, visible=False))
+        self.body_radius = radii
+
+        # Size of the scene: the centres of mass over the whole run, widened by the bodies.
+        moving = [i for i in range(self.body_count) if not is_plane[i]]
+        if moving:
+            pts = self.position[:, moving, :].reshape(-1, 3)
+            pts = pts[np.all(np.isfinite(pts), axis=1)]
+        else:
+            pts = np.zeros((1, 3))
+        if len(pts) == 0:
+            pts = np.zeros((1, 3))
+        r = float(np.max(radii)) if len(radii) else 0.0
+        lo, hi = pts.min(axis=0) - r, pts.max(axis=0) + r
+        self.center = 0.5 * (lo + hi)
+        self.extent = float(max(np.max(hi - lo), 0.5))
+
+        grid_size = float(max(10.0, 2.0 * np.ceil(max(np.max(np.abs(lo[:2])), np.max(np.abs(hi[:2]))) + 1.0)))
+        self.grid = scene.add_grid("/ground", width=grid_size, height=grid_size, plane="xy",
+                                   cell_size=0.1 if grid_size <= 10 else grid_size / 100, section_size=1.0,
+                                   cell_color=(200, 200, 200), section_color=(140, 140, 140))
+
+        direction = np.array([1.0, -1.6, 0.9])
+        direction /= np.linalg.norm(direction)
+        self.server.initial_camera.look_at = tuple(self.center)
+        self.server.initial_camera.position = tuple(self.center + direction * (1.3 * self.extent + 1.0))
+        self.server.initial_camera.up = (0.0, 0.0, 1.0)
+
+        self.contact_points_node = None
+        self.contact_forces_node = None
+
+    def _add_plane(self, i, shape, com_offset):
+        """A fixed plane body: a translucent grid in the plane, centred on the foot of the origin."""
+        n = np.asarray(shape.normal, float)
+        foot = n * float(shape.offset) - np.asarray(com_offset, float)
+        zhat = np.array([0.0, 0.0, 1.0])
+        axis = np.cross(zhat, n)
+        s, c = np.linalg.norm(axis), float(zhat @ n)
+        if s < 1e-12:
+            wxyz = (1.0, 0.0, 0.0, 0.0) if c > 0 else (0.0, 1.0, 0.0, 0.0)
+        else:
+            angle = np.arctan2(s, c)
+            axis = axis / s
+            wxyz = (np.cos(angle / 2), *(np.sin(angle / 2) * axis))
+        return self.server.scene.add_grid(f"/bodies/b{i}/plane", width=20.0, height=20.0, plane="xy",
+                                          position=foot, wxyz=wxyz, plane_color=PLANE_COLOR, plane_opacity=0.25,
+                                          cell_size=0.5, section_size=2.0)
+
+    @staticmethod
+    def _contact_arrays(traj, extras) -> dict:
+        F = len(traj.time)
+        out = {}
+        for key in CONTACT_KEYS:
+            value = getattr(traj, key, None)
+            if value is None:
+                value = extras.get(key)
+            if value is None:
+                continue
+            value = np.asarray(value, dtype=float)
+            expected_ndim = 1 if key == "contact_count" else 3
+            if value.ndim != expected_ndim or value.shape[0] != F or (expected_ndim == 3 and value.shape[2] != 3):
+                raise InputError(f"expected shape ({F},{' C, 3' if expected_ndim == 3 else ''}), got {value.shape}", key)
+            out[key] = value
+        if "contact_force" in out and "contact_point" not in out:
+            raise InputError("contact_force needs contact_point (the points the forces act at)", "contact_force")
+        if "contact_force" in out and out["contact_force"].shape != out["contact_point"].shape:
+            raise InputError(f"expected the shape of contact_point {out['contact_point'].shape}, got {out['contact_force'].shape}",
+                             "contact_force")
+        if "contact_force" in out:
+            f = out["contact_force"]
+            mags = np.linalg.norm(np.where(np.isfinite(f), f, 0.0), axis=-1)
+            out["force_max"] = float(mags.max()) if mags.size else 0.0
+        return out
+
+    def _contacts_at(self, k: int):
+        """(points (n, 3), forces (n, 3) or None) of frame k: the valid rows only."""
+        if "contact_point" not in self.contacts:
+            return np.zeros((0, 3)), None
+        p = self.contacts["contact_point"][k]
+        f = self.contacts["contact_force"][k] if "contact_force" in self.contacts else None
+        valid = np.all(np.isfinite(p), axis=1)
+        if f is not None:
+            valid &= np.all(np.isfinite(f), axis=1)
+        if "contact_count" in self.contacts:
+            valid &= np.arange(len(p)) < int(self.contacts["contact_count"][k])
+        return p[valid], (None if f is None else f[valid])
+
+    def _draw_contacts(self, k: int):
+        scene = self.server.scene
+        points, forces = self._contacts_at(k)
+        show_points = self.contact_points_checkbox.value and len(points) > 0
+        if show_points:
+            self.contact_points_node = scene.add_point_cloud(
+                "/contacts/points", points, CONTACT_POINT_COLOR, point_size=max(0.01 * self.extent, 0.01),
+                point_shape="circle")
+        elif self.contact_points_node is not None:
+            self.contact_points_node.remove()
+            self.contact_points_node = None
+        show_forces = self.contact_forces_checkbox.value and forces is not None and len(points) > 0 \
+            and self.contacts.get("force_max", 0.0) > 0.0
+        if show_forces:
+            scale = 0.25 * self.extent / self.contacts["force_max"]
+            segments = np.stack([points, points + scale * forces], axis=1)
+            width = max(0.004 * self.extent, 0.004)
+            self.contact_forces_node = scene.add_arrows(
+                "/contacts/forces", segments, CONTACT_FORCE_COLOR, shaft_radius=width, head_radius=2.5 * width,
+                head_length=6 * width)
+        elif self.contact_forces_node is not None:
+            self.contact_forces_node.remove()
+            self.contact_forces_node = None
+
+    # ---- GUI --------------------------------------------------------------------------------
+
+    def _build_gui(self):
+        gui = self.server.gui
+        F = self.frame_count
+        with gui.add_folder("Playback"):
+            self.play_button = gui.add_button("Play", icon=None)
+            self.pause_button = gui.add_button("Pause", visible=False)
+            self.frame_slider = gui.add_slider("Frame", min=0, max=max(F - 1, 1), step=1, initial_value=0,
+                                               disabled=F < 2)
+            self.speed_slider = gui.add_slider("Speed", min=0.05, max=4.0, step=0.05, initial_value=1.0,
+                                               hint="playback speed, times real time")
+            self.loop_checkbox = gui.add_checkbox("Loop", initial_value=True)
+            self.time_text = gui.add_markdown("")
+        with gui.add_folder("Show"):
+            self.axes_checkbox = gui.add_checkbox("Body axes", initial_value=False,
+                                                  hint="a frame at each centre of mass: red x, green y, blue z (body axes)")
+            has_points = "contact_point" in self.contacts
+            has_forces = "contact_force" in self.contacts
+            self.contact_points_checkbox = gui.add_checkbox(
+                "Contact points", initial_value=has_points,
+                hint="from the trajectory's contact_point" if has_points else "this trajectory has no contact data")
+            self.contact_forces_checkbox = gui.add_checkbox(
+                "Contact forces", initial_value=has_forces,
+                hint="from the trajectory's contact_force" if has_forces else "this trajectory has no contact forces")
+            self.grid_checkbox = gui.add_checkbox("Ground grid", initial_value=True)
+            if not has_points:
+                gui.add_markdown("*No contact data in this trajectory.*")
+        with gui.add_folder("Body"):
+            options = ["(none)"] + [self._body_label(i) for i in range(self.body_count)]
+            self.body_dropdown = gui.add_dropdown("Body", options, initial_value="(none)",
+                                                  hint="or click a body in the scene")
+            self.info = gui.add_markdown("*Click a body to see its quantities.*")
+
+        @self.play_button.on_click
+        def _(_event):
+            self.play()
+
+        @self.pause_button.on_click
+        def _(_event):
+            self.pause()
+
+        @self.frame_slider.on_update
+        def _(_event):
+            k = int(np.clip(int(self.frame_slider.value), 0, F - 1))
+            with self._lock:
+                if not self._internal_update:  # scrubbed by the user: playback continues from here
+                    self._t = float(self.time[k])
+                self._show_frame(k)
+
+        @self.axes_checkbox.on_update
+        def _(_event):
+            visible = bool(self.axes_checkbox.value)
+            with self.server.atomic():
+                for node in self.axes_nodes:
+                    node.visible = visible
+
+        @self.contact_points_checkbox.on_update
+        def _(_event):
+            with self._lock:
+                self._draw_contacts(self._frame)
+
+        @self.contact_forces_checkbox.on_update
+        def _(_event):
+            with self._lock:
+                self._draw_contacts(self._frame)
+
+        @self.grid_checkbox.on_update
+        def _(_event):
+            self.grid.visible = bool(self.grid_checkbox.value)
+
+        @self.body_dropdown.on_update
+        def _(_event):
+            if self._internal_update:
+                return
+            value = self.body_dropdown.value
+            self.select(None if value == "(none)" else int(value.split(":", 1)[0]))
+
+    # ---- frames -----------------------------------------------------------------------------
+
+    def _show_frame(self, k: int):
+        with self._lock:
+            self._frame = k
+            with self.server.atomic():
+                for i, node in enumerate(self.body_nodes):
+                    node.position = self.position[k, i]
+                    node.wxyz = self.orientation[k, i]
+                self._draw_contacts(k)
+            self.time_text.content = f"t = {self.time[k]:.3f} s, frame {k} of {self.frame_count - 1}"
+            self._update_info()
+
+    def _update_info(self):
+        i = self._selected
+        if i is None:
+            self.info.content = "*Click a body to see its quantities.*"
+            return
+        d = self.body_info(i)
+        rows = [("x (m)", d["x"]), ("v (m/s)", d["v"]), ("ω (rad/s)", d["omega"]),
+                ("P (kg m/s)", d["P"]), ("L (kg m²/s)", d["L"])]
+        lines = [f"**{d['name']}** at t = {d['time']:.3f} s (frame {d['frame']})", "",
+                 "| | x | y | z |", "|:--|--:|--:|--:|"]
+        lines += [f"| {label} | {_fmt(vec)} |" for label, vec in rows]
+        lines += ["", f"Kinetic energy: {d['kinetic_energy']:.6g} J (all bodies: {d['kinetic_energy_total']:.6g} J)", "",
+                  f"Potential energy, all bodies: {d['potential_energy_total']:.6g} J"]
+        self.info.content = "\n".join(lines)
+
+    def _playback_loop(self):
+        last = _time.monotonic()
+        while not self._stop_event.wait(PLAYBACK_TICK_S):
+            now = _time.monotonic()
+            elapsed, last = now - last, now
+            if not self._playing or self.frame_count < 2:
+                continue
+            try:
+                with self._lock:
+                    t0, t1 = float(self.time[0]), float(self.time[-1])
+                    self._t += elapsed * float(self.speed_slider.value)
+                    if self._t > t1:
+                        if self.loop_checkbox.value and t1 > t0:
+                            self._t = t0 + (self._t - t1) % (t1 - t0 + self._frame_period())
+                        else:
+                            self._t = t1
+                            self._playing = False
+                    k = int(np.clip(np.searchsorted(self.time, self._t, side="right") - 1, 0, self.frame_count - 1))
+                    if k != self._frame:
+                        self._internal_update = True
+                        try:
+                            self.frame_slider.value = k
+                        finally:
+                            self._internal_update = False
+                if not self._playing:
+                    self.pause()
+            except Exception:  # the server was stopped under us
+                if self._stop_event.is_set():
+                    return
+                raise
+
+    def _frame_period(self) -> float:
+        return float(np.median(np.diff(self.time))) if self.frame_count > 1 else 0.0
