@@ -314,6 +314,26 @@ def test_meshes_in_the_body_frame_have_the_shape_bounds(trajectories):
         assert np.linalg.norm(v - p, axis=1).min() <= 0.035 + 1e-12
 
 
+def test_glb_rotation_keys_take_the_short_way_when_the_trajectory_flips_sign(trajectories, tmp_path):
+    # q and -q are the same orientation, and a trajectory may hold either; a viewer interpolating
+    # between keys of opposite sign would spin the body the long way round. Here every other frame of
+    # a real run is negated: the keys read back must still be +-q (float32 of it) and consecutive keys
+    # must have a positive dot product.
+    import dataclasses
+
+    traj = trajectories["projectile"]
+    flipped = traj.orientation.copy()
+    flipped[1::2] *= -1
+    path = export_gltf(dataclasses.replace(traj, orientation=flipped), tmp_path / "flipped.glb")
+    gltf, blob = load_glb(path)
+    for i, node_index in enumerate(gltf.nodes[0].children):
+        r = animated(gltf, blob, node_index)["rotation"][1]
+        q = r[:, [3, 0, 1, 2]].astype(float)
+        assert np.all(np.einsum("fk,fk->f", q[1:], q[:-1]) > 0)
+        sign = np.sign(np.einsum("fk,fk->f", q, traj.orientation[:, i]))
+        np.testing.assert_array_equal(q, (sign[:, None] * traj.orientation[:, i]).astype(np.float32))
+
+
 def test_continuous_quaternions_take_the_short_way():
     # A rotation about z sampled with alternating signs (a sign-agnostic integrator may do this):
     # afterwards every consecutive pair has a positive dot product and each key is the same rotation.
