@@ -12,6 +12,7 @@ readers that are not ours: the Khronos glTF validator (npm ``gltf-validator``),
 pygltflib for the .glb's accessors, and pxr (usd-core) for USD.
 """
 
+import dataclasses
 import json
 import math
 import os
@@ -24,7 +25,7 @@ import pytest
 
 from tumble.cli import main
 from tumble.export import export_gltf, export_usd
-from tumble.export.meshes import body_meshes, continuous_quaternions
+from tumble.export.meshes import MARKER_RADIUS, body_meshes, continuous_quaternions, fixed_flags
 from tumble.math3d import quat_to_matrix
 from tumble.scene import load_scene
 
@@ -33,6 +34,7 @@ VALIDATOR_DIR = REPO / ".ci" / "node" / "node_modules" / "gltf-validator"
 VALIDATOR_VERSION = "2.0.0-dev.3.10"  # as .ci/setup.d/gltf-validator.sh
 VALIDATE_JS = REPO / "tests" / "tools" / "validate_gltf.js"
 SCENES = sorted((REPO / "examples").glob("*.toml")) + [REPO / "src" / "tumble" / "scenes" / "demo.toml"]
+LABELS = [p.stem for p in SCENES] + ["all_shapes", "old_file"]
 TOL = 1e-6  # the acceptance tolerance (m for positions, unitless for quaternions)
 
 # One body of every shape type, some off their centre of mass (cone, mesh, convex, particles), two fixed.
@@ -107,6 +109,8 @@ def trajectories(tmp_path_factory):
     shapes = tmp_path_factory.mktemp("scenes") / "all_shapes.toml"
     shapes.write_text(ALL_SHAPES)
     out["all_shapes"] = load_scene(shapes).run(progress=False)
+    # a file written before trajectories carried shapes and fixed flags: bodies become marker spheres
+    out["old_file"] = dataclasses.replace(out["projectile"], shapes=None, fixed=None)
     return out
 
 
@@ -190,7 +194,7 @@ def test_validator_reports_zero_errors_on_every_example(glb_files, trajectories,
     result = json.loads(done.stdout)
     assert result["validatorVersion"] == VALIDATOR_VERSION
     reports = result["reports"]
-    assert len(reports) == len(glb_files) == len(SCENES) + 1
+    assert len(reports) == len(glb_files) == len(LABELS)
     for label, path in glb_files.items():
         issues = reports[str(path)]["issues"]
         messages = [f"{m['code']}: {m['message']} ({m.get('pointer', '')})" for m in issues["messages"]]
@@ -201,7 +205,7 @@ def test_validator_reports_zero_errors_on_every_example(glb_files, trajectories,
         assert info["drawCallCount"] == len(trajectories[label].names)
 
 
-@pytest.mark.parametrize("label", [p.stem for p in SCENES] + ["all_shapes"])
+@pytest.mark.parametrize("label", LABELS)
 def test_glb_gives_back_the_trajectory(label, trajectories, glb_files):
     # Reads the .glb with pygltflib (not our writer's code) and compares each body node's animation
     # with the trajectory. glTF stores float32 only, so the exact expectation is "the trajectory's
@@ -220,7 +224,7 @@ def test_glb_gives_back_the_trajectory(label, trajectories, glb_files):
         node = gltf.nodes[node_index]
         assert node.name == str(traj.names[i])
         channels = animated(gltf, blob, node_index)
-        if traj.fixed[i]:
+        if fixed_flags(traj)[i]:
             # static transform, stored in JSON as double: equal to the trajectory's first frame
             assert channels == {}
             np.testing.assert_array_equal(node.translation, traj.position[0, i])
@@ -319,8 +323,6 @@ def test_glb_rotation_keys_take_the_short_way_when_the_trajectory_flips_sign(tra
     # between keys of opposite sign would spin the body the long way round. Here every other frame of
     # a real run is negated: the keys read back must still be +-q (float32 of it) and consecutive keys
     # must have a positive dot product.
-    import dataclasses
-
     traj = trajectories["projectile"]
     flipped = traj.orientation.copy()
     flipped[1::2] *= -1
@@ -332,6 +334,14 @@ def test_glb_rotation_keys_take_the_short_way_when_the_trajectory_flips_sign(tra
         assert np.all(np.einsum("fk,fk->f", q[1:], q[:-1]) > 0)
         sign = np.sign(np.einsum("fk,fk->f", q, traj.orientation[:, i]))
         np.testing.assert_array_equal(q, (sign[:, None] * traj.orientation[:, i]).astype(np.float32))
+
+
+def test_old_trajectory_without_shapes_gets_marker_spheres(trajectories):
+    # Files written before trajectories carried shapes still export (the motion is what matters):
+    # every body is a sphere of MARKER_RADIUS about its centre of mass. (Validity and the animation are
+    # checked with the other files above.)
+    for mesh, _ in body_meshes(trajectories["old_file"]):
+        np.testing.assert_allclose(np.linalg.norm(mesh.vertices, axis=1), MARKER_RADIUS, rtol=1e-12)
 
 
 def test_continuous_quaternions_take_the_short_way():
@@ -348,7 +358,7 @@ def test_continuous_quaternions_take_the_short_way():
 # ---------------------------------------------------------------------- USD
 
 
-@pytest.mark.parametrize("label", [p.stem for p in SCENES] + ["all_shapes"])
+@pytest.mark.parametrize("label", LABELS)
 def test_usd_samples_equal_the_trajectory(label, trajectories, tmp_path):
     # Reopened with pxr: metadata (z up, metres, time codes per second = 24 fps), then the translate and
     # orient ops at each time code (= frame index) against the trajectory. The ops are double precision,
@@ -374,7 +384,7 @@ def test_usd_samples_equal_the_trajectory(label, trajectories, tmp_path):
         ops = UsdGeom.Xformable(prim).GetOrderedXformOps()
         assert [op.GetOpType() for op in ops] == [UsdGeom.XformOp.TypeTranslate, UsdGeom.XformOp.TypeOrient]
         translate, orient = ops
-        fixed = bool(traj.fixed[i])
+        fixed = bool(fixed_flags(traj)[i])
         assert translate.GetAttr().GetNumTimeSamples() == (0 if fixed else len(traj.time))
         mesh = UsdGeom.Mesh(prim.GetChild("mesh"))
         points = np.array(mesh.GetPointsAttr().Get(), dtype=float)
