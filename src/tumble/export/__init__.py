@@ -41,4 +41,4 @@ def export(traj, path) -> Path:
     raise ValueError(f"unknown export format {Path(path).suffix or '(no suffix)'!r} (expected {', '.join(SUFFIXES)})")
 
 
-__all__ = ["export", "export_gltf", "export_usd", "SUFFIXES"]
+__all__ = ["SUFFIXES", "export", "export_gltf", "export_usd"]

@@ -55,8 +55,9 @@ def cmd_export(args) -> int:
             from .gltf import export_gltf as write
         else:
             try:
-                from .usd import export_usd as write
                 import pxr  # noqa: F401  (usd-core)
+
+                from .usd import export_usd as write
             except ImportError:
                 raise InputError("USD export needs usd-core (pip install 'tumble[export]')", None, str(out)) from None
         write(traj, out)

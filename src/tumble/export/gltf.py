@@ -35,7 +35,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .meshes import body_color, body_meshes, continuous_quaternions, fixed_flags, srgb_to_linear
+from .meshes import (
+    body_color,
+    body_meshes,
+    continuous_quaternions,
+    fixed_flags,
+    srgb_to_linear,
+)
 
 # glTF constants (spec, "Accessor", "Buffer view")
 FLOAT, UNSIGNED_INT = 5126, 5125

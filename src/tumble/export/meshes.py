@@ -125,15 +125,9 @@ def _particle_cloud(points: np.ndarray, masses: np.ndarray):
     import trimesh.creation as create
 
     if len(points) > 1:
-        diff = points[:, None, :] - points[None, :, :] if len(points) <= 2000 else None
-        if diff is not None:
-            dist = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
-            np.fill_diagonal(dist, np.inf)
-            nearest = float(dist.min())
-        else:
-            from scipy.spatial import cKDTree
+        from scipy.spatial import cKDTree
 
-            nearest = float(cKDTree(points).query(points, k=2)[0][:, 1].min())
+        nearest = float(cKDTree(points).query(points, k=2)[0][:, 1].min())  # smallest distance between two points
         extent = float(np.ptp(points, axis=0).max())
         r_max = 0.35 * nearest if nearest > 0 else 0.02 * max(extent, 1.0)
     else:
