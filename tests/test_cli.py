@@ -46,7 +46,7 @@ TRAJECTORY_KEYS = {
 }
 RUN_KEYS = {
     "frames", "steps", "wall_time_s", "energy_initial", "energy_final", "energy_drift_relative",
-    "max_orthonormality_error", "largest_penetration_m",
+    "max_orthonormality_error", "largest_penetration_m", "status", "state_hash", "error", "signal",
 }
 
 
@@ -218,11 +218,12 @@ def test_simulation_error_is_status_3(scene_file, tmp_path, capsys, monkeypatch)
     def blow_up(self, *args, **kwargs):
         raise SimulationError("body 'box': non-finite state at t = 0.5 s (integrator rk4, dt = 0.00416667 s)")
 
-    monkeypatch.setattr(simulator.Simulator, "run", blow_up)
+    monkeypatch.setattr(simulator.Simulator, "run_to_file", blow_up)  # the CLI streams its frames
     assert main(["run", str(scene_file), "--out", str(tmp_path / "o")]) == 3
     err = capsys.readouterr().err
-    assert err == "tumble: simulation failed: body 'box': non-finite state at t = 0.5 s (integrator rk4, dt = 0.00416667 s)\n"
-    assert not (tmp_path / "o").exists()
+    assert err.startswith("tumble: simulation failed: body 'box': non-finite state at t = 0.5 s (integrator rk4, dt = 0.00416667 s)")
+    assert len(err.splitlines()) == 1
+    assert not (tmp_path / "o" / "trajectory.npz").exists()
 
 
 def test_help_and_version(capsys):

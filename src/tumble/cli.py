@@ -5,15 +5,24 @@ file), ``summary.json`` (the scene, the settings, the versions, the run's
 figures) and a copy of the scene file. Nothing already there is overwritten
 without ``--force``.
 
+Frames are streamed to disk while the scene runs (peak memory does not grow
+with the duration); ``--checkpoint-every S`` flushes the trajectory and writes
+``checkpoint.npz`` every S simulated seconds, and ``tumble run --resume DIR``
+continues a run from its checkpoint, bit-identically (docs/reliability.md).
+
 Exit status: 0 success; 2 bad input (one line ``tumble: error: FILE: KEY:
 problem`` on stderr, never a traceback; also command-line usage errors);
-3 the simulation went bad (``SimulationError``); 130 interrupted.
+3 the simulation went bad (``SimulationError``: non-finite state, orientation
+off unit length, energy past ``max_energy_growth``; the frames so far are kept);
+130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM (frames so far, a checkpoint
+and summary.json with "status": "interrupted" are written first).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import platform
 import sys
 from importlib import resources
@@ -22,14 +31,14 @@ from pathlib import Path
 from . import __version__
 from .errors import InputError, SimulationError
 from .scene import Scene, load_scene
-from .trajectory import write_atomic, write_json_atomic
+from .trajectory import write_atomic
 
-EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED = 0, 2, 3, 130
+EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 2, 3, 130, 143
 # Subcommands that live with their feature (export, render, plot, view): each
 # module has ``add_commands(subparsers) -> {name: handler}``, a handler takes the
 # parsed args and returns the exit status, and raises InputError on bad input.
 COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.viewer.commands")
-OUTPUT_NAMES = ("trajectory.npz", "summary.json")
+OUTPUT_NAMES = ("trajectory.npz", "summary.json", "checkpoint.npz")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -54,12 +63,17 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--duration", type=_seconds, metavar="S", help="simulated time, s (default: the scene's)")
         p.add_argument("--integrator", metavar="NAME", help="integrator (default: the scene's), e.g. rk4, splitting, dop853")
         p.add_argument("--no-progress", action="store_true", help="never show a progress bar")
+        p.add_argument("--checkpoint-every", type=_seconds, metavar="S",
+                       help="flush the trajectory and write checkpoint.npz every S simulated seconds")
+        p.add_argument("--max-memory", metavar="SIZE", help="memory limit of the run, e.g. 64G (default: TUMBLE_MAX_MEMORY or half the RAM)")
 
     demo = sub.add_parser("demo", help="run the built-in demo scene and write its outputs")
     outputs(demo, "./tumble-demo")
     run = sub.add_parser("run", help="run a scene file (TOML or JSON) and write its outputs")
-    run.add_argument("scene", metavar="SCENE", help="scene file, .toml or .json")
+    run.add_argument("scene", metavar="SCENE", nargs="?", help="scene file, .toml or .json")
     outputs(run, "./out/<scene name>")
+    run.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its checkpoint.npz (no SCENE)")
+    parser._run_parser = run
     val = sub.add_parser("validate", help="check a scene file and build its world without running it")
     val.add_argument("scene", metavar="SCENE", help="scene file, .toml or .json")
     parser._handlers_table = {}
@@ -100,6 +114,12 @@ def main(argv=None) -> int:
             return exc.code if isinstance(exc.code, int) else EXIT_OK
         if args.command == "validate":
             return cmd_validate(args)
+        if args.command == "run":
+            try:
+                _check_run_args(parser._run_parser, args)
+            except _UsageError as exc:
+                print(exc, file=sys.stderr)
+                return EXIT_INPUT
         handler = getattr(parser, "_handlers_table", {}).get(args.command)
         if handler is not None:
             return handler(args)
@@ -131,7 +151,22 @@ def _count(n, one, many):
     return f"{n} {one if n == 1 else many}"
 
 
+def _check_run_args(run_parser, args):
+    if args.resume is None and args.scene is None:
+        run_parser.error("the following arguments are required: SCENE")
+    if args.resume is not None:
+        for given, option in ((args.scene is not None, "SCENE"), (args.out is not None, "--out"), (args.integrator is not None, "--integrator")):
+            if given:
+                run_parser.error(f"{option} cannot be given with --resume (the run continues as it was started)")
+
+
 def cmd_run(args) -> int:
+    if getattr(args, "max_memory", None) is not None:
+        from .checks import parse_size
+
+        os.environ["TUMBLE_MAX_MEMORY"] = str(parse_size(args.max_memory, "--max-memory"))
+    if getattr(args, "resume", None) is not None:
+        return cmd_resume(args)
     if args.command == "demo":
         ref = resources.files("tumble").joinpath("scenes", "demo.toml")
         with resources.as_file(ref) as path:
@@ -155,28 +190,66 @@ def cmd_run(args) -> int:
         for t in targets:
             if t.exists():
                 raise InputError("exists (pass --force to overwrite)", None, str(t))
-
-    sim = scene.simulator()
-    progress = (not args.no_progress) and sys.stderr.isatty()
-    traj = sim.run(scene.duration, scene.frame_rate, progress=progress)
-
-    summary = make_summary(scene, sim, traj)
-    traj_path, summary_path, copy_path = targets
+    copy_path = targets[-1]
     try:
-        traj.save(traj_path)
         _write_bytes_atomic(copy_path, scene_text)
-        write_json_atomic(summary_path, summary)
     except OSError as exc:
         raise InputError(f"cannot write outputs: {exc.strerror or exc}", None, str(exc.filename or out)) from None
 
-    r = summary["run"]
-    print(f"{label}: {_count(scene.world.body_count, 'body', 'bodies')}, {r['frames']} frames "
-          f"({scene.duration:g} s at {scene.frame_rate:g} fps), {r['steps']} steps of {scene.integrator} "
+    sim = scene.simulator()
+    info = {"label": label, "source": None if scene.source is None else str(scene.source), "data": scene.data,
+            "settings": scene.settings(), "copy": copy_name}
+    return _stream(sim, out, scene.duration, scene.frame_rate, args, info, resume=False)
+
+
+def cmd_resume(args) -> int:
+    from .simulator import Simulator
+
+    out = Path(args.resume)
+    if not out.is_dir():
+        raise InputError("not a folder of a run (expected the --out folder of an earlier tumble run)", "--resume", str(out))
+    sim = Simulator.load_checkpoint(out / "checkpoint.npz")
+    run = sim.checkpoint_run or {}
+    info = run.get("info")
+    if not isinstance(info, dict) or "settings" not in info:
+        raise InputError("the checkpoint was not written by tumble run (no run data)", None, str(out / "checkpoint.npz"))
+    duration = args.duration if args.duration is not None else run["duration"]
+    info["settings"]["duration"] = duration
+    every = args.checkpoint_every if args.checkpoint_every is not None else run.get("checkpoint_every")
+    args.checkpoint_every = every
+    return _stream(sim, out, duration, run["frame_rate"], args, info, resume=True)
+
+
+def _stream(sim, out: Path, duration, frame_rate, args, info, resume: bool) -> int:
+    progress = (not args.no_progress) and sys.stderr.isatty()
+    label = info["label"]
+
+    def summary(result):
+        return make_summary_from(info, sim, result)
+
+    try:
+        result = sim.run_to_file(out, duration, frame_rate, checkpoint_every=args.checkpoint_every, progress=progress,
+                                 handle_signals=True, summary=summary, resume=resume, run_info=info)
+    except OSError as exc:
+        raise InputError(f"cannot write outputs: {exc.strerror or exc}", None, str(exc.filename or out)) from None
+    except SimulationError as err:
+        traj = out / "trajectory.npz"
+        raise SimulationError(f"{' '.join(str(err).split())} [frames before it kept in {traj}]") from None
+    traj_path, summary_path, ckpt_path = (out / name for name in OUTPUT_NAMES)
+    if result.status == "interrupted":
+        print(f"tumble: interrupted by {result.signal} at t = {result.t:g} s: {result.frames} frames kept in {traj_path}; "
+              f"continue with: tumble run --resume {out}", file=sys.stderr)
+        return EXIT_TERMINATED if result.signal == "SIGTERM" else EXIT_INTERRUPTED
+    r = result.figures()
+    settings = info["settings"]
+    n = sim.world.body_count
+    print(f"{label}: {_count(n, 'body', 'bodies')}, {r['frames']} frames "
+          f"({float(duration):g} s at {float(frame_rate):g} fps), {r['steps']} steps of {settings['integrator']} "
           f"in {r['wall_time_s']:.2f} s wall time")
     drift = r["energy_drift_relative"]
     drift_text = "n/a" if drift is None else f"{drift:+.3g}"
     print(f"energy: {r['energy_initial']:.6g} J -> {r['energy_final']:.6g} J (relative drift {drift_text})")
-    print(f"wrote {traj_path}, {summary_path}, {copy_path}")
+    print(f"wrote {traj_path}, {summary_path}, {out / info['copy']}, {ckpt_path}")
     return EXIT_OK
 
 
@@ -194,35 +267,28 @@ def _apply_overrides(scene: Scene, args):
             raise
 
 
-def make_summary(scene: Scene, sim, traj) -> dict:
-    """summary.json (DESIGN.md): the scene, the settings, the versions and the run's figures."""
+def make_summary_from(info: dict, sim, result) -> dict:
+    """summary.json (DESIGN.md): the scene, the settings, the versions and the run's figures.
+
+    ``run`` holds ``RunResult.figures()``: frames, steps, wall time, energies,
+    ``status`` ("running" at intermediate flushes, "completed", "interrupted" or
+    "failed"), ``state_hash`` of the last frame's state, ``error`` and ``signal``.
+    """
     import numba
     import numpy as np
     import scipy
 
-    energy = traj.total_energy
-    e0, e1 = float(energy[0]), float(energy[-1])
-    drift = (e1 - e0) / max(abs(e0), float(np.finfo(float).tiny))
     return {
         "tumble_version": __version__,
-        "scene": {"source": None if scene.source is None else str(scene.source), "data": scene.data},
-        "settings": scene.settings(),
+        "scene": {"source": info["source"], "data": info["data"]},
+        "settings": info["settings"],
         "versions": {
             "python": platform.python_version(),
             "numpy": np.__version__,
             "scipy": scipy.__version__,
             "numba": numba.__version__,
         },
-        "run": {
-            "frames": int(traj.frame_count),
-            "steps": int(sim.stats["steps"]),
-            "wall_time_s": float(sim.stats.get("wall_time_s", 0.0)),
-            "energy_initial": e0,
-            "energy_final": e1,
-            "energy_drift_relative": drift if math.isfinite(drift) else None,  # None: E_0 = 0 and it overflowed
-            "max_orthonormality_error": float(np.max(traj.orthonormality_error)),
-            "largest_penetration_m": None,  # no contacts yet
-        },
+        "run": result.figures(),
     }
 
 

@@ -3,7 +3,8 @@
 The format is DESIGN.md's "Scene file" contract::
 
     [simulation]            duration, frame_rate, dt, integrator, substeps,
-                            gravity, layout, rtol, atol (all optional)
+                            gravity, layout, rtol, atol, max_energy_growth
+                            (all optional)
     [[bodies]]              name, shape = {type = ..., ...}, mass or density,
                             inertia, fixed, position, orientation or euler_deg,
                             velocity, angular_velocity, angular_velocity_frame,
@@ -17,6 +18,11 @@ an ``InputError`` whose ``str`` is one line ``FILE: KEY.PATH: problem``, e.g.
 ``scene.toml: bodies[1].mass: must be positive, got -1``. Nothing else
 escapes ``load_scene``: an unexpected exception while building the scene is
 turned into an ``InputError`` naming the file and the key being read.
+
+Scene files are data only: TOML or JSON is parsed, nothing is evaluated or
+unpickled. Sizes are checked against ``checks.memory_limit()`` before memory is
+spent: the scene file's size, the counts of bodies, particles and inline mesh
+vertices, and each mesh file's size (``TUMBLE_MAX_MEMORY`` raises the limit).
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from . import checks
 from . import integrators as K
 from .errors import InputError
 from .forces import ConstantForce, Drag, Impulse, PointForce, Spring, Wind
@@ -47,6 +54,7 @@ DEFAULTS = {
     "layout": "quaternion",
     "rtol": 1e-10,
     "atol": 1e-12,
+    "max_energy_growth": checks.MAX_ENERGY_GROWTH,
 }
 
 TOP_KEYS = ("simulation", "bodies", "forces")
@@ -91,6 +99,7 @@ class Scene:
         source: the file it was read from (None when built from a dict).
         data: the parsed document, as read (for summary.json).
         rtol, atol: tolerances of the adaptive integrators (rk45, dop853).
+        max_energy_growth: blow-up bound on the total energy (``checks.energy_bound``), >= 1.
     """
 
     world: World
@@ -104,6 +113,7 @@ class Scene:
     data: dict = field(default_factory=dict)
     rtol: float = DEFAULTS["rtol"]
     atol: float = DEFAULTS["atol"]
+    max_energy_growth: float = DEFAULTS["max_energy_growth"]
 
     @property
     def gravity(self) -> list[float]:
@@ -121,6 +131,7 @@ class Scene:
             "gravity": self.gravity,
             "rtol": self.rtol,
             "atol": self.atol,
+            "max_energy_growth": self.max_energy_growth,
         }
 
     def check(self):
@@ -133,7 +144,8 @@ class Scene:
 
     def simulator(self) -> Simulator:
         """A ``Simulator`` for ``world`` with the scene's dt, integrator, substeps and tolerances."""
-        return Simulator(self.world, dt=self.dt, integrator=self.integrator, substeps=self.substeps, rtol=self.rtol, atol=self.atol)
+        return Simulator(self.world, dt=self.dt, integrator=self.integrator, substeps=self.substeps, rtol=self.rtol, atol=self.atol,
+                         max_energy_growth=self.max_energy_growth)
 
     def run(self, progress: bool | None = None) -> Trajectory:
         """Run ``duration`` s at ``frame_rate`` from the world's current state (t = 0 for a fresh scene)."""
@@ -157,6 +169,11 @@ def load_scene(path) -> Scene:
     if suffix not in (".toml", ".json"):
         raise InputError(f"unknown scene file type {path.suffix or '(none)'!r} (expected .toml or .json)", None, file)
     try:
+        size = path.stat().st_size
+    except OSError:
+        size = 0
+    checks.check_memory(size * checks.FILE_EXPANSION, f"reading this {checks.fmt_bytes(size)} scene file", None, file)
+    try:
         raw = path.read_bytes()
     except FileNotFoundError:
         raise InputError("file not found", None, file) from None
@@ -173,6 +190,8 @@ def load_scene(path) -> Scene:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise InputError(f"invalid TOML: {_one_line(str(exc))}", None, file) from None
+        except RecursionError:
+            raise InputError("invalid TOML: nested too deeply", None, file) from None
     else:
         try:
             data = json.loads(text, object_pairs_hook=_no_duplicate_keys)
@@ -402,6 +421,7 @@ class _Parser:
             raise self.error(f"expected a list of tables ([[bodies]]), got {_describe(bodies)}", "bodies")
         if not bodies:
             raise self.error("a scene needs at least one body", "bodies")
+        self.check_sizes(bodies)
         names: dict[str, int] = {}
         for i, body in enumerate(bodies):
             self.body(world, body, f"bodies[{i}]", names)
@@ -415,8 +435,21 @@ class _Parser:
         return Scene(
             world=world, duration=sim["duration"], frame_rate=sim["frame_rate"], dt=sim["dt"],
             integrator=sim["integrator"], substeps=sim["substeps"], layout=sim["layout"],
-            data=data, rtol=sim["rtol"], atol=sim["atol"],
+            data=data, rtol=sim["rtol"], atol=sim["atol"], max_energy_growth=sim["max_energy_growth"],
         )
+
+    def check_sizes(self, bodies: list):
+        """Refuse, before building anything, a scene whose bodies, particles or inline mesh
+        rows would need more than ``checks.memory_limit()``."""
+        items = 0
+        for b in bodies:
+            shape = b.get("shape")
+            if isinstance(shape, dict):
+                for key in ("points", "vertices", "faces", "masses"):
+                    if isinstance(shape.get(key), list):
+                        items += len(shape[key])
+        estimate = len(bodies) * checks.BODY_BYTES + items * checks.ITEM_BYTES
+        checks.check_memory(estimate, f"{len(bodies)} bodies with {items} particles and mesh rows", "bodies", self.file)
 
     def simulation(self, value) -> dict:
         t = self.table(value, "simulation", SIMULATION_KEYS)
@@ -426,6 +459,10 @@ class _Parser:
                 s[k] = self.positive(t[k], f"simulation.{k}")
         if "substeps" in t:
             s["substeps"] = self.integer(t["substeps"], "simulation.substeps", 1)
+        if "max_energy_growth" in t:
+            s["max_energy_growth"] = self.number(t["max_energy_growth"], "simulation.max_energy_growth")
+            if s["max_energy_growth"] < 1:
+                raise self.error(f"must be >= 1, got {_fmt(s['max_energy_growth'])}", "simulation.max_energy_growth")
         if "integrator" in t:
             s["integrator"] = self.string(t["integrator"], "simulation.integrator")
         if "layout" in t:
@@ -563,6 +600,13 @@ class _Parser:
             p = self.base_dir / p
         if not p.is_file():
             raise self.error(f"mesh file not found: {p}", key)
+        size = p.stat().st_size
+        if size == 0:
+            raise self.error(f"mesh file is empty: {p}", key)
+        try:
+            checks.check_memory(size * checks.FILE_EXPANSION, f"reading the {checks.fmt_bytes(size)} mesh file {p}", key, self.file)
+        except InputError as err:
+            raise self.error(err.problem, key) from None
         return str(p)
 
     def force(self, world: World, f: dict, key: str, names: dict):

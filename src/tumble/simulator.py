@@ -17,11 +17,15 @@ from __future__ import annotations
 import json
 import math
 import time as _time
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from . import checks
 from . import integrators as K
 from .errors import InputError, SimulationError
+from .forces import Impulse
 from .shapes import shape_to_dict
 from .trajectory import Trajectory
 from .world import Scratch, World
@@ -48,9 +52,16 @@ class Simulator:
             see docs/integrators.md).
         substeps: each step is made of this many integrator steps of dt/substeps.
         rtol, atol: tolerances of the adaptive integrators (defaults 1e-10, 1e-12).
+        max_energy_growth: a run stops (SimulationError) when its total energy
+            rises past E0 + (max_energy_growth - 1) * scale (``checks.energy_bound``;
+            default 1e6, >= 1).
+
+    With ``TUMBLE_VALIDATE=1`` in the environment, ``checks.validate_world`` runs
+    after every stage of every step (the stage-by-stage path; same results, slower).
     """
 
-    def __init__(self, world: World, dt: float = 1.0 / 240.0, integrator: str = "rk4", substeps: int = 1, rtol: float = 1e-10, atol: float = 1e-12):
+    def __init__(self, world: World, dt: float = 1.0 / 240.0, integrator: str = "rk4", substeps: int = 1, rtol: float = 1e-10, atol: float = 1e-12,
+                 max_energy_growth: float = checks.MAX_ENERGY_GROWTH):
         if integrator not in K.INTEGRATOR_IDS:
             names = ", ".join(K.INTEGRATOR_IDS)
             raise InputError(f"unknown integrator {integrator!r} (expected one of {names})", "simulation.integrator")
@@ -72,6 +83,15 @@ class Simulator:
         # steps of dt since t = 0: a Simulator on a world that has already run goes on from its time
         self.step_index = int(round(world.t / dt))
         self.stats = {"steps": 0, "derivative_evaluations": 0}
+        try:
+            self.max_energy_growth = float(max_energy_growth)
+        except (TypeError, ValueError):
+            raise InputError(f"expected a number, got {max_energy_growth!r}", "simulation.max_energy_growth") from None
+        if not self.max_energy_growth >= 1.0:
+            raise InputError(f"must be a number >= 1, got {max_energy_growth!r}", "simulation.max_energy_growth")
+        self.validate = checks.validation_enabled()
+        self.energy_reference = None  # [E0 J, scale J, impulses applied] of the current run
+        self.checkpoint_run = None  # the ``run`` data of the checkpoint this simulator was loaded from
 
     # ------------------------------------------------------------------ stepping
     def step(self, count: int = 1):
@@ -81,17 +101,27 @@ class Simulator:
         Y = self._advance(Y, count, scratch)
         self.world.unpack(Y)
 
-    def _advance(self, Y: np.ndarray, count: int, scratch: Scratch) -> np.ndarray:
-        """Advance the packed state Y by ``count`` steps, splitting at impulse times."""
+    def _advance(self, Y: np.ndarray, count: int, scratch: Scratch, check=None) -> np.ndarray:
+        """Advance the packed state Y by ``count`` steps, splitting at impulse times.
+
+        ``check(stage, t, Y=..., F=..., T=...)``, when given (or when ``TUMBLE_VALIDATE=1``),
+        is called after every stage and forces the stage-by-stage path.
+        """
+        if check is None and self.validate:
+            check = self._validate_stage
         end = self.step_index + count
         while self.step_index < end:
             self._apply_due_impulses(Y)
+            if check is not None:
+                check("apply_impulses", self.step_index * self.dt, Y=Y)
             nxt = min([end] + [k for k in self._impulse_steps() if k > self.step_index])
             n = nxt - self.step_index
             if self.integrator_id in K.ADAPTIVE:
                 Y = self._advance_adaptive(Y, n)
-            elif self.world.tables.custom:
-                self._advance_stagewise(Y, n, scratch)
+                if check is not None:
+                    check(f"integrate_free_motion ({self.integrator}, between steps {self.step_index} and {nxt})", nxt * self.dt, Y=Y)
+            elif self.world.tables.custom or check is not None:
+                self._advance_stagewise(Y, n, scratch, check)
             else:
                 self._advance_compiled(Y, n, scratch)
             self.step_index = nxt
@@ -110,8 +140,8 @@ class Simulator:
         """P += J, L += (p - x) x J for impulses due at this step (in the order they were added)."""
         W = Y.shape[1]
         applied = self.world.applied_impulses
-        for imp in self.world.impulses:
-            if id(imp) in applied or self._impulse_step(imp) > self.step_index:
+        for k, imp in enumerate(self.world.forces):
+            if not isinstance(imp, Impulse) or k in applied or self._impulse_step(imp) > self.step_index:
                 continue
             i = self.world.index_of(imp.body)
             if self.world.moving[i]:
@@ -119,7 +149,7 @@ class Simulator:
                 p = Y[i, :3] if imp.point is None else np.asarray(imp.point)
                 Y[i, W - 6:W - 3] += J
                 Y[i, W - 3:] += np.cross(p - Y[i, :3], J)
-            applied.add(id(imp))
+            applied.add(k)
 
     def _kernel_args(self):
         w = self.world
@@ -135,19 +165,29 @@ class Simulator:
         if len(args[-3]):  # springs couple bodies: all bodies advance stage by stage
             K.step_kernel(self.integrator_id, self.world.layout_id, h, n * self.substeps, Y, *args, s.Y1, s.K, s.Kacc, s.R, s.v, s.omega, s.F, s.T)
         else:  # independent bodies: each takes all its steps in cache, in parallel chunks when many
+            # NOTE: each parallel task writes only its own rows, so the bits do not depend on the thread count.
             kernel = K.step_bodies_parallel_kernel if len(Y) >= K.PARALLEL_MIN_BODIES else K.step_bodies_kernel
             kernel(self.integrator_id, self.world.layout_id, h, n * self.substeps, Y, *args[:-3])
 
-    def _advance_stagewise(self, Y, n, s: Scratch):
-        """The same steps as ``integrators._one_step``, stage by stage, with user callables between the kernels."""
+    def _advance_stagewise(self, Y, n, s: Scratch, check=None):
+        """The same steps as ``integrators._one_step``, stage by stage, with user callables between the kernels.
+
+        With ``check``, it is called after each stage: accumulate_forces (F, T),
+        integrate_free_motion (intermediate and final states), project_orientation.
+        """
         w = self.world
         layout = w.layout_id
         moving = w.moving
         h = self.dt / self.substeps
         t = self.step_index * self.dt
+        name = self.integrator
 
         def forces(t_stage, Yst):
+            if check is not None and Yst is not Y:
+                check(f"integrate_free_motion ({name}, intermediate state)", t_stage, Y=Yst)
             w.evaluate_forces(t_stage, Yst, s)
+            if check is not None:
+                check("accumulate_forces", t_stage, F=s.F, T=s.T)
 
         def derivative(t_stage, Yst, out):
             forces(t_stage, Yst)
@@ -193,8 +233,12 @@ class Simulator:
                 for weight in (K._YOSHIDA_W1, K._YOSHIDA_W0, K._YOSHIDA_W1):
                     split_step(t0, weight * h)
                     t0 += weight * h
+            if check is not None:
+                check(f"integrate_free_motion ({name})", t, Y=Y)
             K.project_orientation_kernel(layout, Y, moving)
             t += h
+            if check is not None:
+                check("project_orientation", t, Y=Y)
 
     def _advance_adaptive(self, Y, n):
         """solve_ivp (RK45 or DOP853) on World.dxdt over n * dt, then project the orientation."""
@@ -211,18 +255,53 @@ class Simulator:
         K.project_orientation_kernel(w.layout_id, Y, w.moving)
         return Y
 
+    # ------------------------------------------------------------------ checks at stages
+    def _stage_check(self, stage, t, Y=None, F=None, T=None):
+        """Blow-up check after one stage (used by the diagnosis replay): raises SimulationError."""
+        w = self.world
+        where = f"step {int(math.floor(t / self.dt + 1e-9)) + 1}, {self.integrator}, dt = {self.dt:g} s"
+        if Y is not None:
+            unit = stage in ("project_orientation", "apply_impulses")
+            problem = checks.state_problem(Y, w.layout, w.moving, check_unit=unit)
+            if problem is not None:
+                raise checks.blow_up(w.names, problem[0], problem[1], t, stage, where)
+        for key, arr in (("F", F), ("T", T)):
+            if arr is not None and not np.all(np.isfinite(arr)):
+                i = int(np.flatnonzero(~np.all(np.isfinite(arr), axis=1))[0])
+                quantity = f"non-finite {checks.QUANTITY_NAMES[key]} = {checks._describe_row(arr[i])}"
+                raise checks.blow_up(w.names, i, quantity, t, stage, where)
+
+    def _validate_stage(self, stage, t, Y=None, F=None, T=None):
+        """``TUMBLE_VALIDATE=1``: the stage check, and ``validate_world`` on the state after each step."""
+        self._stage_check(stage, t, Y=Y, F=F, T=T)
+        if stage == "project_orientation":
+            w = self.world
+            saved_t = w.t
+            w.unpack(Y)
+            w.t = t
+            checks.validate_world(w, stage)
+            w.t = saved_t
+
+    def _diagnose(self, snapshot, steps: int, problem) -> SimulationError:
+        """Replay the frame that went bad stage by stage from its start, to name the stage."""
+        w = self.world
+        Y0, step0, applied0, stats0 = snapshot
+        self.step_index, w.applied_impulses, self.stats = step0, set(applied0), dict(stats0)
+        w.t = step0 * self.dt
+        try:
+            if self.integrator_id not in K.ADAPTIVE:
+                with np.errstate(all="ignore"):
+                    self._advance(Y0.copy(), steps, Scratch(w.body_count, w.state_size), check=self._stage_check)
+        except SimulationError as err:
+            return err
+        # not reproduced stage by stage (or adaptive): report at the end of the frame
+        t = (step0 + steps) * self.dt
+        where = f"between steps {step0} and {step0 + steps}, {self.integrator}, dt = {self.dt:g} s"
+        return checks.blow_up(w.names, problem[0], problem[1], t, "integrate_free_motion", where)
+
     # ------------------------------------------------------------------ the frame loop
-    def run(self, duration: float, frame_rate: float = 24.0, progress: bool | None = None) -> Trajectory:
-        """Run for ``duration`` s from the world's current time, recording frames at ``frame_rate`` per second.
-
-        Frame 0 is the current state; then one frame every 1/frame_rate s
-        (course Algorithm 5 with ERRATA 3: solve once per frame, then display).
-
-        Args:
-            duration: s, > 0. frame_rate: frames per second (default 24, the course's).
-            progress: show a progress bar (tqdm, shown only once a run has
-                lasted a second); None shows it only on a terminal.
-        """
+    def _frame_plan(self, duration: float, frame_rate: float):
+        """(frames, steps per frame) for ``duration`` s at ``frame_rate``, or InputError."""
         try:
             duration = float(duration)
             frame_rate = float(frame_rate)
@@ -236,34 +315,263 @@ class Simulator:
         frames = int(round(duration * frame_rate))
         if abs(frames - duration * frame_rate) > 1e-6 * max(1.0, frames):
             raise InputError(f"duration ({duration:g} s) must be a whole number of frames at {frame_rate:g} per second", "simulation.duration")
+        return frames, steps_per_frame
 
-        w = self.world
-        w.update_derived()
-        rec = _Recorder(w, frames + 1)
+    def run(self, duration: float, frame_rate: float = 24.0, progress: bool | None = None) -> Trajectory:
+        """Run for ``duration`` s from the world's current time, recording frames at ``frame_rate`` per second.
+
+        Frame 0 is the current state; then one frame every 1/frame_rate s
+        (course Algorithm 5 with ERRATA 3: solve once per frame, then display).
+        The frames are kept in memory: a run whose frames would not fit under
+        ``checks.memory_limit()`` is refused (InputError) before it starts;
+        ``run_to_file`` streams them to disk instead.
+
+        Args:
+            duration: s, > 0. frame_rate: frames per second (default 24, the course's).
+            progress: show a progress bar (tqdm, shown only once a run has
+                lasted a second); None shows it only on a terminal.
+
+        Raises:
+            SimulationError: a blow-up (non-finite state, orientation off unit
+                length, energy past ``max_energy_growth``): one line naming the
+                body, the time, the quantity and the stage. The world is left at
+                the last good frame (the last recorded one for an energy blow-up).
+        """
+        frames, steps_per_frame = self._frame_plan(duration, frame_rate)
+        n = self.world.body_count
+        # the recorder's arrays, then the trajectory's copy of them
+        checks.check_memory(2 * (frames + 1) * (n * checks.FRAME_BYTES_PER_BODY + 80), f"keeping {frames + 1} frames of {n} bodies in memory",
+                            "simulation.duration")
+        rec = _Recorder(self.world, frames + 1)
+        self.world.update_derived()
         rec.record()
-        Y = w.pack()
-        scratch = Scratch(w.body_count, w.state_size)
-        bar = _progress_bar(frames, progress)
+        self._reset_energy_reference()
         started = _time.perf_counter()
-        try:
-            for _ in range(frames):
-                Y = self._advance(Y, steps_per_frame, scratch)
-                w.unpack(Y)
-                self._check_finite(Y)
-                rec.record()
-                if bar is not None:
-                    bar.update(1)
-        finally:
-            if bar is not None:
-                bar.close()
+        self._loop(frames, steps_per_frame, rec.record, progress)
         self.stats["wall_time_s"] = _time.perf_counter() - started
         return rec.trajectory()
 
-    def _check_finite(self, Y):
-        bad = ~np.all(np.isfinite(Y), axis=1)
-        if np.any(bad):
-            i = int(np.flatnonzero(bad)[0])
-            raise SimulationError(f"body {self.world.names[i]!r}: non-finite state at t = {self.world.t:g} s (integrator {self.integrator}, dt = {self.dt:g} s)")
+    def _reset_energy_reference(self):
+        w = self.world
+        with np.errstate(over="ignore", invalid="ignore"):
+            self.energy_reference = [w.kinetic_energy() + w.potential_energy(), checks.energy_scale(w), len(w.applied_impulses)]
+
+    def _loop(self, frames: int, steps_per_frame: int, record, progress, after_frame=None):
+        """Advance ``frames`` frames, calling ``record()`` after each, checking for blow-ups.
+
+        ``after_frame()`` is called after each recorded frame and stops the loop
+        when it returns True. On any exception the world is put back at the last
+        recorded frame (except an energy blow-up, whose frame is recorded).
+        """
+        w = self.world
+        w.update_derived()
+        Y = w.pack()
+        problem = checks.state_problem(Y, w.layout, w.moving)
+        if problem is not None:
+            raise checks.blow_up(w.names, problem[0], problem[1], w.t, "check_state", f"start of step {self.step_index + 1}")
+        scratch = Scratch(w.body_count, w.state_size)
+        bar = _progress_bar(frames, progress)
+        try:
+            for _ in range(frames):
+                snapshot = (Y.copy(), self.step_index, set(w.applied_impulses), dict(self.stats))
+                try:
+                    Y = self._advance(Y, steps_per_frame, scratch)
+                    problem = checks.state_problem(Y, w.layout, w.moving)
+                    if problem is not None:
+                        raise self._diagnose((snapshot[0].copy(),) + snapshot[1:], steps_per_frame, problem)
+                except BaseException:
+                    self._restore(snapshot)
+                    raise
+                w.unpack(Y)
+                record()
+                self._check_energy()
+                if bar is not None:
+                    bar.update(1)
+                if after_frame is not None and after_frame():
+                    break
+        finally:
+            if bar is not None:
+                bar.close()
+
+    def _restore(self, snapshot):
+        w = self.world
+        Y0, self.step_index, applied, self.stats = snapshot
+        w.applied_impulses = set(applied)
+        w.t = self.step_index * self.dt
+        w.unpack(Y0)
+
+    def _check_energy(self):
+        w = self.world
+        e_ref, scale, applied = self.energy_reference
+        if len(w.applied_impulses) != applied:  # an impulse added energy: measure from here
+            with np.errstate(over="ignore", invalid="ignore"):
+                e_ref = w.kinetic_energy() + w.potential_energy()
+            self.energy_reference = [e_ref, max(scale, checks.energy_scale(w)), len(w.applied_impulses)]
+            e_ref, scale, _ = self.energy_reference
+        checks.check_energy(w, e_ref, scale, self.max_energy_growth, f"end of step {self.step_index}, {self.integrator}, dt = {self.dt:g} s")
+
+    # ------------------------------------------------------------------ streaming runs and checkpoints
+    def run_to_file(self, out_dir, duration: float, frame_rate: float = 24.0, *, checkpoint_every: float | None = None,
+                    progress: bool | None = None, handle_signals: bool = False, summary=None, resume: bool = False,
+                    run_info: dict | None = None) -> "RunResult":
+        """Run like ``run``, streaming frames to ``out_dir/trajectory.npz`` (peak memory independent of duration).
+
+        Writes into ``out_dir``: ``trajectory.npz`` (all frames, rewritten
+        atomically at every flush), ``checkpoint.npz`` (``save_checkpoint``) and
+        ``summary.json`` (``summary(result)``, a dict; default
+        ``RunResult.figures``), plus the work folder ``.trajectory.parts/`` of
+        raw frame data, removed when the run completes. A flush (trajectory,
+        then checkpoint, then summary) happens every ``checkpoint_every``
+        simulated seconds (rounded to whole frames), and when the run ends,
+        fails or is interrupted, so a killed process leaves every frame up to
+        its last flush in a loadable file.
+
+        Args:
+            out_dir: output folder (created).
+            duration: s of the whole run, counted from its start (for ``resume``,
+                the start of the run that wrote ``out_dir``).
+            frame_rate: frames per second.
+            checkpoint_every: simulated seconds between flushes; None flushes only at the end.
+            progress: progress bar (as ``run``).
+            handle_signals: catch SIGINT and SIGTERM (main thread only): the run stops
+                after the current frame with status "interrupted" (``result.signal``).
+            summary: ``f(RunResult) -> dict`` written as summary.json at every flush.
+            resume: continue the run in ``out_dir``: this simulator must come from
+                ``Simulator.load_checkpoint(out_dir / "checkpoint.npz")``.
+            run_info: extra JSON data kept in the checkpoint (e.g. the scene).
+
+        Returns:
+            ``RunResult`` (status "completed" or "interrupted").
+
+        Raises:
+            SimulationError: a blow-up; the frames so far, a checkpoint at the last good
+                frame and a summary with status "failed" are written first.
+            KeyboardInterrupt: (without ``handle_signals``) after writing the frames so
+                far, a checkpoint and a summary with status "interrupted".
+        """
+        from .runfile import stream_run
+
+        return stream_run(self, out_dir, duration, frame_rate, checkpoint_every=checkpoint_every, progress=progress,
+                          handle_signals=handle_signals, summary=summary, resume=resume, run_info=run_info)
+
+    def save_checkpoint(self, path, run: dict | None = None) -> Path:
+        """Write the world (bodies, shapes, forces, state bits), the time, the settings and
+        the impulses already applied to ``path`` (.npz, no pickles), atomically.
+
+        ``Simulator.load_checkpoint(path)`` rebuilds an equal World and Simulator whose
+        continuation is bit-identical. ``CustomForce`` functions are not data: they are
+        recorded as placeholders and must be given back to ``load_checkpoint``.
+        """
+        from .checkpoint import save_checkpoint
+
+        return save_checkpoint(self, path, run)
+
+    @classmethod
+    def load_checkpoint(cls, path, custom_forces=None) -> "Simulator":
+        """A Simulator on a new World rebuilt from a checkpoint file (loaded with ``allow_pickle=False``).
+
+        Args:
+            path: a file written by ``save_checkpoint``.
+            custom_forces: the functions of the world's ``CustomForce`` records, in order.
+
+        Returns:
+            the Simulator (``.world`` is the rebuilt World; ``.checkpoint_run`` the
+            ``run`` data saved with it, or None).
+
+        Raises:
+            InputError: a missing, damaged or inconsistent file (one line).
+        """
+        from .checkpoint import load_checkpoint
+
+        return load_checkpoint(cls, path, custom_forces)
+
+    def settings(self) -> dict:
+        """The settings that make a continuation identical (JSON values)."""
+        return {"dt": self.dt, "integrator": self.integrator, "substeps": self.substeps, "rtol": self.rtol, "atol": self.atol,
+                "max_energy_growth": self.max_energy_growth}
+
+
+@dataclass
+class RunResult:
+    """What ``Simulator.run_to_file`` did.
+
+    Attributes:
+        status: "running" (at an intermediate flush), "completed", "interrupted" or "failed".
+        frames: frames in trajectory.npz (frame 0 included). steps: steps of dt taken in all.
+        wall_time_s: s of computing over all sessions of the run.
+        energy_initial, energy_final: total energy (J) of the first and last frames.
+        max_orthonormality_error: largest over the frames.
+        state_hash: ``checks.state_hash`` of the state at the last frame.
+        error: the blow-up message (status "failed"). signal: "SIGINT"/"SIGTERM" (status "interrupted").
+        out_dir: the output folder. t: simulated time of the last frame, s.
+    """
+
+    status: str
+    frames: int
+    steps: int
+    wall_time_s: float
+    energy_initial: float
+    energy_final: float
+    max_orthonormality_error: float
+    state_hash: str
+    t: float
+    out_dir: Path
+    error: str | None = None
+    signal: str | None = None
+
+    def figures(self) -> dict:
+        drift = (self.energy_final - self.energy_initial) / max(abs(self.energy_initial), float(np.finfo(float).tiny))
+        return {
+            "status": self.status,
+            "frames": int(self.frames),
+            "steps": int(self.steps),
+            "wall_time_s": float(self.wall_time_s),
+            "energy_initial": _finite_or_none(self.energy_initial),
+            "energy_final": _finite_or_none(self.energy_final),
+            "energy_drift_relative": _finite_or_none(drift),  # None: E_0 = 0 and it overflowed
+            "max_orthonormality_error": _finite_or_none(self.max_orthonormality_error),
+            "largest_penetration_m": None,  # no contacts yet
+            "state_hash": self.state_hash,
+            "error": self.error,
+            "signal": self.signal,
+        }
+
+
+def _finite_or_none(x):
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def frame_values(world: World) -> dict:
+    """One frame of the trajectory file (its per-frame keys) from the world's current state."""
+    w = world
+    # A run heading for a blow-up may overflow the diagnostics before the state
+    # itself turns non-finite: record inf, and let the checks report the body.
+    with np.errstate(over="ignore", invalid="ignore"):
+        return {
+            "time": w.t,
+            "position": w.x,
+            "orientation": w.q,
+            "velocity": w.v,
+            "angular_velocity": w.omega,
+            "linear_momentum": w.P,
+            "angular_momentum": w.L,
+            "kinetic_energy": w.kinetic_energy(),
+            "potential_energy": w.potential_energy(),
+            "total_linear_momentum": w.linear_momentum(),
+            "total_angular_momentum": w.angular_momentum(),
+            "orthonormality_error": w.orthonormality_error(),
+        }
+
+
+def static_values(world: World) -> dict:
+    """The per-body keys of the trajectory file that do not change with time."""
+    return {
+        "names": np.array(world.names, dtype=str),
+        "com_offset": world.com_offset.copy(),
+        "shapes": np.array([json.dumps(shape_to_dict(sh)) for sh in world.shapes], dtype=str),
+        "fixed": world.fixed.copy(),
+    }
 
 
 def _progress_bar(frames: int, progress: bool | None):
@@ -279,62 +587,30 @@ def _progress_bar(frames: int, progress: bool | None):
 class _Recorder:
     """Pre-allocated frame arrays, filled from the World one frame at a time."""
 
+    KEYS = {
+        "time": (), "position": (3,), "orientation": (4,), "velocity": (3,), "angular_velocity": (3,),
+        "linear_momentum": (3,), "angular_momentum": (3,), "kinetic_energy": None, "potential_energy": None,
+        "total_linear_momentum": "3", "total_angular_momentum": "3", "orthonormality_error": None,
+    }
+
     def __init__(self, world: World, capacity: int):
         self.world = world
         n = world.body_count
         self.count = 0
-        self.time = np.zeros(capacity)
-        self.position = np.zeros((capacity, n, 3))
-        self.orientation = np.zeros((capacity, n, 4))
-        self.velocity = np.zeros((capacity, n, 3))
-        self.angular_velocity = np.zeros((capacity, n, 3))
-        self.linear_momentum = np.zeros((capacity, n, 3))
-        self.angular_momentum = np.zeros((capacity, n, 3))
-        self.kinetic_energy = np.zeros(capacity)
-        self.potential_energy = np.zeros(capacity)
-        self.total_linear_momentum = np.zeros((capacity, 3))
-        self.total_angular_momentum = np.zeros((capacity, 3))
-        self.orthonormality_error = np.zeros(capacity)
+        self.arrays = {}
+        for key, shape in self.KEYS.items():
+            if shape is None or shape == ():
+                self.arrays[key] = np.zeros(capacity)
+            elif shape == "3":
+                self.arrays[key] = np.zeros((capacity, 3))
+            else:
+                self.arrays[key] = np.zeros((capacity, n) + shape)
 
     def record(self):
-        # A run heading for a blow-up may overflow the diagnostics before the state
-        # itself turns non-finite: record inf, and let _check_finite report the body.
-        with np.errstate(over="ignore", invalid="ignore"):
-            self._record()
-
-    def _record(self):
-        w, k = self.world, self.count
-        self.time[k] = w.t
-        self.position[k] = w.x
-        self.orientation[k] = w.q
-        self.velocity[k] = w.v
-        self.angular_velocity[k] = w.omega
-        self.linear_momentum[k] = w.P
-        self.angular_momentum[k] = w.L
-        self.kinetic_energy[k] = w.kinetic_energy()
-        self.potential_energy[k] = w.potential_energy()
-        self.total_linear_momentum[k] = w.linear_momentum()
-        self.total_angular_momentum[k] = w.angular_momentum()
-        self.orthonormality_error[k] = w.orthonormality_error()
+        for key, value in frame_values(self.world).items():
+            self.arrays[key][self.count] = value
         self.count += 1
 
     def trajectory(self) -> Trajectory:
         k = self.count
-        return Trajectory(
-            time=self.time[:k].copy(),
-            names=np.array(self.world.names, dtype=str),
-            position=self.position[:k].copy(),
-            orientation=self.orientation[:k].copy(),
-            velocity=self.velocity[:k].copy(),
-            angular_velocity=self.angular_velocity[:k].copy(),
-            linear_momentum=self.linear_momentum[:k].copy(),
-            angular_momentum=self.angular_momentum[:k].copy(),
-            kinetic_energy=self.kinetic_energy[:k].copy(),
-            potential_energy=self.potential_energy[:k].copy(),
-            total_linear_momentum=self.total_linear_momentum[:k].copy(),
-            total_angular_momentum=self.total_angular_momentum[:k].copy(),
-            orthonormality_error=self.orthonormality_error[:k].copy(),
-            com_offset=self.world.com_offset.copy(),
-            shapes=np.array([json.dumps(shape_to_dict(sh)) for sh in self.world.shapes], dtype=str),
-            fixed=self.world.fixed.copy(),
-        )
+        return Trajectory(**{key: a[:k].copy() for key, a in self.arrays.items()}, **static_values(self.world))

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
+import zipfile
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -143,3 +145,113 @@ def _json_default(o):
     if isinstance(o, Path):
         return str(o)
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+# ---------------------------------------------------------------------- streaming
+
+
+# Per-frame keys of the file and the shape of one frame (N: bodies), in file order.
+def frame_shapes(body_count: int) -> dict:
+    n = body_count
+    return {
+        "time": (), "position": (n, 3), "orientation": (n, 4), "velocity": (n, 3), "angular_velocity": (n, 3),
+        "linear_momentum": (n, 3), "angular_momentum": (n, 3), "kinetic_energy": (), "potential_energy": (),
+        "total_linear_momentum": (3,), "total_angular_momentum": (3,), "orthonormality_error": (),
+    }
+
+
+def frame_bytes(body_count: int) -> int:
+    """Bytes of one frame in the file (float64)."""
+    return 8 * sum(int(np.prod(s)) for s in frame_shapes(body_count).values())
+
+
+_COPY_CHUNK = 8 << 20  # bytes copied at a time from the raw frame files into the .npz
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed entry times: the same frames give the same file bytes
+
+
+class TrajectoryWriter:
+    """Streams frames to disk: raw float64 rows appended to one file per key in a work folder
+    (``.trajectory.parts`` beside the file), and ``flush()`` assembles the trajectory file from
+    them atomically (``write_atomic``), copying in chunks, so memory does not grow with the run.
+
+    The assembled file is an uncompressed .npz with fixed entry times: the same frames
+    give the same bytes. It loads with ``load_trajectory`` / ``np.load(allow_pickle=False)``.
+
+    Args:
+        path: the trajectory file (``.../trajectory.npz``).
+        static: the keys that do not change with time (names, com_offset, shapes, fixed).
+        body_count: N.
+        keep_frames: None starts afresh (any old work folder is removed); a number
+            continues a run: the work folder (or, if it is missing or short, the
+            trajectory file) must hold at least that many frames, and later ones are dropped.
+    """
+
+    def __init__(self, path, static: dict, body_count: int, keep_frames: int | None = None):
+        self.path = Path(path)
+        self.parts = self.path.parent / f".{self.path.stem}.parts"
+        self.static = static
+        self.shapes = frame_shapes(body_count)
+        self.row_bytes = {k: 8 * int(np.prod(s)) for k, s in self.shapes.items()}
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        if keep_frames is None:
+            shutil.rmtree(self.parts, ignore_errors=True)
+            self.parts.mkdir()
+            self.frames = 0
+        else:
+            self._keep(int(keep_frames))
+            self.frames = int(keep_frames)
+        self.files = {k: open(self.parts / f"{k}.f8", "ab") for k in self.shapes}
+
+    def _keep(self, frames: int):
+        sizes = {k: (self.parts / f"{k}.f8").stat().st_size if (self.parts / f"{k}.f8").is_file() else -1 for k in self.shapes}
+        if all(sizes[k] >= frames * self.row_bytes[k] for k in self.shapes):
+            for k in self.shapes:
+                os.truncate(self.parts / f"{k}.f8", frames * self.row_bytes[k])
+            return
+        # the work folder is gone (or short): take the frames from the trajectory file
+        traj = load_trajectory(self.path)
+        if traj.frame_count < frames:
+            raise InputError(f"holds {traj.frame_count} frames, the checkpoint needs {frames}", None, str(self.path))
+        shutil.rmtree(self.parts, ignore_errors=True)
+        self.parts.mkdir()
+        for k in self.shapes:
+            np.ascontiguousarray(getattr(traj, k)[:frames], dtype="<f8").tofile(self.parts / f"{k}.f8")
+
+    def append(self, values: dict):
+        """Append one frame: ``values[key]`` for every per-frame key (``frame_shapes``)."""
+        for k, fh in self.files.items():
+            fh.write(np.ascontiguousarray(values[k], dtype="<f8").tobytes())
+        self.frames += 1
+
+    def flush(self) -> Path:
+        """Write every frame so far to the trajectory file (atomically) and return its path."""
+        for fh in self.files.values():
+            fh.flush()
+        return write_atomic(self.path, self._write_npz)
+
+    def _write_npz(self, fh):
+        order = [f.name for f in fields(Trajectory)]
+        with zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+            for key in order:
+                info = zipfile.ZipInfo(f"{key}.npy", date_time=_ZIP_TIME)
+                with zf.open(info, "w", force_zip64=True) as out:
+                    if key in self.static:
+                        np.lib.format.write_array(out, np.asarray(self.static[key]), allow_pickle=False)
+                        continue
+                    header = {"descr": "<f8", "fortran_order": False, "shape": (self.frames,) + self.shapes[key]}
+                    np.lib.format.write_array_header_1_0(out, header)
+                    left = self.frames * self.row_bytes[key]
+                    with open(self.parts / f"{key}.f8", "rb") as src:
+                        while left > 0:
+                            chunk = src.read(min(_COPY_CHUNK, left))
+                            if not chunk:
+                                raise OSError(f"frame data of {key!r} is shorter than {self.frames} frames")
+                            out.write(chunk)
+                            left -= len(chunk)
+
+    def close(self, remove_parts: bool = False):
+        """Close the work files; ``remove_parts`` deletes the work folder (once the file is complete)."""
+        for fh in self.files.values():
+            fh.close()
+        if remove_parts:
+            shutil.rmtree(self.parts, ignore_errors=True)

@@ -115,7 +115,9 @@ class World:
         self.shapes: list[Any] = []
         self.materials: list[Material] = []
         self.forces: list[Any] = []
-        self.applied_impulses: set[int] = set()  # ids of Impulse records already applied (once each)
+        # indices into ``forces`` of the Impulse records already applied (once each); plain
+        # integers, so that a checkpoint can save them
+        self.applied_impulses: set[int] = set()
         self._tables = None
 
     # ------------------------------------------------------------------ storage

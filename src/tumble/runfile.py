@@ -1,0 +1,141 @@
+"""``Simulator.run_to_file``: the frame loop with frames streamed to disk, flushes, checkpoints and signals.
+
+Reads the World through the Simulator; writes ``trajectory.npz`` (``TrajectoryWriter``),
+``checkpoint.npz`` and ``summary.json`` in the output folder, each atomically.
+Order at every flush: trajectory, then checkpoint, then summary, so that the
+trajectory file always holds at least the frames the checkpoint has reached.
+"""
+
+from __future__ import annotations
+
+import shutil
+import signal
+import threading
+import time as _time
+from pathlib import Path
+
+from . import checks
+from .errors import InputError, SimulationError
+from .trajectory import TrajectoryWriter, frame_bytes, write_json_atomic
+
+TRAJECTORY, CHECKPOINT, SUMMARY = "trajectory.npz", "checkpoint.npz", "summary.json"
+
+
+def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, progress=None, handle_signals=False,
+               summary=None, resume=False, run_info=None):
+    from .simulator import RunResult, frame_values, static_values
+
+    out = Path(out_dir)
+    w = sim.world
+    total, steps_per_frame = sim._frame_plan(duration, frame_rate)
+    if checkpoint_every is not None:
+        if not (isinstance(checkpoint_every, (int, float)) and checkpoint_every > 0):
+            raise InputError(f"must be a positive number of seconds, got {checkpoint_every!r}", "--checkpoint-every")
+        per_flush = max(1, int(round(checkpoint_every * float(frame_rate))))
+    else:
+        per_flush = None
+
+    if resume:
+        meta = sim.checkpoint_run
+        if not isinstance(meta, dict) or "frames" not in meta:
+            raise InputError("the checkpoint holds no run progress (it was not written by run_to_file)", None, str(out / CHECKPOINT))
+        recorded = int(meta["frames"])
+        fig = dict(meta["figures"])
+        t_start = float(meta["t_start"])
+    else:
+        recorded = 0
+        t_start = w.t
+        fig = {"energy_initial": None, "energy_final": None, "max_orthonormality_error": 0.0, "wall_time_s": 0.0}
+    remaining = total - max(recorded - 1, 0)
+    if remaining < 0:
+        raise InputError(f"the run has already reached t = {w.t:g} s, past its requested duration ({float(duration):g} s)", "--duration")
+    _check_disk(out, (total + 1) * frame_bytes(w.body_count))
+
+    writer = TrajectoryWriter(out / TRAJECTORY, static_values(w), w.body_count, keep_frames=recorded if resume else None)
+    state = {"stop": None, "wall0": fig["wall_time_s"], "started": _time.perf_counter()}
+
+    def record():
+        values = frame_values(w)
+        writer.append(values)
+        e = float(values["kinetic_energy"] + values["potential_energy"])
+        if fig["energy_initial"] is None:
+            fig["energy_initial"] = e
+        fig["energy_final"] = e
+        fig["max_orthonormality_error"] = max(fig["max_orthonormality_error"], float(values["orthonormality_error"]))
+
+    def flush(status, error=None, signal_name=None):
+        fig["wall_time_s"] = state["wall0"] + (_time.perf_counter() - state["started"])
+        writer.flush()
+        run = {"t_start": t_start, "frames": writer.frames, "duration": float(duration), "frame_rate": float(frame_rate),
+               "checkpoint_every": checkpoint_every, "figures": fig, "info": run_info}
+        sim.save_checkpoint(out / CHECKPOINT, run=run)
+        result = RunResult(
+            status=status, frames=writer.frames, steps=int(sim.stats["steps"]), wall_time_s=fig["wall_time_s"],
+            energy_initial=fig["energy_initial"], energy_final=fig["energy_final"],
+            max_orthonormality_error=fig["max_orthonormality_error"], state_hash=checks.state_hash(w), t=w.t,
+            out_dir=out, error=error, signal=signal_name,
+        )
+        write_json_atomic(out / SUMMARY, summary(result) if summary is not None else {"run": result.figures(), "settings": sim.settings()})
+        return result
+
+    def after_frame():
+        if per_flush is not None and (writer.frames - 1) % per_flush == 0 and state["stop"] is None:
+            flush("running")
+        return state["stop"] is not None
+
+    if not resume:
+        w.update_derived()
+        sim._reset_energy_reference()
+        record()
+    elif sim.energy_reference is None:
+        sim._reset_energy_reference()
+
+    previous = _install_handlers(state) if handle_signals else {}
+    try:
+        try:
+            sim._loop(remaining, steps_per_frame, record, progress, after_frame)
+        except SimulationError as err:
+            flush("failed", error=" ".join(str(err).split()))
+            writer.close()
+            raise
+        except KeyboardInterrupt:
+            flush("interrupted", signal_name="SIGINT")
+            writer.close()
+            raise
+        sim.stats["wall_time_s"] = _time.perf_counter() - state["started"]
+        if state["stop"] is not None:
+            result = flush("interrupted", signal_name=signal.Signals(state["stop"]).name)
+            writer.close()
+        else:
+            result = flush("completed")
+            writer.close(remove_parts=True)
+        return result
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _install_handlers(state) -> dict:
+    """SIGINT and SIGTERM set ``state["stop"]``; the loop stops after the current frame."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+
+    def handler(signum, frame):
+        state["stop"] = signum
+
+    return {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _check_disk(out: Path, trajectory_bytes: int):
+    """InputError when the trajectory (twice: frame data and assembled file) cannot fit on the disk."""
+    probe = out
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    try:
+        free = shutil.disk_usage(probe).free
+    except OSError:
+        return
+    need = 2 * trajectory_bytes
+    if need > free:
+        raise InputError(f"the trajectory would need about {checks.fmt_bytes(need)} of disk, {checks.fmt_bytes(free)} free "
+                         f"(shorten the run or lower frame_rate)", None, str(out))
