@@ -6,7 +6,7 @@ the submodules import those only when called, so ``import tumble.render`` is che
 
 from __future__ import annotations
 
-__all__ = ["render_video", "render_frame", "camera_at", "Camera", "body_colors", "plot_trajectory"]
+__all__ = ["Camera", "body_colors", "camera_at", "plot_trajectory", "render_frame", "render_video"]
 
 
 def __getattr__(name):

@@ -43,7 +43,7 @@ def plot_trajectory(traj, out_dir) -> list[Path]:
     paths = []
     for name, make in zip(PLOT_NAMES, makers):
         fig = make(traj)  # a bare Figure (no pyplot): Agg canvas, no display, nothing global left open
-        paths.append(write_atomic(out_dir / name, lambda fh: fig.savefig(fh, format="png", dpi=DPI)))
+        paths.append(write_atomic(out_dir / name, lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=DPI)))
     return paths
 
 

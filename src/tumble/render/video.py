@@ -118,7 +118,7 @@ def visual_mesh(shape):
     if kind == "Plane":
         return None
     if kind == "Sphere":
-        return creation.icosphere(3, radius=shape.radius)
+        return creation.icosphere(2, radius=shape.radius)
     if kind == "Box":
         return creation.box(extents=shape.size)
     if kind == "Cylinder":
@@ -135,6 +135,18 @@ def visual_mesh(shape):
         r = max(0.3 * size / max(len(pts), 1) ** (1 / 3), 1e-3)
         return trimesh.util.concatenate([creation.icosphere(1, radius=r).apply_translation(p) for p in pts])
     raise InputError(f"cannot draw a shape of type {kind}", "shapes")
+
+
+def _shaded(mesh):
+    """(points, point normals, triangles) of a trimesh, vertices split along sharp edges (> 30 degrees)."""
+    if mesh is None:
+        return None
+    import pyvista as pv
+
+    poly = pv.PolyData.from_regular_faces(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
+    poly = poly.compute_normals(cell_normals=False, point_normals=True, split_vertices=True, feature_angle=30.0,
+                                consistent_normals=False, auto_orient_normals=False)
+    return np.asarray(poly.points, float), np.asarray(poly.point_data["Normals"], float), poly.regular_faces.astype(np.int64)
 
 
 def body_colors(traj, colors=None) -> np.ndarray:
@@ -251,11 +263,15 @@ class _Stage:
         n = len(traj.names)
         offset = np.zeros((n, 3)) if traj.com_offset is None else np.asarray(traj.com_offset, float)
         self.meshes, self.planes = [], []
+        cache = {}  # identical shapes (same JSON) share one tessellation
         for i in range(n):
-            shape = traj.shape(i)
-            mesh = visual_mesh(shape)
-            if mesh is not None:  # vertices in the body frame (origin at the centre of mass)
-                mesh = (np.asarray(mesh.vertices, float) - offset[i], np.asarray(mesh.faces, np.int64))
+            key = None if traj.shapes is None else str(traj.shapes[i])
+            if key not in cache:
+                shape = traj.shape(i)
+                cache[key] = (shape, _shaded(visual_mesh(shape)))
+            shape, mesh = cache[key]
+            if mesh is not None:  # points in the body frame (origin at the centre of mass), normals, triangles
+                mesh = (mesh[0] - offset[i], mesh[1], mesh[2])
             self.meshes.append(mesh)
             if isinstance(shape, Plane):
                 self.planes.append(self._world_plane(i, shape, offset[i]))
@@ -324,13 +340,25 @@ class _Stage:
         p = pv.Plotter(off_screen=True, window_size=(self.width, self.height), lighting="light kit")
         p.set_background(np.array(SKY_BOTTOM) / 255, top=np.array(SKY_TOP) / 255)
         self._add_ground(pv, p)
-        self.actors = {}
-        for i, mesh in enumerate(self.meshes):
-            if mesh is None:
-                continue
-            poly = pv.PolyData.from_regular_faces(mesh[0], mesh[1])
-            self.actors[i] = p.add_mesh(poly, color=self.colors[i] / 255.0, smooth_shading=True, split_sharp_edges=True,
-                                        specular=0.3, specular_power=20, ambient=0.15, diffuse=0.85)
+        # All bodies in one mesh whose points and normals are moved in place each frame:
+        # one actor however many bodies there are.
+        drawn = [i for i, m in enumerate(self.meshes) if m is not None]
+        self.bodies = np.array(drawn, dtype=np.int64)
+        if drawn:
+            counts = np.array([len(self.meshes[i][0]) for i in drawn])
+            starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+            self.vertex_body = np.repeat(self.bodies, counts)
+            self.local_points = np.concatenate([self.meshes[i][0] for i in drawn])
+            self.local_normals = np.concatenate([self.meshes[i][1] for i in drawn])
+            faces = np.concatenate([self.meshes[i][2] + s for i, s in zip(drawn, starts)])
+            poly = pv.PolyData.from_regular_faces(self.local_points.copy(), faces)
+            poly.point_data["Normals"] = self.local_normals.copy()
+            poly.point_data.active_normals_name = "Normals"
+            poly.point_data["rgb"] = self.colors[self.vertex_body]
+            actor = p.add_mesh(poly, scalars="rgb", rgb=True, smooth_shading=False, specular=0.3, specular_power=20,
+                               ambient=0.15, diffuse=0.85)
+            actor.prop.interpolation = "gouraud"  # shade with the normals we move (pyvista's smooth shading would copy the mesh)
+            self.poly = poly
         self.label = p.add_text("", position="upper_left", font_size=max(8, self.height // 60), color=(0.15, 0.15, 0.15))
         self.plotter = p
         return self
@@ -357,6 +385,8 @@ class _Stage:
                 continue
             size = 2 * span
             centre = _project_on_plane(0.5 * (self.lo + self.hi), point, normal)
+            if abs(normal[2]) < 0.01:  # a wall: stand it on the ground
+                centre[2] = z + size / 2
             p.add_mesh(pv.Plane(center=centre, direction=normal, i_size=size, j_size=size), color=np.array(FIXED_COLOR) / 255, opacity=0.35)
 
     def render(self, t, position, orientation) -> np.ndarray:
@@ -364,11 +394,11 @@ class _Stage:
         if self.plotter is None:
             self.open()
         p = self.plotter
-        R = quat_matrices(orientation)
-        for i, actor in self.actors.items():
-            m = np.eye(4)
-            m[:3, :3], m[:3, 3] = R[i], position[i]
-            actor.user_matrix = m
+        if len(self.bodies):
+            R = quat_matrices(orientation)[self.vertex_body]
+            self.poly.points[:] = np.einsum("vij,vj->vi", R, self.local_points) + position[self.vertex_body]
+            self.poly.point_data["Normals"][:] = np.einsum("vij,vj->vi", R, self.local_normals)
+            self.poly.Modified()
         cam = self.camera(t, position, orientation)
         p.camera.position, p.camera.focal_point, p.camera.up = (tuple(map(float, v)) for v in (cam.position, cam.focal_point, cam.view_up))
         p.camera.view_angle = cam.view_angle
@@ -441,7 +471,7 @@ def render_video(traj, path, width: int = 1280, height: int = 720, fps: float | 
         poses = (stage.poses_at_frame(k) for k in range(traj.frame_count))
         count = traj.frame_count
     else:
-        count = int(math.floor((time[-1] - time[0]) * fps + 1e-9)) + 1
+        count = math.floor((time[-1] - time[0]) * fps + 1e-9) + 1
         poses = (stage.poses_at_time(time[0] + j / fps) for j in range(count))
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{suffix}", dir=path.parent)
