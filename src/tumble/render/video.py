@@ -199,8 +199,7 @@ def _offscreen():
             os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
-    pv.OFF_SCREEN = True
-    return pv
+    return pv  # every Plotter here is made with off_screen=True; pyvista's global OFF_SCREEN is left alone
 
 
 def _check_size(value, key: str) -> int:
