@@ -1,0 +1,19 @@
+"""Collision tolerances, in metres (Box2D v3 / Box3D defaults, /work/shared/BENCHMARKS.md).
+
+NOTE: STYLE 5.1 puts tolerances in ``tumble/constants.py``; they live here until
+that module exists (this package may only add files under ``collision/``).
+"""
+
+# Penetration the solver leaves alone so that resting contacts do not chatter.
+# In metres. Box2D/Box3D: 0.005 (half a centimetre). @warning scaled for objects of
+# 0.1 - 10 m; a scene of millimetre parts needs a smaller slop.
+LINEAR_SLOP = 0.005
+
+# Contacts are produced while the separation is below this (speculative contacts,
+# Catto GDC 2014 "Physics for Game Programmers: Continuous Collision"), and shape
+# AABBs are grown by it. In metres. Box3D: 4 * LINEAR_SLOP = 0.02. @warning a larger
+# value finds more pairs and contacts; a smaller one lets fast bodies tunnel.
+SPECULATIVE_DISTANCE = 4.0 * LINEAR_SLOP
+
+# Largest number of contact points of one shape pair (Box3D: 4).
+MAX_MANIFOLD_POINTS = 4

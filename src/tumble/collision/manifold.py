@@ -1,0 +1,117 @@
+"""Contact manifolds as arrays (written by ``collide_pairs``), and ``match_contacts`` for warm starting.
+
+A manifold is one shape pair's contact (1 to 4 points sharing a normal); a contact
+is one point. Both are stored flat, in pair order, in buffers that grow by doubling.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .constants import MAX_MANIFOLD_POINTS
+
+# contact_key = (shape_a << 42) | (shape_b << 21) | feature: shapes and features below 2**21
+KEY_BITS = 21
+
+_MANIFOLD_ARRAYS = {
+    "manifold_shape_a": ((), np.int64), "manifold_shape_b": ((), np.int64),
+    "manifold_body_a": ((), np.int64), "manifold_body_b": ((), np.int64),
+    "manifold_normal": ((3,), np.float64), "manifold_first": ((), np.int64), "manifold_point_count": ((), np.int64),
+}
+_CONTACT_ARRAYS = {
+    "contact_manifold": ((), np.int64), "contact_body_a": ((), np.int64), "contact_body_b": ((), np.int64),
+    "contact_point": ((3,), np.float64), "contact_normal": ((3,), np.float64),
+    "contact_separation": ((), np.float64), "contact_feature": ((), np.int64), "contact_key": ((), np.int64),
+}
+
+
+class ContactManifolds:
+    """The narrowphase's output. Each attribute below is a view of the first ``manifold_count``
+    or ``contact_count`` rows of a buffer (views change when the buffers grow: read them after
+    ``collide_pairs``, not before).
+
+    Per manifold (M = ``manifold_count``):
+        manifold_shape_a, manifold_shape_b: (M,) int64 shape indices; a's type <= b's type
+            in SHAPE_* order (equal types: a < b), so a pair keeps its order from step to step.
+        manifold_body_a, manifold_body_b: (M,) int64 their bodies.
+        manifold_normal: (M, 3) unit, world, from a to b.
+        manifold_first, manifold_point_count: (M,) int64, its contacts are rows
+            ``first : first + point_count`` (1 to 4).
+
+    Per contact point (C = ``contact_count``):
+        contact_manifold: (C,) int64 manifold row.
+        contact_body_a, contact_body_b: (C,) int64.
+        contact_point: (C, 3) m, world, midway between the two surfaces.
+        contact_normal: (C, 3) unit, world, from a to b (the manifold's normal).
+        contact_separation: (C,) m, signed gap along the normal; < 0 is penetration.
+            Contacts exist while it is below the speculative distance.
+        contact_feature: (C,) int64, the touching features, local to the shape pair.
+        contact_key: (C,) int64 ``(shape_a << 42) | (shape_b << 21) | feature``: the same
+            while the same features of the same shapes touch (warm starting).
+    """
+
+    def __init__(self, manifold_capacity: int = 64):
+        self.manifold_count = 0
+        self.contact_count = 0
+        self._m_capacity = 0
+        self._c_capacity = 0
+        self._buffers: dict[str, np.ndarray] = {}
+        self.reserve(manifold_capacity)
+
+    def reserve(self, manifolds: int):
+        """Room for ``manifolds`` manifolds and 4 points each (capacity doubles until it fits)."""
+        m_cap = max(self._m_capacity, 1)
+        while m_cap < manifolds:
+            m_cap *= 2
+        c_cap = MAX_MANIFOLD_POINTS * m_cap
+        if m_cap != self._m_capacity:
+            for name, (shape, dtype) in _MANIFOLD_ARRAYS.items():
+                self._buffers[name] = np.zeros((m_cap,) + shape, dtype=dtype)
+            self._m_capacity = m_cap
+        if c_cap != self._c_capacity:
+            for name, (shape, dtype) in _CONTACT_ARRAYS.items():
+                self._buffers[name] = np.zeros((c_cap,) + shape, dtype=dtype)
+            self._c_capacity = c_cap
+        self.manifold_count = min(self.manifold_count, m_cap)
+        self.contact_count = min(self.contact_count, c_cap)
+
+    def buffers(self):
+        """The full buffers in the kernel's argument order (manifold arrays, then contact arrays)."""
+        return tuple(self._buffers[name] for name in (*_MANIFOLD_ARRAYS, *_CONTACT_ARRAYS))
+
+    def __getattr__(self, name):
+        buffers = self.__dict__.get("_buffers", {})
+        if name in _MANIFOLD_ARRAYS:
+            return buffers[name][: self.manifold_count]
+        if name in _CONTACT_ARRAYS:
+            return buffers[name][: self.contact_count]
+        raise AttributeError(name)
+
+    def __len__(self):
+        return self.contact_count
+
+
+def match_contacts(old_key, new_key) -> np.ndarray:
+    """For each new contact, the row of the old contact with the same key, or -1.
+
+    The solver carries last step's impulses over by this map (warm starting).
+
+    Args:
+        old_key: (C_old,) int64 ``contact_key`` of the previous step.
+        new_key: (C_new,) int64 ``contact_key`` of this step.
+
+    Returns:
+        (C_new,) int64 row of ``old_key`` or -1.
+    """
+    old_key = np.asarray(old_key, dtype=np.int64)
+    new_key = np.asarray(new_key, dtype=np.int64)
+    out = np.full(len(new_key), -1, dtype=np.int64)
+    if len(old_key) == 0 or len(new_key) == 0:
+        return out
+    order = np.argsort(old_key, kind="stable")
+    sorted_keys = old_key[order]
+    pos = np.searchsorted(sorted_keys, new_key)
+    pos_c = np.minimum(pos, len(sorted_keys) - 1)
+    hit = sorted_keys[pos_c] == new_key
+    out[hit] = order[pos_c[hit]]
+    return out

@@ -1,0 +1,14 @@
+"""Pair routines ``collide_<a>_<b>`` (a <= b in SHAPE_* order), one module per family.
+
+Every routine has the same array contract (all world frame, metres)::
+
+    count = collide_a_b(pos_a (3,), rot_a (3, 3), params_a (4,),
+                        pos_b (3,), rot_b (3, 3), params_b (4,), speculative,
+                        # outputs
+                        normal (3,), point (4, 3), separation (4,), feature (4,) int64)
+
+``normal`` is unit, from a to b, shared by the manifold's points; ``point[k]`` is
+midway between the two surfaces; ``separation[k]`` < 0 is penetration; points are
+produced only while separation < ``speculative``; ``feature[k]`` is a key local to
+the pair that stays the same while the same features touch (warm starting).
+"""

@@ -1,0 +1,600 @@
+"""Box family: plane-box, sphere-box, capsule-box, box-box (contract in ``pairs/__init__``).
+
+A box is ``pos + rot @ l`` for ``|l_k| <= h_k``; its axes are the columns of ``rot``.
+Box-box follows Gregorius, "The Separating Axis Test between Convex Polyhedra"
+(GDC 2013) and "Robust Contact Creation for Physics Simulations" (GDC 2015): SAT over
+the 15 axes, a face contact by clipping the incident face against the reference
+face's side planes (Sutherland-Hodgman), an edge contact from the closest points of
+the two edges, and a reduction to 4 points.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ...math3d import JIT
+from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS
+from .capsule import closest_segment_segment, lerp3, segment_ends
+from .sphere import plane_world
+
+# Face and edge tolerances of the axis choice (Gregorius 2015, "Robust Contact
+# Creation", slide "Feature selection"): an edge axis wins only if clearly better than
+# the best face, and box b's face only if clearly better than box a's, so that the
+# reference face does not flip between steps when two axes are nearly tied (a box
+# resting on a box of the same size has two equal face axes).
+REL_EDGE_TOLERANCE = 0.90
+REL_FACE_TOLERANCE = 0.98
+ABS_TOLERANCE = 0.5 * LINEAR_SLOP
+
+# feature-id bases, so that the ids of the different kinds of contact never collide
+FEATURE_EDGE = 1 << 12
+FEATURE_FACE = 1 << 13
+
+
+@njit(**JIT)
+def collide_plane_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
+                      normal, point, separation, feature):
+    """Up to 4 deepest box corners within ``speculative`` of the plane; feature = corner index."""
+    nx, ny, nz, d = plane_world(pos_a, rot_a, params_a)
+    # n . corner = n . pos + sum_k s_k h_k (n . axis_k): 8 sums of 3 terms
+    base = nx * pos_b[0] + ny * pos_b[1] + nz * pos_b[2] - d
+    e0 = params_b[0] * (nx * rot_b[0, 0] + ny * rot_b[1, 0] + nz * rot_b[2, 0])
+    e1 = params_b[1] * (nx * rot_b[0, 1] + ny * rot_b[1, 1] + nz * rot_b[2, 1])
+    e2 = params_b[2] * (nx * rot_b[0, 2] + ny * rot_b[1, 2] + nz * rot_b[2, 2])
+    seps = np.empty(8)
+    chosen = np.zeros(8, dtype=np.bool_)
+    n_in = 0
+    for c in range(8):
+        s0 = 1.0 if c & 1 else -1.0
+        s1 = 1.0 if c & 2 else -1.0
+        s2 = 1.0 if c & 4 else -1.0
+        seps[c] = base + s0 * e0 + s1 * e1 + s2 * e2
+        if seps[c] < speculative:
+            n_in += 1
+    if n_in == 0:
+        return 0
+    # the (up to) 4 deepest; ties go to the lower corner index
+    for _ in range(min(n_in, MAX_MANIFOLD_POINTS)):
+        best = -1
+        for c in range(8):
+            if not chosen[c] and seps[c] < speculative and (best < 0 or seps[c] < seps[best]):
+                best = c
+        chosen[best] = True
+    normal[0] = nx
+    normal[1] = ny
+    normal[2] = nz
+    count = 0
+    for c in range(8):
+        if chosen[c]:
+            s0 = params_b[0] if c & 1 else -params_b[0]
+            s1 = params_b[1] if c & 2 else -params_b[1]
+            s2 = params_b[2] if c & 4 else -params_b[2]
+            sep = seps[c]
+            for i in range(3):
+                corner = pos_b[i] + s0 * rot_b[i, 0] + s1 * rot_b[i, 1] + s2 * rot_b[i, 2]
+                point[count, i] = corner - 0.5 * sep * normal[i]
+            separation[count] = sep
+            feature[count] = c
+            count += 1
+    return count
+
+
+@njit(**JIT)
+def collide_sphere_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
+                       normal, point, separation, feature):
+    """Sphere a against box b: closest point of the box to the centre, or the shallowest face if inside.
+
+    feature: the Voronoi region of the centre, sum_k 3^k code_k with code 0 below
+    -h_k, 1 within, 2 above +h_k (face regions have one code != 1), or 27 + face
+    id (2 k + side) when the centre is inside the box.
+    """
+    r = params_a[0]
+    h = params_b
+    dx, dy, dz = pos_a[0] - pos_b[0], pos_a[1] - pos_b[1], pos_a[2] - pos_b[2]
+    local = np.empty(3)
+    clamped = np.empty(3)
+    region = 0
+    scale = 1
+    inside = True
+    for k in range(3):
+        lk = rot_b[0, k] * dx + rot_b[1, k] * dy + rot_b[2, k] * dz
+        local[k] = lk
+        if lk < -h[k]:
+            clamped[k] = -h[k]
+            code = 0
+            inside = False
+        elif lk > h[k]:
+            clamped[k] = h[k]
+            code = 2
+            inside = False
+        else:
+            clamped[k] = lk
+            code = 1
+        region += code * scale
+        scale *= 3
+    out = np.empty(3)  # outward box normal, local
+    if not inside:
+        ex, ey, ez = local[0] - clamped[0], local[1] - clamped[1], local[2] - clamped[2]
+        dist = math.sqrt(ex * ex + ey * ey + ez * ez)
+        sep = dist - r
+        if sep >= speculative:
+            return 0
+        out[0], out[1], out[2] = ex / dist, ey / dist, ez / dist
+        fid = region
+    else:
+        best = 0
+        depth = h[0] - abs(local[0])
+        for k in range(1, 3):
+            dk = h[k] - abs(local[k])
+            if dk < depth:
+                depth = dk
+                best = k
+        side = 1.0 if local[best] >= 0.0 else -1.0
+        out[0], out[1], out[2] = 0.0, 0.0, 0.0
+        out[best] = side
+        clamped[best] = side * h[best]
+        sep = -depth - r
+        fid = 27 + 2 * best + (1 if side > 0.0 else 0)
+    for i in range(3):
+        n_out = rot_b[i, 0] * out[0] + rot_b[i, 1] * out[1] + rot_b[i, 2] * out[2]
+        surface_b = pos_b[i] + rot_b[i, 0] * clamped[0] + rot_b[i, 1] * clamped[1] + rot_b[i, 2] * clamped[2]
+        normal[i] = -n_out
+        # midway between the box's point and the sphere's point nearest the box
+        point[0, i] = 0.5 * (surface_b + pos_a[i] - r * n_out)
+    separation[0] = sep
+    feature[0] = fid
+    return 1
+
+
+@njit(**JIT)
+def _clip_segment_to_slabs(p0, p1, h, skip):
+    """Parameters [t0, t1] of the part of segment p0 p1 (box frame) within |l_k| <= h_k for k != skip (Liang-Barsky).
+
+    Returns t0 > t1 when nothing is left. ``skip`` = -1 clips against all three slabs.
+    """
+    t0, t1 = 0.0, 1.0
+    for k in range(3):
+        if k == skip:
+            continue
+        d = p1[k] - p0[k]
+        if abs(d) < 1e-15:
+            if p0[k] < -h[k] or p0[k] > h[k]:
+                return 1.0, 0.0
+            continue
+        ta = (-h[k] - p0[k]) / d
+        tb = (h[k] - p0[k]) / d
+        if ta > tb:
+            ta, tb = tb, ta
+        t0 = max(t0, ta)
+        t1 = min(t1, tb)
+    return t0, t1
+
+
+@njit(**JIT)
+def _capsule_box_face(p0, p1, r, h, k, side, rot_b, pos_b, speculative, normal, point, separation, feature):
+    """Capsule core p0 p1 (box frame) against box face (k, side): the clipped core's ends, up to 2 points."""
+    t0, t1 = _clip_segment_to_slabs(p0, p1, h, k)
+    if t0 > t1:
+        return 0
+    for i in range(3):
+        normal[i] = -side * rot_b[i, k]
+    count = 0
+    for e in range(2):
+        if e == 1 and (t1 - t0) * 1e9 < 1.0:
+            break  # one point only: the core touches the face's slab at a single place
+        t = t0 if e == 0 else t1
+        c = lerp3(p0, p1, t)
+        sep = side * c[k] - h[k] - r
+        if sep >= speculative:
+            continue
+        # box point: c moved onto the face plane; capsule point: c - r side e_k; midway
+        m0, m1, m2 = c
+        shift = -(0.5 * sep + r) * side
+        if k == 0:
+            m0 += shift
+        elif k == 1:
+            m1 += shift
+        else:
+            m2 += shift
+        for i in range(3):
+            point[count, i] = pos_b[i] + rot_b[i, 0] * m0 + rot_b[i, 1] * m1 + rot_b[i, 2] * m2
+        separation[count] = sep
+        feature[count] = FEATURE_FACE + 4 * (2 * k + (1 if side > 0 else 0)) + e
+        count += 1
+    return count
+
+
+@njit(**JIT)
+def _box_edge(h, k, code):
+    """Endpoints (box frame) of the box edge along axis k; bits of ``code`` give the signs of the other axes."""
+    j1 = (k + 1) % 3
+    j2 = (k + 2) % 3
+    a = np.zeros(3)
+    b = np.zeros(3)
+    s1 = h[j1] if code & 1 else -h[j1]
+    s2 = h[j2] if code & 2 else -h[j2]
+    a[j1] = s1
+    b[j1] = s1
+    a[j2] = s2
+    b[j2] = s2
+    a[k] = -h[k]
+    b[k] = h[k]
+    return (a[0], a[1], a[2]), (b[0], b[1], b[2])
+
+
+@njit(**JIT)
+def collide_capsule_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
+                        normal, point, separation, feature):
+    """Capsule a against box b, in the box frame.
+
+    Core outside the box: exact closest points (core ends against the box, core
+    against the 12 edges; Ericson 2005 §5.1.9), and 2 points by clipping the core
+    to the face when the closest feature is a face (a capsule lying on a box).
+    Core inside: SAT over the 3 face axes and the 3 axes core x edge.
+    """
+    r = params_a[0]
+    h = params_b
+    w0, w1 = segment_ends(pos_a, rot_a, params_a[1])
+    # core ends in the box frame
+    l0 = np.empty(3)
+    l1 = np.empty(3)
+    for k in range(3):
+        l0[k] = rot_b[0, k] * (w0[0] - pos_b[0]) + rot_b[1, k] * (w0[1] - pos_b[1]) + rot_b[2, k] * (w0[2] - pos_b[2])
+        l1[k] = rot_b[0, k] * (w1[0] - pos_b[0]) + rot_b[1, k] * (w1[1] - pos_b[1]) + rot_b[2, k] * (w1[2] - pos_b[2])
+    p0 = (l0[0], l0[1], l0[2])
+    p1 = (l1[0], l1[1], l1[2])
+    t0, t1 = _clip_segment_to_slabs(p0, p1, h, -1)
+    core_inside = t0 <= t1
+    out = (0.0, 0.0, 1.0)
+    s_pt = (0.0, 0.0, 0.0)
+    b_pt = (0.0, 0.0, 0.0)
+    sep = 0.0
+    fid = 0
+    if not core_inside:
+        best = np.inf
+        for e in range(2):
+            c = p0 if e == 0 else p1
+            q = (min(max(c[0], -h[0]), h[0]), min(max(c[1], -h[1]), h[1]), min(max(c[2], -h[2]), h[2]))
+            dd = (c[0] - q[0]) ** 2 + (c[1] - q[1]) ** 2 + (c[2] - q[2]) ** 2
+            if dd < best:
+                best, s_pt, b_pt, fid = dd, c, q, e
+        for k in range(3):
+            for code in range(4):
+                ea, eb = _box_edge(h, k, code)
+                s, t = closest_segment_segment(p0, p1, ea, eb)
+                c = lerp3(p0, p1, s)
+                q = lerp3(ea, eb, t)
+                dd = (c[0] - q[0]) ** 2 + (c[1] - q[1]) ** 2 + (c[2] - q[2]) ** 2
+                if dd < best:
+                    best, s_pt, b_pt, fid = dd, c, q, FEATURE_EDGE + 4 * k + code
+        dist = math.sqrt(best)
+        if dist - r >= speculative:
+            return 0
+        if dist > 1e-12:
+            out = ((s_pt[0] - b_pt[0]) / dist, (s_pt[1] - b_pt[1]) / dist, (s_pt[2] - b_pt[2]) / dist)
+            # closest feature a face (the normal is a face normal): clip the core to that face
+            for k in range(3):
+                if abs(out[k]) > 1.0 - 1e-9:
+                    n = _capsule_box_face(p0, p1, r, h, k, 1.0 if out[k] > 0 else -1.0, rot_b, pos_b, speculative,
+                                          normal, point, separation, feature)
+                    if n > 0:
+                        return n
+            sep = dist - r
+        else:
+            core_inside = True
+    if core_inside:
+        # SAT on the core: face axes, then core x edge axes; an edge must win clearly
+        u = (p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2])
+        best_face, face_k, face_side = np.inf, 0, 1.0
+        for k in range(3):
+            lo = min(p0[k], p1[k])
+            hi = max(p0[k], p1[k])
+            up = h[k] - lo   # push the core out through +face k
+            down = hi + h[k]  # ... through -face k
+            if up < best_face:
+                best_face, face_k, face_side = up, k, 1.0
+            if down < best_face:
+                best_face, face_k, face_side = down, k, -1.0
+        best_edge, edge_k = np.inf, -1
+        edge_n = (0.0, 0.0, 0.0)
+        for k in range(3):
+            # n = u x e_k
+            if k == 0:
+                nx, ny, nz = 0.0, u[2], -u[1]
+            elif k == 1:
+                nx, ny, nz = -u[2], 0.0, u[0]
+            else:
+                nx, ny, nz = u[1], -u[0], 0.0
+            ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+            if ln < 1e-6:
+                continue
+            nx, ny, nz = nx / ln, ny / ln, nz / ln
+            c = nx * p0[0] + ny * p0[1] + nz * p0[2]
+            ext = abs(nx) * h[0] + abs(ny) * h[1] + abs(nz) * h[2]
+            if ext - c < best_edge:
+                best_edge, edge_k, edge_n = ext - c, k, (nx, ny, nz)
+            if ext + c < best_edge:
+                best_edge, edge_k, edge_n = ext + c, k, (-nx, -ny, -nz)
+        if edge_k < 0 or best_edge > REL_EDGE_TOLERANCE * best_face - ABS_TOLERANCE:
+            n = _capsule_box_face(p0, p1, r, h, face_k, face_side, rot_b, pos_b, -np.inf, normal, point,
+                                  separation, feature)
+            # separations of the clipped ends are their own depths; keep those below speculative
+            count = 0
+            for m in range(n):
+                if separation[m] < speculative:
+                    for i in range(3):
+                        point[count, i] = point[m, i]
+                    separation[count] = separation[m]
+                    feature[count] = feature[m]
+                    count += 1
+            if count > 0:
+                return count
+            # NOTE: cannot happen (the core is inside); fall back to the core's midpoint
+        out = edge_n
+        code = (1 if out[(edge_k + 1) % 3] > 0 else 0) + (2 if out[(edge_k + 2) % 3] > 0 else 0)
+        ea, eb = _box_edge(h, edge_k, code)
+        s, t = closest_segment_segment(p0, p1, ea, eb)
+        s_pt = lerp3(p0, p1, s)
+        b_pt = lerp3(ea, eb, t)
+        sep = -best_edge - r
+        fid = FEATURE_EDGE + 4 * edge_k + code
+    # one point: midway between the box point and the capsule point s_pt - r out
+    for i in range(3):
+        n_out = rot_b[i, 0] * out[0] + rot_b[i, 1] * out[1] + rot_b[i, 2] * out[2]
+        normal[i] = -n_out
+        pb = b_pt[0] * rot_b[i, 0] + b_pt[1] * rot_b[i, 1] + b_pt[2] * rot_b[i, 2]
+        pa = s_pt[0] * rot_b[i, 0] + s_pt[1] * rot_b[i, 1] + s_pt[2] * rot_b[i, 2] - r * n_out
+        point[0, i] = pos_b[i] + 0.5 * (pa + pb)
+    separation[0] = sep
+    feature[0] = fid
+    return 1
+
+
+@njit(**JIT)
+def _clip_polygon(poly_in, n_in, nx, ny, nz, offset, poly_out):
+    """Sutherland-Hodgman: the part of the polygon (n_in rows of poly_in) where n . p <= offset; returns its size."""
+    n_out = 0
+    if n_in == 0:
+        return 0
+    prev = n_in - 1
+    d_prev = nx * poly_in[prev, 0] + ny * poly_in[prev, 1] + nz * poly_in[prev, 2] - offset
+    for cur in range(n_in):
+        d_cur = nx * poly_in[cur, 0] + ny * poly_in[cur, 1] + nz * poly_in[cur, 2] - offset
+        if (d_prev <= 0.0) != (d_cur <= 0.0):
+            # the edge crosses the plane: add the crossing point
+            s = d_prev / (d_prev - d_cur)
+            for i in range(3):
+                poly_out[n_out, i] = poly_in[prev, i] + s * (poly_in[cur, i] - poly_in[prev, i])
+            n_out += 1
+        if d_cur <= 0.0:
+            for i in range(3):
+                poly_out[n_out, i] = poly_in[cur, i]
+            n_out += 1
+        prev = cur
+        d_prev = d_cur
+    return n_out
+
+
+@njit(**JIT)
+def _reduce_manifold(pts, seps, n, nx, ny, nz, keep):
+    """Indices (into keep[:4]) of at most 4 of n points that span the largest area, the deepest first.
+
+    Deepest point; the point farthest from it; the points of largest positive and
+    negative triangle area (about the normal) with those two. Gregorius 2015,
+    "Contact reduction"; Box3D reduces the same way. Ties go to the lower index.
+    """
+    i1 = 0
+    for k in range(1, n):
+        if seps[k] < seps[i1]:
+            i1 = k
+    i2 = -1
+    best = -1.0
+    for k in range(n):
+        d = (pts[k, 0] - pts[i1, 0]) ** 2 + (pts[k, 1] - pts[i1, 1]) ** 2 + (pts[k, 2] - pts[i1, 2]) ** 2
+        if k != i1 and d > best:
+            best, i2 = d, k
+    keep[0] = i1
+    m = 1
+    if i2 < 0 or best <= 0.0:
+        return m
+    keep[1] = i2
+    m = 2
+    ex, ey, ez = pts[i2, 0] - pts[i1, 0], pts[i2, 1] - pts[i1, 1], pts[i2, 2] - pts[i1, 2]
+    i3, i4 = -1, -1
+    amax, amin = 0.0, 0.0
+    for k in range(n):
+        fx, fy, fz = pts[k, 0] - pts[i1, 0], pts[k, 1] - pts[i1, 1], pts[k, 2] - pts[i1, 2]
+        # signed doubled area of triangle (p1, p2, pk) about the normal
+        area = nx * (ey * fz - ez * fy) + ny * (ez * fx - ex * fz) + nz * (ex * fy - ey * fx)
+        if area > amax:
+            amax, i3 = area, k
+        if area < amin:
+            amin, i4 = area, k
+    if i3 >= 0:
+        keep[m] = i3
+        m += 1
+    if i4 >= 0:
+        keep[m] = i4
+        m += 1
+    return m
+
+
+@njit(**JIT)
+def _box_face_contact(ref_pos, ref_rot, ref_h, inc_pos, inc_rot, inc_h, axis, ref_is_b, speculative,
+                      normal, point, separation, feature):
+    """Face contact: reference face ``axis`` of the ref box (the side facing the other box), clip the incident face.
+
+    Feature: (reference face, incident face, quadrant of the point in the incident
+    face's frame). The quadrant, not the clip topology, names a point, so a point
+    that is sometimes an incident corner and sometimes its clipped neighbour (a box
+    on a box of the same size) keeps its id.
+    """
+    tx, ty, tz = inc_pos[0] - ref_pos[0], inc_pos[1] - ref_pos[1], inc_pos[2] - ref_pos[2]
+    side = 1.0 if tx * ref_rot[0, axis] + ty * ref_rot[1, axis] + tz * ref_rot[2, axis] >= 0.0 else -1.0
+    nx, ny, nz = side * ref_rot[0, axis], side * ref_rot[1, axis], side * ref_rot[2, axis]
+    # incident face: the face of the other box most anti-parallel to n
+    inc = 0
+    best = -1.0
+    for j in range(3):
+        c = abs(nx * inc_rot[0, j] + ny * inc_rot[1, j] + nz * inc_rot[2, j])
+        if c > best:
+            best, inc = c, j
+    inc_side = -1.0 if nx * inc_rot[0, inc] + ny * inc_rot[1, inc] + nz * inc_rot[2, inc] >= 0.0 else 1.0
+    j1 = (inc + 1) % 3
+    j2 = (inc + 2) % 3
+    centre = np.empty(3)
+    for i in range(3):
+        centre[i] = inc_pos[i] + inc_side * inc_h[inc] * inc_rot[i, inc]
+    poly = np.empty((8, 3))
+    tmp = np.empty((8, 3))
+    for v in range(4):
+        s1 = 1.0 if v == 0 or v == 3 else -1.0  # (+,+) (-,+) (-,-) (+,-): around the face
+        s2 = 1.0 if v < 2 else -1.0
+        for i in range(3):
+            poly[v, i] = centre[i] + s1 * inc_h[j1] * inc_rot[i, j1] + s2 * inc_h[j2] * inc_rot[i, j2]
+    n = 4
+    # side planes of the reference face: +-axis k1, +-axis k2
+    for step in range(1, 3):
+        k = (axis + step) % 3
+        ax, ay, az = ref_rot[0, k], ref_rot[1, k], ref_rot[2, k]
+        c = ax * ref_pos[0] + ay * ref_pos[1] + az * ref_pos[2]
+        n = _clip_polygon(poly, n, ax, ay, az, c + ref_h[k], tmp)
+        n = _clip_polygon(tmp, n, -ax, -ay, -az, -c + ref_h[k], poly)
+    # keep the points below the speculative distance; separation along n from the reference face
+    face_offset = nx * ref_pos[0] + ny * ref_pos[1] + nz * ref_pos[2] + ref_h[axis]
+    seps = np.empty(8)
+    m = 0
+    for v in range(n):
+        sep = nx * poly[v, 0] + ny * poly[v, 1] + nz * poly[v, 2] - face_offset
+        if sep < speculative:
+            for i in range(3):
+                tmp[m, i] = poly[v, i] - 0.5 * sep * (nx if i == 0 else (ny if i == 1 else nz))
+            seps[m] = sep
+            m += 1
+    if m == 0:
+        return 0
+    keep = np.arange(8)
+    if m > MAX_MANIFOLD_POINTS:
+        m = _reduce_manifold(tmp, seps, m, nx, ny, nz, keep)
+    sign = -1.0 if ref_is_b else 1.0
+    normal[0], normal[1], normal[2] = sign * nx, sign * ny, sign * nz
+    ref_face = 6 * (1 if ref_is_b else 0) + 2 * axis + (1 if side > 0 else 0)
+    inc_face = 2 * inc + (1 if inc_side > 0 else 0)
+    base = FEATURE_FACE + 64 * (6 * ref_face + inc_face)
+    used = 0
+    for c in range(m):
+        k = keep[c]
+        u = 0.0
+        w = 0.0
+        for i in range(3):
+            u += (tmp[k, i] - centre[i]) * inc_rot[i, j1]
+            w += (tmp[k, i] - centre[i]) * inc_rot[i, j2]
+        slot = (1 if u >= 0.0 else 0) + (2 if w >= 0.0 else 0)
+        while used & (1 << slot):
+            slot = (slot + 1) % 8  # two points in one quadrant (a deep clip): next free id
+        used |= 1 << slot
+        for i in range(3):
+            point[c, i] = tmp[k, i]
+        separation[c] = seps[k]
+        feature[c] = base + slot
+    return m
+
+
+@njit(**JIT)
+def collide_box_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
+                    normal, point, separation, feature):
+    """SAT over the 15 axes (3 + 3 faces, 9 edge pairs), then a face or an edge contact."""
+    ha, hb = params_a, params_b
+    tx, ty, tz = pos_b[0] - pos_a[0], pos_b[1] - pos_a[1], pos_b[2] - pos_a[2]
+    C = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            C[i, j] = abs(rot_a[0, i] * rot_b[0, j] + rot_a[1, i] * rot_b[1, j] + rot_a[2, i] * rot_b[2, j])
+    # separation along an axis: |t . n| minus both boxes' half widths along n
+    face_a, axis_a = -np.inf, 0
+    for i in range(3):
+        d = abs(tx * rot_a[0, i] + ty * rot_a[1, i] + tz * rot_a[2, i])
+        sep = d - ha[i] - (C[i, 0] * hb[0] + C[i, 1] * hb[1] + C[i, 2] * hb[2])
+        if sep > speculative:
+            return 0
+        if sep > face_a:
+            face_a, axis_a = sep, i
+    face_b, axis_b = -np.inf, 0
+    for j in range(3):
+        d = abs(tx * rot_b[0, j] + ty * rot_b[1, j] + tz * rot_b[2, j])
+        sep = d - hb[j] - (C[0, j] * ha[0] + C[1, j] * ha[1] + C[2, j] * ha[2])
+        if sep > speculative:
+            return 0
+        if sep > face_b:
+            face_b, axis_b = sep, j
+    edge, edge_i, edge_j = -np.inf, -1, -1
+    en = (0.0, 0.0, 0.0)
+    for i in range(3):
+        for j in range(3):
+            # n = a_i x b_j; parallel edges give no axis (the face axes cover them)
+            nx = rot_a[1, i] * rot_b[2, j] - rot_a[2, i] * rot_b[1, j]
+            ny = rot_a[2, i] * rot_b[0, j] - rot_a[0, i] * rot_b[2, j]
+            nz = rot_a[0, i] * rot_b[1, j] - rot_a[1, i] * rot_b[0, j]
+            ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+            if ln < 1e-6:
+                continue
+            nx, ny, nz = nx / ln, ny / ln, nz / ln
+            if tx * nx + ty * ny + tz * nz < 0.0:
+                nx, ny, nz = -nx, -ny, -nz
+            ext = 0.0
+            for k in range(3):
+                ext += ha[k] * abs(nx * rot_a[0, k] + ny * rot_a[1, k] + nz * rot_a[2, k])
+                ext += hb[k] * abs(nx * rot_b[0, k] + ny * rot_b[1, k] + nz * rot_b[2, k])
+            sep = tx * nx + ty * ny + tz * nz - ext
+            if sep > speculative:
+                return 0
+            if sep > edge:
+                edge, edge_i, edge_j, en = sep, i, j, (nx, ny, nz)
+    if edge_i >= 0 and edge > REL_EDGE_TOLERANCE * max(face_a, face_b) + ABS_TOLERANCE:
+        return _box_edge_contact(pos_a, rot_a, ha, pos_b, rot_b, hb, edge_i, edge_j, en, edge,
+                                 normal, point, separation, feature)
+    if face_b > REL_FACE_TOLERANCE * face_a + ABS_TOLERANCE:
+        return _box_face_contact(pos_b, rot_b, hb, pos_a, rot_a, ha, axis_b, True, speculative,
+                                 normal, point, separation, feature)
+    return _box_face_contact(pos_a, rot_a, ha, pos_b, rot_b, hb, axis_a, False, speculative,
+                             normal, point, separation, feature)
+
+
+@njit(**JIT)
+def _box_edge_contact(pos_a, rot_a, ha, pos_b, rot_b, hb, i, j, n, sep, normal, point, separation, feature):
+    """Edge contact: the closest points of a's edge along a_i supporting +n and b's edge along b_j supporting -n."""
+    code_a = 0
+    code_b = 0
+    ca = np.empty(3)
+    cb = np.empty(3)
+    for m in range(3):
+        ca[m] = pos_a[m]
+        cb[m] = pos_b[m]
+    for bit in range(2):
+        k = (i + 1 + bit) % 3
+        s = 1.0 if n[0] * rot_a[0, k] + n[1] * rot_a[1, k] + n[2] * rot_a[2, k] >= 0.0 else -1.0
+        code_a |= (1 << bit) if s > 0 else 0
+        for m in range(3):
+            ca[m] += s * ha[k] * rot_a[m, k]
+    for bit in range(2):
+        k = (j + 1 + bit) % 3
+        s = -1.0 if n[0] * rot_b[0, k] + n[1] * rot_b[1, k] + n[2] * rot_b[2, k] >= 0.0 else 1.0
+        code_b |= (1 << bit) if s > 0 else 0
+        for m in range(3):
+            cb[m] += s * hb[k] * rot_b[m, k]
+    a0 = (ca[0] - ha[i] * rot_a[0, i], ca[1] - ha[i] * rot_a[1, i], ca[2] - ha[i] * rot_a[2, i])
+    a1 = (ca[0] + ha[i] * rot_a[0, i], ca[1] + ha[i] * rot_a[1, i], ca[2] + ha[i] * rot_a[2, i])
+    b0 = (cb[0] - hb[j] * rot_b[0, j], cb[1] - hb[j] * rot_b[1, j], cb[2] - hb[j] * rot_b[2, j])
+    b1 = (cb[0] + hb[j] * rot_b[0, j], cb[1] + hb[j] * rot_b[1, j], cb[2] + hb[j] * rot_b[2, j])
+    s, t = closest_segment_segment(a0, a1, b0, b1)
+    pa = lerp3(a0, a1, s)
+    pb = lerp3(b0, b1, t)
+    for m in range(3):
+        normal[m] = n[m]
+        point[0, m] = 0.5 * (pa[m] + pb[m])
+    separation[0] = sep
+    feature[0] = FEATURE_EDGE + 16 * (4 * i + code_a) + 4 * j + code_b
+    return 1
