@@ -152,6 +152,16 @@ def check_address(host: str, port: int):
         raise InputError(f"cannot bind to host {host!r} ({exc.strerror or exc})", "host") from None
 
 
+def quaternion_matrix(q) -> np.ndarray:
+    """R (body to world) of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
 def _fmt(v) -> str:
     return " | ".join(f"{float(c):+.4g}" for c in v)
 
@@ -322,7 +332,9 @@ class Viewer:
             self.body_nodes.append(node)
             mesh_node = None
             if is_plane[i]:
-                self.plane_nodes.append(self._add_plane(i, shape, com_offset[i]))
+                plane = self._add_plane(i, shape, com_offset[i])
+                if plane is not None:
+                    self.plane_nodes.append(plane)
             else:
                 geometry = body_mesh(shape, com_offset[i]) if shape is not None else None
                 if geometry is None and shape is not None and type(shape).__name__ == "Particles":
@@ -373,16 +385,22 @@ class Viewer:
         direction = np.array([1.0, -1.6, 0.9])
         direction /= np.linalg.norm(direction)
         self.server.initial_camera.look_at = tuple(self.center)
-        self.server.initial_camera.position = tuple(self.center + direction * (1.3 * self.extent + 1.0))
+        self.server.initial_camera.position = tuple(self.center + direction * (0.9 * self.extent + 0.5))
         self.server.initial_camera.up = (0.0, 0.0, 1.0)
 
         self.contact_points_node = None
         self.contact_forces_node = None
 
     def _add_plane(self, i, shape, com_offset):
-        """A fixed plane body: a translucent grid in the plane, centred on the foot of the origin."""
+        """A plane body: a translucent grid in the plane, centred on the foot of the shape origin.
+
+        A plane that is the ground z = 0 (normal +z) is left to the ground grid (None).
+        """
         n = np.asarray(shape.normal, float)
         foot = n * float(shape.offset) - np.asarray(com_offset, float)
+        R = quaternion_matrix(self.orientation[0, i])
+        if (R @ n)[2] > 1 - 1e-9 and abs((self.position[0, i] + R @ foot)[2]) < 1e-9:
+            return None
         zhat = np.array([0.0, 0.0, 1.0])
         axis = np.cross(zhat, n)
         s, c = np.linalg.norm(axis), float(zhat @ n)
