@@ -98,7 +98,8 @@ def load_checkpoint(cls, path, custom_forces=None):
     if not path.is_file():
         raise InputError("checkpoint file not found", None, file)
     try:
-        with np.load(path, allow_pickle=False) as data:
+        # our own handle: np.load leaks its own when the zip is damaged
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE}
     except Exception as exc:  # damaged or foreign file: one line

@@ -99,13 +99,19 @@ def load_trajectory(path) -> Trajectory:
     if not path.is_file():
         raise InputError("trajectory file not found", None, str(path))
     try:
-        with np.load(path, allow_pickle=False) as data:
+        # our own handle: np.load leaks its own when the zip is damaged
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             values = {f.name: data[f.name] for f in fields(Trajectory) if f.name in data.files}
     except Exception as exc:  # a damaged or foreign file: one clear line
         raise InputError(f"not a readable trajectory file ({type(exc).__name__}: {exc})", None, str(path)) from None
     missing = [f.name for f in fields(Trajectory) if f.name not in values and f.name not in Trajectory.OPTIONAL]
     if missing:
         raise InputError(f"not a trajectory file: missing {', '.join(missing)}", None, str(path))
+    frames, bodies = len(np.atleast_1d(values["time"])), len(np.atleast_1d(values["names"]))
+    for key, shape in frame_shapes(bodies).items():
+        a = values[key]
+        if a.shape != (frames,) + shape or a.dtype.kind != "f":
+            raise InputError(f"not a trajectory file: {key} has shape {a.shape} ({a.dtype}), expected {(frames,) + shape} numbers", None, str(path))
     return Trajectory(**values)
 
 
