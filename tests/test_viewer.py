@@ -39,8 +39,8 @@ from tumble.trajectory import Trajectory
 
 viser = pytest.importorskip("viser")
 
-from tumble.viewer import load_input, view  # noqa: E402
-from tumble.viewer.meshes import body_mesh, shape_mesh  # noqa: E402
+from tumble.viewer import load_input, view
+from tumble.viewer.meshes import body_mesh, shape_mesh
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = [
@@ -151,7 +151,7 @@ def box_pixels(img: np.ndarray) -> np.ndarray:
 
 
 def count_near(mask: np.ndarray, uv, radius: int) -> int:
-    u, v = int(round(uv[0])), int(round(uv[1]))
+    u, v = round(float(uv[0])), round(float(uv[1]))
     h, w = mask.shape
     return int(mask[max(v - radius, 0):min(v + radius, h), max(u - radius, 0):min(u + radius, w)].sum())
 
@@ -340,7 +340,7 @@ def test_contacts_are_drawn_when_the_trajectory_has_them(tmp_path):
         arrays = dict(data)
     np.savez(path, **arrays, contact_point=points, contact_force=forces)
 
-    loaded, extras = load_input(path)
+    _, extras = load_input(path)
     assert set(extras) == {"contact_point", "contact_force"}
     v = view(path, port=0, play=False)
     try:
@@ -360,7 +360,7 @@ def test_meshes_keep_the_users_placement():
     mesh = shape_mesh(cone)
     assert mesh.is_watertight
     np.testing.assert_allclose(mesh.bounds, [[-0.3, -0.3, 0.0], [0.3, 0.3, 0.5]], atol=1e-12)
-    vertices, faces = body_mesh(cone, [0.0, 0.0, 0.125])
+    vertices, _ = body_mesh(cone, [0.0, 0.0, 0.125])
     np.testing.assert_allclose(vertices.min(axis=0)[2], -0.125)  # the base, seen from the centre of mass
     assert shape_mesh(Plane()) is None
     np.testing.assert_allclose(shape_mesh(Box((1, 2, 3))).extents, [1, 2, 3])
@@ -397,10 +397,14 @@ def test_cli_serves_a_trajectory_until_ctrl_c(tmp_path):
     make_trajectory(6).save(path)
     port = free_port()
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")]))
+    # Ctrl-C is SIGINT; a shell's background job inherits SIGINT ignored, so the child sets Python's handler itself.
+    start = (
+        "import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+        "from tumble.cli import main; sys.exit(main(sys.argv[1:]))"
+    )
     proc = subprocess.Popen(
-        [sys.executable, "-m", "tumble.cli", "view", str(path), "--port", str(port), "--no-browser"],
+        [sys.executable, "-c", start, "view", str(path), "--port", str(port), "--no-browser"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a background job may ignore SIGINT
     )
     killer = threading.Timer(60.0, proc.kill)  # never hang the suite
     killer.start()

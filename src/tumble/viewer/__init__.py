@@ -6,4 +6,4 @@ package does not import viser, ``view()`` does.
 
 from .app import Viewer, load_input, view
 
-__all__ = ["view", "Viewer", "load_input"]
+__all__ = ["Viewer", "load_input", "view"]

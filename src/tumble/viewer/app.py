@@ -81,7 +81,7 @@ def load_input(path, progress: bool | None = None) -> tuple[Trajectory, dict]:
         try:
             with np.load(path, allow_pickle=False) as data:
                 extras = {k: np.asarray(data[k]) for k in CONTACT_KEYS if k in data.files}
-        except Exception:  # already read once by load_trajectory; extras are optional
+        except (OSError, ValueError, KeyError):  # already read once by load_trajectory; extras are optional
             extras = {}
         return traj, extras
     from ..scene import load_scene
@@ -91,7 +91,7 @@ def load_input(path, progress: bool | None = None) -> tuple[Trajectory, dict]:
 
 
 def view(traj_or_scene_path, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = False,
-         *, play: bool = True, progress: bool | None = None) -> "Viewer":
+         *, play: bool = True, progress: bool | None = None) -> Viewer:
     """Start the viewer on a ``Trajectory`` or a file (trajectory ``.npz``, scene ``.toml``/``.json``).
 
     Non-blocking: the server runs in background threads. Returns the ``Viewer``
@@ -115,7 +115,7 @@ def view(traj_or_scene_path, host: str = "127.0.0.1", port: int = 8080, open_bro
     if open_browser:
         try:
             webbrowser.open(viewer.url)
-        except Exception:  # no browser here: the URL is still printed by the CLI
+        except (webbrowser.Error, OSError):  # no browser here: the URL is still there to copy
             pass
     return viewer
 
@@ -345,8 +345,8 @@ class Viewer:
                     radii[i] = float(np.max(np.linalg.norm(pts, axis=1)))
                 else:
                     if geometry is None:  # no shape recorded (old file): a small ball
-                        from .meshes import shape_mesh
                         from ..shapes import Sphere
+                        from .meshes import shape_mesh
 
                         m = shape_mesh(Sphere(0.05))
                         geometry = (np.asarray(m.vertices), np.asarray(m.faces))

@@ -10,6 +10,7 @@ Bad input (missing file, unknown suffix, bad scene or trajectory) raises
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import signal
 import sys
 import threading
@@ -42,9 +43,7 @@ def cmd_view(args, wait=None) -> int:
     """Run the viewer until Ctrl-C. ``wait`` (tests) replaces the blocking wait."""
     from .app import Viewer, check_address, load_input
 
-    try:
-        import viser  # noqa: F401
-    except ImportError:
+    if importlib.util.find_spec("viser") is None:
         raise InputError("needs viser: pip install 'tumble[viewer]'", None, "tumble view") from None
     try:
         check_address(args.host, args.port)
@@ -56,11 +55,11 @@ def cmd_view(args, wait=None) -> int:
         print(f"tumble view: {args.target}: {len(traj.names)} bodies, {len(traj.time)} frames at {viewer.url} "
               "(Ctrl-C to stop)", flush=True)
         if not args.no_browser:
-            try:
-                import webbrowser
+            import webbrowser
 
+            try:
                 webbrowser.open(viewer.url)
-            except Exception:
+            except (webbrowser.Error, OSError):  # no browser here: the URL is printed above
                 pass
         try:
             with _terminate_as_interrupt():

@@ -82,4 +82,4 @@ def body_mesh(shape, com_offset) -> tuple[np.ndarray, np.ndarray] | None:
     return vertices, np.asarray(mesh.faces, dtype=np.int64)
 
 
-__all__ = ["shape_mesh", "body_mesh", "particle_spheres", "particle_radius"]
+__all__ = ["body_mesh", "particle_radius", "particle_spheres", "shape_mesh"]
