@@ -23,21 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Tessellation: fine enough to look round at a metre's distance, small enough for thousands of bodies
-# (geometry is shared between bodies whose shape and centre-of-mass offset are the same).
-SPHERE_SUBDIVISIONS = 3         # icosphere: 642 vertices
-SECTIONS = 48                   # around cylinders, capsules and cones
-PARTICLE_SUBDIVISIONS = 2       # icosphere per particle: 162 vertices (1 when there are many points)
-SHARP_ANGLE_DEG = 30.0          # faces meeting at more than this get separate vertex normals
-PLANE_MIN_SIZE = 20.0           # m, side of the quad drawn for a plane (more if the bodies travel further)
-MARKER_RADIUS = 0.05            # m, sphere drawn for a body whose shape is unknown (trajectories without shapes)
-
-# Tableau 10 without its grey (sRGB): distinct, pleasant, and readable on white and black.
-PALETTE = (
-    "#4E79A7", "#F28E2B", "#E15759", "#76B7B2", "#59A14F",
-    "#EDC948", "#B07AA1", "#FF9DA7", "#9C755F",
-)
-FIXED_COLOR = "#9A9A9A"
+from .. import visual
+from ..visual import MARKER_RADIUS, PLANE_MIN_SIZE, SHARP_ANGLE_DEG, shape_dict, shape_trimesh  # noqa: F401 (re-exported)
 
 
 @dataclass
@@ -57,14 +44,9 @@ class VisualMesh:
     double_sided: bool = False
 
 
-def hex_to_rgb(text: str) -> tuple[float, float, float]:
-    text = text.lstrip("#")
-    return tuple(int(text[k:k + 2], 16) / 255.0 for k in (0, 2, 4))
-
-
 def body_color(index: int, fixed: bool = False) -> tuple[float, float, float]:
-    """sRGB colour (0..1) of body ``index``: the palette in turn, grey when fixed."""
-    return hex_to_rgb(FIXED_COLOR if fixed else PALETTE[index % len(PALETTE)])
+    """sRGB colour (0..1) of body ``index`` (``tumble.visual.body_color``)."""
+    return tuple(c / 255.0 for c in visual.body_color(index, fixed))
 
 
 def srgb_to_linear(rgb) -> tuple[float, float, float]:
@@ -72,86 +54,6 @@ def srgb_to_linear(rgb) -> tuple[float, float, float]:
     c = np.asarray(rgb, dtype=float)
     lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
     return tuple(float(v) for v in lin)
-
-
-def shape_dict(shape) -> dict | None:
-    """A shape as its ``shapes.shape_to_dict`` mapping (accepts a record, a mapping, JSON text or None)."""
-    if shape is None or isinstance(shape, dict):
-        return shape
-    if isinstance(shape, (str, np.str_)):
-        return json.loads(str(shape))
-    from ..shapes import shape_to_dict
-
-    return shape_to_dict(shape)
-
-
-def shape_trimesh(shape, plane_size: float = PLANE_MIN_SIZE):
-    """A ``trimesh.Trimesh`` of ``shape`` in its own frame (metres).
-
-    ``shape`` is a record of ``tumble.shapes``, its ``shape_to_dict`` mapping, or
-    None (a small marker sphere). A plane becomes a square of side
-    ``plane_size`` centred at the plane's point nearest the origin.
-    """
-    import trimesh
-    import trimesh.creation as create
-
-    d = shape_dict(shape)
-    if d is None:
-        return create.icosphere(subdivisions=2, radius=MARKER_RADIUS)
-    kind = d["type"]
-    if kind == "sphere":
-        return create.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=float(d["radius"]))
-    if kind == "box":
-        return create.box(extents=np.asarray(d["size"], dtype=float))
-    if kind == "cylinder":
-        return create.cylinder(radius=float(d["radius"]), height=float(d["length"]), sections=SECTIONS)
-    if kind == "capsule":  # trimesh's height is the distance between the hemisphere centres, as ours
-        return create.capsule(height=float(d["length"]), radius=float(d["radius"]), count=[SECTIONS, SECTIONS // 2])
-    if kind == "cone":  # base disc on z = 0 centred on the origin, apex at z = height: as tumble.shapes.Cone
-        return create.cone(radius=float(d["radius"]), height=float(d["height"]), sections=SECTIONS)
-    if kind in ("mesh", "convex"):
-        return trimesh.Trimesh(np.asarray(d["vertices"], dtype=float), np.asarray(d["faces"], dtype=np.int64), process=False)
-    if kind == "particles":
-        return _particle_cloud(np.asarray(d["points"], dtype=float), np.asarray(d["masses"], dtype=float))
-    if kind == "plane":
-        return _plane_quad(np.asarray(d.get("normal", (0, 0, 1)), dtype=float), float(d.get("offset", 0.0)), plane_size)
-    raise ValueError(f"unknown shape type {kind!r}")
-
-
-def _particle_cloud(points: np.ndarray, masses: np.ndarray):
-    """One small sphere per point mass, volume proportional to its mass; the heaviest is
-    0.35 x the smallest distance between two points across (so no two spheres touch)."""
-    import trimesh
-    import trimesh.creation as create
-
-    if len(points) > 1:
-        from scipy.spatial import cKDTree
-
-        nearest = float(cKDTree(points).query(points, k=2)[0][:, 1].min())  # smallest distance between two points
-        extent = float(np.ptp(points, axis=0).max())
-        r_max = 0.35 * nearest if nearest > 0 else 0.02 * max(extent, 1.0)
-    else:
-        r_max = MARKER_RADIUS
-    radii = r_max * np.cbrt(masses / masses.max())
-    unit = create.icosphere(subdivisions=PARTICLE_SUBDIVISIONS if len(points) <= 500 else 1, radius=1.0)
-    nv = len(unit.vertices)
-    vertices = (unit.vertices[None, :, :] * radii[:, None, None] + points[:, None, :]).reshape(-1, 3)
-    faces = (unit.faces[None, :, :] + nv * np.arange(len(points))[:, None, None]).reshape(-1, 3)
-    return trimesh.Trimesh(vertices, faces, process=False)
-
-
-def _plane_quad(normal: np.ndarray, offset: float, size: float):
-    import trimesh
-
-    n = normal / np.linalg.norm(normal)
-    centre = n * offset  # the point of {n . p = offset} nearest the origin
-    helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(helper, n)
-    u /= np.linalg.norm(u)
-    v = np.cross(n, u)  # u x v = n: the quad faces along the normal
-    h = 0.5 * size
-    corners = np.array([centre - h * u - h * v, centre + h * u - h * v, centre + h * u + h * v, centre - h * u + h * v])
-    return trimesh.Trimesh(corners, np.array([[0, 1, 2], [0, 2, 3]]), process=False)
 
 
 def visual_mesh(mesh, offset=(0.0, 0.0, 0.0), double_sided: bool = False) -> VisualMesh:

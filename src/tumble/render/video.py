@@ -29,17 +29,15 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from .. import visual
 from ..shapes import Plane
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 MAX_SIZE = 8192  # pixels along either side; VTK's off-screen buffers stop well above, memory does not
 
-# Bright, distinguishable body colours (RGB 0-255), in body order; fixed bodies are grey.
-PALETTE = np.array([
-    (232, 84, 63), (59, 125, 216), (242, 177, 52), (76, 175, 80),
-    (142, 92, 196), (25, 181, 181), (236, 127, 181), (140, 109, 79),
-], dtype=np.uint8)
-FIXED_COLOR = (154, 154, 154)
+# Body colours (RGB 0-255) shared with export and the viewer; fixed bodies are grey.
+PALETTE = np.array(visual.PALETTE, dtype=np.uint8)
+FIXED_COLOR = visual.FIXED_COLOR
 GROUND_COLOR, GRID_COLOR = (222, 219, 212), (150, 148, 142)
 SKY_TOP, SKY_BOTTOM = (176, 196, 222), (245, 246, 248)
 VIEW_DIRECTION = np.array([0.45, -1.0, 0.5]) / np.linalg.norm([0.45, -1.0, 0.5])  # from the scene towards the camera
@@ -105,36 +103,11 @@ def camera_at(traj, frame_index: int, width: int = 1280, height: int = 720, came
 
 
 def visual_mesh(shape):
-    """A ``trimesh.Trimesh`` drawing ``shape`` in its own frame; None for a plane (drawn as ground).
-
-    Bodies without a shape record (old trajectory files) get a 5 cm marker ball.
-    """
-    import trimesh
-    from trimesh import creation
-
-    kind = type(shape).__name__
-    if shape is None:
-        return creation.icosphere(2, radius=0.05)
-    if kind == "Plane":
+    """A ``trimesh.Trimesh`` drawing ``shape`` in its own frame (``tumble.visual``); None for a
+    plane (drawn as ground). Bodies without a shape record (old trajectory files) get a marker ball."""
+    if isinstance(shape, Plane):
         return None
-    if kind == "Sphere":
-        return creation.icosphere(2, radius=shape.radius)
-    if kind == "Box":
-        return creation.box(extents=shape.size)
-    if kind == "Cylinder":
-        return creation.cylinder(radius=shape.radius, height=shape.length, sections=48)
-    if kind == "Capsule":
-        return creation.capsule(height=shape.length, radius=shape.radius, count=[24, 24])
-    if kind == "Cone":
-        return creation.cone(radius=shape.radius, height=shape.height, sections=48)
-    if kind in ("Mesh", "Convex"):
-        return trimesh.Trimesh(shape.vertices, shape.faces, process=False)
-    if kind == "Particles":  # one ball per point mass, sized to the spacing of the points
-        pts = shape.points
-        size = float(np.ptp(pts, axis=0).max()) if len(pts) > 1 else 0.2
-        r = max(0.3 * size / max(len(pts), 1) ** (1 / 3), 1e-3)
-        return trimesh.util.concatenate([creation.icosphere(1, radius=r).apply_translation(p) for p in pts])
-    raise InputError(f"cannot draw a shape of type {kind}", "shapes")
+    return visual.shape_trimesh(shape)
 
 
 def _shaded(mesh):

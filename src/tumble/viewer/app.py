@@ -44,16 +44,14 @@ import numpy as np
 
 from ..errors import InputError
 from ..trajectory import Trajectory, load_trajectory
-from .meshes import body_mesh, particle_radius
+from .. import visual
+from .meshes import body_mesh
 
 CONTACT_KEYS = ("contact_point", "contact_force", "contact_count")
 SCENE_SUFFIXES = (".toml", ".json")
 TRAJECTORY_SUFFIXES = (".npz",)
 
-PALETTE = (
-    (66, 135, 245), (245, 130, 48), (60, 180, 75), (230, 25, 75), (145, 30, 180),
-    (70, 200, 200), (240, 50, 230), (170, 110, 40), (128, 128, 0), (0, 0, 128),
-)
+PALETTE = visual.PALETTE  # body colours shared with export and video
 SELECTED_COLOR = (255, 215, 0)
 PLANE_COLOR = (120, 120, 120)
 CONTACT_POINT_COLOR = (255, 40, 40)
@@ -337,26 +335,16 @@ class Viewer:
                     self.plane_nodes.append(plane)
             else:
                 geometry = body_mesh(shape, com_offset[i]) if shape is not None else None
-                if geometry is None and shape is not None and type(shape).__name__ == "Particles":
-                    pts = np.asarray(shape.points, float) - com_offset[i]
-                    r = particle_radius(shape.points)
-                    scene.add_point_cloud(f"/bodies/b{i}/points", pts, self.colors[i], point_size=2 * r,
-                                          point_shape="circle")
-                    radii[i] = float(np.max(np.linalg.norm(pts, axis=1)))
-                else:
-                    if geometry is None:  # no shape recorded (old file): a small ball
-                        from ..shapes import Sphere
-                        from .meshes import shape_mesh
-
-                        m = shape_mesh(Sphere(0.05))
-                        geometry = (np.asarray(m.vertices), np.asarray(m.faces))
-                    vertices, faces = geometry
-                    color = tuple(int(0.6 * c + 0.4 * 160) for c in self.colors[i]) if fixed[i] else self.colors[i]
-                    self.colors[i] = color
-                    mesh_node = scene.add_mesh_simple(f"/bodies/b{i}/mesh", vertices, faces, color=color,
-                                                      flat_shading=len(faces) <= 24)
-                    mesh_node.on_click(lambda event, i=i: self.select(i))
-                    radii[i] = float(np.max(np.linalg.norm(vertices, axis=1)))
+                if geometry is None:  # no shape recorded (old file): a marker ball
+                    m = visual.shape_trimesh(None)
+                    geometry = (np.asarray(m.vertices), np.asarray(m.faces))
+                vertices, faces = geometry
+                color = tuple(int(0.6 * c + 0.4 * 160) for c in self.colors[i]) if fixed[i] else self.colors[i]
+                self.colors[i] = color
+                mesh_node = scene.add_mesh_simple(f"/bodies/b{i}/mesh", vertices, faces, color=color,
+                                                  flat_shading=len(faces) <= 24)
+                mesh_node.on_click(lambda event, i=i: self.select(i))
+                radii[i] = float(np.max(np.linalg.norm(vertices, axis=1)))
             self.mesh_nodes.append(mesh_node)
             length = max(1.4 * radii[i], 0.1) if radii[i] > 0 else 0.3
             self.axes_nodes.append(scene.add_frame(f"/bodies/b{i}/axes", show_axes=True, axes_length=length,
