@@ -37,7 +37,7 @@ EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 2, 
 # Subcommands that live with their feature (export, render, plot, view): each
 # module has ``add_commands(subparsers) -> {name: handler}``, a handler takes the
 # parsed args and returns the exit status, and raises InputError on bad input.
-COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.viewer.commands")
+COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.viewer.commands", "tumble.sweep.commands")
 OUTPUT_NAMES = ("trajectory.npz", "summary.json", "checkpoint.npz")
 
 
