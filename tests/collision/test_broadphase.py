@@ -1,0 +1,63 @@
+"""find_pairs against a brute-force O(N^2) overlap test."""
+
+import numpy as np
+import pytest
+
+from tumble.collision import PairBuffer, find_pairs
+from tumble.shapes import SHAPE_BOX, SHAPE_PLANE
+
+
+def random_aabbs(rng, n, spread=None, size=(0.05, 0.6)):
+    spread = spread or n ** (1 / 3)
+    c = rng.uniform(0, spread, (n, 3)) * np.array([3.0, 1.0, 0.5])  # anisotropic: the sweep axis matters
+    e = rng.uniform(*size, (n, 3))
+    return np.stack([c - e, c + e], axis=1)
+
+
+def brute_force(aabb, shape_body, moving):
+    lo, hi = aabb[:, 0], aabb[:, 1]
+    ov = np.all((lo[:, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[:, None, :]), axis=2)
+    a, b = np.nonzero(np.triu(ov, 1))
+    keep = (shape_body[a] != shape_body[b]) & (moving[shape_body[a]] | moving[shape_body[b]])
+    return set(zip(a[keep].tolist(), b[keep].tolist()))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_same_pairs_as_brute_force(seed):
+    rng = np.random.default_rng(seed)
+    n = 1500
+    aabb = random_aabbs(rng, n)
+    types = np.full(n, SHAPE_BOX, dtype=np.int64)
+    body = np.arange(n, dtype=np.int64)
+    body[rng.choice(n, 100, replace=False)] = rng.integers(0, n, 100)  # some compounds
+    moving = rng.random(n) < 0.7
+    a, b = find_pairs(aabb, types, body, moving, PairBuffer(4))  # tiny buffer: exercises growth
+    got = list(zip(a.tolist(), b.tolist()))
+    assert len(got) == len(set(got))
+    assert set(got) == brute_force(aabb, body, moving)
+    assert len(got) > 500
+    assert np.all(a < b)
+    keys = a * n + b
+    assert np.all(np.diff(keys) > 0)  # sorted by (a, b)
+
+
+def test_planes_and_touching_boxes():
+    aabb = np.array([[[0, 0, 0], [1, 1, 1]], [[1, 0, 0], [2, 1, 1]], [[-np.inf] * 3, [np.inf] * 3],
+                     [[5, 5, 5], [6, 6, 6]]], dtype=float)
+    types = np.array([SHAPE_BOX, SHAPE_BOX, SHAPE_PLANE, SHAPE_BOX])
+    a, b = find_pairs(aabb, types, np.arange(4), np.ones(4, bool))
+    assert list(zip(a, b)) == [(0, 1)]  # touching boxes pair; the plane is left to the narrowphase
+
+
+def test_deterministic_and_fixed_fixed_skipped():
+    rng = np.random.default_rng(7)
+    aabb = random_aabbs(rng, 500)
+    types = np.full(500, SHAPE_BOX)
+    moving = np.zeros(500, bool)
+    a, b = find_pairs(aabb, types, np.arange(500), moving)
+    assert len(a) == 0
+    moving[:250] = True
+    r1 = [x.copy() for x in find_pairs(aabb, types, np.arange(500), moving)]
+    r2 = find_pairs(aabb, types, np.arange(500), moving)
+    np.testing.assert_array_equal(r1[0], r2[0])
+    np.testing.assert_array_equal(r1[1], r2[1])
