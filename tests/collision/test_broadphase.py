@@ -61,3 +61,24 @@ def test_deterministic_and_fixed_fixed_skipped():
     r2 = find_pairs(aabb, types, np.arange(500), moving)
     np.testing.assert_array_equal(r1[0], r2[0])
     np.testing.assert_array_equal(r1[1], r2[1])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_big_shapes_and_mixed_sizes(seed):
+    # a ground slab and long walls (handled outside the grid) among boxes of very different sizes
+    rng = np.random.default_rng(100 + seed)
+    n = 1200
+    aabb = random_aabbs(rng, n, size=(0.01, 0.3))
+    aabb[:50] = random_aabbs(rng, 50, size=(0.5, 2.0))
+    aabb[50] = [[-100, -100, -1], [100, 100, 0.2]]
+    aabb[51] = [[-1, -0.1, -1], [30, 0.1, 10]]
+    aabb[52] = [[5, 5, 5], [5, 5, 5]]  # a point
+    types = np.full(n, SHAPE_BOX, dtype=np.int64)
+    body = np.arange(n, dtype=np.int64)
+    moving = np.ones(n, bool)
+    moving[50] = False
+    a, b = find_pairs(aabb, types, body, moving)
+    got = list(zip(a.tolist(), b.tolist()))
+    assert len(got) == len(set(got))
+    assert set(got) == brute_force(aabb, body, moving)
+    assert any(p[0] == 50 for p in got) and any(51 in p for p in got)

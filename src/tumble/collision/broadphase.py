@@ -1,6 +1,7 @@
 """Stage ``find_pairs``: sort-and-sweep broadphase over shape AABBs.
 
-Reads ``shape_aabb`` (S, 2, 3), ``shape_type``, ``shape_body`` and ``body_moving``;
+Sort-and-sweep within the columns of a 2-D grid. Reads ``shape_aabb`` (S, 2, 3),
+``shape_type``, ``shape_body`` and ``body_moving``;
 writes the pair arrays ``pair_a``, ``pair_b`` (P,) int64 with a < b, sorted by
 (a, b). Planes (unbounded) are left out: the narrowphase tests each plane against
 every moving shape directly.
@@ -15,18 +16,55 @@ from ..math3d import JIT
 from ..shapes import SHAPE_PLANE
 
 
+# Shapes whose AABB spans more than this many grid cells along either grid axis (a
+# ground box, a long wall) skip the grid and are tested against every shape directly.
+BIG_CELLS = 8
+
+
+@njit(**JIT)
+def _cell(v, origin, size, n):
+    c = int((v - origin) / size)
+    return 0 if c < 0 else (n - 1 if c >= n else c)
+
+
+@njit(**JIT)
+def _emit(a, b, pair_a, pair_b, count):
+    if count < pair_a.shape[0]:
+        if a < b:
+            pair_a[count] = a
+            pair_b[count] = b
+        else:
+            pair_a[count] = b
+            pair_b[count] = a
+    return count + 1
+
+
+@njit(**JIT)
+def _overlap(aabb, a, b):
+    for i in range(3):
+        if aabb[a, 1, i] < aabb[b, 0, i] or aabb[b, 1, i] < aabb[a, 0, i]:
+            return False
+    return True
+
+
 @njit(**JIT)
 def _find_pairs_kernel(aabb, shape_type, shape_body, body_moving,
                        # outputs
                        pair_a, pair_b):
-    """Sort-and-sweep ("sweep and prune": Cohen, Lin, Manocha, Ponamgi 1995, I-COLLIDE §4; Bullet btAxisSweep3).
+    """Sort-and-sweep in the columns of a 2-D grid ("sweep and prune": Cohen, Lin, Manocha,
+    Ponamgi 1995, I-COLLIDE §4; the column split is Tracy, Buss, Woods 2009, "Efficient
+    Large-Scale Sweep and Prune Methods with AABB Insertion and Removal", §3).
 
-    Returns the number of pairs found. Pairs are written only while they fit;
-    when the count exceeds ``len(pair_a)`` the caller grows the buffers and calls
-    again. Cost: O(S log S) for the sort plus O(S + P + overlaps along the axis).
+    A single sweep along one axis tests every pair whose intervals overlap on that axis:
+    for shapes spread through a volume that is O(N^(5/3)) (measured: 0.56 s for 100 000
+    boxes). Splitting the two other axes into columns about two shapes wide keeps each
+    sweep short: O(N log N) for the one sort plus O(N + pairs). A pair is reported only
+    by the column holding the lower corner of the two boxes' overlap, so exactly once.
+
+    Returns the number of pairs found. Pairs are written only while they fit; when the
+    count exceeds ``len(pair_a)`` the caller grows the buffers and calls again.
     """
     S = shape_type.shape[0]
-    # candidates: every bounded shape (planes and other unbounded shapes are skipped)
     idx = np.empty(S, dtype=np.int64)
     n = 0
     for s in range(S):
@@ -35,20 +73,17 @@ def _find_pairs_kernel(aabb, shape_type, shape_body, body_moving,
             n += 1
     if n < 2:
         return 0
-    # sweep axis: the one along which the AABB centres spread most (largest variance),
-    # so that the fewest intervals overlap along it
+    # sweep axis: where the AABB centres spread most (largest variance); the grid spans the other two
     mean = np.zeros(3)
+    width = np.zeros(3)
     for k in range(n):
-        s = idx[k]
         for i in range(3):
-            mean[i] += 0.5 * (aabb[s, 0, i] + aabb[s, 1, i])
-    for i in range(3):
-        mean[i] /= n
+            mean[i] += 0.5 * (aabb[idx[k], 0, i] + aabb[idx[k], 1, i])
+            width[i] += aabb[idx[k], 1, i] - aabb[idx[k], 0, i]
     var = np.zeros(3)
     for k in range(n):
-        s = idx[k]
         for i in range(3):
-            d = 0.5 * (aabb[s, 0, i] + aabb[s, 1, i]) - mean[i]
+            d = 0.5 * (aabb[idx[k], 0, i] + aabb[idx[k], 1, i]) - mean[i] / n
             var[i] += d * d
     axis = 0
     if var[1] > var[axis]:
@@ -57,60 +92,112 @@ def _find_pairs_kernel(aabb, shape_type, shape_body, body_moving,
         axis = 2
     ax1 = (axis + 1) % 3
     ax2 = (axis + 2) % 3
+    # grid: cells twice the mean AABB width, at most about 4 n cells
+    lo1, hi1, lo2, hi2 = np.inf, -np.inf, np.inf, -np.inf
+    for k in range(n):
+        s = idx[k]
+        lo1 = min(lo1, aabb[s, 0, ax1])
+        hi1 = max(hi1, aabb[s, 1, ax1])
+        lo2 = min(lo2, aabb[s, 0, ax2])
+        hi2 = max(hi2, aabb[s, 1, ax2])
+    size = max(width[ax1] + width[ax2], 1e-300) / n
+    size = max(size, 1e-9 * max(hi1 - lo1, hi2 - lo2, 1.0))
+    n1 = max(1, min(int((hi1 - lo1) / size) + 1, 1 << 20))
+    n2 = max(1, min(int((hi2 - lo2) / size) + 1, 1 << 20))
+    while n1 * n2 > 4 * n + 16:
+        size *= 1.5
+        n1 = int((hi1 - lo1) / size) + 1
+        n2 = int((hi2 - lo2) / size) + 1
+    # one stable sort by the lower bound along the sweep axis (ties keep shape order)
+    # PERF: shapes move little between steps; an insertion sort of last step's order
+    # would make this O(n) for coherent scenes.
     keys = np.empty(n)
     for k in range(n):
         keys[k] = aabb[idx[k], 0, axis]
-    # mergesort is stable: equal keys keep shape order, so the sweep is deterministic.
-    # PERF: shapes move little between steps; an insertion sort of last step's order
-    # would be O(S) for coherent scenes.
     order = np.argsort(keys, kind="mergesort")
-    # the sorted boxes, contiguous, so that the inner loop walks memory in order
-    box = np.empty((n, 6))
-    sid = np.empty(n, dtype=np.int64)
+    # bucket the shapes into columns in that order (a counting sort), so that each
+    # column's list is already sorted along the sweep axis; big shapes are kept apart
+    cells = n1 * n2
+    start = np.zeros(cells + 1, dtype=np.int64)
+    big = np.zeros(S, dtype=np.bool_)
+    big_list = np.empty(n, dtype=np.int64)
+    n_big = 0
     for k in range(n):
         s = idx[order[k]]
-        sid[k] = s
-        box[k, 0] = aabb[s, 0, axis]
-        box[k, 1] = aabb[s, 1, axis]
-        box[k, 2] = aabb[s, 0, ax1]
-        box[k, 3] = aabb[s, 1, ax1]
-        box[k, 4] = aabb[s, 0, ax2]
-        box[k, 5] = aabb[s, 1, ax2]
-    cap = pair_a.shape[0]
-    count = 0
+        c1a = _cell(aabb[s, 0, ax1], lo1, size, n1)
+        c1b = _cell(aabb[s, 1, ax1], lo1, size, n1)
+        c2a = _cell(aabb[s, 0, ax2], lo2, size, n2)
+        c2b = _cell(aabb[s, 1, ax2], lo2, size, n2)
+        if c1b - c1a >= BIG_CELLS or c2b - c2a >= BIG_CELLS:
+            big[s] = True
+            big_list[n_big] = s
+            n_big += 1
+            continue
+        for c1 in range(c1a, c1b + 1):
+            for c2 in range(c2a, c2b + 1):
+                start[c1 * n2 + c2 + 1] += 1
+    for c in range(cells):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    column = np.empty(start[cells], dtype=np.int64)
     for k in range(n):
-        hi = box[k, 1]
-        a = sid[k]
-        body_a = shape_body[a]
-        moving_a = body_moving[body_a]
-        for m in range(k + 1, n):
-            if box[m, 0] > hi:
-                break
-            if box[m, 3] < box[k, 2] or box[m, 2] > box[k, 3] or box[m, 5] < box[k, 4] or box[m, 4] > box[k, 5]:
+        s = idx[order[k]]
+        if big[s]:
+            continue
+        c1a = _cell(aabb[s, 0, ax1], lo1, size, n1)
+        c1b = _cell(aabb[s, 1, ax1], lo1, size, n1)
+        c2a = _cell(aabb[s, 0, ax2], lo2, size, n2)
+        c2b = _cell(aabb[s, 1, ax2], lo2, size, n2)
+        for c1 in range(c1a, c1b + 1):
+            for c2 in range(c2a, c2b + 1):
+                c = c1 * n2 + c2
+                column[fill[c]] = s
+                fill[c] += 1
+    count = 0
+    for c in range(cells):
+        c1 = c // n2
+        c2 = c % n2
+        for k in range(start[c], start[c + 1]):
+            a = column[k]
+            hi = aabb[a, 1, axis]
+            body_a = shape_body[a]
+            moving_a = body_moving[body_a]
+            for m in range(k + 1, start[c + 1]):
+                b = column[m]
+                if aabb[b, 0, axis] > hi:
+                    break
+                if aabb[b, 1, ax1] < aabb[a, 0, ax1] or aabb[b, 0, ax1] > aabb[a, 1, ax1] \
+                        or aabb[b, 1, ax2] < aabb[a, 0, ax2] or aabb[b, 0, ax2] > aabb[a, 1, ax2]:
+                    continue
+                body_b = shape_body[b]
+                if body_b == body_a or not (moving_a or body_moving[body_b]):
+                    continue
+                # report in one column only: the one holding the overlap's lower corner
+                if _cell(max(aabb[a, 0, ax1], aabb[b, 0, ax1]), lo1, size, n1) != c1 \
+                        or _cell(max(aabb[a, 0, ax2], aabb[b, 0, ax2]), lo2, size, n2) != c2:
+                    continue
+                count = _emit(a, b, pair_a, pair_b, count)
+    # big shapes against every shape (big pairs once: from the lower index)
+    for k in range(n_big):
+        a = big_list[k]
+        for m in range(n):
+            b = idx[m]
+            if b == a or (big[b] and b < a):
                 continue
-            b = sid[m]
-            body_b = shape_body[b]
-            if body_b == body_a or not (moving_a or body_moving[body_b]):
+            if shape_body[a] == shape_body[b] or not (body_moving[shape_body[a]] or body_moving[shape_body[b]]):
                 continue
-            if count < cap:
-                if a < b:
-                    pair_a[count] = a
-                    pair_b[count] = b
-                else:
-                    pair_a[count] = b
-                    pair_b[count] = a
-            count += 1
-    if count > cap:
+            if _overlap(aabb, a, b):
+                count = _emit(a, b, pair_a, pair_b, count)
+    if count > pair_a.shape[0]:
         return count
-    # deterministic output order: by (a, b), whatever the sweep axis was
+    # deterministic output order: by (a, b), whatever the axis and the grid were
     pkey = np.empty(count, dtype=np.int64)
     for k in range(count):
         pkey[k] = pair_a[k] * S + pair_b[k]
-    porder = np.argsort(pkey, kind="mergesort")
+    pkey.sort()
     for k in range(count):
-        p = pkey[porder[k]]
-        pair_a[k] = p // S
-        pair_b[k] = p % S
+        pair_a[k] = pkey[k] // S
+        pair_b[k] = pkey[k] % S
     return count
 
 
@@ -131,7 +218,8 @@ class PairBuffer:
 
 
 def find_pairs(aabb, shape_type, shape_body, body_moving, out: PairBuffer | None = None):
-    """Pairs of shapes whose AABBs overlap (sort-and-sweep along the axis of largest variance).
+    """Pairs of shapes whose AABBs overlap (sort-and-sweep along the axis of largest variance,
+    in the columns of a grid over the two other axes).
 
     Args:
         aabb: (S, 2, 3) m, world AABBs from ``update_bounds`` (``[s, 0]`` min, ``[s, 1]`` max).
