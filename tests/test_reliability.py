@@ -319,3 +319,44 @@ def test_peak_memory_of_a_10000_body_run_does_not_grow_with_its_duration(tmp_pat
     print(f"peak RSS: {short / 1024:.1f} MiB at 10 s, {long / 1024:.1f} MiB at 60 s of simulated time")
     assert tb.load_trajectory(tmp_path / "l" / "trajectory.npz").frame_count == 61
     assert (long - short) / 1024 < 0.25 * frames_extra_mib, (short, long)
+
+
+# ---------------------------------------------------------------------- hostile mesh files and sizes
+
+
+@pytest.mark.parametrize("name, content, expected", [
+    ("empty.stl", b"", "mesh file is empty"),
+    ("garbage.stl", b"\x00\xffnot a mesh at all" * 10, "cannot read mesh file|mesh file holds no triangles"),
+    ("broken.obj", b"v 0 0 0\nv 1 0 0\nf 1 2 7\n", "cannot read mesh file|mesh file holds no triangles|not closed|no volume"),
+    ("flat.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "not closed|no volume|edge"),
+])
+def test_broken_empty_mesh_files_are_one_line_errors(tmp_path, name, content, expected):
+    (tmp_path / name).write_bytes(content)
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'[[bodies]]\nname = "m"\nshape = {{ type = "mesh", path = "{name}" }}\nmass = 1\n')
+    with pytest.raises(tb.InputError) as info:
+        load_scene(scene)
+    line = str(info.value)
+    assert "\n" not in line and line.startswith(f"{scene}: bodies[0].shape.path: ")
+    import re
+
+    assert re.search(expected, line), line
+
+
+def test_huge_files_and_counts_are_refused_before_reading(tmp_path, monkeypatch):
+    (tmp_path / "big.stl").write_bytes(b"solid x\n" + b" " * 200_000)
+    scene = tmp_path / "s.toml"
+    scene.write_text('[[bodies]]\nname = "m"\nshape = { type = "mesh", path = "big.stl" }\nmass = 1\n')
+    monkeypatch.setenv("TUMBLE_MAX_MEMORY", "4M")
+    with pytest.raises(tb.InputError, match=r"bodies\[0\].shape.path: reading the 195 KiB mesh file .* would need about 7.63 MiB, "
+                                            r"above the memory limit of 4 MiB \(set TUMBLE_MAX_MEMORY"):
+        load_scene(scene)
+    doc = {"bodies": [{"name": f"b{i}", "shape": {"type": "sphere", "radius": 1}, "mass": 1} for i in range(2000)]}
+    with pytest.raises(tb.InputError, match=r"^bodies: 2000 bodies with 0 particles and mesh rows would need about 7.81 MiB"):
+        tb.scene.parse_scene(doc)
+    (tmp_path / "huge.json").write_text(json.dumps(doc))
+    with pytest.raises(tb.InputError, match=r"huge.json: reading this .* scene file would need about"):
+        load_scene(tmp_path / "huge.json")
+    r = subprocess.run([sys.executable, "-m", "tumble.cli", "run", str(tmp_path / "huge.json"), "--max-memory", "1M"], env=env(),
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and "above the memory limit of 1 MiB" in r.stderr, r.stderr
