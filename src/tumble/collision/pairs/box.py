@@ -319,7 +319,7 @@ def collide_capsule_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculat
             if ext + c < best_edge:
                 best_edge, edge_k, edge_n = ext + c, k, (-nx, -ny, -nz)
         if edge_k < 0 or best_edge > REL_EDGE_TOLERANCE * best_face - ABS_TOLERANCE:
-            n = _capsule_box_face(p0, p1, r, h, face_k, face_side, rot_b, pos_b, -np.inf, normal, point,
+            n = _capsule_box_face(p0, p1, r, h, face_k, face_side, rot_b, pos_b, np.inf, normal, point,
                                   separation, feature)
             # separations of the clipped ends are their own depths; keep those below speculative
             count = 0
