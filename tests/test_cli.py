@@ -58,7 +58,8 @@ def scene_file(tmp_path):
 
 
 def snapshot(folder):
-    return {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in sorted(Path(folder).iterdir())}
+    """Bytes and modification time of every file below ``folder`` (plots/ included)."""
+    return {str(p.relative_to(folder)): (p.read_bytes(), p.stat().st_mtime_ns) for p in sorted(Path(folder).rglob("*")) if p.is_file()}
 
 
 def check_outputs(out, frames, names):
@@ -82,7 +83,7 @@ def test_demo_writes_outputs_and_refuses_to_overwrite(tmp_path, capsys):
     assert main(["demo", "--out", str(out), "--duration", "0.5"]) == 0
     stdout = capsys.readouterr().out
     assert "3 bodies" in stdout and str(out / "trajectory.npz") in stdout
-    summary = check_outputs(out, 13, ["flipper", "projectile", "lantern"])
+    summary = check_outputs(out, 13, ["flipper", "top", "lantern"])
     assert summary["settings"]["duration"] == 0.5 and summary["settings"]["integrator"] == "rk4"
     assert summary["run"]["steps"] == 120
     assert summary["scene"]["data"]["simulation"]["duration"] == 5.0  # the scene as written
@@ -100,7 +101,7 @@ def test_demo_writes_outputs_and_refuses_to_overwrite(tmp_path, capsys):
         os.utime(p, ns=(1, 1))
     assert main(["demo", "--out", str(out), "--duration", "0.5", "--force"]) == 0
     assert all(p.stat().st_mtime_ns > 1 for p in out.iterdir())
-    check_outputs(out, 13, ["flipper", "projectile", "lantern"])
+    check_outputs(out, 13, ["flipper", "top", "lantern"])
 
 
 def test_only_summary_existing_also_refuses(tmp_path, capsys):
@@ -247,7 +248,7 @@ def test_subprocess_demo_then_refuse_then_force(tmp_path):
     first = _tumble("demo", "--out", str(out), "--duration", "0.5", cwd=tmp_path)
     assert first.returncode == 0, first.stderr
     assert first.stderr == ""
-    check_outputs(out, 13, ["flipper", "projectile", "lantern"])
+    check_outputs(out, 13, ["flipper", "top", "lantern"])
     before = snapshot(out)
 
     again = _tumble("demo", "--out", str(out), "--duration", "0.5", cwd=tmp_path)
@@ -257,7 +258,7 @@ def test_subprocess_demo_then_refuse_then_force(tmp_path):
 
     forced = _tumble("demo", "--out", str(out), "--duration", "0.5", "--force", cwd=tmp_path)
     assert forced.returncode == 0, forced.stderr
-    check_outputs(out, 13, ["flipper", "projectile", "lantern"])
+    check_outputs(out, 13, ["flipper", "top", "lantern"])
 
 
 def test_subprocess_bad_scene(tmp_path):
@@ -270,3 +271,38 @@ def test_subprocess_bad_scene(tmp_path):
 
     ok = _tumble("validate", str(_bad(tmp_path, "good.toml", SCENE)), cwd=tmp_path)
     assert ok.returncode == 0 and ok.stdout.endswith(": ok (2 bodies, 1 force, integrator rk4, duration 1 s)\n")
+
+
+def test_demo_writes_video_gltf_and_plots_and_run_takes_media_flags(tmp_path, capsys):
+    # Issue 5 item 6: `tumble demo` writes the trajectory, a video, a .glb and the plots;
+    # `tumble run` does the same on request (--video, --gltf, --usd, --plots).
+    import imageio.v3 as iio
+
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--duration", "0.5", "--no-progress"]) == 0
+    for name in ("video.mp4", "trajectory.glb", "plots/energy.png", "plots/momentum.png", "plots/orthonormality.png"):
+        assert (out / name).stat().st_size > 0, name
+    assert (out / "trajectory.glb").read_bytes()[:4] == b"glTF"
+    props = iio.improps(out / "plots" / "energy.png")
+    assert props.shape[0] > 100 and props.shape[1] > 100
+
+    scene = tmp_path / "s.toml"
+    scene.write_text('[simulation]\nduration = 0.25\n[[bodies]]\nname = "b"\nshape = { type = "sphere", radius = 0.2 }\nmass = 1.0\n')
+    run_out = tmp_path / "run"
+    assert main(["run", str(scene), "--out", str(run_out), "--gltf", "--usd", "--plots", "--no-progress"]) == 0
+    assert (run_out / "trajectory.glb").exists() and (run_out / "trajectory.usdc").exists() and (run_out / "plots").is_dir()
+    assert not (run_out / "video.mp4").exists()
+    capsys.readouterr()
+
+    # an existing media file is never overwritten without --force, and is checked before running
+    before = (run_out / "trajectory.glb").read_bytes()
+    (run_out / "trajectory.npz").unlink()
+    (run_out / "summary.json").unlink()
+    (run_out / "checkpoint.npz").unlink()
+    (run_out / "s.toml").unlink(missing_ok=True)
+    (run_out / "scene.toml").unlink(missing_ok=True)
+    assert main(["run", str(scene), "--out", str(run_out), "--gltf"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "trajectory.glb: exists (pass --force to overwrite)" in err[0]
+    assert (run_out / "trajectory.glb").read_bytes() == before
+    assert not (run_out / "trajectory.npz").exists()

@@ -39,6 +39,9 @@ EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 2, 
 # parsed args and returns the exit status, and raises InputError on bad input.
 COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.viewer.commands", "tumble.sweep.commands")
 OUTPUT_NAMES = ("trajectory.npz", "summary.json", "checkpoint.npz")
+# What --video, --gltf, --usd and --plots write beside them (tumble demo writes all but USD).
+MEDIA_NAMES = {"video": "video.mp4", "gltf": "trajectory.glb", "usd": "trajectory.usdc", "plots": "plots"}
+VIDEO_SIZE = (960, 540)  # pixels: sharp enough to watch, quick to render (about 0.1 s a frame)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -67,11 +70,16 @@ def build_parser() -> argparse.ArgumentParser:
                        help="flush the trajectory and write checkpoint.npz every S simulated seconds")
         p.add_argument("--max-memory", metavar="SIZE", help="memory limit of the run, e.g. 64G (default: TUMBLE_MAX_MEMORY or half the RAM)")
 
-    demo = sub.add_parser("demo", help="run the built-in demo scene and write its outputs")
+    demo = sub.add_parser("demo", help="run the built-in demo scene and write its outputs, a video, a .glb and plots")
     outputs(demo, "./tumble-demo")
+    demo.add_argument("--no-media", action="store_true", help="write only the run's files: no video, .glb or plots")
     run = sub.add_parser("run", help="run a scene file (TOML or JSON) and write its outputs")
     run.add_argument("scene", metavar="SCENE", nargs="?", help="scene file, .toml or .json")
     outputs(run, "./out/<scene name>")
+    run.add_argument("--video", action="store_true", help=f"also render {MEDIA_NAMES['video']} (headless)")
+    run.add_argument("--gltf", action="store_true", help=f"also export {MEDIA_NAMES['gltf']} (Blender, three.js)")
+    run.add_argument("--usd", action="store_true", help=f"also export {MEDIA_NAMES['usd']}")
+    run.add_argument("--plots", action="store_true", help=f"also plot energy, momentum and orthonormality into {MEDIA_NAMES['plots']}/")
     run.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its checkpoint.npz (no SCENE)")
     parser._run_parser = run
     val = sub.add_parser("validate", help="check a scene file and build its world without running it")
@@ -183,7 +191,8 @@ def cmd_run(args) -> int:
         copy_name = "scene" + Path(args.scene).suffix.lower()
     _apply_overrides(scene, args)
 
-    targets = [out / name for name in OUTPUT_NAMES + (copy_name,)]
+    media = _media_requested(args)
+    targets = [out / name for name in OUTPUT_NAMES] + [out / MEDIA_NAMES[m] for m in media] + [out / copy_name]
     if out.exists() and not out.is_dir():
         raise InputError("exists and is not a folder (choose another --out)", None, str(out))
     if not args.force:
@@ -199,7 +208,38 @@ def cmd_run(args) -> int:
     sim = scene.simulator()
     info = {"label": label, "source": None if scene.source is None else str(scene.source), "data": scene.data,
             "settings": scene.settings(), "copy": copy_name}
-    return _stream(sim, out, scene.duration, scene.frame_rate, args, info, resume=False)
+    status = _stream(sim, out, scene.duration, scene.frame_rate, args, info, resume=False)
+    if status == EXIT_OK and media:
+        _write_media(out, media, progress=(not args.no_progress) and sys.stderr.isatty())
+    return status
+
+
+def _media_requested(args) -> list[str]:
+    if args.command == "demo":
+        return [] if args.no_media else ["video", "gltf", "plots"]
+    return [m for m in MEDIA_NAMES if getattr(args, m, False)]
+
+
+def _write_media(out: Path, media, progress: bool):
+    """The video, glTF, USD and plots of the finished run in ``out`` (issue: see and share the motion)."""
+    from .trajectory import load_trajectory
+
+    traj = load_trajectory(out / OUTPUT_NAMES[0])
+    written = []
+    if "video" in media:
+        from .render import render_video
+
+        written.append(render_video(traj, out / MEDIA_NAMES["video"], width=VIDEO_SIZE[0], height=VIDEO_SIZE[1], progress=progress))
+    for kind in ("gltf", "usd"):
+        if kind in media:
+            from .export import export
+
+            written.append(export(traj, out / MEDIA_NAMES[kind]))
+    if "plots" in media:
+        from .render.plots import plot_trajectory
+
+        written.extend(plot_trajectory(traj, out / MEDIA_NAMES["plots"]))
+    print("wrote " + ", ".join(str(p) for p in written))
 
 
 def cmd_resume(args) -> int:
