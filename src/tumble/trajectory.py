@@ -7,6 +7,7 @@ name and renamed into place, so no reader ever sees half a file.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -115,18 +116,20 @@ def load_trajectory(path) -> Trajectory:
     return Trajectory(**values)
 
 
-def write_atomic(path, write) -> Path:
-    """Call ``write(binary file)`` on a temporary file beside ``path``, then rename it into place.
+@contextlib.contextmanager
+def atomic_path(path, suffix: str = ".tmp"):
+    """Yield a temporary path beside ``path`` (ending in ``suffix``, for writers that pick the
+    format by name); when the block ends without error, give it the ordinary permissions of
+    the umask (mkstemp makes 0600) and rename it into place, else remove it.
 
-    A reader sees the old file or the whole new one, never half a file; the new
-    file gets the ordinary permissions of the umask (mkstemp makes 0600).
+    A reader sees the old file or the whole new one, never half a file.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
+        yield tmp
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)
@@ -134,7 +137,13 @@ def write_atomic(path, write) -> Path:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-    return path
+
+
+def write_atomic(path, write) -> Path:
+    """Call ``write(binary file)`` on a temporary file beside ``path``, then rename it into place (``atomic_path``)."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        write(fh)
+    return Path(path)
 
 
 def write_json_atomic(path, obj) -> Path:

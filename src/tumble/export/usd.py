@@ -22,8 +22,6 @@ What the stage holds:
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -135,23 +133,15 @@ def export_usd(traj, path) -> Path:
     """
     from pxr import Usd
 
+    from ..trajectory import atomic_path
+
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
         raise ValueError(f"USD file name must end in {', '.join(SUFFIXES)}, got {path.name!r}")
     stage = Usd.Stage.CreateInMemory()
     build_stage(traj, stage)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=suffix, dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path, suffix=suffix) as tmp:
         if not stage.GetRootLayer().Export(tmp):
             raise OSError(f"USD could not write {path}")
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path

@@ -22,7 +22,6 @@ from __future__ import annotations
 import math
 import os
 import sys
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,6 +30,7 @@ import numpy as np
 from ..errors import InputError
 from .. import visual
 from ..shapes import Plane
+from ..trajectory import atomic_path
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 MAX_SIZE = 8192  # pixels along either side; VTK's off-screen buffers stop well above, memory does not
@@ -445,24 +445,15 @@ def render_video(traj, path, width: int = 1280, height: int = 720, fps: float | 
     else:
         count = math.floor((time[-1] - time[0]) * fps + 1e-9) + 1
         poses = (stage.poses_at_time(time[0] + j / fps) for j in range(count))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{suffix}", dir=path.parent)
-    os.close(fd)
     bar = None
     try:
-        if progress:
-            from tqdm import tqdm
+        with atomic_path(path, suffix=f".tmp{suffix}") as tmp:
+            if progress:
+                from tqdm import tqdm
 
-            bar = tqdm(total=count, unit="frame", desc=f"render {path.name}", file=sys.stderr, leave=False)
-        images = (_tick(stage.render(*pose), bar) for pose in poses)
-        (_write_mp4 if suffix == ".mp4" else _write_gif)(tmp, images, stage.width, stage.height, fps)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+                bar = tqdm(total=count, unit="frame", desc=f"render {path.name}", file=sys.stderr, leave=False)
+            images = (_tick(stage.render(*pose), bar) for pose in poses)
+            (_write_mp4 if suffix == ".mp4" else _write_gif)(tmp, images, stage.width, stage.height, fps)
     finally:
         if bar is not None:
             bar.close()
