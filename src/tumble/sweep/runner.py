@@ -23,7 +23,6 @@ import math
 import os
 import shutil
 import sys
-import time
 import tomllib
 from collections import deque
 from pathlib import Path
@@ -432,6 +431,27 @@ class _Progress:
             self.bar.close()
 
 
+def _check_reachable(address: str):
+    """InputError at once when nothing listens at a tcp:// address (Dask would retry for its whole timeout)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    try:
+        u = urlsplit(address if "://" in address else f"tcp://{address}")
+        host, port = u.hostname, u.port
+    except ValueError:
+        raise InputError(f"expected a scheduler address tcp://HOST:PORT, got {address!r}", "--scheduler") from None
+    if u.scheme not in ("tcp", "tls") or not host or not port:
+        raise InputError(f"expected a scheduler address tcp://HOST:PORT, got {address!r}", "--scheduler")
+    if u.scheme != "tcp":
+        return
+    try:
+        with socket.create_connection((host, port), timeout=5):
+            pass
+    except OSError as exc:
+        raise InputError(f"cannot connect to the Dask scheduler at {address} ({exc.strerror or exc})", "--scheduler") from None
+
+
 def _run_dask(plan, chunks, todo: deque, finished, state: _Progress, client, scheduler, workers):
     from distributed import Client, LocalCluster, as_completed
 
@@ -440,6 +460,7 @@ def _run_dask(plan, chunks, todo: deque, finished, state: _Progress, client, sch
     try:
         if client is None:
             if scheduler is not None:
+                _check_reachable(scheduler)
                 try:
                     client = own_client = Client(scheduler, timeout="10s")
                 except (OSError, TimeoutError, ValueError) as exc:

@@ -21,7 +21,6 @@ from pathlib import Path
 from ..errors import InputError, SimulationError
 from ..scene import parse_scene
 from . import batch as B
-from .metrics import Metric
 from .spec import set_path
 
 
