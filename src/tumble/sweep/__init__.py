@@ -38,4 +38,11 @@ def table_for_comparison(table):
     return _t(table)
 
 
-__all__ = ["run_sweep", "run_variant", "table_for_comparison"]
+def tables_equal(a, b, ignore=("wall_time_s",)) -> bool:
+    """Same rows and values (NaN equal to NaN), leaving out the columns in ``ignore``."""
+    from .runner import tables_equal as _eq
+
+    return _eq(a, b, ignore)
+
+
+__all__ = ["run_sweep", "run_variant", "table_for_comparison", "tables_equal"]

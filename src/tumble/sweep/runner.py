@@ -264,6 +264,27 @@ def table_for_comparison(table):
     return table.drop_columns([c for c in TIME_COLUMNS if c in table.column_names])
 
 
+def tables_equal(a, b, ignore=TIME_COLUMNS) -> bool:
+    """True when two sweep tables hold the same rows, columns and values (NaN equal to NaN),
+    leaving out the columns in ``ignore`` (the wall time by default)."""
+    import numpy as np
+
+    a = a.drop_columns([c for c in ignore if c in a.column_names])
+    b = b.drop_columns([c for c in ignore if c in b.column_names])
+    if a.schema != b.schema or a.num_rows != b.num_rows:
+        return False
+    for name in a.column_names:
+        x, y = a[name].to_pylist(), b[name].to_pylist()
+        if x == y:
+            continue
+        try:
+            if not np.array_equal(np.array(x, dtype=float), np.array(y, dtype=float), equal_nan=True):
+                return False
+        except (TypeError, ValueError):
+            return False
+    return True
+
+
 # ---------------------------------------------------------------------- running
 
 

@@ -48,9 +48,18 @@ class Plan:
         return [c for m in self.metrics for c in m.columns]
 
 
+def _copy_document(x):
+    """A copy of a parsed TOML/JSON document (dicts and lists copied, values shared: they are immutable)."""
+    if isinstance(x, dict):
+        return {k: _copy_document(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_copy_document(v) for v in x]
+    return copy.deepcopy(x) if not isinstance(x, (str, int, float, bool, type(None))) else x
+
+
 def variant_document(plan: Plan, values: dict) -> dict:
     """The scene document of one variant."""
-    data = copy.deepcopy(plan.base)
+    data = _copy_document(plan.base)
     for key, path in zip(plan.keys, plan.paths):
         set_path(data, path, values[key])
     return data
