@@ -72,17 +72,16 @@ def main(argv=None):
     ap.add_argument("--cluster", action="store_true", help="also time the default LocalCluster executor")
     args = ap.parse_args(argv)
 
-    from tumble.sweep import run_sweep
-    from tumble.sweep import tables_equal
+    from tumble.sweep import run_sweep, tables_equal
 
     doc = document()
-    kw = dict(vary=VARY, samples=args.variants, seed=7, metrics=METRICS, progress=False)
+    kw = {"vary": VARY, "samples": args.variants, "seed": 7, "metrics": METRICS, "progress": False}
     run_sweep(doc, **{**kw, "samples": 50}, workers=0)  # warm-up: kernels loaded
     run_sweep(doc, **{**kw, "samples": 5}, workers=0, batch=False)
 
     rows = []
     t_one, s_one = timed(lambda: run_sweep(doc, **kw, workers=0, chunk_size=args.variants))
-    rows.append(("batched, one task of %d" % args.variants, args.variants, s_one))
+    rows.append((f"batched, one task of {args.variants}", args.variants, s_one))
     t_chunks, s_chunks = timed(lambda: run_sweep(doc, **kw, workers=0, chunk_size=200))
     rows.append(("batched, tasks of 200 (default), one process", args.variants, s_chunks))
 
@@ -103,8 +102,8 @@ def main(argv=None):
 
     per_sep = s_sep / args.separate
     lines = [
-        f"Run of {_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC, tumble at git {_git()}, "
-        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}.",
+        (f"Run of {_dt.datetime.now(_dt.UTC):%Y-%m-%d %H:%M} UTC, tumble at git {_git()}, "
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}."),
         "",
         "| how | variants timed | wall time, s | variants / s | per variant, ms | vs separate |",
         "| --- | ---: | ---: | ---: | ---: | ---: |",
@@ -112,9 +111,9 @@ def main(argv=None):
     for name, n, s in rows:
         per = s / n
         lines.append(f"| {name} | {n} | {s:.2f} | {n / s:,.0f} | {1e3 * per:.3f} | {per_sep / per:.1f}x |")
-    lines += ["", f"Separate runs, extrapolated to {args.variants} variants: {per_sep * args.variants:.0f} s. "
+    lines += ["", (f"Separate runs, extrapolated to {args.variants} variants: {per_sep * args.variants:.0f} s. "
               f"Batched rows equal to the separate rows on the {args.separate} variants run both ways "
-              f"(all columns but wall time and batch size, bit for bit): {'yes' if equal else 'NO'}."]
+              f"(all columns but wall time and batch size, bit for bit): {'yes' if equal else 'NO'}.")]
     text = "\n".join(lines) + "\n"
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "sweep_batching.md").write_text(text)
@@ -136,8 +135,8 @@ def _first_variants_alone(doc, kw, n):
 
 def _git() -> str:
     try:
-        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "src"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=False).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "src"], cwd=ROOT, capture_output=True, text=True, check=False).stdout.strip()
         return rev + (" + uncommitted src changes" if dirty else "")
     except OSError:
         return "unknown"

@@ -37,10 +37,10 @@ pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
 distributed = pytest.importorskip("distributed")
 
-import tumble as tb  # noqa: E402
-from tumble import checks  # noqa: E402
-from tumble.scene import parse_scene  # noqa: E402
-from tumble.sweep import run_sweep, run_variant, table_for_comparison  # noqa: E402
+import tumble as tb
+from tumble import checks
+from tumble.scene import parse_scene
+from tumble.sweep import run_sweep, run_variant, table_for_comparison
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src"
@@ -86,7 +86,7 @@ def env():
 
 def cli(*args, timeout=120, **kw):
     return subprocess.run([sys.executable, "-m", "tumble.cli", *map(str, args)], capture_output=True, text=True, env=env(),
-                          timeout=timeout, **kw)
+                          timeout=timeout, check=False, **kw)
 
 
 def same(a, b, drop=()):
@@ -195,10 +195,10 @@ def test_local_cluster_and_scheduler_cli_give_the_same_table(reference, scene_fi
 
 @pytest.mark.slow
 def test_killed_worker_loses_no_variant(scene_file, cluster, tmp_path):
-    c, client = cluster
+    _, client = cluster
     # single runs (no batching) in chunks of 10: long enough (about 3 s) to kill a worker mid-sweep
     vary = {KEY: "linspace(0.001, 0.2, 200)"}
-    kw = dict(vary=vary, metrics=METRICS, chunk_size=10, progress=False)
+    kw = {"vary": vary, "metrics": METRICS, "chunk_size": 10, "progress": False}
     expected = run_sweep(scene_file, workers=0, **kw)
     client.wait_for_workers(2)
     pids = client.run(os.getpid)
@@ -212,7 +212,7 @@ def test_killed_worker_loses_no_variant(scene_file, cluster, tmp_path):
         parts = list((out / "parts").glob("chunk-*.parquet")) if (out / "parts").exists() else []
         busy = {w: tasks for w, tasks in client.processing().items() if tasks}
         if len(parts) >= 2 and busy:
-            victim = sorted(busy)[0]
+            victim = min(busy)
             os.kill(pids[victim], signal.SIGKILL)  # a real kill, mid-task
             killed = victim
         time.sleep(0.02)
@@ -231,7 +231,7 @@ def test_killed_worker_loses_no_variant(scene_file, cluster, tmp_path):
 
 
 def test_interrupted_sweep_resumes_to_the_same_table(reference, scene_file, tmp_path):
-    kw = dict(vary={KEY: SPEC}, metrics=METRICS, out=tmp_path, workers=0, chunk_size=CHUNK, progress=False)
+    kw = {"vary": {KEY: SPEC}, "metrics": METRICS, "out": tmp_path, "workers": 0, "chunk_size": CHUNK, "progress": False}
     part = run_sweep(scene_file, stop_after=3, **kw)
     assert part.num_rows == 3 * CHUNK
     assert len(list((tmp_path / "parts").glob("*.parquet"))) == 3
@@ -311,7 +311,7 @@ def test_batched_10000_variants_match_separate_runs_bit_for_bit():
 
     # (b) all 10 000 through a cheaper independent path: each variant's own World, stepped to the end
     # in one call (Simulator.step: no frames recorded), its state hash equal to the batch's
-    steps = int(round(doc["simulation"]["duration"] / doc["simulation"]["dt"]))
+    steps = round(doc["simulation"]["duration"] / doc["simulation"]["dt"])
     for i in range(10_000):
         d = copy.deepcopy(doc)
         d["bodies"][0]["angular_velocity"][0] = cols["bodies.box.angular_velocity[0]"][i]
@@ -373,7 +373,7 @@ def test_saved_trajectories_of_a_batch_equal_single_runs(tmp_path):
 
 def test_random_design_is_seeded_and_reproducible():
     doc = one_body_document()
-    kw = dict(vary=BATCH_VARY, metrics=["energy_drift"], workers=0, progress=False)
+    kw = {"vary": BATCH_VARY, "metrics": ["energy_drift"], "workers": 0, "progress": False}
     a = run_sweep(doc, samples=50, seed=3, **kw)
     b = run_sweep(doc, samples=50, seed=3, **kw)
     c = run_sweep(doc, samples=50, seed=4, **kw)

@@ -88,7 +88,7 @@ def merge_worlds(worlds: list[World]) -> World:
 
 
 def _moved(rec, w: World, offset: int):
-    row = lambda b: offset + w.index_of(b)  # noqa: E731
+    row = lambda b: offset + w.index_of(b)
     if isinstance(rec, Drag):
         bodies = np.flatnonzero(w.moving) if rec.bodies is None else [w.index_of(b) for b in rec.bodies]
         return dataclasses.replace(rec, bodies=[offset + int(i) for i in bodies])

@@ -116,7 +116,7 @@ class Frames:
     angular_momentum: np.ndarray
 
     @classmethod
-    def from_trajectory(cls, traj, variants: int) -> "Frames":
+    def from_trajectory(cls, traj, variants: int) -> Frames:
         F = len(traj.time)
 
         def r(a):
@@ -223,13 +223,10 @@ def compute(metrics: list[Metric], fr: Frames, mass: np.ndarray, gravity, info: 
             out[m.text] = first_sign_change(fr.time, w_body[..., m.axis])
         else:
             j = index[m.body]
-            last = {
-                "final_position": lambda: fr.position[-1, :, j],
-                "final_orientation": lambda: fr.orientation[-1, :, j],
-                "final_velocity": lambda: fr.velocity[-1, :, j],
-                "final_angular_velocity": lambda: fr.angular_velocity[-1, :, j],
-                "final_angular_velocity_body": lambda: _rotate(fr.orientation[-1, :, j], fr.angular_velocity[-1, :, j], transpose=True),
-            }[m.kind]()
+            if m.kind == "final_angular_velocity_body":
+                last = _rotate(fr.orientation[-1, :, j], fr.angular_velocity[-1, :, j], transpose=True)
+            else:
+                last = getattr(fr, m.kind[len("final_"):])[-1, :, j]
             for c, col in enumerate(m.columns):
                 out[col] = np.array(last[:, c])
     return out

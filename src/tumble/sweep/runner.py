@@ -16,6 +16,7 @@ process alone (``workers=0``).
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
 import logging
@@ -132,7 +133,7 @@ class SweepDefinition:
         self.paths = [resolve_key(data, s.key) for s in specs]
         canon = [format_key(p) for p in self.paths]
         if len(set(map(str, self.paths))) != len(self.paths):
-            dup = [c for c in canon if canon.count(c) > 1][0]
+            dup = next(c for c in canon if canon.count(c) > 1)
             raise InputError(f"two keys name the same value {dup!r}", "--vary")
 
         if samples is None:
@@ -519,10 +520,8 @@ def _run_dask(plan, chunks, todo: deque, finished, state: _Progress, client, sch
             state.running(len(where))
     finally:
         if where and client is not None:  # interrupted: leave nothing of ours running on the cluster
-            try:
+            with contextlib.suppress(Exception):
                 client.cancel(list(where))
-            except Exception:  # noqa: BLE001
-                pass
         if own_client is not None:
             own_client.close()
         if own_cluster is not None:

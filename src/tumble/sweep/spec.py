@@ -188,7 +188,7 @@ class Spec:
         return self.kind in ("uniform", "normal")
 
 
-_CALL = re.compile(r"^\s*([a-z]+)\s*\((.*)\)\s*$", re.S)
+_CALL = re.compile(r"^\s*([a-z]+)\s*\((.*)\)\s*$", re.DOTALL)
 
 
 def _number(text: str, key: str, spec: str) -> float:
