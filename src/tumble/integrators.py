@@ -215,7 +215,7 @@ def _matrix(layout, o):
     return _quat_matrix(w, x, y, z, 2.0 / (w * w + x * x + y * y + z * z))
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _velocities(layout, o, P, L, inv_mass, ib):
     """Derived R, v, omega of one body (Baraff 2001 eq. 2-40; course "ArrayToBodies").
 
@@ -289,7 +289,7 @@ def _unary_forces(i, x, R, v, omega, mass, gravity, uforce_kind, uforce_param, u
     return (F0, F1, F2), (T0, T1, T2)
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _derivative(layout, o, v, omega, F, T):
     """dX/dt of one body: (v, omega* R, F, tau) (course Algorithm 4; ERRATA 1), or
     (v, 1/2 (0, omega) q, F, tau) in the quaternion layout (Baraff 2001 eq. 4-2)."""
@@ -324,13 +324,13 @@ def _axpy9(a, s, b):
             a[5] + s * b[5], a[6] + s * b[6], a[7] + s * b[7], a[8] + s * b[8])
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _axpy(x, o, P, L, s, dx, do, dP, dL):
     """(x, o, P, L) + s (dx, do, dP, dL): one Runge-Kutta combination."""
     return _axpy3(x, s, dx), _axpy9(o, s, do), _axpy3(P, s, dP), _axpy3(L, s, dL)
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _project(layout, o):
     """The orientation back onto SO(3) (ERRATA 5): q / |q|, or Gram-Schmidt on the columns
     of R (the same arithmetic as ``math3d.orthonormalize_inplace`` and the reference)."""
@@ -376,7 +376,7 @@ def _sincos(x):
     return math.sin(x), math.cos(x)
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _rotate(layout, o, omega, h):
     """Turn the orientation by the exact rotation of constant world angular velocity omega over h.
 
@@ -434,7 +434,7 @@ def _principal_flow(k, tau, Ik, l0, l1, l2, d):
     return l0, l1, l2, d
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _split_rotation(layout, o, L, pq, pm, h):
     """Free rigid-body rotation over h by Strang splitting into exact principal-axis rotations.
 
@@ -485,7 +485,7 @@ def _split_rotation(layout, o, L, pq, pm, h):
     return _matmul9(o, _quat_matrix(g0, g1, g2, g3, 2.0))  # R <- R M(g)
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _drift(layout, split, h, x, o, P, L, inv_mass, ib, pq, pm):
     """x += h P / M, and the orientation turned over h: at the constant omega = I^-1(R) L
     (split=False, semi-implicit Euler) or by the free-rotation splitting (split=True)."""
@@ -496,13 +496,13 @@ def _drift(layout, split, h, x, o, P, L, inv_mass, ib, pq, pm):
     return x, _rotate(layout, o, omega, h)
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _kick(P, L, F, T, h):
     """P += h F, L += h tau (the 'kick' of the symplectic methods)."""
     return _axpy3(P, h, F), _axpy3(L, h, T)
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start):
     """Force and torque on body i alone (no springs), and the derivative's v, omega."""
     R, v, omega = _velocities(layout, o, P, L, inv_mass, ib)
@@ -510,7 +510,7 @@ def _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind
     return v, omega, F, T
 
 
-@njit(**JIT)
+@njit(**JIT, inline="always")
 def _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start):
     """F, T for a kick, which needs no velocities: under gravity alone (no rows of its
     own) they are m g and 0, and the derived quantities are not computed.
