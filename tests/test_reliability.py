@@ -360,3 +360,25 @@ def test_huge_files_and_counts_are_refused_before_reading(tmp_path, monkeypatch)
     r = subprocess.run([sys.executable, "-m", "tumble.cli", "run", str(tmp_path / "huge.json"), "--max-memory", "1M"], env=env(),
                        capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and "above the memory limit of 1 MiB" in r.stderr, r.stderr
+
+
+def test_runs_without_checkpoint_every_still_flush_on_the_wall_clock(tmp_path, monkeypatch):
+    # Without --checkpoint-every a long run is still flushed every FLUSH_WALL_SECONDS of wall
+    # time (so a SIGKILL leaves a loadable trajectory); a short run flushes only at its end.
+    import tumble as tb
+    from tumble import runfile
+
+    def count_checkpoints(every_seconds, out):
+        w = tb.World(gravity=(0, 0, 0))
+        w.add_body(tb.Box(size=(0.2, 0.6, 1.0)), mass=2.0, angular_velocity=(2, 1, 3))
+        sim = tb.Simulator(w)
+        calls = []
+        original = sim.save_checkpoint
+        monkeypatch.setattr(sim, "save_checkpoint", lambda path, **kw: (calls.append(path), original(path, **kw))[1])
+        monkeypatch.setattr(runfile, "FLUSH_WALL_SECONDS", every_seconds)
+        sim.run_to_file(out, 1.0, 24)
+        return len(calls)
+
+    assert count_checkpoints(60.0, tmp_path / "a") == 1  # the final flush only
+    assert count_checkpoints(0.0, tmp_path / "b") == 25  # after each of the 24 frames, and the final one
+    assert tb.load_trajectory(tmp_path / "b" / "trajectory.npz").frame_count == 25

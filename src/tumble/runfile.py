@@ -19,6 +19,11 @@ from .errors import InputError, SimulationError
 from .trajectory import TrajectoryWriter, frame_bytes, write_json_atomic
 
 TRAJECTORY, CHECKPOINT, SUMMARY = "trajectory.npz", "checkpoint.npz", "summary.json"
+# Without --checkpoint-every, flush (trajectory, checkpoint, summary) after the first frame
+# that ends this many wall-clock seconds after the last flush, so that even a SIGKILL of a
+# long run leaves a loadable trajectory and a checkpoint to resume from. A flush rewrites the
+# trajectory file, so it is not made more often than this.
+FLUSH_WALL_SECONDS = 60.0
 
 
 def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, progress=None, handle_signals=False,
@@ -53,6 +58,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
 
     writer = TrajectoryWriter(out / TRAJECTORY, static_values(w), w.body_count, keep_frames=recorded if resume else None)
     state = {"stop": None, "wall0": fig["wall_time_s"], "started": _time.perf_counter()}
+    state["last_flush"] = state["started"]
 
     def record():
         values = frame_values(w)
@@ -64,7 +70,8 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
         fig["max_orthonormality_error"] = max(fig["max_orthonormality_error"], float(values["orthonormality_error"]))
 
     def flush(status, error=None, signal_name=None):
-        fig["wall_time_s"] = state["wall0"] + (_time.perf_counter() - state["started"])
+        state["last_flush"] = _time.perf_counter()
+        fig["wall_time_s"] = state["wall0"] + (state["last_flush"] - state["started"])
         writer.flush()
         run = {"t_start": t_start, "frames": writer.frames, "duration": float(duration), "frame_rate": float(frame_rate),
                "checkpoint_every": checkpoint_every, "figures": fig, "info": run_info}
@@ -79,8 +86,13 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
         return result
 
     def after_frame():
-        if per_flush is not None and (writer.frames - 1) % per_flush == 0 and state["stop"] is None:
-            flush("running")
+        if state["stop"] is None:
+            if per_flush is not None:
+                due = (writer.frames - 1) % per_flush == 0
+            else:
+                due = _time.perf_counter() - state["last_flush"] >= FLUSH_WALL_SECONDS
+            if due:
+                flush("running")
         return state["stop"] is not None
 
     if not resume:
