@@ -306,3 +306,23 @@ def test_demo_writes_video_gltf_and_plots_and_run_takes_media_flags(tmp_path, ca
     assert len(err) == 1 and "trajectory.glb: exists (pass --force to overwrite)" in err[0]
     assert (run_out / "trajectory.glb").read_bytes() == before
     assert not (run_out / "trajectory.npz").exists()
+
+
+def test_media_without_their_packages(tmp_path, capsys, monkeypatch):
+    # `pip install tumble` without the render extra: `run --video` is bad input (one line,
+    # exit 2, before running); `demo` writes what it can and says how to get the rest.
+    from tumble import cli
+
+    monkeypatch.setattr(cli, "_missing_modules", lambda modules: [m for m in modules if m in ("pyvista", "matplotlib")])
+    scene = tmp_path / "s.toml"
+    scene.write_text('[simulation]\nduration = 0.25\n[[bodies]]\nname = "b"\nshape = { type = "sphere", radius = 0.2 }\nmass = 1.0\n')
+    assert main(["run", str(scene), "--out", str(tmp_path / "r"), "--video"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["tumble: error: --video: needs pyvista: pip install 'tumble[render]'"]
+    assert not (tmp_path / "r" / "trajectory.npz").exists()
+
+    out = tmp_path / "d"
+    assert main(["demo", "--out", str(out), "--duration", "0.25", "--no-progress"]) == 0
+    notes = capsys.readouterr().err.strip().splitlines()
+    assert len(notes) == 2 and all(n.startswith("tumble: note: no ") for n in notes)
+    assert (out / "trajectory.glb").exists() and not (out / "video.mp4").exists() and not (out / "plots").exists()

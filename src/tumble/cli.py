@@ -41,6 +41,9 @@ COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.v
 OUTPUT_NAMES = ("trajectory.npz", "summary.json", "checkpoint.npz")
 # What --video, --gltf, --usd and --plots write beside them (tumble demo writes all but USD).
 MEDIA_NAMES = {"video": "video.mp4", "gltf": "trajectory.glb", "usd": "trajectory.usdc", "plots": "plots"}
+# The modules each kind of media needs, and the extra that installs them.
+MEDIA_NEEDS = {"video": (("pyvista", "imageio", "imageio_ffmpeg"), "render"), "plots": (("matplotlib",), "render"),
+               "usd": (("pxr",), "export"), "gltf": ((), "export")}
 VIDEO_SIZE = (960, 540)  # pixels: sharp enough to watch, quick to render (about 0.1 s a frame)
 
 
@@ -215,9 +218,29 @@ def cmd_run(args) -> int:
 
 
 def _media_requested(args) -> list[str]:
+    """The media to write. ``tumble run --video`` without the packages it needs is bad input;
+    ``tumble demo`` leaves out what cannot be made here, with one line saying how to get it."""
     if args.command == "demo":
-        return [] if args.no_media else ["video", "gltf", "plots"]
-    return [m for m in MEDIA_NAMES if getattr(args, m, False)]
+        media = [] if args.no_media else ["video", "gltf", "plots"]
+    else:
+        media = [m for m in MEDIA_NAMES if getattr(args, m, False)]
+    kept = []
+    for m in media:
+        modules, extra = MEDIA_NEEDS[m]
+        missing = _missing_modules(modules)
+        if not missing:
+            kept.append(m)
+        elif args.command == "demo":
+            print(f"tumble: note: no {MEDIA_NAMES[m]}: it needs {', '.join(missing)} (pip install 'tumble[{extra}]')", file=sys.stderr)
+        else:
+            raise InputError(f"needs {', '.join(missing)}: pip install 'tumble[{extra}]'", f"--{m}")
+    return kept
+
+
+def _missing_modules(modules) -> list[str]:
+    import importlib.util
+
+    return [m for m in modules if importlib.util.find_spec(m) is None]
 
 
 def _write_media(out: Path, media, progress: bool):
