@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..math3d import JIT
+from ..math3d import JIT, quat_to_matrix_into
 from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_SPHERE
 
 
@@ -20,17 +20,7 @@ def _update_bounds_kernel(x, R, shape_type, shape_body, shape_params, shape_loca
     local = np.empty((3, 3))
     for s in range(shape_type.shape[0]):
         b = shape_body[s]
-        q = shape_local_q[s]
-        w, qx, qy, qz = q[0], q[1], q[2], q[3]
-        local[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
-        local[0, 1] = 2.0 * (qx * qy - w * qz)
-        local[0, 2] = 2.0 * (qx * qz + w * qy)
-        local[1, 0] = 2.0 * (qx * qy + w * qz)
-        local[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
-        local[1, 2] = 2.0 * (qy * qz - w * qx)
-        local[2, 0] = 2.0 * (qx * qz - w * qy)
-        local[2, 1] = 2.0 * (qy * qz + w * qx)
-        local[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+        quat_to_matrix_into(shape_local_q[s], local)
         # shape pose in the world: p = x + R p_local, Rs = R Rlocal (DESIGN.md: p_world = R p_body + x)
         for i in range(3):
             shape_pos[s, i] = x[b, i] + R[b, i, 0] * shape_local_pos[s, 0] + R[b, i, 1] * shape_local_pos[s, 1] \
