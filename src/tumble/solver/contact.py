@@ -1,0 +1,496 @@
+"""Velocity-level contact solver: Box2D v3's soft step, in kernels over contact arrays.
+
+The stages follow Box2D v3's solver (``src/solver.c``, ``src/contact_solver.c``; Catto,
+"Solver2D", https://box2d.org/posts/2024/02/solver2d/), written afresh for 3-D:
+
+    prepare_contacts                 once a step, after the narrowphase
+    per substep h = dt / substeps:
+        integrate_velocities         gravity only (this module's stepper)
+        warm_start                   last substep's accumulated impulses
+        solve_contacts(use_bias=1)   soft non-penetration + Coulomb friction
+        integrate_positions          x += h v, q by the exact rotation of omega h
+        solve_contacts(use_bias=0)   relax: removes the push-out velocity (no energy added)
+    apply_restitution                one pass, v+ = -e v- above RESTITUTION_THRESHOLD
+    store_impulses                   keyed by ``contact_key`` for the next step's warm start
+
+Not wired into the Simulator yet: ``step_with_contacts`` is a standalone stepper for tests.
+
+Combine rules (per contact, from the two bodies' ``Material``): friction sqrt(fa fb),
+restitution max(ea, eb) (Box2D's defaults).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..collision.manifold import match_contacts
+from ..math3d import (
+    JIT,
+    normalize_quat_inplace,
+    quat_exp_multiply_inplace,
+    quat_to_matrix_into,
+)
+
+# Relative normal speed (m/s) below which restitution is ignored: slower impacts end
+# inelastic, so resting and slowly bouncing contacts settle instead of chattering.
+# Box2D's b2_restitutionThreshold / Box3D's default, 1 m/s. @warning a scene of small,
+# slow bodies (marbles) needs a lower value to bounce at all.
+RESTITUTION_THRESHOLD = 1.0
+
+
+@dataclass
+class SoftStepSettings:
+    """The soft step's tuning (BENCHMARKS.md "Settings shared by every scene").
+
+    contact_hertz: Hz, stiffness of contacts between two moving bodies (30), capped at
+        ``hertz_cap_per_substep / h`` (0.125 / h = 30 Hz at h = 1/240 s).
+    contact_damping_ratio: (10) heavily over-damped: penetration is pushed out, never bounced.
+    static_hertz_scale, static_damping_ratio: contacts against fixed bodies use
+        2 x the contact hertz with damping ratio 5 (BENCHMARKS.md; stiffer, since the
+        fixed side cannot move away).
+    contact_speed: m/s, largest push-out speed of the bias (Box2D ``contactSpeed``, 3).
+    restitution_threshold: m/s, see RESTITUTION_THRESHOLD.
+    """
+
+    contact_hertz: float = 30.0
+    contact_damping_ratio: float = 10.0
+    static_hertz_scale: float = 2.0
+    static_damping_ratio: float = 5.0
+    hertz_cap_per_substep: float = 0.125
+    contact_speed: float = 3.0
+    restitution_threshold: float = RESTITUTION_THRESHOLD
+
+
+def soft_coefficients(hertz: float, zeta: float, h: float):
+    """(bias_rate 1/s, mass_scale, impulse_scale) of a soft constraint (Catto, GDC 2011,
+    https://box2d.org/files/ErinCatto_SoftConstraints_GDC2011.pdf; Box2D ``b2MakeSoft``).
+
+    A spring-damper of natural frequency omega = 2 pi hertz and damping ratio zeta, stepped
+    implicitly over h, turns the rigid impulse -m (vn + bias) into
+    -mass_scale m (vn + bias_rate s) - impulse_scale * accumulated.
+    """
+    if hertz <= 0.0:
+        return 0.0, 1.0, 0.0
+    omega = 2.0 * math.pi * hertz
+    a1 = 2.0 * zeta + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3
+
+
+# ---------------------------------------------------------------------- small helpers
+@njit(**JIT)
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(**JIT)
+def _point_velocity(v, omega, i, r):
+    """Velocity (3 floats) of the point at arm r (3,) of body i: v + omega x r."""
+    c0, c1, c2 = _cross(omega[i, 0], omega[i, 1], omega[i, 2], r[0], r[1], r[2])
+    return v[i, 0] + c0, v[i, 1] + c1, v[i, 2] + c2
+
+
+@njit(**JIT)
+def _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, p0, p1, p2):
+    """Impulse P = (p0, p1, p2) on b at arm rb and -P on a at arm ra."""
+    ma = inv_mass[a]
+    mb = inv_mass[b]
+    v[a, 0] -= ma * p0
+    v[a, 1] -= ma * p1
+    v[a, 2] -= ma * p2
+    v[b, 0] += mb * p0
+    v[b, 1] += mb * p1
+    v[b, 2] += mb * p2
+    c0, c1, c2 = _cross(ra[0], ra[1], ra[2], p0, p1, p2)
+    for k in range(3):
+        omega[a, k] -= I_inv[a, k, 0] * c0 + I_inv[a, k, 1] * c1 + I_inv[a, k, 2] * c2
+    c0, c1, c2 = _cross(rb[0], rb[1], rb[2], p0, p1, p2)
+    for k in range(3):
+        omega[b, k] += I_inv[b, k, 0] * c0 + I_inv[b, k, 1] * c1 + I_inv[b, k, 2] * c2
+
+
+@njit(**JIT)
+def _angular_term(I_inv, i, r, d0, d1, d2):
+    """(r x d) . I_inv[i] (r x d)."""
+    c0, c1, c2 = _cross(r[0], r[1], r[2], d0, d1, d2)
+    return (c0 * (I_inv[i, 0, 0] * c0 + I_inv[i, 0, 1] * c1 + I_inv[i, 0, 2] * c2)
+            + c1 * (I_inv[i, 1, 0] * c0 + I_inv[i, 1, 1] * c1 + I_inv[i, 1, 2] * c2)
+            + c2 * (I_inv[i, 2, 0] * c0 + I_inv[i, 2, 1] * c1 + I_inv[i, 2, 2] * c2))
+
+
+@njit(**JIT)
+def _effective_mass(inv_mass, I_inv, a, b, ra, rb, d0, d1, d2):
+    """1 / (J M^-1 J^T) for the direction d at arms ra, rb (0 when both bodies are fixed)."""
+    k = inv_mass[a] + inv_mass[b] + _angular_term(I_inv, a, ra, d0, d1, d2) + _angular_term(I_inv, b, rb, d0, d1, d2)
+    return 1.0 / k if k > 0.0 else 0.0
+
+
+# ---------------------------------------------------------------------- kernels
+@njit(**JIT)
+def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
+                            old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
+                            body_friction, body_restitution, soft_dynamic, soft_static,
+                            # outputs
+                            anchor_a, anchor_b, local_a, local_b, tangent1, tangent2, normal_mass,
+                            tangent_mass, soft, friction, restitution, relative_velocity,
+                            normal_impulse, tangent_impulse, max_normal_impulse):
+    """Per contact: arms, tangent basis, effective masses, softness, mixed material, the
+    pre-step normal speed (for restitution) and the warm-start impulses carried over by ``match``."""
+    for c in range(body_a.shape[0]):
+        a = body_a[c]
+        b = body_b[c]
+        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+        # tangent basis from the normal alone, so that the same normal gives the same
+        # tangents next step (friction impulses are also carried as world vectors)
+        if abs(n0) >= 0.57735:
+            t0, t1, t2 = n1, -n0, 0.0
+        else:
+            t0, t1, t2 = 0.0, n2, -n1
+        inv = 1.0 / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        t0 *= inv
+        t1 *= inv
+        t2 *= inv
+        s0, s1, s2 = _cross(n0, n1, n2, t0, t1, t2)
+        tangent1[c, 0], tangent1[c, 1], tangent1[c, 2] = t0, t1, t2
+        tangent2[c, 0], tangent2[c, 1], tangent2[c, 2] = s0, s1, s2
+        for k in range(3):
+            anchor_a[c, k] = point[c, k] - x[a, k]
+            anchor_b[c, k] = point[c, k] - x[b, k]
+        # the anchors in each body's frame, to follow the separation as the bodies move
+        for k in range(3):
+            local_a[c, k] = R[a, 0, k] * anchor_a[c, 0] + R[a, 1, k] * anchor_a[c, 1] + R[a, 2, k] * anchor_a[c, 2]
+            local_b[c, k] = R[b, 0, k] * anchor_b[c, 0] + R[b, 1, k] * anchor_b[c, 1] + R[b, 2, k] * anchor_b[c, 2]
+        ra = anchor_a[c]
+        rb = anchor_b[c]
+        normal_mass[c] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, n0, n1, n2)
+        tangent_mass[c, 0] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, t0, t1, t2)
+        tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
+        src = soft_static if not (moving[a] and moving[b]) else soft_dynamic
+        soft[c, 0], soft[c, 1], soft[c, 2] = src[0], src[1], src[2]
+        friction[c] = math.sqrt(body_friction[a] * body_friction[b])
+        restitution[c] = max(body_restitution[a], body_restitution[b])
+        va0, va1, va2 = _point_velocity(v, omega, a, ra)
+        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+        relative_velocity[c] = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
+        max_normal_impulse[c] = 0.0
+        m = match[c]
+        if m >= 0:
+            normal_impulse[c] = old_normal_impulse[m]
+            f = old_friction_impulse[m]
+            tangent_impulse[c, 0] = f[0] * t0 + f[1] * t1 + f[2] * t2
+            tangent_impulse[c, 1] = f[0] * s0 + f[1] * s1 + f[2] * s2
+        else:
+            normal_impulse[c] = 0.0
+            tangent_impulse[c, 0] = 0.0
+            tangent_impulse[c, 1] = 0.0
+
+
+@njit(**JIT)
+def warm_start_kernel(body_a, body_b, normal, tangent1, tangent2, anchor_a, anchor_b, normal_impulse,
+                      tangent_impulse, inv_mass, I_inv,
+                      # outputs
+                      v, omega):
+    """Apply the accumulated impulses (normal and both friction directions) once."""
+    for c in range(body_a.shape[0]):
+        jn = normal_impulse[c]
+        j1 = tangent_impulse[c, 0]
+        j2 = tangent_impulse[c, 1]
+        p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
+        p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
+        p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
+        _apply_impulse(v, omega, inv_mass, I_inv, body_a[c], body_b[c], anchor_a[c], anchor_b[c], p0, p1, p2)
+
+
+@njit(**JIT)
+def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, anchor_a, anchor_b, local_a, local_b,
+                          separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
+                          inv_h, contact_speed, use_bias,
+                          # outputs
+                          v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity):
+    """One Gauss-Seidel sweep: per contact the normal impulse (soft when ``use_bias``), then friction.
+
+    The separation is followed as the bodies move within the step: s = s0 + n.(d - d0),
+    d = (xB + RB lB) - (xA + RA lA), with d0 = 0 since both anchors start at the contact point.
+    s > 0 (speculative): the bias lets the gap close in exactly this substep and no more.
+    s <= 0 with bias: a soft spring pushes out at no more than ``contact_speed``.
+    Relax (no bias): rigid, so the push-out velocity is taken back out and adds no energy.
+
+    ``relative_velocity`` (the approach speed restitution reflects) is lowered to the normal
+    speed seen just before any solve (biased or relax) that pushes. Box2D keeps the pre-step speed only;
+    I measured that this loses the gravity gained within the step before impact (a sphere
+    dropped 2 m with e = 0.8, dt 1/60 s: second apex 4 % low), and the speed at the pushing
+    substep is the impact speed to within g h.
+    """
+    for c in range(body_a.shape[0]):
+        a = body_a[c]
+        b = body_b[c]
+        ra = anchor_a[c]
+        rb = anchor_b[c]
+        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+        ds = 0.0
+        for k in range(3):
+            pb = x[b, k] + R[b, k, 0] * local_b[c, 0] + R[b, k, 1] * local_b[c, 1] + R[b, k, 2] * local_b[c, 2]
+            pa = x[a, k] + R[a, k, 0] * local_a[c, 0] + R[a, k, 1] * local_a[c, 1] + R[a, k, 2] * local_a[c, 2]
+            ds += normal[c, k] * (pb - pa)
+        s = separation[c] + ds
+        bias = 0.0
+        mass_scale = 1.0
+        impulse_scale = 0.0
+        if s > 0.0:
+            bias = s * inv_h
+        elif use_bias:
+            bias = max(soft[c, 0] * s, -contact_speed)
+            mass_scale = soft[c, 1]
+            impulse_scale = soft[c, 2]
+        va0, va1, va2 = _point_velocity(v, omega, a, ra)
+        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+        vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
+        impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
+        new_impulse = max(normal_impulse[c] + impulse, 0.0)
+        if new_impulse > 0.0 and vn < relative_velocity[c]:
+            relative_velocity[c] = vn
+        impulse = new_impulse - normal_impulse[c]
+        normal_impulse[c] = new_impulse
+        max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+        _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
+
+        # Coulomb friction: each direction with its own effective mass, then the accumulated
+        # 2-vector clamped to the disc of radius mu * normal impulse (isotropic friction cone)
+        va0, va1, va2 = _point_velocity(v, omega, a, ra)
+        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+        d0, d1, d2 = vb0 - va0, vb1 - va1, vb2 - va2
+        vt1 = d0 * tangent1[c, 0] + d1 * tangent1[c, 1] + d2 * tangent1[c, 2]
+        vt2 = d0 * tangent2[c, 0] + d1 * tangent2[c, 1] + d2 * tangent2[c, 2]
+        old1 = tangent_impulse[c, 0]
+        old2 = tangent_impulse[c, 1]
+        new1 = old1 - tangent_mass[c, 0] * vt1
+        new2 = old2 - tangent_mass[c, 1] * vt2
+        limit = friction[c] * normal_impulse[c]
+        mag2 = new1 * new1 + new2 * new2
+        if mag2 > limit * limit:
+            scale = limit / math.sqrt(mag2)
+            new1 *= scale
+            new2 *= scale
+        tangent_impulse[c, 0] = new1
+        tangent_impulse[c, 1] = new2
+        j1 = new1 - old1
+        j2 = new2 - old2
+        _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb,
+                       j1 * tangent1[c, 0] + j2 * tangent2[c, 0],
+                       j1 * tangent1[c, 1] + j2 * tangent2[c, 1],
+                       j1 * tangent1[c, 2] + j2 * tangent2[c, 2])
+
+
+@njit(**JIT)
+def apply_restitution_kernel(body_a, body_b, normal, anchor_a, anchor_b, normal_mass, restitution,
+                             relative_velocity, max_normal_impulse, threshold, inv_mass, I_inv,
+                             # outputs
+                             v, omega, normal_impulse):
+    """One pass after the substeps: where the pre-step approach speed was above ``threshold``
+    and the contact pushed this step, set the normal speed to -e times the approach speed."""
+    for c in range(body_a.shape[0]):
+        e = restitution[c]
+        if e == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0:
+            continue
+        a = body_a[c]
+        b = body_b[c]
+        ra = anchor_a[c]
+        rb = anchor_b[c]
+        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+        va0, va1, va2 = _point_velocity(v, omega, a, ra)
+        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+        vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
+        impulse = -normal_mass[c] * (vn + e * relative_velocity[c])
+        new_impulse = max(normal_impulse[c] + impulse, 0.0)
+        impulse = new_impulse - normal_impulse[c]
+        normal_impulse[c] = new_impulse
+        _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
+
+
+@njit(**JIT)
+def integrate_velocities_kernel(moving, gravity, h,
+                                # outputs
+                                v):
+    """v += h g for moving bodies (the only force of this stepper)."""
+    for i in range(moving.shape[0]):
+        if moving[i]:
+            for k in range(3):
+                v[i, k] += h * gravity[k]
+
+
+@njit(**JIT)
+def integrate_positions_kernel(moving, v, omega, h,
+                               # outputs
+                               x, q, R):
+    """x += h v; q rotated exactly by omega over h, renormalised; R from q."""
+    for i in range(moving.shape[0]):
+        if moving[i]:
+            for k in range(3):
+                x[i, k] += h * v[i, k]
+            quat_exp_multiply_inplace(q[i], omega[i, 0], omega[i, 1], omega[i, 2], h)
+            normalize_quat_inplace(q[i])
+            quat_to_matrix_into(q[i], R[i])
+
+
+# ---------------------------------------------------------------------- the solver object
+_C_FLOAT = {
+    "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "tangent1": (3,), "tangent2": (3,),
+    "normal_mass": (), "tangent_mass": (2,), "soft": (3,), "friction": (), "restitution": (),
+    "relative_velocity": (), "normal_impulse": (), "tangent_impulse": (2,), "max_normal_impulse": (),
+    "old_normal_impulse": (), "old_friction_impulse": (3,),
+}
+
+
+class ContactSolver:
+    """Per-contact solver arrays, kept between steps (buffers grow by doubling), and the
+    impulses stored by key for warm starting.
+
+    Usage per step: ``prepare_contacts(world, contacts, h)``, then per substep
+    ``warm_start`` / ``solve_contacts(True)`` / (positions) / ``solve_contacts(False)``,
+    then ``apply_restitution`` and ``store_impulses``. The kernels read and write the
+    caller's velocity arrays ``v`` and ``omega`` (N, 3) given to ``prepare_contacts``.
+    """
+
+    def __init__(self, settings: SoftStepSettings | None = None, capacity: int = 64):
+        self.settings = settings or SoftStepSettings()
+        self.count = 0
+        self.old_count = 0
+        self._capacity = 0
+        self._buf: dict[str, np.ndarray] = {}
+        self._reserve(capacity)
+        self.old_key = np.zeros(0, dtype=np.int64)
+        self.contacts = None
+
+    def _reserve(self, n: int):
+        cap = max(self._capacity, 1)
+        while cap < n:
+            cap *= 2
+        if cap == self._capacity:
+            return
+        new = {name: np.zeros((cap,) + shape) for name, shape in _C_FLOAT.items()}
+        for name, arr in self._buf.items():
+            new[name][: len(arr)] = arr
+        self._buf = new
+        self._capacity = cap
+
+    def __getattr__(self, name):
+        buf = self.__dict__.get("_buf", {})
+        if name in buf:
+            n = self.old_count if name.startswith("old_") else self.count
+            return buf[name][:n]
+        raise AttributeError(name)
+
+    # -- stages --------------------------------------------------------------------------
+    def prepare_contacts(self, world, contacts, h: float, v: np.ndarray, omega: np.ndarray):
+        """Set up this step's contacts from ``contacts`` (a ContactManifolds) at substep ``h``."""
+        st = self.settings
+        self.contacts = contacts
+        self.world = world
+        self.v = v
+        self.omega = omega
+        self.h = h
+        n = contacts.contact_count
+        self._reserve(max(n, self.old_count))
+        self.count = n
+        hertz = min(st.contact_hertz, st.hertz_cap_per_substep / h)
+        self.soft_dynamic = np.array(soft_coefficients(hertz, st.contact_damping_ratio, h))
+        self.soft_static = np.array(soft_coefficients(st.static_hertz_scale * hertz, st.static_damping_ratio, h))
+        match = match_contacts(self.old_key, contacts.contact_key)
+        nb = world.body_count
+        self.body_friction = np.array([m.friction for m in world.materials[:nb]], dtype=float)
+        self.body_restitution = np.array([m.restitution for m in world.materials[:nb]], dtype=float)
+        b = self._buf
+        prepare_contacts_kernel(
+            contacts.contact_body_a, contacts.contact_body_b, contacts.contact_point, contacts.contact_normal,
+            contacts.contact_separation, match, b["old_normal_impulse"][: self.old_count],
+            b["old_friction_impulse"][: self.old_count], world.x, world.R, v, omega, world.inv_mass, world.I_inv,
+            world.moving, self.body_friction, self.body_restitution, self.soft_dynamic, self.soft_static,
+            self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.tangent1, self.tangent2,
+            self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
+            self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
+        )
+
+    def warm_start(self):
+        c = self.contacts
+        warm_start_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
+                          self.anchor_a, self.anchor_b, self.normal_impulse, self.tangent_impulse,
+                          self.world.inv_mass, self.world.I_inv, self.v, self.omega)
+
+    def solve_contacts(self, use_bias: bool):
+        c = self.contacts
+        w = self.world
+        solve_contacts_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
+                              self.anchor_a, self.anchor_b, self.local_a, self.local_b, c.contact_separation,
+                              self.normal_mass, self.tangent_mass, self.soft, self.friction, w.x, w.R,
+                              w.inv_mass, w.I_inv, 1.0 / self.h, self.settings.contact_speed, bool(use_bias),
+                              self.v, self.omega, self.normal_impulse, self.tangent_impulse,
+                              self.max_normal_impulse, self.relative_velocity)
+
+    def apply_restitution(self):
+        c = self.contacts
+        apply_restitution_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.anchor_a,
+                                 self.anchor_b, self.normal_mass, self.restitution, self.relative_velocity,
+                                 self.max_normal_impulse, self.settings.restitution_threshold,
+                                 self.world.inv_mass, self.world.I_inv, self.v, self.omega,
+                                 self.normal_impulse)
+
+    def store_impulses(self):
+        """Keep this step's impulses by ``contact_key``: normal as a number, friction as a world vector."""
+        n = self.count
+        b = self._buf
+        b["old_normal_impulse"][:n] = b["normal_impulse"][:n]
+        b["old_friction_impulse"][:n] = (b["tangent_impulse"][:n, 0:1] * b["tangent1"][:n]
+                                         + b["tangent_impulse"][:n, 1:2] * b["tangent2"][:n])
+        self.old_key = np.array(self.contacts.contact_key, dtype=np.int64)
+        self.old_count = n
+
+
+# ---------------------------------------------------------------------- standalone stepper
+def step_with_contacts(world, pipeline, dt: float, substeps: int = 4, state: ContactSolver | None = None):
+    """Advance ``world`` by ``dt`` under gravity and contact only (no other forces), Box2D's order.
+
+    Detects contacts once on the current poses, then per substep integrate velocities ->
+    warm start -> solve (bias) -> integrate positions -> relax; then restitution and
+    store impulses. Writes x, q, R, P = m v, L = I omega and advances ``world.t``.
+    Returns the ``ContactSolver`` to pass back as ``state`` next step (warm starting).
+    """
+    if state is None:
+        state = ContactSolver()
+    h = dt / substeps
+    moving = world.moving
+    n = world.body_count
+    # velocities from momenta, inverse world inertia from the pose (fixed over the step, as Box2D)
+    v = np.zeros((n, 3))
+    omega = np.zeros((n, 3))
+    R = world.R
+    I_inv = world.I_inv
+    for i in range(n):
+        if moving[i]:
+            I_inv[i] = R[i] @ world.inertia_body_inv[i] @ R[i].T
+            v[i] = world.P[i] * world.inv_mass[i]
+            omega[i] = I_inv[i] @ world.L[i]
+        else:
+            I_inv[i] = 0.0
+    contacts = pipeline.detect()
+    state.prepare_contacts(world, contacts, h, v, omega)
+    gravity = np.asarray(world.gravity, dtype=float)
+    for _ in range(substeps):
+        integrate_velocities_kernel(moving, gravity, h, v)
+        state.warm_start()
+        state.solve_contacts(True)
+        integrate_positions_kernel(moving, v, omega, h, world.x, world.q, world.R)
+        state.solve_contacts(False)
+    state.apply_restitution()
+    state.store_impulses()
+    for i in range(n):
+        if moving[i]:
+            world.P[i] = world.mass[i] * v[i]
+            world.L[i] = R[i] @ world.inertia_body[i] @ R[i].T @ omega[i]
+    world.t += dt
+    world.update_derived()
+    return state
