@@ -13,7 +13,7 @@ finite = st.floats(min_value=-1e3, max_value=1e3, allow_nan=False)
 vec3 = st.tuples(finite, finite, finite).map(np.array)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200, deadline=None, derandomize=True)  # the same examples every run: CI stays reproducible
 @given(vec3, vec3)
 def test_star_is_the_cross_product(w, a):
     # ERRATA 1: w* a = w x a. Each component is a difference of two products, each side

@@ -474,3 +474,12 @@ def test_scene_check_after_changing_settings(tmp_path):
     scene.integrator = "rk5"
     with pytest.raises(InputError, match=re.escape(f"{path}: simulation.integrator: unknown integrator 'rk5'")):
         scene.check()
+
+
+def test_a_key_with_control_characters_still_gives_one_line():
+    # Regression (found by tests/test_fuzz.py): a key containing a newline made a two-line error.
+    from tumble.scene import parse_scene
+
+    with pytest.raises(InputError) as err:
+        parse_scene({"\n": None}, "f.toml")
+    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, forces)"

@@ -27,7 +27,7 @@ class InputError(TumbleError, ValueError):
 
     def _line(self) -> str:
         parts = [p for p in (self.file, self.key) if p]
-        return ": ".join(parts + [self.problem])
+        return ": ".join(_printable(str(p)) for p in parts + [self.problem])
 
     def within(self, key_prefix: str | None = None, file: str | None = None) -> "InputError":
         """The same error, seen from an outer key (``bodies[2]``) or a file."""
@@ -38,6 +38,11 @@ class InputError(TumbleError, ValueError):
 
     def __str__(self) -> str:  # keep the line current if attributes were changed
         return self._line()
+
+
+def _printable(text: str) -> str:
+    """``text`` with control characters escaped (a newline in a key becomes ``\\n``): the line stays one line."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 class SimulationError(TumbleError, RuntimeError):
