@@ -66,16 +66,6 @@ INTEGRATOR_IDS = {
     "rk45": RK45,
     "dop853": DOP853,
 }
-INTEGRATOR_ORDER = {
-    "explicit-euler": 1,
-    "semi-implicit-euler": 1,
-    "midpoint": 2,
-    "rk4": 4,
-    "splitting": 2,
-    "splitting4": 4,
-    "rk45": 5,
-    "dop853": 8,
-}
 ADAPTIVE = {RK45: "RK45", DOP853: "DOP853"}
 
 # Yoshida (1990) triple jump: w1 = 1 / (2 - 2^(1/3)), w0 = 1 - 2 w1.
@@ -781,18 +771,6 @@ def _split_step(
     drift_kernel(layout, Y, moving, inv_mass, inertia_body_inv, principal_q, principal_moments, True, h)
     accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
     kick_kernel(layout, Y, moving, F, T, 0.5 * h)
-
-
-@njit(**JIT)
-def matrices_to_quaternions_kernel(R, q_prev, out):
-    """out (N, 4): unit quaternions of R (N, 3, 3), each on the hemisphere of q_prev (N, 4)
-    so that recorded orientations never jump sign between frames."""
-    for i in range(R.shape[0]):
-        matrix_to_quat_into(R[i], out[i])
-        dot = out[i, 0] * q_prev[i, 0] + out[i, 1] * q_prev[i, 1] + out[i, 2] * q_prev[i, 2] + out[i, 3] * q_prev[i, 3]
-        if dot < 0.0:
-            for k in range(4):
-                out[i, k] = -out[i, k]
 
 
 @njit(**JIT)
