@@ -1,10 +1,20 @@
 """Stage ``update_bounds``: world poses and AABBs of every shape.
 
-Reads body ``x`` (N, 3), ``R`` (N, 3, 3) and the ShapeTable; writes ``shape_pos``
-(S, 3), ``shape_rot`` (S, 3, 3) and ``shape_aabb`` (S, 2, 3) (min row, max row).
+Reads body ``x`` (N, 3), ``R`` (N, 3, 3), optionally ``v``, ``omega`` (N, 3) and the
+ShapeTable; writes ``shape_pos`` (S, 3), ``shape_rot`` (S, 3, 3), ``shape_aabb`` (S, 2, 3)
+(min row, max row) and ``shape_margin`` (S,).
+
+Continuous collision (issue 3, deliverable 5) is by speculative margins (Catto, GDC 2014
+"Continuous Collision"): a shape's margin is the speculative distance plus the farthest any
+point of it can travel in the step, dt (|v| + |omega| r), r its farthest point from the
+centre of mass. Two shapes whose gap is below the sum of their margins get contacts, and
+the solver lets such a contact close its gap and no more, so a fast body stops at a thin
+wall instead of passing it.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -14,10 +24,13 @@ from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_SPHERE
 
 
 @njit(**JIT)
-def _update_bounds_kernel(x, R, shape_type, shape_body, shape_params, shape_local_pos, shape_local_q, margin,
+def _update_bounds_kernel(x, R, v, omega, dt, shape_type, shape_body, shape_params, shape_local_pos, shape_local_q,
+                          margin,
                           # outputs
-                          shape_pos, shape_rot, shape_aabb):
+                          shape_pos, shape_rot, shape_aabb, shape_margin):
+    """x may be any (N, >= 3) array whose first three columns are the centres of mass (the packed state Y)."""
     local = np.empty((3, 3))
+    extent = np.empty(3)
     for s in range(shape_type.shape[0]):
         b = shape_body[s]
         quat_to_matrix_into(shape_local_q[s], local)
@@ -40,26 +53,42 @@ def _update_bounds_kernel(x, R, shape_type, shape_body, shape_params, shape_loca
             else:
                 # planes (and types without bounds yet) are unbounded; find_pairs skips them
                 e = np.inf
-            shape_aabb[s, 0, i] = shape_pos[s, i] - e - margin
-            shape_aabb[s, 1, i] = shape_pos[s, i] + e + margin
+            extent[i] = e
+        # motion bound over the step: |v| dt + |omega| dt r, r = |shape origin - x| + |half extents|
+        speed = math.sqrt(v[b, 0] ** 2 + v[b, 1] ** 2 + v[b, 2] ** 2)
+        spin = math.sqrt(omega[b, 0] ** 2 + omega[b, 1] ** 2 + omega[b, 2] ** 2)
+        sweep = 0.0
+        if speed > 0.0 or spin > 0.0:
+            r = math.sqrt(extent[0] ** 2 + extent[1] ** 2 + extent[2] ** 2) + math.sqrt(
+                (shape_pos[s, 0] - x[b, 0]) ** 2 + (shape_pos[s, 1] - x[b, 1]) ** 2 + (shape_pos[s, 2] - x[b, 2]) ** 2)
+            sweep = dt * (speed + spin * r)
+        shape_margin[s] = margin + sweep
+        for i in range(3):
+            shape_aabb[s, 0, i] = shape_pos[s, i] - extent[i] - shape_margin[s]
+            shape_aabb[s, 1, i] = shape_pos[s, i] + extent[i] + shape_margin[s]
 
 
-def update_bounds(x, R, table, margin, shape_pos=None, shape_rot=None, shape_aabb=None):
-    """World poses and AABBs of all shapes of ``table``.
+def update_bounds(x, R, table, margin, shape_pos=None, shape_rot=None, shape_aabb=None, v=None, omega=None,
+                  dt: float = 0.0, shape_margin=None):
+    """World poses, AABBs and speculative margins of all shapes of ``table``.
 
     Args:
-        x: (N, 3) m, centres of mass, world.
+        x: (N, 3) m, centres of mass, world (or the packed state (N, W): its first 3 columns).
         R: (N, 3, 3) body-to-world rotations.
+        v, omega: (N, 3) m/s, rad/s, world; with ``dt`` (s) they widen each shape's margin
+            by the distance it can travel in the step (None: no widening).
         table: the ``ShapeTable``.
         margin: m, added on every side (pass ``SPECULATIVE_DISTANCE``, 0.02 m: any two
             shapes closer than it then have overlapping boxes; half would do, the rest
             is slack for motion within a step).
-        shape_pos, shape_rot, shape_aabb: optional output buffers (S, 3), (S, 3, 3),
-            (S, 2, 3), reused when given (no allocation in the step).
+        shape_pos, shape_rot, shape_aabb, shape_margin: optional output buffers (S, 3),
+            (S, 3, 3), (S, 2, 3), (S,), reused when given (no allocation in the step).
 
     Returns:
         ``(shape_pos, shape_rot, shape_aabb)``: shape origins (world), shape-to-world
-        rotations, AABBs ``[s, 0] = min``, ``[s, 1] = max`` (planes: -inf, +inf).
+        rotations, AABBs ``[s, 0] = min``, ``[s, 1] = max`` (planes: -inf, +inf), grown
+        by each shape's margin. With ``shape_margin`` given, it is filled too: m, the
+        speculative distance plus the shape's motion bound over ``dt``.
     """
     S = table.shape_count
     if shape_pos is None:
@@ -68,8 +97,15 @@ def update_bounds(x, R, table, margin, shape_pos=None, shape_rot=None, shape_aab
         shape_rot = np.empty((S, 3, 3))
     if shape_aabb is None:
         shape_aabb = np.empty((S, 2, 3))
-    _update_bounds_kernel(np.ascontiguousarray(x, dtype=np.float64), np.ascontiguousarray(R, dtype=np.float64),
-                          table.shape_type, table.shape_body, table.shape_params, table.shape_local_pos,
-                          table.shape_local_q, float(margin), shape_pos, shape_rot, shape_aabb)
+    if shape_margin is None:
+        shape_margin = np.empty(S)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if v is None or omega is None:
+        v = omega = np.zeros((1, 3)) if len(x) == 0 else np.zeros((len(x), 3))
+        dt = 0.0
+    _update_bounds_kernel(x, np.ascontiguousarray(R, dtype=np.float64),
+                          np.ascontiguousarray(v, dtype=np.float64), np.ascontiguousarray(omega, dtype=np.float64),
+                          float(dt), table.shape_type, table.shape_body, table.shape_params, table.shape_local_pos,
+                          table.shape_local_q, float(margin), shape_pos, shape_rot, shape_aabb, shape_margin)
     return shape_pos, shape_rot, shape_aabb
 

@@ -58,7 +58,7 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
 
 @njit(**JIT)
 def _collide_pairs_kernel(pair_a, pair_b, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
-                          body_moving, speculative,
+                          body_moving, speculative, shape_margin,
                           # outputs
                           m_shape_a, m_shape_b, m_body_a, m_body_b, m_normal, m_first, m_count,
                           c_manifold, c_body_a, c_body_b, c_point, c_normal, c_separation, c_feature, c_key):
@@ -66,6 +66,8 @@ def _collide_pairs_kernel(pair_a, pair_b, shape_type, shape_body, shape_params, 
 
     Serial so that the output order is the pair order (determinism). The buffers
     must hold one manifold per candidate pair (the wrapper reserves them).
+    A pair keeps contacts while its gap is below margin_a + margin_b - speculative: the
+    speculative distance plus how far the two can close in the step (bounds.py).
     PERF: two passes (count, prefix sum, fill) would allow prange.
     """
     normal = np.empty(3)
@@ -104,12 +106,13 @@ def _collide_pairs_kernel(pair_a, pair_b, shape_type, shape_body, shape_params, 
             for i in range(3):
                 ni = (nx, ny, nz)[i]
                 low += ni * (shape_aabb[b, 0, i] if ni > 0.0 else shape_aabb[b, 1, i])
-            if low - d > speculative:
+            if low - d > shape_margin[b] + shape_margin[a] - speculative:
                 continue
         if shape_type[a] > shape_type[b]:
             a, b = b, a
+        pair_speculative = shape_margin[a] + shape_margin[b] - speculative
         n = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
-                           shape_pos[b], shape_rot[b], shape_params[b], speculative,
+                           shape_pos[b], shape_rot[b], shape_params[b], pair_speculative,
                            normal, point, separation, feature)
         if n == 0:
             continue
@@ -140,7 +143,7 @@ def _collide_pairs_kernel(pair_a, pair_b, shape_type, shape_body, shape_params, 
 
 
 def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, speculative,
-                  out: ContactManifolds | None = None) -> ContactManifolds:
+                  out: ContactManifolds | None = None, shape_margin=None) -> ContactManifolds:
     """Contact manifolds of the broadphase pairs, and of each plane against each moving shape.
 
     Args:
@@ -150,6 +153,8 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
         speculative: m, contacts are kept while their separation is below it
             (``SPECULATIVE_DISTANCE``, 0.02 m).
         out: a ``ContactManifolds`` to reuse (grown by doubling).
+        shape_margin: (S,) m from ``update_bounds`` (speculative distance plus motion bound);
+            None: ``speculative`` for every shape.
 
     Returns:
         ``out``, filled: manifolds in pair order (sweep pairs by (a, b), then planes).
@@ -161,9 +166,11 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
         raise ValueError(f"contact keys hold shape indices below {1 << KEY_BITS}; got {S} shapes")
     n_planes = int(np.count_nonzero(table.shape_type == SHAPE_PLANE))
     out.reserve(len(pair_a) + n_planes * max(S - n_planes, 0))
+    if shape_margin is None:
+        shape_margin = np.full(S, float(speculative))
     m, c = _collide_pairs_kernel(np.ascontiguousarray(pair_a, dtype=np.int64), np.ascontiguousarray(pair_b, dtype=np.int64),
                                  table.shape_type, table.shape_body, table.shape_params, shape_pos, shape_rot,
-                                 shape_aabb, table.body_moving, float(speculative), *out.buffers())
+                                 shape_aabb, table.body_moving, float(speculative), shape_margin, *out.buffers())
     out.manifold_count = m
     out.contact_count = c
     return out

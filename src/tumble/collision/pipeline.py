@@ -5,6 +5,8 @@ Reads a World's ``x`` and ``R``; writes shape poses, AABBs, pairs and a ``Contac
 
 from __future__ import annotations
 
+import numpy as np
+
 from .bounds import update_bounds
 from .broadphase import PairBuffer, find_pairs
 from .constants import SPECULATIVE_DISTANCE
@@ -34,19 +36,38 @@ class CollisionPipeline:
         self._body_count = -1
         self.pairs = PairBuffer()
         self.contacts = ContactManifolds()
-        self.shape_pos = self.shape_rot = self.shape_aabb = None
+        self.shape_pos = self.shape_rot = self.shape_aabb = self.shape_margin = None
         self.pair_a = self.pair_b = None
 
-    def detect(self) -> ContactManifolds:
-        """Run the three stages on the world's current poses (``x``, ``R``); returns the contacts."""
+    def refresh(self):
+        """Rebuild the shape table if bodies were added since the last call."""
         world = self.world
         if self.table is None or world.body_count != self._body_count:
             self.table = build_shape_table(world, self.skip_unsupported)
             self._body_count = world.body_count
-            self.shape_pos = self.shape_rot = self.shape_aabb = None
-        self.shape_pos, self.shape_rot, self.shape_aabb = update_bounds(
-            world.x, world.R, self.table, self.speculative, self.shape_pos, self.shape_rot, self.shape_aabb)
-        self.pair_a, self.pair_b = find_pairs(self.shape_aabb, self.table.shape_type, self.table.shape_body,
-                                              self.table.body_moving, self.pairs)
-        return collide_pairs(self.pair_a, self.pair_b, self.table, self.shape_pos, self.shape_rot, self.shape_aabb,
-                             self.speculative, self.contacts)
+            S = self.table.shape_count
+            self.shape_pos = np.empty((S, 3))
+            self.shape_rot = np.empty((S, 3, 3))
+            self.shape_aabb = np.empty((S, 2, 3))
+            self.shape_margin = np.empty(S)
+        return self.table
+
+    def detect(self, x=None, R=None, v=None, omega=None, dt: float = 0.0) -> ContactManifolds:
+        """Run the three stages; returns the contacts.
+
+        Args:
+            x: (N, 3) or the packed state (N, W), m; R: (N, 3, 3). Default: the world's
+                current ``x`` and ``R``.
+            v, omega: (N, 3) m/s, rad/s and dt (s): widen each shape's margin by the distance
+                it can travel in the step (continuous collision); default none.
+        """
+        world = self.world
+        table = self.refresh()
+        if x is None:
+            x, R = world.x, world.R
+        update_bounds(x, R, table, self.speculative, self.shape_pos, self.shape_rot, self.shape_aabb,
+                      v=v, omega=omega, dt=dt, shape_margin=self.shape_margin)
+        self.pair_a, self.pair_b = find_pairs(self.shape_aabb, table.shape_type, table.shape_body,
+                                              table.body_moving, self.pairs)
+        return collide_pairs(self.pair_a, self.pair_b, table, self.shape_pos, self.shape_rot, self.shape_aabb,
+                             self.speculative, self.contacts, shape_margin=self.shape_margin)
