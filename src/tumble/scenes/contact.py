@@ -34,7 +34,7 @@ SUBSTEPS = 4
 
 
 def _settings(duration: float, dt: float = DT, substeps: int = SUBSTEPS, **extra) -> dict:
-    steps = int(round(duration / dt))
+    steps = round(duration / dt)
     return {"dt": dt, "substeps": substeps, "duration": steps * dt, "steps": steps, **extra}
 
 
@@ -53,7 +53,7 @@ def grid_side(n: int) -> int:
     """k = ceil(cbrt(n)) in integers (no floating-point cube-root surprises at n = 1000)."""
     if n < 1:
         raise ValueError(f"n must be >= 1, got {n}")
-    k = max(1, int(round(n ** (1.0 / 3.0))))
+    k = max(1, round(n ** (1.0 / 3.0)))
     while k ** 3 < n:
         k += 1
     while k > 1 and (k - 1) ** 3 >= n:
