@@ -115,6 +115,7 @@ class World:
         self.shapes: list[Any] = []
         self.materials: list[Material] = []
         self.forces: list[Any] = []
+        self.joints: list[Any] = []  # joint records of tumble.joints, bound (add_joint)
         # indices into ``forces`` of the Impulse records already applied (once each); plain
         # integers, so that a checkpoint can save them
         self.applied_impulses: set[int] = set()
@@ -274,6 +275,15 @@ class World:
         self.forces.append(force)
         self._tables = None
         return force
+
+    def add_joint(self, joint):
+        """Add a joint record of ``tumble.joints`` (BallJoint, HingeJoint, ...): checks it and
+        resolves its anchors and axes into the bodies' frames at their current poses."""
+        from .joints import bind_joint
+
+        bind_joint(self, joint)
+        self.joints.append(joint)
+        return joint
 
     def index_of(self, body) -> int:
         """Index of a body given as a ``Body``, a name or an index."""

@@ -1,0 +1,395 @@
+"""Joint records: what a user asks for (ball, hinge, slider, fixed, distance, universal).
+
+A record names two bodies (``body_b=None`` or ``"world"``: the world), an anchor and,
+where the type has one, an axis, given in world coordinates (``frame="world"``, the
+default) or in the bodies' own frames (``frame="body"``). ``World.add_joint`` binds the
+record: it checks the input and resolves anchors and the joint frame into each body's
+frame at the current poses (the pose at creation is the joint's zero: hinge angle 0,
+slider position 0). The solver (``tumble.solver.joints``) reads the bound values into
+its arrays; records are not read inside a step.
+
+Units: m, rad, N, N m. Angular parameters of hinges are per radian (stiffness N m/rad,
+damping N m s/rad); linear ones of sliders and distance joints per metre.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .errors import InputError
+from .shapes import finite_vector
+
+# joint type ids (the solver's ``joint_type``)
+JOINT_BALL = 0
+JOINT_HINGE = 1
+JOINT_SLIDER = 2
+JOINT_FIXED = 3
+JOINT_DISTANCE = 4
+JOINT_UNIVERSAL = 5
+
+JOINT_TYPES = {"ball": JOINT_BALL, "hinge": JOINT_HINGE, "slider": JOINT_SLIDER, "fixed": JOINT_FIXED,
+               "distance": JOINT_DISTANCE, "universal": JOINT_UNIVERSAL}
+
+# columns of the solver's per-joint parameter table ``joint_param`` (J, PARAM_COUNT)
+P_LOWER, P_UPPER, P_LIMIT_ON, P_MOTOR_ON, P_MOTOR_SPEED, P_MAX_MOTOR = 0, 1, 2, 3, 4, 5
+P_STIFFNESS, P_DAMPING, P_TARGET, P_MAX_DRIVE, P_MAX_FORCE, P_MAX_TORQUE, P_RIGID = 6, 7, 8, 9, 10, 11, 12
+PARAM_COUNT = 13
+
+
+def _number(value, key, *, minimum=None, allow_inf=False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"expected a number, got {value!r}", key) from None
+    if isinstance(value, bool) or math.isnan(v) or (math.isinf(v) and not allow_inf):
+        raise InputError(f"must be a finite number, got {value!r}", key)
+    if minimum is not None and v < minimum:
+        raise InputError(f"must be >= {minimum:g}, got {v:g}", key)
+    return v
+
+
+def _unit(value, key) -> np.ndarray:
+    a = finite_vector(value, key)
+    n = float(np.linalg.norm(a))
+    if n < 1e-12:
+        raise InputError(f"must not be the zero vector, got {a.tolist()}", key)
+    return a / n
+
+
+def _frame_from_z(z: np.ndarray) -> np.ndarray:
+    """A right-handed orthonormal frame (3, 3), columns x, y, z, with z given."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+@dataclass(eq=False)
+class Joint:
+    """Fields every joint has.
+
+    Args:
+        body_a: a ``Body``, a body name or index.
+        body_b: the second body, or None / "world" to attach ``body_a`` to the world.
+        anchor: (3,) m. ``frame="world"``: the joint point in world coordinates (on
+            both bodies). ``frame="body"``: the point in body_a's frame (centre of mass
+            origin, body axes).
+        anchor_b: (3,) m, optional: the point on body_b, in world coordinates or in
+            body_b's frame (as ``frame`` says). Default: the same world point as
+            ``anchor`` now. Give it to create a joint that starts pulled apart (the
+            solver closes the gap).
+        frame: "world" or "body": how ``anchor``, ``anchor_b`` and axes are given.
+        collide_connected: whether the two bodies still collide with each other
+            (default False: ``jointed_body_pairs`` lists them for the contact step).
+        max_force: N. The joint breaks (stops acting, for good) when its reaction
+            force exceeds this. Default inf.
+        max_torque: N m, the same for its reaction torque. Default inf.
+        name: optional label, for error messages and lookups.
+    """
+
+    body_a: Any
+    body_b: Any = None
+    anchor: Any = (0.0, 0.0, 0.0)
+    anchor_b: Any = None
+    frame: str = "world"
+    collide_connected: bool = False
+    max_force: float = math.inf
+    max_torque: float = math.inf
+    name: str | None = None
+    kind: ClassVar[str] = ""
+    # set by bind_joint
+    bound: Any = field(default=None, init=False, repr=False)
+    broken: bool = field(default=False, init=False)
+
+    # -- per type: world joint frame (3, 3) at creation from the axis arguments, and params
+    def _frame_world(self, axis_to_world) -> np.ndarray:
+        return np.eye(3)
+
+    def _params(self, p: np.ndarray, length: float):
+        pass
+
+
+def _limits(lower, upper, lkey="lower", ukey="upper"):
+    lo = -math.inf if lower is None else _number(lower, lkey)
+    hi = math.inf if upper is None else _number(upper, ukey)
+    if lo > hi:
+        raise InputError(f"limits the wrong way round: {lkey} {lo:g} > {ukey} {hi:g}", lkey)
+    return lo, hi
+
+
+def _drive_params(p, j, motor_key, drive_key):
+    """Limits, motor and spring/PD drive of a 1-D joint coordinate into the parameter row p."""
+    lo, hi = _limits(j.lower, j.upper)
+    p[P_LOWER], p[P_UPPER] = lo, hi
+    p[P_LIMIT_ON] = float(lower_or_upper(j.lower, j.upper))
+    if j.motor_speed is not None:
+        p[P_MOTOR_ON] = 1.0
+        p[P_MOTOR_SPEED] = _number(j.motor_speed, "motor_speed")
+        p[P_MAX_MOTOR] = _number(getattr(j, motor_key), motor_key, minimum=0.0, allow_inf=True)
+    p[P_STIFFNESS] = _number(j.stiffness, "stiffness", minimum=0.0)
+    p[P_DAMPING] = _number(j.damping, "damping", minimum=0.0)
+    p[P_TARGET] = _number(j.target, "target")
+    p[P_MAX_DRIVE] = _number(getattr(j, drive_key), drive_key, minimum=0.0, allow_inf=True)
+
+
+def lower_or_upper(lower, upper) -> bool:
+    return lower is not None or upper is not None
+
+
+@dataclass(eq=False)
+class BallJoint(Joint):
+    """Ball (spherical) joint: the anchor points coincide; rotation is free.
+
+    Args:
+        axis: (3,) the cone axis (world, or body_a's frame with ``frame="body"``);
+            only used with ``cone_limit``. Default z.
+        cone_limit: rad, optional: the largest angle between the cone axis fixed
+            in body_a and the same axis fixed in body_b (both start together), in [0, pi].
+    """
+
+    axis: Any = (0.0, 0.0, 1.0)
+    cone_limit: float | None = None
+    kind: ClassVar[str] = "ball"
+
+    def _frame_world(self, axis_to_world):
+        return _frame_from_z(axis_to_world(_unit(self.axis, "axis")))
+
+    def _params(self, p, length):
+        if self.cone_limit is not None:
+            c = _number(self.cone_limit, "cone_limit", minimum=0.0)
+            if c > math.pi:
+                raise InputError(f"must be between 0 and pi, got {c:g}", "cone_limit")
+            p[P_UPPER] = c
+            p[P_LIMIT_ON] = 1.0
+
+
+@dataclass(eq=False)
+class HingeJoint(Joint):
+    """Hinge (revolute) joint: the anchors coincide and body_b turns about ``axis`` only.
+
+    The joint coordinate is the angle (rad) of body_b about ``axis`` relative to body_a,
+    0 at creation, positive by the right-hand rule, followed across turns.
+
+    Args:
+        axis: (3,) hinge axis (world, or body_a's frame with ``frame="body"``).
+        lower, upper: rad, optional angle limits (lower <= upper).
+        motor_speed: rad/s, optional target rate of the angle, reached with at most
+            ``max_motor_torque`` N m (default inf).
+        stiffness: N m/rad, damping: N m s/rad: a spring-damper (PD drive) pulling the
+            angle to ``target`` (rad, default 0), at most ``max_drive_torque`` N m.
+    """
+
+    axis: Any = (0.0, 0.0, 1.0)
+    lower: float | None = None
+    upper: float | None = None
+    motor_speed: float | None = None
+    max_motor_torque: float = math.inf
+    stiffness: float = 0.0
+    damping: float = 0.0
+    target: float = 0.0
+    max_drive_torque: float = math.inf
+    kind: ClassVar[str] = "hinge"
+
+    def _frame_world(self, axis_to_world):
+        return _frame_from_z(axis_to_world(_unit(self.axis, "axis")))
+
+    def _params(self, p, length):
+        _drive_params(p, self, "max_motor_torque", "max_drive_torque")
+
+
+@dataclass(eq=False)
+class SliderJoint(Joint):
+    """Slider (prismatic) joint: no relative rotation; body_b moves along ``axis`` only.
+
+    The joint coordinate is the displacement (m) of body_b's anchor from body_a's along
+    the axis, 0 at creation.
+
+    Args:
+        axis: (3,) slide direction (world, or body_a's frame with ``frame="body"``).
+        lower, upper: m, optional position limits.
+        motor_speed: m/s, optional target rate, with at most ``max_motor_force`` N.
+        stiffness: N/m, damping: N s/m: spring-damper / PD drive to ``target`` (m), at
+            most ``max_drive_force`` N.
+    """
+
+    axis: Any = (0.0, 0.0, 1.0)
+    lower: float | None = None
+    upper: float | None = None
+    motor_speed: float | None = None
+    max_motor_force: float = math.inf
+    stiffness: float = 0.0
+    damping: float = 0.0
+    target: float = 0.0
+    max_drive_force: float = math.inf
+    kind: ClassVar[str] = "slider"
+
+    def _frame_world(self, axis_to_world):
+        return _frame_from_z(axis_to_world(_unit(self.axis, "axis")))
+
+    def _params(self, p, length):
+        _drive_params(p, self, "max_motor_force", "max_drive_force")
+
+
+@dataclass(eq=False)
+class FixedJoint(Joint):
+    """Fixed (weld) joint: the two bodies keep their relative pose at creation."""
+
+    kind: ClassVar[str] = "fixed"
+
+
+@dataclass(eq=False)
+class DistanceJoint(Joint):
+    """Distance joint between ``anchor`` on body_a and ``anchor_b`` on body_b.
+
+    The joint coordinate is the distance (m) between the anchors.
+
+    Args:
+        min_length, max_length: m. Both None (default): a rigid rod of the length at
+            creation. Equal: a rigid rod of that length. ``min_length=0`` and
+            ``max_length=L``: a rope with slack (pulls only when taut).
+        stiffness: N/m, damping: N s/m: a spring-damper along the line to ``target``
+            (m, default the length at creation), at most ``max_drive_force`` N.
+    """
+
+    min_length: float | None = None
+    max_length: float | None = None
+    stiffness: float = 0.0
+    damping: float = 0.0
+    target: float | None = None
+    max_drive_force: float = math.inf
+    kind: ClassVar[str] = "distance"
+
+    def _params(self, p, length):
+        if self.min_length is None and self.max_length is None:
+            lo = hi = length
+        else:
+            lo, hi = _limits(self.min_length, self.max_length, "min_length", "max_length")
+            if lo < 0:
+                raise InputError(f"must be >= 0, got {lo:g}", "min_length")
+        if hi == lo == 0.0:
+            raise InputError("a rigid distance joint needs a length > 0 (use a ball joint)", "max_length")
+        p[P_LOWER], p[P_UPPER] = lo, hi
+        p[P_LIMIT_ON] = 1.0
+        p[P_RIGID] = float(lo == hi)
+        p[P_STIFFNESS] = _number(self.stiffness, "stiffness", minimum=0.0)
+        p[P_DAMPING] = _number(self.damping, "damping", minimum=0.0)
+        p[P_TARGET] = length if self.target is None else _number(self.target, "target", minimum=0.0)
+        p[P_MAX_DRIVE] = _number(self.max_drive_force, "max_drive_force", minimum=0.0, allow_inf=True)
+
+
+@dataclass(eq=False)
+class UniversalJoint(Joint):
+    """Universal (Cardan) joint: the anchors coincide; body_a turns about ``axis`` fixed
+    in it, body_b about ``axis_b`` fixed in it, and the two axes stay perpendicular.
+
+    Args:
+        axis, axis_b: (3,) perpendicular at creation (world, or each body's frame).
+    """
+
+    axis: Any = (1.0, 0.0, 0.0)
+    axis_b: Any = (0.0, 1.0, 0.0)
+    kind: ClassVar[str] = "universal"
+
+
+JOINT_CLASSES = {"ball": BallJoint, "hinge": HingeJoint, "slider": SliderJoint, "fixed": FixedJoint,
+                 "distance": DistanceJoint, "universal": UniversalJoint}
+
+
+@dataclass
+class BoundJoint:
+    """A joint resolved against a world (what the solver reads).
+
+    body_a, body_b: indices, -1 for the world. local_a, local_b: (3,) m, anchors in each
+    body's frame (for the world: world point). frame_a, frame_b: (3, 3) joint axes
+    (columns x, y, z) in each body's frame. param: (PARAM_COUNT,) see ``P_*``.
+    """
+
+    type_id: int
+    body_a: int
+    body_b: int
+    local_a: np.ndarray
+    local_b: np.ndarray
+    frame_a: np.ndarray
+    frame_b: np.ndarray
+    param: np.ndarray
+
+
+def _body_index(world, body, key) -> int:
+    if body is None or (isinstance(body, str) and body == "world"):
+        return -1
+    try:
+        return world.index_of(body)
+    except InputError as err:
+        raise InputError(err.problem, key) from None
+
+
+def bind_joint(world, joint: Joint) -> BoundJoint:
+    """Check ``joint`` against ``world`` and resolve it at the current poses (InputError on bad input)."""
+    if not isinstance(joint, Joint) or not joint.kind:
+        raise InputError(f"not a joint record: {joint!r}", "joints")
+    a = _body_index(world, joint.body_a, "body_a")
+    b = _body_index(world, joint.body_b, "body_b")
+    if a == b:
+        what = "the world" if a < 0 else f"body {world.names[a]!r}"
+        raise InputError(f"a joint needs two different bodies, got {what} twice", "body_b")
+    if joint.frame not in ("world", "body"):
+        raise InputError(f"must be 'world' or 'body', got {joint.frame!r}", "frame")
+    if not isinstance(joint.collide_connected, (bool, np.bool_)):
+        raise InputError(f"expected true or false, got {joint.collide_connected!r}", "collide_connected")
+
+    def pose(i):
+        if i < 0:
+            return np.eye(3), np.zeros(3)
+        return np.array(world.R[i]), np.array(world.x[i])
+
+    Ra, xa = pose(a)
+    Rb, xb = pose(b)
+    anchor = finite_vector(joint.anchor, "anchor")
+    body_frame = joint.frame == "body"
+    pa = Ra @ anchor + xa if body_frame else anchor
+    if joint.anchor_b is None:
+        pb = pa
+    else:
+        ab = finite_vector(joint.anchor_b, "anchor_b")
+        pb = Rb @ ab + xb if body_frame else ab
+    local_a = Ra.T @ (pa - xa)
+    local_b = Rb.T @ (pb - xb)
+
+    if isinstance(joint, UniversalJoint):
+        ua = _unit(joint.axis, "axis")
+        ub = _unit(joint.axis_b, "axis_b")
+        ua = Ra @ ua if body_frame else ua
+        ub = Rb @ ub if body_frame else ub
+        if abs(float(ua @ ub)) > 1e-6:
+            raise InputError(f"axis and axis_b must be perpendicular (cosine {float(ua @ ub):.3g})", "axis_b")
+        frame_world = np.column_stack([ua, ub, np.cross(ua, ub)])
+    else:
+        frame_world = joint._frame_world(lambda u: Ra @ u if body_frame else u)
+
+    param = np.zeros(PARAM_COUNT)
+    param[P_LOWER], param[P_UPPER] = -math.inf, math.inf
+    param[P_MAX_MOTOR] = param[P_MAX_DRIVE] = math.inf
+    joint._params(param, float(np.linalg.norm(pb - pa)))
+    param[P_MAX_FORCE] = _number(joint.max_force, "max_force", minimum=0.0, allow_inf=True)
+    param[P_MAX_TORQUE] = _number(joint.max_torque, "max_torque", minimum=0.0, allow_inf=True)
+    bound = BoundJoint(JOINT_TYPES[joint.kind], a, b, local_a, local_b, Ra.T @ frame_world, Rb.T @ frame_world, param)
+    joint.bound = bound
+    return bound
+
+
+def jointed_body_pairs(world) -> np.ndarray:
+    """(K, 2) int64 body index pairs (low, high) that must not collide: both ends of every
+    joint with ``collide_connected=False`` that is not broken and not attached to the world,
+    sorted and without repeats. The contact step skips these pairs."""
+    pairs = set()
+    for j in getattr(world, "joints", ()):
+        bj = j.bound
+        if bj is None or j.collide_connected or j.broken or bj.body_a < 0 or bj.body_b < 0:
+            continue
+        pairs.add((min(bj.body_a, bj.body_b), max(bj.body_a, bj.body_b)))
+    out = np.array(sorted(pairs), dtype=np.int64)
+    return out.reshape(-1, 2)

@@ -1,0 +1,966 @@
+"""Joint solver: Box2D v3's soft step for joints, in Numba kernels over joint arrays.
+
+Reads the bound joint records of ``World.joints`` (``tumble.joints``) into arrays once,
+then per step (dt = ``substeps`` x h), in the order of Box2D v3's ``b2SolverStage``
+(Catto, "Solver2D", https://box2d.org/posts/2024/02/solver2d/):
+
+    JointSolver.prepare(world, h)                      softness for this h; tables if joints changed
+    per substep:
+        (caller) integrate velocities                  v += h F/m, omega from L += h tau
+        JointSolver.warm_start(v, omega)               the accumulated impulses of the last substep
+        JointSolver.solve(v, omega, x, R, True)        soft rows (bias pulls the error out)
+        (caller) integrate positions                   x += h v, q by the exact rotation
+        JointSolver.solve(v, omega, x, R, False)       relax: rigid rows, no bias
+    JointSolver.project(x, q, R)                       optional NGS position projection
+    JointSolver.store(v, omega, x, R)                  reactions, coordinates, breaking
+
+Each joint is a set of rows solved by sequential impulses (Gauss-Seidel over joints, in
+the order they were added; Catto, "Iterative dynamics with temporal coherence", 2005):
+the 1-D joint coordinate first (spring/PD drive, motor, lower and upper limit), then the
+rigid blocks, each solved exactly as a block (angular 3x3 / 2x2 / 1x1, then the anchor
+3x3, or the slider's 2x2 perpendicular rows), the anchor last since it matters most
+(Box2D ``b2SolveRevoluteJoint``). Rows read the current poses (x, R), so arms and errors
+follow the bodies through the substeps; the inverse world inertia is the caller's
+``I_inv`` (N, 3, 3) at call time.
+
+``step_with_joints`` is a standalone stepper (the World's built-in forces, evaluated at
+the start of the step, and joints; no contacts), for tests and benchmarks until the
+Simulator's soft step calls the JointSolver itself.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..joints import (
+    JOINT_BALL,
+    JOINT_DISTANCE,
+    JOINT_FIXED,
+    JOINT_HINGE,
+    JOINT_SLIDER,
+    JOINT_UNIVERSAL,
+    P_DAMPING,
+    P_LIMIT_ON,
+    P_LOWER,
+    P_MAX_DRIVE,
+    P_MAX_FORCE,
+    P_MAX_MOTOR,
+    P_MAX_TORQUE,
+    P_MOTOR_ON,
+    P_MOTOR_SPEED,
+    P_RIGID,
+    P_STIFFNESS,
+    P_TARGET,
+    P_UPPER,
+    PARAM_COUNT,
+)
+from ..math3d import JIT, normalize_quat_inplace, quat_exp_multiply_inplace, quat_to_matrix_into
+
+# columns of ``axial_impulse`` (J, 5): accumulated impulses of the 1-D coordinate rows
+A_SPRING, A_MOTOR, A_LOWER, A_UPPER, A_EQUAL = 0, 1, 2, 3, 4
+
+
+@dataclass
+class JointSettings:
+    """Tuning of the joint solver.
+
+    hertz: Hz, stiffness of the rigid rows' error correction in the biased solve (Box2D v3:
+        2 x contact hertz = 60 Hz), capped at ``hertz_cap_per_substep / h``. 0 makes the
+        rows rigid: the bias removes the whole error of the last substep in one (Baumgarte 1).
+    damping_ratio: of that soft correction (Box2D v3's joint damping ratio, 2).
+    velocity_iterations: Gauss-Seidel sweeps per biased solve (Box2D: 1).
+    relax_iterations: sweeps per relax solve (Box2D: 1).
+    position_iterations: NGS sweeps of ``project`` (0: no projection, Box2D's choice).
+        Stops early once every rigid row's error is below ``position_tolerance`` (m or rad).
+    """
+
+    hertz: float = 60.0
+    damping_ratio: float = 2.0
+    hertz_cap_per_substep: float = 0.25
+    velocity_iterations: int = 1
+    relax_iterations: int = 1
+    position_iterations: int = 0
+    position_tolerance: float = 1e-10
+
+
+# Settings for accuracy (the acceptance tests of issue 4): rigid rows, a few more sweeps and
+# a projection of positions after each step. See docs/joints.md for what each costs.
+ACCURATE = JointSettings(hertz=0.0, velocity_iterations=4, relax_iterations=4, position_iterations=50)
+
+
+# ---------------------------------------------------------------------- vector helpers (tuples)
+@njit(**JIT)
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(**JIT)
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(**JIT)
+def _add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@njit(**JIT)
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@njit(**JIT)
+def _scale(s, a):
+    return (s * a[0], s * a[1], s * a[2])
+
+
+@njit(**JIT)
+def _mat_vec(M, i, a):
+    """M[i] @ a, or 0 for the world (i < 0)."""
+    if i < 0:
+        return (0.0, 0.0, 0.0)
+    return (M[i, 0, 0] * a[0] + M[i, 0, 1] * a[1] + M[i, 0, 2] * a[2],
+            M[i, 1, 0] * a[0] + M[i, 1, 1] * a[1] + M[i, 1, 2] * a[2],
+            M[i, 2, 0] * a[0] + M[i, 2, 1] * a[1] + M[i, 2, 2] * a[2])
+
+
+@njit(**JIT)
+def _anchor(x, R, i, local, j):
+    """(arm, point): arm R_i l from the centre of mass and the world point, of local[j]."""
+    lj = (local[j, 0], local[j, 1], local[j, 2])
+    if i < 0:
+        return (0.0, 0.0, 0.0), lj
+    r = _mat_vec(R, i, lj)
+    return r, (r[0] + x[i, 0], r[1] + x[i, 1], r[2] + x[i, 2])
+
+
+@njit(**JIT)
+def _axis(R, i, frame, j, col):
+    """World direction of column ``col`` of the joint frame ``frame[j]`` of body i."""
+    f = (frame[j, 0, col], frame[j, 1, col], frame[j, 2, col])
+    if i < 0:
+        return f
+    return _mat_vec(R, i, f)
+
+
+@njit(**JIT)
+def _inv_m(inv_mass, i):
+    return inv_mass[i] if i >= 0 else 0.0
+
+
+@njit(**JIT)
+def _point_velocity(v, omega, i, r):
+    if i < 0:
+        return (0.0, 0.0, 0.0)
+    w = (omega[i, 0], omega[i, 1], omega[i, 2])
+    c = _cross(w, r)
+    return (v[i, 0] + c[0], v[i, 1] + c[1], v[i, 2] + c[2])
+
+
+@njit(**JIT)
+def _angular_velocity(omega, i):
+    if i < 0:
+        return (0.0, 0.0, 0.0)
+    return (omega[i, 0], omega[i, 1], omega[i, 2])
+
+
+@njit(**JIT)
+def _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, p):
+    """Impulse p (world) on b at arm rb and -p on a at arm ra."""
+    if a >= 0:
+        ma = inv_mass[a]
+        w = _mat_vec(I_inv, a, _cross(ra, p))
+        for k in range(3):
+            v[a, k] -= ma * p[k]
+            omega[a, k] -= w[k]
+    if b >= 0:
+        mb = inv_mass[b]
+        w = _mat_vec(I_inv, b, _cross(rb, p))
+        for k in range(3):
+            v[b, k] += mb * p[k]
+            omega[b, k] += w[k]
+
+
+@njit(**JIT)
+def _apply_angular(omega, I_inv, a, b, t):
+    """Angular impulse t (world) on b and -t on a."""
+    if a >= 0:
+        w = _mat_vec(I_inv, a, t)
+        for k in range(3):
+            omega[a, k] -= w[k]
+    if b >= 0:
+        w = _mat_vec(I_inv, b, t)
+        for k in range(3):
+            omega[b, k] += w[k]
+
+
+@njit(**JIT)
+def _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb):
+    """J M^-1 J^T of a row: linear along n at arms ra, rb, or angular about n."""
+    if linear:
+        ca = _cross(ra, n)
+        cb = _cross(rb, n)
+        return (_inv_m(inv_mass, a) + _inv_m(inv_mass, b)
+                + _dot(ca, _mat_vec(I_inv, a, ca)) + _dot(cb, _mat_vec(I_inv, b, cb)))
+    return _dot(n, _mat_vec(I_inv, a, n)) + _dot(n, _mat_vec(I_inv, b, n))
+
+
+@njit(**JIT)
+def _row_velocity(v, omega, a, b, linear, n, ra, rb):
+    if linear:
+        return _dot(n, _sub(_point_velocity(v, omega, b, rb), _point_velocity(v, omega, a, ra)))
+    return _dot(n, _sub(_angular_velocity(omega, b), _angular_velocity(omega, a)))
+
+
+@njit(**JIT)
+def _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, impulse):
+    if linear:
+        _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, _scale(impulse, n))
+    else:
+        _apply_angular(omega, I_inv, a, b, _scale(impulse, n))
+
+
+@njit(**JIT)
+def _solve3(K, r):
+    """K^-1 r for a symmetric 3x3 K given as 6 numbers (k00, k01, k02, k11, k12, k22); 0 if singular."""
+    k00, k01, k02, k11, k12, k22 = K
+    c00 = k11 * k22 - k12 * k12
+    c01 = k02 * k12 - k01 * k22
+    c02 = k01 * k12 - k02 * k11
+    det = k00 * c00 + k01 * c01 + k02 * c02
+    if det == 0.0:
+        return (0.0, 0.0, 0.0)
+    c11 = k00 * k22 - k02 * k02
+    c12 = k01 * k02 - k00 * k12
+    c22 = k00 * k11 - k01 * k01
+    inv = 1.0 / det
+    return ((c00 * r[0] + c01 * r[1] + c02 * r[2]) * inv,
+            (c01 * r[0] + c11 * r[1] + c12 * r[2]) * inv,
+            (c02 * r[0] + c12 * r[1] + c22 * r[2]) * inv)
+
+
+@njit(**JIT)
+def _point_K(inv_mass, I_inv, a, b, ra, rb):
+    """K = (ma + mb) 1 + S_a Ia S_a^T + S_b Ib S_b^T, S = [r]x, as (k00, k01, k02, k11, k12, k22)."""
+    m = _inv_m(inv_mass, a) + _inv_m(inv_mass, b)
+    k00, k01, k02, k11, k12, k22 = m, 0.0, 0.0, m, 0.0, m
+    for side in range(2):
+        i = a if side == 0 else b
+        if i < 0:
+            continue
+        r = ra if side == 0 else rb
+        # rows of [r]x
+        s0 = (0.0, -r[2], r[1])
+        s1 = (r[2], 0.0, -r[0])
+        s2 = (-r[1], r[0], 0.0)
+        t0 = _mat_vec(I_inv, i, s0)
+        t1 = _mat_vec(I_inv, i, s1)
+        t2 = _mat_vec(I_inv, i, s2)
+        k00 += _dot(s0, t0)
+        k01 += _dot(s0, t1)
+        k02 += _dot(s0, t2)
+        k11 += _dot(s1, t1)
+        k12 += _dot(s1, t2)
+        k22 += _dot(s2, t2)
+    return (k00, k01, k02, k11, k12, k22)
+
+
+@njit(**JIT)
+def _angular_K(I_inv, a, b):
+    k00 = k01 = k02 = k11 = k12 = k22 = 0.0
+    for side in range(2):
+        i = a if side == 0 else b
+        if i >= 0:
+            k00 += I_inv[i, 0, 0]
+            k01 += I_inv[i, 0, 1]
+            k02 += I_inv[i, 0, 2]
+            k11 += I_inv[i, 1, 1]
+            k12 += I_inv[i, 1, 2]
+            k22 += I_inv[i, 2, 2]
+    return (k00, k01, k02, k11, k12, k22)
+
+
+@njit(**JIT)
+def _solve2(k00, k01, k11, r0, r1):
+    det = k00 * k11 - k01 * k01
+    if det == 0.0:
+        return 0.0, 0.0
+    inv = 1.0 / det
+    return (k11 * r0 - k01 * r1) * inv, (k00 * r1 - k01 * r0) * inv
+
+
+@njit(**JIT)
+def _wrap(angle):
+    return angle - 2.0 * math.pi * math.floor((angle + math.pi) / (2.0 * math.pi))
+
+
+@njit(**JIT)
+def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_position):
+    """The joint's 1-D coordinate: (has_row, linear, n, arm_a, arm_b, position).
+
+    hinge: angle of b about the axis (rad), unwrapped around ``last_position``;
+    slider: displacement along the axis (m), arm of a is ra + d (Box2D prismatic);
+    distance: length (m) along the unit line a -> b; ball: swing angle between the cone
+    axes (rad), about their common normal.
+    """
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    d = _sub(pb, pa)
+    za = _axis(R, a, frame_a, j, 2)
+    if t == JOINT_HINGE:
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        xb = _axis(R, b, frame_b, j, 0)
+        yb = _axis(R, b, frame_b, j, 1)
+        angle = math.atan2(_dot(ya, xb) - _dot(xa, yb), _dot(xa, xb) + _dot(ya, yb))
+        base = last_position[j]
+        return True, False, za, ra, rb, base + _wrap(angle - base)
+    if t == JOINT_SLIDER:
+        return True, True, za, _add(ra, d), rb, _dot(d, za)
+    if t == JOINT_DISTANCE:
+        length = math.sqrt(_dot(d, d))
+        if length < 1e-12:
+            return False, True, za, ra, rb, 0.0
+        return True, True, _scale(1.0 / length, d), ra, rb, length
+    if t == JOINT_BALL:
+        zb = _axis(R, b, frame_b, j, 2)
+        s = _cross(za, zb)
+        sn = math.sqrt(_dot(s, s))
+        if sn < 1e-12:
+            return False, False, za, ra, rb, 0.0 if _dot(za, zb) > 0 else math.pi
+        return True, False, _scale(1.0 / sn, s), ra, rb, math.atan2(sn, _dot(za, zb))
+    return False, False, za, ra, rb, 0.0
+
+
+@njit(**JIT)
+def _soft_terms(rigid, bias_rate, mass_scale, impulse_scale, use_bias, inv_h):
+    """(bias_rate, mass_scale, impulse_scale) of a rigid row in this pass."""
+    if not use_bias:
+        return 0.0, 1.0, 0.0
+    if rigid:
+        return inv_h, 1.0, 0.0
+    return bias_rate, mass_scale, impulse_scale
+
+
+# ---------------------------------------------------------------------- the velocity solve
+@njit(**JIT)
+def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
+                 h, inv_h, soft, v, omega, axial_impulse):
+    """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate."""
+    p = param[j]
+    has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
+    if not has:
+        return
+    k = _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb)
+    if k <= 0.0:
+        return
+    m_eff = 1.0 / k
+    ks = p[P_STIFFNESS]
+    cs = p[P_DAMPING]
+    if ks > 0.0 or cs > 0.0:
+        # implicit spring-damper as a soft row (Catto, GDC 2011): gamma = 1 / (h (c + h k))
+        # is the compliance, k / (c + h k) the rate at which the error feeds the bias
+        gamma = 1.0 / (h * (cs + h * ks))
+        eff = 1.0 / (k + gamma)
+        cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
+        old = axial_impulse[j, A_SPRING]
+        imp = -eff * (cdot + ks / (cs + h * ks) * (pos - p[P_TARGET])) - gamma * eff * old
+        lim = p[P_MAX_DRIVE] * h
+        new = min(max(old + imp, -lim), lim)
+        axial_impulse[j, A_SPRING] = new
+        _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, new - old)
+    if p[P_MOTOR_ON] != 0.0:
+        cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
+        old = axial_impulse[j, A_MOTOR]
+        lim = p[P_MAX_MOTOR] * h
+        new = min(max(old - m_eff * (cdot - p[P_MOTOR_SPEED]), -lim), lim)
+        axial_impulse[j, A_MOTOR] = new
+        _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, new - old)
+    if p[P_RIGID] != 0.0:
+        cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
+        old = axial_impulse[j, A_EQUAL]
+        imp = -m_eff * soft[1] * (cdot + soft[0] * (pos - p[P_LOWER])) - soft[2] * old
+        axial_impulse[j, A_EQUAL] = old + imp
+        _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, imp)
+    elif p[P_LIMIT_ON] != 0.0:
+        for side in range(2):
+            # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
+            sign = 1.0 if side == 0 else -1.0
+            bound = p[P_LOWER] if side == 0 else p[P_UPPER]
+            if math.isinf(bound):
+                continue
+            C = sign * (pos - bound)
+            bias, ms, iscale = 0.0, 1.0, 0.0
+            if C > 0.0:
+                bias = C * inv_h  # speculative: the gap may close within this substep, no more
+            else:
+                bias, ms, iscale = soft[0] * C, soft[1], soft[2]
+            slot = A_LOWER + side
+            cdot = sign * _row_velocity(v, omega, a, b, linear, n, ra, rb)
+            old = axial_impulse[j, slot]
+            new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
+            axial_impulse[j, slot] = new
+            _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, sign * (new - old))
+
+
+@njit(**JIT)
+def _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
+                 v, omega, linear_impulse, angular_impulse):
+    """The rigid blocks: angular (3x3 fixed/slider, 2x2 hinge, 1 universal), then the anchor
+    (3x3) or the slider's two perpendicular rows (2x2)."""
+    br, ms, iscale = soft[0], soft[1], soft[2]
+    if t != JOINT_BALL and t != JOINT_DISTANCE:
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        za = _axis(R, a, frame_a, j, 2)
+        xb = _axis(R, b, frame_b, j, 0)
+        yb = _axis(R, b, frame_b, j, 1)
+        zb = _axis(R, b, frame_b, j, 2)
+        wrel = _sub(_angular_velocity(omega, b), _angular_velocity(omega, a))
+        old = (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2])
+        K = _angular_K(I_inv, a, b)
+        if t == JOINT_HINGE:
+            e = _cross(za, zb)
+            Kx = _sym_mat_vec(K, xa)
+            Ky = _sym_mat_vec(K, ya)
+            o1 = _dot(old, xa)
+            o2 = _dot(old, ya)
+            l1, l2 = _solve2(_dot(xa, Kx), _dot(xa, Ky), _dot(ya, Ky),
+                             _dot(wrel, xa) + br * _dot(e, xa), _dot(wrel, ya) + br * _dot(e, ya))
+            i1 = -ms * l1 - iscale * o1
+            i2 = -ms * l2 - iscale * o2
+            imp = _add(_scale(i1, xa), _scale(i2, ya))
+            acc = _add(_scale(o1 + i1, xa), _scale(o2 + i2, ya))
+        elif t == JOINT_UNIVERSAL:
+            nn = _cross(yb, xa)
+            nl = math.sqrt(_dot(nn, nn))
+            nn = _scale(1.0 / nl, nn)
+            kk = _dot(nn, _sym_mat_vec(K, nn))
+            o1 = _dot(old, nn)
+            i1 = 0.0
+            if kk > 0.0:
+                i1 = -ms * (_dot(wrel, nn) + br * _dot(xa, yb)) / kk - iscale * o1
+            imp = _scale(i1, nn)
+            acc = _scale(o1 + i1, nn)
+        else:  # fixed, slider: no relative rotation; e = rotation vector of b relative to a (small)
+            e = _scale(0.5, _add(_add(_cross(xa, xb), _cross(ya, yb)), _cross(za, zb)))
+            lam = _solve3(K, _add(wrel, _scale(br, e)))
+            imp = _sub(_scale(-ms, lam), _scale(iscale, old))
+            acc = _add(old, imp)
+        angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2] = acc
+        _apply_angular(omega, I_inv, a, b, imp)
+    if t == JOINT_DISTANCE:
+        return
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    d = _sub(pb, pa)
+    old = (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2])
+    if t == JOINT_SLIDER:
+        ra = _add(ra, d)
+        p1 = _axis(R, a, frame_a, j, 0)
+        p2 = _axis(R, a, frame_a, j, 1)
+        k11 = _row_mass(inv_mass, I_inv, a, b, True, p1, ra, rb)
+        k22 = _row_mass(inv_mass, I_inv, a, b, True, p2, ra, rb)
+        k12 = (_dot(_cross(ra, p1), _mat_vec(I_inv, a, _cross(ra, p2)))
+               + _dot(_cross(rb, p1), _mat_vec(I_inv, b, _cross(rb, p2))))
+        o1 = _dot(old, p1)
+        o2 = _dot(old, p2)
+        l1, l2 = _solve2(k11, k12, k22,
+                         _row_velocity(v, omega, a, b, True, p1, ra, rb) + br * _dot(d, p1),
+                         _row_velocity(v, omega, a, b, True, p2, ra, rb) + br * _dot(d, p2))
+        i1 = -ms * l1 - iscale * o1
+        i2 = -ms * l2 - iscale * o2
+        imp = _add(_scale(i1, p1), _scale(i2, p2))
+        acc = _add(_scale(o1 + i1, p1), _scale(o2 + i2, p2))
+    else:
+        cdot = _sub(_point_velocity(v, omega, b, rb), _point_velocity(v, omega, a, ra))
+        lam = _solve3(_point_K(inv_mass, I_inv, a, b, ra, rb), _add(cdot, _scale(br, d)))
+        imp = _sub(_scale(-ms, lam), _scale(iscale, old))
+        acc = _add(old, imp)
+    linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2] = acc
+    _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, imp)
+
+
+@njit(**JIT)
+def _sym_mat_vec(K, u):
+    """K u for K as 6 numbers."""
+    k00, k01, k02, k11, k12, k22 = K
+    return (k00 * u[0] + k01 * u[1] + k02 * u[2],
+            k01 * u[0] + k11 * u[1] + k12 * u[2],
+            k02 * u[0] + k12 * u[1] + k22 * u[2])
+
+
+@njit(**JIT)
+def solve_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                        position, x, R, inv_mass, I_inv, h, soft, iterations,
+                        # outputs
+                        v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """``iterations`` Gauss-Seidel sweeps over the joints, forward then backward in turn.
+
+    soft: (3,) (bias rate 1/s, mass scale, impulse scale) of the rigid rows in this pass
+    (Box2D ``b2Softness``; (0, 1, 0) in relax). Joints between two immovable bodies are skipped.
+    """
+    n = joint_type.shape[0]
+    inv_h = 1.0 / h
+    for it in range(iterations):
+        for jj in range(n):
+            # NOTE: alternating the sweep direction (symmetric Gauss-Seidel) lets an error
+            # travel along a chain both ways within two sweeps
+            j = jj if it % 2 == 0 else n - 1 - jj
+            if not enabled[j]:
+                continue
+            a = joint_a[j]
+            b = joint_b[j]
+            if _inv_m(inv_mass, a) + _inv_m(inv_mass, b) == 0.0:
+                continue
+            t = joint_type[j]
+            _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
+                         h, inv_h, soft, v, omega, axial_impulse)
+            _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
+                         v, omega, linear_impulse, angular_impulse)
+
+
+@njit(**JIT)
+def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, enabled,
+                             position, x, R, inv_mass, I_inv, linear_impulse, angular_impulse, axial_impulse,
+                             # outputs
+                             v, omega):
+    """Apply each joint's accumulated impulses (of the last substep) once."""
+    for j in range(joint_type.shape[0]):
+        if not enabled[j]:
+            continue
+        a = joint_a[j]
+        b = joint_b[j]
+        t = joint_type[j]
+        ra, pa = _anchor(x, R, a, local_a, j)
+        rb, pb = _anchor(x, R, b, local_b, j)
+        if t == JOINT_SLIDER:
+            ra = _add(ra, _sub(pb, pa))
+        _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb,
+                      (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2]))
+        _apply_angular(omega, I_inv, a, b, (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2]))
+        total = (axial_impulse[j, A_SPRING] + axial_impulse[j, A_MOTOR] + axial_impulse[j, A_LOWER]
+                 - axial_impulse[j, A_UPPER] + axial_impulse[j, A_EQUAL])
+        if total != 0.0:
+            has, linear, n, ra1, rb1, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b,
+                                                            position)
+            if has:
+                _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra1, rb1, total)
+
+
+# ---------------------------------------------------------------------- position projection
+@njit(**JIT)
+def _turn_body(q, R, I_inv, i, sign, t):
+    """Rotate body i by sign I_inv[i] t (a small rotation vector, rad), keep q unit and R = R(q)."""
+    if i < 0:
+        return
+    w = _mat_vec(I_inv, i, t)
+    quat_exp_multiply_inplace(q[i], sign * w[0], sign * w[1], sign * w[2], 1.0)
+    normalize_quat_inplace(q[i])
+    quat_to_matrix_into(q[i], R[i])
+
+
+@njit(**JIT)
+def _shift_body(x, q, R, inv_mass, I_inv, i, sign, r, p):
+    """Move body i by the position-level 'impulse' sign p applied at arm r."""
+    if i < 0:
+        return
+    for k in range(3):
+        x[i, k] += sign * inv_mass[i] * p[k]
+    _turn_body(q, R, I_inv, i, sign, _cross(r, p))
+
+
+@njit(**JIT)
+def project_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                          inv_mass, I_inv, iterations, tolerance,
+                          # outputs
+                          x, q, R):
+    """Nonlinear Gauss-Seidel on positions (Catto, "Solver2D" NGS): per joint, move the two
+    bodies along the rigid rows' directions (weighted by M^-1) so that the linearised error
+    vanishes: anchors, locked rotations, slider rows, rigid and taut distances. Limits of
+    angles are left to the velocity solve. Stops when a whole sweep saw no error above
+    ``tolerance`` (m or rad). Returns the largest error seen in the last sweep."""
+    n = joint_type.shape[0]
+    worst = 0.0
+    for it in range(iterations):
+        worst = 0.0
+        for jj in range(n):
+            j = jj if it % 2 == 0 else n - 1 - jj
+            if not enabled[j]:
+                continue
+            a = joint_a[j]
+            b = joint_b[j]
+            if _inv_m(inv_mass, a) + _inv_m(inv_mass, b) == 0.0:
+                continue
+            t = joint_type[j]
+            if t != JOINT_BALL and t != JOINT_DISTANCE:
+                xa = _axis(R, a, frame_a, j, 0)
+                ya = _axis(R, a, frame_a, j, 1)
+                za = _axis(R, a, frame_a, j, 2)
+                xb = _axis(R, b, frame_b, j, 0)
+                yb = _axis(R, b, frame_b, j, 1)
+                zb = _axis(R, b, frame_b, j, 2)
+                K = _angular_K(I_inv, a, b)
+                if t == JOINT_HINGE:
+                    e = _cross(za, zb)
+                    Kx = _sym_mat_vec(K, xa)
+                    Ky = _sym_mat_vec(K, ya)
+                    c1 = _dot(e, xa)
+                    c2 = _dot(e, ya)
+                    l1, l2 = _solve2(_dot(xa, Kx), _dot(xa, Ky), _dot(ya, Ky), c1, c2)
+                    turn = _add(_scale(-l1, xa), _scale(-l2, ya))
+                    err = max(abs(c1), abs(c2))
+                elif t == JOINT_UNIVERSAL:
+                    nn = _cross(yb, xa)
+                    nn = _scale(1.0 / max(math.sqrt(_dot(nn, nn)), 1e-12), nn)
+                    c1 = _dot(xa, yb)
+                    kk = _dot(nn, _sym_mat_vec(K, nn))
+                    turn = _scale(-c1 / kk if kk > 0.0 else 0.0, nn)
+                    err = abs(c1)
+                else:
+                    e = _scale(0.5, _add(_add(_cross(xa, xb), _cross(ya, yb)), _cross(za, zb)))
+                    turn = _scale(-1.0, _solve3(K, e))
+                    err = max(abs(e[0]), max(abs(e[1]), abs(e[2])))
+                worst = max(worst, err)
+                _turn_body(q, R, I_inv, a, -1.0, turn)
+                _turn_body(q, R, I_inv, b, 1.0, turn)
+            ra, pa = _anchor(x, R, a, local_a, j)
+            rb, pb = _anchor(x, R, b, local_b, j)
+            d = _sub(pb, pa)
+            if t == JOINT_DISTANCE:
+                length = math.sqrt(_dot(d, d))
+                lo = param[j, P_LOWER]
+                hi = param[j, P_UPPER]
+                if length < 1e-12 or (lo < length < hi):
+                    continue
+                C = length - (hi if length >= hi else lo)
+                nrm = _scale(1.0 / length, d)
+                k = _row_mass(inv_mass, I_inv, a, b, True, nrm, ra, rb)
+                corr = _scale(-C / k, nrm)
+                err = abs(C)
+            elif t == JOINT_SLIDER:
+                ra = _add(ra, d)
+                p1 = _axis(R, a, frame_a, j, 0)
+                p2 = _axis(R, a, frame_a, j, 1)
+                k11 = _row_mass(inv_mass, I_inv, a, b, True, p1, ra, rb)
+                k22 = _row_mass(inv_mass, I_inv, a, b, True, p2, ra, rb)
+                k12 = (_dot(_cross(ra, p1), _mat_vec(I_inv, a, _cross(ra, p2)))
+                       + _dot(_cross(rb, p1), _mat_vec(I_inv, b, _cross(rb, p2))))
+                c1 = _dot(d, p1)
+                c2 = _dot(d, p2)
+                l1, l2 = _solve2(k11, k12, k22, c1, c2)
+                corr = _add(_scale(-l1, p1), _scale(-l2, p2))
+                err = max(abs(c1), abs(c2))
+            else:
+                corr = _scale(-1.0, _solve3(_point_K(inv_mass, I_inv, a, b, ra, rb), d))
+                err = math.sqrt(_dot(d, d))
+            worst = max(worst, err)
+            _shift_body(x, q, R, inv_mass, I_inv, a, -1.0, ra, corr)
+            _shift_body(x, q, R, inv_mass, I_inv, b, 1.0, rb, corr)
+        if worst <= tolerance:
+            break
+    return worst
+
+
+# ---------------------------------------------------------------------- after the step
+@njit(**JIT)
+def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, x, R, v, omega,
+                        inv_h, linear_impulse, angular_impulse, axial_impulse,
+                        # outputs
+                        enabled, position, rate, reaction_force, reaction_torque, broke):
+    """Joint coordinates and rates at the end of the step; reactions on body b (force N and
+    torque N m about its anchor, world; the accumulated impulse of the last substep / h);
+    joints whose reaction exceeds ``max_force`` / ``max_torque`` are disabled and flagged in
+    ``broke``. Returns how many broke in this step."""
+    count = 0
+    for j in range(joint_type.shape[0]):
+        t = joint_type[j]
+        a = joint_a[j]
+        b = joint_b[j]
+        has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
+        position[j] = pos
+        rate[j] = _row_velocity(v, omega, a, b, linear, n, ra, rb) if has else 0.0
+        axial = (axial_impulse[j, A_SPRING] + axial_impulse[j, A_MOTOR] + axial_impulse[j, A_LOWER]
+                 - axial_impulse[j, A_UPPER] + axial_impulse[j, A_EQUAL])
+        f = (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2])
+        tq = (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2])
+        if has and linear:
+            f = _add(f, _scale(axial, n))
+        elif has:
+            tq = _add(tq, _scale(axial, n))
+        for k in range(3):
+            reaction_force[j, k] = f[k] * inv_h
+            reaction_torque[j, k] = tq[k] * inv_h
+        broke[j] = False
+        if enabled[j]:
+            fn = math.sqrt(_dot(f, f)) * inv_h
+            tn = math.sqrt(_dot(tq, tq)) * inv_h
+            if fn > param[j, P_MAX_FORCE] or tn > param[j, P_MAX_TORQUE]:
+                enabled[j] = False
+                broke[j] = True
+                count += 1
+                for k in range(3):
+                    linear_impulse[j, k] = 0.0
+                    angular_impulse[j, k] = 0.0
+                for k in range(5):
+                    axial_impulse[j, k] = 0.0
+    return count
+
+
+@njit(**JIT)
+def integrate_velocities_kernel(moving, inv_mass, I_inv, force, torque, h,
+                                # outputs
+                                v, omega):
+    """v += h F / m; omega += h I^-1 tau (that is L += h tau at fixed pose)."""
+    for i in range(moving.shape[0]):
+        if moving[i]:
+            w = _mat_vec(I_inv, i, (torque[i, 0], torque[i, 1], torque[i, 2]))
+            for k in range(3):
+                v[i, k] += h * inv_mass[i] * force[i, k]
+                omega[i, k] += h * w[k]
+
+
+@njit(**JIT)
+def integrate_positions_kernel(moving, v, h, inertia_body, inertia_body_inv,
+                               # outputs
+                               x, q, R, omega, I_inv):
+    """x += h v; q rotated exactly by omega over h; then R, I^-1 = R Ibody^-1 R^T and
+    omega = I^-1 L at the new pose with L = I omega kept (torque-free motion keeps L;
+    Box2D keeps omega instead, which drops the gyroscopic term a spinning top needs)."""
+    for i in range(moving.shape[0]):
+        if not moving[i]:
+            continue
+        # L = R Ibody R^T omega at the old pose
+        wb = _mat_vec_T(R, i, (omega[i, 0], omega[i, 1], omega[i, 2]))
+        Lb = _mat_vec(inertia_body, i, wb)
+        L = _mat_vec(R, i, Lb)
+        for k in range(3):
+            x[i, k] += h * v[i, k]
+        quat_exp_multiply_inplace(q[i], omega[i, 0], omega[i, 1], omega[i, 2], h)
+        normalize_quat_inplace(q[i])
+        quat_to_matrix_into(q[i], R[i])
+        for r in range(3):
+            for c in range(3):
+                s = 0.0
+                for k in range(3):
+                    for m in range(3):
+                        s += R[i, r, k] * inertia_body_inv[i, k, m] * R[i, c, m]
+                I_inv[i, r, c] = s
+        w = _mat_vec(I_inv, i, L)
+        omega[i, 0], omega[i, 1], omega[i, 2] = w
+
+
+@njit(**JIT)
+def _mat_vec_T(M, i, a):
+    """M[i]^T @ a."""
+    return (M[i, 0, 0] * a[0] + M[i, 1, 0] * a[1] + M[i, 2, 0] * a[2],
+            M[i, 0, 1] * a[0] + M[i, 1, 1] * a[1] + M[i, 2, 1] * a[2],
+            M[i, 0, 2] * a[0] + M[i, 1, 2] * a[1] + M[i, 2, 2] * a[2])
+
+
+# ---------------------------------------------------------------------- the solver object
+def soft_coefficients(hertz: float, zeta: float, h: float):
+    """(bias_rate 1/s, mass_scale, impulse_scale) of a soft row (Box2D ``b2MakeSoft``; Catto,
+    GDC 2011, https://box2d.org/files/ErinCatto_SoftConstraints_GDC2011.pdf)."""
+    omega = 2.0 * math.pi * hertz
+    a1 = 2.0 * zeta + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3
+
+
+class JointSolver:
+    """The joints of one World as arrays, and the accumulated impulses between steps.
+
+    Constant arrays (J = joint count, in ``world.joints`` order): ``joint_type`` (J,) int64
+    (``tumble.joints.JOINT_*``), ``joint_a``, ``joint_b`` (J,) int64 body indices (-1: world),
+    ``local_a``, ``local_b`` (J, 3) m anchors in the body frames, ``frame_a``, ``frame_b``
+    (J, 3, 3) joint axes in the body frames, ``param`` (J, PARAM_COUNT) (``tumble.joints.P_*``;
+    writable between steps, e.g. ``param[j, P_MOTOR_SPEED]``).
+
+    State: ``enabled`` (J,) bool (False once broken), ``linear_impulse``, ``angular_impulse``
+    (J, 3) N s and ``axial_impulse`` (J, 5) N s or N m s (spring, motor, lower, upper,
+    equal rows), world, accumulated over the last substep, carried to the next for warm starting.
+
+    Read after each step (``store``): ``position`` (J,) joint coordinate (hinge angle rad,
+    slider displacement m, distance m, ball swing angle rad; 0 for fixed and universal),
+    ``rate`` (J,) its time derivative, ``reaction_force`` (J, 3) N and ``reaction_torque``
+    (J, 3) N m on body b from body a (world; the torque excludes the moment of the force
+    about body b's centre), ``broke`` (J,) bool: broke in this step. See ``readings``.
+    """
+
+    def __init__(self, settings: JointSettings | None = None):
+        self.settings = settings or JointSettings()
+        self.count = 0
+        self._joints: list = []
+        self.h = 1.0 / 240.0
+        self.last_projection_error = 0.0
+        self._build([])
+
+    def _build(self, joints):
+        J = len(joints)
+        old = {name: getattr(self, name, None) for name in ("enabled", "linear_impulse", "angular_impulse",
+                                                              "axial_impulse", "position")}
+        self.joint_type = np.array([j.bound.type_id for j in joints], dtype=np.int64)
+        self.joint_a = np.array([j.bound.body_a for j in joints], dtype=np.int64)
+        self.joint_b = np.array([j.bound.body_b for j in joints], dtype=np.int64)
+        self.local_a = np.array([j.bound.local_a for j in joints], dtype=float).reshape(J, 3)
+        self.local_b = np.array([j.bound.local_b for j in joints], dtype=float).reshape(J, 3)
+        self.frame_a = np.ascontiguousarray(np.array([j.bound.frame_a for j in joints], dtype=float).reshape(J, 3, 3))
+        self.frame_b = np.ascontiguousarray(np.array([j.bound.frame_b for j in joints], dtype=float).reshape(J, 3, 3))
+        self.param = np.array([j.bound.param for j in joints], dtype=float).reshape(J, PARAM_COUNT)
+        self.enabled = np.array([not j.broken for j in joints], dtype=bool)
+        self.linear_impulse = np.zeros((J, 3))
+        self.angular_impulse = np.zeros((J, 3))
+        self.axial_impulse = np.zeros((J, 5))
+        self.position = np.zeros(J)
+        # joints kept from before (a joint added later goes at the end): keep their state
+        k = self.count
+        if k and old["enabled"] is not None and self._joints == joints[:k]:
+            for name, arr in old.items():
+                getattr(self, name)[:k] = arr[:k]
+        self.rate = np.zeros(J)
+        self.reaction_force = np.zeros((J, 3))
+        self.reaction_torque = np.zeros((J, 3))
+        self.broke = np.zeros(J, dtype=bool)
+        self._joints = list(joints)
+        self.count = J
+
+    # -- stages --------------------------------------------------------------------------
+    def prepare(self, world, h: float, inv_mass: np.ndarray | None = None, I_inv: np.ndarray | None = None):
+        """Once per step, before the substeps: (re)build the tables if ``world.joints`` changed,
+        and the softness of the rigid rows for substep ``h`` (s).
+
+        inv_mass: (N,) 1/kg and I_inv: (N, 3, 3) world inverse inertia, the arrays the
+        solve reads from now on (default ``world.inv_mass``, ``world.I_inv``). The caller
+        keeps I_inv current in place (or fixed over the step, as Box2D); an immovable body
+        has inv_mass 0 and I_inv 0.
+        """
+        if len(world.joints) != self.count or any(a is not b for a, b in zip(world.joints, self._joints)):
+            self._build(world.joints)
+        self.h = float(h)
+        self.inv_mass = world.inv_mass if inv_mass is None else inv_mass
+        self.I_inv = world.I_inv if I_inv is None else I_inv
+        st = self.settings
+        if st.hertz > 0.0:
+            hertz = min(st.hertz, st.hertz_cap_per_substep / h)
+            self.soft_bias = np.array(soft_coefficients(hertz, st.damping_ratio, h))
+        else:  # rigid: the bias takes out the whole error in one substep
+            self.soft_bias = np.array([1.0 / h, 1.0, 0.0])
+        self.soft_relax = np.array([0.0, 1.0, 0.0])
+
+    def warm_start(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray):
+        """Apply the accumulated impulses once to v, omega (N, 3) (each substep, before solve)."""
+        if self.count:
+            warm_start_joints_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,
+                                     self.frame_a, self.frame_b, self.enabled, self.position, x, R, self.inv_mass,
+                                     self.I_inv, self.linear_impulse, self.angular_impulse, self.axial_impulse,
+                                     v, omega)
+
+    def solve(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray, use_bias: bool):
+        """Sweeps over the joints on v, omega (N, 3) at poses x (N, 3), R (N, 3, 3):
+        ``use_bias=True`` before the positions move (soft rows, ``velocity_iterations``),
+        False after (relax: rigid rows without bias, ``relax_iterations``)."""
+        if self.count:
+            st = self.settings
+            iterations = st.velocity_iterations if use_bias else st.relax_iterations
+            soft = self.soft_bias if use_bias else self.soft_relax
+            solve_joints_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,
+                                self.frame_a, self.frame_b, self.param, self.enabled, self.position, x, R,
+                                self.inv_mass, self.I_inv, self.h, soft, int(iterations),
+                                v, omega, self.linear_impulse, self.angular_impulse, self.axial_impulse)
+
+    def project(self, x: np.ndarray, q: np.ndarray, R: np.ndarray) -> float:
+        """NGS position projection after the substeps (``position_iterations`` > 0): moves
+        x, q, R (kept R = R(q)) so that anchors and locked axes meet; velocities unchanged.
+        Returns the largest rigid-row error (m or rad) of the last sweep."""
+        st = self.settings
+        if self.count and st.position_iterations > 0:
+            self.last_projection_error = project_joints_kernel(
+                self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a, self.frame_b,
+                self.param, self.enabled, self.inv_mass, self.I_inv, int(st.position_iterations),
+                float(st.position_tolerance), x, q, R)
+        return self.last_projection_error
+
+    def store(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray) -> int:
+        """After the step: coordinates, rates, reactions; break overloaded joints (their
+        records get ``broken = True``). Returns how many broke in this step."""
+        if not self.count:
+            return 0
+        broke = store_joints_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,
+                                    self.frame_a, self.frame_b, self.param, x, R, v, omega, 1.0 / self.h,
+                                    self.linear_impulse, self.angular_impulse, self.axial_impulse,
+                                    self.enabled, self.position, self.rate, self.reaction_force,
+                                    self.reaction_torque, self.broke)
+        if broke:
+            for j in np.flatnonzero(self.broke):
+                self._joints[j].broken = True
+        return broke
+
+    # -- queries -------------------------------------------------------------------------
+    def index(self, joint) -> int:
+        """Index of a joint given as its record, its name or an index."""
+        for j, rec in enumerate(self._joints):
+            if rec is joint or (isinstance(joint, str) and rec.name == joint):
+                return j
+        if isinstance(joint, (int, np.integer)) and 0 <= joint < self.count:
+            return int(joint)
+        raise KeyError(f"unknown joint {joint!r}")
+
+    def readings(self, joint=None) -> dict:
+        """The per-step readings, for one joint (by record, name or index) or all (arrays):
+        ``position`` (rad or m), ``rate`` (rad/s or m/s), ``force`` (3,) N and ``torque``
+        (3,) N m on body b, world; ``enabled``. Copies, safe to keep."""
+        sel = slice(None) if joint is None else self.index(joint)
+        return {"position": np.copy(self.position[sel]), "rate": np.copy(self.rate[sel]),
+                "force": np.copy(self.reaction_force[sel]), "torque": np.copy(self.reaction_torque[sel]),
+                "enabled": np.copy(self.enabled[sel])}
+
+    def set_motor_speed(self, joint, speed: float):
+        """Change a motor's target rate (rad/s or m/s) between steps."""
+        self.param[self.index(joint), P_MOTOR_SPEED] = float(speed)
+
+
+# ---------------------------------------------------------------------- standalone stepper
+def step_with_joints(world, joints: JointSolver, dt: float, substeps: int = 4):
+    """Advance ``world`` by ``dt`` under its built-in forces (gravity and force records,
+    evaluated once at the start of the step) and its joints; no contacts, no user callables.
+
+    Box2D v3's order: prepare; per substep integrate velocities -> warm start -> solve
+    (bias) -> integrate positions (L kept, omega from it) -> relax; then the optional
+    projection and store. Writes x, q, R, P, L and the derived arrays; advances ``world.t``.
+    """
+    h = dt / substeps
+    world.update_derived()
+    moving = world.moving
+    v, omega, x, q, R, I_inv = world.v, world.omega, world.x, world.q, world.R, world.I_inv
+    joints.prepare(world, h)
+    for _ in range(substeps):
+        integrate_velocities_kernel(moving, world.inv_mass, I_inv, world.force, world.torque, h, v, omega)
+        joints.warm_start(v, omega, x, R)
+        joints.solve(v, omega, x, R, True)
+        integrate_positions_kernel(moving, v, h, world.inertia_body, world.inertia_body_inv, x, q, R, omega, I_inv)
+        joints.solve(v, omega, x, R, False)
+    joints.project(x, q, R)
+    _store_momenta_kernel(moving, world.mass, world.inertia_body, R, v, omega, world.P, world.L)
+    world.t += dt
+    joints.store(v, omega, x, R)
+    return joints
+
+
+@njit(**JIT)
+def _store_momenta_kernel(moving, mass, inertia_body, R, v, omega,
+                          # outputs
+                          P, L):
+    """P = m v, L = R Ibody R^T omega (at the final pose)."""
+    for i in range(moving.shape[0]):
+        if moving[i]:
+            wb = _mat_vec_T(R, i, (omega[i, 0], omega[i, 1], omega[i, 2]))
+            Lw = _mat_vec(R, i, _mat_vec(inertia_body, i, wb))
+            for k in range(3):
+                P[i, k] = mass[i] * v[i, k]
+                L[i, k] = Lw[k]
