@@ -179,7 +179,7 @@ def table(rows, scene: str) -> str:
     if scene == "pile" or scene in BOX3D_MS:
         header = ["engine", "variant", "N", "dt", "runs", "load s", "first step s", "wall s (median)", "real-time factor",
                   "ms/step", "min z - h (end)", "max vertex pen. (end)", "max vertex pen. (run)", "max speed end (m/s)",
-                  "max ang. speed end (rad/s)", "left region", "mean solver iters"]
+                  "max ang. speed end (rad/s)", "left region", "farthest box (m)", "mean solver iters"]
         if scene in BOX3D_MS:
             header += ["top box dz (end)", "Box3D ms/step 1 / 2 threads"]
         out = []
@@ -188,7 +188,7 @@ def table(rows, scene: str) -> str:
                     fmt(r.get("compile_s"), ".2f"), wall_cell(r), fmt(r["rtf"], ".3f"),
                     fmt(r["ms_per_step"], ".2f") if r["complete"] else f"{r['last_ms_per_step']:.0f} (last)",
                     fmt(r["min_z_minus_h_end"]), fmt(r["max_pen_end"]), fmt(r["max_pen_run"]), fmt(r["max_speed_end"]),
-                    fmt(r["max_ang_speed_end"]), r["left_region"],
+                    fmt(r["max_ang_speed_end"]), r["left_region"], fmt(r["max_xy_dist_end"], ".2f"),
                     "-" if r["solver_iters"] is None else f"{r['solver_iters']:.0f}"]
             if scene in BOX3D_MS:
                 one, two = BOX3D_MS[scene]
@@ -236,12 +236,17 @@ def main(argv=None):
     ap.add_argument("--tumble-integrator", default="semi-implicit-euler")
     ap.add_argument("--tumble-dt", type=float, default=None, help="default: the scene's (1/60 s)")
     ap.add_argument("--tumble-substeps", type=int, default=None, help="default: the scene's (4)")
+    ap.add_argument("--tumble-threads", type=int, default=None, help="Numba threads for tumble (default: all)")
     ap.add_argument("--tag", default=None, help="suffix of the result files")
     ap.add_argument("--out", type=Path, default=RESULTS)
     args = ap.parse_args(argv)
 
     from tumble.scenes import contact as C
 
+    if args.tumble_threads:
+        import numba
+
+        numba.set_num_threads(args.tumble_threads)
     scene = args.scene
     if scene == "pile":
         kwargs = {"n": args.n or 1000, "seed": args.seed}
@@ -271,7 +276,8 @@ def main(argv=None):
                 if engine == "tumble":
                     eng, load_s, compile_s = tumble_make(scene, kwargs, args)
                     dt, substeps = eng.dt, eng.substeps
-                    variant = f"{args.tumble_integrator}, soft step"
+                    variant = f"{args.tumble_integrator}, soft step" + (
+                        f", {args.tumble_threads} thread{'s' if args.tumble_threads > 1 else ''}" if args.tumble_threads else "")
                     reset = TumbleScene.reset
                 else:
                     mod = peer_module(engine)

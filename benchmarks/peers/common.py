@@ -111,6 +111,8 @@ class Tracker:
       max_speed_end, max_ang_speed_end   largest |v| (m/s) and |omega| (rad/s) at the end
       left_region           boxes at the end outside the region: xy beyond the start's bounding
                             box grown by ``margin`` (2 m), or centre below z = 0
+      max_xy_dist_end       largest horizontal distance (m) of a box centre from the centre of the
+                            start's bounding box, at the end
       top_xy_drift_end / _max, top_dz_end, top_abs_dz_max   the box that starts highest
       stands                every box ends within its half-extent of its start (xy and z)
       bottom_pen_end        deepest corner of the box that starts lowest, below z = 0, at the end
@@ -123,6 +125,8 @@ class Tracker:
         self.top = int(np.argmax(spec.pos[:, 2]))
         self.bottom = int(np.argmin(spec.pos[:, 2]))
         self.lo = spec.pos[:, :2].min(axis=0) - margin
+        self.c0 = 0.5 * (spec.pos[:, :2].min(axis=0) + spec.pos[:, :2].max(axis=0))
+        self.c0 = 0.5 * (spec.pos[:, :2].min(axis=0) + spec.pos[:, :2].max(axis=0))
         self.hi = spec.pos[:, :2].max(axis=0) + margin
         self.max_pen_run = 0.0
         self.top_xy_max = 0.0
@@ -160,6 +164,7 @@ class Tracker:
             "max_speed_end": float(np.linalg.norm(v, axis=1).max()),
             "max_ang_speed_end": float(np.linalg.norm(omega, axis=1).max()),
             "left_region": int(outside.sum()),
+            "max_xy_dist_end": float(np.hypot(x[:, 0] - self.c0[0], x[:, 1] - self.c0[1]).max()),
             "top_xy_drift_end": float(np.hypot(d[0], d[1])),
             "top_dz_end": float(d[2]),
             "top_xy_drift_max": self.top_xy_max,
