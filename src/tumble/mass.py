@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .shapes import Box, Capsule, Cone, Cylinder, Mesh, Particles, Plane, Sphere
+from .shapes import Box, Capsule, Compound, Cone, Cylinder, Mesh, Particles, Plane, Sphere
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,6 +125,8 @@ def mass_properties(shape, mass=None, density=None) -> MassProperties:
             masses = masses * (_positive_amount(mass, "mass") / masses.sum())
         return particle_mass_properties(shape.points, masses)
     mass, density = _mass_or_density(mass, density)
+    if isinstance(shape, Compound):
+        return _compound_mass_properties(shape, mass, density)
     if isinstance(shape, Mesh):  # Convex is a Mesh
         return _mesh_mass_properties(shape.trimesh, mass, density)
     volume_of = {
@@ -162,6 +164,37 @@ def _primitive_mass_properties(shape, m: float) -> MassProperties:
         ixx = 3.0 / 20.0 * m * r * r + 3.0 / 80.0 * m * h * h
         moments = np.array([ixx, ixx, 0.3 * m * r * r])
     return MassProperties(m, center, np.diag(moments))
+
+
+def _quat_matrix(q) -> np.ndarray:
+    w, x, y, z = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def _compound_mass_properties(shape, mass: float | None, density: float | None) -> MassProperties:
+    """Sum of the parts at one uniform density (``mass`` given: spread by volume).
+
+    Part i of mass m_i, centre c_i and inertia I_i (its own frame), placed at p_i
+    with rotation R_i: centre C = sum m_i (p_i + R_i c_i) / M; inertia about C by
+    the parallel axis theorem, sum R_i I_i R_i^T + m_i (|d_i|^2 1 - d_i d_i^T) with
+    d_i = p_i + R_i c_i - C. Overlapping parts are counted twice.
+    """
+    unit = [(mass_properties(part, density=1.0), pos, _quat_matrix(q)) for part, pos, q in shape.parts]
+    if density is None:
+        density = mass / sum(props.mass for props, _, _ in unit)
+    masses = np.array([density * props.mass for props, _, _ in unit])
+    centers = np.array([pos + R @ props.center for props, pos, R in unit])
+    total = float(masses.sum())
+    center = masses @ centers / total
+    inertia = np.zeros((3, 3))
+    for (props, _, R), m, c in zip(unit, masses, centers):
+        d = c - center
+        inertia += density * (R @ props.inertia @ R.T) + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return MassProperties(total, center, inertia)
 
 
 def _capsule_moments(r: float, length: float, m: float) -> np.ndarray:

@@ -20,6 +20,8 @@ from .errors import InputError
 
 # Type ids in the order collision pair routines will dispatch on (STYLE 5.2).
 SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER, SHAPE_CONE, SHAPE_BOX, SHAPE_CONVEX, SHAPE_MESH, SHAPE_PARTICLES = range(9)
+# A compound is not a collision type: the shape table has one row per part.
+SHAPE_COMPOUND = 9
 
 
 def positive(value, key: str) -> float:
@@ -224,6 +226,60 @@ class Convex(Mesh):
         object.__setattr__(self, "faces", np.asarray(mesh.faces, dtype=np.int64))
 
 
+@dataclass(frozen=True, eq=False)
+class Compound:
+    """Several shapes rigidly joined in one body (a chair, a dumbbell, a concave object cut into convex pieces).
+
+    Args:
+        parts: sequence of ``(shape, position, orientation)``: a shape record
+            (not a Plane or Particles; a Compound is flattened), its origin (3,) m
+            and its orientation (4,) unit quaternion (w, x, y, z), both in the
+            compound's frame. A part may also be a mapping with keys ``shape``
+            (a record or its ``shape_to_dict`` form), ``position`` (default 0)
+            and ``orientation`` (default identity), as scene files give it.
+
+    The mass is spread by volume (uniform density): overlapping parts count twice.
+    """
+
+    parts: tuple
+    type_id = SHAPE_COMPOUND
+
+    def __post_init__(self):
+        try:
+            raw = list(self.parts)
+        except TypeError:
+            raise InputError(f"expected a list of (shape, position, orientation), got {self.parts!r}", "parts") from None
+        if not raw:
+            raise InputError("a compound needs at least one part", "parts")
+        parts = []
+        for k, part in enumerate(raw):
+            key = f"parts[{k}]"
+            if isinstance(part, dict):
+                unknown = set(part) - {"shape", "position", "orientation"}
+                if unknown or "shape" not in part:
+                    raise InputError("a part has keys shape, position, orientation", key)
+                shape = part["shape"]
+                position = part.get("position", (0.0, 0.0, 0.0))
+                orientation = part.get("orientation", (1.0, 0.0, 0.0, 0.0))
+            else:
+                try:
+                    shape, position, orientation = part
+                except (TypeError, ValueError):
+                    raise InputError("expected (shape, position, orientation)", key) from None
+            if isinstance(shape, dict):
+                shape = shape_from_dict(shape)
+            if isinstance(shape, (Plane, Particles)) or not hasattr(shape, "type_id"):
+                raise InputError(f"a part must be a solid shape record, got {type(shape).__name__}", key)
+            pos = finite_vector(position, f"{key}.position")
+            q = finite_vector(orientation, f"{key}.orientation", 4)
+            length = float(np.linalg.norm(q))
+            if length == 0.0:
+                raise InputError("must not be the zero quaternion", f"{key}.orientation")
+            pos.setflags(write=False)
+            parts.append((shape, pos, tuple(float(c) for c in q / length)))
+        object.__setattr__(self, "parts", tuple(parts))
+
+
 SHAPE_TYPES = {
     "sphere": Sphere,
     "box": Box,
@@ -234,6 +290,7 @@ SHAPE_TYPES = {
     "particles": Particles,
     "mesh": Mesh,
     "convex": Convex,
+    "compound": Compound,
 }
 
 
@@ -253,6 +310,9 @@ def shape_to_dict(shape) -> dict:
         return {"type": kind, "vertices": np.asarray(shape.vertices).tolist(), "faces": np.asarray(shape.faces).tolist()}
     if kind == "particles":
         return {"type": kind, "points": shape.points.tolist(), "masses": shape.masses.tolist()}
+    if kind == "compound":
+        return {"type": kind, "parts": [{"shape": shape_to_dict(part), "position": pos.tolist(), "orientation": list(q)}
+                                        for part, pos, q in shape.parts]}
     out = {"type": kind}
     for key in shape.__dataclass_fields__:
         if not key.startswith("_"):

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
+import tumble as tb
+from tumble.collision.geometry import _Builder
 from tumble.collision.narrowphase import collide_shapes
 from tumble.math3d import quat_to_matrix
-from tumble.shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_PLANE, SHAPE_SPHERE
+from tumble.shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
+                           SHAPE_SPHERE)
 
 SPEC = 0.02
 
@@ -41,18 +44,51 @@ def box(pos, R, h):
     return SHAPE_BOX, np.asarray(pos, float), np.asarray(R, float), np.array([*h, 0.0])
 
 
-def collide(a, b, spec=SPEC):
-    """Run the routine of shapes a, b (each (type, pos, R, params)), a's type <= b's.
+def cylinder(pos, R, r, half):
+    return SHAPE_CYLINDER, np.asarray(pos, float), np.asarray(R, float), np.array([r, half, 0, 0.0]), tb.Cylinder(r, 2 * half)
+
+
+def cone(pos, R, r, height):
+    """A cone with its base centre at ``pos`` (the shape origin), apex at pos + height R z."""
+    return SHAPE_CONE, np.asarray(pos, float), np.asarray(R, float), np.array([r, height, 0, 0.0]), tb.Cone(r, height)
+
+
+def convex(pos, R, points):
+    record = tb.Convex(points=np.asarray(points, float))
+    h = np.max(np.abs(record.vertices), axis=0)
+    return SHAPE_CONVEX, np.asarray(pos, float), np.asarray(R, float), np.array([*h, 0.0]), record
+
+
+def mesh(pos, R, vertices, faces):
+    record = tb.Mesh(vertices=np.asarray(vertices, float), faces=np.asarray(faces))
+    h = np.max(np.abs(record.vertices), axis=0)
+    return SHAPE_MESH, np.asarray(pos, float), np.asarray(R, float), np.array([*h, 0.0]), record
+
+
+def geometry_of(*shapes):
+    """``ShapeTable.geometry`` with one row per shape (hull / mesh data where the tuple carries a record)."""
+    builder = _Builder()
+    for k, s in enumerate(shapes):
+        record = s[4] if len(s) > 4 else tb.Sphere(1.0)  # primitives: a placeholder row, no extra data
+        builder.add(record, k, np.zeros(3), np.array([1.0, 0, 0, 0]), s[0] != SHAPE_MESH, f"shape{k}")
+    return builder.table(np.ones(len(shapes), dtype=bool)).geometry
+
+
+def collide(a, b, spec=SPEC, geometry=None):
+    """Run the routine of shapes a, b (each (type, pos, R, params[, record])), a's type <= b's.
 
     Returns (normal (3,), points (n, 3), separations (n,), features (n,)).
     """
     assert a[0] <= b[0]
+    if geometry is None:
+        geometry = geometry_of(a, b)
     normal = np.zeros(3)
     point = np.zeros((4, 3))
     sep = np.zeros(4)
     feat = np.zeros(4, dtype=np.int64)
     n = collide_shapes(a[0], b[0], np.ascontiguousarray(a[1]), np.ascontiguousarray(a[2]), a[3],
-                       np.ascontiguousarray(b[1]), np.ascontiguousarray(b[2]), b[3], spec, normal, point, sep, feat)
+                       np.ascontiguousarray(b[1]), np.ascontiguousarray(b[2]), b[3], spec, geometry, 0, 1,
+                       normal, point, sep, feat)
     return normal, point[:n].copy(), sep[:n].copy(), feat[:n].copy()
 
 

@@ -36,13 +36,21 @@ def test_table_rows():
 
 
 def test_unsupported_types_are_named():
+    # particles have no collision shape; a mesh collides only on a fixed body
     w = make_world()
-    w.add_body(tb.Cylinder(0.2, 1.0), mass=1.0, name="can")
-    with pytest.raises(NotImplementedError, match="'cylinder'.*not supported") as err:
+    w.add_body(tb.Particles([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [1.0] * 4), name="dust")
+    with pytest.raises(NotImplementedError, match="'particles'.*not supported") as err:
         build_shape_table(w)
-    assert "can" in str(err.value)
+    assert "dust" in str(err.value)
     t = build_shape_table(w, skip_unsupported=True)
     assert t.shape_count == 4 and t.body_count == 5
+    from tumble.mass import box_mesh
+
+    v, f = box_mesh((1, 1, 1))
+    w2 = make_world()
+    w2.add_body(tb.Mesh(vertices=v, faces=f), mass=1.0, name="rock")
+    with pytest.raises(NotImplementedError, match="'rock'.*fixed body.*Compound of Convex"):
+        build_shape_table(w2)
 
 
 def test_bounds():

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from ..math3d import JIT, quat_to_matrix_into
-from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_SPHERE
+from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_SPHERE
 
 
 @njit(**JIT)
@@ -47,9 +47,19 @@ def _update_bounds_kernel(x, R, v, omega, dt, shape_type, shape_body, shape_para
                 e = p[0]
             elif t == SHAPE_CAPSULE:
                 e = abs(shape_rot[s, i, 2]) * p[1] + p[0]
-            elif t == SHAPE_BOX:
-                # half width of a rotated box along world axis i: sum_j |R_ij| h_j
+            elif t == SHAPE_BOX or t == SHAPE_CONVEX or t == SHAPE_MESH:
+                # half width of a rotated box along world axis i: sum_j |R_ij| h_j (convex, mesh: the box
+                # |l_j| <= h_j around the shape origin that holds every vertex)
                 e = abs(shape_rot[s, i, 0]) * p[0] + abs(shape_rot[s, i, 1]) * p[1] + abs(shape_rot[s, i, 2]) * p[2]
+            elif t == SHAPE_CYLINDER:
+                # a disc of radius r with normal u spans r sqrt(1 - u_i^2) along axis i; plus the axis h |u_i|
+                u = shape_rot[s, i, 2]
+                e = abs(u) * p[1] + p[0] * np.sqrt(max(0.0, 1.0 - u * u))
+            elif t == SHAPE_CONE:
+                # base disc at the origin, apex at height H along u: a cylinder of half length H around the
+                # origin holds it (loose by up to H along the axis; the AABB stays centred on the shape origin)
+                u = shape_rot[s, i, 2]
+                e = abs(u) * p[1] + p[0] * np.sqrt(max(0.0, 1.0 - u * u))
             else:
                 # planes (and types without bounds yet) are unbounded; find_pairs skips them
                 e = np.inf

@@ -1,11 +1,12 @@
 """Collision shapes as flat arrays: ``ShapeTable`` and ``build_shape_table(world)``.
 
-Reads a World's shape records and ``com_offset``; writes nothing else. One shape per
-body for now; ``shape_body`` lets compound bodies add more rows later.
+Reads a World's shape records and ``com_offset``; writes nothing else. One row per
+shape: a body whose shape is a ``Compound`` gets one row per part (``shape_body``
+repeats, ``shape_local_pos``/``shape_local_q`` place the part in the body frame).
 
-Supported: plane, sphere, capsule, box. Cylinder, cone, convex, mesh and particles
-raise ``NotImplementedError`` naming the type and body (or are left without a
-collision shape with ``skip_unsupported=True``) until their pair routines exist.
+Supported: plane, sphere, capsule, cylinder, cone, box, convex, and mesh on fixed
+bodies. Particles (and a mesh on a moving body) raise ``NotImplementedError`` naming
+the type and body (or get no row with ``skip_unsupported=True``).
 
 ``shape_params`` (S, 4), in the shape's own frame, metres:
 
@@ -13,13 +14,20 @@ collision shape with ``skip_unsupported=True``) until their pair routines exist.
 plane      (nx, ny, nz, offset): the plane n . p = offset, n unit
 sphere     (radius, 0, 0, 0)
 capsule    (radius, half_length, 0, 0): segment from -h z to +h z
+cylinder   (radius, half_length, 0, 0): caps at z = -h and z = +h
+cone       (radius, height, 0, 0): base disc at z = 0, apex at z = height
 box        (hx, hy, hz, 0): half extents
+convex     (hx, hy, hz, 0): max |coordinate| of its vertices (bounds only)
+mesh       (hx, hy, hz, 0): max |coordinate| of its vertices (bounds only)
 =========  ===================================================
+
+Convex hulls and meshes keep their data in flat arrays (kernels take arrays): see
+``ShapeTable`` and ``ShapeTable.geometry``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -35,6 +43,11 @@ from ..shapes import (
     SHAPE_SPHERE,
     Box,
     Capsule,
+    Compound,
+    Cone,
+    Convex,
+    Cylinder,
+    Mesh,
     Plane,
     Sphere,
 )
@@ -43,7 +56,18 @@ SHAPE_NAMES = {
     SHAPE_PLANE: "plane", SHAPE_SPHERE: "sphere", SHAPE_CAPSULE: "capsule", SHAPE_CYLINDER: "cylinder",
     SHAPE_CONE: "cone", SHAPE_BOX: "box", SHAPE_CONVEX: "convex", SHAPE_MESH: "mesh", SHAPE_PARTICLES: "particles",
 }
-SUPPORTED_TYPES = (SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_BOX)
+SUPPORTED_TYPES = (SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER, SHAPE_CONE, SHAPE_BOX, SHAPE_CONVEX,
+                   SHAPE_MESH)
+
+# Triangles per BVH leaf (a query then tests at most this many triangles per leaf it reaches).
+BVH_LEAF_SIZE = 4
+# Two hull triangles are one polygonal face when their unit normals differ by less than
+# this (and their planes by less than it times the hull's size).
+COPLANAR_TOLERANCE = 1e-7
+
+
+def _empty(shape, dtype=float):
+    return lambda: np.zeros(shape, dtype=dtype)
 
 
 @dataclass
@@ -54,9 +78,25 @@ class ShapeTable:
         shape_type: (S,) int64, ``SHAPE_*`` id of ``tumble.shapes``.
         shape_body: (S,) int64, index of the body the shape belongs to.
         shape_params: (S, 4) float, see the module docstring; metres.
-        shape_local_pos: (S, 3) m, the shape origin in the body frame (``-com_offset``).
-        shape_local_q: (S, 4) (w, x, y, z), shape frame to body frame (identity for primitives).
+        shape_local_pos: (S, 3) m, the shape origin in the body frame (``part position - com_offset``).
+        shape_local_q: (S, 4) (w, x, y, z), shape frame to body frame (identity except compound parts).
         body_moving: (N,) bool, a copy of ``World.moving`` (False for fixed bodies).
+        shape_data: (S, 4) int64 offsets into the arrays below: convex
+            ``(vertex_first, vertex_count, face_first, face_count)``, mesh
+            ``(triangle_first, triangle_count, node_first, node_count)``, else zeros.
+        hull_vertex: (V, 3) m, vertices of every convex hull, shape frame.
+        hull_face_first, hull_face_count: (F,) int64, face f's vertices are
+            ``hull_face_vertex[first : first + count]``.
+        hull_face_vertex: (K,) int64 rows of ``hull_vertex``, counter-clockwise seen from outside.
+        hull_plane: (F, 4) outward unit normal and offset (n, d) of each face, n . p = d, shape frame.
+        mesh_triangle: (T, 3, 3) m, triangle corners (shape frame), counter-clockwise
+            seen from outside, in BVH leaf order.
+        mesh_edge_active: (T,) int64, bit k set when edge k (corner k to k + 1) is a
+            convex edge of the mesh (its neighbour bends away); flat and concave edges
+            are inactive (no edge normals there: internal-edge fix, ``pairs/mesh``).
+        mesh_node_aabb: (B, 2, 3) m, BVH node boxes (min row, max row), shape frame, preorder.
+        mesh_node_first, mesh_node_count: (B,) int64, a leaf's triangles (count 0 for inner nodes).
+        mesh_node_skip: (B,) int64, the node after this node's subtree (stackless walk).
     """
 
     shape_type: np.ndarray
@@ -65,6 +105,22 @@ class ShapeTable:
     shape_local_pos: np.ndarray
     shape_local_q: np.ndarray
     body_moving: np.ndarray
+    shape_data: np.ndarray = None
+    hull_vertex: np.ndarray = field(default_factory=_empty((0, 3)))
+    hull_face_first: np.ndarray = field(default_factory=_empty(0, np.int64))
+    hull_face_count: np.ndarray = field(default_factory=_empty(0, np.int64))
+    hull_face_vertex: np.ndarray = field(default_factory=_empty(0, np.int64))
+    hull_plane: np.ndarray = field(default_factory=_empty((0, 4)))
+    mesh_triangle: np.ndarray = field(default_factory=_empty((0, 3, 3)))
+    mesh_edge_active: np.ndarray = field(default_factory=_empty(0, np.int64))
+    mesh_node_aabb: np.ndarray = field(default_factory=_empty((0, 2, 3)))
+    mesh_node_first: np.ndarray = field(default_factory=_empty(0, np.int64))
+    mesh_node_count: np.ndarray = field(default_factory=_empty(0, np.int64))
+    mesh_node_skip: np.ndarray = field(default_factory=_empty(0, np.int64))
+
+    def __post_init__(self):
+        if self.shape_data is None:
+            self.shape_data = np.zeros((len(self.shape_type), 4), dtype=np.int64)
 
     @property
     def shape_count(self) -> int:
@@ -74,9 +130,16 @@ class ShapeTable:
     def body_count(self) -> int:
         return len(self.body_moving)
 
+    @property
+    def geometry(self) -> tuple:
+        """The extra arrays as one tuple, in the order the pair kernels unpack them (``pairs/convex.GEOMETRY``)."""
+        return (self.shape_data, self.hull_vertex, self.hull_face_first, self.hull_face_count, self.hull_face_vertex,
+                self.hull_plane, self.mesh_triangle, self.mesh_edge_active, self.mesh_node_aabb, self.mesh_node_first,
+                self.mesh_node_count, self.mesh_node_skip)
+
 
 def shape_params(shape) -> tuple[int, tuple[float, float, float, float]]:
-    """``(SHAPE_* id, params (4,))`` of one shape record; NotImplementedError for types without collision yet."""
+    """``(SHAPE_* id, params (4,))`` of one shape record; NotImplementedError for types without collision."""
     if isinstance(shape, Plane):
         n = shape.normal
         return SHAPE_PLANE, (n[0], n[1], n[2], shape.offset)
@@ -84,47 +147,266 @@ def shape_params(shape) -> tuple[int, tuple[float, float, float, float]]:
         return SHAPE_SPHERE, (shape.radius, 0.0, 0.0, 0.0)
     if isinstance(shape, Capsule):
         return SHAPE_CAPSULE, (shape.radius, 0.5 * shape.length, 0.0, 0.0)
+    if isinstance(shape, Cylinder):
+        return SHAPE_CYLINDER, (shape.radius, 0.5 * shape.length, 0.0, 0.0)
+    if isinstance(shape, Cone):
+        return SHAPE_CONE, (shape.radius, shape.height, 0.0, 0.0)
     if isinstance(shape, Box):
         h = shape.half_extents
         return SHAPE_BOX, (float(h[0]), float(h[1]), float(h[2]), 0.0)
+    if isinstance(shape, Mesh):  # Convex too
+        h = np.max(np.abs(np.asarray(shape.vertices, dtype=float)), axis=0)
+        return (SHAPE_CONVEX if isinstance(shape, Convex) else SHAPE_MESH), (float(h[0]), float(h[1]), float(h[2]), 0.0)
     type_id = getattr(shape, "type_id", None)
     name = SHAPE_NAMES.get(type_id, type(shape).__name__)
-    raise NotImplementedError(f"collision shape {name!r} is not supported yet (supported: plane, sphere, capsule, box)")
+    raise NotImplementedError(f"collision shape {name!r} is not supported yet "
+                              "(supported: plane, sphere, capsule, cylinder, cone, box, convex, mesh)")
+
+
+def _quat_mul(a, b):
+    return np.array([
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    ])
+
+
+def _quat_rotate(q, v):
+    w, x, y, z = q
+    u = np.array([x, y, z])
+    return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
+
+
+def flatten_parts(shape, pos=None, q=None):
+    """``[(shape, position (3,), orientation (4,))]`` of a shape, nested compounds expanded (shape frame)."""
+    pos = np.zeros(3) if pos is None else pos
+    q = np.array([1.0, 0.0, 0.0, 0.0]) if q is None else q
+    if not isinstance(shape, Compound):
+        return [(shape, pos, q)]
+    out = []
+    for part, p, pq in shape.parts:
+        out += flatten_parts(part, pos + _quat_rotate(q, np.asarray(p, dtype=float)), _quat_mul(q, np.asarray(pq)))
+    return out
+
+
+def hull_polygons(vertices, faces):
+    """Merge a convex hull's triangles into polygonal faces.
+
+    Returns ``(planes (F, 4), polygons)``: outward unit normal and offset per face,
+    and per face the vertex rows counter-clockwise seen from outside (sorted by
+    angle about the face centroid; a hull face is convex, so that is its boundary).
+    """
+    v = np.asarray(vertices, dtype=float)
+    tri = v[np.asarray(faces)]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    d = np.einsum("ij,ij->i", n, tri[:, 0])
+    size = float(np.max(np.abs(v))) or 1.0
+    groups: list[list[int]] = []
+    for t in range(len(tri)):
+        for g in groups:
+            k = g[0]
+            if n[t] @ n[k] > 1.0 - COPLANAR_TOLERANCE and abs(d[t] - d[k]) < COPLANAR_TOLERANCE * size:
+                g.append(t)
+                break
+        else:
+            groups.append([t])
+    planes, polygons = [], []
+    for g in groups:
+        normal = n[g].mean(axis=0)
+        normal /= np.linalg.norm(normal)
+        ids = np.unique(np.asarray(faces)[g].ravel())
+        pts = v[ids]
+        centre = pts.mean(axis=0)
+        t1 = pts[np.argmax(np.linalg.norm(pts - centre, axis=1))] - centre
+        t1 -= (t1 @ normal) * normal
+        t1 /= np.linalg.norm(t1)
+        t2 = np.cross(normal, t1)
+        angle = np.arctan2((pts - centre) @ t2, (pts - centre) @ t1)
+        polygons.append(ids[np.argsort(angle, kind="stable")])
+        planes.append([*normal, float(np.max(pts @ normal))])
+    return np.asarray(planes, dtype=float).reshape(-1, 4), polygons
+
+
+def mesh_edge_flags(vertices, faces, flat_cos: float = 1.0 - 1e-6):
+    """(F,) int64: bit k set when edge k of face f (corner k to k + 1) is convex (an active edge).
+
+    An edge is inactive when its neighbour face is coplanar (normals closer than
+    ``flat_cos``) or bends up (its far corner above this face's plane): contacts
+    there take the face normal. Edges without exactly one neighbour stay active.
+    """
+    v = np.asarray(vertices, dtype=float)
+    f = np.asarray(faces, dtype=np.int64)
+    tri = v[f]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    size = float(np.max(np.abs(v))) or 1.0
+    owner: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    for t in range(len(f)):
+        for k in range(3):
+            a, b = int(f[t, k]), int(f[t, (k + 1) % 3])
+            owner.setdefault((min(a, b), max(a, b)), []).append((t, k))
+    flags = np.zeros(len(f), dtype=np.int64)
+    for t in range(len(f)):
+        for k in range(3):
+            a, b = int(f[t, k]), int(f[t, (k + 1) % 3])
+            others = [o for o in owner[(min(a, b), max(a, b))] if o[0] != t]
+            if len(others) != 1:
+                flags[t] |= 1 << k
+                continue
+            u = others[0][0]
+            far = v[f[u, (others[0][1] + 2) % 3]]
+            flat = n[t] @ n[u] > flat_cos
+            convex = n[t] @ (far - tri[t, 0]) < -1e-9 * size
+            if convex and not flat:
+                flags[t] |= 1 << k
+    return flags
+
+
+def build_bvh(triangles, leaf_size: int = BVH_LEAF_SIZE):
+    """A median-split AABB tree over triangles (T, 3, 3), laid out in preorder.
+
+    Returns ``(order (T,), node_aabb (B, 2, 3), node_first (B,), node_count (B,),
+    node_skip (B,))``: triangles must be stored as ``triangles[order]``; a leaf
+    holds ``node_count`` of them from ``node_first``; inner nodes have count 0
+    and their left child next in the arrays; ``node_skip`` is the node after the
+    subtree (``B`` for the last).
+    """
+    centroid = triangles.mean(axis=1)
+    lo_t = triangles.min(axis=1)
+    hi_t = triangles.max(axis=1)
+    order = np.arange(len(triangles))
+    nodes: list[list] = []  # [aabb, first, count, skip]
+
+    def build(start, stop):
+        idx = order[start:stop]
+        node = [np.stack([lo_t[idx].min(axis=0), hi_t[idx].max(axis=0)]), start, 0, 0]
+        me = len(nodes)
+        nodes.append(node)
+        if stop - start <= leaf_size:
+            node[2] = stop - start
+        else:
+            c = centroid[idx]
+            axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+            order[start:stop] = idx[np.argsort(c[:, axis], kind="stable")]
+            mid = (start + stop) // 2
+            build(start, mid)
+            build(mid, stop)
+        nodes[me][3] = len(nodes)
+
+    build(0, len(triangles))
+    aabb = np.array([nd[0] for nd in nodes], dtype=float).reshape(-1, 2, 3)
+    first = np.array([nd[1] for nd in nodes], dtype=np.int64)
+    count = np.array([nd[2] for nd in nodes], dtype=np.int64)
+    skip = np.array([nd[3] for nd in nodes], dtype=np.int64)
+    return order, aabb, first, count, skip
+
+
+class _Builder:
+    """Collects the rows and the flat hull / mesh arrays."""
+
+    def __init__(self):
+        self.rows = []  # (type, body, params, local_pos, local_q, data)
+        self.hv, self.hff, self.hfc, self.hfv, self.hp = [], [], [], [], []
+        self.mt, self.me, self.na, self.nf, self.nc, self.ns = [], [], [], [], [], []
+        self.n_hv = self.n_hf = self.n_hfv = self.n_t = self.n_n = 0
+
+    def add(self, shape, body, local_pos, local_q, moving, name):
+        type_id, p = shape_params(shape)
+        data = (0, 0, 0, 0)
+        if type_id == SHAPE_CONVEX:
+            planes, polygons = hull_polygons(shape.vertices, shape.faces)
+            v = np.asarray(shape.vertices, dtype=float)
+            data = (self.n_hv, len(v), self.n_hf, len(planes))
+            for poly in polygons:
+                self.hff.append(self.n_hfv)
+                self.hfc.append(len(poly))
+                self.hfv.append(np.asarray(poly, dtype=np.int64) + self.n_hv)
+                self.n_hfv += len(poly)
+            self.hv.append(v)
+            self.hp.append(planes)
+            self.n_hv += len(v)
+            self.n_hf += len(planes)
+        elif type_id == SHAPE_MESH:
+            if moving:
+                raise NotImplementedError(
+                    f"body {name!r}: a triangle mesh collides only on a fixed body (terrain, ramps, bowls); "
+                    "make a moving body a Compound of Convex pieces")
+            tri = np.asarray(shape.vertices, dtype=float)[np.asarray(shape.faces)]
+            flags = mesh_edge_flags(shape.vertices, shape.faces)
+            order, aabb, first, count, skip = build_bvh(tri)
+            data = (self.n_t, len(tri), self.n_n, len(aabb))
+            self.mt.append(tri[order])
+            self.me.append(flags[order])
+            self.na.append(aabb)
+            self.nf.append(first + self.n_t)
+            self.nc.append(count)
+            self.ns.append(skip + self.n_n)
+            self.n_t += len(tri)
+            self.n_n += len(aabb)
+        self.rows.append((type_id, body, p, local_pos, local_q, data))
+
+    def table(self, moving) -> ShapeTable:
+        s = len(self.rows)
+
+        def cat(parts, shape, dtype=float):
+            return np.ascontiguousarray(np.concatenate(parts) if parts else np.zeros(shape, dtype=dtype), dtype=dtype)
+
+        return ShapeTable(
+            shape_type=np.array([r[0] for r in self.rows], dtype=np.int64).reshape(s),
+            shape_body=np.array([r[1] for r in self.rows], dtype=np.int64).reshape(s),
+            shape_params=np.array([r[2] for r in self.rows], dtype=float).reshape(s, 4),
+            shape_local_pos=np.array([r[3] for r in self.rows], dtype=float).reshape(s, 3),
+            shape_local_q=np.array([r[4] for r in self.rows], dtype=float).reshape(s, 4),
+            body_moving=np.array(moving, dtype=bool),
+            shape_data=np.array([r[5] for r in self.rows], dtype=np.int64).reshape(s, 4),
+            hull_vertex=cat(self.hv, (0, 3)),
+            hull_face_first=np.array(self.hff, dtype=np.int64),
+            hull_face_count=np.array(self.hfc, dtype=np.int64),
+            hull_face_vertex=cat(self.hfv, (0,), np.int64),
+            hull_plane=cat(self.hp, (0, 4)),
+            mesh_triangle=cat(self.mt, (0, 3, 3)),
+            mesh_edge_active=cat(self.me, (0,), np.int64),
+            mesh_node_aabb=cat(self.na, (0, 2, 3)),
+            mesh_node_first=cat(self.nf, (0,), np.int64),
+            mesh_node_count=cat(self.nc, (0,), np.int64),
+            mesh_node_skip=cat(self.ns, (0,), np.int64),
+        )
 
 
 def build_shape_table(world, skip_unsupported: bool = False) -> ShapeTable:
-    """The ``ShapeTable`` of ``world``: one row per body, in body order.
+    """The ``ShapeTable`` of ``world``: one row per shape (per part of a compound), in body order.
 
     Args:
         world: a ``tumble.World``.
-        skip_unsupported: if True, bodies whose shape has no collision support yet
-            get no row (they collide with nothing) instead of raising.
+        skip_unsupported: if True, bodies with a shape (or a part) that has no
+            collision support get no rows (they collide with nothing) instead of raising.
 
     Raises:
-        NotImplementedError: a body's shape type has no collision support yet
-            (message names the type and the body).
+        NotImplementedError: a body's shape type has no collision support (particles;
+            a mesh on a moving body); the message names the type and the body.
     """
-    types, bodies, params, local_pos = [], [], [], []
+    builder = _Builder()
     com_offset = np.asarray(world.com_offset)
+    moving = np.asarray(world.moving, dtype=bool)
     for i, shape in enumerate(world.shapes):
+        parts = flatten_parts(shape)
+        mark = len(builder.rows), (builder.n_hv, builder.n_hf, builder.n_hfv, builder.n_t, builder.n_n)
+        lists = [builder.hv, builder.hff, builder.hfc, builder.hfv, builder.hp,
+                 builder.mt, builder.me, builder.na, builder.nf, builder.nc, builder.ns]
+        sizes = [len(x) for x in lists]
         try:
-            type_id, p = shape_params(shape)
+            for part, pos, q in parts:
+                builder.add(part, i, np.asarray(pos, dtype=float) - com_offset[i], np.asarray(q, dtype=float),
+                            bool(moving[i]), world.names[i])
         except NotImplementedError as err:
-            if skip_unsupported:
-                continue
-            raise NotImplementedError(f"body {world.names[i]!r}: {err}") from None
-        types.append(type_id)
-        bodies.append(i)
-        params.append(p)
-        local_pos.append(-com_offset[i])
-    s = len(types)
-    local_q = np.zeros((s, 4))
-    local_q[:, 0] = 1.0
-    return ShapeTable(
-        shape_type=np.asarray(types, dtype=np.int64).reshape(s),
-        shape_body=np.asarray(bodies, dtype=np.int64).reshape(s),
-        shape_params=np.asarray(params, dtype=float).reshape(s, 4),
-        shape_local_pos=np.asarray(local_pos, dtype=float).reshape(s, 3),
-        shape_local_q=local_q,
-        body_moving=np.array(world.moving, dtype=bool),
-    )
+            if not skip_unsupported:
+                msg = str(err)
+                raise NotImplementedError(msg if msg.startswith("body ") else f"body {world.names[i]!r}: {msg}") from None
+            # drop this body's rows and data
+            del builder.rows[mark[0]:]
+            for x, n in zip(lists, sizes):
+                del x[n:]
+            builder.n_hv, builder.n_hf, builder.n_hfv, builder.n_t, builder.n_n = mark[1]
+    return builder.table(world.moving)

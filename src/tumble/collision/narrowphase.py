@@ -10,18 +10,30 @@ import numpy as np
 from numba import njit
 
 from ..math3d import JIT
-from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_PLANE, SHAPE_SPHERE
+from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
+                      SHAPE_SPHERE)
 from .constants import MAX_MANIFOLD_POINTS
 from .manifold import KEY_BITS, ContactManifolds
 from .pairs.box import collide_box_box, collide_capsule_box, collide_plane_box, collide_sphere_box
 from .pairs.capsule import collide_capsule_capsule, collide_plane_capsule, collide_sphere_capsule
+from .pairs.convex import collide_convex_pair, collide_plane_convex_shape
+from .pairs.mesh import collide_convex_mesh
 from .pairs.sphere import collide_plane_sphere, collide_sphere_sphere
 
 
 @njit(**JIT)
-def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
+def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
                    normal, point, separation, feature):
-    """Dispatch one pair with ``ta <= tb`` in SHAPE_* order to its ``collide_<a>_<b>``; 0 for pairs without a routine."""
+    """Dispatch one pair with ``ta <= tb`` in SHAPE_* order to its ``collide_<a>_<b>``; 0 for pairs without a routine.
+
+    ``geometry`` is ``ShapeTable.geometry`` (hull and mesh arrays) and a, b the shape rows
+    (only the convex and mesh routines read them).
+    """
+    if tb == SHAPE_MESH:
+        if ta == SHAPE_PLANE or ta == SHAPE_MESH:
+            return 0  # both fixed
+        return collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
+                                   normal, point, separation, feature)
     if ta == SHAPE_PLANE:
         if tb == SHAPE_SPHERE:
             return collide_plane_sphere(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
@@ -32,7 +44,12 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
         if tb == SHAPE_BOX:
             return collide_plane_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
                                      separation, feature)
-    elif ta == SHAPE_SPHERE:
+        if tb == SHAPE_CYLINDER or tb == SHAPE_CONE or tb == SHAPE_CONVEX:
+            # collide_plane_cylinder, collide_plane_cone, collide_plane_convex
+            return collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
+                                              geometry, b, normal, point, separation, feature)
+        return 0
+    if ta == SHAPE_SPHERE:
         if tb == SHAPE_SPHERE:
             return collide_sphere_sphere(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
                                          separation, feature)
@@ -53,12 +70,17 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
         if tb == SHAPE_BOX:
             return collide_box_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
                                    separation, feature)
+    if ta >= SHAPE_SPHERE and tb <= SHAPE_CONVEX:
+        # every other pair of sphere, capsule, cylinder, cone, box, convex: GJK/EPA and face clipping
+        # (collide_sphere_cylinder ... collide_convex_convex, pairs/convex.py)
+        return collide_convex_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a,
+                                   b, normal, point, separation, feature)
     return 0
 
 
 @njit(**JIT)
 def _collide_pairs_kernel(pair_a, pair_b, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
-                          body_moving, speculative, shape_margin,
+                          body_moving, speculative, shape_margin, geometry,
                           # outputs
                           m_shape_a, m_shape_b, m_body_a, m_body_b, m_normal, m_first, m_count,
                           c_manifold, c_body_a, c_body_b, c_point, c_normal, c_separation, c_feature, c_key):
@@ -112,7 +134,7 @@ def _collide_pairs_kernel(pair_a, pair_b, shape_type, shape_body, shape_params, 
             a, b = b, a
         pair_speculative = shape_margin[a] + shape_margin[b] - speculative
         n = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
-                           shape_pos[b], shape_rot[b], shape_params[b], pair_speculative,
+                           shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry, a, b,
                            normal, point, separation, feature)
         if n == 0:
             continue
@@ -170,7 +192,8 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
         shape_margin = np.full(S, float(speculative))
     m, c = _collide_pairs_kernel(np.ascontiguousarray(pair_a, dtype=np.int64), np.ascontiguousarray(pair_b, dtype=np.int64),
                                  table.shape_type, table.shape_body, table.shape_params, shape_pos, shape_rot,
-                                 shape_aabb, table.body_moving, float(speculative), shape_margin, *out.buffers())
+                                 shape_aabb, table.body_moving, float(speculative), shape_margin, table.geometry,
+                                 *out.buffers())
     out.manifold_count = m
     out.contact_count = c
     return out

@@ -1,0 +1,500 @@
+"""Convex family: cylinder, cone and convex hull against every convex shape and the plane (contract in ``pairs/__init__``).
+
+Any two convex shapes (sphere, capsule, cylinder, cone, box, convex hull, mesh
+triangle): GJK on their cores gives the distance and the normal when they are apart,
+EPA when the cores overlap (``pairs/gjk``). The manifold then comes from the two
+*supporting faces* (the feature of each shape most facing the other along the
+normal: a hull or box face, a cylinder cap or side line, a cone base or side line, a
+capsule's segment, a point): the face more aligned with the normal is the reference,
+the other one is clipped against its side planes (Sutherland-Hodgman), and each
+clipped point is measured along the normal to the reference plane (Jolt's
+``ManifoldBetweenTwoFaces``; Box3D/Bullet clip the same way). Up to 4 points are kept
+(``box._reduce_manifold``). The GJK/EPA point itself is added when it is deeper than
+every clipped point, so a contact is never shallower than the true one.
+
+NOTE: a cylinder cap and a cone base are regular octagons of rim points when they
+are the reference or incident face: a manifold point on the cap outline lies on the
+real rim (its depth is exact) but the clipped patch is the inscribed octagon, at most
+r (1 - cos 22.5 deg) = 7.6 % of r inside the circle. GJK/EPA use the exact round shapes.
+
+Feature ids (below 2**21): bits 0-4 the point's slot (incident vertex 0-7, a crossing
+with reference edge j 8 + j or 16 + j), bits 5-11 the incident face, 12-18 the
+reference face, bit 19 set when b holds the reference face; the GJK/EPA point alone is
+``1 << 20`` (+ slot 31 when added to a clipped manifold).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ...math3d import JIT
+from ...shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER
+from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS
+from .box import _reduce_manifold
+from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, support
+from .sphere import plane_world
+
+# Vertices of a cylinder cap or cone base used as a polygon (a regular polygon of rim points).
+CAP_SIDES = 8
+# Largest face polygon used for clipping (hull faces with more vertices are thinned evenly).
+MAX_FACE = 32
+# A capsule's segment, a cylinder's or cone's side line is a supporting face when the
+# direction is this close to its normal: |cos| of the axis below 0.02 (1.1 degrees).
+SIDE_TOLERANCE = 0.02
+# b's face becomes the reference only when it is more aligned with the normal than a's by this.
+REFERENCE_TOLERANCE = 1e-3
+# A reference face more oblique than this to the normal gives no clipped points (the GJK/EPA point only).
+MIN_ALIGNMENT = 0.2
+# The GJK/EPA point joins a clipped manifold when it is this much deeper than every clipped point (m).
+DEEPEST_MARGIN = 0.1 * LINEAR_SLOP
+
+FEATURE_SINGLE = 1 << 20
+SLOT_DEEPEST = 31
+
+
+@njit(**JIT)
+def shape_arrays(t, s, shape_data, hull_vertex):
+    """(verts, face_first, face_count) of shape row s: a hull's vertex rows, or an empty slice."""
+    if t == SHAPE_CONVEX:
+        v0 = shape_data[s, 0]
+        return hull_vertex[v0:v0 + shape_data[s, 1]], shape_data[s, 2], shape_data[s, 3]
+    return hull_vertex[0:0], 0, 0
+
+
+@njit(**JIT)
+def _world(pos, rot, x, y, z, poly, k):
+    for i in range(3):
+        poly[k, i] = pos[i] + rot[i, 0] * x + rot[i, 1] * y + rot[i, 2] * z
+
+
+@njit(**JIT)
+def supporting_face(t, pos, rot, params, verts, f0, nf, hull_face_first, hull_face_count, hull_face_vertex,
+                    hull_plane, hull_vertex, dx, dy, dz,
+                    # outputs
+                    poly):
+    """The feature of the core most facing unit direction d (world): writes its points (world) into ``poly``.
+
+    Returns (count, face id, face normal (tuple, world, outward), alignment = normal . d).
+    A count of 1 or 2 (point, segment) has no normal (alignment -1).
+    """
+    lx = rot[0, 0] * dx + rot[1, 0] * dy + rot[2, 0] * dz
+    ly = rot[0, 1] * dx + rot[1, 1] * dy + rot[2, 1] * dz
+    lz = rot[0, 2] * dx + rot[1, 2] * dy + rot[2, 2] * dz
+    none = (0.0, 0.0, 0.0)
+    if t == SHAPE_CAPSULE:
+        h = params[1]
+        if abs(lz) < SIDE_TOLERANCE:
+            _world(pos, rot, 0.0, 0.0, -h, poly, 0)
+            _world(pos, rot, 0.0, 0.0, h, poly, 1)
+            return 2, 2, none, -1.0
+        _world(pos, rot, 0.0, 0.0, h if lz > 0.0 else -h, poly, 0)
+        return 1, 1 if lz > 0.0 else 0, none, -1.0
+    if t == SHAPE_BOX:
+        k = 0
+        for j in range(1, 3):
+            if abs((lx, ly, lz)[j]) > abs((lx, ly, lz)[k]):
+                k = j
+        side = 1.0 if (lx, ly, lz)[k] >= 0.0 else -1.0
+        j1 = (k + 1) % 3
+        j2 = (k + 2) % 3
+        loc = np.zeros(3)
+        for v in range(4):
+            s1 = 1.0 if v == 0 or v == 3 else -1.0
+            s2 = 1.0 if v < 2 else -1.0
+            loc[k] = side * params[k]
+            loc[j1] = s1 * params[j1]
+            loc[j2] = s2 * side * params[j2]  # counter-clockwise seen from outside on both sides
+            _world(pos, rot, loc[0], loc[1], loc[2], poly, v)
+        n = (side * rot[0, k], side * rot[1, k], side * rot[2, k])
+        return 4, 2 * k + (1 if side > 0.0 else 0), n, n[0] * dx + n[1] * dy + n[2] * dz
+    if t == SHAPE_CYLINDER or t == SHAPE_CONE:
+        r = params[0]
+        rr = math.sqrt(lx * lx + ly * ly)
+        cx, cy = (lx / rr, ly / rr) if rr > 1e-12 else (1.0, 0.0)
+        if t == SHAPE_CYLINDER:
+            cap_align = abs(lz)
+            side_align = rr
+            zc = params[1] if lz >= 0.0 else -params[1]
+            cap_id = 1 if lz >= 0.0 else 0
+            cap_sign = 1.0 if lz >= 0.0 else -1.0
+        else:
+            L = math.sqrt(params[1] * params[1] + r * r)
+            cap_align = -lz
+            side_align = (params[1] * rr + r * lz) / L
+            zc = 0.0
+            cap_id = 0
+            cap_sign = -1.0
+        if cap_align >= side_align:
+            for v in range(CAP_SIDES):
+                # counter-clockwise about the cap's outward normal cap_sign * z
+                a = cap_sign * 2.0 * math.pi * v / CAP_SIDES
+                _world(pos, rot, r * math.cos(a), r * math.sin(a), zc, poly, v)
+            n = (cap_sign * rot[0, 2], cap_sign * rot[1, 2], cap_sign * rot[2, 2])
+            return CAP_SIDES, cap_id, n, cap_align
+        if side_align > 1.0 - 0.5 * SIDE_TOLERANCE * SIDE_TOLERANCE:
+            if t == SHAPE_CYLINDER:
+                _world(pos, rot, r * cx, r * cy, -params[1], poly, 0)
+                _world(pos, rot, r * cx, r * cy, params[1], poly, 1)
+            else:
+                _world(pos, rot, r * cx, r * cy, 0.0, poly, 0)
+                _world(pos, rot, 0.0, 0.0, params[1], poly, 1)
+            return 2, 2, none, -1.0
+        p = support(t, pos, rot, params, verts, dx, dy, dz)
+        for i in range(3):
+            poly[0, i] = p[i]
+        return 1, 3, none, -1.0
+    if t == SHAPE_CONVEX:
+        best = -np.inf
+        fb = f0
+        for f in range(f0, f0 + nf):
+            c = hull_plane[f, 0] * lx + hull_plane[f, 1] * ly + hull_plane[f, 2] * lz
+            if c > best:
+                best, fb = c, f
+        count = hull_face_count[fb]
+        m = min(count, MAX_FACE)
+        for v in range(m):
+            row = hull_face_vertex[hull_face_first[fb] + (v * count) // m]
+            _world(pos, rot, hull_vertex[row, 0], hull_vertex[row, 1], hull_vertex[row, 2], poly, v)
+        p = hull_plane[fb]
+        n = (rot[0, 0] * p[0] + rot[0, 1] * p[1] + rot[0, 2] * p[2], rot[1, 0] * p[0] + rot[1, 1] * p[1] + rot[1, 2] * p[2],
+             rot[2, 0] * p[0] + rot[2, 1] * p[1] + rot[2, 2] * p[2])
+        return m, (fb - f0) & 127, n, best
+    if t == SHAPE_TRIANGLE:
+        for v in range(3):
+            _world(pos, rot, verts[v, 0], verts[v, 1], verts[v, 2], poly, v)
+        ux, uy, uz = poly[1, 0] - poly[0, 0], poly[1, 1] - poly[0, 1], poly[1, 2] - poly[0, 2]
+        wx, wy, wz = poly[2, 0] - poly[0, 0], poly[2, 1] - poly[0, 1], poly[2, 2] - poly[0, 2]
+        nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+        ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+        nx, ny, nz = nx / ln, ny / ln, nz / ln
+        c = nx * dx + ny * dy + nz * dz
+        if c < 0.0:
+            # the back side: reverse the winding so that it stays counter-clockwise about the normal
+            for i in range(3):
+                poly[1, i], poly[2, i] = poly[2, i], poly[1, i]
+            return 3, 1, (-nx, -ny, -nz), -c
+        return 3, 0, (nx, ny, nz), c
+    # sphere
+    for i in range(3):
+        poly[0, i] = pos[i]
+    return 1, 0, none, -1.0
+
+
+@njit(**JIT)
+def _clip(poly_in, id_in, n_in, sx, sy, sz, off, plane_id, poly_out, id_out):
+    """Sutherland-Hodgman against s . p <= off, carrying point ids (crossings get 8 + or 16 + plane_id)."""
+    if n_in == 0:
+        return 0
+    n_out = 0
+    prev = n_in - 1
+    d_prev = sx * poly_in[prev, 0] + sy * poly_in[prev, 1] + sz * poly_in[prev, 2] - off
+    for cur in range(n_in):
+        d_cur = sx * poly_in[cur, 0] + sy * poly_in[cur, 1] + sz * poly_in[cur, 2] - off
+        if (d_prev <= 0.0) != (d_cur <= 0.0):
+            s = d_prev / (d_prev - d_cur)
+            for i in range(3):
+                poly_out[n_out, i] = poly_in[prev, i] + s * (poly_in[cur, i] - poly_in[prev, i])
+            id_out[n_out] = (8 if d_cur <= 0.0 else 16) + (plane_id & 7)
+            n_out += 1
+        if d_cur <= 0.0:
+            for i in range(3):
+                poly_out[n_out, i] = poly_in[cur, i]
+            id_out[n_out] = id_in[cur]
+            n_out += 1
+        prev = cur
+        d_prev = d_cur
+    return n_out
+
+
+@njit(**JIT)
+def _clip_to_face(ref, m, rnx, rny, rnz, inc, k, pts, ids, tmp, tmp_ids):
+    """Clip the incident polygon or segment (k points) to the prism over the reference polygon (m points, normal rn).
+
+    Writes the result into pts / ids; returns its size.
+    """
+    cx, cy, cz = 0.0, 0.0, 0.0
+    for v in range(m):
+        cx += ref[v, 0] / m
+        cy += ref[v, 1] / m
+        cz += ref[v, 2] / m
+    if k == 2:
+        t0, t1 = 0.0, 1.0
+        id0, id1 = 0, 1
+    else:
+        for v in range(k):
+            for i in range(3):
+                pts[v, i] = inc[v, i]
+            ids[v] = v & 7
+    n = k
+    for j in range(m):
+        jn = (j + 1) % m
+        ex, ey, ez = ref[jn, 0] - ref[j, 0], ref[jn, 1] - ref[j, 1], ref[jn, 2] - ref[j, 2]
+        sx, sy, sz = ey * rnz - ez * rny, ez * rnx - ex * rnz, ex * rny - ey * rnx
+        if sx * (cx - ref[j, 0]) + sy * (cy - ref[j, 1]) + sz * (cz - ref[j, 2]) > 0.0:
+            sx, sy, sz = -sx, -sy, -sz
+        off = sx * ref[j, 0] + sy * ref[j, 1] + sz * ref[j, 2]
+        if k == 2:
+            # Liang-Barsky on the segment inc[0] inc[1]
+            d0 = sx * inc[0, 0] + sy * inc[0, 1] + sz * inc[0, 2] - off
+            d1 = sx * inc[1, 0] + sy * inc[1, 1] + sz * inc[1, 2] - off
+            if d0 > 0.0 and d1 > 0.0:
+                return 0
+            if d0 > 0.0:
+                t = d0 / (d0 - d1)
+                if t > t0:
+                    t0, id0 = t, 8 + (j & 7)
+            elif d1 > 0.0:
+                t = d0 / (d0 - d1)
+                if t < t1:
+                    t1, id1 = t, 16 + (j & 7)
+            if t0 > t1:
+                return 0
+        else:
+            n = _clip(pts, ids, n, sx, sy, sz, off, j, tmp, tmp_ids)
+            for v in range(n):
+                for i in range(3):
+                    pts[v, i] = tmp[v, i]
+                ids[v] = tmp_ids[v]
+    if k == 2:
+        n = 0
+        for e in range(2):
+            if e == 1 and t1 - t0 < 1e-9:
+                break
+            t = t0 if e == 0 else t1
+            for i in range(3):
+                pts[n, i] = inc[0, i] + t * (inc[1, i] - inc[0, i])
+            ids[n] = id0 if e == 0 else id1
+            n += 1
+    return n
+
+
+@njit(**JIT)
+def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_b, params_b, verts_b, fb0, fnb,
+                   hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
+                   # outputs
+                   normal, point, separation, feature):
+    """Contact manifold of two convex shapes (see the module docstring); returns the point count."""
+    W = np.empty((4, 3))
+    SA = np.empty((4, 3))
+    SB = np.empty((4, 3))
+    lam = np.empty(4)
+    ra = core_radius(ta, params_a)
+    rb = core_radius(tb, params_b)
+    k, dist, pa, pb = gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, W, SA, SB, lam)
+    if dist > TOUCH_GAP:
+        sep0 = dist - ra - rb
+        if sep0 >= speculative:
+            return 0
+        nx, ny, nz = (pb[0] - pa[0]) / dist, (pb[1] - pa[1]) / dist, (pb[2] - pa[2]) / dist
+        core_sep = dist
+    else:
+        ok, depth, nrm, pa, pb = epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b,
+                                     W, SA, SB, k)
+        if not ok:
+            # A - B is flat (the cores touch without volume): the centre line is the normal
+            gx, gy, gz = pos_b[0] - pos_a[0], pos_b[1] - pos_a[1], pos_b[2] - pos_a[2]
+            g = math.sqrt(gx * gx + gy * gy + gz * gz)
+            nrm = (gx / g, gy / g, gz / g) if g > 0.0 else (0.0, 0.0, 1.0)
+            depth = 0.0
+        nx, ny, nz = nrm
+        core_sep = -depth
+        sep0 = core_sep - ra - rb
+    normal[0], normal[1], normal[2] = nx, ny, nz
+    # the supporting faces and the clip
+    face_a = np.empty((MAX_FACE, 3))
+    face_b = np.empty((MAX_FACE, 3))
+    ka, ida, nfa, align_a = supporting_face(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, hull_face_first,
+                                            hull_face_count, hull_face_vertex, hull_plane, hull_vertex, nx, ny, nz,
+                                            face_a)
+    kb, idb, nfb, align_b = supporting_face(tb, pos_b, rot_b, params_b, verts_b, fb0, fnb, hull_face_first,
+                                            hull_face_count, hull_face_vertex, hull_plane, hull_vertex, -nx, -ny, -nz,
+                                            face_b)
+    count = 0
+    ref_is_b = False
+    if ka >= 2 and kb >= 2:
+        ref_is_b = kb >= 3 and (ka < 3 or align_b > align_a + REFERENCE_TOLERANCE)
+        if ref_is_b:
+            ref, m, rn, inc, kin, align = face_b, kb, nfb, face_a, ka, align_b
+        else:
+            ref, m, rn, inc, kin, align = face_a, ka, nfa, face_b, kb, align_a
+        if m == 2:
+            # two segments: the reference "face" is the plane through a's segment normal to n's part across it
+            ex, ey, ez = ref[1, 0] - ref[0, 0], ref[1, 1] - ref[0, 1], ref[1, 2] - ref[0, 2]
+            cx, cy, cz = ey * nz - ez * ny, ez * nx - ex * nz, ex * ny - ey * nx
+            rx, ry, rz = cy * ez - cz * ey, cz * ex - cx * ez, cx * ey - cy * ex
+            lr = math.sqrt(rx * rx + ry * ry + rz * rz)
+            if lr > 1e-12:
+                rn = (rx / lr, ry / lr, rz / lr)
+                align = abs(rn[0] * nx + rn[1] * ny + rn[2] * nz)
+                # clip b's segment to the slab of a's: planes e . p = e . ref[0] and e . ref[1]
+                ref[2, 0], ref[2, 1], ref[2, 2] = ref[1, 0] + rn[0], ref[1, 1] + rn[1], ref[1, 2] + rn[2]
+                ref[3, 0], ref[3, 1], ref[3, 2] = ref[0, 0] + rn[0], ref[0, 1] + rn[1], ref[0, 2] + rn[2]
+                # a thin rectangle in the plane spanned by e and a unit vector across: only the end planes bind
+                ux, uy, uz = ey * rn[2] - ez * rn[1], ez * rn[0] - ex * rn[2], ex * rn[1] - ey * rn[0]
+                lu = math.sqrt(ux * ux + uy * uy + uz * uz)
+                big = 1e6 * (1.0 + math.sqrt(ex * ex + ey * ey + ez * ez))
+                for i in range(3):
+                    u = (ux, uy, uz)[i] / lu * big
+                    e0 = ref[0, i]
+                    e1 = ref[1, i]
+                    ref[0, i] = e0 - u
+                    ref[1, i] = e1 - u
+                    ref[2, i] = e1 + u
+                    ref[3, i] = e0 + u
+                m = 4
+            else:
+                align = 0.0
+        if align > MIN_ALIGNMENT:
+            pts = np.empty((2 * MAX_FACE + 8, 3))
+            tmp = np.empty((2 * MAX_FACE + 8, 3))
+            ids = np.empty(2 * MAX_FACE + 8, dtype=np.int64)
+            tmp_ids = np.empty(2 * MAX_FACE + 8, dtype=np.int64)
+            n = _clip_to_face(ref, m, rn[0], rn[1], rn[2], inc, kin, pts, ids, tmp, tmp_ids)
+            dn = nx * rn[0] + ny * rn[1] + nz * rn[2]
+            cand = np.empty((n + 1, 3))
+            seps = np.empty(n + 1)
+            cid = np.empty(n + 1, dtype=np.int64)
+            for v in range(n):
+                t = ((pts[v, 0] - ref[0, 0]) * rn[0] + (pts[v, 1] - ref[0, 1]) * rn[1]
+                     + (pts[v, 2] - ref[0, 2]) * rn[2]) / dn
+                s = -t if ref_is_b else t
+                # points deeper than the true overlap along n come from a tilted reference plane: drop them
+                if s - ra - rb >= speculative or s < core_sep - LINEAR_SLOP:
+                    continue
+                # inc point p, its partner on the reference plane q = p - t n; then the radii
+                for i in range(3):
+                    ni = (nx, ny, nz)[i]
+                    p_i = pts[v, i]
+                    q_i = p_i - t * ni
+                    a_i = (p_i if ref_is_b else q_i) + ra * ni
+                    b_i = (q_i if ref_is_b else p_i) - rb * ni
+                    cand[count, i] = 0.5 * (a_i + b_i)
+                seps[count] = s - ra - rb
+                cid[count] = ids[v]
+                count += 1
+            if count > 0:
+                base = ((1 << 19) if ref_is_b else 0) | ((idb if ref_is_b else ida) << 12) \
+                    | ((ida if ref_is_b else idb) << 5)
+                smin = seps[0]
+                for v in range(1, count):
+                    smin = min(smin, seps[v])
+                if sep0 < smin - DEEPEST_MARGIN:
+                    for i in range(3):
+                        cand[count, i] = 0.5 * (pa[i] + ra * (nx, ny, nz)[i] + pb[i] - rb * (nx, ny, nz)[i])
+                    seps[count] = sep0
+                    cid[count] = SLOT_DEEPEST
+                    count += 1
+                keep = np.arange(count)
+                if count > MAX_MANIFOLD_POINTS:
+                    count = _reduce_manifold(cand, seps, count, nx, ny, nz, keep)
+                used = 0
+                for c in range(count):
+                    j = keep[c]
+                    slot = cid[j]
+                    while used & (1 << slot):
+                        slot = (slot + 1) & 31
+                    used |= 1 << slot
+                    for i in range(3):
+                        point[c, i] = cand[j, i]
+                    separation[c] = seps[j]
+                    feature[c] = base | slot
+                return count
+    # one point: midway between the two surface points
+    for i in range(3):
+        ni = (nx, ny, nz)[i]
+        point[0, i] = 0.5 * (pa[i] + ra * ni + pb[i] - rb * ni)
+    separation[0] = sep0
+    feature[0] = FEATURE_SINGLE
+    return 1
+
+
+# Cores apart by more than this (m) take GJK's normal; closer, EPA's (GJK's direction is noise at contact).
+TOUCH_GAP = 1e-7
+
+
+@njit(**JIT)
+def collide_convex_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
+                        normal, point, separation, feature):
+    """Any two of sphere, capsule, cylinder, cone, box, convex (the dispatch's shared routine)."""
+    shape_data, hull_vertex, hull_face_first, hull_face_count, hull_face_vertex, hull_plane = geometry[:6]
+    va, fa0, fna = shape_arrays(ta, a, shape_data, hull_vertex)
+    vb, fb0, fnb = shape_arrays(tb, b, shape_data, hull_vertex)
+    return convex_contact(ta, pos_a, rot_a, params_a, va, fa0, fna, tb, pos_b, rot_b, params_b, vb, fb0, fnb,
+                          hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
+                          normal, point, separation, feature)
+
+
+@njit(**JIT)
+def collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, b,
+                               normal, point, separation, feature):
+    """Plane a against a cylinder, cone or convex hull b.
+
+    Hull: every vertex within ``speculative`` of the plane (feature = vertex row),
+    reduced to 4. Cylinder and cone: the supporting face towards the plane (cap
+    octagon, side line or a point; feature = face id * 32 + vertex) plus the deepest
+    point of the round shape (feature 255) when it is deeper than those.
+    """
+    nx, ny, nz, d = plane_world(pos_a, rot_a, params_a)
+    shape_data, hull_vertex, hull_face_first, hull_face_count, hull_face_vertex, hull_plane = geometry[:6]
+    normal[0], normal[1], normal[2] = nx, ny, nz
+    if tb == SHAPE_CONVEX:
+        v0 = shape_data[b, 0]
+        nv = shape_data[b, 1]
+        cand = np.empty((nv, 3))
+        seps = np.empty(nv)
+        cid = np.empty(nv, dtype=np.int64)
+    else:
+        nv = CAP_SIDES + 1
+        cand = np.empty((nv, 3))
+        seps = np.empty(nv)
+        cid = np.empty(nv, dtype=np.int64)
+        n_face, face_id, _, _ = supporting_face(tb, pos_b, rot_b, params_b, hull_vertex[0:0], 0, 0, hull_face_first,
+                                                hull_face_count, hull_face_vertex, hull_plane, hull_vertex,
+                                                -nx, -ny, -nz, cand)
+    count = 0
+    smin = np.inf
+    if tb == SHAPE_CONVEX:
+        for v in range(nv):
+            row = v0 + v
+            x, y, z = hull_vertex[row, 0], hull_vertex[row, 1], hull_vertex[row, 2]
+            px = pos_b[0] + rot_b[0, 0] * x + rot_b[0, 1] * y + rot_b[0, 2] * z
+            py = pos_b[1] + rot_b[1, 0] * x + rot_b[1, 1] * y + rot_b[1, 2] * z
+            pz = pos_b[2] + rot_b[2, 0] * x + rot_b[2, 1] * y + rot_b[2, 2] * z
+            s = nx * px + ny * py + nz * pz - d
+            if s < speculative:
+                cand[count, 0], cand[count, 1], cand[count, 2] = px, py, pz
+                seps[count] = s
+                cid[count] = v
+                count += 1
+    else:
+        for v in range(n_face):
+            s = nx * cand[v, 0] + ny * cand[v, 1] + nz * cand[v, 2] - d
+            if s < speculative:
+                for i in range(3):
+                    cand[count, i] = cand[v, i]
+                seps[count] = s
+                smin = min(smin, s)
+                cid[count] = face_id * 32 + v
+                count += 1
+        p = support(tb, pos_b, rot_b, params_b, hull_vertex[0:0], -nx, -ny, -nz)
+        s = nx * p[0] + ny * p[1] + nz * p[2] - d
+        if s < speculative and s < smin - DEEPEST_MARGIN:
+            cand[count, 0], cand[count, 1], cand[count, 2] = p
+            seps[count] = s
+            cid[count] = 255
+            count += 1
+    if count == 0:
+        return 0
+    keep = np.arange(count)
+    if count > MAX_MANIFOLD_POINTS:
+        count = _reduce_manifold(cand, seps, count, nx, ny, nz, keep)
+    for c in range(count):
+        j = keep[c]
+        for i in range(3):
+            point[c, i] = cand[j, i] - 0.5 * seps[j] * (nx, ny, nz)[i]
+        separation[c] = seps[j]
+        feature[c] = cid[j]
+    return count

@@ -1,0 +1,213 @@
+"""Mesh family: a convex shape (sphere ... convex) against a static triangle mesh (contract in ``pairs/__init__``).
+
+The mesh's BVH (``geometry.build_bvh``, stored in the ShapeTable) is walked with the
+shape's box in the mesh frame (6 support points, grown by the speculative distance),
+so the cost is per nearby triangle. Each triangle is a convex shape of its own
+(``convex.convex_contact``: GJK/EPA and clipping, up to 4 points), and the points of
+all triangles are reduced to one manifold of at most 4 (deepest first, then area).
+
+Internal edges (a shape sliding over a flat or concave seam would catch on the edge
+normal; Jolt and Bullet call these internal or inactive edges): when a triangle's
+contact normal is not its face normal and the triangle point lies on an inactive edge
+(flat or concave, ``ShapeTable.mesh_edge_active``) or on a vertex whose two edges in
+that triangle are both inactive, the contact is replaced by the face contact: normal
+-N and the depth of the shape's deepest point below the triangle's plane. Triangles
+the shape is entirely behind are skipped (the mesh is closed: another face holds it).
+
+NOTE: a manifold has one normal (the pair contract): it is the deepest point's; the
+other points keep the separation measured along their own triangle's normal. Exact on
+flat ground; across a crease (a box bridging two slopes) the shared normal is that of
+the deeper side. Feature = (triangle row mod 2**16) << 5 | the triangle contact's slot.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ...math3d import JIT
+from ..constants import MAX_MANIFOLD_POINTS
+from .box import _reduce_manifold
+from .convex import convex_contact, shape_arrays
+from .gjk import SHAPE_TRIANGLE, core_radius, support
+
+# Most triangle contact points gathered for one (shape, mesh) pair before the reduction;
+# beyond it a new point replaces the shallowest one.
+MESH_POINTS = 64
+# A contact normal within this of the face normal (1 - cos) is a face contact.
+FACE_COS = 1e-6
+# A triangle point with a barycentric weight below this is on an edge (or a vertex).
+EDGE_WEIGHT = 1e-6
+SLOT_FACE = 30
+
+
+@njit(**JIT)
+def _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, grow, lo, hi):
+    """The shape's box in the mesh frame: its extreme points along the mesh axes, grown by ``grow``."""
+    r = core_radius(ta, params_a) + grow
+    for k in range(3):
+        ax, ay, az = rot_b[0, k], rot_b[1, k], rot_b[2, k]
+        p = support(ta, pos_a, rot_a, params_a, verts_a, ax, ay, az)
+        q = support(ta, pos_a, rot_a, params_a, verts_a, -ax, -ay, -az)
+        hi[k] = (p[0] - pos_b[0]) * ax + (p[1] - pos_b[1]) * ay + (p[2] - pos_b[2]) * az + r
+        lo[k] = (q[0] - pos_b[0]) * ax + (q[1] - pos_b[1]) * ay + (q[2] - pos_b[2]) * az - r
+
+
+@njit(**JIT)
+def _on_inactive_feature(tri, px, py, pz, active):
+    """Whether the triangle point p (mesh frame) lies on an inactive edge, or a vertex with both edges inactive."""
+    ux, uy, uz = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
+    vx, vy, vz = tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2]
+    wx, wy, wz = px - tri[0, 0], py - tri[0, 1], pz - tri[0, 2]
+    d00 = ux * ux + uy * uy + uz * uz
+    d01 = ux * vx + uy * vy + uz * vz
+    d11 = vx * vx + vy * vy + vz * vz
+    d20 = wx * ux + wy * uy + wz * uz
+    d21 = wx * vx + wy * vy + wz * vz
+    den = d00 * d11 - d01 * d01
+    if den <= 0.0:
+        return False
+    b1 = (d11 * d20 - d01 * d21) / den
+    b2 = (d00 * d21 - d01 * d20) / den
+    b0 = 1.0 - b1 - b2
+    # edge k runs from corner k to k + 1: it is where the weight of corner k + 2 vanishes
+    on0 = b2 < EDGE_WEIGHT
+    on1 = b0 < EDGE_WEIGHT
+    on2 = b1 < EDGE_WEIGHT
+    if not (on0 or on1 or on2):
+        return False  # inside the face
+    for k in range(3):
+        on = on0 if k == 0 else (on1 if k == 1 else on2)
+        if on and (active >> k) & 1:
+            return False
+    return True
+
+
+@njit(**JIT)
+def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
+                        normal, point, separation, feature):
+    """Sphere, capsule, cylinder, cone, box or convex a against the fixed mesh b (collide_<a>_mesh)."""
+    shape_data, hull_vertex, hull_face_first, hull_face_count, hull_face_vertex, hull_plane = geometry[:6]
+    mesh_triangle, mesh_edge_active, node_aabb, node_first, node_count, node_skip = geometry[6:]
+    verts_a, fa0, fna = shape_arrays(ta, a, shape_data, hull_vertex)
+    ra = core_radius(ta, params_a)
+    lo = np.empty(3)
+    hi = np.empty(3)
+    _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, speculative, lo, hi)
+    cand = np.empty((MESH_POINTS, 3))
+    cand_n = np.empty((MESH_POINTS, 3))
+    seps = np.empty(MESH_POINTS)
+    feats = np.empty(MESH_POINTS, dtype=np.int64)
+    tn = np.empty(3)
+    tp = np.empty((MAX_MANIFOLD_POINTS, 3))
+    ts = np.empty(MAX_MANIFOLD_POINTS)
+    tf = np.empty(MAX_MANIFOLD_POINTS, dtype=np.int64)
+    count = 0
+    n0 = shape_data[b, 2]
+    n_end = n0 + shape_data[b, 3]
+    i = n0
+    while i < n_end:
+        hit = True
+        for k in range(3):
+            if node_aabb[i, 0, k] > hi[k] or node_aabb[i, 1, k] < lo[k]:
+                hit = False
+        if not hit:
+            i = node_skip[i]
+            continue
+        for t in range(node_first[i], node_first[i] + node_count[i]):
+            tri = mesh_triangle[t]
+            # face normal N (world) and the shape's extent along it
+            ux, uy, uz = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
+            vx, vy, vz = tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2]
+            lx, ly, lz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            ln = math.sqrt(lx * lx + ly * ly + lz * lz)
+            if ln == 0.0:
+                continue
+            lx, ly, lz = lx / ln, ly / ln, lz / ln
+            Nx = rot_b[0, 0] * lx + rot_b[0, 1] * ly + rot_b[0, 2] * lz
+            Ny = rot_b[1, 0] * lx + rot_b[1, 1] * ly + rot_b[1, 2] * lz
+            Nz = rot_b[2, 0] * lx + rot_b[2, 1] * ly + rot_b[2, 2] * lz
+            c0x = pos_b[0] + rot_b[0, 0] * tri[0, 0] + rot_b[0, 1] * tri[0, 1] + rot_b[0, 2] * tri[0, 2]
+            c0y = pos_b[1] + rot_b[1, 0] * tri[0, 0] + rot_b[1, 1] * tri[0, 1] + rot_b[1, 2] * tri[0, 2]
+            c0z = pos_b[2] + rot_b[2, 0] * tri[0, 0] + rot_b[2, 1] * tri[0, 1] + rot_b[2, 2] * tri[0, 2]
+            low = support(ta, pos_a, rot_a, params_a, verts_a, -Nx, -Ny, -Nz)
+            depth_sep = Nx * (low[0] - c0x) + Ny * (low[1] - c0y) + Nz * (low[2] - c0z) - ra
+            if depth_sep >= speculative:
+                continue  # the whole shape is above the triangle's plane
+            high = support(ta, pos_a, rot_a, params_a, verts_a, Nx, Ny, Nz)
+            if Nx * (high[0] - c0x) + Ny * (high[1] - c0y) + Nz * (high[2] - c0z) + ra < 0.0:
+                continue  # entirely behind it
+            n = convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, SHAPE_TRIANGLE, pos_b, rot_b, params_b,
+                               tri, 0, 0, hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex,
+                               speculative, tn, tp, ts, tf)
+            if n == 0:
+                continue
+            if tn[0] * Nx + tn[1] * Ny + tn[2] * Nz > -(1.0 - FACE_COS):
+                # not a face contact: on an inactive edge or vertex take the face normal instead
+                j = 0
+                for m in range(1, n):
+                    if ts[m] < ts[j]:
+                        j = m
+                # the triangle's point of contact j, in the mesh frame
+                qx = tp[j, 0] + 0.5 * ts[j] * tn[0] - pos_b[0]
+                qy = tp[j, 1] + 0.5 * ts[j] * tn[1] - pos_b[1]
+                qz = tp[j, 2] + 0.5 * ts[j] * tn[2] - pos_b[2]
+                mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
+                my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
+                mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
+                if _on_inactive_feature(tri, mx, my, mz, mesh_edge_active[t]):
+                    tn[0], tn[1], tn[2] = -Nx, -Ny, -Nz
+                    n = 1
+                    ts[0] = depth_sep
+                    for k in range(3):
+                        # the shape's deepest point, moved half the separation towards the plane
+                        tp[0, k] = low[k] - (ra + 0.5 * depth_sep) * (Nx, Ny, Nz)[k]
+                    tf[0] = SLOT_FACE
+            for m in range(n):
+                slot = count
+                if count == MESH_POINTS:
+                    # full: replace the shallowest point if this one is deeper
+                    slot = 0
+                    for q in range(1, MESH_POINTS):
+                        if seps[q] > seps[slot]:
+                            slot = q
+                    if ts[m] >= seps[slot]:
+                        continue
+                else:
+                    count += 1
+                for k in range(3):
+                    cand[slot, k] = tp[m, k]
+                    cand_n[slot, k] = tn[k]
+                seps[slot] = ts[m]
+                feats[slot] = ((t & 0xFFFF) << 5) | (tf[m] & 31)
+        i += 1
+    if count == 0:
+        return 0
+    deepest = 0
+    for m in range(1, count):
+        if seps[m] < seps[deepest]:
+            deepest = m
+    nx, ny, nz = cand_n[deepest, 0], cand_n[deepest, 1], cand_n[deepest, 2]
+    keep = np.arange(count)
+    if count > MAX_MANIFOLD_POINTS:
+        count = _reduce_manifold(cand, seps, count, nx, ny, nz, keep)
+    normal[0], normal[1], normal[2] = nx, ny, nz
+    used = 0
+    out = 0
+    for c in range(count):
+        j = keep[c]
+        dup = False
+        for q in range(out):
+            if feature[q] == feats[j]:
+                dup = True
+        if dup:
+            continue
+        for k in range(3):
+            point[out, k] = cand[j, k]
+        separation[out] = seps[j]
+        feature[out] = feats[j]
+        out += 1
+    used += out
+    return out
