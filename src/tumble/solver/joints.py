@@ -76,6 +76,14 @@ class JointSettings:
     relax_iterations: sweeps per relax solve (Box2D: 1).
     position_iterations: NGS sweeps of ``project`` (0: no projection, Box2D's choice).
         Stops early once every rigid row's error is below ``position_tolerance`` (m or rad).
+    bias_factor: with hertz 0, the fraction of the error the bias removes per substep
+        (Baumgarte's beta; 1 by default).
+    method: "gauss-seidel" (Box2D: every row by sequential impulses) or "tree": the rigid
+        rows of a spanning forest of the joint graph solved exactly in linear time (Baraff
+        1996), loop-closing joints and all 1-D coordinate rows (limits, motors, springs) by
+        Gauss-Seidel around it, ``velocity_iterations`` / ``relax_iterations`` times. With
+        "tree", the rows are rigid with bias rate 1/h (hertz 0) or the soft bias rate of
+        ``hertz`` (no mass or impulse scaling).
     """
 
     hertz: float = 60.0
@@ -85,11 +93,17 @@ class JointSettings:
     relax_iterations: int = 1
     position_iterations: int = 0
     position_tolerance: float = 1e-10
+    method: str = "gauss-seidel"
+    bias_factor: float = 1.0
+
+    def __post_init__(self):
+        if self.method not in ("gauss-seidel", "tree"):
+            raise ValueError(f"method must be 'gauss-seidel' or 'tree', got {self.method!r}")
 
 
-# Settings for accuracy (the acceptance tests of issue 4): rigid rows, a few more sweeps and
-# a projection of positions after each step. See docs/joints.md for what each costs.
-ACCURATE = JointSettings(hertz=0.0, velocity_iterations=4, relax_iterations=4, position_iterations=50)
+# Settings for accuracy (the acceptance tests of issue 4): rigid rows solved exactly on the
+# spanning tree, two sweeps for the 1-D rows around it. See docs/joints.md for what each costs.
+ACCURATE = JointSettings(hertz=0.0, velocity_iterations=2, relax_iterations=2, method="tree")
 
 
 # ---------------------------------------------------------------------- vector helpers (tuples)
@@ -496,13 +510,15 @@ def _sym_mat_vec(K, u):
 
 @njit(**JIT)
 def solve_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
-                        position, x, R, inv_mass, I_inv, h, soft, iterations,
+                        gauss_seidel, position, x, R, inv_mass, I_inv, h, soft, iterations,
                         # outputs
                         v, omega, linear_impulse, angular_impulse, axial_impulse):
     """``iterations`` Gauss-Seidel sweeps over the joints, forward then backward in turn.
 
     soft: (3,) (bias rate 1/s, mass scale, impulse scale) of the rigid rows in this pass
     (Box2D ``b2Softness``; (0, 1, 0) in relax). Joints between two immovable bodies are skipped.
+    ``gauss_seidel`` (J,) bool: whose rigid rows this sweep solves (the others are left to
+    ``tree_solve_kernel``); the 1-D coordinate rows of every joint are solved here.
     """
     n = joint_type.shape[0]
     inv_h = 1.0 / h
@@ -520,8 +536,9 @@ def solve_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
             t = joint_type[j]
             _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
                          h, inv_h, soft, v, omega, axial_impulse)
-            _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
-                         v, omega, linear_impulse, angular_impulse)
+            if gauss_seidel[j]:
+                _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
+                             v, omega, linear_impulse, angular_impulse)
 
 
 @njit(**JIT)
@@ -712,32 +729,63 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
 
 
 @njit(**JIT)
-def integrate_velocities_kernel(moving, inv_mass, I_inv, force, torque, h,
+def integrate_velocities_kernel(moving, inv_mass, I_inv, R, inertia_body, force, torque, h,
                                 # outputs
                                 v, omega):
-    """v += h F / m; omega += h I^-1 tau (that is L += h tau at fixed pose)."""
-    for i in range(moving.shape[0]):
-        if moving[i]:
-            w = _mat_vec(I_inv, i, (torque[i, 0], torque[i, 1], torque[i, 2]))
-            for k in range(3):
-                v[i, k] += h * inv_mass[i] * force[i, k]
-                omega[i, k] += h * w[k]
+    """v += h F / m; omega += h I^-1 tau, then the gyroscopic term -omega x I omega by one
+    implicit Newton step in the body frame (Catto, "Numerical Methods", GDC 2015,
+    https://box2d.org/files/ErinCatto_NumericalMethods_GDC2015.pdf):
 
+        f(w) = Ib (w - w1) + h w x Ib w = 0,  Jf = Ib + h ([w1]x Ib - [Ib w1]x),  w2 = w1 - Jf^-1 f(w1)
 
-@njit(**JIT)
-def integrate_positions_kernel(moving, v, h, inertia_body, inertia_body_inv,
-                               # outputs
-                               x, q, R, omega, I_inv):
-    """x += h v; q rotated exactly by omega over h; then R, I^-1 = R Ibody^-1 R^T and
-    omega = I^-1 L at the new pose with L = I omega kept (torque-free motion keeps L;
-    Box2D keeps omega instead, which drops the gyroscopic term a spinning top needs)."""
+    Stable for thin bodies (a chain link's spin about its long axis, I 12x smaller than
+    across): the explicit update blew a 50-link chain apart at h = 1/240 s (I measured).
+    Slightly dissipative, O(h): a free spinning body loses energy at that order."""
     for i in range(moving.shape[0]):
         if not moving[i]:
             continue
-        # L = R Ibody R^T omega at the old pose
+        w = _mat_vec(I_inv, i, (torque[i, 0], torque[i, 1], torque[i, 2]))
+        for k in range(3):
+            v[i, k] += h * inv_mass[i] * force[i, k]
+            omega[i, k] += h * w[k]
         wb = _mat_vec_T(R, i, (omega[i, 0], omega[i, 1], omega[i, 2]))
-        Lb = _mat_vec(inertia_body, i, wb)
-        L = _mat_vec(R, i, Lb)
+        Iw = _mat_vec(inertia_body, i, wb)
+        f = _scale(h, _cross(wb, Iw))
+        # columns of Jf = Ib + h (S(w) Ib - S(Ib w)), S(a) b = a x b
+        dw = _solve_columns3(_jacobian_column(inertia_body, i, 0, wb, Iw, h),
+                             _jacobian_column(inertia_body, i, 1, wb, Iw, h),
+                             _jacobian_column(inertia_body, i, 2, wb, Iw, h), f)
+        wb = _sub(wb, dw)
+        wn = _mat_vec(R, i, wb)
+        omega[i, 0], omega[i, 1], omega[i, 2] = wn
+
+
+@njit(**JIT)
+def _jacobian_column(inertia_body, i, c, wb, Iw, h):
+    col = (inertia_body[i, 0, c], inertia_body[i, 1, c], inertia_body[i, 2, c])
+    e = (1.0 if c == 0 else 0.0, 1.0 if c == 1 else 0.0, 1.0 if c == 2 else 0.0)
+    return _add(col, _scale(h, _sub(_cross(wb, col), _cross(Iw, e))))
+
+
+@njit(**JIT)
+def _solve_columns3(c0, c1, c2, b):
+    """x with [c0 c1 c2] x = b (Cramer's rule with triple products); 0 if singular."""
+    n12 = _cross(c1, c2)
+    det = _dot(c0, n12)
+    if det == 0.0:
+        return (0.0, 0.0, 0.0)
+    return (_dot(b, n12) / det, _dot(c0, _cross(b, c2)) / det, _dot(c0, _cross(c1, b)) / det)
+
+
+@njit(**JIT)
+def integrate_positions_kernel(moving, v, omega, h, inertia_body_inv,
+                               # outputs
+                               x, q, R, I_inv):
+    """x += h v; q rotated exactly by omega over h (omega kept, as Box2D: the gyroscopic
+    term is in the velocity update); then R = R(q) and I^-1 = R Ibody^-1 R^T."""
+    for i in range(moving.shape[0]):
+        if not moving[i]:
+            continue
         for k in range(3):
             x[i, k] += h * v[i, k]
         quat_exp_multiply_inplace(q[i], omega[i, 0], omega[i, 1], omega[i, 2], h)
@@ -750,8 +798,6 @@ def integrate_positions_kernel(moving, v, h, inertia_body, inertia_body_inv,
                     for m in range(3):
                         s += R[i, r, k] * inertia_body_inv[i, k, m] * R[i, c, m]
                 I_inv[i, r, c] = s
-        w = _mat_vec(I_inv, i, L)
-        omega[i, 0], omega[i, 1], omega[i, 2] = w
 
 
 @njit(**JIT)
@@ -829,6 +875,82 @@ class JointSolver:
         self.broke = np.zeros(J, dtype=bool)
         self._joints = list(joints)
         self.count = J
+        self._tree_key = None
+
+    def _build_tree(self, moving: np.ndarray):
+        """Spanning forest of the joint graph (moving bodies; the world and fixed bodies are
+        one ground node): its joints are solved exactly, the others (loops) by Gauss-Seidel.
+        Nodes are the moving bodies and the tree joints, each with its parent, leaves first."""
+        J = self.count
+        nb = moving.shape[0]
+        ground = nb
+        parent = list(range(nb + 1))
+
+        def find(i):
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        def node_of(i):
+            return i if i >= 0 and moving[i] else ground
+
+        in_tree = np.zeros(J, dtype=bool)
+        adjacency: dict[int, list] = {}
+        for j in range(J):
+            if not self.enabled[j]:
+                continue
+            u, w = node_of(self.joint_a[j]), node_of(self.joint_b[j])
+            if u == w:
+                continue
+            ru, rw = find(u), find(w)
+            if ru == rw:
+                continue  # closes a loop: Gauss-Seidel
+            parent[ru] = rw
+            in_tree[j] = True
+            for body in (u, w):
+                adjacency.setdefault(body, []).append(j)
+        # roots: per component, the joint to the ground if there is one, else a body
+        kinds, refs, parents = [], [], []
+        seen_body, seen_joint = set(), set()
+
+        def grow(kind, ref, par):
+            stack = [(kind, ref, par)]
+            while stack:
+                kind, ref, par = stack.pop()
+                k = len(kinds)
+                kinds.append(kind)
+                refs.append(ref)
+                parents.append(par)
+                if kind == 0:  # body: its joints
+                    for j in adjacency.get(ref, ()):
+                        if j not in seen_joint:
+                            seen_joint.add(j)
+                            stack.append((1, j, k))
+                else:  # joint: its other body
+                    for body in (node_of(self.joint_a[ref]), node_of(self.joint_b[ref])):
+                        if body != ground and body not in seen_body:
+                            seen_body.add(body)
+                            stack.append((0, body, k))
+
+        for j in adjacency.get(ground, ()):
+            seen_joint.add(j)
+            grow(1, j, -1)
+        for body in adjacency:
+            if body != ground and body not in seen_body:
+                seen_body.add(body)
+                grow(0, body, -1)
+        n = len(kinds)
+        self.node_joint = np.array([r if k == 1 else -1 for k, r in zip(kinds, refs)], dtype=np.int64)
+        self.node_body = np.array([r if k == 0 else -1 for k, r in zip(kinds, refs)], dtype=np.int64)
+        self.node_parent = np.array(parents, dtype=np.int64)
+        self.node_order = np.arange(n - 1, -1, -1, dtype=np.int64)  # parents were added before children
+        self.gauss_seidel = ~in_tree
+        self._scratch = {
+            "Ja": np.zeros((J, 6, 6)), "Jb": np.zeros((J, 6, 6)), "C": np.zeros((J, 6)),
+            "nrow": np.zeros(J, dtype=np.int64), "D": np.zeros((n, 6, 6)), "Dinv": np.zeros((n, 6, 6)),
+            "H_up": np.zeros((n, 6, 6)), "y": np.zeros((n, 6)), "sol": np.zeros((n, 6)), "work": np.zeros((6, 6)),
+        }
 
     # -- stages --------------------------------------------------------------------------
     def prepare(self, world, h: float, inv_mass: np.ndarray | None = None, I_inv: np.ndarray | None = None):
@@ -842,6 +964,13 @@ class JointSolver:
         """
         if len(world.joints) != self.count or any(a is not b for a, b in zip(world.joints, self._joints)):
             self._build(world.joints)
+        if self.settings.method == "tree":
+            key = (self.count, world.body_count, bytes(world.moving), bytes(self.enabled))
+            if key != self._tree_key:
+                self._build_tree(np.asarray(world.moving))
+                self._tree_key = key
+        else:
+            self.gauss_seidel = np.ones(self.count, dtype=bool)
         self.h = float(h)
         self.inv_mass = world.inv_mass if inv_mass is None else inv_mass
         self.I_inv = world.I_inv if I_inv is None else I_inv
@@ -850,7 +979,7 @@ class JointSolver:
             hertz = min(st.hertz, st.hertz_cap_per_substep / h)
             self.soft_bias = np.array(soft_coefficients(hertz, st.damping_ratio, h))
         else:  # rigid: the bias takes out the whole error in one substep
-            self.soft_bias = np.array([1.0 / h, 1.0, 0.0])
+            self.soft_bias = np.array([self.settings.bias_factor / h, 1.0, 0.0])
         self.soft_relax = np.array([0.0, 1.0, 0.0])
 
     def warm_start(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray):
@@ -869,10 +998,21 @@ class JointSolver:
             st = self.settings
             iterations = st.velocity_iterations if use_bias else st.relax_iterations
             soft = self.soft_bias if use_bias else self.soft_relax
-            solve_joints_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,
-                                self.frame_a, self.frame_b, self.param, self.enabled, self.position, x, R,
-                                self.inv_mass, self.I_inv, self.h, soft, int(iterations),
-                                v, omega, self.linear_impulse, self.angular_impulse, self.axial_impulse)
+            args = (self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a, self.frame_b,
+                    self.param, self.enabled, self.gauss_seidel, self.position, x, R, self.inv_mass, self.I_inv, self.h,
+                    soft)
+            out = (v, omega, self.linear_impulse, self.angular_impulse, self.axial_impulse)
+            if st.method != "tree":
+                solve_joints_kernel(*args, int(iterations), *out)
+                return
+            sc = self._scratch
+            for _ in range(iterations):
+                solve_joints_kernel(*args, 1, *out)
+                tree_solve_kernel(self.node_order, self.node_joint, self.node_body, self.node_parent, self.joint_type,
+                                  self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a, self.frame_b,
+                                  self.param, x, R, self.inv_mass, self.I_inv, float(soft[0]), sc["Ja"], sc["Jb"],
+                                  sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"], sc["y"], sc["sol"], sc["work"],
+                                  *out)
 
     def project(self, x: np.ndarray, q: np.ndarray, R: np.ndarray) -> float:
         """NGS position projection after the substeps (``position_iterations`` > 0): moves
@@ -940,10 +1080,11 @@ def step_with_joints(world, joints: JointSolver, dt: float, substeps: int = 4):
     v, omega, x, q, R, I_inv = world.v, world.omega, world.x, world.q, world.R, world.I_inv
     joints.prepare(world, h)
     for _ in range(substeps):
-        integrate_velocities_kernel(moving, world.inv_mass, I_inv, world.force, world.torque, h, v, omega)
+        integrate_velocities_kernel(moving, world.inv_mass, I_inv, R, world.inertia_body, world.force, world.torque, h,
+                                    v, omega)
         joints.warm_start(v, omega, x, R)
         joints.solve(v, omega, x, R, True)
-        integrate_positions_kernel(moving, v, h, world.inertia_body, world.inertia_body_inv, x, q, R, omega, I_inv)
+        integrate_positions_kernel(moving, v, omega, h, world.inertia_body_inv, x, q, R, I_inv)
         joints.solve(v, omega, x, R, False)
     joints.project(x, q, R)
     _store_momenta_kernel(moving, world.mass, world.inertia_body, R, v, omega, world.P, world.L)
@@ -964,3 +1105,254 @@ def _store_momenta_kernel(moving, mass, inertia_body, R, v, omega,
             for k in range(3):
                 P[i, k] = mass[i] * v[i, k]
                 L[i, k] = Lw[k]
+
+
+# ---------------------------------------------------------------------- exact solve on trees
+# Baraff, "Linear-Time Dynamics using Lagrange Multipliers", SIGGRAPH 1996: the KKT matrix
+# H = [[M, J^T], [J, 0]] of a tree of bodies and joints, ordered leaves first, factors as
+# L D L^T with no fill-in. Each node (a moving body: 6 dofs v, omega; a joint: up to 6 rigid
+# rows, padded with identity rows) is one 6x6 block.
+@njit(**JIT)
+def _joint_rows(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, Ja, Jb, C):
+    """Rigid rows of joint j at the current pose into Ja[j], Jb[j] (6, 6) (rows x (v, omega)
+    of body a / b) and their errors C[j] (6,) (m or rad). Returns the row count."""
+    for r in range(6):
+        C[j, r] = 0.0
+        for c in range(6):
+            Ja[j, r, c] = 0.0
+            Jb[j, r, c] = 0.0
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    d = _sub(pb, pa)
+    n = 0
+    if t != JOINT_BALL and t != JOINT_DISTANCE:
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        za = _axis(R, a, frame_a, j, 2)
+        xb = _axis(R, b, frame_b, j, 0)
+        yb = _axis(R, b, frame_b, j, 1)
+        zb = _axis(R, b, frame_b, j, 2)
+        if t == JOINT_HINGE:
+            e = _cross(za, zb)
+            dirs = (xa, ya, za)
+            errs = (_dot(e, xa), _dot(e, ya), 0.0)
+            count = 2
+        elif t == JOINT_UNIVERSAL:
+            nn = _cross(yb, xa)
+            nn = _scale(1.0 / max(math.sqrt(_dot(nn, nn)), 1e-12), nn)
+            dirs = (nn, xa, ya)
+            errs = (_dot(xa, yb), 0.0, 0.0)
+            count = 1
+        else:
+            e = _scale(0.5, _add(_add(_cross(xa, xb), _cross(ya, yb)), _cross(za, zb)))
+            dirs = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+            errs = e
+            count = 3
+        for k in range(count):
+            u = dirs[k]
+            for c in range(3):
+                Ja[j, n, 3 + c] = -u[c]
+                Jb[j, n, 3 + c] = u[c]
+            C[j, n] = errs[k]
+            n += 1
+    if t == JOINT_DISTANCE:
+        if param[j, P_RIGID] == 0.0:
+            return n
+        length = math.sqrt(_dot(d, d))
+        if length < 1e-12:
+            return n
+        dirs = (_scale(1.0 / length, d), d, d)
+        errs = (length - param[j, P_LOWER], 0.0, 0.0)
+        count = 1
+    elif t == JOINT_SLIDER:
+        ra = _add(ra, d)
+        p1 = _axis(R, a, frame_a, j, 0)
+        p2 = _axis(R, a, frame_a, j, 1)
+        dirs = (p1, p2, p2)
+        errs = (_dot(d, p1), _dot(d, p2), 0.0)
+        count = 2
+    else:
+        dirs = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        errs = d
+        count = 3
+    for k in range(count):
+        u = dirs[k]
+        ca = _cross(ra, u)
+        cb = _cross(rb, u)
+        for c in range(3):
+            Ja[j, n, c] = -u[c]
+            Ja[j, n, 3 + c] = -ca[c]
+            Jb[j, n, c] = u[c]
+            Jb[j, n, 3 + c] = cb[c]
+        C[j, n] = errs[k]
+        n += 1
+    return n
+
+
+@njit(**JIT)
+def _invert6(A, out):
+    """out = A^-1 for a 6x6 A (Gauss-Jordan, partial pivoting); A is overwritten. False if singular."""
+    for r in range(6):
+        for c in range(6):
+            out[r, c] = 1.0 if r == c else 0.0
+    for c in range(6):
+        p = c
+        for r in range(c + 1, 6):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if A[p, c] == 0.0:
+            return False
+        if p != c:
+            for k in range(6):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+                out[c, k], out[p, k] = out[p, k], out[c, k]
+        inv = 1.0 / A[c, c]
+        for k in range(6):
+            A[c, k] *= inv
+            out[c, k] *= inv
+        for r in range(6):
+            if r != c and A[r, c] != 0.0:
+                f = A[r, c]
+                for k in range(6):
+                    A[r, k] -= f * A[c, k]
+                    out[r, k] -= f * out[c, k]
+    return True
+
+
+@njit(**JIT)
+def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
+                      frame_a, frame_b, param, x, R, inv_mass, I_inv, bias_rate,
+                      # scratch
+                      Ja, Jb, C, nrow, D, Dinv, H_up, y, sol, work,
+                      # outputs
+                      v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """One exact solve of the rigid rows of the tree joints: J (u + du) = -bias_rate C,
+    M du = J^T lambda, by block L D L^T of the KKT matrix in ``order`` (leaves first).
+
+    Nodes: ``node_joint[k]`` >= 0 for a joint node, else ``node_body[k]`` is a body node;
+    ``node_parent[k]`` (-1 for a root). Adds lambda to the joints' accumulated impulses.
+    """
+    n_nodes = order.shape[0]
+    # rows, diagonal blocks and right-hand sides
+    for k in range(n_nodes):
+        j = node_joint[k]
+        for r in range(6):
+            y[k, r] = 0.0
+            for c in range(6):
+                D[k, r, c] = 0.0
+        if j >= 0:
+            a = joint_a[j]
+            b = joint_b[j]
+            m = _joint_rows(j, joint_type[j], a, b, x, R, local_a, local_b, frame_a, frame_b, param, Ja, Jb, C)
+            nrow[j] = m
+            for r in range(m, 6):
+                D[k, r, r] = 1.0
+            for r in range(m):
+                s = bias_rate * C[j, r]
+                for c in range(3):
+                    if a >= 0:
+                        s += Ja[j, r, c] * v[a, c] + Ja[j, r, 3 + c] * omega[a, c]
+                    if b >= 0:
+                        s += Jb[j, r, c] * v[b, c] + Jb[j, r, 3 + c] * omega[b, c]
+                y[k, r] = -s
+        else:
+            i = node_body[k]
+            # M = diag(m 1, I_world), I_world = I_inv^-1
+            for r in range(3):
+                D[k, r, r] = 1.0 / inv_mass[i]
+            for r in range(3):
+                for c in range(3):
+                    work[r, c] = I_inv[i, r, c]
+                    work[r + 3, c] = 0.0
+                    work[r, c + 3] = 0.0
+                    work[r + 3, c + 3] = 1.0 if r == c else 0.0
+            _invert6(work, Dinv[k])
+            for r in range(3):
+                for c in range(3):
+                    D[k, 3 + r, 3 + c] = Dinv[k, r, c]
+    # H_up[k] = H[k, parent]: joint rows x body dofs, or its transpose
+    for k in range(n_nodes):
+        p = node_parent[k]
+        if p < 0:
+            continue
+        j = node_joint[k]
+        if j >= 0:
+            J = Ja if joint_a[j] == node_body[p] else Jb
+            for r in range(6):
+                for c in range(6):
+                    H_up[k, r, c] = J[j, r, c]
+        else:
+            jp = node_joint[p]
+            J = Ja if joint_a[jp] == node_body[k] else Jb
+            for r in range(6):
+                for c in range(6):
+                    H_up[k, r, c] = J[jp, c, r]
+    # factor and forward substitution, leaves first: D_p -= H_pk D_k^-1 H_kp, y_p -= H_pk D_k^-1 y_k
+    for kk in range(n_nodes):
+        k = order[kk]
+        for r in range(6):
+            for c in range(6):
+                work[r, c] = D[k, r, c]
+        if not _invert6(work, Dinv[k]):
+            for r in range(6):
+                for c in range(6):
+                    Dinv[k, r, c] = 0.0
+        p = node_parent[k]
+        if p < 0:
+            continue
+        # work = D_k^-1 H_kp (6x6), then D_p -= H_kp^T work, y_p -= work^T y_k
+        for r in range(6):
+            for c in range(6):
+                s = 0.0
+                for m in range(6):
+                    s += Dinv[k, r, m] * H_up[k, m, c]
+                work[r, c] = s
+        for r in range(6):
+            for c in range(6):
+                s = 0.0
+                for m in range(6):
+                    s += H_up[k, m, r] * work[m, c]
+                D[p, r, c] -= s
+            s = 0.0
+            for m in range(6):
+                s += work[m, r] * y[k, m]
+            y[p, r] -= s
+    # back substitution, roots first: sol_k = D_k^-1 (y_k - H_kp sol_p)
+    for kk in range(n_nodes - 1, -1, -1):
+        k = order[kk]
+        p = node_parent[k]
+        for r in range(6):
+            s = y[k, r]
+            if p >= 0:
+                for m in range(6):
+                    s -= H_up[k, r, m] * sol[p, m]
+            work[0, r] = s
+        for r in range(6):
+            s = 0.0
+            for m in range(6):
+                s += Dinv[k, r, m] * work[0, m]
+            sol[k, r] = s
+    # apply: body nodes take du; joint nodes give lambda = -mu
+    for k in range(n_nodes):
+        j = node_joint[k]
+        if j < 0:
+            i = node_body[k]
+            for c in range(3):
+                v[i, c] += sol[k, c]
+                omega[i, c] += sol[k, 3 + c]
+            continue
+        t = joint_type[j]
+        m = nrow[j]
+        for r in range(m):
+            lam = -sol[k, r]
+            # a row's world direction is body b's Jacobian: linear part for linear rows,
+            # angular part for angular rows (rows are angular first, see _joint_rows)
+            lin = Jb[j, r, 0] != 0.0 or Jb[j, r, 1] != 0.0 or Jb[j, r, 2] != 0.0
+            if t == JOINT_DISTANCE:
+                axial_impulse[j, A_EQUAL] += lam
+            elif lin:
+                for c in range(3):
+                    linear_impulse[j, c] += lam * Jb[j, r, c]
+            else:
+                for c in range(3):
+                    angular_impulse[j, c] += lam * Jb[j, r, 3 + c]
