@@ -93,8 +93,8 @@ def mutated_scenes(draw):
                 parent[draw(st.text(max_size=6))] = draw(values)
             else:
                 parent.append(draw(values))
-        except (KeyError, IndexError, TypeError):
-            continue  # an earlier mutation removed this path
+        except (KeyError, IndexError, TypeError, AttributeError):
+            continue  # an earlier mutation removed or replaced this path (e.g. by null)
     return doc
 
 

@@ -27,6 +27,7 @@ import numpy as np
 from . import __version__, checks
 from .errors import InputError, SimulationError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring
+from .solver.contact import SoftStepSettings
 from .shapes import shape_from_dict, shape_to_dict
 from .trajectory import write_atomic
 from .world import Material, World
@@ -74,9 +75,14 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "settings": sim.settings(),
         "stats": {k: v for k, v in sim.stats.items()},
         "energy_reference": sim.energy_reference,
+        "collisions": bool(getattr(w, "collisions", True)),
         "run": run,
     }
     arrays = {name: np.ascontiguousarray(getattr(w, name)) for name in CONSTANTS + STATE}
+    # the contact solver's warm-start impulses: without them a resumed run differs in the last bits
+    if sim.soft_step is not None:
+        for name, arr in sim.soft_step.solver.warm_start_state().items():
+            arrays["contact_" + name] = np.ascontiguousarray(arr)
     arrays["meta"] = np.array(json.dumps(meta, default=_json_default, allow_nan=True))
     return write_atomic(path, lambda fh: np.savez(fh, **arrays))
 
@@ -102,6 +108,7 @@ def load_checkpoint(cls, path, custom_forces=None):
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE}
+            warm = {name[len("contact_"):]: np.array(data[name]) for name in WARM_START if name in data.files}
     except Exception as exc:  # damaged or foreign file: one line
         raise InputError(f"not a readable checkpoint file ({type(exc).__name__}: {' '.join(str(exc).split())})", None, file) from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
@@ -110,6 +117,8 @@ def load_checkpoint(cls, path, custom_forces=None):
         raise InputError(f"checkpoint format version {meta.get('version')!r} is not supported (expected {VERSION})", None, file)
     try:
         sim = _rebuild(cls, meta, arrays, custom_forces)
+        if len(warm) == len(WARM_START):
+            _restore_warm_start(sim, warm)
     except InputError as err:
         raise InputError(f"checkpoint does not rebuild: {err}", None, file) from None
     except SimulationError as err:
@@ -117,6 +126,17 @@ def load_checkpoint(cls, path, custom_forces=None):
     except Exception as exc:
         raise InputError(f"checkpoint does not rebuild ({type(exc).__name__}: {' '.join(str(exc).split())})", None, file) from None
     return sim
+
+
+WARM_START = ("contact_key", "contact_normal_impulse", "contact_friction_impulse")
+
+
+def _restore_warm_start(sim, warm: dict):
+    k = len(warm["key"])
+    if warm["key"].dtype.kind != "i" or warm["normal_impulse"].shape != (k,) or warm["friction_impulse"].shape != (k, 3):
+        raise InputError("contact warm-start arrays have inconsistent shapes")
+    if sim._contact_on():
+        sim.soft_step.solver.set_warm_start_state(warm)
 
 
 def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
@@ -151,12 +171,15 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
             record["function"] = customs.pop(0)
         w.add_force(kind(**record))
     w.t = float(meta["t"])
+    w.collisions = bool(meta.get("collisions", True))
     w.applied_impulses = {int(k) for k in meta["applied_impulses"]}
     w.update_derived()
     checks.validate_world(w, "load_checkpoint")
     s = meta["settings"]
     sim = cls(w, dt=s["dt"], integrator=s["integrator"], substeps=s["substeps"], rtol=s["rtol"], atol=s["atol"],
-              max_energy_growth=s["max_energy_growth"])
+              max_energy_growth=s["max_energy_growth"],
+              contact_settings=SoftStepSettings(**s["contact"]) if "contact" in s else None,
+              record_contacts=bool(s.get("record_contacts", False)))
     sim.step_index = int(meta["step_index"])
     if not math.isclose(sim.step_index * sim.dt, w.t, rel_tol=1e-12, abs_tol=1e-12):
         raise InputError(f"step index {sim.step_index} does not match t = {w.t}")

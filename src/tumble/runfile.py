@@ -56,12 +56,16 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
         raise InputError(f"the run has already reached t = {w.t:g} s, past its requested duration ({float(duration):g} s)", "--duration")
     _check_disk(out, (total + 1) * frame_bytes(w.body_count))
 
-    writer = TrajectoryWriter(out / TRAJECTORY, static_values(w), w.body_count, keep_frames=recorded if resume else None)
+    writer = TrajectoryWriter(out / TRAJECTORY, static_values(w), w.body_count, keep_frames=recorded if resume else None,
+                              contacts=sim.record_contacts)
     state = {"stop": None, "wall0": fig["wall_time_s"], "started": _time.perf_counter()}
     state["last_flush"] = state["started"]
 
     def record():
         values = frame_values(w)
+        if sim.record_contacts:
+            values["contacts"] = sim.contacts()
+            values["contact_count"] = len(values["contacts"])
         writer.append(values)
         e = float(values["kinetic_energy"] + values["potential_energy"])
         if fig["energy_initial"] is None:

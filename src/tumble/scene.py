@@ -3,8 +3,10 @@
 The format is DESIGN.md's "Scene file" contract::
 
     [simulation]            duration, frame_rate, dt, integrator, substeps,
-                            gravity, layout, rtol, atol, max_energy_growth
-                            (all optional)
+                            gravity, layout, rtol, atol, max_energy_growth,
+                            collisions, record_contacts (all optional)
+    [contact]               the contact solver's settings (SoftStepSettings:
+                            contact_hertz, contact_damping_ratio, ...; optional)
     [[bodies]]              name, shape = {type = ..., ...}, mass or density,
                             inertia, fixed, position, orientation or euler_deg,
                             velocity, angular_velocity, angular_velocity_frame,
@@ -27,6 +29,7 @@ vertices, and each mesh file's size (``TUMBLE_MAX_MEMORY`` raises the limit).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import tomllib
@@ -40,6 +43,7 @@ from .errors import InputError
 from .forces import ConstantForce, Drag, Impulse, PointForce, Spring, Wind
 from .shapes import Box, Capsule, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
 from .simulator import Simulator, steps_between
+from .solver.contact import SoftStepSettings
 from .trajectory import Trajectory
 from .world import Material, World
 
@@ -55,9 +59,13 @@ DEFAULTS = {
     "rtol": 1e-10,
     "atol": 1e-12,
     "max_energy_growth": checks.MAX_ENERGY_GROWTH,
+    "collisions": True,
+    "record_contacts": False,
 }
 
-TOP_KEYS = ("simulation", "bodies", "forces")
+TOP_KEYS = ("simulation", "bodies", "forces", "contact")
+# [contact]: the soft step's settings (tumble.solver.contact.SoftStepSettings), all optional.
+CONTACT_KEYS = tuple(f.name for f in dataclasses.fields(SoftStepSettings))
 SIMULATION_KEYS = tuple(DEFAULTS)
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "position", "orientation", "euler_deg",
@@ -114,6 +122,8 @@ class Scene:
     rtol: float = DEFAULTS["rtol"]
     atol: float = DEFAULTS["atol"]
     max_energy_growth: float = DEFAULTS["max_energy_growth"]
+    record_contacts: bool = False
+    contact: SoftStepSettings = field(default_factory=SoftStepSettings)
 
     @property
     def gravity(self) -> list[float]:
@@ -132,6 +142,9 @@ class Scene:
             "rtol": self.rtol,
             "atol": self.atol,
             "max_energy_growth": self.max_energy_growth,
+            "collisions": bool(self.world.collisions),
+            "record_contacts": self.record_contacts,
+            "contact": dataclasses.asdict(self.contact),
         }
 
     def check(self):
@@ -145,7 +158,8 @@ class Scene:
     def simulator(self) -> Simulator:
         """A ``Simulator`` for ``world`` with the scene's dt, integrator, substeps and tolerances."""
         return Simulator(self.world, dt=self.dt, integrator=self.integrator, substeps=self.substeps, rtol=self.rtol, atol=self.atol,
-                         max_energy_growth=self.max_energy_growth)
+                         max_energy_growth=self.max_energy_growth, contact_settings=self.contact,
+                         record_contacts=self.record_contacts)
 
     def run(self, progress: bool | None = None) -> Trajectory:
         """Run ``duration`` s at ``frame_rate`` from the world's current state (t = 0 for a fresh scene)."""
@@ -414,7 +428,9 @@ class _Parser:
         if "bodies" not in doc:
             raise self.error("missing key 'bodies' (a scene needs at least one [[bodies]] entry)", None)
         sim = self.simulation(doc.get("simulation", {}))
+        contact = self.contact(doc.get("contact", {}))
         world = self.library("simulation", World, gravity=sim["gravity"], layout=sim["layout"])
+        world.collisions = sim["collisions"]
 
         bodies = doc["bodies"]
         if not isinstance(bodies, list) or not all(isinstance(b, dict) for b in bodies):
@@ -436,7 +452,16 @@ class _Parser:
             world=world, duration=sim["duration"], frame_rate=sim["frame_rate"], dt=sim["dt"],
             integrator=sim["integrator"], substeps=sim["substeps"], layout=sim["layout"],
             data=data, rtol=sim["rtol"], atol=sim["atol"], max_energy_growth=sim["max_energy_growth"],
+            record_contacts=sim["record_contacts"], contact=contact,
         )
+
+    def contact(self, value) -> SoftStepSettings:
+        t = self.table(value, "contact", CONTACT_KEYS)
+        kw = {k: self.nonnegative(v, f"contact.{k}") for k, v in t.items()}
+        for k in ("hertz_cap_per_substep", "speculative_distance"):
+            if k in kw and kw[k] <= 0:
+                raise self.error(f"must be positive, got {_fmt(kw[k])}", f"contact.{k}")
+        return SoftStepSettings(**kw)
 
     def check_sizes(self, bodies: list):
         """Refuse, before building anything, a scene whose bodies, particles or inline mesh
@@ -459,6 +484,9 @@ class _Parser:
                 s[k] = self.positive(t[k], f"simulation.{k}")
         if "substeps" in t:
             s["substeps"] = self.integer(t["substeps"], "simulation.substeps", 1)
+        for k in ("collisions", "record_contacts"):
+            if k in t:
+                s[k] = self.boolean(t[k], f"simulation.{k}")
         if "max_energy_growth" in t:
             s["max_energy_growth"] = self.number(t["max_energy_growth"], "simulation.max_energy_growth")
             if s["max_energy_growth"] < 1:

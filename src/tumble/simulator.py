@@ -14,6 +14,7 @@ stage from Python with the callables in between, in the same order.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time as _time
@@ -27,7 +28,9 @@ from . import integrators as K
 from .errors import InputError, SimulationError
 from .forces import Impulse
 from .shapes import shape_to_dict
-from .trajectory import Trajectory
+from .solver.contact import SoftStepSettings
+from .solver.soft_step import SoftStep
+from .trajectory import CONTACT_FIELDS, Trajectory, pad_contacts
 from .world import Scratch, World
 
 
@@ -61,7 +64,8 @@ class Simulator:
     """
 
     def __init__(self, world: World, dt: float = 1.0 / 240.0, integrator: str = "rk4", substeps: int = 1, rtol: float = 1e-10, atol: float = 1e-12,
-                 max_energy_growth: float = checks.MAX_ENERGY_GROWTH):
+                 max_energy_growth: float = checks.MAX_ENERGY_GROWTH, contact_settings: SoftStepSettings | None = None,
+                 record_contacts: bool = False):
         if integrator not in K.INTEGRATOR_IDS:
             names = ", ".join(K.INTEGRATOR_IDS)
             raise InputError(f"unknown integrator {integrator!r} (expected one of {names})", "simulation.integrator")
@@ -92,6 +96,9 @@ class Simulator:
         self.validate = checks.validation_enabled()
         self.energy_reference = None  # [E0 J, scale J, impulses applied] of the current run
         self.checkpoint_run = None  # the ``run`` data of the checkpoint this simulator was loaded from
+        self.contact_settings = contact_settings
+        self.soft_step = None  # SoftStep: collision pipeline + contact solver, made on first use
+        self.record_contacts = bool(record_contacts)
 
     # ------------------------------------------------------------------ stepping
     def step(self, count: int = 1):
@@ -116,18 +123,71 @@ class Simulator:
                 check("apply_impulses", self.step_index * self.dt, Y=Y)
             nxt = min([end] + [k for k in self._impulse_steps() if k > self.step_index])
             n = nxt - self.step_index
-            if self.integrator_id in K.ADAPTIVE:
-                Y = self._advance_adaptive(Y, n)
-                if check is not None:
-                    check(f"integrate_free_motion ({self.integrator}, between steps {self.step_index} and {nxt})", nxt * self.dt, Y=Y)
-            elif self.world.tables.custom or check is not None:
-                self._advance_stagewise(Y, n, scratch, check)
+            if self._contact_on():
+                Y = self._advance_with_contacts(Y, n, scratch, check)
             else:
-                self._advance_compiled(Y, n, scratch)
+                Y = self._advance_free(Y, n, scratch, check)
             self.step_index = nxt
             self.world.t = self.step_index * self.dt
             self.stats["steps"] += n * self.substeps
         return Y
+
+    def _advance_free(self, Y, n, scratch, check=None):
+        """n steps of the chosen integrator for the moving bodies (no contact), from ``step_index``."""
+        if self.integrator_id in K.ADAPTIVE:
+            Y = self._advance_adaptive(Y, n)
+            if check is not None:
+                check(f"integrate_free_motion ({self.integrator}, between steps {self.step_index} and {self.step_index + n})",
+                      (self.step_index + n) * self.dt, Y=Y)
+        elif self.world.tables.custom or check is not None:
+            self._advance_stagewise(Y, n, scratch, check)
+        else:
+            self._advance_compiled(Y, n, scratch)
+        return Y
+
+    # ------------------------------------------------------------------ contact
+    def _contact_on(self) -> bool:
+        """Contact is solved when the world allows collisions and two shapes can touch."""
+        if not getattr(self.world, "collisions", True):
+            return False
+        if self.soft_step is None:
+            self.soft_step = SoftStep(self.world, self.contact_settings)
+        return self.soft_step.has_collisions()
+
+    def _advance_with_contacts(self, Y, n, scratch, check=None):
+        """n steps: collide; bodies with contacts take the soft step, the others the chosen integrator.
+
+        NOTE: the two groups are stepped one after the other (contact bodies first); forces
+        that couple them (springs, callables) see the other group at the start of the step.
+        """
+        w = self.world
+        soft = self.soft_step
+        moving = w.moving
+        all_moving = moving.copy()
+        first = self.step_index
+        try:
+            for k in range(n):
+                self.step_index = first + k
+                t = self.step_index * self.dt
+                active = soft.collide(Y, t, self.dt)
+                if check is not None:
+                    check("collide_pairs", t, Y=Y)
+                if active.any():
+                    soft.step(Y, t, self.dt, self.substeps, check)
+                    moving &= ~active
+                Y = self._advance_free(Y, 1, scratch, check)
+                moving[:] = all_moving
+        finally:
+            moving[:] = all_moving
+            self.step_index = first
+        return Y
+
+    def contacts(self):
+        """The contacts of the last step (``tumble.solver.soft_step.Contacts``: bodies, points,
+        normals, separations, normal and friction impulses, mean forces); empty without contact."""
+        if self.soft_step is None:
+            return SoftStep(self.world).query()
+        return self.soft_step.query()
 
     def _impulse_steps(self):
         return [self._impulse_step(imp) for imp in self.world.impulses]
@@ -342,7 +402,7 @@ class Simulator:
         # the recorder's arrays, then the trajectory's copy of them
         checks.check_memory(2 * (frames + 1) * (n * checks.FRAME_BYTES_PER_BODY + 80), f"keeping {frames + 1} frames of {n} bodies in memory",
                             "simulation.duration")
-        rec = _Recorder(self.world, frames + 1)
+        rec = _Recorder(self.world, frames + 1, self if self.record_contacts else None)
         self.world.update_derived()
         rec.record()
         self._reset_energy_reference()
@@ -488,7 +548,9 @@ class Simulator:
     def settings(self) -> dict:
         """The settings that make a continuation identical (JSON values)."""
         return {"dt": self.dt, "integrator": self.integrator, "substeps": self.substeps, "rtol": self.rtol, "atol": self.atol,
-                "max_energy_growth": self.max_energy_growth}
+                "max_energy_growth": self.max_energy_growth,
+                "contact": dataclasses.asdict(self.contact_settings or SoftStepSettings()),
+                "record_contacts": self.record_contacts}
 
 
 @dataclass
@@ -593,8 +655,10 @@ class _Recorder:
         "total_linear_momentum": "3", "total_angular_momentum": "3", "orthonormality_error": None,
     }
 
-    def __init__(self, world: World, capacity: int):
+    def __init__(self, world: World, capacity: int, contacts_of=None):
         self.world = world
+        self.contacts_of = contacts_of  # a Simulator whose contacts() are recorded each frame, or None
+        self.contact_frames = []
         n = world.body_count
         self.count = 0
         self.arrays = {}
@@ -609,8 +673,15 @@ class _Recorder:
     def record(self):
         for key, value in frame_values(self.world).items():
             self.arrays[key][self.count] = value
+        if self.contacts_of is not None:
+            self.contact_frames.append(self.contacts_of.contacts())
         self.count += 1
 
     def trajectory(self) -> Trajectory:
         k = self.count
-        return Trajectory(**{key: a[:k].copy() for key, a in self.arrays.items()}, **static_values(self.world))
+        contacts = {}
+        if self.contacts_of is not None:
+            frames = self.contact_frames[:k]
+            rows = {field: np.concatenate([getattr(c, field) for c in frames]) for field in CONTACT_FIELDS}
+            contacts = pad_contacts([len(c) for c in frames], rows)
+        return Trajectory(**{key: a[:k].copy() for key, a in self.arrays.items()}, **static_values(self.world), **contacts)

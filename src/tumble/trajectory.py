@@ -41,6 +41,17 @@ class Trajectory:
         shapes: (N,) JSON text of each body's shape (``shapes.shape_to_dict``), so that
             the file alone is enough to draw and export the bodies (None in old files).
         fixed: (N,) bool, True for fixed bodies (None in old files).
+
+    Contacts, when the run recorded them (``record_contacts``; else None). C is the largest
+    number of contact points of any frame; frame k uses its first ``contact_count[k]`` rows, the
+    others are padding (-1 for bodies, NaN for numbers). All are the last step before the frame:
+        contact_count: (F,) int64.
+        contact_body_a, contact_body_b: (F, C) int64 body indices; normals point from a to b.
+        contact_point: (F, C, 3) m, world.  contact_normal: (F, C, 3) unit, world.
+        contact_separation: (F, C) m (< 0: penetration).
+        contact_normal_impulse: (F, C) N s, on b over the step.
+        contact_friction_impulse: (F, C, 3) N s, on b over the step, world.
+        contact_force: (F, C, 3) N, mean force on b over the step (impulses / dt).
     """
 
     time: np.ndarray
@@ -59,8 +70,19 @@ class Trajectory:
     com_offset: np.ndarray
     shapes: np.ndarray | None = None
     fixed: np.ndarray | None = None
+    contact_count: np.ndarray | None = None
+    contact_body_a: np.ndarray | None = None
+    contact_body_b: np.ndarray | None = None
+    contact_point: np.ndarray | None = None
+    contact_normal: np.ndarray | None = None
+    contact_separation: np.ndarray | None = None
+    contact_normal_impulse: np.ndarray | None = None
+    contact_friction_impulse: np.ndarray | None = None
+    contact_force: np.ndarray | None = None
 
-    OPTIONAL = ("shapes", "fixed")
+    OPTIONAL = ("shapes", "fixed", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
+                "contact_normal", "contact_separation", "contact_normal_impulse", "contact_friction_impulse",
+                "contact_force")
 
     @property
     def frame_count(self) -> int:
@@ -94,6 +116,34 @@ class Trajectory:
         return write_atomic(path, lambda fh: np.savez_compressed(fh, **arrays))
 
 
+# The contact keys of a trajectory: field of ``Contacts`` -> (key, row shape, dtype, padding).
+CONTACT_FIELDS = {
+    "body_a": ("contact_body_a", (), np.int64, -1), "body_b": ("contact_body_b", (), np.int64, -1),
+    "point": ("contact_point", (3,), np.float64, np.nan), "normal": ("contact_normal", (3,), np.float64, np.nan),
+    "separation": ("contact_separation", (), np.float64, np.nan),
+    "normal_impulse": ("contact_normal_impulse", (), np.float64, np.nan),
+    "friction_impulse": ("contact_friction_impulse", (3,), np.float64, np.nan),
+    "force": ("contact_force", (3,), np.float64, np.nan),
+}
+
+
+def pad_contacts(counts, rows: dict) -> dict:
+    """The padded (F, C, ...) contact arrays of a trajectory from per-frame counts (F,) and the
+    frames' rows laid end to end, ``rows[field]`` (sum(counts), ...) per ``CONTACT_FIELDS`` field."""
+    counts = np.asarray(counts, dtype=np.int64)
+    F = len(counts)
+    C = int(counts.max()) if F else 0
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    out = {"contact_count": counts.copy()}
+    for field, (key, shape, dtype, pad) in CONTACT_FIELDS.items():
+        a = np.full((F, C) + shape, pad, dtype=dtype)
+        src = np.asarray(rows[field], dtype=dtype)
+        for k in range(F):
+            a[k, : counts[k]] = src[starts[k]:starts[k + 1]]
+        out[key] = a
+    return out
+
+
 def load_trajectory(path) -> Trajectory:
     """Read a trajectory file written by ``Trajectory.save`` (no pickles)."""
     path = Path(path)
@@ -113,6 +163,8 @@ def load_trajectory(path) -> Trajectory:
         a = values[key]
         if a.shape != (frames,) + shape or a.dtype.kind != "f":
             raise InputError(f"not a trajectory file: {key} has shape {a.shape} ({a.dtype}), expected {(frames,) + shape} numbers", None, str(path))
+    if "contact_count" in values:  # streamed files keep it as float64 beside the other frame keys
+        values["contact_count"] = np.asarray(values["contact_count"]).astype(np.int64)
     return Trajectory(**values)
 
 
@@ -201,11 +253,14 @@ class TrajectoryWriter:
             trajectory file) must hold at least that many frames, and later ones are dropped.
     """
 
-    def __init__(self, path, static: dict, body_count: int, keep_frames: int | None = None):
+    def __init__(self, path, static: dict, body_count: int, keep_frames: int | None = None, contacts: bool = False):
         self.path = Path(path)
         self.parts = self.path.parent / f".{self.path.stem}.parts"
         self.static = static
         self.shapes = frame_shapes(body_count)
+        if contacts:  # contact_count, one number a frame; the contact rows in their own files (ragged)
+            self.shapes["contact_count"] = ()
+        self.contacts = contacts
         self.row_bytes = {k: 8 * int(np.prod(s)) for k, s in self.shapes.items()}
         self.path.parent.mkdir(parents=True, exist_ok=True)
         if keep_frames is None:
@@ -216,12 +271,19 @@ class TrajectoryWriter:
             self._keep(int(keep_frames))
             self.frames = int(keep_frames)
         self.files = {k: open(self.parts / f"{k}.f8", "ab") for k in self.shapes}
+        if contacts:
+            for field, (key, _, _, _) in CONTACT_FIELDS.items():
+                self.files[key] = open(self.parts / f"{key}.rows", "ab")
 
     def _keep(self, frames: int):
         sizes = {k: (self.parts / f"{k}.f8").stat().st_size if (self.parts / f"{k}.f8").is_file() else -1 for k in self.shapes}
         if all(sizes[k] >= frames * self.row_bytes[k] for k in self.shapes):
             for k in self.shapes:
                 os.truncate(self.parts / f"{k}.f8", frames * self.row_bytes[k])
+            if self.contacts:
+                rows = int(np.fromfile(self.parts / "contact_count.f8", dtype="<f8").sum())
+                for field, (key, shape, _, _) in CONTACT_FIELDS.items():
+                    os.truncate(self.parts / f"{key}.rows", rows * 8 * int(np.prod(shape)))
             return
         # the work folder is gone (or short): take the frames from the trajectory file
         traj = load_trajectory(self.path)
@@ -231,11 +293,23 @@ class TrajectoryWriter:
         self.parts.mkdir()
         for k in self.shapes:
             np.ascontiguousarray(getattr(traj, k)[:frames], dtype="<f8").tofile(self.parts / f"{k}.f8")
+        if self.contacts:
+            counts = traj.contact_count[:frames]
+            for field, (key, shape, _, _) in CONTACT_FIELDS.items():
+                padded = getattr(traj, key)
+                rows = [padded[k, : counts[k]] for k in range(frames)]
+                data = np.concatenate(rows) if rows else np.zeros((0,) + shape)
+                np.ascontiguousarray(data, dtype="<i8" if key.endswith(("_a", "_b")) else "<f8").tofile(
+                    self.parts / f"{key}.rows")
 
     def append(self, values: dict):
         """Append one frame: ``values[key]`` for every per-frame key (``frame_shapes``)."""
-        for k, fh in self.files.items():
-            fh.write(np.ascontiguousarray(values[k], dtype="<f8").tobytes())
+        for k in self.shapes:
+            self.files[k].write(np.ascontiguousarray(values[k], dtype="<f8").tobytes())
+        if self.contacts:
+            c = values["contacts"]
+            for field, (key, _, dtype, _) in CONTACT_FIELDS.items():
+                self.files[key].write(np.ascontiguousarray(getattr(c, field), dtype=np.dtype(dtype).newbyteorder("<")).tobytes())
         self.frames += 1
 
     def flush(self) -> Path:
@@ -247,8 +321,15 @@ class TrajectoryWriter:
     def _write_npz(self, fh):
         order = [f.name for f in fields(Trajectory)]
         with zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+            padded = self._padded_contacts() if self.contacts else {}
             for key in order:
+                if key not in self.static and key not in self.shapes and key not in padded:
+                    continue
                 info = zipfile.ZipInfo(f"{key}.npy", date_time=_ZIP_TIME)
+                if key in padded:
+                    with zf.open(info, "w", force_zip64=True) as out:
+                        np.lib.format.write_array(out, padded[key], allow_pickle=False)
+                    continue
                 with zf.open(info, "w", force_zip64=True) as out:
                     if key in self.static:
                         np.lib.format.write_array(out, np.asarray(self.static[key]), allow_pickle=False)
@@ -263,6 +344,18 @@ class TrajectoryWriter:
                                 raise OSError(f"frame data of {key!r} is shorter than {self.frames} frames")
                             out.write(chunk)
                             left -= len(chunk)
+
+    def _padded_contacts(self) -> dict:
+        """The contact arrays padded to (F, C, ...) from the ragged work files.
+        NOTE: held in memory while the file is written (contacts are small beside the frames)."""
+        counts = np.fromfile(self.parts / "contact_count.f8", dtype="<f8")[: self.frames].astype(np.int64)
+        rows = {}
+        for field, (key, shape, dtype, _) in CONTACT_FIELDS.items():
+            raw = np.fromfile(self.parts / f"{key}.rows", dtype=np.dtype(dtype).newbyteorder("<"))
+            rows[field] = raw.reshape((-1,) + shape)[: int(counts.sum())]
+        out = pad_contacts(counts, rows)
+        out.pop("contact_count")  # written from its frame file like the other per-frame keys
+        return out
 
     def close(self, remove_parts: bool = False):
         """Close the work files; ``remove_parts`` deletes the work folder (once the file is complete)."""

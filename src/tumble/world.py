@@ -106,6 +106,8 @@ class World:
             raise InputError(f"unknown layout {layout!r} (expected 'quaternion' or 'matrix')", "layout")
         self.layout = layout
         self.t = 0.0
+        # bodies with collision shapes touch (contact, issue 3); False lets them pass through each other
+        self.collisions = True
         self.body_count = 0
         self._capacity = 0
         self._arrays: dict[str, np.ndarray] = {}

@@ -22,6 +22,7 @@ def wobble(t, body):
 
 def five_body_world(layout="matrix"):
     w = tb.World(gravity=(0.0, 0.0, -9.81), layout=layout)
+    w.collisions = False  # the course's model (tumble.reference) has no contact; the bodies fall past each other
     w.add_body(tb.Box(size=(0.2, 0.6, 1.0)), mass=2.0, position=(0, 0, 1), angular_velocity=(2, 1, 3), name="box")
     w.add_body(tb.Sphere(radius=0.3), density=500.0, position=(2, 0, 3), velocity=(1, 0, 4), angular_velocity=(0, 5, 0), name="ball")
     w.add_body(tb.Cylinder(radius=0.2, length=0.8), mass=1.5, position=(-2, 1, 2), euler_deg=(10, 20, 30), angular_velocity=(0.5, -1, 2), name="can")

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..collision.constants import SPECULATIVE_DISTANCE
 from ..collision.manifold import match_contacts
 from ..math3d import (
     JIT,
@@ -54,6 +55,8 @@ class SoftStepSettings:
         fixed side cannot move away).
     contact_speed: m/s, largest push-out speed of the bias (Box2D ``contactSpeed``, 3).
     restitution_threshold: m/s, see RESTITUTION_THRESHOLD.
+    speculative_distance: m, contacts are made this far apart (plus the motion bound of the
+        step) and AABBs grown by it (collision.constants.SPECULATIVE_DISTANCE, 0.02).
     """
 
     contact_hertz: float = 30.0
@@ -63,6 +66,7 @@ class SoftStepSettings:
     hertz_cap_per_substep: float = 0.125
     contact_speed: float = 3.0
     restitution_threshold: float = RESTITUTION_THRESHOLD
+    speculative_distance: float = SPECULATIVE_DISTANCE
 
 
 def soft_coefficients(hertz: float, zeta: float, h: float):
@@ -130,6 +134,30 @@ def _effective_mass(inv_mass, I_inv, a, b, ra, rb, d0, d1, d2):
     return 1.0 / k if k > 0.0 else 0.0
 
 
+@njit(**JIT)
+def _arms(x, R, a, b, local_a, local_b, c):
+    """(ra, rb, d) of contact c at the current poses: the anchor points pa = xa + Ra la and
+    pb = xb + Rb lb, their midpoint m, the arms ra = m - xa, rb = m - xb, and d = pb - pa.
+
+    Both impulses of a contact act at the one point m, so they cancel in the total angular
+    momentum about any point: with each arm fixed to its own body (Box2D), the two points drift
+    apart as the bodies move within the step, and sum(x x P) + L changed by 4 % in an off-centre
+    sphere collision.
+    """
+    pa0 = x[a, 0] + R[a, 0, 0] * local_a[c, 0] + R[a, 0, 1] * local_a[c, 1] + R[a, 0, 2] * local_a[c, 2]
+    pa1 = x[a, 1] + R[a, 1, 0] * local_a[c, 0] + R[a, 1, 1] * local_a[c, 1] + R[a, 1, 2] * local_a[c, 2]
+    pa2 = x[a, 2] + R[a, 2, 0] * local_a[c, 0] + R[a, 2, 1] * local_a[c, 1] + R[a, 2, 2] * local_a[c, 2]
+    pb0 = x[b, 0] + R[b, 0, 0] * local_b[c, 0] + R[b, 0, 1] * local_b[c, 1] + R[b, 0, 2] * local_b[c, 2]
+    pb1 = x[b, 1] + R[b, 1, 0] * local_b[c, 0] + R[b, 1, 1] * local_b[c, 1] + R[b, 1, 2] * local_b[c, 2]
+    pb2 = x[b, 2] + R[b, 2, 0] * local_b[c, 0] + R[b, 2, 1] * local_b[c, 1] + R[b, 2, 2] * local_b[c, 2]
+    m0 = 0.5 * (pa0 + pb0)
+    m1 = 0.5 * (pa1 + pb1)
+    m2 = 0.5 * (pa2 + pb2)
+    ra = (m0 - x[a, 0], m1 - x[a, 1], m2 - x[a, 2])
+    rb = (m0 - x[b, 0], m1 - x[b, 1], m2 - x[b, 2])
+    return ra, rb, (pb0 - pa0, pb1 - pa1, pb2 - pa2)
+
+
 # ---------------------------------------------------------------------- kernels
 @njit(**JIT)
 def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
@@ -191,8 +219,8 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
 
 
 @njit(**JIT)
-def warm_start_kernel(body_a, body_b, normal, tangent1, tangent2, anchor_a, anchor_b, normal_impulse,
-                      tangent_impulse, inv_mass, I_inv,
+def warm_start_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
+                      tangent_impulse, x, R, inv_mass, I_inv,
                       # outputs
                       v, omega):
     """Apply the accumulated impulses (normal and both friction directions) once."""
@@ -203,15 +231,17 @@ def warm_start_kernel(body_a, body_b, normal, tangent1, tangent2, anchor_a, anch
         p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
         p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
         p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
-        _apply_impulse(v, omega, inv_mass, I_inv, body_a[c], body_b[c], anchor_a[c], anchor_b[c], p0, p1, p2)
+        ra, rb, _ = _arms(x, R, body_a[c], body_b[c], local_a, local_b, c)
+        _apply_impulse(v, omega, inv_mass, I_inv, body_a[c], body_b[c], ra, rb, p0, p1, p2)
 
 
 @njit(**JIT)
-def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, anchor_a, anchor_b, local_a, local_b,
+def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
                           separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
                           inv_h, contact_speed, use_bias,
                           # outputs
-                          v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity):
+                          v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                          last_normal_speed):
     """One Gauss-Seidel sweep: per contact the normal impulse (soft when ``use_bias``), then friction.
 
     The separation is followed as the bodies move within the step: s = s0 + n.(d - d0),
@@ -220,24 +250,21 @@ def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, anchor_a, 
     s <= 0 with bias: a soft spring pushes out at no more than ``contact_speed``.
     Relax (no bias): rigid, so the push-out velocity is taken back out and adds no energy.
 
-    ``relative_velocity`` (the approach speed restitution reflects) is lowered to the normal
-    speed seen just before any solve (biased or relax) that pushes. Box2D keeps the pre-step speed only;
-    I measured that this loses the gravity gained within the step before impact (a sphere
-    dropped 2 m with e = 0.8, dt 1/60 s: second apex 4 % low), and the speed at the pushing
-    substep is the impact speed to within g h.
+    ``relative_velocity`` (the approach speed restitution reflects) is lowered to the impact
+    speed of a solve that pushes. Box2D keeps the pre-step speed only; I measured that this
+    loses the gravity gained within the step before impact (a sphere dropped 2 m with e = 0.8,
+    dt 1/60 s: second apex 4 % low). The normal speed seen by the pushing solve, after the
+    substep's kick, overshoots instead (apexes 0.6-1 % high at dt 1/240 s): the contact closes
+    part way through the substep. So when the gap s is still open, the impact speed is taken
+    from the approach speed w0 before the kick (``last_normal_speed``) and the kick's
+    acceleration a = (w1 - w0) / h over the gap: u = sqrt(w0^2 + 2 a s), between w0 and w1.
     """
     for c in range(body_a.shape[0]):
         a = body_a[c]
         b = body_b[c]
-        ra = anchor_a[c]
-        rb = anchor_b[c]
         n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
-        ds = 0.0
-        for k in range(3):
-            pb = x[b, k] + R[b, k, 0] * local_b[c, 0] + R[b, k, 1] * local_b[c, 1] + R[b, k, 2] * local_b[c, 2]
-            pa = x[a, k] + R[a, k, 0] * local_a[c, 0] + R[a, k, 1] * local_a[c, 1] + R[a, k, 2] * local_a[c, 2]
-            ds += normal[c, k] * (pb - pa)
-        s = separation[c] + ds
+        ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+        s = separation[c] + n0 * d[0] + n1 * d[1] + n2 * d[2]
         bias = 0.0
         mass_scale = 1.0
         impulse_scale = 0.0
@@ -252,11 +279,27 @@ def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, anchor_a, 
         vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
         impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
         new_impulse = max(normal_impulse[c] + impulse, 0.0)
+        if not use_bias and s > 0.0 and new_impulse > normal_impulse[c]:
+            # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
+            # here (the next substep's biased solve sees the gap before any position update)
+            # and it slows a falling body before it lands: the step after has a smaller approach
+            # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
+            # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
+            # takes back push-out here.
+            new_impulse = normal_impulse[c]
         if new_impulse > 0.0 and vn < relative_velocity[c]:
-            relative_velocity[c] = vn
+            u = -vn
+            w0 = -last_normal_speed[c]
+            if s > 0.0 and w0 > 0.0 and u > w0:
+                accel = (u - w0) * inv_h
+                u = min(math.sqrt(w0 * w0 + 2.0 * accel * s), u)
+            relative_velocity[c] = min(-u, relative_velocity[c])
         impulse = new_impulse - normal_impulse[c]
         normal_impulse[c] = new_impulse
         max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+        if not use_bias:
+            # the normal speed this substep ends with: the next substep's speed before its kick
+            last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
         _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
 
         # Coulomb friction: each direction with its own effective mass, then the accumulated
@@ -287,8 +330,8 @@ def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, anchor_a, 
 
 
 @njit(**JIT)
-def apply_restitution_kernel(body_a, body_b, normal, anchor_a, anchor_b, normal_mass, restitution,
-                             relative_velocity, max_normal_impulse, threshold, inv_mass, I_inv,
+def apply_restitution_kernel(body_a, body_b, normal, local_a, local_b, normal_mass, restitution,
+                             relative_velocity, max_normal_impulse, threshold, x, R, inv_mass, I_inv,
                              # outputs
                              v, omega, normal_impulse):
     """One pass after the substeps: where the pre-step approach speed was above ``threshold``
@@ -299,8 +342,7 @@ def apply_restitution_kernel(body_a, body_b, normal, anchor_a, anchor_b, normal_
             continue
         a = body_a[c]
         b = body_b[c]
-        ra = anchor_a[c]
-        rb = anchor_b[c]
+        ra, rb, _ = _arms(x, R, a, b, local_a, local_b, c)
         n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
         va0, va1, va2 = _point_velocity(v, omega, a, ra)
         vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
@@ -341,8 +383,9 @@ def integrate_positions_kernel(moving, v, omega, h,
 _C_FLOAT = {
     "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "tangent1": (3,), "tangent2": (3,),
     "normal_mass": (), "tangent_mass": (2,), "soft": (3,), "friction": (), "restitution": (),
-    "relative_velocity": (), "normal_impulse": (), "tangent_impulse": (2,), "max_normal_impulse": (),
+    "relative_velocity": (), "last_normal_speed": (), "normal_impulse": (), "tangent_impulse": (2,), "max_normal_impulse": (),
     "old_normal_impulse": (), "old_friction_impulse": (3,),
+    "step_normal_impulse": (), "step_tangent_impulse": (2,),
 }
 
 
@@ -365,6 +408,7 @@ class ContactSolver:
         self._reserve(capacity)
         self.old_key = np.zeros(0, dtype=np.int64)
         self.contacts = None
+        self._material_bodies = -1
 
     def _reserve(self, n: int):
         cap = max(self._capacity, 1)
@@ -386,14 +430,23 @@ class ContactSolver:
         raise AttributeError(name)
 
     # -- stages --------------------------------------------------------------------------
-    def prepare_contacts(self, world, contacts, h: float, v: np.ndarray, omega: np.ndarray):
-        """Set up this step's contacts from ``contacts`` (a ContactManifolds) at substep ``h``."""
+    def prepare_contacts(self, world, contacts, h: float, v: np.ndarray, omega: np.ndarray, x=None, R=None,
+                         I_inv=None):
+        """Set up this step's contacts from ``contacts`` (a ContactManifolds) at substep ``h``.
+
+        v, omega: (N, 3) the velocity arrays the solve will change (m/s, rad/s, world).
+        x: (N, >= 3) centres of mass (or the packed state), R: (N, 3, 3), I_inv: (N, 3, 3)
+        world inverse inertia (0 for bodies the solver must not move); default the world's.
+        """
         st = self.settings
         self.contacts = contacts
         self.world = world
         self.v = v
         self.omega = omega
         self.h = h
+        self.x = world.x if x is None else x
+        self.R = world.R if R is None else R
+        self.I_inv = world.I_inv if I_inv is None else I_inv
         n = contacts.contact_count
         self._reserve(max(n, self.old_count))
         self.count = n
@@ -402,42 +455,73 @@ class ContactSolver:
         self.soft_static = np.array(soft_coefficients(st.static_hertz_scale * hertz, st.static_damping_ratio, h))
         match = match_contacts(self.old_key, contacts.contact_key)
         nb = world.body_count
-        self.body_friction = np.array([m.friction for m in world.materials[:nb]], dtype=float)
-        self.body_restitution = np.array([m.restitution for m in world.materials[:nb]], dtype=float)
+        if nb != self._material_bodies:  # materials are constants: read them once per body count
+            self.body_friction = np.array([m.friction for m in world.materials[:nb]], dtype=float)
+            self.body_restitution = np.array([m.restitution for m in world.materials[:nb]], dtype=float)
+            self._material_bodies = nb
         b = self._buf
+        b["step_normal_impulse"][:n] = 0.0
+        b["step_tangent_impulse"][:n] = 0.0
         prepare_contacts_kernel(
             contacts.contact_body_a, contacts.contact_body_b, contacts.contact_point, contacts.contact_normal,
             contacts.contact_separation, match, b["old_normal_impulse"][: self.old_count],
-            b["old_friction_impulse"][: self.old_count], world.x, world.R, v, omega, world.inv_mass, world.I_inv,
+            b["old_friction_impulse"][: self.old_count], self.x, self.R, v, omega, world.inv_mass, self.I_inv,
             world.moving, self.body_friction, self.body_restitution, self.soft_dynamic, self.soft_static,
             self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.tangent1, self.tangent2,
             self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
+        b["last_normal_speed"][:n] = b["relative_velocity"][:n]
 
     def warm_start(self):
         c = self.contacts
         warm_start_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
-                          self.anchor_a, self.anchor_b, self.normal_impulse, self.tangent_impulse,
-                          self.world.inv_mass, self.world.I_inv, self.v, self.omega)
+                          self.local_a, self.local_b, self.normal_impulse, self.tangent_impulse,
+                          self.x, self.R, self.world.inv_mass, self.I_inv, self.v, self.omega)
 
     def solve_contacts(self, use_bias: bool):
         c = self.contacts
         w = self.world
         solve_contacts_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
-                              self.anchor_a, self.anchor_b, self.local_a, self.local_b, c.contact_separation,
-                              self.normal_mass, self.tangent_mass, self.soft, self.friction, w.x, w.R,
-                              w.inv_mass, w.I_inv, 1.0 / self.h, self.settings.contact_speed, bool(use_bias),
+                              self.local_a, self.local_b, c.contact_separation,
+                              self.normal_mass, self.tangent_mass, self.soft, self.friction, self.x, self.R,
+                              w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed, bool(use_bias),
                               self.v, self.omega, self.normal_impulse, self.tangent_impulse,
-                              self.max_normal_impulse, self.relative_velocity)
+                              self.max_normal_impulse, self.relative_velocity, self.last_normal_speed)
 
     def apply_restitution(self):
         c = self.contacts
-        apply_restitution_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.anchor_a,
-                                 self.anchor_b, self.normal_mass, self.restitution, self.relative_velocity,
+        # the restitution pass adds to the accumulated impulse: count the increment in the step's total
+        self.step_normal_impulse[:] -= self.normal_impulse
+        apply_restitution_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.local_a,
+                                 self.local_b, self.normal_mass, self.restitution, self.relative_velocity,
                                  self.max_normal_impulse, self.settings.restitution_threshold,
-                                 self.world.inv_mass, self.world.I_inv, self.v, self.omega,
+                                 self.x, self.R, self.world.inv_mass, self.I_inv, self.v, self.omega,
                                  self.normal_impulse)
+        self.step_normal_impulse[:] += self.normal_impulse
+
+    def accumulate_step_impulses(self):
+        """After a substep's relax: the accumulated impulses are what this substep applied
+        (its warm start applied the last value, its solves the increments); add them to the step's total."""
+        self.step_normal_impulse[:] += self.normal_impulse
+        self.step_tangent_impulse[:] += self.tangent_impulse
+
+    def warm_start_state(self) -> dict:
+        """The impulses kept for the next step's warm start, as arrays (for checkpoints): the keys
+        (K,) int64, normal impulses (K,) N s and friction impulses (K, 3) N s, world."""
+        k = self.old_count
+        return {"key": self.old_key[:k].copy(), "normal_impulse": self._buf["old_normal_impulse"][:k].copy(),
+                "friction_impulse": self._buf["old_friction_impulse"][:k].copy()}
+
+    def set_warm_start_state(self, state: dict):
+        """Inverse of ``warm_start_state``."""
+        key = np.asarray(state["key"], dtype=np.int64)
+        k = len(key)
+        self._reserve(max(k, self.count))
+        self._buf["old_normal_impulse"][:k] = state["normal_impulse"]
+        self._buf["old_friction_impulse"][:k] = state["friction_impulse"]
+        self.old_key = key.copy()
+        self.old_count = k
 
     def store_impulses(self):
         """Keep this step's impulses by ``contact_key``: normal as a number, friction as a world vector."""

@@ -5,7 +5,9 @@ simulator applies to the world as a whole (``batch_key``): dt, integrator,
 substeps, layout, duration, frame rate, gravity, the energy bound, the body
 names and which bodies are fixed, and the steps at which impulses act; and no
 force couples two bodies or calls Python (no springs, no custom forces) and the
-integrator is not adaptive. Their bodies may differ in anything else (shape,
+integrator is not adaptive, and the scene has no contact (collisions off, or fewer than two
+shapes that can collide: variants merged into one World must not touch each other, and the
+merged World has collisions off). Their bodies may differ in anything else (shape,
 mass, inertia, state, material) and so may their per-body forces (drag, wind,
 constant, point forces, impulses).
 
@@ -50,12 +52,21 @@ def batch_key(scene):
         return None
     if any(isinstance(f, (Spring, CustomForce)) for f in w.forces):
         return None
+    if w.collisions and _can_collide(w):
+        return None
     impulse_steps = tuple(sorted({int(np.ceil(f.time / scene.dt - 1e-9)) for f in w.forces if isinstance(f, Impulse)}))
     return (
         scene.integrator, scene.layout, float(scene.dt), int(scene.substeps), float(scene.duration), float(scene.frame_rate),
         tuple(float(g) for g in w.gravity), float(scene.max_energy_growth), tuple(w.names), tuple(bool(m) for m in w.moving),
         impulse_steps,
     )
+
+
+def _can_collide(world: World) -> bool:
+    """True when two shapes of the world can touch (contact would act in a single run)."""
+    from ..solver.soft_step import SoftStep
+
+    return SoftStep(world).has_collisions()
 
 
 def merge_worlds(worlds: list[World]) -> World:
@@ -68,6 +79,7 @@ def merge_worlds(worlds: list[World]) -> World:
     """
     w0 = worlds[0]
     merged = World(gravity=w0.gravity, layout=w0.layout)
+    merged.collisions = False  # the variants share space but never touch (batch_key)
     total = sum(w.body_count for w in worlds)
     merged._allocate(max(total, 1))
     for name, arr in merged._arrays.items():

@@ -1,0 +1,235 @@
+"""Contact through the Simulator (issue 3 acceptance): bounces against h e^(2k), sliding against
+the textbook incline, conservation in free collisions, resting impulse against m g, continuous
+collision against a thin wall. Every run uses the Simulator's defaults (dt 1/240 s, rk4 in flight,
+the soft step in contact) unless a test says otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import tumble as tb
+
+G = 9.81
+
+
+def ground_world(gravity=(0.0, 0.0, -G)):
+    w = tb.World(gravity=gravity)
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground", material=tb.Material(friction=0.0))
+    return w
+
+
+# ---------------------------------------------------------------------- restitution
+def test_bouncing_sphere_apexes_follow_h_e_2k():
+    """Radius 0.5, its lowest point dropped from 2 m, e = 0.8, no friction. The apex of bounce k
+    is h e^(2k) (each bounce returns e of the speed, so e^2 of the height). The apex is read from
+    the highest recorded frame of each flight as z + vz^2 / 2g (exact on a parabola, and the flight
+    away from the ground is the rk4 step, exact for constant gravity). Tolerance: the issue's 1 %.
+    Measured (dt 1/240 s): -0.03, -0.08, -0.16, -0.32, -0.61 %: the steps the ball spends within
+    the speculative margin after each bounce are semi-implicit Euler, which loses g h^2 / 2 of
+    height a step."""
+    h, e, r = 2.0, 0.8, 0.5
+    w = ground_world()
+    w.add_body(tb.Sphere(radius=r), mass=1.0, position=(0, 0, h + r), name="ball",
+               material=tb.Material(friction=0.0, restitution=e))
+    traj = tb.Simulator(w).run(6.0, frame_rate=240)
+    z = traj.position[:, 1, 2] - r
+    vz = traj.velocity[:, 1, 2]
+    apex_estimate = z + np.where(vz > 0, vz * vz / (2 * G), 0.0)
+    # flights start where vz turns from negative to positive (a bounce)
+    bounces = np.flatnonzero((vz[:-1] < 0) & (vz[1:] > 0)) + 1
+    assert len(bounces) >= 6
+    for k in range(5):
+        flight = slice(bounces[k], bounces[k + 1])
+        apex = apex_estimate[flight].max()
+        expected = h * e ** (2 * (k + 1))
+        assert apex == pytest.approx(expected, rel=0.01), (k + 1, apex, expected)
+
+
+def test_restitution_threshold_ends_bouncing_and_the_ball_rests():
+    """Below 1 m/s (RESTITUTION_THRESHOLD) impacts are inelastic, so a bouncing ball comes to rest
+    on the ground instead of chattering: after 10 s it lies at z = r within 1 mm, still."""
+    w = ground_world()
+    w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(0, 0, 2.5), name="ball",
+               material=tb.Material(friction=0.0, restitution=0.8))
+    sim = tb.Simulator(w)
+    sim.run(10.0, frame_rate=4)
+    assert abs(w.x[1, 2] - 0.5) < 1e-3
+    assert np.linalg.norm(w.v[1]) < 1e-3
+
+
+# ---------------------------------------------------------------------- friction
+def incline_world(mu, angle_deg=30.0):
+    """A 1 m cube on a fixed slab tilted by angle about y; the cube starts resting on it."""
+    a = math.radians(angle_deg)
+    w = tb.World(gravity=(0, 0, -G))
+    q_tilt = (math.cos(a / 2), 0.0, math.sin(a / 2), 0.0)  # rotation by a about +y
+    down_slope = np.array([-math.cos(a), 0.0, math.sin(a)])  # rotated +x is (cos a, 0, -sin a): downhill is +x'
+    normal = np.array([math.sin(a), 0.0, math.cos(a)])
+    w.add_body(tb.Box(size=(20, 4, 1)), fixed=True, name="slope", orientation=q_tilt,
+               position=tuple(-0.5 * normal), material=tb.Material(friction=mu))
+    w.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, name="block", orientation=q_tilt,
+               position=tuple(0.5 * normal), material=tb.Material(friction=mu))
+    return w, -down_slope, normal
+
+
+def test_block_slides_down_incline_at_the_coulomb_acceleration():
+    """mu = 0.3 on 30 degrees: a = g (sin 30 - mu cos 30) along the slope (kinetic friction mu N,
+    N = m g cos 30). Fitted from the velocity along the slope between 0.5 s and 2 s (constant
+    acceleration: a straight line). Tolerance: the issue's 1 %."""
+    mu = 0.3
+    w, downhill, _ = incline_world(mu)
+    traj = tb.Simulator(w).run(2.0, frame_rate=48)
+    t = traj.time
+    speed = traj.velocity[:, 1] @ downhill
+    sel = t >= 0.5
+    slope = np.polyfit(t[sel], speed[sel], 1)[0]
+    expected = G * (math.sin(math.radians(30)) - mu * math.cos(math.radians(30)))
+    assert slope == pytest.approx(expected, rel=0.01)
+
+
+@pytest.mark.slow
+def test_block_sticks_on_incline_when_friction_holds_it():
+    """mu = 0.7 > tan 30 = 0.577: static friction holds; the block drifts under 1 mm in 5 s (issue)."""
+    w, downhill, _ = incline_world(0.7)
+    x0 = w.x[1].copy()
+    tb.Simulator(w).run(5.0, frame_rate=4)
+    assert np.linalg.norm(w.x[1] - x0) < 1e-3
+
+
+# ---------------------------------------------------------------------- conservation
+def total_momenta(w):
+    m = w.moving
+    P = w.P[m].sum(axis=0)
+    L = (np.cross(w.x[m], w.P[m]) + w.L[m]).sum(axis=0)
+    return P, L
+
+
+def test_free_collision_conserves_linear_and_angular_momentum():
+    """Two spinning boxes hit off-centre with friction and e = 0.5, no gravity. Contact impulses are
+    equal and opposite at one point, so P and L about the origin are conserved up to round-off:
+    1e-9 relative (issue)."""
+    w = tb.World(gravity=(0, 0, 0))
+    mat = tb.Material(friction=0.6, restitution=0.5)
+    w.add_body(tb.Box(size=(1, 0.6, 0.4)), mass=2.0, position=(-1.0, 0.15, 0.1), velocity=(3, 0, 0),
+               angular_velocity=(0.5, 1.0, 2.0), material=mat, name="a")
+    w.add_body(tb.Box(size=(0.5, 0.8, 0.7)), mass=1.0, position=(1.0, -0.1, 0.0), velocity=(-2, 0.3, 0),
+               angular_velocity=(-1.0, 0.2, 0.7), euler_deg=(10, 20, 30), material=mat, name="b")
+    P0, L0 = total_momenta(w)
+    sim = tb.Simulator(w)
+    touched = 0
+    for _ in range(240):
+        sim.step(1)
+        touched += len(sim.contacts())
+    assert touched > 0
+    P1, L1 = total_momenta(w)
+    assert np.linalg.norm(P1 - P0) <= 1e-9 * np.linalg.norm(P0)
+    assert np.linalg.norm(L1 - L0) <= 1e-9 * np.linalg.norm(L0)
+
+
+def test_elastic_head_on_collision_keeps_kinetic_energy_and_gives_the_textbook_velocities():
+    """Two spheres (1 kg, 3 kg), e = 1, no friction, head on, no gravity: kinetic energy after
+    equals before within 1e-6 relative (issue) and the velocities are the 1-D elastic impact's,
+    v1' = ((m1 - m2) v1 + 2 m2 v2) / (m1 + m2) and v2' = ((m2 - m1) v2 + 2 m1 v1) / (m1 + m2), to 1e-9."""
+    w = tb.World(gravity=(0, 0, 0))
+    mat = tb.Material(friction=0.0, restitution=1.0)
+    m1, m2, v1, v2 = 1.0, 3.0, 4.0, -1.0
+    w.add_body(tb.Sphere(radius=0.3), mass=m1, position=(-1, 0, 0), velocity=(v1, 0, 0), material=mat, name="a")
+    w.add_body(tb.Sphere(radius=0.4), mass=m2, position=(1, 0, 0), velocity=(v2, 0, 0), material=mat, name="b")
+    e0 = w.kinetic_energy()
+    tb.Simulator(w).run(1.0, frame_rate=24)
+    assert w.kinetic_energy() == pytest.approx(e0, rel=1e-6)
+    assert w.v[0, 0] == pytest.approx(((m1 - m2) * v1 + 2 * m2 * v2) / (m1 + m2), abs=1e-9)
+    assert w.v[1, 0] == pytest.approx(((m2 - m1) * v2 + 2 * m1 * v1) / (m1 + m2), abs=1e-9)
+
+
+def test_elastic_off_centre_collision_energy_error_is_small_and_shrinks_with_dt():
+    """Off-centre, the contact normal and point are those found at the start of the step, when the
+    spheres are still up to one step's travel apart; the line of centres turns a little before they
+    touch, so the impulse is slightly off the line of centres and spins them (a known first-order
+    error of contacts detected once a step, as in Box2D/Box3D). Measured: relative energy error
+    5.5e-4 at dt 1/240 s, 6.3e-6 at 1/1920 s. Bounds: 1e-3 at 1/240 and 2e-5 at 1/1920, and
+    momentum still to 1e-9 (the impulses of a contact act at one point)."""
+    errors = []
+    for dt in (1 / 240, 1 / 1920):
+        w = tb.World(gravity=(0, 0, 0))
+        mat = tb.Material(friction=0.0, restitution=1.0)
+        w.add_body(tb.Sphere(radius=0.3), mass=1.0, position=(-1, 0.2, 0), velocity=(4, 0, 0), material=mat, name="a")
+        w.add_body(tb.Sphere(radius=0.4), mass=3.0, position=(1, -0.1, 0), velocity=(-1, 0, 0), material=mat, name="b")
+        e0 = w.kinetic_energy()
+        P0, L0 = total_momenta(w)
+        tb.Simulator(w, dt=dt).run(0.5, frame_rate=24)
+        errors.append(abs(w.kinetic_energy() / e0 - 1))
+        P1, L1 = total_momenta(w)
+        assert np.linalg.norm(P1 - P0) <= 1e-9 * np.linalg.norm(P0)
+        assert np.linalg.norm(L1 - L0) <= 1e-9 * np.linalg.norm(L0)
+    assert errors[0] < 1e-3
+    assert errors[1] < 2e-5
+
+
+# ---------------------------------------------------------------------- resting contact
+def test_resting_box_carries_its_weight():
+    """A 2 kg box on the ground: over 1 s after settling, the normal impulses of its contacts sum to
+    m g (1 s) within 0.1 %; penetration under 1 mm; speed under 1 mm/s (issue)."""
+    w = ground_world()
+    m = 2.0
+    w.add_body(tb.Box(size=(0.4, 0.6, 0.3)), mass=m, position=(0, 0, 0.15), name="box",
+               material=tb.Material(friction=0.5))
+    sim = tb.Simulator(w)
+    sim.step(240)  # settle 1 s
+    total = 0.0
+    deepest = 0.0
+    for _ in range(240):
+        sim.step(1)
+        c = sim.contacts()
+        total += c.normal_impulse.sum()
+        deepest = min(deepest, c.separation.min())
+    assert total == pytest.approx(m * G * 1.0, rel=1e-3)
+    assert -deepest < 1e-3
+    assert np.linalg.norm(w.v[1]) < 1e-3
+    assert np.linalg.norm(w.omega[1]) < 1e-2
+
+
+# ---------------------------------------------------------------------- continuous collision
+@pytest.mark.parametrize("dt", [1 / 240, 1 / 60])
+def test_fast_small_sphere_does_not_tunnel_through_a_thin_wall(dt):
+    """A 1 cm sphere at 100 m/s moves 0.42 m (dt 1/240) or 1.7 m (1/60) a step, 40-170 times the
+    1 cm wall: without continuous collision it would jump over. Speculative margins make the
+    contact before the step; the sphere must end on the near side."""
+    w = tb.World(gravity=(0, 0, 0))
+    w.add_body(tb.Box(size=(0.01, 2, 2)), fixed=True, position=(0, 0, 0), name="wall")
+    w.add_body(tb.Sphere(radius=0.005), mass=0.001, position=(-3.0, 0.0, 0.0), velocity=(100, 0, 0), name="bullet",
+               material=tb.Material(restitution=0.0))
+    sim = tb.Simulator(w, dt=dt)
+    sim.run(0.25, frame_rate=24 if dt == 1 / 240 else 12)
+    assert w.x[1, 0] < -0.005 + 1e-4
+
+
+def test_fast_small_sphere_does_not_tunnel_through_a_moving_body():
+    """The same bullet against a thin moving plate coming the other way at 5 m/s."""
+    w = tb.World(gravity=(0, 0, 0))
+    w.add_body(tb.Box(size=(0.01, 1, 1)), mass=50.0, position=(0.5, 0, 0), velocity=(-5, 0, 0), name="plate")
+    w.add_body(tb.Sphere(radius=0.005), mass=0.001, position=(-3.0, 0.0, 0.0), velocity=(100, 0, 0), name="bullet")
+    sim = tb.Simulator(w)
+    sim.run(0.25, frame_rate=24)
+    assert w.x[1, 0] < w.x[0, 0] - 0.005
+
+
+# ---------------------------------------------------------------------- free flight is the integrator's
+def test_bodies_without_contacts_move_exactly_as_without_collisions():
+    """Two boxes far apart (no contact in any step): the world with collisions on gives the same
+    bits as with collisions off, since bodies without contacts take the chosen integrator's step."""
+    def build(collisions):
+        w = tb.World(gravity=(0, 0, -G))
+        w.collisions = collisions
+        w.add_body(tb.Box(size=(0.2, 0.6, 1.0)), mass=2.0, position=(0, 0, 0), angular_velocity=(0.1, 5, 0.1))
+        w.add_body(tb.Box(size=(0.3, 0.3, 0.3)), mass=1.0, position=(5, 0, 0), velocity=(1, 0, 3))
+        return w
+
+    a, b = build(True), build(False)
+    tb.Simulator(a).run(1.0)
+    tb.Simulator(b).run(1.0)
+    assert np.array_equal(a.pack(), b.pack())
