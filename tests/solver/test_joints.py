@@ -1,0 +1,268 @@
+"""Joint records (tumble.joints) and the joint solver (tumble.solver.joints) through the
+standalone stepper ``step_with_joints``: input errors, each joint type's kinematics,
+limits, springs/drives, breaking, reactions, readings."""
+
+import math
+
+import numpy as np
+import pytest
+
+import tumble as tb
+from tumble.joints import (
+    BallJoint,
+    DistanceJoint,
+    FixedJoint,
+    HingeJoint,
+    SliderJoint,
+    UniversalJoint,
+    jointed_body_pairs,
+)
+from tumble.solver.joints import ACCURATE, JointSettings, JointSolver, step_with_joints
+
+DT = 1 / 240
+
+
+def world_with(*positions, gravity=(0.0, 0.0, -9.81)):
+    w = tb.World(gravity=gravity)
+    bodies = [w.add_body(tb.Sphere(0.1), mass=1.0, position=p, name=f"b{i}") for i, p in enumerate(positions)]
+    return w, bodies
+
+
+def run(w, seconds, settings=ACCURATE, dt=DT, substeps=4, each=None):
+    solver = JointSolver(settings)
+    for k in range(round(seconds / dt)):
+        step_with_joints(w, solver, dt, substeps)
+        if each is not None:
+            each(k, solver)
+    return solver
+
+
+# ---------------------------------------------------------------------- input errors
+@pytest.mark.parametrize("joint, key, text", [
+    (lambda b: BallJoint("nobody", b[0]), "body_a", "unknown body 'nobody'"),
+    (lambda b: BallJoint(b[0], b[0]), "body_b", "two different bodies"),
+    (lambda b: BallJoint("world", None), "body_b", "two different bodies"),
+    (lambda b: HingeJoint(b[0], axis=(0, 0, 0)), "axis", "zero vector"),
+    (lambda b: SliderJoint(b[0], axis=(0, 0, 0)), "axis", "zero vector"),
+    (lambda b: HingeJoint(b[0], lower=1.0, upper=-1.0), "lower", "wrong way round"),
+    (lambda b: SliderJoint(b[0], lower=0.5, upper=0.1), "lower", "wrong way round"),
+    (lambda b: DistanceJoint(b[0], b[1], min_length=2.0, max_length=1.0), "min_length", "wrong way round"),
+    (lambda b: BallJoint(b[0], cone_limit=-0.1), "cone_limit", ">= 0"),
+    (lambda b: UniversalJoint(b[0], axis=(1, 0, 0), axis_b=(1, 1, 0)), "axis_b", "perpendicular"),
+    (lambda b: BallJoint(b[0], frame="local"), "frame", "'world' or 'body'"),
+    (lambda b: HingeJoint(b[0], stiffness=-1.0), "stiffness", ">= 0"),
+    (lambda b: HingeJoint(b[0], anchor=(0, math.nan, 0)), "anchor", "finite"),
+    (lambda b: BallJoint(b[0], max_force=-5.0), "max_force", ">= 0"),
+])
+def test_bad_input_is_one_clear_line(joint, key, text):
+    w, bodies = world_with((0, 0, 0), (1, 0, 0))
+    with pytest.raises(tb.InputError) as err:
+        w.add_joint(joint(bodies))
+    assert err.value.key == key
+    assert text in str(err.value)
+    assert "\n" not in str(err.value)
+    assert w.joints == []
+
+
+def test_not_a_joint_is_refused():
+    w, _ = world_with((0, 0, 0))
+    with pytest.raises(tb.InputError):
+        w.add_joint("hinge")
+
+
+# ---------------------------------------------------------------------- kinematics per type
+def test_body_frame_anchors_equal_world_anchors():
+    # the same joint given in world coordinates and in the bodies' frames (joint_grid style)
+    w1, (a1, b1) = world_with((0, 0, 0), (0, -1, 0))
+    w1.add_joint(BallJoint(a1, b1, anchor=(0, -0.5, 0)))
+    w2, (a2, b2) = world_with((0, 0, 0), (0, -1, 0))
+    w2.add_joint(BallJoint(a2, b2, anchor=(0, -0.5, 0), anchor_b=(0, 0.5, 0), frame="body"))
+    for w in (w1, w2):
+        w.body("b0").v = (0.0, 0.0, 0.0)
+    np.testing.assert_allclose(w1.joints[0].bound.local_a, w2.joints[0].bound.local_a)
+    np.testing.assert_allclose(w1.joints[0].bound.local_b, w2.joints[0].bound.local_b)
+
+
+def test_slider_moves_along_its_axis_only():
+    # a body on a slider to the world along (1, 0, -1)/sqrt 2 slides down it at g sin 45
+    # (frictionless incline without rotation): x(t) = 1/2 g/sqrt2 t^2 along the axis
+    w, (b,) = world_with((0, 0, 0))
+    axis = np.array([1.0, 0.0, -1.0]) / math.sqrt(2)
+    w.add_joint(SliderJoint(b, None, anchor=(0, 0, 0), axis=axis))
+    q0 = w.q[0].copy()
+    solver = run(w, 0.5)
+    expected = 0.5 * 9.81 / math.sqrt(2) * 0.5**2
+    assert float(w.x[0] @ axis) == pytest.approx(expected, rel=1e-2)
+    assert np.linalg.norm(w.x[0] - (w.x[0] @ axis) * axis) < 1e-6
+    np.testing.assert_allclose(w.q[0], q0, atol=1e-9)
+    # the reading is the displacement of b (the world) relative to a, along the axis
+    assert solver.position[0] == pytest.approx(-float(w.x[0] @ axis), rel=1e-9)
+
+
+def test_fixed_joint_keeps_the_relative_pose():
+    w, (a, b) = world_with((0, 0, 1), (0.5, 0.2, 1.3), gravity=(0, 0, 0))
+    a.omega = (1.0, 2.0, 0.5)
+    a.v = (0.3, 0.0, 0.0)
+    w.add_joint(FixedJoint(a, b, anchor=(0.2, 0.1, 1.1)))
+    rel0 = w.R[0].T @ w.R[1]
+    off0 = w.R[0].T @ (w.x[1] - w.x[0])
+    run(w, 1.0)
+    np.testing.assert_allclose(w.R[0].T @ w.R[1], rel0, atol=1e-6)
+    np.testing.assert_allclose(w.R[0].T @ (w.x[1] - w.x[0]), off0, atol=1e-6)
+
+
+def test_universal_joint_keeps_its_axes_perpendicular_and_anchors_together():
+    w, (a, b) = world_with((0, 0, 0), (0, 0, -1))
+    w.add_joint(UniversalJoint(a, None, anchor=(0, 0, 0.5), axis=(1, 0, 0), axis_b=(0, 1, 0)))
+    w.add_joint(UniversalJoint(a, b, anchor=(0, 0, -0.5), axis=(1, 0, 0), axis_b=(0, 1, 0)))
+    b.v = (1.0, 0.5, 0.0)
+    solver = run(w, 1.0)
+    Fa = solver.frame_a[1]
+    Fb = solver.frame_b[1]
+    xa = w.R[0] @ Fa[:, 0]
+    yb = w.R[1] @ Fb[:, 1]
+    assert abs(float(xa @ yb)) < 1e-6
+    gap = w.R[0] @ solver.local_a[1] + w.x[0] - w.R[1] @ solver.local_b[1] - w.x[1]
+    assert np.linalg.norm(gap) < 1e-6
+
+
+def test_rope_is_slack_then_taut():
+    # a rope of 1 m from the world anchor to a body 0.5 m below it: free fall for 0.5 m,
+    # then the rope holds at 1 m
+    w, (b,) = world_with((0, 0, -0.5))
+    w.add_joint(DistanceJoint(b, None, anchor=(0, 0, -0.5), anchor_b=(0, 0, 0), min_length=0.0, max_length=1.0))
+    z = []
+    run(w, 1.0, each=lambda k, s: z.append(w.x[0, 2]))
+    t_fall = math.sqrt(2 * 0.5 / 9.81)
+    k = round(0.8 * t_fall / DT)
+    # falling freely (semi-implicit Euler: within g h t of the parabola)
+    assert z[k] == pytest.approx(-0.5 - 0.5 * 9.81 * ((k + 1) * DT) ** 2, abs=3e-3)
+    assert min(z) > -1.0 - 1e-3
+    assert z[-1] == pytest.approx(-1.0, abs=1e-3)
+
+
+def test_rigid_rod_keeps_its_length():
+    w, (a, b) = world_with((0, 0, 0), (0.7, 0, 0.7), gravity=(0, 0, 0))
+    a.v = (0.0, 1.0, 0.0)
+    w.add_joint(DistanceJoint(a, b, anchor=(0, 0, 0), anchor_b=(0.7, 0, 0.7)))
+    solver = run(w, 1.0)
+    assert float(np.linalg.norm(w.x[1] - w.x[0])) == pytest.approx(0.7 * math.sqrt(2), abs=1e-6)
+    assert solver.position[0] == pytest.approx(0.7 * math.sqrt(2), abs=1e-6)
+
+
+# ---------------------------------------------------------------------- limits, springs, drives
+def test_hinge_limits_stop_the_swing():
+    # a pendulum released from horizontal, limited to [-0.5, 0.5] rad about the hinge
+    w, (b,) = world_with((1, 0, 0))
+    w.add_joint(HingeJoint("world", b, anchor=(0, 0, 0), axis=(0, 1, 0), lower=-0.5, upper=0.5))
+    seen = []
+    run(w, 2.0, settings=JointSettings(), each=lambda k, s: seen.append(float(s.position[0])))
+    assert min(seen) > -0.5 - 0.02 and max(seen) < 0.5 + 0.02
+    assert max(seen) > 0.45  # it reached the limit (gravity pulls to +pi/2)
+
+
+def test_slider_limit_holds_against_gravity():
+    w, (b,) = world_with((0, 0, 0))
+    w.add_joint(SliderJoint("world", b, anchor=(0, 0, 0), axis=(0, 0, 1), lower=-0.2, upper=0.2))
+    solver = run(w, 1.0, settings=JointSettings())
+    assert w.x[0, 2] == pytest.approx(-0.2, abs=5e-3)
+    # the lower limit carries the weight: 9.81 N up on the body
+    assert solver.readings(0)["force"][2] == pytest.approx(9.81, rel=1e-3)
+
+
+def test_cone_limit_of_ball_joint():
+    # a pendulum on a ball joint hanging straight down (swing 0 at creation), kicked hard
+    # sideways: its axis stays within the 30 deg cone about the downward vertical
+    w, (b,) = world_with((0, 0, -1))
+    b.v = (4.0, 2.0, 0.0)
+    w.add_joint(BallJoint("world", b, anchor=(0, 0, 0), axis=(0, 0, -1), cone_limit=math.radians(30)))
+    angles = []
+    run(w, 2.0, settings=JointSettings(),
+        each=lambda k, s: angles.append(math.degrees(math.acos(-w.x[0, 2] / np.linalg.norm(w.x[0])))))
+    assert 29.0 < max(angles) < 31.0
+
+
+def test_slider_spring_oscillates_at_its_natural_frequency():
+    # 1 kg on a slider spring k = 100 N/m, no gravity: period 2 pi sqrt(m/k) = 0.628 s
+    w, (b,) = world_with((0, 0, 0), gravity=(0, 0, 0))
+    w.add_joint(SliderJoint("world", b, anchor=(0, 0, 0), axis=(1, 0, 0), stiffness=100.0, target=0.1))
+    xs = []
+    run(w, 2.0, each=lambda k, s: xs.append(float(s.position[0])))
+    xs = np.array(xs) - 0.1
+    idx = np.flatnonzero((xs[:-1] < 0) & (xs[1:] >= 0))
+    period = np.mean(np.diff(idx)) * DT
+    assert period == pytest.approx(2 * math.pi * math.sqrt(1 / 100.0), rel=0.01)
+
+
+def test_hinge_pd_drive_reaches_its_target_angle():
+    w, (b,) = world_with((1, 0, 0), gravity=(0, 0, 0))
+    w.add_joint(HingeJoint("world", b, anchor=(0, 0, 0), axis=(0, 0, 1), stiffness=50.0, damping=10.0,
+                           target=math.radians(40)))
+    solver = run(w, 3.0)
+    assert solver.position[0] == pytest.approx(math.radians(40), abs=1e-3)
+    assert math.degrees(math.atan2(w.x[0, 1], w.x[0, 0])) == pytest.approx(40.0, abs=0.1)
+
+
+def test_set_motor_speed_between_steps():
+    w, (b,) = world_with((1, 0, 0), gravity=(0, 0, 0))
+    w.add_joint(HingeJoint("world", b, anchor=(0, 0, 0), axis=(0, 0, 1), motor_speed=1.0, name="m"))
+    solver = JointSolver(ACCURATE)
+    step_with_joints(w, solver, DT, 4)
+    assert solver.readings("m")["rate"] == pytest.approx(1.0)
+    solver.set_motor_speed("m", -2.0)
+    step_with_joints(w, solver, DT, 4)
+    assert solver.readings("m")["rate"] == pytest.approx(-2.0)
+
+
+# ---------------------------------------------------------------------- breaking, pairs, reactions
+def test_breakable_joint_breaks_above_max_force():
+    w, (a, b) = world_with((0, 0, 0), (0, 0, -1))
+    w.add_joint(BallJoint("world", a, anchor=(0, 0, 0)))
+    weak = w.add_joint(BallJoint(a, b, anchor=(0, 0, -0.5), max_force=5.0))  # holds 9.81 N: breaks
+    assert jointed_body_pairs(w).tolist() == [[0, 1]]
+    solver = run(w, 0.5)
+    assert weak.broken and not solver.enabled[1]
+    assert w.x[1, 2] < -1.5  # fell
+    assert jointed_body_pairs(w).shape == (0, 2)
+    assert not w.joints[0].broken
+
+
+def test_reaction_of_a_hanging_body_is_its_weight():
+    w, (b,) = world_with((0, 0, -1))
+    w.add_joint(BallJoint("world", b, anchor=(0, 0, 0)))
+    solver = run(w, 0.5)
+    np.testing.assert_allclose(solver.readings(0)["force"], (0, 0, 9.81), atol=1e-6)
+
+
+def test_jointed_body_pairs_lists_pairs_not_to_collide():
+    w, bodies = world_with((0, 0, 0), (1, 0, 0), (2, 0, 0))
+    w.add_joint(BallJoint(bodies[2], bodies[1], anchor=(1.5, 0, 0)))
+    w.add_joint(BallJoint(bodies[0], bodies[1], anchor=(0.5, 0, 0), collide_connected=True))
+    w.add_joint(BallJoint(bodies[0], None, anchor=(0, 0, 0)))
+    pairs = jointed_body_pairs(w)
+    assert pairs.dtype == np.int64 and pairs.tolist() == [[1, 2]]
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "tree"])
+def test_both_methods_keep_a_loop_closed(method):
+    # a four-bar loop: three 1 m bars on hinges, both ends on the world; the tree method
+    # leaves the loop-closing hinge to Gauss-Seidel. The loop is redundant in 3-D (four
+    # parallel hinges), which the soft rows absorb.
+    w = tb.World(gravity=(0, 0, -9.81))
+    pts = [(0, 0, 0), (0, 0, -1), (1, 0, -1), (1, 0, 0)]
+    sizes = [(0.05, 0.05, 1.0), (1.0, 0.05, 0.05), (0.05, 0.05, 1.0)]
+    links = [w.add_body(tb.Box(sizes[i]), mass=1.0, position=np.mean([pts[i], pts[i + 1]], axis=0), name=f"l{i}")
+             for i in range(3)]
+    w.add_joint(HingeJoint("world", links[0], anchor=pts[0], axis=(0, 1, 0)))
+    w.add_joint(HingeJoint(links[0], links[1], anchor=pts[1], axis=(0, 1, 0)))
+    w.add_joint(HingeJoint(links[1], links[2], anchor=pts[2], axis=(0, 1, 0)))
+    w.add_joint(HingeJoint(links[2], "world", anchor=pts[3], axis=(0, 1, 0)))
+    links[1].v = (1.0, 0.0, 0.0)
+    solver = run(w, 1.0, settings=JointSettings(method=method))
+    if method == "tree":
+        assert solver.gauss_seidel.sum() == 1
+    gap = w.R[2] @ solver.local_a[3] + w.x[2] - solver.local_b[3]
+    assert np.linalg.norm(gap) < 2e-3
+    # a parallelogram: the coupler stays horizontal while it swings
+    assert abs(w.x[1, 0] - 0.5) > 0.02 or np.linalg.norm(w.v[1]) > 0.1
+    np.testing.assert_allclose(w.R[1][:, 0], (1, 0, 0), atol=5e-3)
