@@ -249,7 +249,7 @@ class DistanceJoint(Joint):
 
     Args:
         min_length, max_length: m. Both None (default): a rigid rod of the length at
-            creation. Equal: a rigid rod of that length. ``min_length=0`` and
+            creation. One of them None: 0 or no upper bound. Equal: a rigid rod of that length. ``min_length=0`` and
             ``max_length=L``: a rope with slack (pulls only when taut).
         stiffness: N/m, damping: N s/m: a spring-damper along the line to ``target``
             (m, default the length at creation), at most ``max_drive_force`` N.
@@ -267,7 +267,8 @@ class DistanceJoint(Joint):
         if self.min_length is None and self.max_length is None:
             lo = hi = length
         else:
-            lo, hi = _limits(self.min_length, self.max_length, "min_length", "max_length")
+            lo, hi = _limits(0.0 if self.min_length is None else self.min_length, self.max_length,
+                             "min_length", "max_length")
             if lo < 0:
                 raise InputError(f"must be >= 0, got {lo:g}", "min_length")
         if hi == lo == 0.0:

@@ -266,3 +266,81 @@ def test_both_methods_keep_a_loop_closed(method):
     # a parallelogram: the coupler stays horizontal while it swings
     assert abs(w.x[1, 0] - 0.5) > 0.02 or np.linalg.norm(w.v[1]) > 0.1
     np.testing.assert_allclose(w.R[1][:, 0], (1, 0, 0), atol=5e-3)
+
+
+# ---------------------------------------------------------------------- scene files
+from tumble.scene_joints import parse_joint_settings, parse_joints  # noqa: E402
+
+
+def scene_world():
+    w = tb.World()
+    w.add_body(tb.Sphere(0.1), mass=1.0, position=(0, 0, -1), name="bob")
+    w.add_body(tb.Sphere(0.1), mass=1.0, position=(1, 0, -1), name="bob2")
+    return w
+
+
+def test_parse_joints_builds_each_type():
+    w = scene_world()
+    entries = [
+        {"type": "hinge", "name": "h", "body_a": "bob", "anchor": [0, 0, 0], "axis": [0, 1, 0], "lower_deg": -45,
+         "upper_deg": 45, "motor_speed": 1.0, "max_motor_torque": 2.0},
+        {"type": "ball", "body_a": "bob", "body_b": "bob2", "anchor": [0.5, 0, -1], "cone_limit_deg": 30},
+        {"type": "slider", "body_a": "bob2", "body_b": "world", "axis": [1, 0, 0], "lower": -0.1, "upper": 0.1},
+        {"type": "fixed", "body_a": "bob", "body_b": "bob2", "collide_connected": True},
+        {"type": "distance", "body_a": "bob", "body_b": "bob2", "anchor": [0, 0, -1], "anchor_b": [1, 0, -1],
+         "min_length": 0.0, "max_length": 1.5, "max_force": float("inf")},
+        {"type": "universal", "body_a": "bob", "body_b": "bob2", "anchor": [0.5, 0, -1], "axis": [1, 0, 0],
+         "axis_b": [0, 0, 1], "frame": "world"},
+    ]
+    records = parse_joints(entries, w, "s.toml")
+    assert [type(r).__name__ for r in records] == ["HingeJoint", "BallJoint", "SliderJoint", "FixedJoint",
+                                                    "DistanceJoint", "UniversalJoint"]
+    assert records[0].lower == pytest.approx(-math.pi / 4) and records[1].cone_limit == pytest.approx(math.pi / 6)
+    assert len(w.joints) == 6
+
+
+@pytest.mark.parametrize("entry, line", [
+    ({"body_a": "bob"}, "s.toml: joints[0]: missing key 'type'"),
+    ({"type": "hinj", "body_a": "bob"}, "s.toml: joints[0].type: unknown joint type 'hinj'"),
+    ({"type": "hinge"}, "s.toml: joints[0]: missing key 'body_a'"),
+    ({"type": "hinge", "body_a": "nobody"}, "s.toml: joints[0].body_a: unknown body 'nobody'"),
+    ({"type": "hinge", "body_a": "bob", "body_b": "ghost"}, "s.toml: joints[0].body_b: unknown body 'ghost'"),
+    ({"type": "hinge", "body_a": "bob", "axis": [0, 0, 0]}, "s.toml: joints[0].axis: must not be the zero vector"),
+    ({"type": "hinge", "body_a": "bob", "lower": 1, "upper": 0},
+     "s.toml: joints[0].lower: limits the wrong way round: lower 1 > upper 0"),
+    ({"type": "hinge", "body_a": "bob", "lower": 0.1, "lower_deg": 5},
+     "s.toml: joints[0].lower_deg: give lower or lower_deg, not both"),
+    ({"type": "ball", "body_a": "bob", "lower": 0.1}, "s.toml: joints[0].lower: unknown key for a ball joint"),
+    ({"type": "slider", "body_a": "bob", "axis": [1, 0]}, "s.toml: joints[0].axis: expected a list of 3 numbers"),
+    ({"type": "slider", "body_a": "bob", "stiffness": "stiff"},
+     "s.toml: joints[0].stiffness: expected a number, got 'stiff' (a string)"),
+    ({"type": "fixed", "body_a": "bob", "body_b": "bob"}, "s.toml: joints[0].body_b: a joint needs two different"),
+    ({"type": "fixed", "body_a": "bob", "collide_connected": 1},
+     "s.toml: joints[0].collide_connected: expected true or false"),
+    ({"type": "distance", "body_a": "bob", "max_length": -1.0},
+     "s.toml: joints[0].min_length: limits the wrong way round"),
+])
+def test_parse_joints_errors(entry, line):
+    w = scene_world()
+    with pytest.raises(tb.InputError) as err:
+        parse_joints([entry], w, "s.toml")
+    assert str(err.value).startswith(line), str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_parse_joints_refuses_a_non_list_and_duplicate_names():
+    w = scene_world()
+    with pytest.raises(tb.InputError, match="joints: expected a list of tables"):
+        parse_joints({"type": "ball"}, w, "s.toml")
+    with pytest.raises(tb.InputError, match=r"joints\[1\].name: duplicate joint name 'j'"):
+        parse_joints([{"type": "ball", "body_a": "bob", "name": "j"}, {"type": "ball", "body_a": "bob2", "name": "j"}],
+                     w, "s.toml")
+
+
+def test_parse_joint_settings():
+    st = parse_joint_settings({"method": "tree", "hertz": 0, "velocity_iterations": 3}, "s.toml")
+    assert st.method == "tree" and st.hertz == 0 and st.velocity_iterations == 3
+    with pytest.raises(tb.InputError, match="joint_solver.method"):
+        parse_joint_settings({"method": "pgs"}, "s.toml")
+    with pytest.raises(tb.InputError, match="joint_solver.relax_iterations: must be a whole number"):
+        parse_joint_settings({"relax_iterations": 0}, "s.toml")

@@ -1,0 +1,217 @@
+"""Scene files: the ``[[joints]]`` entries (and an optional ``[joint_solver]`` table).
+
+Each entry is one joint of ``tumble.joints``; bodies are named as in ``[[bodies]]`` and
+``body_b`` may be omitted or ``"world"``::
+
+    [[joints]]
+    type = "hinge"                 # ball | hinge | slider | fixed | distance | universal
+    name = "knee"                  # optional
+    body_a = "thigh"
+    body_b = "shin"                # or "world", or left out
+    anchor = [0, 0, 0.5]           # m, world (frame = "world", the default) or body_a's frame
+    axis = [0, 1, 0]
+    lower_deg = -120               # or lower = -2.09 (rad)
+    upper_deg = 0
+    motor_speed = 2.0              # rad/s, with max_motor_torque (N m)
+
+Angles may be given in degrees with the ``_deg`` keys (``lower_deg``, ``upper_deg``,
+``target_deg``, ``cone_limit_deg``, ``motor_speed_deg`` in deg/s) instead of radians.
+Errors are ``InputError`` lines ``FILE: joints[2].axis: must not be the zero vector``, as
+in ``tumble.scene``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from .errors import InputError
+from .joints import JOINT_CLASSES
+
+COMMON_KEYS = ("type", "name", "body_a", "body_b", "anchor", "anchor_b", "frame", "collide_connected",
+               "max_force", "max_torque")
+DRIVE_KEYS = ("lower", "upper", "motor_speed", "stiffness", "damping", "target")
+# per type: its own keys besides COMMON_KEYS
+TYPE_KEYS = {
+    "ball": ("axis", "cone_limit", "cone_limit_deg"),
+    "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "motor_speed_deg", "max_motor_torque",
+              "max_drive_torque"),
+    "slider": ("axis", *DRIVE_KEYS, "max_motor_force", "max_drive_force"),
+    "fixed": (),
+    "distance": ("min_length", "max_length", "stiffness", "damping", "target", "max_drive_force"),
+    "universal": ("axis", "axis_b"),
+}
+VECTOR_KEYS = ("anchor", "anchor_b", "axis", "axis_b")
+# keys that may be inf (TOML "inf")
+UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_force", "max_drive_torque",
+                  "max_drive_force")
+DEGREE_KEYS = {"lower_deg": "lower", "upper_deg": "upper", "target_deg": "target", "cone_limit_deg": "cone_limit",
+               "motor_speed_deg": "motor_speed"}
+SOLVER_KEYS = ("method", "hertz", "damping_ratio", "velocity_iterations", "relax_iterations", "bias_factor")
+
+
+def _describe(value) -> str:
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return f"{str(value).lower()} (a boolean)"
+    if isinstance(value, str):
+        return f"{value[:40]!r} (a string)"
+    if isinstance(value, (int, float)):
+        return f"{value!r} (a number)"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return f"a list of {len(value)}"
+    return f"{value!r} ({type(value).__name__})"
+
+
+def _number(value, key: str, file, unbounded=False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"expected a number, got {_describe(value)}", key, file)
+    try:
+        v = float(value)
+    except OverflowError:
+        raise InputError("must be a finite number", key, file) from None
+    if math.isnan(v) or (math.isinf(v) and not (unbounded and v > 0)):
+        raise InputError(f"must be a finite number, got {v}", key, file)
+    return v
+
+
+def _vector(value, key: str, file) -> list[float]:
+    if not isinstance(value, list) or len(value) != 3:
+        raise InputError(f"expected a list of 3 numbers, got {_describe(value)}", key, file)
+    return [_number(v, f"{key}[{i}]", file) for i, v in enumerate(value)]
+
+
+def _body(value, key: str, world, file):
+    if value is None or value == "world":
+        return None
+    if not isinstance(value, str):
+        raise InputError(f"expected a body name or \"world\", got {_describe(value)}", key, file)
+    if value not in world.names:
+        raise InputError(f"unknown body {value!r}", key, file)
+    return value
+
+
+def parse_joints(entries, world, file: str | None = None) -> list:
+    """Build the ``[[joints]]`` entries into ``world`` (``World.add_joint``, at the bodies'
+    poses as built) and return the joint records, in order.
+
+    Raises:
+        InputError: ``FILE: joints[i].KEY: problem`` for the first problem found.
+    """
+    if entries is None:
+        return []
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise InputError(f"expected a list of tables ([[joints]]), got {_describe(entries)}", "joints", file)
+    records = []
+    names = set()
+    for i, entry in enumerate(entries):
+        key = f"joints[{i}]"
+        records.append(_parse_one(entry, key, world, file, names))
+    return records
+
+
+def _parse_one(entry: dict, key: str, world, file, names: set):
+    if "type" not in entry:
+        raise InputError("missing key 'type'", key, file)
+    kind = entry["type"]
+    if not isinstance(kind, str) or kind not in TYPE_KEYS:
+        raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(TYPE_KEYS)})", f"{key}.type", file)
+    allowed = COMMON_KEYS + TYPE_KEYS[kind]
+    for k in entry:
+        if k not in allowed:
+            raise InputError(f"unknown key for a {kind} joint (expected one of {', '.join(allowed)})", f"{key}.{k}", file)
+    if "body_a" not in entry:
+        raise InputError("missing key 'body_a'", key, file)
+    kw: dict[str, Any] = {"body_a": _body(entry["body_a"], f"{key}.body_a", world, file),
+                          "body_b": _body(entry.get("body_b"), f"{key}.body_b", world, file)}
+    if kw["body_a"] is None:
+        kw["body_a"] = "world"
+    for k, v in entry.items():
+        sub = f"{key}.{k}"
+        if k in ("type", "body_a", "body_b"):
+            continue
+        if k == "name":
+            if not isinstance(v, str) or not v:
+                raise InputError(f"expected a non-empty string, got {_describe(v)}", sub, file)
+            if v in names:
+                raise InputError(f"duplicate joint name {v!r}", sub, file)
+            names.add(v)
+            kw["name"] = v
+        elif k == "frame":
+            if v not in ("world", "body"):
+                raise InputError(f"must be \"world\" or \"body\", got {_describe(v)}", sub, file)
+            kw["frame"] = v
+        elif k == "collide_connected":
+            if not isinstance(v, bool):
+                raise InputError(f"expected true or false, got {_describe(v)}", sub, file)
+            kw["collide_connected"] = v
+        elif k in VECTOR_KEYS:
+            kw[k] = _vector(v, sub, file)
+        elif k in DEGREE_KEYS:
+            target = DEGREE_KEYS[k]
+            if target in entry:
+                raise InputError(f"give {target} or {k}, not both", sub, file)
+            kw[target] = math.radians(_number(v, sub, file))
+        else:
+            kw[k] = _number(v, sub, file, unbounded=k in UNBOUNDED_KEYS)
+    try:
+        record = JOINT_CLASSES[kind](**kw)
+        world.add_joint(record)
+    except InputError as err:
+        raise err.within(key, file) from None
+    return record
+
+
+def parse_joint_settings(table, file: str | None = None):
+    """A ``[joint_solver]`` table (method, hertz, damping_ratio, velocity_iterations,
+    relax_iterations, bias_factor) as ``tumble.solver.joints.JointSettings``."""
+    from .solver.joints import JointSettings
+
+    if table is None:
+        return JointSettings()
+    if not isinstance(table, dict):
+        raise InputError(f"expected a table, got {_describe(table)}", "joint_solver", file)
+    kw: dict[str, Any] = {}
+    for k, v in table.items():
+        sub = f"joint_solver.{k}"
+        if k not in SOLVER_KEYS:
+            raise InputError(f"unknown key (expected one of {', '.join(SOLVER_KEYS)})", sub, file)
+        if k == "method":
+            if v not in ("gauss-seidel", "tree"):
+                raise InputError(f"must be \"gauss-seidel\" or \"tree\", got {_describe(v)}", sub, file)
+            kw[k] = v
+        elif k in ("velocity_iterations", "relax_iterations"):
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise InputError(f"must be a whole number >= 1, got {_describe(v)}", sub, file)
+            kw[k] = v
+        else:
+            x = _number(v, sub, file)
+            if x < 0:
+                raise InputError(f"must be >= 0, got {x:g}", sub, file)
+            kw[k] = x
+    return JointSettings(**kw)
+
+
+def load_scene_with_joints(path):
+    """Until ``tumble.scene`` reads ``[[joints]]`` itself: read a scene file, build its
+    bodies and forces with ``tumble.scene.parse_scene`` (without the joints tables), then
+    its joints. Returns (Scene, joint records, JointSettings)."""
+    import tomllib
+    from pathlib import Path
+
+    from .scene import load_scene, parse_scene
+
+    path = Path(path)
+    file = str(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return load_scene(path), [], parse_joint_settings(None, file)  # the scene loader says what is wrong
+    entries = data.pop("joints", None)
+    solver = data.pop("joint_solver", None)
+    scene = parse_scene(data, file, path.parent, source=path)
+    joints = parse_joints(entries, scene.world, file)
+    return scene, joints, parse_joint_settings(solver, file)
