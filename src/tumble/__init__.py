@@ -12,6 +12,7 @@ __version__ = "0.1.0"
 
 from .errors import InputError, SimulationError, TumbleError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
+from .joints import BallJoint, DistanceJoint, FixedJoint, HingeJoint, SliderJoint, UniversalJoint
 from .shapes import Box, Capsule, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
 from .simulator import Simulator
 from .trajectory import Trajectory, load_trajectory
@@ -29,5 +30,6 @@ __all__ = [
     "World", "Body", "Material", "Simulator", "Trajectory", "load_trajectory", "load_scene",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
+    "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint",
     "TumbleError", "InputError", "SimulationError",
 ]
