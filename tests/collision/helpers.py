@@ -54,7 +54,7 @@ def cone(pos, R, r, height):
 
 
 def convex(pos, R, points):
-    record = tb.Convex(points=np.asarray(points, float))
+    record = points if isinstance(points, tb.Convex) else tb.Convex(points=np.asarray(points, float))
     h = np.max(np.abs(record.vertices), axis=0)
     return SHAPE_CONVEX, np.asarray(pos, float), np.asarray(R, float), np.array([*h, 0.0]), record
 
@@ -65,13 +65,21 @@ def mesh(pos, R, vertices, faces):
     return SHAPE_MESH, np.asarray(pos, float), np.asarray(R, float), np.array([*h, 0.0]), record
 
 
+_GEOMETRY_CACHE = {}
+
+
 def geometry_of(*shapes):
     """``ShapeTable.geometry`` with one row per shape (hull / mesh data where the tuple carries a record)."""
+    key = tuple((s[0], id(s[4]) if len(s) > 4 else None) for s in shapes)
+    if key in _GEOMETRY_CACHE and all(len(s) <= 4 or _GEOMETRY_CACHE[key][1][k] is s[4] for k, s in enumerate(shapes)):
+        return _GEOMETRY_CACHE[key][0]
     builder = _Builder()
     for k, s in enumerate(shapes):
         record = s[4] if len(s) > 4 else tb.Sphere(1.0)  # primitives: a placeholder row, no extra data
         builder.add(record, k, np.zeros(3), np.array([1.0, 0, 0, 0]), s[0] != SHAPE_MESH, f"shape{k}")
-    return builder.table(np.ones(len(shapes), dtype=bool)).geometry
+    geometry = builder.table(np.ones(len(shapes), dtype=bool)).geometry
+    _GEOMETRY_CACHE[key] = (geometry, [s[4] if len(s) > 4 else None for s in shapes])
+    return geometry
 
 
 def collide(a, b, spec=SPEC, geometry=None):

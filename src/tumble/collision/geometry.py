@@ -61,9 +61,6 @@ SUPPORTED_TYPES = (SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER, SHA
 
 # Triangles per BVH leaf (a query then tests at most this many triangles per leaf it reaches).
 BVH_LEAF_SIZE = 4
-# Two hull triangles are one polygonal face when their unit normals differ by less than
-# this (and their planes by less than it times the hull's size).
-COPLANAR_TOLERANCE = 1e-7
 
 
 def _empty(shape, dtype=float):
@@ -197,21 +194,18 @@ def hull_polygons(vertices, faces):
     and per face the vertex rows counter-clockwise seen from outside (sorted by
     angle about the face centroid; a hull face is convex, so that is its boundary).
     """
+    import trimesh
+
     v = np.asarray(vertices, dtype=float)
     tri = v[np.asarray(faces)]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    d = np.einsum("ij,ij->i", n, tri[:, 0])
-    size = float(np.max(np.abs(v))) or 1.0
-    groups: list[list[int]] = []
-    for t in range(len(tri)):
-        for g in groups:
-            k = g[0]
-            if n[t] @ n[k] > 1.0 - COPLANAR_TOLERANCE and abs(d[t] - d[k]) < COPLANAR_TOLERANCE * size:
-                g.append(t)
-                break
-        else:
-            groups.append([t])
+    # coplanar neighbours: trimesh's facets (adjacent faces with parallel normals), then the single faces
+    groups = [list(map(int, g)) for g in trimesh.Trimesh(vertices=v, faces=np.asarray(faces), process=False).facets]
+    grouped = np.zeros(len(tri), dtype=bool)
+    for g in groups:
+        grouped[g] = True
+    groups += [[t] for t in np.flatnonzero(~grouped).tolist()]
     planes, polygons = [], []
     for g in groups:
         normal = n[g].mean(axis=0)

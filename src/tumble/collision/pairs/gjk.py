@@ -29,6 +29,8 @@ GJK_ITERATIONS = 64
 # GJK stops when the support point improves the distance by less than this fraction
 # (squared: |v|^2 - v.w <= GJK_REL^2 |v|^2).
 GJK_REL = 1e-9
+# ... or by less than this times |w|^2, the round-off floor of |v|^2 - v.w (m^2 per m^2).
+GJK_ROUND = 1e-13
 # Cores closer than this (m) are treated as touching: EPA gives the normal.
 TOUCH = 1e-9
 EPA_ITERATIONS = 64
@@ -91,14 +93,19 @@ def _dot(W, i, x, y, z):
 
 @njit(**JIT)
 def _keep(W, SA, SB, lam, ids, n):
-    """Compact the simplex to rows ``ids[:n]`` (in that order)."""
+    """Compact the simplex to rows ``ids[:n]`` (in that order; ids may repeat none but come in any order)."""
+    tmp = np.empty((n, 9))
     for j in range(n):
         i = ids[j]
-        if i != j:
-            for c in range(3):
-                W[j, c] = W[i, c]
-                SA[j, c] = SA[i, c]
-                SB[j, c] = SB[i, c]
+        for c in range(3):
+            tmp[j, c] = W[i, c]
+            tmp[j, 3 + c] = SA[i, c]
+            tmp[j, 6 + c] = SB[i, c]
+    for j in range(n):
+        for c in range(3):
+            W[j, c] = tmp[j, c]
+            SA[j, c] = tmp[j, 3 + c]
+            SB[j, c] = tmp[j, 6 + c]
     return n
 
 
@@ -206,6 +213,11 @@ def _reduce_simplex(W, SA, SB, k, lam):
     best_sub = np.empty(3, dtype=np.int64)
     best_lam = np.empty(3)
     outside_any = False
+    # a flat tetrahedron (4 coplanar points: two parallel faces) cannot hold the origin: try every face
+    size = 0.0
+    for i in range(4):
+        size = max(size, abs(W[i, 0] - W[0, 0]) + abs(W[i, 1] - W[0, 1]) + abs(W[i, 2] - W[0, 2]))
+    flat_volume = 1e-12 * size * size * size
     for f in range(4):
         i0, i1, i2 = (f + 1) % 4, (f + 2) % 4, (f + 3) % 4
         ux, uy, uz = W[i1, 0] - W[i0, 0], W[i1, 1] - W[i0, 1], W[i1, 2] - W[i0, 2]
@@ -213,7 +225,7 @@ def _reduce_simplex(W, SA, SB, k, lam):
         nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
         s_origin = -_dot(W, i0, nx, ny, nz)
         s_other = (W[f, 0] - W[i0, 0]) * nx + (W[f, 1] - W[i0, 1]) * ny + (W[f, 2] - W[i0, 2]) * nz
-        if s_origin * s_other < 0.0:
+        if s_origin * s_other < 0.0 or abs(s_other) <= flat_volume:
             outside_any = True
             n, dd = _closest_triangle(W, i0, i1, i2, lam3, sub)
             if dd < best:
@@ -253,11 +265,14 @@ def gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         sb = support(tb, pos_b, rot_b, params_b, verts_b, vx, vy, vz)
         wx, wy, wz = sa[0] - sb[0], sa[1] - sb[1], sa[2] - sb[2]
         vv = vx * vx + vy * vy + vz * vz
-        if k > 0 and vv - (vx * wx + vy * wy + vz * wz) <= GJK_REL * GJK_REL * vv:
+        ww = wx * wx + wy * wy + wz * wz
+        # no progress: relative to |v|, and to the round-off of v . w (v is a weighted sum of
+        # points of size |w|: its dot with w carries errors of about 1e-16 |w|^2)
+        if k > 0 and vv - (vx * wx + vy * wy + vz * wz) <= GJK_REL * GJK_REL * vv + GJK_ROUND * ww:
             break
         dup = False
         for j in range(k):
-            if W[j, 0] == wx and W[j, 1] == wy and W[j, 2] == wz:
+            if (W[j, 0] - wx) ** 2 + (W[j, 1] - wy) ** 2 + (W[j, 2] - wz) ** 2 <= GJK_ROUND * ww:
                 dup = True
         if dup:
             break
@@ -398,6 +413,9 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         alive[f] = True
     n_faces = 4
     n_verts = 4
+    for i in range(4):
+        scale = max(scale, abs(V[i, 0]) + abs(V[i, 1]) + abs(V[i, 2]))
+    visible = 1e-10 * scale
     edges = np.empty((3 * EPA_MAX_FACES, 2), dtype=np.int64)
     best = 0
     for _ in range(EPA_ITERATIONS):
@@ -422,7 +440,10 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
             if not alive[f]:
                 continue
             i0 = F[f, 0]
-            if N[f, 0] * (V[w, 0] - V[i0, 0]) + N[f, 1] * (V[w, 1] - V[i0, 1]) + N[f, 2] * (V[w, 2] - V[i0, 2]) > 0.0:
+            # NOTE: a tolerance, so that w coplanar with a face (a cylinder cap, a box face: many support
+            # points in one plane) does not see it by round-off: that made faces fold over the origin.
+            if f == best or N[f, 0] * (V[w, 0] - V[i0, 0]) + N[f, 1] * (V[w, 1] - V[i0, 1]) \
+                    + N[f, 2] * (V[w, 2] - V[i0, 2]) > visible:
                 alive[f] = False
                 for e in range(3):
                     a = F[f, e]
