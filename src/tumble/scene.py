@@ -457,10 +457,14 @@ class _Parser:
 
     def contact(self, value) -> SoftStepSettings:
         t = self.table(value, "contact", CONTACT_KEYS)
-        kw = {k: self.nonnegative(v, f"contact.{k}") for k, v in t.items()}
-        for k in ("hertz_cap_per_substep", "speculative_distance"):
-            if k in kw and kw[k] <= 0:
-                raise self.error(f"must be positive, got {_fmt(kw[k])}", f"contact.{k}")
+        kw = {}
+        for k, v in t.items():
+            if k == "substeps":
+                kw[k] = self.integer(v, "contact.substeps", 1)
+            elif k in ("contact_hertz", "hertz_cap_per_substep", "speculative_distance"):
+                kw[k] = self.positive(v, f"contact.{k}")
+            else:
+                kw[k] = self.nonnegative(v, f"contact.{k}")
         return SoftStepSettings(**kw)
 
     def check_sizes(self, bodies: list):

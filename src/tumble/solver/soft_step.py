@@ -2,7 +2,7 @@
 
 Reads and writes the packed state ``Y`` (N, W) of the bodies in ``active`` (moving bodies
 that have a contact this step); other bodies are left to the Simulator's integrator. Stages,
-per step of dt made of ``substeps`` substeps h (Catto, "Solver2D", 2024; Box2D v3
+per step of dt made of ``substeps`` substeps h (``Simulator.substeps * SoftStepSettings.substeps``; Catto, "Solver2D", 2024; Box2D v3
 ``b2SolverStage``; BENCHMARKS.md "Settings shared by every scene"):
 
     collide (once, on the poses at the start of the step)   CollisionPipeline.detect
@@ -233,7 +233,9 @@ class SoftStep:
         return self.active
 
     def step(self, Y, t: float, dt: float, substeps: int, check=None):
-        """Advance the active bodies of Y by dt (``collide`` must have run on this Y at t)."""
+        """Advance the active bodies of Y by dt in ``substeps * settings.substeps`` substeps
+        (``collide`` must have run on this Y at t)."""
+        substeps = int(substeps) * int(self.settings.substeps)
         w = self.world
         s = self.scratch
         active = self.active
