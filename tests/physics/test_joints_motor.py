@@ -41,7 +41,7 @@ def test_motor_holds_target_speed_under_load_below_limit():
 def test_motor_stalls_above_its_limit():
     # Load 7 N m > 5 N m: the net torque -2 N m decelerates the wheel from rest the wrong
     # way; compared with the free-body rate (-2 N m / I) t, within 1 %.
-    rates, solver, w = spin(load=7.0, seconds=1.0)
+    rates, solver, _w = spin(load=7.0, seconds=1.0)
     I_z = 0.5 * 2.0 * 0.1**2
     assert rates[-1] < 0.0
     assert rates[-1] == pytest.approx(-2.0 / I_z * 1.0, rel=0.01)

@@ -269,7 +269,7 @@ def test_both_methods_keep_a_loop_closed(method):
 
 
 # ---------------------------------------------------------------------- scene files
-from tumble.scene_joints import parse_joint_settings, parse_joints  # noqa: E402
+from tumble.scene_joints import parse_joint_settings, parse_joints
 
 
 def scene_world():

@@ -39,7 +39,6 @@ from numba import njit
 from ..joints import (
     JOINT_BALL,
     JOINT_DISTANCE,
-    JOINT_FIXED,
     JOINT_HINGE,
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
@@ -58,7 +57,12 @@ from ..joints import (
     P_UPPER,
     PARAM_COUNT,
 )
-from ..math3d import JIT, normalize_quat_inplace, quat_exp_multiply_inplace, quat_to_matrix_into
+from ..math3d import (
+    JIT,
+    normalize_quat_inplace,
+    quat_exp_multiply_inplace,
+    quat_to_matrix_into,
+)
 
 # columns of ``axial_impulse`` (J, 5): accumulated impulses of the 1-D coordinate rows
 A_SPRING, A_MOTOR, A_LOWER, A_UPPER, A_EQUAL = 0, 1, 2, 3, 4
@@ -587,7 +591,7 @@ def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, fra
         total = (axial_impulse[j, A_SPRING] + axial_impulse[j, A_MOTOR] + axial_impulse[j, A_LOWER]
                  - axial_impulse[j, A_UPPER] + axial_impulse[j, A_EQUAL])
         if total != 0.0:
-            has, linear, n, ra1, rb1, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b,
+            has, linear, n, ra1, rb1, _pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b,
                                                             position)
             if has:
                 _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra1, rb1, total)
