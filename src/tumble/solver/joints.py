@@ -873,6 +873,7 @@ class JointSolver:
         self._joints: list = []
         self.h = 1.0 / 240.0
         self.last_projection_error = 0.0
+        self._soft_key = None
         self._build([])
 
     def _build(self, joints):
@@ -990,8 +991,11 @@ class JointSolver:
         keeps I_inv current in place (or fixed over the step, as Box2D); an immovable body
         has inv_mass 0 and I_inv 0.
         """
-        if len(world.joints) != self.count or any(a is not b for a, b in zip(world.joints, self._joints)):
-            self._build(world.joints)
+        # joints are only ever appended (World.add_joint): the count and the last record tell
+        # whether the tables are current, without a Python loop over the joints each step
+        joints = world.joints
+        if len(joints) != self.count or (self.count and joints[-1] is not self._joints[-1]):
+            self._build(joints)
         if self.settings.method == "tree":
             key = (self.count, world.body_count, bytes(world.moving), bytes(self.enabled))
             if key != self._tree_key:
@@ -1003,12 +1007,15 @@ class JointSolver:
         self.inv_mass = world.inv_mass if inv_mass is None else inv_mass
         self.I_inv = world.I_inv if I_inv is None else I_inv
         st = self.settings
-        if st.hertz > 0.0:
-            hertz = min(st.hertz, st.hertz_cap_per_substep / h)
-            self.soft_bias = np.array(soft_coefficients(hertz, st.damping_ratio, h))
-        else:  # rigid: the bias takes out the whole error in one substep
-            self.soft_bias = np.array([self.settings.bias_factor / h, 1.0, 0.0])
-        self.soft_relax = np.array([0.0, 1.0, 0.0])
+        key = (self.h, st.hertz, st.damping_ratio, st.hertz_cap_per_substep, st.bias_factor)
+        if key != self._soft_key:
+            if st.hertz > 0.0:
+                hertz = min(st.hertz, st.hertz_cap_per_substep / h)
+                self.soft_bias = np.array(soft_coefficients(hertz, st.damping_ratio, h))
+            else:  # rigid: the bias takes out bias_factor of the error in one substep
+                self.soft_bias = np.array([st.bias_factor / h, 1.0, 0.0])
+            self.soft_relax = np.array([0.0, 1.0, 0.0])
+            self._soft_key = key
 
     def warm_start(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray):
         """Apply the accumulated impulses once to v, omega (N, 3) (each substep, before solve)."""
