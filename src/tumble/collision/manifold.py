@@ -75,6 +75,21 @@ class ContactManifolds:
         self.manifold_count = min(self.manifold_count, m_cap)
         self.contact_count = min(self.contact_count, c_cap)
 
+    def candidates(self, total: int):
+        """Per-candidate-pair scratch rows for the parallel narrowphase (grown by doubling, kept):
+        (a, b, count, normal, points, separations, features), the first ``total`` rows of each."""
+        cap = getattr(self, "_cand_capacity", 0)
+        if cap < total:
+            cap = max(cap, 64)
+            while cap < total:
+                cap *= 2
+            P = MAX_MANIFOLD_POINTS
+            self._cand = (np.zeros(cap, dtype=np.int64), np.zeros(cap, dtype=np.int64), np.zeros(cap, dtype=np.int64),
+                          np.zeros((cap, 3)), np.zeros((cap, P, 3)), np.zeros((cap, P)),
+                          np.zeros((cap, P), dtype=np.int64))
+            self._cand_capacity = cap
+        return tuple(a[:total] for a in self._cand)
+
     def buffers(self):
         """The full buffers in the kernel's argument order (manifold arrays, then contact arrays)."""
         return tuple(self._buffers[name] for name in (*_MANIFOLD_ARRAYS, *_CONTACT_ARRAYS))

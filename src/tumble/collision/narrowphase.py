@@ -7,7 +7,7 @@ from ``update_bounds``; writes a ``ContactManifolds``.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..math3d import JIT
 from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
@@ -78,66 +78,76 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
     return 0
 
 
-@njit(**JIT)
-def _collide_pairs_kernel(pair_a, pair_b, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
-                          body_moving, speculative, shape_margin, geometry,
-                          # outputs
-                          m_shape_a, m_shape_b, m_body_a, m_body_b, m_normal, m_first, m_count,
-                          c_manifold, c_body_a, c_body_b, c_point, c_normal, c_separation, c_feature, c_key):
-    """Narrowphase over the sweep pairs, then over (plane, moving shape) pairs; returns (manifolds, contacts).
+CHUNK = 64  # candidate pairs per parallel task
 
-    Serial so that the output order is the pair order (determinism). The buffers
-    must hold one manifold per candidate pair (the wrapper reserves them).
-    A pair keeps contacts while its gap is below margin_a + margin_b - speculative: the
-    speculative distance plus how far the two can close in the step (bounds.py).
-    PERF: two passes (count, prefix sum, fill) would allow prange.
+
+@njit(**JIT, parallel=True)
+def _collide_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
+                               shape_aabb, body_moving, speculative, shape_margin, geometry,
+                               # outputs
+                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+    """Stage one of collide_pairs, in parallel: the manifold of every candidate pair into its own row.
+
+    Candidates k < P are the sweep pairs; then (plane, shape) for each plane and each shape.
+    Row k gets the pair (out_a, out_b, ordered by SHAPE_* type), its point count (0: no
+    contact) and its points. Each task writes only its own rows, so the result does not
+    depend on the threads (STYLE 5.6 rule 6). A pair keeps contacts while its gap is below
+    margin_a + margin_b - speculative: the speculative distance plus how far the two can close
+    in the step (bounds.py).
     """
-    normal = np.empty(3)
-    point = np.empty((MAX_MANIFOLD_POINTS, 3))
-    separation = np.empty(MAX_MANIFOLD_POINTS)
-    feature = np.empty(MAX_MANIFOLD_POINTS, dtype=np.int64)
     S = shape_type.shape[0]
     n_sweep = pair_a.shape[0]
+    total = out_count.shape[0]
+    n_chunks = (total + CHUNK - 1) // CHUNK
+    for chunk in prange(n_chunks):
+        for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
+            out_count[k] = 0
+            if k < n_sweep:
+                a = pair_a[k]
+                b = pair_b[k]
+            else:
+                a = planes[(k - n_sweep) // S]
+                b = (k - n_sweep) % S
+                if shape_type[b] == SHAPE_PLANE or not body_moving[shape_body[b]] or shape_body[b] == shape_body[a]:
+                    continue
+                # cull by the AABB (grown by the margin): its lowest corner along n above the plane
+                p = shape_params[a]
+                r = shape_rot[a]
+                nx = r[0, 0] * p[0] + r[0, 1] * p[1] + r[0, 2] * p[2]
+                ny = r[1, 0] * p[0] + r[1, 1] * p[1] + r[1, 2] * p[2]
+                nz = r[2, 0] * p[0] + r[2, 1] * p[1] + r[2, 2] * p[2]
+                d = p[3] + nx * shape_pos[a, 0] + ny * shape_pos[a, 1] + nz * shape_pos[a, 2]
+                low = nx * (shape_aabb[b, 0, 0] if nx > 0.0 else shape_aabb[b, 1, 0]) \
+                    + ny * (shape_aabb[b, 0, 1] if ny > 0.0 else shape_aabb[b, 1, 1]) \
+                    + nz * (shape_aabb[b, 0, 2] if nz > 0.0 else shape_aabb[b, 1, 2])
+                if low - d > shape_margin[b] + shape_margin[a] - speculative:
+                    continue
+            if shape_type[a] > shape_type[b]:
+                a, b = b, a
+            out_a[k] = a
+            out_b[k] = b
+            pair_speculative = shape_margin[a] + shape_margin[b] - speculative
+            out_count[k] = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
+                                          shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry,
+                                          a, b, out_normal[k], out_point[k], out_separation[k], out_feature[k])
+
+
+@njit(**JIT)
+def _compact_manifolds_kernel(cand_a, cand_b, cand_count, cand_normal, cand_point, cand_separation, cand_feature,
+                              shape_body,
+                              # outputs
+                              m_shape_a, m_shape_b, m_body_a, m_body_b, m_normal, m_first, m_count,
+                              c_manifold, c_body_a, c_body_b, c_point, c_normal, c_separation, c_feature, c_key):
+    """Stage two, serial: the candidates with contact points, in candidate order, into the flat
+    manifold and contact arrays; returns (manifolds, contacts)."""
     m = 0
     c = 0
-    # planes: indices, to walk (plane, shape) pairs after the sweep pairs
-    planes = np.empty(S, dtype=np.int64)
-    n_planes = 0
-    for s in range(S):
-        if shape_type[s] == SHAPE_PLANE:
-            planes[n_planes] = s
-            n_planes += 1
-    total = n_sweep + n_planes * S
-    for k in range(total):
-        if k < n_sweep:
-            a = pair_a[k]
-            b = pair_b[k]
-        else:
-            a = planes[(k - n_sweep) // S]
-            b = (k - n_sweep) % S
-            if shape_type[b] == SHAPE_PLANE or not body_moving[shape_body[b]] or shape_body[b] == shape_body[a]:
-                continue
-            # cull by the AABB (grown by the margin): its lowest corner along n above the plane
-            p = shape_params[a]
-            r = shape_rot[a]
-            nx = r[0, 0] * p[0] + r[0, 1] * p[1] + r[0, 2] * p[2]
-            ny = r[1, 0] * p[0] + r[1, 1] * p[1] + r[1, 2] * p[2]
-            nz = r[2, 0] * p[0] + r[2, 1] * p[1] + r[2, 2] * p[2]
-            d = p[3] + nx * shape_pos[a, 0] + ny * shape_pos[a, 1] + nz * shape_pos[a, 2]
-            low = 0.0
-            for i in range(3):
-                ni = (nx, ny, nz)[i]
-                low += ni * (shape_aabb[b, 0, i] if ni > 0.0 else shape_aabb[b, 1, i])
-            if low - d > shape_margin[b] + shape_margin[a] - speculative:
-                continue
-        if shape_type[a] > shape_type[b]:
-            a, b = b, a
-        pair_speculative = shape_margin[a] + shape_margin[b] - speculative
-        n = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
-                           shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry, a, b,
-                           normal, point, separation, feature)
+    for k in range(cand_count.shape[0]):
+        n = cand_count[k]
         if n == 0:
             continue
+        a = cand_a[k]
+        b = cand_b[k]
         body_a = shape_body[a]
         body_b = shape_body[b]
         m_shape_a[m] = a
@@ -147,18 +157,18 @@ def _collide_pairs_kernel(pair_a, pair_b, shape_type, shape_body, shape_params, 
         m_first[m] = c
         m_count[m] = n
         for i in range(3):
-            m_normal[m, i] = normal[i]
+            m_normal[m, i] = cand_normal[k, i]
         key = (a << (2 * KEY_BITS)) | (b << KEY_BITS)
         for j in range(n):
             c_manifold[c] = m
             c_body_a[c] = body_a
             c_body_b[c] = body_b
             for i in range(3):
-                c_point[c, i] = point[j, i]
-                c_normal[c, i] = normal[i]
-            c_separation[c] = separation[j]
-            c_feature[c] = feature[j]
-            c_key[c] = key | feature[j]
+                c_point[c, i] = cand_point[k, j, i]
+                c_normal[c, i] = cand_normal[k, i]
+            c_separation[c] = cand_separation[k, j]
+            c_feature[c] = cand_feature[k, j]
+            c_key[c] = key | cand_feature[k, j]
             c += 1
         m += 1
     return m, c
@@ -186,14 +196,16 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
     S = table.shape_count
     if S >= 1 << KEY_BITS:
         raise ValueError(f"contact keys hold shape indices below {1 << KEY_BITS}; got {S} shapes")
-    n_planes = int(np.count_nonzero(table.shape_type == SHAPE_PLANE))
-    out.reserve(len(pair_a) + n_planes * max(S - n_planes, 0))
+    planes = np.flatnonzero(table.shape_type == SHAPE_PLANE).astype(np.int64)
+    total = len(pair_a) + len(planes) * S
+    out.reserve(total)
+    cand = out.candidates(total)
     if shape_margin is None:
         shape_margin = np.full(S, float(speculative))
-    m, c = _collide_pairs_kernel(np.ascontiguousarray(pair_a, dtype=np.int64), np.ascontiguousarray(pair_b, dtype=np.int64),
-                                 table.shape_type, table.shape_body, table.shape_params, shape_pos, shape_rot,
-                                 shape_aabb, table.body_moving, float(speculative), shape_margin, table.geometry,
-                                 *out.buffers())
+    _collide_candidates_kernel(np.ascontiguousarray(pair_a, dtype=np.int64), np.ascontiguousarray(pair_b, dtype=np.int64),
+                               planes, table.shape_type, table.shape_body, table.shape_params, shape_pos, shape_rot,
+                               shape_aabb, table.body_moving, float(speculative), shape_margin, table.geometry, *cand)
+    m, c = _compact_manifolds_kernel(*cand, table.shape_body, *out.buffers())
     out.manifold_count = m
     out.contact_count = c
     return out
