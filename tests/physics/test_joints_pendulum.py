@@ -64,6 +64,7 @@ def test_pendulum_period_matches_closed_form_within_0_1_percent(theta0_deg):
         assert T == pytest.approx(exact, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_double_pendulum_keeps_energy_and_anchors():
     # Two 1 kg bobs, 1 m links, hinges, released from horizontal (chaotic), 10 s.
     # Compared with: the energy at release (conservation) and the anchor geometry.
