@@ -33,7 +33,6 @@ from numba import njit
 from ...math3d import JIT
 from ...shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER
 from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS
-from .box import _reduce_manifold
 from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, support
 from .sphere import plane_world
 
@@ -55,6 +54,64 @@ DEEPEST_MARGIN = 1e-6
 
 FEATURE_SINGLE = 1 << 20
 SLOT_DEEPEST = 31
+
+
+@njit(**JIT)
+def reduce_points(pts, seps, n, nx, ny, nz, keep):
+    """Indices (into keep[:4]) of at most 4 of n points: the deepest (ties: the outermost), the farthest from it,
+    then the two of
+    largest positive and negative area about the normal (Gregorius 2015, as ``box._reduce_manifold``).
+
+    Unlike the box version, areas below 1e-3 of the
+    squared span are ignored, so collinear points (a capsule on a tessellated floor) give 2, not 4.
+    """
+    i1 = 0
+    for k in range(1, n):
+        if seps[k] < seps[i1]:
+            i1 = k
+    # among points as deep as the deepest (to 1e-9 m: resting flat), the one farthest from the centroid,
+    # so that a flat box on a tessellated floor starts from a corner, not from an inner triangle's point
+    cx, cy, cz = 0.0, 0.0, 0.0
+    for k in range(n):
+        cx += pts[k, 0] / n
+        cy += pts[k, 1] / n
+        cz += pts[k, 2] / n
+    far = -1.0
+    deepest = seps[i1]
+    for k in range(n):
+        if seps[k] <= deepest + 1e-9:
+            d = (pts[k, 0] - cx) ** 2 + (pts[k, 1] - cy) ** 2 + (pts[k, 2] - cz) ** 2
+            if d > far * (1.0 + 1e-12):
+                far, i1 = d, k
+    keep[0] = i1
+    i2 = -1
+    best = 1e-18
+    for k in range(n):
+        d = (pts[k, 0] - pts[i1, 0]) ** 2 + (pts[k, 1] - pts[i1, 1]) ** 2 + (pts[k, 2] - pts[i1, 2]) ** 2
+        if d > best:
+            best, i2 = d, k
+    if i2 < 0:
+        return 1
+    keep[1] = i2
+    m = 2
+    ex, ey, ez = pts[i2, 0] - pts[i1, 0], pts[i2, 1] - pts[i1, 1], pts[i2, 2] - pts[i1, 2]
+    i3, i4 = -1, -1
+    amax = 1e-3 * best
+    amin = -1e-3 * best
+    for k in range(n):
+        fx, fy, fz = pts[k, 0] - pts[i1, 0], pts[k, 1] - pts[i1, 1], pts[k, 2] - pts[i1, 2]
+        area = nx * (ey * fz - ez * fy) + ny * (ez * fx - ex * fz) + nz * (ex * fy - ey * fx)
+        if area > amax:
+            amax, i3 = area, k
+        if area < amin:
+            amin, i4 = area, k
+    if i3 >= 0:
+        keep[m] = i3
+        m += 1
+    if i4 >= 0:
+        keep[m] = i4
+        m += 1
+    return m
 
 
 @njit(**JIT)
@@ -317,7 +374,12 @@ def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot
     count = 0
     ref_is_b = False
     if ka >= 2 and kb >= 2:
-        ref_is_b = kb >= 3 and (ka < 3 or align_b > align_a + REFERENCE_TOLERANCE)
+        if tb == SHAPE_TRIANGLE:
+            # a mesh triangle is the reference on ties: the shape's face is clipped to each triangle,
+            # so its corners (the points that span a manifold on a tessellated floor) are among the points
+            ref_is_b = kb >= 3 and (ka < 3 or align_b > align_a - REFERENCE_TOLERANCE)
+        else:
+            ref_is_b = kb >= 3 and (ka < 3 or align_b > align_a + REFERENCE_TOLERANCE)
         if ref_is_b:
             ref, m, rn, inc, kin, align = face_b, kb, nfb, face_a, ka, align_b
         else:
@@ -401,7 +463,7 @@ def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot
                     count += 1
                 keep = np.arange(count)
                 if count > MAX_MANIFOLD_POINTS:
-                    count = _reduce_manifold(cand, seps, count, nx, ny, nz, keep)
+                    count = reduce_points(cand, seps, count, nx, ny, nz, keep)
                 used = 0
                 for c in range(count):
                     j = keep[c]
@@ -502,7 +564,7 @@ def collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_
         return 0
     keep = np.arange(count)
     if count > MAX_MANIFOLD_POINTS:
-        count = _reduce_manifold(cand, seps, count, nx, ny, nz, keep)
+        count = reduce_points(cand, seps, count, nx, ny, nz, keep)
     for c in range(count):
         j = keep[c]
         for i in range(3):

@@ -29,8 +29,7 @@ from numba import njit
 
 from ...math3d import JIT
 from ..constants import MAX_MANIFOLD_POINTS
-from .box import _reduce_manifold
-from .convex import convex_contact, shape_arrays
+from .convex import convex_contact, reduce_points, shape_arrays
 from .gjk import SHAPE_TRIANGLE, core_radius, support
 
 # Most triangle contact points gathered for one (shape, mesh) pair before the reduction;
@@ -41,6 +40,8 @@ FACE_COS = 1e-6
 # A triangle point with a barycentric weight below this is on an edge (or a vertex).
 EDGE_WEIGHT = 1e-6
 SLOT_FACE = 30
+# Points of two triangles closer than this (m) are one point (0.1 mm: below any useful lever arm).
+SAME_POINT = 1e-4
 
 
 @njit(**JIT)
@@ -83,6 +84,25 @@ def _on_inactive_feature(tri, px, py, pz, active):
         if on and (active >> k) & 1:
             return False
     return True
+
+
+@njit(**JIT)
+def _over_triangle(tri, px, py, pz):
+    """Whether p (mesh frame) projects into the triangle (barycentric weights >= -1e-9)."""
+    ux, uy, uz = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
+    vx, vy, vz = tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2]
+    wx, wy, wz = px - tri[0, 0], py - tri[0, 1], pz - tri[0, 2]
+    d00 = ux * ux + uy * uy + uz * uz
+    d01 = ux * vx + uy * vy + uz * vz
+    d11 = vx * vx + vy * vy + vz * vz
+    d20 = wx * ux + wy * uy + wz * uz
+    d21 = wx * vx + wy * vy + wz * vz
+    den = d00 * d11 - d01 * d01
+    if den <= 0.0:
+        return False
+    b1 = (d11 * d20 - d01 * d21) / den
+    b2 = (d00 * d21 - d01 * d20) / den
+    return b1 >= -1e-9 and b2 >= -1e-9 and 1.0 - b1 - b2 >= -1e-9
 
 
 @njit(**JIT)
@@ -144,8 +164,10 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                                speculative, tn, tp, ts, tf)
             if n == 0:
                 continue
-            if tn[0] * Nx + tn[1] * Ny + tn[2] * Nz > -(1.0 - FACE_COS):
-                # not a face contact: on an inactive edge or vertex take the face normal instead
+            facing = tn[0] * Nx + tn[1] * Ny + tn[2] * Nz
+            if facing > -(1.0 - FACE_COS):
+                # not a face contact: on an inactive edge or vertex take the face normal instead; so too
+                # when the normal would push the shape through to the back (one-sided triangles)
                 j = 0
                 for m in range(1, n):
                     if ts[m] < ts[j]:
@@ -157,15 +179,36 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                 mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
                 my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
                 mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
-                if _on_inactive_feature(tri, mx, my, mz, mesh_edge_active[t]):
+                if facing >= 0.0 or _on_inactive_feature(tri, mx, my, mz, mesh_edge_active[t]):
                     tn[0], tn[1], tn[2] = -Nx, -Ny, -Nz
-                    n = 1
-                    ts[0] = depth_sep
-                    for k in range(3):
-                        # the shape's deepest point, moved half the separation towards the plane
-                        tp[0, k] = low[k] - (ra + 0.5 * depth_sep) * (Nx, Ny, Nz)[k]
-                    tf[0] = SLOT_FACE
+                    # the shape's deepest point below the plane, in the mesh frame
+                    qx, qy, qz = low[0] - pos_b[0], low[1] - pos_b[1], low[2] - pos_b[2]
+                    mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
+                    my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
+                    mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
+                    if _over_triangle(tri, mx, my, mz):
+                        # over the face: a face contact at the plane's depth
+                        ts[0] = depth_sep
+                        for k in range(3):
+                            # the shape's deepest point, moved half the separation towards the plane
+                            tp[0, k] = low[k] - (ra + 0.5 * depth_sep) * (Nx, Ny, Nz)[k]
+                        n = 1 if depth_sep < speculative else 0
+                        tf[0] = SLOT_FACE
+                    else:
+                        # beside the face, on a flat or concave seam: the neighbour that the shape is over
+                        # gives the contact (this plane's depth would be too deep: it runs on under the shape)
+                        n = 0
             for m in range(n):
+                # the same place found through two triangles (a shared edge or vertex): keep the first
+                dup = False
+                for q in range(count):
+                    if (cand[q, 0] - tp[m, 0]) ** 2 + (cand[q, 1] - tp[m, 1]) ** 2 + (cand[q, 2] - tp[m, 2]) ** 2 \
+                            < SAME_POINT * SAME_POINT:
+                        dup = True
+                        if ts[m] < seps[q]:
+                            seps[q] = ts[m]
+                if dup:
+                    continue
                 slot = count
                 if count == MESH_POINTS:
                     # full: replace the shallowest point if this one is deeper
@@ -191,10 +234,9 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             deepest = m
     nx, ny, nz = cand_n[deepest, 0], cand_n[deepest, 1], cand_n[deepest, 2]
     keep = np.arange(count)
-    if count > MAX_MANIFOLD_POINTS:
-        count = _reduce_manifold(cand, seps, count, nx, ny, nz, keep)
+    if count > 2:
+        count = reduce_points(cand, seps, count, nx, ny, nz, keep)
     normal[0], normal[1], normal[2] = nx, ny, nz
-    used = 0
     out = 0
     for c in range(count):
         j = keep[c]
@@ -209,5 +251,4 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
         separation[out] = seps[j]
         feature[out] = feats[j]
         out += 1
-    used += out
     return out
