@@ -132,8 +132,9 @@ class Simulator:
             self.stats["steps"] += n * self.substeps
         return Y
 
-    def _advance_free(self, Y, n, scratch, check=None):
-        """n steps of the chosen integrator for the moving bodies (no contact), from ``step_index``."""
+    def _advance_free(self, Y, n, scratch, check=None, parallel: bool = True):
+        """n steps of the chosen integrator for the moving bodies (no contact), from ``step_index``.
+        ``parallel=False`` keeps the compiled path on one thread (for single steps between collisions)."""
         if self.integrator_id in K.ADAPTIVE:
             Y = self._advance_adaptive(Y, n)
             if check is not None:
@@ -142,7 +143,7 @@ class Simulator:
         elif self.world.tables.custom or check is not None:
             self._advance_stagewise(Y, n, scratch, check)
         else:
-            self._advance_compiled(Y, n, scratch)
+            self._advance_compiled(Y, n, scratch, parallel)
         return Y
 
     # ------------------------------------------------------------------ contact
@@ -175,7 +176,9 @@ class Simulator:
                 if active.any():
                     soft.step(Y, t, self.dt, self.substeps, check)
                     moving &= ~active
-                Y = self._advance_free(Y, 1, scratch, check)
+                if moving.any():
+                    # PERF: one step at a time here, so the parallel kernel's thread start-up would cost more than it saves
+                    Y = self._advance_free(Y, 1, scratch, check, parallel=False)
                 moving[:] = all_moving
         finally:
             moving[:] = all_moving
@@ -219,14 +222,14 @@ class Simulator:
             tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param,
         )
 
-    def _advance_compiled(self, Y, n, s: Scratch):
+    def _advance_compiled(self, Y, n, s: Scratch, parallel: bool = True):
         h = self.dt / self.substeps
         args = self._kernel_args()
         if len(args[-3]):  # springs couple bodies: all bodies advance stage by stage
             K.step_kernel(self.integrator_id, self.world.layout_id, h, n * self.substeps, Y, *args, s.Y1, s.K, s.Kacc, s.R, s.v, s.omega, s.F, s.T)
         else:  # independent bodies: each takes all its steps in cache, in parallel chunks when many
             # NOTE: each parallel task writes only its own rows, so the bits do not depend on the thread count.
-            kernel = K.step_bodies_parallel_kernel if len(Y) >= K.PARALLEL_MIN_BODIES else K.step_bodies_kernel
+            kernel = K.step_bodies_parallel_kernel if parallel and len(Y) >= K.PARALLEL_MIN_BODIES else K.step_bodies_kernel
             kernel(self.integrator_id, self.world.layout_id, h, n * self.substeps, Y, *args[:-3])
 
     def _advance_stagewise(self, Y, n, s: Scratch, check=None):

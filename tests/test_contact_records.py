@@ -1,0 +1,148 @@
+"""Contacts as data (issue 3, deliverable 7) and the contact step's reliability contracts:
+the per-frame record in the trajectory (in memory and streamed), the Python query, checkpoints
+that resume bit for bit (the warm-start impulses are saved), the validated stage-by-stage path,
+and run-to-run determinism of a contact scene.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tumble as tb
+from tumble.checks import state_hash
+from tumble.trajectory import load_trajectory
+
+
+def boxes_on_ground():
+    """Three boxes dropped on the ground, one spinning: contacts start, persist and change."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground", material=tb.Material(friction=0.5))
+    w.add_body(tb.Box(size=(0.4, 0.4, 0.4)), mass=1.0, position=(0, 0, 0.2), name="resting")
+    w.add_body(tb.Box(size=(0.3, 0.5, 0.2)), mass=2.0, position=(1, 0, 0.6), angular_velocity=(1, 2, 3), name="falling")
+    w.add_body(tb.Sphere(radius=0.2), mass=0.5, position=(0.05, 0.02, 0.9), velocity=(0, 0, -1), name="ball",
+               material=tb.Material(restitution=0.5))
+    return w
+
+
+def test_query_names_points_and_forces_of_the_last_step():
+    """The resting box's contacts carry its weight: the normal impulses over one step sum to
+    m g dt (to 1e-6 once settled) and the mean forces to m g; points are on the ground."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+    w.add_body(tb.Box(size=(0.4, 0.4, 0.4)), mass=1.5, position=(0, 0, 0.2), name="box")
+    sim = tb.Simulator(w)
+    sim.step(240)
+    c = sim.contacts()
+    assert len(c) == 4
+    assert set(c.names_a) == {"ground"} and set(c.names_b) == {"box"}
+    assert np.allclose(c.normal, [0, 0, 1])
+    assert np.abs(c.point[:, 2]).max() < 1e-3
+    assert c.normal_impulse.sum() == pytest.approx(1.5 * 9.81 * sim.dt, rel=1e-6)
+    assert c.force[:, 2].sum() == pytest.approx(1.5 * 9.81, rel=1e-6)
+    assert tb.Simulator(tb.World()).contacts().point.shape == (0, 3)
+
+
+def test_recorded_contacts_are_the_query_of_each_frame(tmp_path):
+    """record_contacts=True: frame k of the trajectory holds the contacts sim.contacts() gave after
+    the steps of frame k, padded to the largest count; it survives save and load."""
+    w = boxes_on_ground()
+    sim = tb.Simulator(w, record_contacts=True)
+    traj = sim.run(1.0, frame_rate=24)
+    assert traj.contact_count.shape == (25,) and traj.contact_count[0] == len(tb.Simulator(boxes_on_ground()).contacts())
+    C = traj.contact_count.max()
+    assert C > 0 and traj.contact_point.shape == (25, C, 3) and traj.contact_body_a.shape == (25, C)
+    last = sim.contacts()
+    k = traj.contact_count[-1]
+    assert k == len(last)
+    assert np.array_equal(traj.contact_point[-1, :k], last.point)
+    assert np.array_equal(traj.contact_force[-1, :k], last.force)
+    assert np.all(traj.contact_body_a[-1, k:] == -1) and np.all(np.isnan(traj.contact_point[-1, k:]))
+    path = traj.save(tmp_path / "t.npz")
+    back = load_trajectory(path)
+    for key in ("contact_count", "contact_body_a", "contact_point", "contact_normal_impulse", "contact_force"):
+        assert np.array_equal(getattr(back, key), getattr(traj, key), equal_nan=True), key
+    # without the flag there are no contact keys
+    plain = tb.Simulator(boxes_on_ground()).run(0.25)
+    assert plain.contact_count is None
+
+
+def test_streamed_run_records_the_same_contacts_and_resumes_bit_for_bit(tmp_path):
+    """run_to_file with record_contacts streams the same padded arrays as run(); a run resumed
+    from its checkpoint (warm-start impulses included) ends with the same state hash and the same
+    contact records as an uninterrupted one."""
+    whole = tb.Simulator(boxes_on_ground(), record_contacts=True)
+    traj = whole.run(1.0, frame_rate=24)
+
+    first = tb.Simulator(boxes_on_ground(), record_contacts=True)
+    result = first.run_to_file(tmp_path / "run", 0.5, frame_rate=24)
+    assert result.status == "completed"
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "run" / "checkpoint.npz")
+    assert resumed.record_contacts
+    assert len(resumed.soft_step.solver.old_key) > 0  # warm start restored
+    resumed.run_to_file(tmp_path / "run", 1.0, frame_rate=24, resume=True)
+    assert state_hash(resumed.world) == state_hash(whole.world)
+    streamed = load_trajectory(tmp_path / "run" / "trajectory.npz")
+    assert np.array_equal(streamed.contact_count, traj.contact_count)
+    assert np.array_equal(streamed.contact_point, traj.contact_point, equal_nan=True)
+    assert np.array_equal(streamed.contact_friction_impulse, traj.contact_friction_impulse, equal_nan=True)
+
+
+def test_checkpoint_without_warm_start_would_differ(tmp_path):
+    """The saved warm-start impulses matter: dropping them changes the continuation's bits
+    (so the bit-identical resume above is a real check)."""
+    whole = tb.Simulator(boxes_on_ground())
+    whole.run(1.0)
+    first = tb.Simulator(boxes_on_ground())
+    first.run(0.5)
+    first.save_checkpoint(tmp_path / "c.npz")
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    resumed.soft_step.solver.set_warm_start_state({"key": np.zeros(0, np.int64), "normal_impulse": np.zeros(0),
+                                                   "friction_impulse": np.zeros((0, 3))})
+    resumed.run(0.5)
+    assert state_hash(resumed.world) != state_hash(whole.world)
+
+
+def test_validated_path_gives_the_same_bits_with_contacts(monkeypatch):
+    """TUMBLE_VALIDATE=1 runs validate_world after every stage of the contact step too, and
+    changes no bit."""
+    def run(validate):
+        monkeypatch.setenv("TUMBLE_VALIDATE", "1" if validate else "0")
+        w = boxes_on_ground()
+        sim = tb.Simulator(w)
+        assert sim.validate is validate
+        sim.run(0.5)
+        return state_hash(w)
+
+    assert run(False) == run(True)
+
+
+def test_same_contact_scene_twice_gives_the_same_bits():
+    """Issue: same scene, same version, bit-identical trajectory from run to run."""
+    a = tb.Simulator(boxes_on_ground(), record_contacts=True).run(1.0)
+    b = tb.Simulator(boxes_on_ground(), record_contacts=True).run(1.0)
+    for key in ("position", "orientation", "velocity", "angular_velocity", "contact_point", "contact_force"):
+        assert np.array_equal(getattr(a, key), getattr(b, key), equal_nan=True), key
+
+
+def test_scene_keys_turn_collisions_off_and_record_contacts():
+    from tumble.scene import parse_scene
+
+    doc = {
+        "simulation": {"duration": 0.5, "record_contacts": True},
+        "contact": {"substeps": 2, "restitution_threshold": 0.5},
+        "bodies": [{"name": "g", "shape": {"type": "plane"}, "fixed": True},
+                   {"name": "b", "shape": {"type": "sphere", "radius": 0.1}, "mass": 1, "position": [0, 0, 0.1]}],
+    }
+    scene = parse_scene(doc, "s.toml")
+    sim = scene.simulator()
+    assert sim.record_contacts and sim.contact_settings.substeps == 2 and sim.contact_settings.restitution_threshold == 0.5
+    traj = scene.run(progress=False)
+    assert traj.contact_count[-1] == 1
+    doc["simulation"]["collisions"] = False
+    scene = parse_scene(doc, "s.toml")
+    scene.run(progress=False)
+    assert scene.world.x[1, 2] < 0  # fell through the ground
+    doc["contact"] = {"substeps": 0}
+    with pytest.raises(tb.InputError, match="contact.substeps: must be >= 1"):
+        parse_scene(doc, "s.toml")
