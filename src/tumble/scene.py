@@ -41,7 +41,8 @@ from . import checks
 from . import integrators as K
 from .errors import InputError
 from .forces import ConstantForce, Drag, Impulse, PointForce, Spring, Wind
-from .shapes import Box, Capsule, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
+from .math3d import quat_from_euler_deg
+from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
 from .simulator import Simulator, steps_between
 from .solver.contact import SoftStepSettings
 from .trajectory import Trajectory
@@ -83,7 +84,11 @@ SHAPE_KEYS = {
     "mesh": ((), ("path", "vertices", "faces")),
     "convex": ((), ("path", "points")),
     "particles": (("points", "masses"), ()),
+    "compound": (("parts",), ()),
 }
+# A compound's parts: solid convex shapes only (no plane, mesh, particles, nor another compound).
+PART_KEYS = ("shape", "position", "orientation", "euler_deg")
+PART_TYPES = ("sphere", "box", "capsule", "cylinder", "cone", "convex")
 # Per force type: (required keys, optional keys), besides "type".
 FORCE_KEYS = {
     "drag": ((), ("linear", "quadratic", "angular_linear", "angular_quadratic", "wind", "bodies")),
@@ -614,6 +619,8 @@ class _Parser:
             vertices = self.rows(s["vertices"], g("vertices"), 3)
             faces = self.rows(s["faces"], g("faces"), 3, lambda v, k: self.integer(v, k, 0))
             return self.library(key, Mesh, vertices=vertices, faces=faces)
+        if kind == "compound":
+            return self.compound(s["parts"], g("parts"), key)
         # convex
         if "path" in s:
             if "points" in s:
@@ -622,6 +629,35 @@ class _Parser:
         if "points" not in s:
             raise self.error("missing key 'points' (or a mesh file 'path')", key)
         return self.library(key, Convex, points=self.rows(s["points"], g("points"), 3))
+
+    def compound(self, value, key: str, shape_key: str):
+        """``parts = [{shape = {...}, position = [...], orientation = [w, x, y, z] or euler_deg = [...]}, ...]``."""
+        self.where = key
+        if not isinstance(value, list):
+            raise self.error(f"expected a list of part tables, got {_describe(value)}", key)
+        if not value:
+            raise self.error("a compound needs at least one part", key)
+        parts = []
+        for i, part in enumerate(value):
+            pk = f"{key}[{i}]"
+            t = self.table(part, pk, PART_KEYS, required=("shape",))
+            kind = t["shape"].get("type") if isinstance(t["shape"], dict) else None
+            if isinstance(kind, str) and kind in SHAPE_KEYS and kind not in PART_TYPES:
+                raise self.error(f"a compound part cannot be a {kind} (expected one of {', '.join(PART_TYPES)})", f"{pk}.shape.type")
+            shape = self.shape(t["shape"], f"{pk}.shape")
+            position = self.vector(t["position"], f"{pk}.position") if "position" in t else [0.0, 0.0, 0.0]
+            if "orientation" in t:
+                if "euler_deg" in t:
+                    raise self.error("give orientation or euler_deg, not both", f"{pk}.euler_deg")
+                q = self.vector(t["orientation"], f"{pk}.orientation", 4)
+                if all(c == 0 for c in q):
+                    raise self.error("quaternion must not be zero (w, x, y, z = 0, 0, 0, 0)", f"{pk}.orientation")
+            elif "euler_deg" in t:
+                q = [float(c) for c in quat_from_euler_deg(self.vector(t["euler_deg"], f"{pk}.euler_deg"))]
+            else:
+                q = [1.0, 0.0, 0.0, 0.0]
+            parts.append((shape, position, q))
+        return self.library(shape_key, Compound, parts)
 
     def mesh_path(self, value, key: str) -> str:
         rel = self.string(value, key)
