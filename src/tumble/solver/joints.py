@@ -382,6 +382,9 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
                  h, inv_h, soft, v, omega, linear_impulse, axial_impulse):
     """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate."""
     p = param[j]
+    if (p[P_STIFFNESS] == 0.0 and p[P_DAMPING] == 0.0 and p[P_MOTOR_ON] == 0.0 and p[P_RIGID] == 0.0
+            and p[P_LIMIT_ON] == 0.0):
+        return  # PERF: most joints (a net, a chain) have no 1-D rows; skip their geometry
     has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
     if not has:
         return
