@@ -4,14 +4,14 @@ Reads the bound joint records of ``World.joints`` (``tumble.joints``) into array
 then per step (dt = ``substeps`` x h), in the order of Box2D v3's ``b2SolverStage``
 (Catto, "Solver2D", https://box2d.org/posts/2024/02/solver2d/):
 
-    JointSolver.prepare(world, h)                      softness for this h; tables if joints changed
+    JointSolver.prepare(world, h[, inv_mass, I_inv])   tables if joints changed; softness for h
     per substep:
         (caller) integrate velocities                  v += h F/m, omega from L += h tau
-        JointSolver.warm_start(v, omega)               the accumulated impulses of the last substep
+        JointSolver.warm_start(v, omega, x, R)         the accumulated impulses of the last substep
         JointSolver.solve(v, omega, x, R, True)        soft rows (bias pulls the error out)
         (caller) integrate positions                   x += h v, q by the exact rotation
         JointSolver.solve(v, omega, x, R, False)       relax: rigid rows, no bias
-    JointSolver.project(x, q, R)                       optional NGS position projection
+    JointSolver.project(x, q, R)                       NGS position projection (off by default)
     JointSolver.store(v, omega, x, R)                  reactions, coordinates, breaking
 
 Each joint is a set of rows solved by sequential impulses (Gauss-Seidel over joints, in
@@ -21,11 +21,15 @@ rigid blocks, each solved exactly as a block (angular 3x3 / 2x2 / 1x1, then the 
 3x3, or the slider's 2x2 perpendicular rows), the anchor last since it matters most
 (Box2D ``b2SolveRevoluteJoint``). Rows read the current poses (x, R), so arms and errors
 follow the bodies through the substeps; the inverse world inertia is the caller's
-``I_inv`` (N, 3, 3) at call time.
+``I_inv`` (N, 3, 3) at call time. With ``method="tree"`` the rigid rows of a spanning
+forest are instead solved exactly in linear time (Baraff 1996; ``tree_solve_kernel``).
 
 ``step_with_joints`` is a standalone stepper (the World's built-in forces, evaluated at
 the start of the step, and joints; no contacts), for tests and benchmarks until the
 Simulator's soft step calls the JointSolver itself.
+
+NOTE: this module is over STYLE's ~600 lines; the natural cut is the tree solve
+(``_joint_rows`` to the end) into a module of its own.
 """
 
 from __future__ import annotations
@@ -354,17 +358,6 @@ def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_p
     return False, False, za, ra, rb, 0.0
 
 
-@njit(**JIT)
-def _soft_terms(rigid, bias_rate, mass_scale, impulse_scale, use_bias, inv_h):
-    """(bias_rate, mass_scale, impulse_scale) of a rigid row in this pass."""
-    if not use_bias:
-        return 0.0, 1.0, 0.0
-    if rigid:
-        return inv_h, 1.0, 0.0
-    return bias_rate, mass_scale, impulse_scale
-
-
-# ---------------------------------------------------------------------- the velocity solve
 @njit(**JIT)
 def _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, impulse):
     """A 1-D coordinate row's impulse, with the anchor impulse ``comp`` per unit that keeps
