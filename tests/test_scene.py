@@ -593,3 +593,29 @@ shape = { type = "compound", parts = [
     traj = scene.run(progress=False)
     assert abs(traj.position[-1, 1, 2] - 0.1) < 0.002
     assert np.linalg.norm(traj.velocity[-1, 1]) < 0.01
+
+
+def test_cli_validates_and_runs_a_compound_scene(tmp_path, capsys):
+    """``tumble validate`` and ``tumble run`` on a compound body: ok, outputs written, the shape kept
+    in summary.json; a bad part is one line with the part's key and exit status 2."""
+    from tumble.cli import main
+
+    path = tmp_path / "pin.toml"
+    path.write_text("[simulation]\nduration = 0.25\n" + COMPOUND_SCENE)
+    assert main(["validate", str(path)]) == 0
+    assert capsys.readouterr().out == f"{path}: ok (2 bodies, 0 forces, integrator rk4, duration 0.25 s)\n"
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--no-progress"]) == 0
+    capsys.readouterr()
+    with np.load(out / "trajectory.npz", allow_pickle=False) as data:
+        assert data["position"].shape == (7, 2, 3)
+        assert data["position"][-1, 1, 2] < 0.5  # it fell
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["scene"]["data"]["bodies"][1]["shape"]["type"] == "compound"
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text(COMPOUND_SCENE.replace("radius = 0.06", "radius = -1"))
+    for command in (["validate", str(bad)], ["run", str(bad), "--out", str(tmp_path / "o2")]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert err == f"tumble: error: {bad}: bodies[1].shape.parts[1].shape.radius: must be positive, got -1\n"
