@@ -8,8 +8,16 @@ import tumble as tb
 from tumble.collision.geometry import _Builder
 from tumble.collision.narrowphase import collide_shapes
 from tumble.math3d import quat_to_matrix
-from tumble.shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
-                           SHAPE_SPHERE)
+from tumble.shapes import (
+    SHAPE_BOX,
+    SHAPE_CAPSULE,
+    SHAPE_CONE,
+    SHAPE_CONVEX,
+    SHAPE_CYLINDER,
+    SHAPE_MESH,
+    SHAPE_PLANE,
+    SHAPE_SPHERE,
+)
 
 SPEC = 0.02
 

@@ -15,7 +15,14 @@ from tumble.collision import CollisionPipeline, build_shape_table, update_bounds
 from tumble.errors import InputError
 from tumble.mass import mass_properties
 from tumble.math3d import quat_to_matrix
-from tumble.shapes import SHAPE_BOX, SHAPE_CYLINDER, SHAPE_SPHERE, Compound, shape_from_dict, shape_to_dict
+from tumble.shapes import (
+    SHAPE_BOX,
+    SHAPE_CYLINDER,
+    SHAPE_SPHERE,
+    Compound,
+    shape_from_dict,
+    shape_to_dict,
+)
 
 
 def q_axis(axis, angle):

@@ -14,7 +14,19 @@ import pytest
 
 import tumble as tb
 
-from .helpers import (SPEC, box, capsule, collide, cone, convex, cylinder, plane, random_rotation, rot, sphere)
+from .helpers import (
+    SPEC,
+    box,
+    capsule,
+    collide,
+    cone,
+    convex,
+    cylinder,
+    plane,
+    random_rotation,
+    rot,
+    sphere,
+)
 
 UP = np.array([0.0, 0.0, 1.0])
 CUBE = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)

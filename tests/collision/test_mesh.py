@@ -13,7 +13,18 @@ import tumble as tb
 from tumble.collision import CollisionPipeline
 from tumble.collision.geometry import build_bvh
 
-from .helpers import SPEC, box, capsule, collide, convex, cylinder, mesh, random_rotation, rot, sphere
+from .helpers import (
+    SPEC,
+    box,
+    capsule,
+    collide,
+    convex,
+    cylinder,
+    mesh,
+    random_rotation,
+    rot,
+    sphere,
+)
 
 DOWN = np.array([0.0, 0.0, -1.0])
 CUBE = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)

@@ -32,7 +32,7 @@ from numba import njit
 
 from ...math3d import JIT
 from ...shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER
-from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS
+from ..constants import MAX_MANIFOLD_POINTS
 from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, support
 from .sphere import plane_world
 

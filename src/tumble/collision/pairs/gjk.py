@@ -20,7 +20,14 @@ import numpy as np
 from numba import njit
 
 from ...math3d import JIT
-from ...shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_SPHERE
+from ...shapes import (
+    SHAPE_BOX,
+    SHAPE_CAPSULE,
+    SHAPE_CONE,
+    SHAPE_CONVEX,
+    SHAPE_CYLINDER,
+    SHAPE_SPHERE,
+)
 
 # Internal type id of one mesh triangle seen as a convex shape (its 3 corners in ``verts``).
 SHAPE_TRIANGLE = 100

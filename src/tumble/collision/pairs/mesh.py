@@ -205,8 +205,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                     if (cand[q, 0] - tp[m, 0]) ** 2 + (cand[q, 1] - tp[m, 1]) ** 2 + (cand[q, 2] - tp[m, 2]) ** 2 \
                             < SAME_POINT * SAME_POINT:
                         dup = True
-                        if ts[m] < seps[q]:
-                            seps[q] = ts[m]
+                        seps[q] = min(seps[q], ts[m])
                 if dup:
                     continue
                 slot = count
