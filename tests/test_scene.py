@@ -264,10 +264,10 @@ OPEN_BOX_FACES = CUBE_FACES[:10]  # two triangles short of closed
 
 BAD_SCENES = [
     # unknown keys, everywhere
-    ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, forces, contact)"),
+    ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver)"),
     ("unknown-simulation", "[simulation]\nspeed = 2\n" + BODY, "simulation.speed",
      "unknown key (expected one of duration, frame_rate, dt, integrator, substeps, gravity, layout, rtol, atol, max_energy_growth, "
-     "collisions, record_contacts)"),
+     "collisions, record_contacts, record_joints)"),
     ("unknown-body", body(colour='"red"'), "bodies[0].colour", f"unknown key (expected one of {BODY_KEYS})"),
     ("unknown-shape", body(shape='{ type = "sphere", radius = 1, size = 2 }'), "bodies[0].shape.size", "unknown key (expected one of type, radius)"),
     ("unknown-material", body(material="{ friction = 0.5, bounce = 1 }"), "bodies[0].material.bounce", "unknown key (expected one of friction, restitution)"),
@@ -511,7 +511,7 @@ def test_a_key_with_control_characters_still_gives_one_line():
 
     with pytest.raises(InputError) as err:
         parse_scene({"\n": None}, "f.toml")
-    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, forces, contact)"
+    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver)"
 
 
 # ---------------------------------------------------------------------- compounds

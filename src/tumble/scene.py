@@ -4,9 +4,13 @@ The format is DESIGN.md's "Scene file" contract::
 
     [simulation]            duration, frame_rate, dt, integrator, substeps,
                             gravity, layout, rtol, atol, max_energy_growth,
-                            collisions, record_contacts (all optional)
+                            collisions, record_contacts, record_joints (all optional)
     [contact]               the contact solver's settings (SoftStepSettings:
                             contact_hertz, contact_damping_ratio, ...; optional)
+    [[joints]]              type = ball | hinge | slider | fixed | distance | universal,
+                            body_a, body_b, anchor, axis, limits, motors ... (docs/joints.md,
+                            tumble.scene_joints)
+    [joint_solver]          the joint solver's settings (JointSettings; optional)
     [[bodies]]              name, shape = {type = ..., ...}, mass or density,
                             inertia, fixed, position, orientation or euler_deg,
                             velocity, angular_velocity, angular_velocity_frame,
@@ -62,9 +66,10 @@ DEFAULTS = {
     "max_energy_growth": checks.MAX_ENERGY_GROWTH,
     "collisions": True,
     "record_contacts": False,
+    "record_joints": False,
 }
 
-TOP_KEYS = ("simulation", "bodies", "forces", "contact")
+TOP_KEYS = ("simulation", "bodies", "forces", "contact", "joints", "joint_solver")
 # [contact]: the soft step's settings (tumble.solver.contact.SoftStepSettings), all optional.
 CONTACT_KEYS = tuple(f.name for f in dataclasses.fields(SoftStepSettings))
 SIMULATION_KEYS = tuple(DEFAULTS)
@@ -129,6 +134,8 @@ class Scene:
     max_energy_growth: float = DEFAULTS["max_energy_growth"]
     record_contacts: bool = False
     contact: SoftStepSettings = field(default_factory=SoftStepSettings)
+    joint_settings: Any = None
+    record_joints: bool = False
 
     @property
     def gravity(self) -> list[float]:
@@ -150,6 +157,8 @@ class Scene:
             "collisions": bool(self.world.collisions),
             "record_contacts": self.record_contacts,
             "contact": dataclasses.asdict(self.contact),
+            "record_joints": self.record_joints,
+            "joint_solver": None if self.joint_settings is None else dataclasses.asdict(self.joint_settings),
         }
 
     def check(self):
@@ -164,7 +173,8 @@ class Scene:
         """A ``Simulator`` for ``world`` with the scene's dt, integrator, substeps and tolerances."""
         return Simulator(self.world, dt=self.dt, integrator=self.integrator, substeps=self.substeps, rtol=self.rtol, atol=self.atol,
                          max_energy_growth=self.max_energy_growth, contact_settings=self.contact,
-                         record_contacts=self.record_contacts)
+                         record_contacts=self.record_contacts, joint_settings=self.joint_settings,
+                         record_joints=self.record_joints)
 
     def run(self, progress: bool | None = None) -> Trajectory:
         """Run ``duration`` s at ``frame_rate`` from the world's current state (t = 0 for a fresh scene)."""
@@ -453,11 +463,19 @@ class _Parser:
         for i, force in enumerate(forces):
             self.force(world, force, f"forces[{i}]", names)
 
+        from .scene_joints import parse_joint_settings, parse_joints
+
+        self.where = "joints"
+        parse_joints(doc.get("joints"), world, self.file)
+        self.where = "joint_solver"
+        joint_settings = parse_joint_settings(doc.get("joint_solver"), self.file) if "joint_solver" in doc else None
+
         return Scene(
             world=world, duration=sim["duration"], frame_rate=sim["frame_rate"], dt=sim["dt"],
             integrator=sim["integrator"], substeps=sim["substeps"], layout=sim["layout"],
             data=data, rtol=sim["rtol"], atol=sim["atol"], max_energy_growth=sim["max_energy_growth"],
-            record_contacts=sim["record_contacts"], contact=contact,
+            record_contacts=sim["record_contacts"], contact=contact, joint_settings=joint_settings,
+            record_joints=sim["record_joints"],
         )
 
     def contact(self, value) -> SoftStepSettings:
@@ -493,7 +511,7 @@ class _Parser:
                 s[k] = self.positive(t[k], f"simulation.{k}")
         if "substeps" in t:
             s["substeps"] = self.integer(t["substeps"], "simulation.substeps", 1)
-        for k in ("collisions", "record_contacts"):
+        for k in ("collisions", "record_contacts", "record_joints"):
             if k in t:
                 s[k] = self.boolean(t[k], f"simulation.{k}")
         if "max_energy_growth" in t:

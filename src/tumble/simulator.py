@@ -30,7 +30,7 @@ from .forces import Impulse
 from .shapes import shape_to_dict
 from .solver.contact import SoftStepSettings
 from .solver.soft_step import SoftStep
-from .trajectory import CONTACT_FIELDS, Trajectory, pad_contacts
+from .trajectory import CONTACT_FIELDS, Trajectory, joint_frame_shapes, pad_contacts
 from .world import Scratch, World
 
 
@@ -65,7 +65,7 @@ class Simulator:
 
     def __init__(self, world: World, dt: float = 1.0 / 240.0, integrator: str = "rk4", substeps: int = 1, rtol: float = 1e-10, atol: float = 1e-12,
                  max_energy_growth: float = checks.MAX_ENERGY_GROWTH, contact_settings: SoftStepSettings | None = None,
-                 record_contacts: bool = False):
+                 record_contacts: bool = False, joint_settings=None, record_joints: bool = False):
         if integrator not in K.INTEGRATOR_IDS:
             names = ", ".join(K.INTEGRATOR_IDS)
             raise InputError(f"unknown integrator {integrator!r} (expected one of {names})", "simulation.integrator")
@@ -99,6 +99,8 @@ class Simulator:
         self.contact_settings = contact_settings
         self.soft_step = None  # SoftStep: collision pipeline + contact solver, made on first use
         self.record_contacts = bool(record_contacts)
+        self.joint_settings = joint_settings  # tumble.solver.joints.JointSettings, or None for its defaults
+        self.record_joints = bool(record_joints)
 
     # ------------------------------------------------------------------ stepping
     def step(self, count: int = 1):
@@ -148,12 +150,12 @@ class Simulator:
 
     # ------------------------------------------------------------------ contact
     def _contact_on(self) -> bool:
-        """Contact is solved when the world allows collisions and two shapes can touch."""
-        if not getattr(self.world, "collisions", True):
+        """The soft step runs when two shapes can touch (collisions on) or the world has joints."""
+        if not getattr(self.world, "collisions", True) and not getattr(self.world, "joints", None):
             return False
         if self.soft_step is None:
-            self.soft_step = SoftStep(self.world, self.contact_settings)
-        return self.soft_step.has_collisions()
+            self.soft_step = SoftStep(self.world, self.contact_settings, self.joint_settings)
+        return self.soft_step.has_collisions() or self.soft_step.has_joints()
 
     def _advance_with_contacts(self, Y, n, scratch, check=None):
         """n steps: collide; bodies with contacts take the soft step, the others the chosen integrator.
@@ -184,6 +186,23 @@ class Simulator:
             moving[:] = all_moving
             self.step_index = first
         return Y
+
+    def joint_readings(self) -> dict:
+        """The joints' readings after the last step (``JointSolver.readings``): ``position`` (J,)
+        rad or m, ``rate`` (J,), ``force`` (J, 3) N and ``torque`` (J, 3) N m on body b (world),
+        ``enabled`` (J,) bool. Zeros (and enabled) before the first step."""
+        J = len(getattr(self.world, "joints", ()))
+        solver = None if self.soft_step is None else self.soft_step.joints
+        if solver is None or getattr(solver, "count", 0) != J:
+            return {"position": np.zeros(J), "rate": np.zeros(J), "force": np.zeros((J, 3)), "torque": np.zeros((J, 3)),
+                    "enabled": np.array([not j.broken for j in self.world.joints], dtype=bool)}
+        return solver.readings()
+
+    def joint_frame(self) -> dict:
+        """``joint_readings`` under the trajectory's per-frame keys (``trajectory.joint_frame_shapes``)."""
+        r = self.joint_readings()
+        return {"joint_position": r["position"], "joint_rate": r["rate"], "joint_force": r["force"],
+                "joint_torque": r["torque"], "joint_enabled": np.asarray(r["enabled"], dtype=float)}
 
     def contacts(self):
         """The contacts of the last step (``tumble.solver.soft_step.Contacts``: bodies, points,
@@ -405,7 +424,7 @@ class Simulator:
         # the recorder's arrays, then the trajectory's copy of them
         checks.check_memory(2 * (frames + 1) * (n * checks.FRAME_BYTES_PER_BODY + 80), f"keeping {frames + 1} frames of {n} bodies in memory",
                             "simulation.duration")
-        rec = _Recorder(self.world, frames + 1, self if self.record_contacts else None)
+        rec = _Recorder(self.world, frames + 1, self if self.record_contacts else None, self if self.record_joints else None)
         self.world.update_derived()
         rec.record()
         self._reset_energy_reference()
@@ -553,7 +572,8 @@ class Simulator:
         return {"dt": self.dt, "integrator": self.integrator, "substeps": self.substeps, "rtol": self.rtol, "atol": self.atol,
                 "max_energy_growth": self.max_energy_growth,
                 "contact": dataclasses.asdict(self.contact_settings or SoftStepSettings()),
-                "record_contacts": self.record_contacts}
+                "record_contacts": self.record_contacts, "record_joints": self.record_joints,
+                "joint_solver": None if self.joint_settings is None else dataclasses.asdict(self.joint_settings)}
 
 
 @dataclass
@@ -658,10 +678,11 @@ class _Recorder:
         "total_linear_momentum": "3", "total_angular_momentum": "3", "orthonormality_error": None,
     }
 
-    def __init__(self, world: World, capacity: int, contacts_of=None):
+    def __init__(self, world: World, capacity: int, contacts_of=None, joints_of=None):
         self.world = world
         self.contacts_of = contacts_of  # a Simulator whose contacts() are recorded each frame, or None
         self.contact_frames = []
+        self.joints_of = joints_of  # a Simulator whose joint_frame() is recorded each frame, or None
         n = world.body_count
         self.count = 0
         self.arrays = {}
@@ -672,12 +693,18 @@ class _Recorder:
                 self.arrays[key] = np.zeros((capacity, 3))
             else:
                 self.arrays[key] = np.zeros((capacity, n) + shape)
+        if joints_of is not None:
+            for key, shape in joint_frame_shapes(len(world.joints)).items():
+                self.arrays[key] = np.zeros((capacity,) + shape)
 
     def record(self):
         for key, value in frame_values(self.world).items():
             self.arrays[key][self.count] = value
         if self.contacts_of is not None:
             self.contact_frames.append(self.contacts_of.contacts())
+        if self.joints_of is not None:
+            for key, value in self.joints_of.joint_frame().items():
+                self.arrays[key][self.count] = value
         self.count += 1
 
     def trajectory(self) -> Trajectory:
@@ -687,4 +714,6 @@ class _Recorder:
             frames = self.contact_frames[:k]
             rows = {field: np.concatenate([getattr(c, field) for c in frames]) for field in CONTACT_FIELDS}
             contacts = pad_contacts([len(c) for c in frames], rows)
+        if self.joints_of is not None:
+            contacts["joint_names"] = np.array([j.name or "" for j in self.world.joints], dtype=str)
         return Trajectory(**{key: a[:k].copy() for key, a in self.arrays.items()}, **static_values(self.world), **contacts)

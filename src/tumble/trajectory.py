@@ -52,6 +52,13 @@ class Trajectory:
         contact_normal_impulse: (F, C) N s, on b over the step.
         contact_friction_impulse: (F, C, 3) N s, on b over the step, world.
         contact_force: (F, C, 3) N, mean force on b over the step (impulses / dt).
+
+    Joints, when the run recorded them (``record_joints``; else None), J joints in the order
+    they were added:
+        joint_names: (J,) their names ("" when unnamed).
+        joint_position: (F, J) rad or m, the joint coordinate.  joint_rate: (F, J) its rate.
+        joint_force: (F, J, 3) N and joint_torque: (F, J, 3) N m, reaction on body b, world.
+        joint_enabled: (F, J) 1.0 while the joint acts, 0.0 once broken.
     """
 
     time: np.ndarray
@@ -79,8 +86,15 @@ class Trajectory:
     contact_normal_impulse: np.ndarray | None = None
     contact_friction_impulse: np.ndarray | None = None
     contact_force: np.ndarray | None = None
+    joint_names: np.ndarray | None = None
+    joint_position: np.ndarray | None = None
+    joint_rate: np.ndarray | None = None
+    joint_force: np.ndarray | None = None
+    joint_torque: np.ndarray | None = None
+    joint_enabled: np.ndarray | None = None
 
-    OPTIONAL = ("shapes", "fixed", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
+    OPTIONAL = ("joint_names", "joint_position", "joint_rate", "joint_force", "joint_torque", "joint_enabled",
+                "shapes", "fixed", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
                 "contact_normal", "contact_separation", "contact_normal_impulse", "contact_friction_impulse",
                 "contact_force")
 
@@ -111,9 +125,18 @@ class Trajectory:
         """Write the .npz atomically (temporary file in the same folder, then rename)."""
         arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self) if getattr(self, f.name) is not None}
         arrays["names"] = np.asarray(self.names, dtype=str)
+        if self.joint_names is not None:
+            arrays["joint_names"] = np.asarray(self.joint_names, dtype=str)
         if self.shapes is not None:
             arrays["shapes"] = np.asarray(self.shapes, dtype=str)
         return write_atomic(path, lambda fh: np.savez_compressed(fh, **arrays))
+
+
+def joint_frame_shapes(joint_count: int) -> dict:
+    """Per-frame joint keys of a trajectory and the shape of one frame (J joints)."""
+    J = joint_count
+    return {"joint_position": (J,), "joint_rate": (J,), "joint_force": (J, 3), "joint_torque": (J, 3),
+            "joint_enabled": (J,)}
 
 
 # The contact keys of a trajectory: field of ``Contacts`` -> (key, row shape, dtype, padding).
@@ -253,11 +276,14 @@ class TrajectoryWriter:
             trajectory file) must hold at least that many frames, and later ones are dropped.
     """
 
-    def __init__(self, path, static: dict, body_count: int, keep_frames: int | None = None, contacts: bool = False):
+    def __init__(self, path, static: dict, body_count: int, keep_frames: int | None = None, contacts: bool = False,
+                 joints: int | None = None):
         self.path = Path(path)
         self.parts = self.path.parent / f".{self.path.stem}.parts"
         self.static = static
         self.shapes = frame_shapes(body_count)
+        if joints is not None:  # joint readings: fixed-size rows, like the bodies' keys
+            self.shapes.update(joint_frame_shapes(joints))
         if contacts:  # contact_count, one number a frame; the contact rows in their own files (ragged)
             self.shapes["contact_count"] = ()
         self.contacts = contacts

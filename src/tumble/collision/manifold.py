@@ -78,8 +78,8 @@ class ContactManifolds:
     def candidates(self, total: int):
         """Per-candidate-pair scratch rows for the parallel narrowphase (grown by doubling, kept):
         (a, b, count, normal, points, separations, features), the first ``total`` rows of each."""
-        cap = getattr(self, "_cand_capacity", 0)
-        if cap < total:
+        cap = self.__dict__.get("_cand_capacity", 0)
+        if cap < total or cap == 0:
             cap = max(cap, 64)
             while cap < total:
                 cap *= 2

@@ -38,6 +38,8 @@ class CollisionPipeline:
         self.contacts = ContactManifolds()
         self.shape_pos = self.shape_rot = self.shape_aabb = self.shape_margin = None
         self.pair_a = self.pair_b = None
+        # sorted int64 keys lo * N + hi of body pairs that must not collide (jointed bodies), or None
+        self.excluded_pairs = None
 
     def refresh(self):
         """Rebuild the shape table if bodies were added since the last call."""
@@ -70,4 +72,5 @@ class CollisionPipeline:
         self.pair_a, self.pair_b = find_pairs(self.shape_aabb, table.shape_type, table.shape_body,
                                               table.body_moving, self.pairs)
         return collide_pairs(self.pair_a, self.pair_b, table, self.shape_pos, self.shape_rot, self.shape_aabb,
-                             self.speculative, self.contacts, shape_margin=self.shape_margin)
+                             self.speculative, self.contacts, shape_margin=self.shape_margin,
+                             excluded_pairs=self.excluded_pairs)

@@ -196,10 +196,13 @@ class SoftStep:
         world: the World. settings: ``contact.SoftStepSettings`` (defaults: Box3D's).
     """
 
-    def __init__(self, world, settings: C.SoftStepSettings | None = None):
+    def __init__(self, world, settings: C.SoftStepSettings | None = None, joint_settings=None):
         self.world = world
         self.settings = settings or C.SoftStepSettings()
         self.pipeline = CollisionPipeline(world, self.settings.speculative_distance, skip_unsupported=True)
+        self.joint_settings = joint_settings
+        self.joints = None  # JointSolver, made when the world has joints
+        self._joint_key = None
         self.solver = C.ContactSolver(self.settings)
         self._n = -1
         self.dt = 0.0
@@ -215,9 +218,36 @@ class SoftStep:
             self._n = n
 
     def has_collisions(self) -> bool:
-        """True when at least two shapes can touch (one of them on a moving body)."""
+        """True when collisions are on and at least two shapes can touch (one of them on a moving body)."""
+        if not getattr(self.world, "collisions", True):
+            return False
         table = self.pipeline.refresh()
         return table.shape_count >= 2 and bool(np.any(table.body_moving[table.shape_body]))
+
+    def has_joints(self) -> bool:
+        return bool(getattr(self.world, "joints", None))
+
+    def _refresh_joints(self):
+        """The JointSolver and the sorted keys lo * N + hi of the body pairs that must not collide
+        (joints with collide_connected=False); rebuilt when joints are added or break."""
+        from ..joints import jointed_body_pairs
+        from .joints import JointSolver
+
+        w = self.world
+        key = (len(w.joints), sum(1 for j in w.joints if j.broken), w.body_count)
+        if key == self._joint_key:
+            return
+        if self.joints is None:
+            self.joints = JointSolver(self.joint_settings) if self.joint_settings is not None else JointSolver()
+        pairs = jointed_body_pairs(w)
+        self.pipeline.excluded_pairs = np.sort(pairs[:, 0] * w.body_count + pairs[:, 1]).astype(np.int64)
+        jb = np.array([(j.bound.body_a, j.bound.body_b) for j in w.joints if not j.broken and j.bound is not None],
+                      dtype=np.int64).reshape(-1, 2)
+        self.jointed = np.zeros(w.body_count, dtype=bool)
+        for col in (0, 1):
+            ids = jb[:, col]
+            self.jointed[ids[ids >= 0]] = True
+        self._joint_key = key
 
     def collide(self, Y, t: float, dt: float):
         """Forces at the start of the step, then the collision stages on Y's poses; marks ``active``."""
@@ -225,8 +255,19 @@ class SoftStep:
         w = self.world
         s = self.scratch
         w.evaluate_forces(t, Y, s)  # R, v, omega of every body, and the step's first F, T
-        self.contacts = self.pipeline.detect(Y, s.R, s.v, s.omega, dt)
+        if self.has_joints():
+            self._refresh_joints()
+        else:
+            self.pipeline.excluded_pairs = None
+        if self.has_collisions():
+            self.contacts = self.pipeline.detect(Y, s.R, s.v, s.omega, dt)
+        else:
+            self.contacts = self.pipeline.contacts
+            self.contacts.manifold_count = self.contacts.contact_count = 0
         mark_active_kernel(self.contacts.contact_body_a, self.contacts.contact_body_b, w.moving, self.active)
+        if self.has_joints():
+            # jointed bodies always take this step (their joints are solved here)
+            self.active |= self.jointed & w.moving
         springs = w.tables.spring_body
         if len(springs):
             spread_active_kernel(springs, w.moving, self.active)
@@ -245,6 +286,10 @@ class SoftStep:
         solver = self.solver
         # v, omega before the step: the approach speeds restitution reflects
         solver.prepare_contacts(w, self.contacts, h, s.v, s.omega, x=Y, R=s.R, I_inv=self._inverse_inertia(Y))
+        # joints (Box2D's order: joints before contacts in each solve); x is read from Y's first columns
+        joints = self.joints if self.has_joints() else None
+        if joints is not None:
+            joints.prepare(w, h, w.inv_mass, self.I_inv)
         for k in range(substeps):
             if k > 0:
                 w.evaluate_forces(t + k * h, Y, s)
@@ -252,9 +297,15 @@ class SoftStep:
                 check("accumulate_forces", t + k * h, F=s.F, T=s.T)
             integrate_velocities_kernel(layout, Y, active, w.inv_mass, w.inertia_body, w.inertia_body_inv, s.F, s.T, h,
                                         s.R, s.v, s.omega, self.I_inv, self.I_world)
+            if joints is not None:
+                joints.warm_start(s.v, s.omega, Y, s.R)
             solver.warm_start()
+            if joints is not None:
+                joints.solve(s.v, s.omega, Y, s.R, True)
             solver.solve_contacts(True)
             integrate_positions_kernel(layout, Y, active, s.v, s.omega, h, s.R)
+            if joints is not None:
+                joints.solve(s.v, s.omega, Y, s.R, False)
             solver.solve_contacts(False)
             store_momenta_kernel(layout, Y, active, w.mass, s.v, s.omega, self.I_world)
             solver.accumulate_step_impulses()
@@ -263,6 +314,8 @@ class SoftStep:
         solver.apply_restitution()
         store_momenta_kernel(layout, Y, active, w.mass, s.v, s.omega, self.I_world)
         solver.store_impulses()
+        if joints is not None:
+            joints.store(s.v, s.omega, Y, s.R)
 
     def _inverse_inertia(self, Y):
         """I^-1 (N, 3, 3) of the active bodies at the start of the step (0 elsewhere), for prepare_contacts."""
