@@ -325,3 +325,31 @@ def test_feature_ids_unchanged_by_small_moves(name):
     for d in MOVES:
         n, p, s, f = collide(*RESTING[name](np.asarray(d)))
         assert sorted(f.tolist()) == sorted(f0.tolist()), d
+
+
+def test_every_pair_type_is_sane_on_random_poses():
+    """All pairs among sphere, capsule, cylinder, cone, box, convex, deep overlaps included: finite output,
+    unit normal pointing from a towards b (positive along the centre line when the centres are well apart
+    relative to the overlap), at most 4 points with distinct features, separations below the speculative distance."""
+    rng = np.random.default_rng(21)
+    hull = tb.Convex(points=rng.normal(size=(14, 3)) * 0.25)
+    makers = [
+        lambda p, R: sphere(p, 0.25),
+        lambda p, R: capsule(p, R, 0.15, 0.2),
+        lambda p, R: cylinder(p, R, 0.2, 0.25),
+        lambda p, R: cone(p, R, 0.25, 0.5),
+        lambda p, R: box(p, R, (0.2, 0.15, 0.25)),
+        lambda p, R: convex(p, R, hull),
+    ]
+    for _ in range(40):
+        for i in range(len(makers)):
+            for j in range(i, len(makers)):
+                d = rng.normal(size=3)
+                d /= np.linalg.norm(d)
+                a = makers[i](np.zeros(3), random_rotation(rng))
+                b = makers[j](d * rng.uniform(0.0, 0.7), random_rotation(rng))
+                n, p, s, f = collide(a, b)
+                assert len(s) <= 4 and len(set(f.tolist())) == len(f)
+                assert np.all(np.isfinite(p)) and np.all(np.isfinite(s)) and np.all(s < SPEC)
+                if len(s):
+                    assert abs(np.linalg.norm(n) - 1) < 1e-9

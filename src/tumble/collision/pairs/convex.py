@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from ...math3d import JIT
-from ...shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER
+from ...shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_SPHERE
 from ..constants import MAX_MANIFOLD_POINTS
 from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, support
 from .sphere import plane_world
@@ -362,6 +362,14 @@ def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot
         core_sep = -depth
         sep0 = core_sep - ra - rb
     normal[0], normal[1], normal[2] = nx, ny, nz
+    if ta == SHAPE_SPHERE or tb == SHAPE_SPHERE:
+        # a sphere touches at one point: no faces to clip
+        for i in range(3):
+            ni = (nx, ny, nz)[i]
+            point[0, i] = 0.5 * (pa[i] + ra * ni + pb[i] - rb * ni)
+        separation[0] = sep0
+        feature[0] = FEATURE_SINGLE
+        return 1
     # the supporting faces and the clip
     face_a = np.empty((MAX_FACE, 3))
     face_b = np.empty((MAX_FACE, 3))

@@ -28,9 +28,10 @@ import numpy as np
 from numba import njit
 
 from ...math3d import JIT
+from ...shapes import SHAPE_SPHERE
 from ..constants import MAX_MANIFOLD_POINTS
 from .convex import convex_contact, reduce_points, shape_arrays
-from .gjk import SHAPE_TRIANGLE, core_radius, support
+from .gjk import SHAPE_TRIANGLE, _closest_triangle, core_radius, support
 
 # Most triangle contact points gathered for one (shape, mesh) pair before the reduction;
 # beyond it a new point replaces the shallowest one.
@@ -106,6 +107,37 @@ def _over_triangle(tri, px, py, pz):
 
 
 @njit(**JIT)
+def _sphere_triangle(c, r, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, normal, point, separation, feature):
+    """A sphere against one triangle: the closest point of the triangle to the centre (exact; no GJK)."""
+    for v in range(3):
+        for i in range(3):
+            W[v, i] = pos_b[i] + rot_b[i, 0] * tri[v, 0] + rot_b[i, 1] * tri[v, 1] + rot_b[i, 2] * tri[v, 2] - c[i]
+    lam = np.empty(3)
+    sub = np.empty(4, dtype=np.int64)
+    k, dd = _closest_triangle(W, 0, 1, 2, lam, sub)
+    dist = math.sqrt(dd)
+    if dist - r >= speculative:
+        return 0
+    qx, qy, qz = 0.0, 0.0, 0.0
+    for j in range(k):
+        qx += lam[j] * W[sub[j], 0]
+        qy += lam[j] * W[sub[j], 1]
+        qz += lam[j] * W[sub[j], 2]
+    if dist > 1e-12:
+        nx, ny, nz = qx / dist, qy / dist, qz / dist
+    else:
+        nx, ny, nz = -Nx, -Ny, -Nz
+    normal[0], normal[1], normal[2] = nx, ny, nz
+    sep = dist - r
+    point[0, 0] = c[0] + (r + 0.5 * sep) * nx
+    point[0, 1] = c[1] + (r + 0.5 * sep) * ny
+    point[0, 2] = c[2] + (r + 0.5 * sep) * nz
+    separation[0] = sep
+    feature[0] = 0
+    return 1
+
+
+@njit(**JIT)
 def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
                         normal, point, separation, feature):
     """Sphere, capsule, cylinder, cone, box or convex a against the fixed mesh b (collide_<a>_mesh)."""
@@ -124,6 +156,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
     tp = np.empty((MAX_MANIFOLD_POINTS, 3))
     ts = np.empty(MAX_MANIFOLD_POINTS)
     tf = np.empty(MAX_MANIFOLD_POINTS, dtype=np.int64)
+    W = np.empty((3, 3))
     count = 0
     n0 = shape_data[b, 2]
     n_end = n0 + shape_data[b, 3]
@@ -138,6 +171,13 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             continue
         for t in range(node_first[i], node_first[i] + node_count[i]):
             tri = mesh_triangle[t]
+            # the triangle's own box against the shape's (a leaf holds several triangles)
+            apart = False
+            for k in range(3):
+                if min(tri[0, k], tri[1, k], tri[2, k]) > hi[k] or max(tri[0, k], tri[1, k], tri[2, k]) < lo[k]:
+                    apart = True
+            if apart:
+                continue
             # face normal N (world) and the shape's extent along it
             ux, uy, uz = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
             vx, vy, vz = tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2]
@@ -159,9 +199,12 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             high = support(ta, pos_a, rot_a, params_a, verts_a, Nx, Ny, Nz)
             if Nx * (high[0] - c0x) + Ny * (high[1] - c0y) + Nz * (high[2] - c0z) + ra < 0.0:
                 continue  # entirely behind it
-            n = convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, SHAPE_TRIANGLE, pos_b, rot_b, params_b,
-                               tri, 0, 0, hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex,
-                               speculative, tn, tp, ts, tf)
+            if ta == SHAPE_SPHERE:
+                n = _sphere_triangle(pos_a, ra, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, tn, tp, ts, tf)
+            else:
+                n = convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, SHAPE_TRIANGLE, pos_b, rot_b,
+                                   params_b, tri, 0, 0, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
+                                   hull_vertex, speculative, tn, tp, ts, tf)
             if n == 0:
                 continue
             facing = tn[0] * Nx + tn[1] * Ny + tn[2] * Nz
