@@ -27,7 +27,9 @@ variant whose first run takes longer than --long-run seconds runs once. A run lo
 --timeout seconds stops and is reported INCOMPLETE with the figures at that time.
 
 Steps: PyBullet and MuJoCo step dt = 1/240 s (BENCHMARKS.md); tumble steps the scene's
-recommended dt = 1/60 s with 4 substeps (h = 1/240 s, Box3D's step). "ms/step" is per step of
+recommended dt = 1/60 s with 4 substeps (h = 1/240 s, Box3D's step): ``Simulator(world,
+dt=1/60, integrator="semi-implicit-euler", substeps=1)`` and the soft step's default 4 solver
+substeps (``SoftStepSettings.substeps``; the variant column says "soft step 1x4"). "ms/step" is per step of
 the engine's own dt (the dt column); the real-time factor compares them directly.
 """
 
@@ -62,11 +64,19 @@ BOX3D_MS = {"large_pyramid": (26.3, 15.5), "many_pyramids": (52.7, 27.8)}
 
 
 class TumbleScene:
-    """tumble on a scene: a fresh World and ``Simulator(world, dt, integrator, substeps)``."""
+    """tumble on a scene: a fresh World and ``Simulator(world, dt, integrator, substeps)``.
 
-    def __init__(self, scene: str, kwargs: dict, integrator: str, dt: float | None, substeps: int | None):
+    The scene's ``substeps`` (4, Box3D's) are solver substeps per step of dt: one collision pass a
+    step, then substeps of h = dt / 4. In tumble the soft step makes ``Simulator.substeps x
+    SoftStepSettings.substeps`` substeps a step, so Box3D's step is ``Simulator(dt=1/60,
+    substeps=1)`` with ``SoftStepSettings(substeps=4)`` (the default); ``Simulator(substeps=4)``
+    with the default settings would take 16 substeps of 1/960 s.
+    """
+
+    def __init__(self, scene: str, kwargs: dict, integrator: str, dt: float | None, substeps: int | None,
+                 contact_substeps: int | None = None):
         self.scene, self.kwargs, self.integrator = scene, kwargs, integrator
-        self._dt, self._substeps = dt, substeps
+        self._dt, self._substeps, self._contact_substeps = dt, substeps, contact_substeps
         t0 = time.perf_counter()
         self.reset()
         self.load_s = time.perf_counter() - t0
@@ -77,9 +87,19 @@ class TumbleScene:
 
         self.world, settings = C.build(self.scene, **self.kwargs)
         self.dt = self._dt or settings["dt"]
-        self.substeps = self._substeps or settings["substeps"]
+        self.sim_substeps = self._substeps or 1
+        self.contact_substeps = self._contact_substeps or max(1, settings["substeps"] // self.sim_substeps)
+        self.substeps = self.sim_substeps * self.contact_substeps
         self.moving = np.flatnonzero(self.world.moving)
-        self.sim = tb.Simulator(self.world, dt=self.dt, integrator=self.integrator, substeps=self.substeps)
+        try:
+            from tumble.solver.contact import SoftStepSettings
+
+            extra = {"contact_settings": SoftStepSettings(substeps=self.contact_substeps)}
+        except (ImportError, TypeError):  # an API without solver substeps: Simulator substeps only
+            extra = {}
+            self.sim_substeps = self.substeps = self._substeps or settings["substeps"]
+            self.contact_substeps = 1
+        self.sim = tb.Simulator(self.world, dt=self.dt, integrator=self.integrator, substeps=self.sim_substeps, **extra)
 
     def step(self, k: int):
         self.sim.step(k)
@@ -90,7 +110,8 @@ class TumbleScene:
 
 
 def tumble_make(scene, kwargs, args):
-    eng = TumbleScene(scene, kwargs, args.tumble_integrator, args.tumble_dt, args.tumble_substeps)
+    eng = TumbleScene(scene, kwargs, args.tumble_integrator, args.tumble_dt, args.tumble_substeps,
+                      args.tumble_contact_substeps)
     t0 = time.perf_counter()
     eng.step(1)  # compile or load from the Numba cache (this copy is thrown away)
     compile_s = time.perf_counter() - t0
@@ -235,7 +256,9 @@ def main(argv=None):
     ap.add_argument("--long-run", type=float, default=30.0, help="a variant whose first run is longer runs once")
     ap.add_argument("--tumble-integrator", default="semi-implicit-euler")
     ap.add_argument("--tumble-dt", type=float, default=None, help="default: the scene's (1/60 s)")
-    ap.add_argument("--tumble-substeps", type=int, default=None, help="default: the scene's (4)")
+    ap.add_argument("--tumble-substeps", type=int, default=None, help="Simulator substeps (default 1)")
+    ap.add_argument("--tumble-contact-substeps", type=int, default=None,
+                    help="SoftStepSettings.substeps (default: the scene's 4 / Simulator substeps)")
     ap.add_argument("--tumble-threads", type=int, default=None, help="Numba threads for tumble (default: all)")
     ap.add_argument("--tag", default=None, help="suffix of the result files")
     ap.add_argument("--out", type=Path, default=RESULTS)
@@ -276,7 +299,7 @@ def main(argv=None):
                 if engine == "tumble":
                     eng, load_s, compile_s = tumble_make(scene, kwargs, args)
                     dt, substeps = eng.dt, eng.substeps
-                    variant = f"{args.tumble_integrator}, soft step" + (
+                    variant = f"{args.tumble_integrator}, soft step {eng.sim_substeps}x{eng.contact_substeps}" + (
                         f", {args.tumble_threads} thread{'s' if args.tumble_threads > 1 else ''}" if args.tumble_threads else "")
                     reset = TumbleScene.reset
                 else:

@@ -16,7 +16,11 @@ Box3D's scenes are y up; here they are turned by +90 degrees about x, so Box3D's
 stand in (x-y) becomes x-z. They keep Box3D's gravity (10 m/s^2) and friction (0.6).
 
 The recommended dt / substeps are Box3D's step (1/60 s with 4 substeps, h = 1/240 s,
-the peers' dt in BENCHMARKS.md) for every scene.
+the peers' dt in BENCHMARKS.md) for every scene. ``substeps`` counts solver substeps per step
+(one collision pass, then substeps of h = dt / substeps): in tumble that is
+``Simulator(world, dt=settings["dt"], substeps=1)`` with the soft step's
+``SoftStepSettings(substeps=settings["substeps"])`` (its default, 4), since the soft step
+makes ``Simulator.substeps x SoftStepSettings.substeps`` substeps a step.
 """
 
 from __future__ import annotations
