@@ -361,6 +361,24 @@ def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot
         nx, ny, nz = nrm
         core_sep = -depth
         sep0 = core_sep - ra - rb
+    return face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_b, params_b, verts_b, fb0, fnb,
+                         hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
+                         nx, ny, nz, sep0, core_sep, pa, pb, normal, point, separation, feature)
+
+
+@njit(**JIT)
+def face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_b, params_b, verts_b, fb0, fnb,
+                  hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
+                  nx, ny, nz, sep0, core_sep, pa, pb,
+                  # outputs
+                  normal, point, separation, feature):
+    """The manifold along a known normal n (a to b): supporting faces, clip, reduce (module docstring).
+
+    sep0: the deepest separation (radii included); core_sep: the cores' along n; pa, pb
+    (tuples): the cores' deepest points (the single-point fallback).
+    """
+    ra = core_radius(ta, params_a)
+    rb = core_radius(tb, params_b)
     normal[0], normal[1], normal[2] = nx, ny, nz
     if ta == SHAPE_SPHERE or tb == SHAPE_SPHERE:
         # a sphere touches at one point: no faces to clip

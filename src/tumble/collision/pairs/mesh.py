@@ -30,7 +30,7 @@ from numba import njit
 from ...math3d import JIT
 from ...shapes import SHAPE_SPHERE
 from ..constants import MAX_MANIFOLD_POINTS
-from .convex import convex_contact, reduce_points, shape_arrays
+from .convex import FEATURE_SINGLE, convex_contact, face_manifold, reduce_points, shape_arrays
 from .gjk import SHAPE_TRIANGLE, _closest_triangle, core_radius, support
 
 # Most triangle contact points gathered for one (shape, mesh) pair before the reduction;
@@ -85,6 +85,14 @@ def _on_inactive_feature(tri, px, py, pz, active):
         if on and (active >> k) & 1:
             return False
     return True
+
+
+@njit(**JIT)
+def _to_mesh(x, y, z, pos_b, rot_b):
+    """World point to the mesh frame."""
+    qx, qy, qz = x - pos_b[0], y - pos_b[1], z - pos_b[2]
+    return (rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz, rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz,
+            rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz)
 
 
 @njit(**JIT)
@@ -199,7 +207,23 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             high = support(ta, pos_a, rot_a, params_a, verts_a, Nx, Ny, Nz)
             if Nx * (high[0] - c0x) + Ny * (high[1] - c0y) + Nz * (high[2] - c0z) + ra < 0.0:
                 continue  # entirely behind it
-            if ta == SHAPE_SPHERE:
+            if ta != SHAPE_SPHERE and mesh_edge_active[t] == 0:
+                # PERF: inside a flat or concave patch (no active edge) the normal is the face's (the
+                # internal-edge rule below would pick it anyway): no GJK/EPA, straight to the face clipping.
+                # The clip keeps the part of the shape over this triangle; a shape beside it gets only the
+                # one-point fallback, kept only if that point is over the triangle (else a neighbour's job).
+                core = depth_sep + ra
+                px, py, pz = low[0] - core * Nx, low[1] - core * Ny, low[2] - core * Nz
+                n = face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, SHAPE_TRIANGLE, pos_b, rot_b,
+                                  params_b, tri, 0, 0, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
+                                  hull_vertex, speculative, -Nx, -Ny, -Nz, depth_sep, core, low, (px, py, pz),
+                                  tn, tp, ts, tf)
+                if n == 1 and tf[0] == FEATURE_SINGLE:
+                    mx, my, mz = _to_mesh(px, py, pz, pos_b, rot_b)
+                    if not _over_triangle(tri, mx, my, mz):
+                        n = 0
+                    tf[0] = SLOT_FACE
+            elif ta == SHAPE_SPHERE:
                 n = _sphere_triangle(pos_a, ra, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, tn, tp, ts, tf)
             else:
                 n = convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, SHAPE_TRIANGLE, pos_b, rot_b,
