@@ -267,7 +267,7 @@ BAD_SCENES = [
     ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver)"),
     ("unknown-simulation", "[simulation]\nspeed = 2\n" + BODY, "simulation.speed",
      "unknown key (expected one of duration, frame_rate, dt, integrator, substeps, gravity, layout, rtol, atol, max_energy_growth, "
-     "collisions, record_contacts, record_joints)"),
+     "collisions, record_contacts, record_joints, sleeping)"),
     ("unknown-body", body(colour='"red"'), "bodies[0].colour", f"unknown key (expected one of {BODY_KEYS})"),
     ("unknown-shape", body(shape='{ type = "sphere", radius = 1, size = 2 }'), "bodies[0].shape.size", "unknown key (expected one of type, radius)"),
     ("unknown-material", body(material="{ friction = 0.5, bounce = 1 }"), "bodies[0].material.bounce", "unknown key (expected one of friction, restitution)"),

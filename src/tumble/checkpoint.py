@@ -78,6 +78,7 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "stats": {k: v for k, v in sim.stats.items()},
         "energy_reference": sim.energy_reference,
         "collisions": bool(getattr(w, "collisions", True)),
+        "sleeping": bool(getattr(w, "sleeping", True)),
         "run": run,
     }
     arrays = {name: np.ascontiguousarray(getattr(w, name)) for name in CONSTANTS + STATE}
@@ -85,6 +86,9 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
     if sim.soft_step is not None:
         for name, arr in sim.soft_step.solver.warm_start_state().items():
             arrays["contact_" + name] = np.ascontiguousarray(arr)
+    if sim.sleep is not None:  # the sleep timers and flags: a resumed run sleeps when the whole one does
+        for name, arr in sim.sleep.state().items():
+            arrays["sleep_" + name] = np.ascontiguousarray(arr)
     arrays["meta"] = np.array(json.dumps(meta, default=_json_default, allow_nan=True))
     return write_atomic(path, lambda fh: np.savez(fh, **arrays))
 
@@ -111,6 +115,7 @@ def load_checkpoint(cls, path, custom_forces=None):
             meta = json.loads(str(data["meta"]))
             arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE}
             warm = {name[len("contact_"):]: np.array(data[name]) for name in WARM_START if name in data.files}
+            sleep = {name[len("sleep_"):]: np.array(data[name]) for name in data.files if name.startswith("sleep_")}
     except Exception as exc:  # damaged or foreign file: one line
         raise InputError(f"not a readable checkpoint file ({type(exc).__name__}: {' '.join(str(exc).split())})", None, file) from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
@@ -121,6 +126,11 @@ def load_checkpoint(cls, path, custom_forces=None):
         sim = _rebuild(cls, meta, arrays, custom_forces)
         if len(warm) == len(WARM_START):
             _restore_warm_start(sim, warm)
+        if sleep:
+            from .solver.island import SleepState
+
+            sim.sleep = SleepState(sim.world.body_count)
+            sim.sleep.set_state(sleep)
     except InputError as err:
         raise InputError(f"checkpoint does not rebuild: {err}", None, file) from None
     except SimulationError as err:
@@ -174,6 +184,7 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
         w.add_force(kind(**record))
     w.t = float(meta["t"])
     w.collisions = bool(meta.get("collisions", True))
+    w.sleeping = bool(meta.get("sleeping", True))
     w.applied_impulses = {int(k) for k in meta["applied_impulses"]}
     w.update_derived()
     checks.validate_world(w, "load_checkpoint")

@@ -4,7 +4,8 @@ The format is DESIGN.md's "Scene file" contract::
 
     [simulation]            duration, frame_rate, dt, integrator, substeps,
                             gravity, layout, rtol, atol, max_energy_growth,
-                            collisions, record_contacts, record_joints (all optional)
+                            collisions, record_contacts, record_joints, sleeping
+                            (all optional)
     [contact]               the contact solver's settings (SoftStepSettings:
                             contact_hertz, contact_damping_ratio, ...; optional)
     [[joints]]              type = ball | hinge | slider | fixed | distance | universal,
@@ -67,6 +68,7 @@ DEFAULTS = {
     "collisions": True,
     "record_contacts": False,
     "record_joints": False,
+    "sleeping": True,
 }
 
 TOP_KEYS = ("simulation", "bodies", "forces", "contact", "joints", "joint_solver")
@@ -155,6 +157,7 @@ class Scene:
             "atol": self.atol,
             "max_energy_growth": self.max_energy_growth,
             "collisions": bool(self.world.collisions),
+            "sleeping": bool(self.world.sleeping),
             "record_contacts": self.record_contacts,
             "contact": dataclasses.asdict(self.contact),
             "record_joints": self.record_joints,
@@ -446,6 +449,7 @@ class _Parser:
         contact = self.contact(doc.get("contact", {}))
         world = self.library("simulation", World, gravity=sim["gravity"], layout=sim["layout"])
         world.collisions = sim["collisions"]
+        world.sleeping = sim["sleeping"]
 
         bodies = doc["bodies"]
         if not isinstance(bodies, list) or not all(isinstance(b, dict) for b in bodies):
@@ -511,7 +515,7 @@ class _Parser:
                 s[k] = self.positive(t[k], f"simulation.{k}")
         if "substeps" in t:
             s["substeps"] = self.integer(t["substeps"], "simulation.substeps", 1)
-        for k in ("collisions", "record_contacts", "record_joints"):
+        for k in ("collisions", "record_contacts", "record_joints", "sleeping"):
             if k in t:
                 s[k] = self.boolean(t[k], f"simulation.{k}")
         if "max_energy_growth" in t:

@@ -29,6 +29,7 @@ from .errors import InputError, SimulationError
 from .forces import Impulse
 from .shapes import shape_to_dict
 from .solver.contact import SoftStepSettings
+from .solver.island import SleepState
 from .solver.soft_step import SoftStep
 from .trajectory import CONTACT_FIELDS, Trajectory, joint_frame_shapes, pad_contacts
 from .world import Scratch, World
@@ -98,6 +99,7 @@ class Simulator:
         self.checkpoint_run = None  # the ``run`` data of the checkpoint this simulator was loaded from
         self.contact_settings = contact_settings
         self.soft_step = None  # SoftStep: collision pipeline + contact solver, made on first use
+        self.sleep = None  # solver.island.SleepState, made on the first step with contacts
         self.record_contacts = bool(record_contacts)
         self.joint_settings = joint_settings  # tumble.solver.joints.JointSettings, or None for its defaults
         self.record_joints = bool(record_joints)
@@ -160,6 +162,12 @@ class Simulator:
     def _advance_with_contacts(self, Y, n, scratch, check=None):
         """n steps: collide; bodies with contacts take the soft step, the others the chosen integrator.
 
+        Sleeping (``world.sleeping``, on by default; ``solver.island``): islands at rest for
+        ``TIME_TO_SLEEP`` stop moving and cost nothing; they wake whole when an awake body
+        touches them. Call order per step (island.py): mask the sleepers out of ``moving`` (and
+        the broadphase), collide, update the sleep state; if an island woke or fell asleep,
+        mask again and collide again (rare).
+
         NOTE: the two groups are stepped one after the other (contact bodies first); forces
         that couple them (springs, callables) see the other group at the start of the step.
         """
@@ -167,12 +175,25 @@ class Simulator:
         soft = self.soft_step
         moving = w.moving
         all_moving = moving.copy()
+        table = soft.pipeline.refresh()
+        sleep = self._sleep_state()
         first = self.step_index
         try:
             for k in range(n):
                 self.step_index = first + k
                 t = self.step_index * self.dt
+                if sleep is not None:
+                    sleep.resize(w.body_count)
+                    moving[:] = all_moving & sleep.awake
+                    table.body_moving[:] = moving
                 active = soft.collide(Y, t, self.dt)
+                if sleep is not None:
+                    c = soft.contacts
+                    sleep.update(w, Y, c.contact_body_a, c.contact_body_b, self.dt, moving=all_moving)
+                    if sleep.woke.any() or sleep.fell_asleep.any():
+                        moving[:] = all_moving & sleep.awake
+                        table.body_moving[:] = moving
+                        active = soft.collide(Y, t, self.dt)
                 if check is not None:
                     check("collide_pairs", t, Y=Y)
                 if active.any():
@@ -184,8 +205,19 @@ class Simulator:
                 moving[:] = all_moving
         finally:
             moving[:] = all_moving
+            table.body_moving[:] = all_moving
             self.step_index = first
         return Y
+
+    def _sleep_state(self):
+        """The ``SleepState`` (``self.sleep``) when the world lets bodies sleep, else None."""
+        if not getattr(self.world, "sleeping", True):
+            if self.sleep is not None:
+                self.sleep.wake_all()
+            return None
+        if self.sleep is None:
+            self.sleep = SleepState(self.world.body_count)
+        return self.sleep
 
     def joint_readings(self) -> dict:
         """The joints' readings after the last step (``JointSolver.readings``): ``position`` (J,)

@@ -108,6 +108,8 @@ class World:
         self.t = 0.0
         # bodies with collision shapes touch (contact, issue 3); False lets them pass through each other
         self.collisions = True
+        # islands at rest fall asleep (stop moving, cost nothing) and wake when touched (solver/island.py)
+        self.sleeping = True
         self.body_count = 0
         self._capacity = 0
         self._arrays: dict[str, np.ndarray] = {}

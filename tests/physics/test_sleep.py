@@ -11,7 +11,6 @@ import pytest
 import tumble as tb
 from tumble.solver.island import TIME_TO_SLEEP
 
-pytestmark = pytest.mark.skip(reason="waiting for the lead's wiring")
 
 DT = 1.0 / 240.0
 
