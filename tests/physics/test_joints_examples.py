@@ -1,8 +1,6 @@
-"""The scene files in examples/joints/, loaded with their [[joints]] and run with the
-standalone joint stepper (the ones that need no contact), each checked against the physics
-it shows. Those that need contact (Newton's cradle, the chain over a box, the ragdoll) are
-loaded and validated here; running them waits for the Simulator's soft step (contacts and
-joints together)."""
+"""The scene files in examples/joints/, each checked against the physics it shows: those
+without contact with the standalone joint stepper, those with contact (ragdoll, Newton's
+cradle) through the Simulator's soft step, which solves contacts and joints together."""
 
 import math
 from pathlib import Path
@@ -15,7 +13,6 @@ from tumble.scene_joints import load_scene_with_joints
 from tumble.solver.joints import JointSolver, step_with_joints
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "joints"
-NEEDS_CONTACT = ("newtons_cradle.toml", "chain_over_box.toml", "ragdoll_stairs.toml")
 
 
 def load(name):
@@ -39,9 +36,47 @@ def test_every_example_loads():
         assert joints and len(scene.world.joints) == len(joints)
 
 
-@pytest.mark.parametrize("name", NEEDS_CONTACT)
-def test_contact_examples_wait_for_the_contact_step(name):
-    pytest.skip(f"{name} needs contacts and joints in one step (the Simulator's soft step, not wired yet)")
+def test_ragdoll_example_tumbles_down_the_stairs_within_its_limits():
+    # Through the Simulator's soft step (contacts and joints together), as `tumble run` does.
+    import tumble as tb
+
+    scene = tb.load_scene(EXAMPLES / "ragdoll_stairs.toml")
+    w = scene.world
+    sim = scene.simulator()
+    sim.run(4.0, 10, progress=False)
+    pelvis = w.body("pelvis")
+    assert pelvis.x[0] > 2.4  # past the last step (the flight ends at x = 2.4 m)
+    assert pelvis.x[2] < 0.3  # down on the ground
+    r = sim.joint_readings()
+    assert r["enabled"].all()
+    knees = r["position"][[7, 9]]
+    elbows = r["position"][[3, 5]]
+    assert np.all(knees > -0.05) and np.all(knees < math.radians(150) + 0.05)
+    assert np.all(elbows < 0.05) and np.all(elbows > -math.radians(150) - 0.05)
+
+
+@pytest.mark.xfail(reason="contact solver: touching balls are pushed as one block (measured at 1 s: ball 0 "
+                          "bounces back, balls 1-4 swing out together, energy -44 %); see the report of issue 4",
+                   strict=False)
+def test_newtons_cradle_sends_one_ball_out():
+    import tumble as tb
+
+    scene = tb.load_scene(EXAMPLES / "newtons_cradle.toml")
+    w = scene.world
+    E0 = w.kinetic_energy() + w.potential_energy()
+    traj = scene.simulator().run(1.0, 60, progress=False)
+    z = traj.position[:, :, 2]
+    # after the strike (t ~ 0.5 s) the last ball rises to about the first's height, the others stay
+    late = traj.time > 0.75
+    assert z[late, 4].max() > 0.1
+    assert np.abs(z[late, 1:4]).max() < 0.01
+    E = traj.kinetic_energy[-1] + traj.potential_energy[-1]
+    assert E == pytest.approx(E0, rel=0.01)
+
+
+def test_chain_over_box_example_waits():
+    pytest.skip("chain_over_box.toml runs (tumble run: drapes over the box), but 3 s take ~170 s of "
+                "wall time in the contact step today: too slow for the test set")
 
 
 def test_pendulum_example_period():
