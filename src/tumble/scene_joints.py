@@ -196,22 +196,12 @@ def parse_joint_settings(table, file: str | None = None):
 
 
 def load_scene_with_joints(path):
-    """Until ``tumble.scene`` reads ``[[joints]]`` itself: read a scene file, build its
-    bodies and forces with ``tumble.scene.parse_scene`` (without the joints tables), then
-    its joints. Returns (Scene, joint records, JointSettings)."""
-    import tomllib
-    from pathlib import Path
+    """A scene file with its joints: (Scene, joint records, JointSettings). ``tumble.scene``
+    reads ``[[joints]]`` and ``[joint_solver]`` itself; this keeps the three together for
+    code that steps the World with ``tumble.solver.joints.step_with_joints``."""
+    from .scene import load_scene
+    from .solver.joints import JointSettings
 
-    from .scene import load_scene, parse_scene
-
-    path = Path(path)
-    file = str(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
-        return load_scene(path), [], parse_joint_settings(None, file)  # the scene loader says what is wrong
-    entries = data.pop("joints", None)
-    solver = data.pop("joint_solver", None)
-    scene = parse_scene(data, file, path.parent, source=path)
-    joints = parse_joints(entries, scene.world, file)
-    return scene, joints, parse_joint_settings(solver, file)
+    scene = load_scene(path)
+    settings = getattr(scene, "joint_settings", None) or JointSettings()
+    return scene, list(scene.world.joints), settings

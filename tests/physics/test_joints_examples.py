@@ -81,7 +81,6 @@ def test_chain_over_box_example_waits():
 
 def test_pendulum_example_period():
     scene, _, solver = load("pendulum.toml")
-    w = scene.world
     xs = []
     run(scene, solver, 4.2, each=lambda k, w, s: xs.append(w.x[0, 0]))
     xs = np.array(xs)
@@ -93,7 +92,7 @@ def test_pendulum_example_period():
 
 
 def test_hinged_door_example_opens_and_stops_at_its_limit():
-    scene, joints, solver = load("hinged_door.toml")
+    scene, _joints, solver = load("hinged_door.toml")
     w = scene.world
     push = next(f for f in w.forces if type(f).__name__ == "Impulse")
     angles = []
@@ -114,7 +113,6 @@ def test_hinged_door_example_opens_and_stops_at_its_limit():
 
 def test_four_bar_example_turns_at_motor_speed_with_loop_closed():
     scene, _, solver = load("four_bar.toml")
-    w = scene.world
     rates, gaps = [], []
 
     def each(k, w, s):
