@@ -188,6 +188,8 @@ def test_v_groove_two_points_one_per_slope():
     expected = c[2] * np.cos(np.radians(20)) - r
     np.testing.assert_allclose(s, expected, atol=1e-12)
     assert p[0, 0] * p[1, 0] < 0  # one point on each side of the valley
+    # the shared normal: the two slopes' normals averaged (equal weights by symmetry), straight down
+    np.testing.assert_allclose(n, DOWN, atol=1e-9)
 
 
 def test_bvh_holds_every_triangle_once_and_boxes_contain_them():

@@ -14,10 +14,11 @@ that triangle are both inactive, the contact is replaced by the face contact: no
 -N and the depth of the shape's deepest point below the triangle's plane. Triangles
 the shape is entirely behind are skipped (the mesh is closed: another face holds it).
 
-NOTE: a manifold has one normal (the pair contract): it is the deepest point's; the
-other points keep the separation measured along their own triangle's normal. Exact on
-flat ground; across a crease (a box bridging two slopes) the shared normal is that of
-the deeper side. Feature = (triangle row mod 2**16) << 5 | the triangle contact's slot.
+NOTE: a manifold has one normal (the pair contract): the kept points' normals averaged,
+weighted by speculative - separation; each point keeps the separation measured along its
+own triangle's normal. Exact on flat ground; across a crease (a box bridging two slopes,
+a ball in a groove) the shared normal leans between the two faces, so the solver pushes
+each point along a normal up to half the crease angle off its face's. Feature = (triangle row mod 2**16) << 5 | the triangle contact's slot.
 """
 
 from __future__ import annotations
@@ -302,6 +303,19 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
     keep = np.arange(count)
     if count > 2:
         count = reduce_points(cand, seps, count, nx, ny, nz, keep)
+    # the shared normal: the kept points' normals weighted by how far inside the speculative band they are
+    # (equal on a flat floor; across a crease or in a groove it leans to the deeper side, not flipping
+    # between the two as the deepest point would)
+    sx, sy, sz = 0.0, 0.0, 0.0
+    for c in range(count):
+        j = keep[c]
+        wgt = speculative - seps[j]
+        sx += wgt * cand_n[j, 0]
+        sy += wgt * cand_n[j, 1]
+        sz += wgt * cand_n[j, 2]
+    ln = math.sqrt(sx * sx + sy * sy + sz * sz)
+    if ln > 1e-12:
+        nx, ny, nz = sx / ln, sy / ln, sz / ln
     normal[0], normal[1], normal[2] = nx, ny, nz
     out = 0
     for c in range(count):
