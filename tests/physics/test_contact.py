@@ -266,3 +266,30 @@ def test_pyramid_of_20_rows_stands_10_s():
     assert np.linalg.norm(w.x - x0, axis=1).max() < 0.01
     assert np.abs(w.v).max() < 0.01
     assert max_box_overlap(w) < 0.005
+
+
+# ---------------------------------------------------------------------- piles
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 3's settling criteria are not met yet: at 4 s a few boxes still "
+                   "slide down the pile's flanks and one has left the region (see the docstring)")
+def test_pile_of_1000_boxes_settles_in_4_s():
+    """Issue: a pile of 1000 boxes (BENCHMARKS.md "pile") settles: after 4 s no penetration over
+    5 mm, no body faster than 1 cm/s, none outside the pile's region (the start's bounding box
+    grown by 2 m, BENCHMARKS.md's "left region"). Run at Box3D's step (dt 1/60 s, 4 solver
+    substeps), as the benchmark. Measured at 4 s: ground penetration 2.7 mm, largest box-box
+    overlap 8.3 mm, 2 boxes above 1 cm/s (0.12 and 0.02 m/s, sliding down the flank; all below
+    1 cm/s by 5 s), 1 box 4.5 m out. At dt 1/240 s: overlap 0.7 mm but 71 boxes still moving
+    and 8 out. PyBullet and MuJoCo miss it too on this scene (docs/benchmarks.md)."""
+    from tumble.scenes.contact import box_corners, max_box_overlap, pile
+
+    w, settings = pile(1000)
+    start = w.x[w.moving].copy()
+    lo, hi = start[:, :2].min(axis=0) - 2.0, start[:, :2].max(axis=0) + 2.0
+    tb.Simulator(w, dt=settings["dt"]).run(4.0, frame_rate=4)
+    m = w.moving
+    corners = box_corners(w.x[m], w.R[m], np.array([0.1, 0.1, 0.1]))
+    assert -corners[..., 2].min() < 0.005
+    assert max_box_overlap(w) < 0.005
+    assert np.linalg.norm(w.v[m], axis=1).max() < 0.01
+    xy = w.x[m, :2]
+    assert np.all((xy >= lo) & (xy <= hi))
