@@ -12,7 +12,6 @@ from numba import njit, prange
 from ..math3d import JIT
 from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
                       SHAPE_SPHERE)
-from .constants import MAX_MANIFOLD_POINTS
 from .manifold import KEY_BITS, ContactManifolds
 from .pairs.box import collide_box_box, collide_capsule_box, collide_plane_box, collide_sphere_box
 from .pairs.capsule import collide_capsule_capsule, collide_plane_capsule, collide_sphere_capsule
