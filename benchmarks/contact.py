@@ -27,9 +27,11 @@ variant whose first run takes longer than --long-run seconds runs once. A run lo
 --timeout seconds stops and is reported INCOMPLETE with the figures at that time.
 
 Steps: PyBullet and MuJoCo step dt = 1/240 s (BENCHMARKS.md); tumble steps the scene's
-recommended dt = 1/60 s with 4 substeps (h = 1/240 s, Box3D's step): ``Simulator(world,
-dt=1/60, integrator="semi-implicit-euler", substeps=1)`` and the soft step's default 4 solver
-substeps (``SoftStepSettings.substeps``; the variant column says "soft step 1x4"). "ms/step" is per step of
+recommended dt = 1/60 s. tumble variants are "SxC": ``Simulator(world, dt=1/60,
+integrator="semi-implicit-euler", substeps=S)`` with ``SoftStepSettings(substeps=C)``, so a
+step is S x C solver substeps: 1x4 is Box3D's step (h = 1/240 s); 4x4 is
+``Simulator(substeps=4)`` with the default solver substeps (h = 1/960 s). "default" takes
+--tumble-substeps / --tumble-contact-substeps. "ms/step" is per step of
 the engine's own dt (the dt column); the real-time factor compares them directly.
 """
 
@@ -109,12 +111,23 @@ class TumbleScene:
         return w.x[m].copy(), w.R[m].copy(), w.v[m].copy(), w.omega[m].copy()
 
 
-def tumble_make(scene, kwargs, args):
-    eng = TumbleScene(scene, kwargs, args.tumble_integrator, args.tumble_dt, args.tumble_substeps,
-                      args.tumble_contact_substeps)
+def tumble_make(scene, kwargs, args, variant: str = "1x4"):
+    """The engine at the scene's start, and the compile (or Numba cache load) time: 10 steps of a
+    3-box stack (box-plane and box-box contacts from the first step: the contact kernels compile
+    on first use) and one step of a throw-away copy of the scene."""
+    sim_sub, contact_sub = args.tumble_substeps, args.tumble_contact_substeps
+    if variant != "default":
+        try:
+            sim_sub, contact_sub = (int(v) for v in variant.split("x"))
+        except ValueError:
+            raise SystemExit(f"tumble variants are SIMxCONTACT substeps (1x4, 4x4) or default, got {variant!r}") from None
     t0 = time.perf_counter()
-    eng.step(1)  # compile or load from the Numba cache (this copy is thrown away)
-    compile_s = time.perf_counter() - t0
+    warm = TumbleScene("stack", {"n": 3}, args.tumble_integrator, args.tumble_dt, sim_sub, contact_sub)
+    warm.step(10)
+    eng = TumbleScene(scene, kwargs, args.tumble_integrator, args.tumble_dt, sim_sub, contact_sub)
+    t1 = time.perf_counter()
+    eng.step(1)
+    compile_s = (t1 - t0 - eng.load_s) + (time.perf_counter() - t1)
     eng.reset()
     return eng, eng.load_s, compile_s
 
@@ -132,7 +145,9 @@ def peer_module(engine: str):
 
 def default_variants(engine: str, scene: str, n: int) -> list[str]:
     if engine == "tumble":
-        return ["soft-step"]
+        # 1x4: Box3D's step (Simulator substeps=1, 4 solver substeps: h = 1/240 s at dt = 1/60 s);
+        # 4x4: Simulator(substeps=4) with the default 4 solver substeps (h = 1/960 s)
+        return ["1x4", "4x4"]
     if scene in ("large_pyramid", "many_pyramids"):
         return []  # Box3D's scenes: tumble against Box3D's published figure; peers only on request
     if engine == "pybullet":
@@ -173,6 +188,14 @@ def machine() -> dict:
         threads = numba.get_num_threads()
     except Exception:  # noqa: BLE001
         threads = None
+    import tumble
+
+    src = Path(tumble.__file__).resolve().parent
+    if src != (ROOT / "src" / "tumble").resolve():
+        stamp = src.parent.parent / "HEAD_COMMIT"  # written beside a `git archive` copy of the source
+        archived = stamp.read_text().strip() if stamp.exists() else "?"
+        head = f"{archived} (tumble imported from {src}, a copy of that commit; the repository is at {head})"
+        dirty = ""
     return dict(date=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"), cpu=cpu, nproc=os.cpu_count(),
                 platform=platform.platform(), python=platform.python_version(),
                 tumble_git=head + (" + uncommitted changes in src/" if dirty else ""), numba_threads=threads, **versions)
@@ -297,7 +320,7 @@ def main(argv=None):
             label = f"{engine}:{variant}"
             try:
                 if engine == "tumble":
-                    eng, load_s, compile_s = tumble_make(scene, kwargs, args)
+                    eng, load_s, compile_s = tumble_make(scene, kwargs, args, variant)
                     dt, substeps = eng.dt, eng.substeps
                     variant = f"{args.tumble_integrator}, soft step {eng.sim_substeps}x{eng.contact_substeps}" + (
                         f", {args.tumble_threads} thread{'s' if args.tumble_threads > 1 else ''}" if args.tumble_threads else "")
