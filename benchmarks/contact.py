@@ -76,8 +76,9 @@ class TumbleScene:
     """
 
     def __init__(self, scene: str, kwargs: dict, integrator: str, dt: float | None, substeps: int | None,
-                 contact_substeps: int | None = None):
+                 contact_substeps: int | None = None, sleeping: bool | None = None):
         self.scene, self.kwargs, self.integrator = scene, kwargs, integrator
+        self._sleeping = sleeping
         self._dt, self._substeps, self._contact_substeps = dt, substeps, contact_substeps
         t0 = time.perf_counter()
         self.reset()
@@ -88,6 +89,8 @@ class TumbleScene:
         from tumble.scenes import contact as C
 
         self.world, settings = C.build(self.scene, **self.kwargs)
+        if self._sleeping is not None:
+            self.world.sleeping = self._sleeping
         self.dt = self._dt or settings["dt"]
         self.sim_substeps = self._substeps or 1
         self.contact_substeps = self._contact_substeps or max(1, settings["substeps"] // self.sim_substeps)
@@ -110,6 +113,13 @@ class TumbleScene:
         w, m = self.world, self.moving
         return w.x[m].copy(), w.R[m].copy(), w.v[m].copy(), w.omega[m].copy()
 
+    def extra_figures(self):
+        """Sleeping (``world.sleeping``) and the boxes asleep at the end."""
+        sleep = getattr(self.sim, "sleep", None)
+        awake = getattr(sleep, "awake", None)
+        asleep = None if awake is None else int((~np.asarray(awake, dtype=bool)[self.moving]).sum())
+        return {"sleeping": getattr(self.world, "sleeping", None), "asleep_end": asleep}
+
 
 def tumble_make(scene, kwargs, args, variant: str = "1x4"):
     """The engine at the scene's start, and the compile (or Numba cache load) time: 10 steps of a
@@ -122,9 +132,10 @@ def tumble_make(scene, kwargs, args, variant: str = "1x4"):
         except ValueError:
             raise SystemExit(f"tumble variants are SIMxCONTACT substeps (1x4, 4x4) or default, got {variant!r}") from None
     t0 = time.perf_counter()
-    warm = TumbleScene("stack", {"n": 3}, args.tumble_integrator, args.tumble_dt, sim_sub, contact_sub)
+    sleeping = None if args.tumble_sleep is None else args.tumble_sleep == "on"
+    warm = TumbleScene("stack", {"n": 3}, args.tumble_integrator, args.tumble_dt, sim_sub, contact_sub, sleeping)
     warm.step(10)
-    eng = TumbleScene(scene, kwargs, args.tumble_integrator, args.tumble_dt, sim_sub, contact_sub)
+    eng = TumbleScene(scene, kwargs, args.tumble_integrator, args.tumble_dt, sim_sub, contact_sub, sleeping)
     t1 = time.perf_counter()
     eng.step(1)
     compile_s = (t1 - t0 - eng.load_s) + (time.perf_counter() - t1)
@@ -219,11 +230,19 @@ def wall_cell(r) -> str:
     return f"INCOMPLETE: {r['sim_time']:.2f} s sim in {r['wall_s']:.0f} s wall (figures at that time)"
 
 
+def asleep_cell(r) -> str:
+    if r.get("sleeping") is None and r.get("asleep_end") is None:
+        return "-"
+    if r.get("sleeping") is False:
+        return "sleep off"
+    return "-" if r.get("asleep_end") is None else str(r["asleep_end"])
+
+
 def table(rows, scene: str) -> str:
     if scene == "pile" or scene in BOX3D_MS:
         header = ["engine", "variant", "N", "dt", "runs", "load s", "first step s", "wall s (median)", "real-time factor",
                   "ms/step", "min z - h (end)", "max vertex pen. (end)", "max vertex pen. (run)", "max speed end (m/s)",
-                  "max ang. speed end (rad/s)", "left region", "farthest box (m)", "mean solver iters"]
+                  "max ang. speed end (rad/s)", "left region", "farthest box (m)", "mean solver iters", "asleep (end)"]
         if scene in BOX3D_MS:
             header += ["top box dz (end)", "Box3D ms/step 1 / 2 threads"]
         out = []
@@ -233,7 +252,7 @@ def table(rows, scene: str) -> str:
                     fmt(r["ms_per_step"], ".2f") if r["complete"] else f"{r['last_ms_per_step']:.0f} (last)",
                     fmt(r["min_z_minus_h_end"]), fmt(r["max_pen_end"]), fmt(r["max_pen_run"]), fmt(r["max_speed_end"]),
                     fmt(r["max_ang_speed_end"]), r["left_region"], fmt(r["max_xy_dist_end"], ".2f"),
-                    "-" if r["solver_iters"] is None else f"{r['solver_iters']:.0f}"]
+                    "-" if r["solver_iters"] is None else f"{r['solver_iters']:.0f}", asleep_cell(r)]
             if scene in BOX3D_MS:
                 one, two = BOX3D_MS[scene]
                 line += [fmt(r["top_dz_end"]), f"{one} / {two}"]
@@ -241,14 +260,14 @@ def table(rows, scene: str) -> str:
         return md_table(header, out)
     header = ["engine", "variant", "N", "dt", "runs", "load s", "first step s", "wall s (median)", "real-time factor",
               "ms/step", "top xy drift (end)", "top dz (end)", "top xy drift (max)", "top abs dz (max)", "stands",
-              "bottom cube pen.", "max tilt deg (end)", "max tilt deg (run)", "max vertex pen. (run)"]
+              "bottom cube pen.", "max tilt deg (end)", "max tilt deg (run)", "max vertex pen. (run)", "asleep (end)"]
     out = []
     for r in rows:
         out.append([r["engine"], r["variant"], r["n"], r["dt_label"], r["runs"], fmt(r["load_s"], ".2f"),
                     fmt(r.get("compile_s"), ".2f"), wall_cell(r), fmt(r["rtf"], ".3g"), fmt(r["ms_per_step"], ".3f"),
                     fmt(r["top_xy_drift_end"]), fmt(r["top_dz_end"]), fmt(r["top_xy_drift_max"]), fmt(r["top_abs_dz_max"]),
                     r["stands"], fmt(r["bottom_pen_end"]), fmt(r["max_tilt_end_deg"], ".3f"), fmt(r["max_tilt_deg"], ".3f"),
-                    fmt(r["max_pen_run"])])
+                    fmt(r["max_pen_run"]), asleep_cell(r)])
     return md_table(header, out)
 
 
@@ -282,6 +301,8 @@ def main(argv=None):
     ap.add_argument("--tumble-substeps", type=int, default=None, help="Simulator substeps (default 1)")
     ap.add_argument("--tumble-contact-substeps", type=int, default=None,
                     help="SoftStepSettings.substeps (default: the scene's 4 / Simulator substeps)")
+    ap.add_argument("--tumble-sleep", choices=("on", "off"), default=None,
+                    help="world.sleeping (default: the scene's; on except large_pyramid, many_pyramids)")
     ap.add_argument("--tumble-threads", type=int, default=None, help="Numba threads for tumble (default: all)")
     ap.add_argument("--tag", default=None, help="suffix of the result files")
     ap.add_argument("--out", type=Path, default=RESULTS)

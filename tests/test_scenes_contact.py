@@ -111,12 +111,14 @@ def test_large_pyramid_matches_box3d_positions():
     assert np.allclose(world.x[m], expected)
     assert np.allclose(world.q[m], (1, 0, 0, 0))
     assert all(world.materials[i] == tb.Material(friction=0.6, restitution=0.0) for i in range(world.body_count))
+    assert world.sleeping is False and settings["sleeping"] is False
 
 
 def test_many_pyramids_matches_box3d_layout():
     world, settings = C.many_pyramids()
     assert settings["steps"] == 100
     assert world.body_count == 10781
+    assert world.sleeping is False and settings["sleeping"] is False
     assert world.shapes[0].size == (154.0, 154.0, 2.0) and np.allclose(world.x[0], (0, 0, -1))
     x = world.x[_moving(world)]
     assert len(x) == 10780

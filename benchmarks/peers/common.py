@@ -205,6 +205,9 @@ def run(engine, spec: SceneSpec, dt: float, steps: int, timeout: float | None = 
     out = {"wall_s": wall, "steps_done": done, "steps": steps, "complete": done == steps, "sim_time": done * dt,
                "last_ms_per_step": 1e3 * last_step_s, "loadavg_start": load0, "loadavg_end": os.getloadavg()[0]}
     out.update(tracker.figures())
+    extra = getattr(engine, "extra_figures", None)
+    if extra is not None:
+        out.update(extra())
     iters = getattr(engine, "solver_iterations", None)
     out["solver_iters"] = iters() if iters is not None else None
     return out

@@ -2,7 +2,9 @@
 
 Every builder returns ``(world, settings)``: a ``tumble.World`` (z up) and a dict of
 recommended settings ``{"dt": s, "substeps": int, "duration": s, "steps": int, ...}``
-(``steps`` = duration / dt). The scenes follow /work/shared/BENCHMARKS.md:
+(``steps`` = duration / dt). Sleeping keeps the World's default (on, Box3D's default too),
+except in large_pyramid and many_pyramids, which turn it off as Box3D does (``"sleeping": False``).
+The scenes follow /work/shared/BENCHMARKS.md:
 
 pile(n, seed=0)     BENCHMARKS "pile": n cubes of half-extent 0.1 on a k x k x k grid, falling on a plane
 stack(n=10)         BENCHMARKS "stack": n cubes of half-extent 0.5 standing on a plane, 10 s
@@ -155,11 +157,12 @@ def large_pyramid():
     centred at z = -1 (top face z = 0), then 5050 unit cubes of density 100 (100 kg), friction 0.6,
     restitution 0, in one 2-D pyramid of 100 rows in the x-z plane (y = 0): box (i, j), j = i..99,
     at x = 0.5 (i + 1) + (j - i) - 50, z = i + 0.5. Gravity 10. 200 steps of 1/60 s with 4 substeps
-    (Box3D turns sleeping off in this scene)."""
+    Sleeping is off (``world.sleeping = False``), as Box3D turns it off in this scene."""
     world = World(gravity=(0.0, 0.0, -10.0))
+    world.sleeping = False  # b3World_EnableSleeping(false)
     _ground_box(world, 400.0, 400.0, 0.6)
     _pyramid_boxes(world, 100, x0=-49.5, y=0.0, density=100.0, friction=0.6, prefix="box")
-    return world, _settings(200 * DT, scene="large_pyramid", n=5050, half_extent=0.5)
+    return world, _settings(200 * DT, scene="large_pyramid", n=5050, half_extent=0.5, sleeping=False)
 
 
 def many_pyramids():
@@ -167,15 +170,16 @@ def many_pyramids():
     at z = -1, and 14 x 14 = 196 pyramids of base 10 (55 unit cubes each, density 100, friction 0.6),
     10 780 cubes in all. Pyramid (r, c), r, c = 0..13, stands in the plane y = 76 - r 152/13 (Box3D's
     z = -76 + r 152/13, turned), its left box centre at x = -76 + 11 c; row i = 0..9 holds 10 - i
-    boxes at z = i + 0.5, x = -76 + 11 c + 0.5 i + k. Gravity 10. 100 steps of 1/60 s, 4 substeps
-    (no sleeping)."""
+    boxes at z = i + 0.5, x = -76 + 11 c + 0.5 i + k. Gravity 10. 100 steps of 1/60 s, 4 substeps.
+    Sleeping is off (``world.sleeping = False``), as every body's in Box3D's scene."""
     world = World(gravity=(0.0, 0.0, -10.0))
+    world.sleeping = False  # every body has enableSleep = false in Box3D's scene
     _ground_box(world, 77.0, 77.0, 0.6)
     for r in range(14):
         y = -(-76.0 + r * (152.0 / 13.0))
         for c in range(14):
             _pyramid_boxes(world, 10, x0=-76.0 + 11.0 * c, y=y, density=100.0, friction=0.6, prefix=f"p{r}_{c}_")
-    return world, _settings(100 * DT, scene="many_pyramids", n=10780, half_extent=0.5)
+    return world, _settings(100 * DT, scene="many_pyramids", n=10780, half_extent=0.5, sleeping=False)
 
 
 SCENES = {
