@@ -15,7 +15,8 @@ from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_
 from .manifold import KEY_BITS, ContactManifolds
 from .pairs.box import collide_box_box, collide_capsule_box, collide_plane_box, collide_sphere_box
 from .pairs.capsule import collide_capsule_capsule, collide_plane_capsule, collide_sphere_capsule
-from .pairs.convex import collide_convex_pair, collide_plane_convex_shape
+from .pairs.convex import collide_convex_pair
+from .pairs.plane import collide_plane_convex_shape
 from .pairs.mesh import collide_convex_mesh
 from .pairs.sphere import collide_plane_sphere, collide_sphere_sphere
 

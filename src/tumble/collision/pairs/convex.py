@@ -31,10 +31,16 @@ import numpy as np
 from numba import njit
 
 from ...math3d import JIT
-from ...shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_SPHERE
+from ...shapes import (
+    SHAPE_BOX,
+    SHAPE_CAPSULE,
+    SHAPE_CONE,
+    SHAPE_CONVEX,
+    SHAPE_CYLINDER,
+    SHAPE_SPHERE,
+)
 from ..constants import MAX_MANIFOLD_POINTS
 from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, support
-from .sphere import plane_world
 
 # Vertices of a cylinder cap or cone base used as a polygon (a regular polygon of rim points).
 CAP_SIDES = 8
@@ -367,6 +373,101 @@ def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot
 
 
 @njit(**JIT)
+def _segment_reference(ref, nx, ny, nz):
+    """Two segments: turn the reference segment ref[0] ref[1] into a thin rectangle (4 rows of ref) in the
+    plane through it normal to n's part across it, whose side planes are the segment's end planes.
+
+    Returns (ok, plane normal rn, alignment |rn . n|).
+    """
+    ex, ey, ez = ref[1, 0] - ref[0, 0], ref[1, 1] - ref[0, 1], ref[1, 2] - ref[0, 2]
+    cx, cy, cz = ey * nz - ez * ny, ez * nx - ex * nz, ex * ny - ey * nx
+    rx, ry, rz = cy * ez - cz * ey, cz * ex - cx * ez, cx * ey - cy * ex
+    lr = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if lr <= 1e-12:
+        return False, (0.0, 0.0, 1.0), 0.0
+    rn = (rx / lr, ry / lr, rz / lr)
+    # the rectangle spans e and a long vector across (in the plane): only the two end planes bind
+    ux, uy, uz = ey * rn[2] - ez * rn[1], ez * rn[0] - ex * rn[2], ex * rn[1] - ey * rn[0]
+    lu = math.sqrt(ux * ux + uy * uy + uz * uz)
+    big = 1e6 * (1.0 + math.sqrt(ex * ex + ey * ey + ez * ez))
+    for i in range(3):
+        u = (ux, uy, uz)[i] / lu * big
+        e0 = ref[0, i]
+        e1 = ref[1, i]
+        ref[0, i] = e0 - u
+        ref[1, i] = e1 - u
+        ref[2, i] = e1 + u
+        ref[3, i] = e0 + u
+    return True, rn, abs(rn[0] * nx + rn[1] * ny + rn[2] * nz)
+
+
+@njit(**JIT)
+def _measure_clipped(pts, n, ref, rn, inc, kin, ref_is_b, nx, ny, nz, ra, rb, core_sep, speculative,
+                     # outputs
+                     cand, seps, cid):
+    """Clipped incident points -> contact points (midway), separations along n and slot ids; returns the count."""
+    dn = nx * rn[0] + ny * rn[1] + nz * rn[2]
+    count = 0
+    for v in range(n):
+        t = ((pts[v, 0] - ref[0, 0]) * rn[0] + (pts[v, 1] - ref[0, 1]) * rn[1] + (pts[v, 2] - ref[0, 2]) * rn[2]) / dn
+        s = -t if ref_is_b else t
+        if s - ra - rb >= speculative:
+            continue
+        # deeper than the overlap along n (GJK/EPA's, exact) only through a tilted reference
+        # plane (its point q outside the reference face): no deeper than the overlap
+        s = max(s, core_sep)
+        # inc point p, its partner on the reference plane q = p - t n; then the radii
+        for i in range(3):
+            ni = (nx, ny, nz)[i]
+            p_i = pts[v, i]
+            q_i = p_i - t * ni
+            a_i = (p_i if ref_is_b else q_i) + ra * ni
+            b_i = (q_i if ref_is_b else p_i) - rb * ni
+            cand[count, i] = 0.5 * (a_i + b_i)
+        seps[count] = s - ra - rb
+        # the point's name: the incident vertex nearest to it, so that a corner and the clipped
+        # point next to it (a face on a face of the same size) keep one id (box.py's quadrants)
+        near = 0
+        dmin = np.inf
+        for u in range(kin):
+            dd = (inc[u, 0] - pts[v, 0]) ** 2 + (inc[u, 1] - pts[v, 1]) ** 2 + (inc[u, 2] - pts[v, 2]) ** 2
+            if dd < dmin:
+                dmin, near = dd, u
+        cid[count] = near % SLOT_DEEPEST
+        count += 1
+    return count
+
+
+@njit(**JIT)
+def _write_manifold(cand, seps, cid, count, base, sep0, pa, pb, ra, rb, nx, ny, nz, point, separation, feature):
+    """Add the GJK/EPA point if clearly deeper, reduce to 4, write the outputs with unique slots; returns the count."""
+    smin = seps[0]
+    for v in range(1, count):
+        smin = min(smin, seps[v])
+    if sep0 < smin - DEEPEST_MARGIN:
+        for i in range(3):
+            cand[count, i] = 0.5 * (pa[i] + ra * (nx, ny, nz)[i] + pb[i] - rb * (nx, ny, nz)[i])
+        seps[count] = sep0
+        cid[count] = SLOT_DEEPEST
+        count += 1
+    keep = np.arange(count)
+    if count > MAX_MANIFOLD_POINTS:
+        count = reduce_points(cand, seps, count, nx, ny, nz, keep)
+    used = 0
+    for c in range(count):
+        j = keep[c]
+        slot = cid[j]
+        while used & (1 << slot):
+            slot = (slot + 1) & 31
+        used |= 1 << slot
+        for i in range(3):
+            point[c, i] = cand[j, i]
+        separation[c] = seps[j]
+        feature[c] = base | slot
+    return count
+
+
+@njit(**JIT)
 def face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_b, params_b, verts_b, fb0, fnb,
                   hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
                   nx, ny, nz, sep0, core_sep, pa, pb,
@@ -380,128 +481,46 @@ def face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_
     ra = core_radius(ta, params_a)
     rb = core_radius(tb, params_b)
     normal[0], normal[1], normal[2] = nx, ny, nz
-    if ta == SHAPE_SPHERE or tb == SHAPE_SPHERE:
-        # a sphere touches at one point: no faces to clip
-        for i in range(3):
-            ni = (nx, ny, nz)[i]
-            point[0, i] = 0.5 * (pa[i] + ra * ni + pb[i] - rb * ni)
-        separation[0] = sep0
-        feature[0] = FEATURE_SINGLE
-        return 1
-    # the supporting faces and the clip
-    face_a = np.empty((MAX_FACE, 3))
-    face_b = np.empty((MAX_FACE, 3))
-    ka, ida, nfa, align_a = supporting_face(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, hull_face_first,
-                                            hull_face_count, hull_face_vertex, hull_plane, hull_vertex, nx, ny, nz,
-                                            face_a)
-    kb, idb, nfb, align_b = supporting_face(tb, pos_b, rot_b, params_b, verts_b, fb0, fnb, hull_face_first,
-                                            hull_face_count, hull_face_vertex, hull_plane, hull_vertex, -nx, -ny, -nz,
-                                            face_b)
-    count = 0
-    ref_is_b = False
-    if ka >= 2 and kb >= 2:
-        if tb == SHAPE_TRIANGLE:
-            # a mesh triangle is the reference on ties: the shape's face is clipped to each triangle,
-            # so its corners (the points that span a manifold on a tessellated floor) are among the points
-            ref_is_b = kb >= 3 and (ka < 3 or align_b > align_a - REFERENCE_TOLERANCE)
-        else:
-            ref_is_b = kb >= 3 and (ka < 3 or align_b > align_a + REFERENCE_TOLERANCE)
-        if ref_is_b:
-            ref, m, rn, inc, kin, align = face_b, kb, nfb, face_a, ka, align_b
-        else:
-            ref, m, rn, inc, kin, align = face_a, ka, nfa, face_b, kb, align_a
-        if m == 2:
-            # two segments: the reference "face" is the plane through a's segment normal to n's part across it
-            ex, ey, ez = ref[1, 0] - ref[0, 0], ref[1, 1] - ref[0, 1], ref[1, 2] - ref[0, 2]
-            cx, cy, cz = ey * nz - ez * ny, ez * nx - ex * nz, ex * ny - ey * nx
-            rx, ry, rz = cy * ez - cz * ey, cz * ex - cx * ez, cx * ey - cy * ex
-            lr = math.sqrt(rx * rx + ry * ry + rz * rz)
-            if lr > 1e-12:
-                rn = (rx / lr, ry / lr, rz / lr)
-                align = abs(rn[0] * nx + rn[1] * ny + rn[2] * nz)
-                # clip b's segment to the slab of a's: planes e . p = e . ref[0] and e . ref[1]
-                ref[2, 0], ref[2, 1], ref[2, 2] = ref[1, 0] + rn[0], ref[1, 1] + rn[1], ref[1, 2] + rn[2]
-                ref[3, 0], ref[3, 1], ref[3, 2] = ref[0, 0] + rn[0], ref[0, 1] + rn[1], ref[0, 2] + rn[2]
-                # a thin rectangle in the plane spanned by e and a unit vector across: only the end planes bind
-                ux, uy, uz = ey * rn[2] - ez * rn[1], ez * rn[0] - ex * rn[2], ex * rn[1] - ey * rn[0]
-                lu = math.sqrt(ux * ux + uy * uy + uz * uz)
-                big = 1e6 * (1.0 + math.sqrt(ex * ex + ey * ey + ez * ez))
-                for i in range(3):
-                    u = (ux, uy, uz)[i] / lu * big
-                    e0 = ref[0, i]
-                    e1 = ref[1, i]
-                    ref[0, i] = e0 - u
-                    ref[1, i] = e1 - u
-                    ref[2, i] = e1 + u
-                    ref[3, i] = e0 + u
-                m = 4
+    if ta != SHAPE_SPHERE and tb != SHAPE_SPHERE:  # a sphere touches at one point: no faces to clip
+        face_a = np.empty((MAX_FACE, 3))
+        face_b = np.empty((MAX_FACE, 3))
+        ka, ida, nfa, align_a = supporting_face(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, hull_face_first,
+                                                hull_face_count, hull_face_vertex, hull_plane, hull_vertex,
+                                                nx, ny, nz, face_a)
+        kb, idb, nfb, align_b = supporting_face(tb, pos_b, rot_b, params_b, verts_b, fb0, fnb, hull_face_first,
+                                                hull_face_count, hull_face_vertex, hull_plane, hull_vertex,
+                                                -nx, -ny, -nz, face_b)
+        if ka >= 2 and kb >= 2:
+            if tb == SHAPE_TRIANGLE:
+                # a mesh triangle is the reference on ties: the shape's face is clipped to each triangle,
+                # so its corners (the points that span a manifold on a tessellated floor) are among the points
+                ref_is_b = kb >= 3 and (ka < 3 or align_b > align_a - REFERENCE_TOLERANCE)
             else:
-                align = 0.0
-        if align > MIN_ALIGNMENT:
-            pts = np.empty((2 * MAX_FACE + 8, 3))
-            tmp = np.empty((2 * MAX_FACE + 8, 3))
-            ids = np.empty(2 * MAX_FACE + 8, dtype=np.int64)
-            tmp_ids = np.empty(2 * MAX_FACE + 8, dtype=np.int64)
-            n = _clip_to_face(ref, m, rn[0], rn[1], rn[2], inc, kin, pts, ids, tmp, tmp_ids)
-            dn = nx * rn[0] + ny * rn[1] + nz * rn[2]
-            cand = np.empty((n + 1, 3))
-            seps = np.empty(n + 1)
-            cid = np.empty(n + 1, dtype=np.int64)
-            for v in range(n):
-                t = ((pts[v, 0] - ref[0, 0]) * rn[0] + (pts[v, 1] - ref[0, 1]) * rn[1]
-                     + (pts[v, 2] - ref[0, 2]) * rn[2]) / dn
-                s = -t if ref_is_b else t
-                if s - ra - rb >= speculative:
-                    continue
-                # deeper than the overlap along n (GJK/EPA's, exact) only through a tilted reference
-                # plane (its point q outside the reference face): no deeper than the overlap
-                s = max(s, core_sep)
-                # inc point p, its partner on the reference plane q = p - t n; then the radii
-                for i in range(3):
-                    ni = (nx, ny, nz)[i]
-                    p_i = pts[v, i]
-                    q_i = p_i - t * ni
-                    a_i = (p_i if ref_is_b else q_i) + ra * ni
-                    b_i = (q_i if ref_is_b else p_i) - rb * ni
-                    cand[count, i] = 0.5 * (a_i + b_i)
-                seps[count] = s - ra - rb
-                # the point's name: the incident vertex nearest to it, so that a corner and the clipped
-                # point next to it (a face on a face of the same size) keep one id (box.py's quadrants)
-                near = 0
-                dmin = np.inf
-                for u in range(kin):
-                    dd = (inc[u, 0] - pts[v, 0]) ** 2 + (inc[u, 1] - pts[v, 1]) ** 2 + (inc[u, 2] - pts[v, 2]) ** 2
-                    if dd < dmin:
-                        dmin, near = dd, u
-                cid[count] = near % SLOT_DEEPEST
-                count += 1
-            if count > 0:
-                base = ((1 << 19) if ref_is_b else 0) | ((idb if ref_is_b else ida) << 12) \
-                    | ((ida if ref_is_b else idb) << 5)
-                smin = seps[0]
-                for v in range(1, count):
-                    smin = min(smin, seps[v])
-                if sep0 < smin - DEEPEST_MARGIN:
-                    for i in range(3):
-                        cand[count, i] = 0.5 * (pa[i] + ra * (nx, ny, nz)[i] + pb[i] - rb * (nx, ny, nz)[i])
-                    seps[count] = sep0
-                    cid[count] = SLOT_DEEPEST
-                    count += 1
-                keep = np.arange(count)
-                if count > MAX_MANIFOLD_POINTS:
-                    count = reduce_points(cand, seps, count, nx, ny, nz, keep)
-                used = 0
-                for c in range(count):
-                    j = keep[c]
-                    slot = cid[j]
-                    while used & (1 << slot):
-                        slot = (slot + 1) & 31
-                    used |= 1 << slot
-                    for i in range(3):
-                        point[c, i] = cand[j, i]
-                    separation[c] = seps[j]
-                    feature[c] = base | slot
-                return count
+                ref_is_b = kb >= 3 and (ka < 3 or align_b > align_a + REFERENCE_TOLERANCE)
+            if ref_is_b:
+                ref, m, rn, inc, kin, align = face_b, kb, nfb, face_a, ka, align_b
+            else:
+                ref, m, rn, inc, kin, align = face_a, ka, nfa, face_b, kb, align_a
+            if m == 2:
+                _, rn, align = _segment_reference(ref, nx, ny, nz)
+                m = 4
+            if align > MIN_ALIGNMENT:
+                size = 2 * MAX_FACE + 8
+                pts = np.empty((size, 3))
+                tmp = np.empty((size, 3))
+                ids = np.empty(size, dtype=np.int64)
+                tmp_ids = np.empty(size, dtype=np.int64)
+                n = _clip_to_face(ref, m, rn[0], rn[1], rn[2], inc, kin, pts, ids, tmp, tmp_ids)
+                cand = np.empty((n + 1, 3))
+                seps = np.empty(n + 1)
+                cid = np.empty(n + 1, dtype=np.int64)
+                count = _measure_clipped(pts, n, ref, rn, inc, kin, ref_is_b, nx, ny, nz, ra, rb, core_sep,
+                                         speculative, cand, seps, cid)
+                if count > 0:
+                    base = ((1 << 19) if ref_is_b else 0) | ((idb if ref_is_b else ida) << 12) \
+                        | ((ida if ref_is_b else idb) << 5)
+                    return _write_manifold(cand, seps, cid, count, base, sep0, pa, pb, ra, rb, nx, ny, nz,
+                                           point, separation, feature)
     # one point: midway between the two surface points
     for i in range(3):
         ni = (nx, ny, nz)[i]
@@ -525,76 +544,3 @@ def collide_convex_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, 
     return convex_contact(ta, pos_a, rot_a, params_a, va, fa0, fna, tb, pos_b, rot_b, params_b, vb, fb0, fnb,
                           hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
                           normal, point, separation, feature)
-
-
-@njit(**JIT)
-def collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, b,
-                               normal, point, separation, feature):
-    """Plane a against a cylinder, cone or convex hull b.
-
-    Hull: every vertex within ``speculative`` of the plane (feature = vertex row),
-    reduced to 4. Cylinder and cone: the supporting face towards the plane (cap
-    octagon, side line or a point; feature = face id * 32 + vertex) plus the deepest
-    point of the round shape (feature 255) when it is deeper than those.
-    """
-    nx, ny, nz, d = plane_world(pos_a, rot_a, params_a)
-    shape_data, hull_vertex, hull_face_first, hull_face_count, hull_face_vertex, hull_plane = geometry[:6]
-    normal[0], normal[1], normal[2] = nx, ny, nz
-    if tb == SHAPE_CONVEX:
-        v0 = shape_data[b, 0]
-        nv = shape_data[b, 1]
-        cand = np.empty((nv, 3))
-        seps = np.empty(nv)
-        cid = np.empty(nv, dtype=np.int64)
-    else:
-        nv = CAP_SIDES + 1
-        cand = np.empty((nv, 3))
-        seps = np.empty(nv)
-        cid = np.empty(nv, dtype=np.int64)
-        n_face, face_id, _, _ = supporting_face(tb, pos_b, rot_b, params_b, hull_vertex[0:0], 0, 0, hull_face_first,
-                                                hull_face_count, hull_face_vertex, hull_plane, hull_vertex,
-                                                -nx, -ny, -nz, cand)
-    count = 0
-    smin = np.inf
-    if tb == SHAPE_CONVEX:
-        for v in range(nv):
-            row = v0 + v
-            x, y, z = hull_vertex[row, 0], hull_vertex[row, 1], hull_vertex[row, 2]
-            px = pos_b[0] + rot_b[0, 0] * x + rot_b[0, 1] * y + rot_b[0, 2] * z
-            py = pos_b[1] + rot_b[1, 0] * x + rot_b[1, 1] * y + rot_b[1, 2] * z
-            pz = pos_b[2] + rot_b[2, 0] * x + rot_b[2, 1] * y + rot_b[2, 2] * z
-            s = nx * px + ny * py + nz * pz - d
-            if s < speculative:
-                cand[count, 0], cand[count, 1], cand[count, 2] = px, py, pz
-                seps[count] = s
-                cid[count] = v
-                count += 1
-    else:
-        for v in range(n_face):
-            s = nx * cand[v, 0] + ny * cand[v, 1] + nz * cand[v, 2] - d
-            if s < speculative:
-                for i in range(3):
-                    cand[count, i] = cand[v, i]
-                seps[count] = s
-                smin = min(smin, s)
-                cid[count] = face_id * 32 + v
-                count += 1
-        p = support(tb, pos_b, rot_b, params_b, hull_vertex[0:0], -nx, -ny, -nz)
-        s = nx * p[0] + ny * p[1] + nz * p[2] - d
-        if s < speculative and s < smin - DEEPEST_MARGIN:
-            cand[count, 0], cand[count, 1], cand[count, 2] = p
-            seps[count] = s
-            cid[count] = 255
-            count += 1
-    if count == 0:
-        return 0
-    keep = np.arange(count)
-    if count > MAX_MANIFOLD_POINTS:
-        count = reduce_points(cand, seps, count, nx, ny, nz, keep)
-    for c in range(count):
-        j = keep[c]
-        for i in range(3):
-            point[c, i] = cand[j, i] - 0.5 * seps[j] * (nx, ny, nz)[i]
-        separation[c] = seps[j]
-        feature[c] = cid[j]
-    return count
