@@ -1,0 +1,211 @@
+"""The contact examples of examples/ (dominoes, tower, pyramid, pile, bowling, dice, marbles), each
+loaded from its scene file, run, and checked for the physics its header comment promises.
+
+Every example is also validated by ``tumble validate`` in tests/test_examples.py. The figures
+quoted in the docstrings were measured at tumble git 85900ce (default step: dt 1/240 s with 4
+contact substeps, unless the scene sets its own).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tumble.cli import main as cli_main
+from tumble.math3d import quat_to_matrix
+from tumble.scene import load_scene
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def run(name, **settings):
+    """Load examples/NAME.toml, change Scene settings (duration, frame_rate, ...), run it."""
+    scene = load_scene(EXAMPLES / f"{name}.toml")
+    for key, value in settings.items():
+        setattr(scene, key, value)
+    scene.check()
+    return scene, scene.run(progress=False)
+
+
+def rotations(q):
+    """(..., 3, 3) rotation matrices (body to world) of unit quaternions (..., 4)."""
+    q = np.asarray(q)
+    return np.array([quat_to_matrix(x) for x in q.reshape(-1, 4)]).reshape(q.shape[:-1] + (3, 3))
+
+
+def tilt_deg(q):
+    """Angle (degrees) between the body's z axis and the world's z axis, for quaternions (..., 4)."""
+    return np.degrees(np.arccos(np.clip(rotations(q)[..., 2, 2], -1.0, 1.0)))
+
+
+def indices(traj, prefix):
+    return [i for i, n in enumerate(traj.names) if str(n).startswith(prefix)]
+
+
+def speeds(traj, frame=-1):
+    return np.linalg.norm(traj.velocity[frame], axis=1)
+
+
+# ---------------------------------------------------------------------- dominoes
+
+
+def test_dominoes_all_fall_in_order():
+    """A push at t = 0.25 s on the first of 20 dominoes. Checks: every domino stands until the push
+    (tilt < 1 degree at t = 0.25 s); at the end every one is down, its tilt > 45 degrees (upright is
+    0, leaning on the next one ~75, flat 90: 45 is halfway, which a domino only passes when it has
+    been knocked over); and they went down in order, the time each first passes 45 degrees strictly
+    increasing along the run, as a toppling wave must. Frames at 120 Hz resolve the ~0.08 s between
+    neighbours. Measured: end tilts 75.4-90 degrees, fall times 0.58 s to 2.27 s, 0.05-0.13 s apart."""
+    scene, traj = run("dominoes", frame_rate=120.0)
+    ids = indices(traj, "domino")
+    assert len(ids) == 20
+    tilt = tilt_deg(traj.orientation[:, ids])  # (F, 20)
+    before = np.searchsorted(traj.time, 0.25)
+    assert tilt[: before + 1].max() < 1.0, "a domino moved before the push"
+    assert np.all(tilt[-1] > 45.0), tilt[-1]
+    fall_time = np.array([traj.time[np.argmax(tilt[:, k] > 45.0)] for k in range(len(ids))])
+    assert np.all(np.diff(fall_time) > 0), fall_time
+    assert np.all(speeds(traj)[ids] < 0.01), "the dominoes are still moving at the end"
+
+
+# ---------------------------------------------------------------------- tower
+
+
+def test_tower_stands():
+    """The 10-cube tower (1 m cubes of 1000 kg) for its full 30 s. Checks: the top cube's centre
+    moves under 1 cm from where it started (the issue's tower figure: the soft contacts sag
+    ~0.16 mm per contact under load, 1.6 mm in all, so 1 cm leaves room for the sag but not for a
+    lean or a slide) and every cube is still at the end (under 1 mm/s). Cheap despite the 30 s:
+    the tower falls asleep once settled. Measured: top moved 1.6 mm, speeds 0."""
+    scene, traj = run("tower", frame_rate=4.0)
+    ids = indices(traj, "box")
+    top = ids[-1]
+    assert traj.names[top] == "box9"
+    drift = np.linalg.norm(traj.position[:, top] - traj.position[0, top], axis=1).max()
+    assert drift < 0.01, drift
+    assert speeds(traj)[ids].max() < 1e-3
+
+
+# ---------------------------------------------------------------------- pyramid
+
+
+@pytest.mark.slow
+def test_pyramid_stands():
+    """The 20-row pyramid (210 unit cubes) for its full 10 s. Checks: no box ever moves more than
+    1 cm from where it started (a box that slips or a row that spreads moves by many cm; the soft
+    contacts' sag is a few mm at the bottom of 20 rows), and every box is slower than 1 cm/s at the
+    end (the issue's resting speed). Measured: largest drift 1.8 mm, speeds 0 (asleep)."""
+    scene, traj = run("pyramid", frame_rate=2.0)
+    ids = indices(traj, "box")
+    assert len(ids) == 210
+    drift = np.linalg.norm(traj.position[:, ids] - traj.position[0, ids], axis=2).max()
+    assert drift < 0.01, drift
+    assert speeds(traj)[ids].max() < 0.01
+
+
+# ---------------------------------------------------------------------- pile
+
+PILE_REGION = 3.8  # m: the grid's half-width (1.8 m) + 2 m, tumble.scenes.contact.pile's region_half_width
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="not at rest after 4 s: 19 boxes faster than 1 cm/s (the fastest 2.1 m/s, sliding "
+                   "off the top of the pile), one box at 4.35 m from the centre (region 3.8 m); all asleep by 5.5 s. "
+                   "Smallest reproducer: tests/physics/test_contact_issues.py::test_pile_of_512_boxes_settles_within_4_s")
+def test_pile_settles():
+    """1000 boxes for the scene's 4 s (dt 1/60 s, 4 contact substeps). Checks, the issue's acceptance
+    figures: after 4 s no box is faster than 1 cm/s (settled: a pile that jitters or creeps has boxes
+    at cm/s and more); none is outside the pile's region, |x|, |y| < 3.8 m (the 3.6 m grid plus 2 m
+    on each side, as in tumble.scenes.contact.pile: a box that flies or slides farther has been
+    thrown out by a bad contact); and no box centre below 0.1 m - 5 mm (a cube of half-size 0.1 sits
+    no lower than 0.1 m unless it sinks into the ground; 5 mm is the issue's penetration bound).
+    Measured: 19 boxes faster than 1 cm/s, the fastest 2.06 m/s; farthest box 4.35 m; lowest centre
+    0.0991 m (0.9 mm into the ground)."""
+    scene, traj = run("pile", frame_rate=1.0)
+    ids = indices(traj, "box")
+    assert len(ids) == 1000
+    x = traj.position[-1, ids]
+    assert np.abs(x[:, :2]).max() < PILE_REGION, np.abs(x[:, :2]).max()
+    assert x[:, 2].min() > 0.1 - 0.005, x[:, 2].min()
+    v = speeds(traj)[ids]
+    assert v.max() < 0.01, f"{(v >= 0.01).sum()} boxes faster than 1 cm/s, the fastest {v.max():.3g} m/s"
+
+
+# ---------------------------------------------------------------------- bowling
+
+
+def test_bowling_is_a_strike():
+    """The ball rolled at 8 m/s into the pocket. Checks: all ten pins stand at the start (tilt under
+    1 degree in the first frames, before the ball arrives at t ~ 0.23 s) and are down at the end of
+    the 3 s, each tilted more than 45 degrees (a pin that wobbles and stands again stays under ~10;
+    a fallen one lies at ~90). Measured: all ten at 90 degrees, the last down at 0.63 s."""
+    scene, traj = run("bowling")
+    pins = indices(traj, "pin")
+    assert len(pins) == 10
+    tilt = tilt_deg(traj.orientation[:, pins])
+    assert tilt[: np.searchsorted(traj.time, 0.15)].max() < 1.0
+    assert np.all(tilt[-1] > 45.0), dict(zip(np.array(traj.names)[pins], tilt[-1].round(1)))
+
+
+def test_bowling_runs_from_the_command_line(tmp_path, capsys):
+    """``tumble run`` on the compound-pin scene writes its trajectory (0.5 s): the CLI path of a
+    scene with compound bodies and contacts."""
+    out = tmp_path / "bowling"
+    assert cli_main(["run", str(EXAMPLES / "bowling.toml"), "--out", str(out), "--duration", "0.5", "--no-progress"]) == 0
+    assert "12 bodies" in capsys.readouterr().out
+    with np.load(out / "trajectory.npz", allow_pickle=False) as data:
+        assert data["position"].shape == (31, 12, 3)
+
+
+# ---------------------------------------------------------------------- dice
+
+TABLE_TOP = 0.75  # m
+DIE_HALF = 0.008  # m: both kinds of die are 16 mm across their faces
+
+
+def test_dice_come_to_rest_on_a_face():
+    """Four dice (two boxes, two rounded convex hulls) thrown onto the table, 3 s. Checks, for each:
+    it rests on a face: one of its body axes within 2 degrees of the vertical (a die leaning on an
+    edge or a corner is tilted 45 degrees or more; 2 degrees allows for a slightly soft contact
+    under a 5 g die, which is far less), its centre 8 mm +- 1 mm above the table top (on the table,
+    on a face, not sunk in), inside the table's 1.2 x 0.8 m, and slower than 1 cm/s. Measured:
+    axes within 1e-6 degrees of vertical, centres at 0.758 m, speeds 0 (asleep)."""
+    scene, traj = run("dice")
+    dice = indices(traj, "die")
+    assert len(dice) == 4
+    R = rotations(traj.orientation[-1, dice])  # columns: the body axes in world coordinates
+    off_vertical = np.degrees(np.arccos(np.clip(np.abs(R[:, 2, :]).max(axis=1), -1.0, 1.0)))
+    assert np.all(off_vertical < 2.0), off_vertical
+    x = traj.position[-1, dice]
+    assert np.all(np.abs(x[:, 2] - (TABLE_TOP + DIE_HALF)) < 0.001), x[:, 2]
+    assert np.all(np.abs(x[:, 0]) < 0.6) and np.all(np.abs(x[:, 1]) < 0.4)
+    assert speeds(traj)[dice].max() < 0.01
+    # they were thrown: each bounced or tumbled on the way (turned by more than 45 degrees)
+    assert np.all(tilt_deg(traj.orientation[:, dice]).max(axis=0) > 45.0)
+
+
+# ---------------------------------------------------------------------- marbles
+
+BOWL_RIM_RADIUS = 0.28  # m, inner rim (examples/tools/make_examples.py)
+BOWL_RIM_TOP = 0.015 + 0.32 - np.sqrt(0.32**2 - 0.28**2)  # m: thickness + depth of the inner cap
+MARBLE_RADIUS = 0.015
+
+
+def test_marbles_end_in_the_bowl():
+    """Six marbles let go in the chute, 8 s. Checks: at the end every marble is inside the bowl
+    (horizontal distance from its axis under the rim radius less a marble radius, 0.265 m, and below
+    the rim: so each ran down the whole chute and dropped in), at rest (slower than 1 cm/s); and
+    none ever went through the bowl's wall: no marble centre below the inner bottom + radius by more
+    than 2 mm (0.03 m - 2 mm; the soft contact lets a falling marble in by about 1 mm).
+    Measured: all within 3.2 cm of the axis, speeds 0 (asleep), lowest centre 0.0292 m."""
+    scene, traj = run("marbles")
+    marbles = indices(traj, "marble")
+    assert len(marbles) == 6
+    x = traj.position[-1, marbles]
+    r = np.linalg.norm(x[:, :2], axis=1)
+    assert np.all(r < BOWL_RIM_RADIUS - MARBLE_RADIUS), r
+    assert np.all(x[:, 2] < BOWL_RIM_TOP), x[:, 2]
+    assert speeds(traj)[marbles].max() < 0.01
+    assert traj.position[:, marbles, 2].min() > 0.015 + MARBLE_RADIUS - 0.002
