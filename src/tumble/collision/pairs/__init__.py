@@ -2,8 +2,8 @@
 
 sphere.py, capsule.py, box.py: closed forms and SAT for plane, sphere, capsule, box.
 convex.py (with gjk.py): every other pair of sphere, capsule, cylinder, cone, box and
-convex hull, and the plane against cylinder, cone and hull. mesh.py: each of those
-against a static triangle mesh.
+convex hull. plane.py: the plane against cylinder, cone and hull. mesh.py: sphere ...
+convex against a static triangle mesh.
 
 Every routine has the same array contract (all world frame, metres)::
 
@@ -12,7 +12,7 @@ Every routine has the same array contract (all world frame, metres)::
                         # outputs
                         normal (3,), point (4, 3), separation (4,), feature (4,) int64)
 
-Routines that read hull or mesh data (``convex.py``, ``mesh.py``) also take, before the
+Routines that read hull or mesh data (``convex.py``, ``plane.py``, ``mesh.py``) also take, before the
 outputs, ``geometry`` (``ShapeTable.geometry``: the flat hull / mesh arrays) and the
 shape rows a, b. ``narrowphase.collide_shapes`` passes them to every routine that needs them.
 

@@ -1,4 +1,4 @@
-"""Convex family: cylinder, cone and convex hull against every convex shape and the plane (contract in ``pairs/__init__``).
+"""Convex family: cylinder, cone and convex hull against every convex shape (contract in ``pairs/__init__``).
 
 Any two convex shapes (sphere, capsule, cylinder, cone, box, convex hull, mesh
 triangle): GJK on their cores gives the distance and the normal when they are apart,

@@ -31,7 +31,13 @@ from numba import njit
 from ...math3d import JIT
 from ...shapes import SHAPE_SPHERE
 from ..constants import MAX_MANIFOLD_POINTS
-from .convex import FEATURE_SINGLE, convex_contact, face_manifold, reduce_points, shape_arrays
+from .convex import (
+    FEATURE_SINGLE,
+    convex_contact,
+    face_manifold,
+    reduce_points,
+    shape_arrays,
+)
 from .gjk import SHAPE_TRIANGLE, _closest_triangle, core_radius, support
 
 # Most triangle contact points gathered for one (shape, mesh) pair before the reduction;
@@ -147,6 +153,120 @@ def _sphere_triangle(c, r, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, normal
 
 
 @njit(**JIT)
+def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b, speculative, tn, tp, ts, tf):
+    """The internal-edge and back-face rule (module docstring) on one triangle's contact; returns its new count."""
+    facing = tn[0] * Nx + tn[1] * Ny + tn[2] * Nz
+    if facing > -(1.0 - FACE_COS):
+        # not a face contact: on an inactive edge or vertex take the face normal instead; so too
+        # when the normal would push the shape through to the back (one-sided triangles)
+        j = 0
+        for m in range(1, n):
+            if ts[m] < ts[j]:
+                j = m
+        # the triangle's point of contact j, in the mesh frame
+        qx = tp[j, 0] + 0.5 * ts[j] * tn[0] - pos_b[0]
+        qy = tp[j, 1] + 0.5 * ts[j] * tn[1] - pos_b[1]
+        qz = tp[j, 2] + 0.5 * ts[j] * tn[2] - pos_b[2]
+        mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
+        my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
+        mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
+        if facing >= 0.0 or _on_inactive_feature(tri, mx, my, mz, active):
+            tn[0], tn[1], tn[2] = -Nx, -Ny, -Nz
+            # the shape's deepest point below the plane, in the mesh frame
+            qx, qy, qz = low[0] - pos_b[0], low[1] - pos_b[1], low[2] - pos_b[2]
+            mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
+            my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
+            mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
+            if _over_triangle(tri, mx, my, mz):
+                # over the face: a face contact at the plane's depth
+                ts[0] = depth_sep
+                for k in range(3):
+                    # the shape's deepest point, moved half the separation towards the plane
+                    tp[0, k] = low[k] - (ra + 0.5 * depth_sep) * (Nx, Ny, Nz)[k]
+                n = 1 if depth_sep < speculative else 0
+                tf[0] = SLOT_FACE
+            else:
+                # beside the face, on a flat or concave seam: the neighbour that the shape is over
+                # gives the contact (this plane's depth would be too deep: it runs on under the shape)
+                n = 0
+    return n
+
+
+@njit(**JIT)
+def _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats):
+    """Add one triangle's n points to the pair's list (merging repeats, keeping the deepest when full)."""
+    for m in range(n):
+        # the same place found through two triangles (a shared edge or vertex): keep the first
+        dup = False
+        for q in range(count):
+            if (cand[q, 0] - tp[m, 0]) ** 2 + (cand[q, 1] - tp[m, 1]) ** 2 + (cand[q, 2] - tp[m, 2]) ** 2 \
+                    < SAME_POINT * SAME_POINT:
+                dup = True
+                seps[q] = min(seps[q], ts[m])
+        if dup:
+            continue
+        slot = count
+        if count == MESH_POINTS:
+            # full: replace the shallowest point if this one is deeper
+            slot = 0
+            for q in range(1, MESH_POINTS):
+                if seps[q] > seps[slot]:
+                    slot = q
+            if ts[m] >= seps[slot]:
+                continue
+        else:
+            count += 1
+        for k in range(3):
+            cand[slot, k] = tp[m, k]
+            cand_n[slot, k] = tn[k]
+        seps[slot] = ts[m]
+        feats[slot] = ((t & 0xFFFF) << 5) | (tf[m] & 31)
+    return count
+
+
+@njit(**JIT)
+def _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature):
+    """Reduce the gathered points to a manifold with one shared normal; returns its point count."""
+    deepest = 0
+    for m in range(1, count):
+        if seps[m] < seps[deepest]:
+            deepest = m
+    nx, ny, nz = cand_n[deepest, 0], cand_n[deepest, 1], cand_n[deepest, 2]
+    keep = np.arange(count)
+    if count > 2:
+        count = reduce_points(cand, seps, count, nx, ny, nz, keep)
+    # the shared normal: the kept points' normals weighted by how far inside the speculative band they are
+    # (equal on a flat floor; across a crease or in a groove it leans to the deeper side, not flipping
+    # between the two as the deepest point would)
+    sx, sy, sz = 0.0, 0.0, 0.0
+    for c in range(count):
+        j = keep[c]
+        wgt = speculative - seps[j]
+        sx += wgt * cand_n[j, 0]
+        sy += wgt * cand_n[j, 1]
+        sz += wgt * cand_n[j, 2]
+    ln = math.sqrt(sx * sx + sy * sy + sz * sz)
+    if ln > 1e-12:
+        nx, ny, nz = sx / ln, sy / ln, sz / ln
+    normal[0], normal[1], normal[2] = nx, ny, nz
+    out = 0
+    for c in range(count):
+        j = keep[c]
+        dup = False
+        for q in range(out):
+            if feature[q] == feats[j]:
+                dup = True
+        if dup:
+            continue
+        for k in range(3):
+            point[out, k] = cand[j, k]
+        separation[out] = seps[j]
+        feature[out] = feats[j]
+        out += 1
+    return out
+
+
+@njit(**JIT)
 def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
                         normal, point, separation, feature):
     """Sphere, capsule, cylinder, cone, box or convex a against the fixed mesh b (collide_<a>_mesh)."""
@@ -232,103 +352,10 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                                    hull_vertex, speculative, tn, tp, ts, tf)
             if n == 0:
                 continue
-            facing = tn[0] * Nx + tn[1] * Ny + tn[2] * Nz
-            if facing > -(1.0 - FACE_COS):
-                # not a face contact: on an inactive edge or vertex take the face normal instead; so too
-                # when the normal would push the shape through to the back (one-sided triangles)
-                j = 0
-                for m in range(1, n):
-                    if ts[m] < ts[j]:
-                        j = m
-                # the triangle's point of contact j, in the mesh frame
-                qx = tp[j, 0] + 0.5 * ts[j] * tn[0] - pos_b[0]
-                qy = tp[j, 1] + 0.5 * ts[j] * tn[1] - pos_b[1]
-                qz = tp[j, 2] + 0.5 * ts[j] * tn[2] - pos_b[2]
-                mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
-                my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
-                mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
-                if facing >= 0.0 or _on_inactive_feature(tri, mx, my, mz, mesh_edge_active[t]):
-                    tn[0], tn[1], tn[2] = -Nx, -Ny, -Nz
-                    # the shape's deepest point below the plane, in the mesh frame
-                    qx, qy, qz = low[0] - pos_b[0], low[1] - pos_b[1], low[2] - pos_b[2]
-                    mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
-                    my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
-                    mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
-                    if _over_triangle(tri, mx, my, mz):
-                        # over the face: a face contact at the plane's depth
-                        ts[0] = depth_sep
-                        for k in range(3):
-                            # the shape's deepest point, moved half the separation towards the plane
-                            tp[0, k] = low[k] - (ra + 0.5 * depth_sep) * (Nx, Ny, Nz)[k]
-                        n = 1 if depth_sep < speculative else 0
-                        tf[0] = SLOT_FACE
-                    else:
-                        # beside the face, on a flat or concave seam: the neighbour that the shape is over
-                        # gives the contact (this plane's depth would be too deep: it runs on under the shape)
-                        n = 0
-            for m in range(n):
-                # the same place found through two triangles (a shared edge or vertex): keep the first
-                dup = False
-                for q in range(count):
-                    if (cand[q, 0] - tp[m, 0]) ** 2 + (cand[q, 1] - tp[m, 1]) ** 2 + (cand[q, 2] - tp[m, 2]) ** 2 \
-                            < SAME_POINT * SAME_POINT:
-                        dup = True
-                        seps[q] = min(seps[q], ts[m])
-                if dup:
-                    continue
-                slot = count
-                if count == MESH_POINTS:
-                    # full: replace the shallowest point if this one is deeper
-                    slot = 0
-                    for q in range(1, MESH_POINTS):
-                        if seps[q] > seps[slot]:
-                            slot = q
-                    if ts[m] >= seps[slot]:
-                        continue
-                else:
-                    count += 1
-                for k in range(3):
-                    cand[slot, k] = tp[m, k]
-                    cand_n[slot, k] = tn[k]
-                seps[slot] = ts[m]
-                feats[slot] = ((t & 0xFFFF) << 5) | (tf[m] & 31)
+            n = _fix_internal_edge(tri, mesh_edge_active[t], n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b,
+                                   speculative, tn, tp, ts, tf)
+            count = _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats)
         i += 1
     if count == 0:
         return 0
-    deepest = 0
-    for m in range(1, count):
-        if seps[m] < seps[deepest]:
-            deepest = m
-    nx, ny, nz = cand_n[deepest, 0], cand_n[deepest, 1], cand_n[deepest, 2]
-    keep = np.arange(count)
-    if count > 2:
-        count = reduce_points(cand, seps, count, nx, ny, nz, keep)
-    # the shared normal: the kept points' normals weighted by how far inside the speculative band they are
-    # (equal on a flat floor; across a crease or in a groove it leans to the deeper side, not flipping
-    # between the two as the deepest point would)
-    sx, sy, sz = 0.0, 0.0, 0.0
-    for c in range(count):
-        j = keep[c]
-        wgt = speculative - seps[j]
-        sx += wgt * cand_n[j, 0]
-        sy += wgt * cand_n[j, 1]
-        sz += wgt * cand_n[j, 2]
-    ln = math.sqrt(sx * sx + sy * sy + sz * sz)
-    if ln > 1e-12:
-        nx, ny, nz = sx / ln, sy / ln, sz / ln
-    normal[0], normal[1], normal[2] = nx, ny, nz
-    out = 0
-    for c in range(count):
-        j = keep[c]
-        dup = False
-        for q in range(out):
-            if feature[q] == feats[j]:
-                dup = True
-        if dup:
-            continue
-        for k in range(3):
-            point[out, k] = cand[j, k]
-        separation[out] = seps[j]
-        feature[out] = feats[j]
-        out += 1
-    return out
+    return _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature)
