@@ -58,7 +58,7 @@ def test_dominoes_all_fall_in_order():
     been knocked over); and they went down in order, the time each first passes 45 degrees strictly
     increasing along the run, as a toppling wave must. Frames at 120 Hz resolve the ~0.08 s between
     neighbours. Measured: end tilts 75.4-90 degrees, fall times 0.58 s to 2.27 s, 0.05-0.13 s apart."""
-    scene, traj = run("dominoes", frame_rate=120.0)
+    _, traj = run("dominoes", frame_rate=120.0)
     ids = indices(traj, "domino")
     assert len(ids) == 20
     tilt = tilt_deg(traj.orientation[:, ids])  # (F, 20)
@@ -79,7 +79,7 @@ def test_tower_stands():
     ~0.16 mm per contact under load, 1.6 mm in all, so 1 cm leaves room for the sag but not for a
     lean or a slide) and every cube is still at the end (under 1 mm/s). Cheap despite the 30 s:
     the tower falls asleep once settled. Measured: top moved 1.6 mm, speeds 0."""
-    scene, traj = run("tower", frame_rate=4.0)
+    _, traj = run("tower", frame_rate=4.0)
     ids = indices(traj, "box")
     top = ids[-1]
     assert traj.names[top] == "box9"
@@ -97,7 +97,7 @@ def test_pyramid_stands():
     1 cm from where it started (a box that slips or a row that spreads moves by many cm; the soft
     contacts' sag is a few mm at the bottom of 20 rows), and every box is slower than 1 cm/s at the
     end (the issue's resting speed). Measured: largest drift 1.8 mm, speeds 0 (asleep)."""
-    scene, traj = run("pyramid", frame_rate=2.0)
+    _, traj = run("pyramid", frame_rate=2.0)
     ids = indices(traj, "box")
     assert len(ids) == 210
     drift = np.linalg.norm(traj.position[:, ids] - traj.position[0, ids], axis=2).max()
@@ -123,7 +123,7 @@ def test_pile_settles():
     no lower than 0.1 m unless it sinks into the ground; 5 mm is the issue's penetration bound).
     Measured: 19 boxes faster than 1 cm/s, the fastest 2.06 m/s; farthest box 4.35 m; lowest centre
     0.0991 m (0.9 mm into the ground)."""
-    scene, traj = run("pile", frame_rate=1.0)
+    _, traj = run("pile", frame_rate=1.0)
     ids = indices(traj, "box")
     assert len(ids) == 1000
     x = traj.position[-1, ids]
@@ -141,7 +141,7 @@ def test_bowling_is_a_strike():
     1 degree in the first frames, before the ball arrives at t ~ 0.23 s) and are down at the end of
     the 3 s, each tilted more than 45 degrees (a pin that wobbles and stands again stays under ~10;
     a fallen one lies at ~90). Measured: all ten at 90 degrees, the last down at 0.63 s."""
-    scene, traj = run("bowling")
+    _, traj = run("bowling")
     pins = indices(traj, "pin")
     assert len(pins) == 10
     tilt = tilt_deg(traj.orientation[:, pins])
@@ -172,7 +172,7 @@ def test_dice_come_to_rest_on_a_face():
     under a 5 g die, which is far less), its centre 8 mm +- 1 mm above the table top (on the table,
     on a face, not sunk in), inside the table's 1.2 x 0.8 m, and slower than 1 cm/s. Measured:
     axes within 1e-6 degrees of vertical, centres at 0.758 m, speeds 0 (asleep)."""
-    scene, traj = run("dice")
+    _, traj = run("dice")
     dice = indices(traj, "die")
     assert len(dice) == 4
     R = rotations(traj.orientation[-1, dice])  # columns: the body axes in world coordinates
@@ -200,7 +200,7 @@ def test_marbles_end_in_the_bowl():
     none ever went through the bowl's wall: no marble centre below the inner bottom + radius by more
     than 2 mm (0.03 m - 2 mm; the soft contact lets a falling marble in by about 1 mm).
     Measured: all within 3.2 cm of the axis, speeds 0 (asleep), lowest centre 0.0292 m."""
-    scene, traj = run("marbles")
+    _, traj = run("marbles")
     marbles = indices(traj, "marble")
     assert len(marbles) == 6
     x = traj.position[-1, marbles]

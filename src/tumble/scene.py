@@ -47,7 +47,18 @@ from . import integrators as K
 from .errors import InputError
 from .forces import ConstantForce, Drag, Impulse, PointForce, Spring, Wind
 from .math3d import quat_from_euler_deg
-from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
+from .shapes import (
+    Box,
+    Capsule,
+    Compound,
+    Cone,
+    Convex,
+    Cylinder,
+    Mesh,
+    Particles,
+    Plane,
+    Sphere,
+)
 from .simulator import Simulator, steps_between
 from .solver.contact import SoftStepSettings
 from .trajectory import Trajectory
