@@ -157,3 +157,18 @@ def test_compound_against_another_body_and_a_convex_part():
     assert c.manifold_count == 1  # the hull foot on the table; the cylinder is above it
     assert c.manifold_point_count[0] == 4
     np.testing.assert_allclose(c.contact_separation, -0.001, atol=1e-12)
+
+
+def test_mesh_parts_only_on_fixed_bodies():
+    from tumble.mass import box_mesh
+
+    v, f = box_mesh((1, 1, 0.2))
+    ramp = Compound([(tb.Mesh(vertices=v, faces=f), (0, 0, 0), q_axis((0, 1, 0), 0.2)),
+                      (tb.Box((1, 1, 0.2)), (1.0, 0, 0), (1, 0, 0, 0))])
+    w = tb.World()
+    w.add_body(ramp, fixed=True, name="ramp")
+    t = build_shape_table(w)
+    assert t.shape_body.tolist() == [0, 0] and t.mesh_triangle.shape == (12, 3, 3)
+    w.add_body(ramp, mass=1.0, position=(0, 0, 3), name="flying ramp")
+    with pytest.raises(NotImplementedError, match="'flying ramp'.*Compound of Convex"):
+        build_shape_table(w)
