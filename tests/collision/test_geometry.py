@@ -93,3 +93,15 @@ def test_shape_origin_is_x_minus_R_com_offset():
     R[3] = rot((0, 0, 1), np.pi / 2)
     pos, _, _ = update_bounds(w.x, R, t, 0.0)
     np.testing.assert_allclose(pos[3], w.x[3] + R[3] @ [0.1, 0, 0])
+
+
+def test_bodies_sharing_a_hull_share_its_rows():
+    rock = tb.Convex(points=np.random.default_rng(0).normal(size=(12, 3)))
+    w = tb.World()
+    for k in range(3):
+        w.add_body(rock, mass=1.0, position=(3.0 * k, 0, 0))
+    w.add_body(tb.Convex(points=np.random.default_rng(1).normal(size=(12, 3))), mass=1.0, position=(0, 5, 0))
+    t = build_shape_table(w)
+    assert t.shape_data[0].tolist() == t.shape_data[1].tolist() == t.shape_data[2].tolist()
+    assert t.shape_data[3, 0] == t.shape_data[0, 1]  # the other hull's vertices follow the first's
+    assert len(t.hull_vertex) == t.shape_data[0, 1] + t.shape_data[3, 1]

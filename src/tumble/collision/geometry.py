@@ -305,11 +305,19 @@ class _Builder:
         self.hv, self.hff, self.hfc, self.hfv, self.hp = [], [], [], [], []
         self.mt, self.me, self.na, self.nf, self.nc, self.ns = [], [], [], [], [], []
         self.n_hv = self.n_hf = self.n_hfv = self.n_t = self.n_n = 0
+        # rows of hull / mesh data already stored, by record: bodies sharing a record share its data
+        self.seen: dict[int, tuple] = {}
 
     def add(self, shape, body, local_pos, local_q, moving, name):
         type_id, p = shape_params(shape)
         data = (0, 0, 0, 0)
-        if type_id == SHAPE_CONVEX:
+        if type_id == SHAPE_MESH and moving:
+            raise NotImplementedError(
+                f"body {name!r}: a triangle mesh collides only on a fixed body (terrain, ramps, bowls); "
+                "make a moving body a Compound of Convex pieces")
+        if type_id in (SHAPE_CONVEX, SHAPE_MESH) and id(shape) in self.seen:
+            data = self.seen[id(shape)][1]
+        elif type_id == SHAPE_CONVEX:
             planes, polygons = hull_polygons(shape.vertices, shape.faces)
             v = np.asarray(shape.vertices, dtype=float)
             data = (self.n_hv, len(v), self.n_hf, len(planes))
@@ -323,10 +331,6 @@ class _Builder:
             self.n_hv += len(v)
             self.n_hf += len(planes)
         elif type_id == SHAPE_MESH:
-            if moving:
-                raise NotImplementedError(
-                    f"body {name!r}: a triangle mesh collides only on a fixed body (terrain, ramps, bowls); "
-                    "make a moving body a Compound of Convex pieces")
             tri = np.asarray(shape.vertices, dtype=float)[np.asarray(shape.faces)]
             flags = mesh_edge_flags(shape.vertices, shape.faces)
             order, aabb, first, count, skip = build_bvh(tri)
@@ -339,6 +343,8 @@ class _Builder:
             self.ns.append(skip + self.n_n)
             self.n_t += len(tri)
             self.n_n += len(aabb)
+        if type_id in (SHAPE_CONVEX, SHAPE_MESH):
+            self.seen[id(shape)] = (shape, data)  # the record is kept alive with its id
         self.rows.append((type_id, body, p, local_pos, local_q, data))
 
     def table(self, moving) -> ShapeTable:
@@ -390,6 +396,7 @@ def build_shape_table(world, skip_unsupported: bool = False) -> ShapeTable:
         lists = [builder.hv, builder.hff, builder.hfc, builder.hfv, builder.hp,
                  builder.mt, builder.me, builder.na, builder.nf, builder.nc, builder.ns]
         sizes = [len(x) for x in lists]
+        seen = dict(builder.seen)
         try:
             for part, pos, q in parts:
                 builder.add(part, i, np.asarray(pos, dtype=float) - com_offset[i], np.asarray(q, dtype=float),
@@ -403,4 +410,5 @@ def build_shape_table(world, skip_unsupported: bool = False) -> ShapeTable:
             for x, n in zip(lists, sizes):
                 del x[n:]
             builder.n_hv, builder.n_hf, builder.n_hfv, builder.n_t, builder.n_n = mark[1]
+            builder.seen = seen
     return builder.table(world.moving)
