@@ -353,3 +353,36 @@ def test_every_pair_type_is_sane_on_random_poses():
                 assert np.all(np.isfinite(p)) and np.all(np.isfinite(s)) and np.all(s < SPEC)
                 if len(s):
                     assert abs(np.linalg.norm(n) - 1) < 1e-9
+
+
+def test_hull_hull_points_lie_on_both_surfaces():
+    """Random hulls brought to touching (bisection on the routine's own separation), then moved by -1..+1.5 cm:
+    for every point, p - s/2 n is on a's boundary and p + s/2 n on b's, exactly: max over the hull's face
+    planes of (n_f . x - d_f) is 0 on the boundary (1e-9 m: round-off of the clip and the projection)."""
+    from tumble.collision.geometry import hull_polygons
+
+    def boundary_value(x, shape, planes):
+        local = (x - shape[1]) @ shape[2]
+        return np.max(local @ planes[:, :3].T - planes[:, 3])
+
+    rng = np.random.default_rng(4)
+    checked = 0
+    for _ in range(60):
+        ha, hb = (tb.Convex(points=rng.normal(size=(10, 3)) * 0.3) for _ in range(2))
+        pa, pb = hull_polygons(ha.vertices, ha.faces)[0], hull_polygons(hb.vertices, hb.faces)[0]
+        A = convex(np.zeros(3), random_rotation(rng), ha)
+        Rb = random_rotation(rng)
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        lo, hi = 0.0, 2.0
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            s = collide(A, convex(d * mid, Rb, hb), spec=10.0)[2]
+            lo, hi = (mid, hi) if len(s) and s.min() < 0 else (lo, mid)
+        B = convex(d * (hi + rng.uniform(-0.01, 0.015)), Rb, hb)
+        n, p, s, f = collide(A, B)
+        for k in range(len(s)):
+            assert abs(boundary_value(p[k] - 0.5 * s[k] * n, A, pa)) < 1e-9
+            assert abs(boundary_value(p[k] + 0.5 * s[k] * n, B, pb)) < 1e-9
+            checked += 1
+    assert checked > 60

@@ -276,7 +276,7 @@ def _clip(poly_in, id_in, n_in, sx, sy, sz, off, plane_id, poly_out, id_out):
 
 @njit(**JIT)
 def _clip_to_face(ref, m, rnx, rny, rnz, inc, k, pts, ids, tmp, tmp_ids):
-    """Clip the incident polygon or segment (k points) to the prism over the reference polygon (m points, normal rn).
+    """Clip the incident polygon or segment (k points) to the prism along direction rn over the reference polygon (m points).
 
     Writes the result into pts / ids; returns its size.
     """
@@ -510,7 +510,9 @@ def face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_
                 tmp = np.empty((size, 3))
                 ids = np.empty(size, dtype=np.int64)
                 tmp_ids = np.empty(size, dtype=np.int64)
-                n = _clip_to_face(ref, m, rn[0], rn[1], rn[2], inc, kin, pts, ids, tmp, tmp_ids)
+                # side planes through the reference edges and n (Jolt's ClipPolyVsPoly): a clipped point moved
+                # along n onto the reference plane stays on the reference face, even for an oblique face
+                n = _clip_to_face(ref, m, nx, ny, nz, inc, kin, pts, ids, tmp, tmp_ids)
                 cand = np.empty((n + 1, 3))
                 seps = np.empty(n + 1)
                 cid = np.empty(n + 1, dtype=np.int64)
