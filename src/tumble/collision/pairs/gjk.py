@@ -99,9 +99,11 @@ def _dot(W, i, x, y, z):
 
 
 @njit(**JIT)
-def _keep(W, SA, SB, lam, ids, n):
-    """Compact the simplex to rows ``ids[:n]`` (in that order; ids may repeat none but come in any order)."""
-    tmp = np.empty((n, 9))
+def _keep(W, SA, SB, ids, n, tmp):
+    """Compact the simplex to rows ``ids[:n]`` (in that order; ids may repeat none but come in any order).
+
+    tmp: (>= n, 9) scratch.
+    """
     for j in range(n):
         i = ids[j]
         for c in range(3):
@@ -183,14 +185,13 @@ def _closest_triangle(W, i0, i1, i2, lam3, sub):
 
 
 @njit(**JIT)
-def _reduce_simplex(W, SA, SB, k, lam):
+def _reduce_simplex(W, SA, SB, k, lam, sub, lam3, best_sub, best_lam, tmp):
     """Reduce the simplex (k rows of W = SA - SB) to the rows that support its closest point to the origin.
 
     Sets ``lam`` (barycentric weights) and returns the new size; 4 means the
-    origin is inside the tetrahedron.
+    origin is inside the tetrahedron. sub (4,) int, lam3 (3,), best_sub (3,) int, best_lam (3,),
+    tmp (4, 9): scratch (allocated once per GJK call).
     """
-    sub = np.empty(4, dtype=np.int64)
-    lam3 = np.empty(3)
     if k == 1:
         lam[0] = 1.0
         return 1
@@ -203,22 +204,20 @@ def _reduce_simplex(W, SA, SB, k, lam):
             return 1
         if t >= 1.0:
             sub[0] = 1
-            _keep(W, SA, SB, lam, sub, 1)
+            _keep(W, SA, SB, sub, 1, tmp)
             lam[0] = 1.0
             return 1
         lam[0], lam[1] = 1.0 - t, t
         return 2
     if k == 3:
         n, _ = _closest_triangle(W, 0, 1, 2, lam3, sub)
-        _keep(W, SA, SB, lam, sub, n)
+        _keep(W, SA, SB, sub, n, tmp)
         for j in range(n):
             lam[j] = lam3[j]
         return n
     # tetrahedron: the faces whose plane separates the origin from the opposite vertex
     best = np.inf
     best_n = 0
-    best_sub = np.empty(3, dtype=np.int64)
-    best_lam = np.empty(3)
     outside_any = False
     # a flat tetrahedron (4 coplanar points: two parallel faces) cannot hold the origin: try every face
     size = 0.0
@@ -245,7 +244,7 @@ def _reduce_simplex(W, SA, SB, k, lam):
         return 4
     for j in range(best_n):
         sub[j] = best_sub[j]
-    _keep(W, SA, SB, lam, sub, best_n)
+    _keep(W, SA, SB, sub, best_n, tmp)
     for j in range(best_n):
         lam[j] = best_lam[j]
     return best_n
@@ -267,6 +266,11 @@ def gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         vx, vy, vz = 1.0, 0.0, 0.0
     k = 0
     prev = np.inf
+    sub = np.empty(4, dtype=np.int64)
+    best_sub = np.empty(3, dtype=np.int64)
+    lam3 = np.empty(3)
+    best_lam = np.empty(3)
+    tmp = np.empty((4, 9))
     for _ in range(GJK_ITERATIONS):
         sa = support(ta, pos_a, rot_a, params_a, verts_a, -vx, -vy, -vz)
         sb = support(tb, pos_b, rot_b, params_b, verts_b, vx, vy, vz)
@@ -287,7 +291,7 @@ def gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         for c in range(3):
             SA[k, c] = sa[c]
             SB[k, c] = sb[c]
-        k = _reduce_simplex(W, SA, SB, k + 1, lam)
+        k = _reduce_simplex(W, SA, SB, k + 1, lam, sub, lam3, best_sub, best_lam, tmp)
         if k == 4:
             break
         vx, vy, vz = 0.0, 0.0, 0.0
