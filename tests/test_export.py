@@ -474,3 +474,15 @@ def test_cli_export_never_overwrites_without_force(traj_file, tmp_path, capsys):
     assert main(["export", str(traj_file), "-o", str(out), "--force"]) == 0
     assert out.read_bytes()[:4] == b"glTF"
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temporary files left
+
+
+def test_compound_mesh_is_its_parts_in_place():
+    """A compound's display mesh is its parts' meshes moved to their positions and orientations
+    (bounds checked against the parts' extents: a box turned 90 degrees about x and a sphere)."""
+    from tumble.shapes import Box, Compound, Sphere
+    from tumble.visual import shape_trimesh
+
+    c = Compound(parts=[(Sphere(0.1), (0, 0, 0.2), (1, 0, 0, 0)),
+                        (Box(size=(0.1, 0.1, 0.3)), (0, 0, 0), (math.cos(math.pi / 4), math.sin(math.pi / 4), 0, 0))])
+    bounds = shape_trimesh(c).bounds
+    assert np.allclose(bounds, [[-0.1, -0.15, -0.05], [0.1, 0.15, 0.3]], atol=2e-3)

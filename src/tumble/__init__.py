@@ -13,7 +13,7 @@ __version__ = "0.1.0"
 from .errors import InputError, SimulationError, TumbleError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
 from .joints import BallJoint, DistanceJoint, FixedJoint, HingeJoint, SliderJoint, UniversalJoint
-from .shapes import Box, Capsule, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
+from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
 from .simulator import Simulator
 from .trajectory import Trajectory, load_trajectory
 from .world import Body, Material, World
@@ -28,7 +28,7 @@ def load_scene(path):
 
 __all__ = [
     "World", "Body", "Material", "Simulator", "Trajectory", "load_trajectory", "load_scene",
-    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex",
+    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint",
     "TumbleError", "InputError", "SimulationError",

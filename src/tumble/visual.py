@@ -77,6 +77,18 @@ def shape_trimesh(shape, plane_size: float = PLANE_MIN_SIZE):
         return _particle_cloud(np.asarray(d["points"], dtype=float), np.asarray(d["masses"], dtype=float))
     if kind == "plane":
         return _plane_quad(np.asarray(d.get("normal", (0, 0, 1)), dtype=float), float(d.get("offset", 0.0)), plane_size)
+    if kind == "compound":  # the parts' meshes, each moved to its place in the shape's frame
+        from .math3d import quat_to_matrix
+
+        meshes = []
+        for part in d["parts"]:
+            mesh = shape_trimesh(part["shape"], plane_size).copy()
+            T = np.eye(4)
+            T[:3, :3] = quat_to_matrix(np.asarray(part.get("orientation", (1, 0, 0, 0)), dtype=float))
+            T[:3, 3] = np.asarray(part.get("position", (0, 0, 0)), dtype=float)
+            mesh.apply_transform(T)
+            meshes.append(mesh)
+        return trimesh.util.concatenate(meshes)
     raise ValueError(f"unknown shape type {kind!r}")
 
 
