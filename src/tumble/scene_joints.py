@@ -27,6 +27,7 @@ from typing import Any
 
 from .errors import InputError
 from .joints import JOINT_CLASSES
+from .scene import _describe  # the scene parser's wording for a value of the wrong type
 
 COMMON_KEYS = ("type", "name", "body_a", "body_b", "anchor", "anchor_b", "frame", "collide_connected",
                "max_force", "max_torque")
@@ -48,22 +49,6 @@ UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_forc
 DEGREE_KEYS = {"lower_deg": "lower", "upper_deg": "upper", "target_deg": "target", "cone_limit_deg": "cone_limit",
                "motor_speed_deg": "motor_speed"}
 SOLVER_KEYS = ("method", "hertz", "damping_ratio", "velocity_iterations", "relax_iterations", "bias_factor")
-
-
-def _describe(value) -> str:
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return f"{str(value).lower()} (a boolean)"
-    if isinstance(value, str):
-        return f"{value[:40]!r} (a string)"
-    if isinstance(value, (int, float)):
-        return f"{value!r} (a number)"
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, list):
-        return f"a list of {len(value)}"
-    return f"{value!r} ({type(value).__name__})"
 
 
 def _number(value, key: str, file, unbounded=False) -> float:
