@@ -149,28 +149,3 @@ def test_scene_keys_turn_collisions_off_and_record_contacts():
     doc["contact"] = {"substeps": 0}
     with pytest.raises(tb.InputError, match="contact.substeps: must be >= 1"):
         parse_scene(doc, "s.toml")
-
-
-def test_colored_parallel_solve_bits_do_not_depend_on_the_thread_count(monkeypatch):
-    """From COLORED_MIN_CONTACTS contacts the solve goes colour by colour with each colour's
-    manifolds in parallel; the sweep order is the colouring's, so 1 and 2 threads give the same
-    bits (STYLE 5.6 rule 6). Forced on here for a pile of 64 boxes."""
-    import numba
-
-    from tumble.scenes.contact import pile
-    from tumble.solver import contact as C
-
-    monkeypatch.setattr(C, "COLORED_MIN_CONTACTS", 1)
-    hashes = []
-    before = numba.get_num_threads()
-    try:
-        for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
-            numba.set_num_threads(threads)
-            w, _ = pile(64)
-            sim = tb.Simulator(w, dt=1 / 60)
-            sim.run(1.0, frame_rate=4)
-            assert sim.soft_step.solver.colored
-            hashes.append(state_hash(w))
-    finally:
-        numba.set_num_threads(before)
-    assert len(set(hashes)) == 1

@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ..collision.constants import SPECULATIVE_DISTANCE
 from ..collision.manifold import match_contacts
@@ -115,24 +115,21 @@ def _point_velocity(v, omega, i, r):
 
 @njit(**JIT)
 def _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, p0, p1, p2):
-    """Impulse P = (p0, p1, p2) on b at arm rb and -P on a at arm ra. A body of zero inverse
-    mass (fixed) is not written at all, so parallel colours may share it."""
+    """Impulse P = (p0, p1, p2) on b at arm rb and -P on a at arm ra."""
     ma = inv_mass[a]
     mb = inv_mass[b]
-    if ma > 0.0:
-        v[a, 0] -= ma * p0
-        v[a, 1] -= ma * p1
-        v[a, 2] -= ma * p2
-        c0, c1, c2 = _cross(ra[0], ra[1], ra[2], p0, p1, p2)
-        for k in range(3):
-            omega[a, k] -= I_inv[a, k, 0] * c0 + I_inv[a, k, 1] * c1 + I_inv[a, k, 2] * c2
-    if mb > 0.0:
-        v[b, 0] += mb * p0
-        v[b, 1] += mb * p1
-        v[b, 2] += mb * p2
-        c0, c1, c2 = _cross(rb[0], rb[1], rb[2], p0, p1, p2)
-        for k in range(3):
-            omega[b, k] += I_inv[b, k, 0] * c0 + I_inv[b, k, 1] * c1 + I_inv[b, k, 2] * c2
+    v[a, 0] -= ma * p0
+    v[a, 1] -= ma * p1
+    v[a, 2] -= ma * p2
+    v[b, 0] += mb * p0
+    v[b, 1] += mb * p1
+    v[b, 2] += mb * p2
+    c0, c1, c2 = _cross(ra[0], ra[1], ra[2], p0, p1, p2)
+    for k in range(3):
+        omega[a, k] -= I_inv[a, k, 0] * c0 + I_inv[a, k, 1] * c1 + I_inv[a, k, 2] * c2
+    c0, c1, c2 = _cross(rb[0], rb[1], rb[2], p0, p1, p2)
+    for k in range(3):
+        omega[b, k] += I_inv[b, k, 0] * c0 + I_inv[b, k, 1] * c1 + I_inv[b, k, 2] * c2
 
 
 @njit(**JIT)
@@ -176,12 +173,6 @@ def _arms(x, R, a, b, local_a, local_b, c):
 
 
 # ---------------------------------------------------------------------- kernels
-OVERFLOW_COLOR = 63  # manifolds of a body already in 63 colours: this last colour is solved serially
-# From this many contacts a step, the solve goes colour by colour with the colours' manifolds in
-# parallel (the sweep order is then the colouring's: other bits than the serial sweep, the same
-# for any thread count). Fewer: one serial sweep in contact order.
-COLORED_MIN_CONTACTS = 2048
-
 @njit(**JIT)
 def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
                             old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
@@ -242,101 +233,30 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
 
 
 @njit(**JIT)
-def _warm_start_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
-                        tangent_impulse, x, R, inv_mass, I_inv, v, omega):
-    """Apply contact c's accumulated impulses (normal and both friction directions) once."""
-    jn = normal_impulse[c]
-    j1 = tangent_impulse[c, 0]
-    j2 = tangent_impulse[c, 1]
-    p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
-    p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
-    p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
-    ra, rb, _ = _arms(x, R, body_a[c], body_b[c], local_a, local_b, c)
-    _apply_impulse(v, omega, inv_mass, I_inv, body_a[c], body_b[c], ra, rb, p0, p1, p2)
-
-
-@njit(**JIT)
 def warm_start_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
                       tangent_impulse, x, R, inv_mass, I_inv,
                       # outputs
                       v, omega):
-    """Apply the accumulated impulses once, contact by contact."""
+    """Apply the accumulated impulses (normal and both friction directions) once."""
     for c in range(body_a.shape[0]):
-        _warm_start_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
-                            tangent_impulse, x, R, inv_mass, I_inv, v, omega)
-
-
-@njit(**JIT, parallel=True)
-def warm_start_colored_kernel(color_start, color_manifolds, m_first, m_count,
-                              body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
-                              tangent_impulse, x, R, inv_mass, I_inv,
-                              # outputs
-                              v, omega):
-    """``warm_start_kernel`` colour by colour, the manifolds of a colour in parallel."""
-    for color in range(OVERFLOW_COLOR):
-        lo = color_start[color]
-        for k in prange(color_start[color + 1] - lo):
-            m = color_manifolds[lo + k]
-            for c in range(m_first[m], m_first[m] + m_count[m]):
-                _warm_start_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
-                                    tangent_impulse, x, R, inv_mass, I_inv, v, omega)
-    for k in range(color_start[OVERFLOW_COLOR], color_start[OVERFLOW_COLOR + 1]):
-        m = color_manifolds[k]
-        for c in range(m_first[m], m_first[m] + m_count[m]):
-            _warm_start_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
-                                tangent_impulse, x, R, inv_mass, I_inv, v, omega)
+        jn = normal_impulse[c]
+        j1 = tangent_impulse[c, 0]
+        j2 = tangent_impulse[c, 1]
+        p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
+        p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
+        p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
+        ra, rb, _ = _arms(x, R, body_a[c], body_b[c], local_a, local_b, c)
+        _apply_impulse(v, omega, inv_mass, I_inv, body_a[c], body_b[c], ra, rb, p0, p1, p2)
 
 
 @njit(**JIT)
-def color_manifolds_kernel(m_body_a, m_body_b, inv_mass,
-                           # outputs
-                           body_colors, manifold_color, color_start, color_manifolds):
-    """Greedy graph colouring of the manifolds (Box2D v3's constraint graph colours): each manifold
-    gets the lowest colour not yet used by either of its bodies of non-zero inverse mass (a fixed
-    body may be shared by any number). Colours 0..62 are tracked in a bit mask per body;
-    a manifold that finds none free goes to ``OVERFLOW_COLOR``, solved serially.
-
-    Writes ``color_start`` (65,): colour k's manifolds are ``color_manifolds[color_start[k]:
-    color_start[k + 1]]``, in manifold order (a counting sort). Deterministic: the colouring
-    depends only on the manifold order.
-    """
-    for i in range(body_colors.shape[0]):
-        body_colors[i] = 0
-    for k in range(color_start.shape[0]):
-        color_start[k] = 0
-    M = m_body_a.shape[0]
-    for m in range(M):
-        a = m_body_a[m]
-        b = m_body_b[m]
-        used = np.int64(0)
-        if inv_mass[a] > 0.0:
-            used |= body_colors[a]
-        if inv_mass[b] > 0.0:
-            used |= body_colors[b]
-        color = 0
-        while color < OVERFLOW_COLOR and (used >> color) & 1:
-            color += 1
-        if color < OVERFLOW_COLOR:
-            if inv_mass[a] > 0.0:
-                body_colors[a] |= np.int64(1) << color
-            if inv_mass[b] > 0.0:
-                body_colors[b] |= np.int64(1) << color
-        manifold_color[m] = color
-        color_start[color + 1] += 1
-    for k in range(1, color_start.shape[0]):
-        color_start[k] += color_start[k - 1]
-    fill = color_start[:-1].copy()
-    for m in range(M):
-        color = manifold_color[m]
-        color_manifolds[fill[color]] = m
-        fill[color] += 1
-
-
-@njit(**JIT)
-def _solve_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation, normal_mass, tangent_mass, soft,
-                   friction, x, R, inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse,
-                   tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed):
-    """Contact c of a Gauss-Seidel sweep: the normal impulse (soft when ``use_bias``), then friction.
+def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
+                          separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
+                          inv_h, contact_speed, use_bias,
+                          # outputs
+                          v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                          last_normal_speed):
+    """One Gauss-Seidel sweep: per contact the normal impulse (soft when ``use_bias``), then friction.
 
     The separation is followed as the bodies move within the step: s = s0 + n.(d - d0),
     d = (xB + RB lB) - (xA + RA lA), with d0 = 0 since both anchors start at the contact point.
@@ -353,115 +273,74 @@ def _solve_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local
     from the approach speed w0 before the kick (``last_normal_speed``) and the kick's
     acceleration a = (w1 - w0) / h over the gap: u = sqrt(w0^2 + 2 a s), between w0 and w1.
     """
-    a = body_a[c]
-    b = body_b[c]
-    n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
-    ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
-    s = separation[c] + n0 * d[0] + n1 * d[1] + n2 * d[2]
-    bias = 0.0
-    mass_scale = 1.0
-    impulse_scale = 0.0
-    if s > 0.0:
-        bias = s * inv_h
-    elif use_bias:
-        bias = max(soft[c, 0] * s, -contact_speed)
-        mass_scale = soft[c, 1]
-        impulse_scale = soft[c, 2]
-    va0, va1, va2 = _point_velocity(v, omega, a, ra)
-    vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
-    vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
-    impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
-    new_impulse = max(normal_impulse[c] + impulse, 0.0)
-    if not use_bias and s > 0.0 and new_impulse > normal_impulse[c]:
-        # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
-        # here (the next substep's biased solve sees the gap before any position update)
-        # and it slows a falling body before it lands: the step after has a smaller approach
-        # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
-        # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
-        # takes back push-out here.
-        new_impulse = normal_impulse[c]
-    if new_impulse > 0.0 and vn < relative_velocity[c]:
-        u = -vn
-        w0 = -last_normal_speed[c]
-        if s > 0.0 and w0 > 0.0 and u > w0:
-            accel = (u - w0) * inv_h
-            u = min(math.sqrt(w0 * w0 + 2.0 * accel * s), u)
-        relative_velocity[c] = min(-u, relative_velocity[c])
-    impulse = new_impulse - normal_impulse[c]
-    normal_impulse[c] = new_impulse
-    max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
-    if not use_bias:
-        # the normal speed this substep ends with: the next substep's speed before its kick
-        last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
-    _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
-
-    # Coulomb friction: each direction with its own effective mass, then the accumulated
-    # 2-vector clamped to the disc of radius mu * normal impulse (isotropic friction cone)
-    va0, va1, va2 = _point_velocity(v, omega, a, ra)
-    vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
-    d0, d1, d2 = vb0 - va0, vb1 - va1, vb2 - va2
-    vt1 = d0 * tangent1[c, 0] + d1 * tangent1[c, 1] + d2 * tangent1[c, 2]
-    vt2 = d0 * tangent2[c, 0] + d1 * tangent2[c, 1] + d2 * tangent2[c, 2]
-    old1 = tangent_impulse[c, 0]
-    old2 = tangent_impulse[c, 1]
-    new1 = old1 - tangent_mass[c, 0] * vt1
-    new2 = old2 - tangent_mass[c, 1] * vt2
-    limit = friction[c] * normal_impulse[c]
-    mag2 = new1 * new1 + new2 * new2
-    if mag2 > limit * limit:
-        scale = limit / math.sqrt(mag2)
-        new1 *= scale
-        new2 *= scale
-    tangent_impulse[c, 0] = new1
-    tangent_impulse[c, 1] = new2
-    j1 = new1 - old1
-    j2 = new2 - old2
-    _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb,
-                   j1 * tangent1[c, 0] + j2 * tangent2[c, 0],
-                   j1 * tangent1[c, 1] + j2 * tangent2[c, 1],
-                   j1 * tangent1[c, 2] + j2 * tangent2[c, 2])
-
-
-@njit(**JIT)
-def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
-                          separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
-                          inv_h, contact_speed, use_bias,
-                          # outputs
-                          v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
-                          last_normal_speed):
-    """One Gauss-Seidel sweep over the contacts in their order (``_solve_contact``)."""
     for c in range(body_a.shape[0]):
-        _solve_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation, normal_mass,
-                       tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega,
-                       normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed)
+        a = body_a[c]
+        b = body_b[c]
+        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+        ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+        s = separation[c] + n0 * d[0] + n1 * d[1] + n2 * d[2]
+        bias = 0.0
+        mass_scale = 1.0
+        impulse_scale = 0.0
+        if s > 0.0:
+            bias = s * inv_h
+        elif use_bias:
+            bias = max(soft[c, 0] * s, -contact_speed)
+            mass_scale = soft[c, 1]
+            impulse_scale = soft[c, 2]
+        va0, va1, va2 = _point_velocity(v, omega, a, ra)
+        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+        vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
+        impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
+        new_impulse = max(normal_impulse[c] + impulse, 0.0)
+        if not use_bias and s > 0.0 and new_impulse > normal_impulse[c]:
+            # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
+            # here (the next substep's biased solve sees the gap before any position update)
+            # and it slows a falling body before it lands: the step after has a smaller approach
+            # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
+            # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
+            # takes back push-out here.
+            new_impulse = normal_impulse[c]
+        if new_impulse > 0.0 and vn < relative_velocity[c]:
+            u = -vn
+            w0 = -last_normal_speed[c]
+            if s > 0.0 and w0 > 0.0 and u > w0:
+                accel = (u - w0) * inv_h
+                u = min(math.sqrt(w0 * w0 + 2.0 * accel * s), u)
+            relative_velocity[c] = min(-u, relative_velocity[c])
+        impulse = new_impulse - normal_impulse[c]
+        normal_impulse[c] = new_impulse
+        max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+        if not use_bias:
+            # the normal speed this substep ends with: the next substep's speed before its kick
+            last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
+        _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
 
-
-@njit(**JIT, parallel=True)
-def solve_contacts_colored_kernel(color_start, color_manifolds, m_first, m_count,
-                                  body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
-                                  separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
-                                  inv_h, contact_speed, use_bias,
-                                  # outputs
-                                  v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
-                                  last_normal_speed):
-    """One sweep, colour by colour: the manifolds of a colour share no moving body, so they are
-    solved in parallel (Box2D v3's graph colouring). The order of the sweep is the colouring's,
-    whatever the number of threads, so the bits do not depend on it (fixed bodies are shared
-    but never written: ``_apply_impulse`` leaves bodies of zero inverse mass alone)."""
-    for color in range(OVERFLOW_COLOR):
-        lo = color_start[color]
-        for k in prange(color_start[color + 1] - lo):
-            m = color_manifolds[lo + k]
-            for c in range(m_first[m], m_first[m] + m_count[m]):
-                _solve_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation, normal_mass,
-                       tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega,
-                       normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed)
-    for k in range(color_start[OVERFLOW_COLOR], color_start[OVERFLOW_COLOR + 1]):
-        m = color_manifolds[k]
-        for c in range(m_first[m], m_first[m] + m_count[m]):
-            _solve_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation, normal_mass,
-                       tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega,
-                       normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed)
+        # Coulomb friction: each direction with its own effective mass, then the accumulated
+        # 2-vector clamped to the disc of radius mu * normal impulse (isotropic friction cone)
+        va0, va1, va2 = _point_velocity(v, omega, a, ra)
+        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+        d0, d1, d2 = vb0 - va0, vb1 - va1, vb2 - va2
+        vt1 = d0 * tangent1[c, 0] + d1 * tangent1[c, 1] + d2 * tangent1[c, 2]
+        vt2 = d0 * tangent2[c, 0] + d1 * tangent2[c, 1] + d2 * tangent2[c, 2]
+        old1 = tangent_impulse[c, 0]
+        old2 = tangent_impulse[c, 1]
+        new1 = old1 - tangent_mass[c, 0] * vt1
+        new2 = old2 - tangent_mass[c, 1] * vt2
+        limit = friction[c] * normal_impulse[c]
+        mag2 = new1 * new1 + new2 * new2
+        if mag2 > limit * limit:
+            scale = limit / math.sqrt(mag2)
+            new1 *= scale
+            new2 *= scale
+        tangent_impulse[c, 0] = new1
+        tangent_impulse[c, 1] = new2
+        j1 = new1 - old1
+        j2 = new2 - old2
+        _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb,
+                       j1 * tangent1[c, 0] + j2 * tangent2[c, 0],
+                       j1 * tangent1[c, 1] + j2 * tangent2[c, 1],
+                       j1 * tangent1[c, 2] + j2 * tangent2[c, 2])
 
 
 @njit(**JIT)
@@ -608,49 +487,22 @@ class ContactSolver:
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
-        self._color()
-
-    def _color(self):
-        """Colour the manifolds (``color_manifolds_kernel``) when the step has enough contacts."""
-        c = self.contacts
-        self.colored = c.contact_count >= COLORED_MIN_CONTACTS
-        if not self.colored:
-            return
-        n = self.world.body_count
-        M = c.manifold_count
-        if getattr(self, "_body_colors", np.zeros(0)).shape[0] != n:
-            self._body_colors = np.zeros(n, dtype=np.int64)
-            self._color_start = np.zeros(OVERFLOW_COLOR + 2, dtype=np.int64)
-        if getattr(self, "_manifold_color", np.zeros(0)).shape[0] < M:
-            self._manifold_color = np.zeros(2 * M, dtype=np.int64)
-            self._color_manifolds = np.zeros(2 * M, dtype=np.int64)
-        color_manifolds_kernel(c.manifold_body_a, c.manifold_body_b, self.world.inv_mass, self._body_colors,
-                               self._manifold_color[:M], self._color_start, self._color_manifolds[:M])
-        self._coloring = (self._color_start, self._color_manifolds[:M], c.manifold_first, c.manifold_point_count)
 
     def warm_start(self):
         c = self.contacts
-        args = (c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
-                self.local_a, self.local_b, self.normal_impulse, self.tangent_impulse,
-                self.x, self.R, self.world.inv_mass, self.I_inv, self.v, self.omega)
-        if self.colored:
-            warm_start_colored_kernel(*self._coloring, *args)
-        else:
-            warm_start_kernel(*args)
+        warm_start_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
+                          self.local_a, self.local_b, self.normal_impulse, self.tangent_impulse,
+                          self.x, self.R, self.world.inv_mass, self.I_inv, self.v, self.omega)
 
     def solve_contacts(self, use_bias: bool):
         c = self.contacts
         w = self.world
-        args = (c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
-                self.local_a, self.local_b, c.contact_separation,
-                self.normal_mass, self.tangent_mass, self.soft, self.friction, self.x, self.R,
-                w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed, bool(use_bias),
-                self.v, self.omega, self.normal_impulse, self.tangent_impulse,
-                self.max_normal_impulse, self.relative_velocity, self.last_normal_speed)
-        if self.colored:
-            solve_contacts_colored_kernel(*self._coloring, *args)
-        else:
-            solve_contacts_kernel(*args)
+        solve_contacts_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
+                              self.local_a, self.local_b, c.contact_separation,
+                              self.normal_mass, self.tangent_mass, self.soft, self.friction, self.x, self.R,
+                              w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed, bool(use_bias),
+                              self.v, self.omega, self.normal_impulse, self.tangent_impulse,
+                              self.max_normal_impulse, self.relative_velocity, self.last_normal_speed)
 
     def apply_restitution(self):
         c = self.contacts
