@@ -299,7 +299,7 @@ class SoftStep:
                                         s.R, s.v, s.omega, self.I_inv, self.I_world)
             if joints is not None:
                 joints.warm_start(s.v, s.omega, Y, s.R)
-            solver.warm_start()
+            solver.warm_start(fresh=k == 0)
             if joints is not None:
                 joints.solve(s.v, s.omega, Y, s.R, True)
             solver.solve_contacts(True)
