@@ -35,10 +35,7 @@ def test_pile_of_512_boxes_settles_within_4_s():
     assert reach < settings["region_half_width"] and speed.max() < 0.01, (reach, int((speed >= 0.01).sum()), speed.max())
 
 
-@pytest.mark.xfail(strict=True, reason="tumble.visual.shape_trimesh has no mesh for a compound shape (ValueError: unknown "
-                   "shape type 'compound'), so `tumble render`, `tumble export` and the viewer cannot draw "
-                   "examples/bowling.toml's pins")
-def test_a_compound_body_can_be_drawn():
+def test_a_compound_body_can_be_drawn():  # fixed: visual.shape_trimesh draws the parts
     """The drawing of a compound is its parts' meshes, each placed in the compound's frame: its bounds
     are the union of the parts' (here a 0.2 m box at the origin and a sphere of radius 0.1 at z = 0.3:
     z from -0.1 to 0.4)."""
