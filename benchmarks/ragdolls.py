@@ -255,13 +255,12 @@ class TumbleRagdolls:
 def tumble_warmup(seed: int) -> tuple[float, float]:
     """(first step s, whole warm-up s): 4 ragdolls 0.6 m apart, standing within the speculative
     margin of the ground (contacts from the first step), stepped 1 s so that they fall onto one
-    another. The big scene takes the parallel paths (narrowphase from 1024 candidate pairs,
-    coloured contact solve from 2048 contacts) that 4 ragdolls never reach: their thresholds are
-    lowered for the warm-up only, so those kernels compile (or load from the cache) here too."""
+    another. The big scene takes the parallel narrowphase (from 1024 candidate pairs) that 4
+    ragdolls never reach: its threshold is lowered for the warm-up only, so that kernel compiles
+    (or loads from the cache) here too."""
     from tumble.collision import narrowphase as NP
-    from tumble.solver import contact as SC
 
-    saved = NP.PARALLEL_MIN_CANDIDATES, SC.COLORED_MIN_CONTACTS
+    saved = NP.PARALLEL_MIN_CANDIDATES
     t0 = time.perf_counter()
     try:
         eng = TumbleRagdolls(4, seed, spacing=0.6, heights=(0.0, 0.01))
@@ -269,10 +268,10 @@ def tumble_warmup(seed: int) -> tuple[float, float]:
         eng.step(1)
         first = time.perf_counter() - t1
         eng.step(29)
-        NP.PARALLEL_MIN_CANDIDATES, SC.COLORED_MIN_CONTACTS = 1, 1
+        NP.PARALLEL_MIN_CANDIDATES = 1
         eng.step(30)
     finally:
-        NP.PARALLEL_MIN_CANDIDATES, SC.COLORED_MIN_CONTACTS = saved
+        NP.PARALLEL_MIN_CANDIDATES = saved
     return first, time.perf_counter() - t0 - eng.load_s
 
 
@@ -547,18 +546,6 @@ def main(argv=None):
              "in generalised coordinates). Limit excess is measured with tumble's meaning (ball: swing over the cone "
              "limit); MuJoCo's ball range bounds the whole rotation angle (swing and twist), a stricter limit. "
              "tumble sleeps bodies at rest (its default), MuJoCo does not.\n")
-    by_threads = {r["threads"]: r for r in rows if r["engine"] == "tumble" and r["complete"]}
-    from tumble.solver.contact import COLORED_MIN_CONTACTS
-
-    coloured = any(r["contacts_end"] >= COLORED_MIN_CONTACTS for r in by_threads.values())
-    if len(by_threads) > 1 and 1 in by_threads and coloured:
-        many = max(by_threads)
-        notes += (f"\ntumble on {many} Numba threads took {by_threads[many]['wall_s'] / by_threads[1]['wall_s']:.1f}x "
-                  f"the wall time of 1 thread here (the same figures: the results do not depend on the thread count). "
-                  f"From {COLORED_MIN_CONTACTS} contacts the contact warm start and solve go colour by colour, a "
-                  f"parallel loop for each of 63 colours (most of them empty), 12 times a step; how much that costs "
-                  f"depends on the machine's load: in an earlier run of this benchmark at load average 7 on the 2 "
-                  f"shared cores, 2 threads took 138 s against 4.4 s on 1 thread.\n")
     print()
     print(header)
     print(text)
