@@ -7,6 +7,9 @@ is one point. Both are stored flat, in pair order, in buffers that grow by doubl
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
+
+from ..math3d import JIT
 
 from .constants import MAX_MANIFOLD_POINTS
 
@@ -118,10 +121,14 @@ def match_contacts(old_key, new_key) -> np.ndarray:
     Returns:
         (C_new,) int64 row of ``old_key`` or -1.
     """
-    old_key = np.asarray(old_key, dtype=np.int64)
-    new_key = np.asarray(new_key, dtype=np.int64)
+    old_key = np.ascontiguousarray(old_key, dtype=np.int64)
+    new_key = np.ascontiguousarray(new_key, dtype=np.int64)
     out = np.full(len(new_key), -1, dtype=np.int64)
     if len(old_key) == 0 or len(new_key) == 0:
+        return out
+    # PERF: contacts come in pair order, the same from step to step while nothing changes: then
+    # every key sits in the same row as last step and no sort is needed.
+    if _match_in_place_kernel(old_key, new_key, out):
         return out
     order = np.argsort(old_key, kind="stable")
     sorted_keys = old_key[order]
@@ -130,3 +137,17 @@ def match_contacts(old_key, new_key) -> np.ndarray:
     hit = sorted_keys[pos_c] == new_key
     out[hit] = order[pos_c[hit]]
     return out
+
+
+@njit(**JIT)
+def _match_in_place_kernel(old_key, new_key, out):
+    """out[c] = c while old_key[c] == new_key[c]; True when that held for every new key (all
+    matched), False at the first that differs (the caller then searches them all). Keys are
+    unique within a step, so an equal key is the match."""
+    if old_key.shape[0] < new_key.shape[0]:
+        return False
+    for c in range(new_key.shape[0]):
+        if old_key[c] != new_key[c]:
+            return False
+        out[c] = c
+    return True

@@ -416,6 +416,19 @@ def integrate_positions_kernel(moving, v, omega, h,
             quat_to_matrix_into(q[i], R[i])
 
 
+@njit(**JIT)
+def store_impulses_kernel(key, normal_impulse, tangent_impulse, tangent1, tangent2,
+                          # outputs
+                          old_key, old_normal_impulse, old_friction_impulse):
+    """Keep each contact's key, normal impulse and friction impulse (as a world vector, so that
+    the next step's tangent basis may differ) for the next step's warm start."""
+    for c in range(key.shape[0]):
+        old_key[c] = key[c]
+        old_normal_impulse[c] = normal_impulse[c]
+        for k in range(3):
+            old_friction_impulse[c, k] = tangent_impulse[c, 0] * tangent1[c, k] + tangent_impulse[c, 1] * tangent2[c, k]
+
+
 # ---------------------------------------------------------------------- the solver object
 _C_FLOAT = {
     "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "tangent1": (3,), "tangent2": (3,),
@@ -570,10 +583,12 @@ class ContactSolver:
         """Keep this step's impulses by ``contact_key``: normal as a number, friction as a world vector."""
         n = self.count
         b = self._buf
-        b["old_normal_impulse"][:n] = b["normal_impulse"][:n]
-        b["old_friction_impulse"][:n] = (b["tangent_impulse"][:n, 0:1] * b["tangent1"][:n]
-                                         + b["tangent_impulse"][:n, 1:2] * b["tangent2"][:n])
-        self.old_key = np.array(self.contacts.contact_key, dtype=np.int64)
+        keys = self.__dict__.get("_old_key_buffer")
+        if keys is None or len(keys) < n:
+            keys = self._old_key_buffer = np.zeros(max(2 * n, 64), dtype=np.int64)
+        store_impulses_kernel(self.contacts.contact_key, self.normal_impulse, self.tangent_impulse, self.tangent1,
+                              self.tangent2, keys, b["old_normal_impulse"], b["old_friction_impulse"])
+        self.old_key = keys[:n]  # a view: prepare_contacts reads it before the next store writes
         self.old_count = n
 
 
