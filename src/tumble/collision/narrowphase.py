@@ -232,6 +232,9 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
         raise ValueError(f"contact keys hold shape indices below {1 << KEY_BITS}; got {S} shapes")
     planes = np.flatnonzero(table.shape_type == SHAPE_PLANE).astype(np.int64)
     total = len(pair_a) + len(planes) * S
+    if total == 0:  # nothing near anything: no call, so a world without contacts never compiles the pair routines
+        out.manifold_count = out.contact_count = 0
+        return out
     out.reserve(total)
     cand = out.candidates(total)
     if shape_margin is None:
