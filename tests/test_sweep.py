@@ -475,3 +475,19 @@ def test_sweep_table_accepted_and_stripped(tmp_path):
     assert r.returncode == 0, r.stderr
     t = pq.read_table(tmp_path / "o" / "results.parquet")
     assert t.num_rows == 2 and "flip_time:box:y" in t.column_names
+
+
+def test_scenes_with_contact_or_joints_are_not_batched():
+    """Variants merged into one World must not touch each other and must keep their joints: a scene
+    that can collide, or has joints, runs alone (batch_key None); one without either batches."""
+    from tumble.scene import parse_scene
+    from tumble.sweep.batch import batch_key
+
+    ball = {"name": "b", "shape": {"type": "sphere", "radius": 0.1}, "mass": 1.0}
+    ground = {"name": "g", "shape": {"type": "plane"}, "fixed": True}
+    assert batch_key(parse_scene({"bodies": [ball]})) is not None
+    assert batch_key(parse_scene({"bodies": [ground, ball]})) is None
+    assert batch_key(parse_scene({"simulation": {"collisions": False}, "bodies": [ground, ball]})) is not None
+    jointed = {"simulation": {"collisions": False}, "bodies": [ball],
+               "joints": [{"type": "ball", "body_a": "b", "anchor": [0, 0, 1]}]}
+    assert batch_key(parse_scene(jointed)) is None
