@@ -215,6 +215,7 @@ class SoftStep:
             self.I_inv = np.zeros((n, 3, 3))
             self.I_world = np.zeros((n, 3, 3))
             self.active = np.zeros(n, dtype=bool)
+            self.no_force = np.zeros((n, 3))  # F = T = 0 for _inverse_inertia's kick of zero
             self._n = n
 
     def has_collisions(self) -> bool:
@@ -321,10 +322,9 @@ class SoftStep:
         """I^-1 (N, 3, 3) of the active bodies at the start of the step (0 elsewhere), for prepare_contacts."""
         w = self.world
         s = self.scratch
-        zero = np.zeros_like(s.F)
         # a kick of zero fills R, v, omega, I_inv, I_world from Y without changing it
         integrate_velocities_kernel(w.layout_id, Y, self.active, w.inv_mass, w.inertia_body, w.inertia_body_inv,
-                                    zero, zero, 0.0, s.R, s.v, s.omega, self.I_inv, self.I_world)
+                                    self.no_force, self.no_force, 0.0, s.R, s.v, s.omega, self.I_inv, self.I_world)
         return self.I_inv
 
     # -- contacts as data ------------------------------------------------------------
