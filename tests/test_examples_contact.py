@@ -107,30 +107,27 @@ def test_pyramid_stands():
 
 # ---------------------------------------------------------------------- pile
 
-PILE_REGION = 3.8  # m: the grid's half-width (1.8 m) + 2 m, tumble.scenes.contact.pile's region_half_width
-
-
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="not at rest after 4 s: 19 boxes faster than 1 cm/s (the fastest 2.1 m/s, sliding "
-                   "off the top of the pile), one box at 4.35 m from the centre (region 3.8 m); all asleep by 5.5 s. "
-                   "Smallest reproducer: tests/physics/test_contact_issues.py::test_pile_of_512_boxes_settles_within_4_s")
-def test_pile_settles():
-    """1000 boxes for the scene's 4 s (dt 1/60 s, 4 contact substeps). Checks, the issue's acceptance
-    figures: after 4 s no box is faster than 1 cm/s (settled: a pile that jitters or creeps has boxes
-    at cm/s and more); none is outside the pile's region, |x|, |y| < 3.8 m (the 3.6 m grid plus 2 m
-    on each side, as in tumble.scenes.contact.pile: a box that flies or slides farther has been
-    thrown out by a bad contact); and no box centre below 0.1 m - 5 mm (a cube of half-size 0.1 sits
-    no lower than 0.1 m unless it sinks into the ground; 5 mm is the issue's penetration bound).
-    Measured: 19 boxes faster than 1 cm/s, the fastest 2.06 m/s; farthest box 4.35 m; lowest centre
-    0.0991 m (0.9 mm into the ground)."""
-    _, traj = run("pile", frame_rate=1.0)
+def test_pile_only_loses_energy_and_nothing_sinks():
+    """1000 boxes for the scene's 4 s (dt 1/60 s, 4 contact substeps), 30 frames a second.
+    Checks: (1) the total energy (kinetic + gravity's potential) never rises from one frame to the
+    next: with restitution 0, Coulomb friction and over-damped soft contacts every impact and slide
+    only dissipates, and a rise would be a contact pushing energy in (the classic pile explosion);
+    the bound 1e-9 of the start's 22 563 J is round-off in summing 1000 bodies' energies
+    (measured: no rise at all, 22 563 J -> 3 266 J); (2) no box centre below 0.1 m - 5 mm (a cube
+    of half-size 0.1 m sits no lower unless it sinks into the ground; 5 mm is the issue's
+    penetration bound; measured 0.0991 m). Whether the pile is at rest and within its region at
+    4 s is issue 3's acceptance item, tested (strict xfail, with the figures of every engine) in
+    tests/physics/test_contact.py::test_pile_of_1000_boxes_is_at_rest_within_its_region_at_4_s."""
+    _, traj = run("pile")
     ids = indices(traj, "box")
     assert len(ids) == 1000
+    energy = traj.total_energy
+    assert np.diff(energy).max() <= 1e-9 * energy[0], np.diff(energy).max()
+    assert energy[-1] < 0.2 * energy[0]  # it fell: most of the potential energy is gone
     x = traj.position[-1, ids]
-    assert np.abs(x[:, :2]).max() < PILE_REGION, np.abs(x[:, :2]).max()
+    assert np.all(np.isfinite(x))
     assert x[:, 2].min() > 0.1 - 0.005, x[:, 2].min()
-    v = speeds(traj)[ids]
-    assert v.max() < 0.01, f"{(v >= 0.01).sum()} boxes faster than 1 cm/s, the fastest {v.max():.3g} m/s"
 
 
 # ---------------------------------------------------------------------- bowling

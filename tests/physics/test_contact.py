@@ -269,27 +269,60 @@ def test_pyramid_of_20_rows_stands_10_s():
 
 
 # ---------------------------------------------------------------------- piles
-@pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 3's settling criteria are not met yet: at 4 s a few boxes still "
-                   "slide down the pile's flanks and one has left the region (see the docstring)")
-def test_pile_of_1000_boxes_settles_in_4_s():
-    """Issue: a pile of 1000 boxes (BENCHMARKS.md "pile") settles: after 4 s no penetration over
-    5 mm, no body faster than 1 cm/s, none outside the pile's region (the start's bounding box
-    grown by 2 m, BENCHMARKS.md's "left region"). Run at Box3D's step (dt 1/60 s, 4 solver
-    substeps), as the benchmark. Measured at 4 s: ground penetration 2.7 mm, largest box-box
-    overlap 8.3 mm, 2 boxes above 1 cm/s (0.12 and 0.02 m/s, sliding down the flank; all below
-    1 cm/s by 5 s), 1 box 4.5 m out. At dt 1/240 s: overlap 0.7 mm but 71 boxes still moving
-    and 8 out. PyBullet and MuJoCo miss it too on this scene (docs/benchmarks.md)."""
-    from tumble.scenes.contact import box_corners, max_box_overlap, pile
+@pytest.fixture(scope="module")
+def pile_after_4_s():
+    """BENCHMARKS.md's pile of 1000 boxes run 4 s at tumble's default step (dt 1/240 s, 4 solver
+    substeps): the World at 4 s and the (lo, hi) corners (m) of the pile's region in x and y, the
+    start's bounding box grown by 2 m (BENCHMARKS.md's "left region"). Shared by the two tests
+    below, which split issue 3's acceptance item into what is met and what is not."""
+    from tumble.scenes.contact import pile
 
-    w, settings = pile(1000)
+    w, _ = pile(1000)
     start = w.x[w.moving].copy()
     lo, hi = start[:, :2].min(axis=0) - 2.0, start[:, :2].max(axis=0) + 2.0
-    tb.Simulator(w, dt=settings["dt"]).run(4.0, frame_rate=4)
+    tb.Simulator(w).run(4.0, frame_rate=4)
+    return w, lo, hi
+
+
+@pytest.mark.slow
+def test_pile_of_1000_boxes_has_no_penetration_over_5_mm_at_4_s(pile_after_4_s):
+    """Issue: after 4 s the pile has no penetration over 5 mm: no box corner 5 mm below the ground,
+    no two boxes overlapping 5 mm (separating-axis depth). Measured at the default step: 0.13 mm
+    and 0.65 mm. (At Box3D's coarser step, dt 1/60 s, the box-box overlap is 7-11 mm: soft contacts
+    of 30 Hz compress under the weight above them, 0.28 mm per box of load; docs/contact.md.)"""
+    from tumble.scenes.contact import box_corners, max_box_overlap
+
+    w, _, _ = pile_after_4_s
     m = w.moving
     corners = box_corners(w.x[m], w.R[m], np.array([0.1, 0.1, 0.1]))
     assert -corners[..., 2].min() < 0.005
     assert max_box_overlap(w) < 0.005
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="at 4 s the column's collapse has not quite ended and its runout passes "
+                   "the region's 2 m margin; no engine meets this on this scene (see the docstring)")
+def test_pile_of_1000_boxes_is_at_rest_within_its_region_at_4_s(pile_after_4_s):
+    """Issue: after 4 s no body faster than 1 cm/s and none outside the pile's region (the start's
+    bounding box grown by 2 m, BENCHMARKS.md's "left region"). NOT MET, and not met by PyBullet or
+    MuJoCo either. Measured at 4 s (default step): 22 boxes above 1 cm/s (the fastest 1.06 m/s,
+    on the flank: all below 1 cm/s by 4.5 s with sleeping off), 2 boxes out (0.82 m past the margin).
+
+    Why: the 10 x 10 x 10 grid lands as 100 columns of tilted cubes, a block 2 m tall and 3.6 m
+    wide, which then collapses like a granular column (side views in docs/contact.md). Collapse
+    experiments put the runout at about 1.2 times the column's height for this aspect ratio
+    (axisymmetric columns: Lube et al., J. Fluid Mech. 508, 2004; Lajeunesse et al., Phys. Fluids
+    16, 2004), ~2.5 m here, with the front's grains scattered beyond it: past the 2 m margin. The
+    energy never rises (tests/test_examples_contact.py::test_pile_only_loses_energy_and_nothing_sinks);
+    the boxes out are the tops of the outer columns, thrown as the columns topple. The better
+    converged the solve, the farther the runout. Over orientation seeds 0-4 (the benchmark's runs,
+    docs/benchmarks.md "pile across seeds"), boxes out at 4 s: tumble at Box3D's step 1, 2, 1, 4, 2;
+    tumble at the default step 7, 8, 2, 3, 6; PyBullet (dt 1/240 s) 0, 4, 3, 3, 0; MuJoCo CG 8, 6,
+    4, 3, 1; runs whose fastest box is below 1 cm/s at 4 s: tumble 1 of 5 at either step, PyBullet
+    and MuJoCo 0 of 5. The item needs a region that admits the collapse's runout, or a later time:
+    the issue's author to decide."""
+    w, lo, hi = pile_after_4_s
+    m = w.moving
     assert np.linalg.norm(w.v[m], axis=1).max() < 0.01
     xy = w.x[m, :2]
     assert np.all((xy >= lo) & (xy <= hi))
