@@ -227,3 +227,35 @@ def fmt(x, spec=".2e"):
     if isinstance(x, str):
         return x
     return format(x, spec)
+
+
+def reusable_engine(engine):
+    """``new_run`` of a peer module: the same engine back at its initial state for the next run
+    (``engine.reset()``: MuJoCo's model is compiled once; PyBullet's scene is rebuilt, fresh
+    contact caches)."""
+    engine.reset()
+    return engine
+
+
+def script_main(make, variants, default_variant: str, argv=None) -> None:
+    """``python benchmarks/peers/<engine>_scenes.py --scene S --variant V``: one run of one peer on
+    one of tumble's contact scenes, its quality figures printed (the peer modules' entry point)."""
+    import argparse
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "src"))
+    from tumble.scenes import contact as C
+
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--scene", default="pile")
+    ap.add_argument("--n", type=int, default=None)
+    ap.add_argument("--variant", default=default_variant, choices=sorted(variants))
+    ap.add_argument("--duration", type=float, default=None)
+    a = ap.parse_args(argv)
+    kw = {} if a.n is None else ({"rows": a.n} if a.scene == "pyramid" else {"n": a.n})
+    spec = scene_spec(*C.build(a.scene, **kw))
+    eng, load_s, dt, _ = make(spec, a.variant)
+    duration = a.duration or spec.settings["duration"]
+    r = run(eng, spec, dt, round(duration / dt))
+    print(f"load {load_s:.2f} s", r)

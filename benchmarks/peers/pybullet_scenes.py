@@ -22,9 +22,9 @@ import time
 import numpy as np
 
 try:
-    from .common import SceneSpec, quat_to_matrix
+    from .common import SceneSpec, quat_to_matrix, reusable_engine, script_main
 except ImportError:  # pragma: no cover
-    from common import SceneSpec, quat_to_matrix
+    from common import SceneSpec, quat_to_matrix, reusable_engine, script_main
 
 DT = 1.0 / 240.0
 VARIANTS = {"rigidbody": True, "multibody": False}
@@ -111,31 +111,8 @@ def make(spec: SceneSpec, variant: str):
     return eng, eng.load_s, eng.dt, 1
 
 
-def new_run(engine):
-    """The same client with the scene rebuilt (fresh contact caches) for the next run."""
-    engine.reset()
-    return engine
+new_run = reusable_engine
 
 
 if __name__ == "__main__":  # pragma: no cover
-    import argparse
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "src"))
-    from common import run, scene_spec
-
-    from tumble.scenes import contact as C
-
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--scene", default="pile")
-    ap.add_argument("--n", type=int, default=None)
-    ap.add_argument("--variant", default="rigidbody", choices=sorted(VARIANTS))
-    ap.add_argument("--duration", type=float, default=None)
-    a = ap.parse_args()
-    kw = {} if a.n is None else ({"rows": a.n} if a.scene == "pyramid" else {"n": a.n})
-    spec = scene_spec(*C.build(a.scene, **kw))
-    eng, load_s, dt, _ = make(spec, a.variant)
-    duration = a.duration or spec.settings["duration"]
-    r = run(eng, spec, dt, round(duration / dt))
-    print(f"load {load_s:.2f} s", r)
+    script_main(make, VARIANTS, "rigidbody")
