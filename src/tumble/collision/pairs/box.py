@@ -401,10 +401,20 @@ def _reduce_manifold(pts, seps, n, nx, ny, nz, keep):
     if i2 < 0 or best <= 0.0:
         return m
     keep[1] = i2
+    return add_widest_triangle_points(pts, n, i1, i2, nx, ny, nz, 0.0, keep)
+
+
+@njit(**JIT)
+def add_widest_triangle_points(pts, n, i1, i2, nx, ny, nz, min_area, keep):
+    """The last two points of a reduced manifold (``keep[0] = i1``, ``keep[1] = i2`` already):
+    of ``pts[:n]`` (n, 3) m, the point of largest positive and the one of largest negative doubled
+    triangle area (p_i1, p_i2, p_k) about the normal (nx, ny, nz), each kept if its area's magnitude
+    passes ``min_area`` (m^2; 0 keeps any point off the line). Returns the count kept in ``keep``
+    (2 to 4). Shared by the box (min_area 0) and convex (a fraction of the span) reductions."""
     m = 2
     ex, ey, ez = pts[i2, 0] - pts[i1, 0], pts[i2, 1] - pts[i1, 1], pts[i2, 2] - pts[i1, 2]
     i3, i4 = -1, -1
-    amax, amin = 0.0, 0.0
+    amax, amin = min_area, -min_area
     for k in range(n):
         fx, fy, fz = pts[k, 0] - pts[i1, 0], pts[k, 1] - pts[i1, 1], pts[k, 2] - pts[i1, 2]
         # signed doubled area of triangle (p1, p2, pk) about the normal

@@ -40,6 +40,7 @@ from ...shapes import (
     SHAPE_SPHERE,
 )
 from ..constants import MAX_MANIFOLD_POINTS
+from .box import add_widest_triangle_points
 from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, support
 
 # Vertices of a cylinder cap or cone base used as a polygon (a regular polygon of rim points).
@@ -99,25 +100,7 @@ def reduce_points(pts, seps, n, nx, ny, nz, keep):
     if i2 < 0:
         return 1
     keep[1] = i2
-    m = 2
-    ex, ey, ez = pts[i2, 0] - pts[i1, 0], pts[i2, 1] - pts[i1, 1], pts[i2, 2] - pts[i1, 2]
-    i3, i4 = -1, -1
-    amax = 1e-3 * best
-    amin = -1e-3 * best
-    for k in range(n):
-        fx, fy, fz = pts[k, 0] - pts[i1, 0], pts[k, 1] - pts[i1, 1], pts[k, 2] - pts[i1, 2]
-        area = nx * (ey * fz - ez * fy) + ny * (ez * fx - ex * fz) + nz * (ex * fy - ey * fx)
-        if area > amax:
-            amax, i3 = area, k
-        if area < amin:
-            amin, i4 = area, k
-    if i3 >= 0:
-        keep[m] = i3
-        m += 1
-    if i4 >= 0:
-        keep[m] = i4
-        m += 1
-    return m
+    return add_widest_triangle_points(pts, n, i1, i2, nx, ny, nz, 1e-3 * best, keep)
 
 
 @njit(**JIT)
