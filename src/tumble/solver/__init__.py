@@ -1,6 +1,8 @@
-"""Contact solver (issue 3, deliverable 4): Box2D v3's soft step over contact arrays.
+"""Solvers of the Simulator's contact step (issues 3 and 4): Box2D v3's soft step.
 
-Not yet wired into the Simulator; ``step_with_contacts`` is a standalone stepper for tests.
+``contact``: the contact stages over contact arrays (``ContactSolver``, ``SoftStepSettings``);
+``soft_step``: the step that runs them with integration and joints (``SoftStep``, used by
+``Simulator.step``); ``joints``: the joint solver; ``island``: islands and sleeping.
 """
 
 from .contact import (
@@ -8,7 +10,6 @@ from .contact import (
     ContactSolver,
     SoftStepSettings,
     soft_coefficients,
-    step_with_contacts,
 )
 
-__all__ = ["RESTITUTION_THRESHOLD", "ContactSolver", "SoftStepSettings", "soft_coefficients", "step_with_contacts"]
+__all__ = ["RESTITUTION_THRESHOLD", "ContactSolver", "SoftStepSettings", "soft_coefficients"]

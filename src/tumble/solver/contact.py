@@ -5,15 +5,16 @@ The stages follow Box2D v3's solver (``src/solver.c``, ``src/contact_solver.c``;
 
     prepare_contacts                 once a step, after the narrowphase
     per substep h = dt / substeps:
-        integrate_velocities         gravity only (this module's stepper)
+        integrate_velocities         forces of the step (solver.soft_step)
         warm_start                   last substep's accumulated impulses
         solve_contacts(use_bias=1)   soft non-penetration + Coulomb friction
-        integrate_positions          x += h v, q by the exact rotation of omega h
+        integrate_positions          x += h v, rotation by the exact rotation of omega h (soft_step)
         solve_contacts(use_bias=0)   relax: removes the push-out velocity (no energy added)
     apply_restitution                one pass, v+ = -e v- above RESTITUTION_THRESHOLD
     store_impulses                   keyed by ``contact_key`` for the next step's warm start
 
-Not wired into the Simulator yet: ``step_with_contacts`` is a standalone stepper for tests.
+This module holds the contact stages; ``solver.soft_step.SoftStep`` runs them with the
+integration and the joints inside ``Simulator.step``.
 
 Combine rules (per contact, from the two bodies' ``Material``): friction sqrt(fa fb),
 restitution max(ea, eb) (Box2D's defaults).
@@ -31,9 +32,6 @@ from ..collision.constants import SPECULATIVE_DISTANCE
 from ..collision.manifold import match_contacts
 from ..math3d import (
     JIT,
-    normalize_quat_inplace,
-    quat_exp_multiply_inplace,
-    quat_to_matrix_into,
 )
 
 # Relative normal speed (m/s) below which restitution is ignored: slower impacts end
@@ -392,31 +390,6 @@ def apply_restitution_kernel(body_a, body_b, normal, local_a, local_b, normal_ma
 
 
 @njit(**JIT)
-def integrate_velocities_kernel(moving, gravity, h,
-                                # outputs
-                                v):
-    """v += h g for moving bodies (the only force of this stepper)."""
-    for i in range(moving.shape[0]):
-        if moving[i]:
-            for k in range(3):
-                v[i, k] += h * gravity[k]
-
-
-@njit(**JIT)
-def integrate_positions_kernel(moving, v, omega, h,
-                               # outputs
-                               x, q, R):
-    """x += h v; q rotated exactly by omega over h, renormalised; R from q."""
-    for i in range(moving.shape[0]):
-        if moving[i]:
-            for k in range(3):
-                x[i, k] += h * v[i, k]
-            quat_exp_multiply_inplace(q[i], omega[i, 0], omega[i, 1], omega[i, 2], h)
-            normalize_quat_inplace(q[i])
-            quat_to_matrix_into(q[i], R[i])
-
-
-@njit(**JIT)
 def store_impulses_kernel(key, normal_impulse, tangent_impulse, tangent1, tangent2,
                           # outputs
                           old_key, old_normal_impulse, old_friction_impulse):
@@ -590,49 +563,3 @@ class ContactSolver:
                               self.tangent2, keys, b["old_normal_impulse"], b["old_friction_impulse"])
         self.old_key = keys[:n]  # a view: prepare_contacts reads it before the next store writes
         self.old_count = n
-
-
-# ---------------------------------------------------------------------- standalone stepper
-def step_with_contacts(world, pipeline, dt: float, substeps: int = 4, state: ContactSolver | None = None):
-    """Advance ``world`` by ``dt`` under gravity and contact only (no other forces), Box2D's order.
-
-    Detects contacts once on the current poses, then per substep integrate velocities ->
-    warm start -> solve (bias) -> integrate positions -> relax; then restitution and
-    store impulses. Writes x, q, R, P = m v, L = I omega and advances ``world.t``.
-    Returns the ``ContactSolver`` to pass back as ``state`` next step (warm starting).
-    """
-    if state is None:
-        state = ContactSolver()
-    h = dt / substeps
-    moving = world.moving
-    n = world.body_count
-    # velocities from momenta, inverse world inertia from the pose (fixed over the step, as Box2D)
-    v = np.zeros((n, 3))
-    omega = np.zeros((n, 3))
-    R = world.R
-    I_inv = world.I_inv
-    for i in range(n):
-        if moving[i]:
-            I_inv[i] = R[i] @ world.inertia_body_inv[i] @ R[i].T
-            v[i] = world.P[i] * world.inv_mass[i]
-            omega[i] = I_inv[i] @ world.L[i]
-        else:
-            I_inv[i] = 0.0
-    contacts = pipeline.detect()
-    state.prepare_contacts(world, contacts, h, v, omega)
-    gravity = np.asarray(world.gravity, dtype=float)
-    for _ in range(substeps):
-        integrate_velocities_kernel(moving, gravity, h, v)
-        state.warm_start()
-        state.solve_contacts(True)
-        integrate_positions_kernel(moving, v, omega, h, world.x, world.q, world.R)
-        state.solve_contacts(False)
-    state.apply_restitution()
-    state.store_impulses()
-    for i in range(n):
-        if moving[i]:
-            world.P[i] = world.mass[i] * v[i]
-            world.L[i] = R[i] @ world.inertia_body[i] @ R[i].T @ omega[i]
-    world.t += dt
-    world.update_derived()
-    return state
