@@ -5,11 +5,17 @@ A checkpoint is an .npz (loaded with ``allow_pickle=False``) holding:
 * ``meta``: JSON text: format and version, the time and step index, the world's
   layout and gravity, per body its name, shape (``shapes.shape_to_dict``) and
   material, the force records (bodies by name; ``CustomForce`` as a placeholder),
-  the impulses already applied, the simulator's settings, statistics and energy
-  reference, and the caller's ``run`` data (``run_to_file`` keeps its progress there);
+  the joint records (``_joint_to_dict``: fields, bodies by name, ``broken``, and the
+  anchors, axes and parameters they were bound to at creation), the impulses
+  already applied, the simulator's settings (joint settings and ``record_joints``
+  included), statistics and energy reference, and the caller's ``run`` data
+  (``run_to_file`` keeps its progress there);
 * the constant arrays (mass, inertia, principal axes, centre-of-mass offsets) and
   the state arrays ``x q R P L`` exactly as they are in memory: the rebuilt World
-  takes these bits, not values recomputed from the shapes.
+  takes these bits, not values recomputed from the shapes;
+* what the next step reads besides the state: the contact solver's warm start
+  (``contact_*``), the sleep state (``sleep_*``) and the joint solver's arrays that
+  carry from step to step (``joint_*``, ``JOINT_SOLVER_STATE``).
 
 Loading rebuilds the World body by body, overwrites its arrays with the saved
 ones, then runs ``checks.validate_world``; any problem is an ``InputError``.
@@ -27,7 +33,9 @@ import numpy as np
 from . import __version__, checks
 from .errors import InputError, SimulationError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring
+from .joints import JOINT_CLASSES, JOINT_TYPES, PARAM_COUNT, BoundJoint
 from .solver.contact import SoftStepSettings
+from .solver.joints import JointSettings
 from .shapes import shape_from_dict, shape_to_dict
 from .trajectory import write_atomic
 from .world import Material, World
@@ -38,6 +46,28 @@ CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_
 STATE = ("x", "q", "R", "P", "L")
 FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, CustomForce)}
 BODY_FIELDS = ("body", "body_a", "body_b")
+
+# The JointSolver (``sim.soft_step.joints``) arrays saved as ``joint_<name>``, by attribute
+# name and whatever their shape: those a step reads from the step before. ``enabled`` (J,)
+# bool; ``linear_impulse``, ``angular_impulse`` (J, 3) N s or N m s and ``axial_impulse``
+# (J, 5) (the warm start); ``position`` (J,) rad or m (a hinge angle is unwrapped around
+# it); ``param`` (J, PARAM_COUNT) (writable between steps, e.g. ``set_motor_speed``); and
+# the readings of the last step, ``rate`` (J,), ``reaction_force`` (J, 3) N,
+# ``reaction_torque`` (J, 3) N m, ``broke`` (J,) bool, so ``joint_readings()`` after a
+# load is what it was at the save.
+JOINT_SOLVER_STATE = ("enabled", "linear_impulse", "angular_impulse", "axial_impulse", "position", "param",
+                      "rate", "reaction_force", "reaction_torque", "broke")
+# Its other arrays, not saved because the next step rebuilds them: the tables read from the
+# bound joint records (types, bodies, anchors, frames), the tree solve's forest (from
+# ``world.moving`` and ``enabled``) and scratch (refilled in every solve: no factorization
+# is kept between steps), the soft step's inverse masses and inertias (passed to every
+# ``prepare``), and the softness coefficients (from the settings and h). A new JointSolver
+# array must go in one of the two lists (tests/test_reliability_joints.py checks).
+JOINT_SOLVER_REBUILT = ("joint_type", "joint_a", "joint_b", "local_a", "local_b", "frame_a", "frame_b",
+                        "gauss_seidel", "node_joint", "node_body", "node_parent", "node_order",
+                        "inv_mass", "I_inv", "soft_bias", "soft_relax")
+# fields of a joint record that are not constructor arguments: kept apart in the meta
+JOINT_STATE_FIELDS = ("bound", "broken")
 
 
 def _force_to_dict(world: World, force) -> dict:
@@ -56,11 +86,92 @@ def _force_to_dict(world: World, force) -> dict:
     return out
 
 
+def _body_name(world, index: int):
+    return None if index < 0 else world.names[index]
+
+
+def _joint_to_dict(world, joint) -> dict:
+    """A bound joint record as JSON values: its type, constructor fields (bodies by name,
+    None for the world), ``broken``, and ``bound``: the anchors (m), frames and parameter row
+    resolved at its creation, which a rebind at the saved poses would not reproduce."""
+    b = joint.bound
+    out = {"type": joint.kind, "broken": bool(joint.broken)}
+    for f in fields(joint):
+        if not f.init or f.name in JOINT_STATE_FIELDS:
+            continue
+        value = getattr(joint, f.name)
+        if f.name == "body_a":
+            value = _body_name(world, b.body_a)
+        elif f.name == "body_b":
+            value = _body_name(world, b.body_b)
+        elif isinstance(value, (tuple, np.ndarray)):
+            value = np.asarray(value, dtype=float).tolist()
+        out[f.name] = value
+    out["bound"] = {"local_a": b.local_a.tolist(), "local_b": b.local_b.tolist(), "frame_a": b.frame_a.tolist(),
+                    "frame_b": b.frame_b.tolist(), "param": b.param.tolist()}
+    return out
+
+
+def _joint_from_dict(world, record, key: str):
+    """Inverse of ``_joint_to_dict``: the record, bound as saved (not rebound at the current poses)."""
+    if not isinstance(record, dict):
+        raise InputError("expected a joint record", key)
+    record = dict(record)
+    kind = record.pop("type", None)
+    cls = JOINT_CLASSES.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(JOINT_CLASSES)})", f"{key}.type")
+    broken = record.pop("broken", False)
+    bound = record.pop("bound", None)
+    if not isinstance(broken, bool):
+        raise InputError(f"expected true or false, got {broken!r}", f"{key}.broken")
+    if not isinstance(bound, dict):
+        raise InputError("missing the bound anchors and frames", f"{key}.bound")
+    ends = []
+    for side in ("body_a", "body_b"):
+        name = record.get(side)
+        if name is None:
+            ends.append(-1)
+        elif isinstance(name, str) and name in world.names:
+            ends.append(world.index_of(name))
+        else:
+            raise InputError(f"unknown body {name!r}", f"{key}.{side}")
+    if ends[0] == ends[1]:
+        raise InputError("a joint needs two different bodies", f"{key}.body_b")
+    names = {f.name for f in fields(cls) if f.init and f.name not in JOINT_STATE_FIELDS}
+    for k in record:
+        if k not in names:
+            raise InputError(f"unknown field of a {kind} joint", f"{key}.{k}")
+    if not isinstance(record.get("collide_connected", False), bool):  # read by every step's contact filter
+        raise InputError(f"expected true or false, got {record['collide_connected']!r}", f"{key}.collide_connected")
+    arrays = {}
+    for name, shape in (("local_a", (3,)), ("local_b", (3,)), ("frame_a", (3, 3)), ("frame_b", (3, 3)),
+                        ("param", (PARAM_COUNT,))):
+        try:
+            a = np.array(bound.get(name), dtype=float)
+        except (TypeError, ValueError):
+            a = None
+        # param may hold inf (no limit, no force cap); anchors and frames may not
+        if a is None or a.shape != shape or np.isnan(a).any() or (name != "param" and not np.isfinite(a).all()):
+            raise InputError(f"expected {'x'.join(map(str, shape))} finite numbers", f"{key}.bound.{name}")
+        arrays[name] = a
+    joint = cls(**record)
+    joint.bound = BoundJoint(JOINT_TYPES[kind], ends[0], ends[1], arrays["local_a"], arrays["local_b"],
+                             arrays["frame_a"], arrays["frame_b"], arrays["param"])
+    joint.broken = broken
+    return joint
+
+
+def _joint_solver(sim):
+    """The soft step's JointSolver when its tables hold joints, else None."""
+    soft = sim.soft_step
+    solver = None if soft is None else soft.joints
+    return solver if solver is not None and solver.count else None
+
+
 def save_checkpoint(sim, path, run: dict | None = None) -> Path:
     """``Simulator.save_checkpoint``: write ``sim`` and its world to ``path`` atomically."""
     w = sim.world
-    if getattr(w, "joints", None):
-        raise InputError("checkpoints of worlds with joints are not supported yet", "joints")
     meta = {
         "format": FORMAT,
         "version": VERSION,
@@ -73,6 +184,7 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "shapes": [shape_to_dict(s) for s in w.shapes],
         "materials": [{"friction": m.friction, "restitution": m.restitution} for m in w.materials],
         "forces": [_force_to_dict(w, f) for f in w.forces],
+        "joints": [_joint_to_dict(w, j) for j in getattr(w, "joints", ())],
         "applied_impulses": sorted(int(k) for k in w.applied_impulses),
         "settings": sim.settings(),
         "stats": {k: v for k, v in sim.stats.items()},
@@ -89,6 +201,12 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
     if sim.sleep is not None:  # the sleep timers and flags: a resumed run sleeps when the whole one does
         for name, arr in sim.sleep.state().items():
             arrays["sleep_" + name] = np.ascontiguousarray(arr)
+    # the joint solver's warm start and coordinates: without them a resumed run differs from the
+    # next step on (none before the first step: the resumed run starts from zeros too)
+    solver = _joint_solver(sim)
+    if solver is not None:
+        for name in JOINT_SOLVER_STATE:
+            arrays["joint_" + name] = np.ascontiguousarray(getattr(solver, name))
     arrays["meta"] = np.array(json.dumps(meta, default=_json_default, allow_nan=True))
     return write_atomic(path, lambda fh: np.savez(fh, **arrays))
 
@@ -116,6 +234,7 @@ def load_checkpoint(cls, path, custom_forces=None):
             arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE}
             warm = {name[len("contact_"):]: np.array(data[name]) for name in WARM_START if name in data.files}
             sleep = {name[len("sleep_"):]: np.array(data[name]) for name in data.files if name.startswith("sleep_")}
+            joint_state = {name[len("joint_"):]: np.array(data[name]) for name in data.files if name.startswith("joint_")}
     except Exception as exc:  # damaged or foreign file: one line
         raise InputError(f"not a readable checkpoint file ({type(exc).__name__}: {' '.join(str(exc).split())})", None, file) from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
@@ -126,6 +245,8 @@ def load_checkpoint(cls, path, custom_forces=None):
         sim = _rebuild(cls, meta, arrays, custom_forces)
         if len(warm) == len(WARM_START):
             _restore_warm_start(sim, warm)
+        if joint_state:
+            _restore_joint_solver(sim, joint_state)
         if sleep:
             from .solver.island import SleepState
 
@@ -149,6 +270,37 @@ def _restore_warm_start(sim, warm: dict):
         raise InputError("contact warm-start arrays have inconsistent shapes")
     if sim._contact_on():
         sim.soft_step.solver.set_warm_start_state(warm)
+
+
+def _restore_joint_solver(sim, state: dict):
+    """Build the soft step's JointSolver now (the first step would) and put the saved arrays in it.
+
+    The saved arrays have k rows: the joints the solver held at the save. k < J when joints
+    were added after the last step; the first step's ``prepare`` then appends the others and
+    keeps the state of the first k, as it would have in the run that saved.
+    """
+    missing = [name for name in JOINT_SOLVER_STATE if name not in state]
+    unknown = sorted(set(state) - set(JOINT_SOLVER_STATE))
+    if missing or unknown:
+        raise InputError(f"joint solver arrays do not match this version (missing {missing}, unknown {unknown})")
+    k = len(state["enabled"])
+    joints = sim.world.joints
+    if not 0 < k <= len(joints):
+        raise InputError(f"joint solver arrays have {k} rows for {len(joints)} joints")
+    sim._contact_on()  # makes the soft step: a world with joints always takes it
+    soft = sim.soft_step
+    soft._refresh_joints()
+    solver = soft.joints
+    # NOTE: _build is what prepare calls when the joints changed; prepare would build all J
+    # joints, and the saved state may be of the first k only.
+    solver._build(list(joints[:k]))
+    for name in JOINT_SOLVER_STATE:
+        target = getattr(solver, name)
+        saved = state[name]
+        if saved.shape != target.shape or saved.dtype.kind != target.dtype.kind:
+            raise InputError(f"joint solver array {name!r} is {saved.dtype}{list(saved.shape)}, "
+                             f"expected {target.dtype}{list(target.shape)}")
+        target[...] = saved
 
 
 def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
@@ -182,6 +334,11 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
         if kind is CustomForce:
             record["function"] = customs.pop(0)
         w.add_force(kind(**record))
+    joints = meta.get("joints") or []
+    if not isinstance(joints, list):
+        raise InputError("expected a list of joint records", "joints")
+    # appended as bound at their creation: World.add_joint would rebind them at the saved poses
+    w.joints.extend(_joint_from_dict(w, record, f"joints[{i}]") for i, record in enumerate(joints))
     w.t = float(meta["t"])
     w.collisions = bool(meta.get("collisions", True))
     w.sleeping = bool(meta.get("sleeping", True))
@@ -192,7 +349,9 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
     sim = cls(w, dt=s["dt"], integrator=s["integrator"], substeps=s["substeps"], rtol=s["rtol"], atol=s["atol"],
               max_energy_growth=s["max_energy_growth"],
               contact_settings=SoftStepSettings(**s["contact"]) if "contact" in s else None,
-              record_contacts=bool(s.get("record_contacts", False)))
+              record_contacts=bool(s.get("record_contacts", False)),
+              joint_settings=None if s.get("joint_solver") is None else JointSettings(**s["joint_solver"]),
+              record_joints=bool(s.get("record_joints", False)))
     sim.step_index = int(meta["step_index"])
     if not math.isclose(sim.step_index * sim.dt, w.t, rel_tol=1e-12, abs_tol=1e-12):
         raise InputError(f"step index {sim.step_index} does not match t = {w.t}")

@@ -81,8 +81,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
         writer.flush()
         run = {"t_start": t_start, "frames": writer.frames, "duration": float(duration), "frame_rate": float(frame_rate),
                "checkpoint_every": checkpoint_every, "figures": fig, "info": run_info}
-        if not w.joints:  # NOTE: checkpoints do not hold joints yet (checkpoint.save_checkpoint refuses them)
-            sim.save_checkpoint(out / CHECKPOINT, run=run)
+        sim.save_checkpoint(out / CHECKPOINT, run=run)
         result = RunResult(
             status=status, frames=writer.frames, steps=int(sim.stats["steps"]), wall_time_s=fig["wall_time_s"],
             energy_initial=fig["energy_initial"], energy_final=fig["energy_final"],
