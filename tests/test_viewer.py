@@ -71,9 +71,11 @@ BOX_COLOR = np.array([66, 135, 245])  # body 0's colour in tumble.viewer.app.PAL
 
 
 def make_trajectory(frames: int = FRAMES) -> Trajectory:
-    """A box sliding 3 m along x while spinning about z, a ball and a cone at rest, a ground plane."""
+    """A box sliding 3 m along x while spinning about z, a ball and a cone at rest, a ground plane,
+    and a second box like the first (so both are drawn by one batched mesh: rows 0 and 1) creeping
+    10 cm along x, out of the first box's way."""
     t = np.arange(frames) / 24.0
-    n = 4
+    n = 5
     pos = np.zeros((frames, n, 3))
     ori = np.zeros((frames, n, 4))
     ori[..., 0] = 1.0
@@ -83,24 +85,25 @@ def make_trajectory(frames: int = FRAMES) -> Trajectory:
     ori[:, 0] = np.stack([np.cos(angle / 2), 0 * s, 0 * s, np.sin(angle / 2)], axis=1)
     pos[:, 1] = [0.0, 1.2, 0.4]
     pos[:, 3] = [0.0, -1.2, 0.125]  # cone: centre of mass a quarter of the height above its base
+    pos[:, 4] = np.stack([-1.2 + 0.1 * s, 1.5 + 0.0 * s, 0.15 + 0.0 * s], axis=1)
     vel = np.zeros((frames, n, 3))
     vel[:, 0, 0] = 3.0 / t[-1]
     w = np.zeros((frames, n, 3))
     w[:, 0, 2] = 1.5 / t[-1]
-    shapes = [Box((0.6, 0.4, 0.3)), Sphere(0.3), Plane(), Cone(0.3, 0.5)]
+    shapes = [Box((0.6, 0.4, 0.3)), Sphere(0.3), Plane(), Cone(0.3, 0.5), Box((0.6, 0.4, 0.3))]
     com = np.zeros((n, 3))
     com[3] = [0.0, 0.0, 0.125]
-    mass = np.array([2.0, 1.0, 0.0, 1.0])
+    mass = np.array([2.0, 1.0, 0.0, 1.0, 2.0])
     L = w * 0.05
     ke = 0.5 * np.sum(mass[None, :, None] * vel**2, axis=(1, 2)) + 0.5 * np.sum(w * L, axis=(1, 2))
     zero = np.zeros(frames)
     return Trajectory(
-        time=t, names=np.array(["box", "ball", "ground", "cone"]), position=pos, orientation=ori,
+        time=t, names=np.array(["box", "ball", "ground", "cone", "box2"]), position=pos, orientation=ori,
         velocity=vel, angular_velocity=w, linear_momentum=mass[None, :, None] * vel, angular_momentum=L,
         kinetic_energy=ke, potential_energy=zero, total_linear_momentum=np.zeros((frames, 3)),
         total_angular_momentum=np.zeros((frames, 3)), orthonormality_error=zero, com_offset=com,
         shapes=np.array([json.dumps(shape_to_dict(sh)) for sh in shapes]),
-        fixed=np.array([False, False, True, False]),
+        fixed=np.array([False, False, True, False, False]),
     )
 
 
@@ -142,6 +145,13 @@ def png_pixels(png: bytes) -> np.ndarray:
     from PIL import Image
 
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
+
+
+def gold_pixels(img: np.ndarray) -> np.ndarray:
+    """Mask of the selection's gold (255, 215, 0), shaded: red and green well above blue, and close
+    (the ball's orange has green at half its red)."""
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    return (r - b > 80) & (g - b > 60) & (g > 0.72 * r) & (g <= r)
 
 
 def box_pixels(img: np.ndarray) -> np.ndarray:
@@ -261,6 +271,20 @@ def test_page_loads_renders_and_scrubs(browser, viewer, tmp_path):
         info = viewer.info.content
         assert "**box**" in info and "ω (rad/s)" in info and "Kinetic energy" in info
         assert f"frame {FRAMES - 1}" in info
+
+        # The second box is row 1 of the same batched mesh: the click's instance index picks it,
+        # and its row of the colours turns gold in the browser (the first box's row back to blue).
+        box2 = project(cam, viewer.traj.position[-1, 4], width, height)
+        assert min(np.hypot(*np.subtract(box2, start)), np.hypot(*np.subtract(box2, end))) > 60
+        page.mouse.click(*box2)
+        assert wait_for(lambda: viewer.selected == 4 and "**box2**" in viewer.info.content, 10), \
+            f"clicking the second box did not pick it (selected {viewer.selected})"
+        page.mouse.move(2, 2)  # off the box: viser outlines the hovered object in yellow
+        c = settled_screenshot(page, lambda img: count_near(gold_pixels(img), box2, radius) > 100
+                               and count_near(box_pixels(img), end, radius) > 200, 20)
+        if c is None:
+            page.screenshot(path=str(tmp_path / "picked.png"))
+        assert c is not None, f"the picked box is not highlighted at {box2} (see {tmp_path / 'picked.png'})"
     finally:
         page.close()
     assert not [p for p in problems if not any(b in p for b in BENIGN_CONSOLE_ERRORS)], problems
@@ -302,19 +326,38 @@ def test_gui_scrub_select_toggles_and_no_contacts(viewer):
     assert viewer.frame == 0 and not viewer.playing
     viewer.set_frame(12)
     assert viewer.frame == 12
-    np.testing.assert_allclose(viewer.body_nodes[0].position, viewer.traj.position[12, 0])
-    np.testing.assert_allclose(viewer.body_nodes[0].wxyz, viewer.traj.orientation[12, 0])
+    # What the browser was sent (float32 rows of the batched arrays): body 0 where the trajectory says.
+    position, wxyz = viewer.body_pose(0)
+    np.testing.assert_allclose(position, viewer.traj.position[12, 0], rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(wxyz, viewer.traj.orientation[12, 0], rtol=1e-6, atol=1e-6)
+    for i in (1, 2, 3, 4):
+        np.testing.assert_allclose(viewer.body_pose(i)[0], viewer.traj.position[12, i], rtol=1e-6, atol=1e-6)
+    # Instanced drawing: the two equal boxes share one batched mesh; the ball and the cone, which
+    # never move, have groups that are posed once; the plane is not a mesh.
+    groups = {tuple(int(b) for b in g.bodies): g.static for g in viewer.mesh_groups}
+    assert groups == {(0, 4): False, (1,): True, (3,): True}
     assert "frame 12" in viewer.time_text.content
 
+    assert viewer.body_color(0) == (66, 135, 245) and viewer.body_color(2) is None
     viewer.body_dropdown.value = "0: box"
     assert viewer.selected == 0
+    assert viewer.body_color(0) == (255, 215, 0) and viewer.body_color(4) == viewer.colors[4]
     d = viewer.body_info(0)
     np.testing.assert_allclose(d["x"], viewer.traj.position[12, 0])
     assert d["kinetic_energy"] == pytest.approx(0.5 * (d["v"] @ d["P"] + d["omega"] @ d["L"]))
     assert "**box**" in viewer.info.content
 
+    viewer.select(4)  # the highlight moves within the group: body 0's own colour is back
+    assert viewer.body_color(0) == (66, 135, 245) and viewer.body_color(4) == (255, 215, 0)
+    viewer.select(0)
+
+    assert not viewer.axes_node.visible
     viewer.axes_checkbox.value = True
-    assert all(node.visible for node in viewer.axes_nodes)
+    assert viewer.axes_node.visible
+    np.testing.assert_allclose(viewer.axes_node.batched_positions, viewer.traj.position[12], atol=1e-6)
+    viewer.set_frame(13)  # shown axes follow the frames
+    np.testing.assert_allclose(viewer.axes_node.batched_wxyzs, viewer.traj.orientation[13], atol=1e-6)
+    viewer.set_frame(12)
     # No contact data: the toggles exist and draw nothing.
     viewer.contact_points_checkbox.value = True
     viewer.contact_forces_checkbox.value = True

@@ -9,12 +9,18 @@ What it shows (z up, metres, DESIGN.md's conventions):
   and shifted by ``-com_offset``, so that it appears where the user put it while
   the body is posed at its centre of mass; planes are drawn as grids, and a
   ground grid lies in z = 0;
+* instanced drawing: the bodies whose drawn meshes are identical (same vertices
+  and faces) share one batched mesh node (``add_batched_meshes_simple``) with
+  one row per body of positions, orientations and colours, so that a frame of a
+  thousand equal boxes is two array messages to the browser, not two thousand;
+  bodies that never move over the run are in groups of their own, never resent;
 * GUI: Play / Pause, a frame slider to scrub, a speed factor, looping;
 * picking: click a body (or choose it in the "Body" list) to see the course's
   quantities at the current frame: x, v, omega, P, L and its kinetic energy
   ``(v . P + omega . L) / 2``, beside the total kinetic and potential energy;
 * toggles: body axes (a frame at each centre of mass, red/green/blue = body
-  x/y/z), contact points and contact forces, the ground grid.
+  x/y/z; one batched axes node for all bodies, moved only while shown), contact
+  points and contact forces, the ground grid.
 
 Contacts. Trajectories carry no contact data yet. The toggles exist already and
 draw whatever the trajectory provides under these optional names (attributes of
@@ -35,6 +41,8 @@ which (``port=0`` lets the system choose).
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import threading
 import time as _time
 import webbrowser
@@ -164,6 +172,27 @@ def _fmt(v) -> str:
     return " | ".join(f"{float(c):+.4g}" for c in v)
 
 
+@dataclasses.dataclass
+class MeshGroup:
+    """Bodies drawn by one batched mesh node: they have the same mesh in the body frame.
+
+    Attributes:
+        handle: the viser ``BatchedMeshHandle``; row j of its ``batched_positions``
+            (M, 3, world, m), ``batched_wxyzs`` (M, 4, body to world) and
+            ``batched_colors`` (M, 3, sRGB 0-255) is body ``bodies[j]``.
+        bodies: (M,) body indices, increasing.
+        static: True if every body of the group keeps its pose over the whole run
+            (the group is posed once, never updated per frame).
+        colors: (M, 3) uint8, the bodies' own colours (without the selection's highlight).
+    """
+
+    handle: object
+    bodies: np.ndarray
+    static: bool
+    colors: np.ndarray
+    rows: object = None  # bodies as a slice when they are consecutive (a view, no copy, per frame)
+
+
 class Viewer:
     """A running viewer. Use ``view()`` to make one; ``stop()`` ends it.
 
@@ -173,7 +202,10 @@ class Viewer:
         frame_slider, speed_slider, play_button, pause_button, loop_checkbox,
         axes_checkbox, contact_points_checkbox, contact_forces_checkbox,
         grid_checkbox, body_dropdown, info: the GUI handles.
-        body_nodes: per body, the scene frame posed at its centre of mass.
+        mesh_groups: the ``MeshGroup``s, one batched mesh node each (all bodies but planes).
+        plane_frames: {body index: scene frame posed at its centre of mass} for plane bodies.
+        axes_node: the batched axes node of all bodies (hidden unless "Body axes" is on).
+        ``body_pose(i)`` and ``body_color(i)`` read what was sent to the browser for body i.
     """
 
     def __init__(self, traj: Trajectory, host: str = "127.0.0.1", port: int = 8080, *, play: bool = True,
@@ -262,10 +294,10 @@ class Viewer:
         with self._lock:
             old = self._selected
             self._selected = None if index is None else int(index)
-            if old is not None and old != self._selected and self.mesh_nodes[old] is not None:
-                self.mesh_nodes[old].color = self.colors[old]
-            if self._selected is not None and self.mesh_nodes[self._selected] is not None:
-                self.mesh_nodes[self._selected].color = SELECTED_COLOR
+            if old is not None and old != self._selected:
+                self._paint(old, self.colors[old])
+            if self._selected is not None:
+                self._paint(self._selected, SELECTED_COLOR)
             label = "(none)" if self._selected is None else self._body_label(self._selected)
             if self.body_dropdown.value != label:
                 self._internal_update = True
@@ -291,6 +323,25 @@ class Viewer:
             "potential_energy_total": float(t.potential_energy[k]),
         }
 
+    def body_pose(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """(position (3,), wxyz (4,)) of body ``i`` as last sent to the browser: its centre of mass
+        in world coordinates (m) and its orientation (body to world), float64 copies of the
+        batched arrays (float32 on the wire)."""
+        i = int(i)
+        g = self._group_of[i]
+        if g < 0:
+            frame = self.plane_frames[i]
+            return np.array(frame.position, float), np.array(frame.wxyz, float)
+        handle, j = self.mesh_groups[g].handle, self._row_of[i]
+        return np.array(handle.batched_positions[j], float), np.array(handle.batched_wxyzs[j], float)
+
+    def body_color(self, i: int) -> tuple[int, int, int] | None:
+        """sRGB colour (0-255) of body ``i`` as last sent to the browser (None for planes)."""
+        g = self._group_of[int(i)]
+        if g < 0:
+            return None
+        return tuple(int(c) for c in self.mesh_groups[g].handle.batched_colors[self._row_of[int(i)]])
+
     def stop(self):
         """Stop playback and the server (idempotent)."""
         if self._stopped:
@@ -315,40 +366,88 @@ class Viewer:
     def _build_scene(self):
         scene = self.server.scene
         scene.set_up_direction("+z")
-        self.colors = [PALETTE[i % len(PALETTE)] for i in range(self.body_count)]
-        fixed = np.zeros(self.body_count, bool) if self.traj.fixed is None else np.asarray(self.traj.fixed, bool)
+        N = self.body_count
+        self.colors = [PALETTE[i % len(PALETTE)] for i in range(N)]
+        fixed = np.zeros(N, bool) if self.traj.fixed is None else np.asarray(self.traj.fixed, bool)
         com_offset = np.asarray(self.traj.com_offset, float)
+        # A body that keeps its pose over the whole run is posed once, in a group of its own kind.
+        static = np.all(self.position == self.position[:1], axis=(0, 2)) \
+            & np.all(self.orientation == self.orientation[:1], axis=(0, 2))
 
-        self.body_nodes, self.mesh_nodes, self.axes_nodes, self.plane_nodes = [], [], [], []
-        radii = np.zeros(self.body_count)
-        is_plane = np.zeros(self.body_count, bool)
-        for i in range(self.body_count):
-            shape = self.traj.shape(i)
-            is_plane[i] = shape is not None and type(shape).__name__ == "Plane"
-            node = scene.add_frame(f"/bodies/b{i}", show_axes=False,
-                                   position=self.position[0, i], wxyz=self.orientation[0, i])
-            self.body_nodes.append(node)
-            mesh_node = None
+        # Tessellate each distinct (shape record, com_offset) once: a pile of equal boxes is one mesh,
+        # not N (trimesh's creation functions cost ~0.1 ms each).
+        meshes: dict = {}  # (shape text, com_offset bytes) -> (vertices, faces, digest, radius, is_plane, shape)
+        group_of_key: dict = {}  # (geometry digest, static) -> list of body indices
+        self.plane_frames, self.plane_nodes = {}, []
+        self._group_of = np.full(N, -1, dtype=np.int64)  # body -> index in mesh_groups (-1: plane)
+        self._row_of = np.full(N, -1, dtype=np.int64)  # body -> row in its group's arrays
+        radii = np.zeros(N)
+        is_plane = np.zeros(N, bool)
+        geometry_of_digest = {}
+        for i in range(N):
+            text = None if self.traj.shapes is None else str(self.traj.shapes[i])
+            key = (text, com_offset[i].tobytes())
+            if key not in meshes:
+                shape = self.traj.shape(i)
+                plane = shape is not None and type(shape).__name__ == "Plane"
+                if plane:
+                    meshes[key] = (None, None, None, 0.0, True, shape)
+                else:
+                    geometry = body_mesh(shape, com_offset[i]) if shape is not None else None
+                    if geometry is None:  # no shape recorded (old file): a marker ball
+                        m = visual.shape_trimesh(None)
+                        geometry = (np.asarray(m.vertices, float), np.asarray(m.faces, np.int64))
+                    vertices = np.ascontiguousarray(geometry[0], dtype=float)
+                    faces = np.ascontiguousarray(geometry[1], dtype=np.int64)
+                    # Two records may draw the same mesh (equal boxes written with different names
+                    # or key orders): grouping is by the drawn arrays' bytes, not by the record.
+                    h = hashlib.blake2b(digest_size=16)
+                    h.update(np.asarray(vertices.shape).tobytes())
+                    h.update(vertices.tobytes())
+                    h.update(faces.tobytes())
+                    digest = h.digest()
+                    geometry_of_digest.setdefault(digest, (vertices, faces))
+                    radius = float(np.max(np.linalg.norm(vertices, axis=1))) if len(vertices) else 0.0
+                    meshes[key] = (vertices, faces, digest, radius, False, shape)
+            _, _, digest, radii[i], is_plane[i], shape = meshes[key]
             if is_plane[i]:
+                self.plane_frames[i] = scene.add_frame(f"/bodies/b{i}", show_axes=False,
+                                                       position=self.position[0, i], wxyz=self.orientation[0, i])
                 plane = self._add_plane(i, shape, com_offset[i])
                 if plane is not None:
                     self.plane_nodes.append(plane)
-            else:
-                geometry = body_mesh(shape, com_offset[i]) if shape is not None else None
-                if geometry is None:  # no shape recorded (old file): a marker ball
-                    m = visual.shape_trimesh(None)
-                    geometry = (np.asarray(m.vertices), np.asarray(m.faces))
-                vertices, faces = geometry
-                color = tuple(int(0.6 * c + 0.4 * 160) for c in self.colors[i]) if fixed[i] else self.colors[i]
-                self.colors[i] = color
-                mesh_node = scene.add_mesh_simple(f"/bodies/b{i}/mesh", vertices, faces, color=color,
-                                                  flat_shading=len(faces) <= 24)
-                mesh_node.on_click(lambda event, i=i: self.select(i))
-                radii[i] = float(np.max(np.linalg.norm(vertices, axis=1)))
-            self.mesh_nodes.append(mesh_node)
-            length = max(1.4 * radii[i], 0.1) if radii[i] > 0 else 0.3
-            self.axes_nodes.append(scene.add_frame(f"/bodies/b{i}/axes", show_axes=True, axes_length=length,
-                                                   axes_radius=0.03 * length, visible=False))
+                continue
+            if fixed[i]:
+                self.colors[i] = tuple(int(0.6 * c + 0.4 * 160) for c in self.colors[i])
+            group_of_key.setdefault((digest, bool(static[i])), []).append(i)
+
+        self.mesh_groups = []
+        colors = np.asarray(self.colors, dtype=np.uint8).reshape(N, 3)
+        for g, ((digest, group_static), members) in enumerate(group_of_key.items()):
+            vertices, faces = geometry_of_digest[digest]
+            bodies = np.asarray(members, dtype=np.int64)
+            self._group_of[bodies] = g
+            self._row_of[bodies] = np.arange(len(bodies))
+            consecutive = bodies[-1] - bodies[0] == len(bodies) - 1
+            rows = slice(int(bodies[0]), int(bodies[-1]) + 1) if consecutive else bodies
+            group_colors = colors[bodies].copy()
+            handle = scene.add_batched_meshes_simple(
+                f"/bodies/g{g}", vertices, faces, self.orientation[0, rows], self.position[0, rows],
+                batched_colors=group_colors, flat_shading=len(faces) <= 24)
+            # The browser says which instance was clicked: row j of this group is body bodies[j].
+            handle.on_click(lambda event, bodies=bodies: self._pick(bodies, event.instance_index))
+            self.mesh_groups.append(MeshGroup(handle, bodies, group_static, group_colors, rows))
+        self._moving_groups = [group for group in self.mesh_groups if not group.static]
+        self._moving_planes = [i for i in self.plane_frames if not static[i]]
+
+        # Body axes: one batched node for all bodies (a per-body frame would be N nodes and N
+        # messages a frame again). Unit axes scaled per body, so the radius keeps 3 % of the length.
+        lengths = np.where(radii > 0, np.maximum(1.4 * radii, 0.1), 0.3)
+        self.axes_node = scene.add_batched_axes("/bodies/axes", self.orientation[0], self.position[0],
+                                                batched_scales=lengths, axes_length=1.0, axes_radius=0.03,
+                                                visible=False)
+        self.axes_node.on_click(lambda event: self._pick(np.arange(N), event.instance_index))
+        self._axes_frame = 0  # the frame the axes were last posed at
         self.body_radius = radii
 
         # Size of the scene: the centres of mass over the whole run, widened by the bodies.
@@ -378,6 +477,28 @@ class Viewer:
 
         self.contact_points_node = None
         self.contact_forces_node = None
+
+    def _pick(self, bodies: np.ndarray, instance_index: int | None):
+        """A click on instance ``instance_index`` of a batched node whose row j is body ``bodies[j]``."""
+        if instance_index is None or not 0 <= int(instance_index) < len(bodies):
+            return  # the browser did not say which instance (an older client): nothing picked
+        self.select(int(bodies[int(instance_index)]))
+
+    def _paint(self, i: int, color):
+        """Send body ``i``'s colour (sRGB 0-255): its group's whole colour array, one message."""
+        g = self._group_of[i]
+        if g < 0:
+            return  # planes are grids: not highlighted
+        group = self.mesh_groups[g]
+        colors = group.handle.batched_colors.copy()
+        colors[self._row_of[i]] = color
+        group.handle.batched_colors = colors
+
+    def _pose_axes(self, k: int):
+        """Pose every body's axes at frame ``k`` (one message)."""
+        self.axes_node.batched_positions = self.position[k]
+        self.axes_node.batched_wxyzs = self.orientation[k]
+        self._axes_frame = k
 
     def _add_plane(self, i, shape, com_offset):
         """A plane body: a translucent grid in the plane, centred on the foot of the shape origin.
@@ -518,9 +639,10 @@ class Viewer:
         @self.axes_checkbox.on_update
         def _(_event):
             visible = bool(self.axes_checkbox.value)
-            with self.server.atomic():
-                for node in self.axes_nodes:
-                    node.visible = visible
+            with self._lock, self.server.atomic():
+                if visible and self._axes_frame != self._frame:  # not moved while hidden
+                    self._pose_axes(self._frame)
+                self.axes_node.visible = visible
 
         @self.contact_points_checkbox.on_update
         def _(_event):
@@ -549,9 +671,15 @@ class Viewer:
         with self._lock:
             self._frame = k
             with self.server.atomic():
-                for i, node in enumerate(self.body_nodes):
-                    node.position = self.position[k, i]
-                    node.wxyz = self.orientation[k, i]
+                # One assignment per array and group: one message each, whatever the number of bodies.
+                for group in self._moving_groups:
+                    group.handle.batched_positions = self.position[k, group.rows]
+                    group.handle.batched_wxyzs = self.orientation[k, group.rows]
+                for i in self._moving_planes:
+                    self.plane_frames[i].position = self.position[k, i]
+                    self.plane_frames[i].wxyz = self.orientation[k, i]
+                if self.axes_checkbox.value:  # hidden axes are not moved (posed when shown again)
+                    self._pose_axes(k)
                 self._draw_contacts(k)
             self.time_text.content = f"t = {self.time[k]:.3f} s, frame {k} of {self.frame_count - 1}"
             self._update_info()
