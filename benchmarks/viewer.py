@@ -10,6 +10,7 @@ N = 100, 1000 and 10 000 (``--sizes``):
 * frame: the time of ``Viewer._show_frame(k)`` (what the playback loop and the
   frame slider call), median over ``--frames`` calls on successive frames, after
   two untimed calls;
+* frame, axes shown: the same with the "Body axes" toggle on;
 * messages: the number of messages ``_show_frame`` queues for the browser per
   frame (counted by wrapping viser's ``queue_message``; each one is serialized
   and applied by every connected browser: the cost that made playback crawl).
@@ -27,7 +28,9 @@ Run from the repository root:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime as _dt
+import io
 import json
 import os
 import platform
@@ -114,11 +117,12 @@ def measure(n: int, frames: int) -> dict:
 
     app.Viewer._build_scene = timed_build
     try:
-        viewer = app.Viewer(traj, host="127.0.0.1", port=0, play=False)
+        with contextlib.redirect_stdout(io.StringIO()):  # viser's banner
+            viewer = app.Viewer(traj, host="127.0.0.1", port=0, play=False)
     finally:
         app.Viewer._build_scene = original
-    counter = _Counter()
-    try:
+
+    def timed_frames():
         viewer._show_frame(1)  # untimed: first calls
         viewer._show_frame(2)
         counter.count = 0
@@ -128,12 +132,20 @@ def measure(n: int, frames: int) -> dict:
             t0 = time.perf_counter()
             viewer._show_frame(k)
             times.append(time.perf_counter() - t0)
-        messages = counter.count / frames
+        return times, counter.count / frames
+
+    counter = _Counter()
+    try:
+        times, messages = timed_frames()
+        viewer.axes_checkbox.value = True
+        axes_times, axes_messages = timed_frames()
     finally:
         counter.close()
-        viewer.stop()
+        with contextlib.redirect_stdout(io.StringIO()):
+            viewer.stop()
     return {"bodies": n, "build_s": built["s"], "frame_ms": 1e3 * statistics.median(times),
-            "frame_ms_min": 1e3 * min(times), "frame_ms_max": 1e3 * max(times), "messages_per_frame": messages}
+            "frame_ms_min": 1e3 * min(times), "frame_ms_max": 1e3 * max(times), "messages_per_frame": messages,
+            "axes_frame_ms": 1e3 * statistics.median(axes_times), "axes_messages_per_frame": axes_messages}
 
 
 def main(argv=None):
@@ -145,12 +157,13 @@ def main(argv=None):
 
     print(f"{_dt.datetime.now(_dt.timezone.utc):%Y-%m-%d %H:%M} UTC, {platform.processor() or platform.machine()}, "
           f"{os.cpu_count()} cores, viser {viser.__version__}, load average {os.getloadavg()[0]:.2f}")
-    print("| bodies | _build_scene (s) | _show_frame median (ms) | min-max (ms) | messages per frame |")
-    print("|---:|---:|---:|---:|---:|")
+    print("| bodies | _build_scene (s) | _show_frame median (ms) | min-max (ms) | messages per frame "
+          "| axes shown: median (ms) | messages |")
+    print("|---:|---:|---:|---:|---:|---:|---:|")
     for n in args.sizes:
         r = measure(n, args.frames)
         print(f"| {r['bodies']} | {r['build_s']:.3f} | {r['frame_ms']:.3f} | {r['frame_ms_min']:.3f}-{r['frame_ms_max']:.3f} "
-              f"| {r['messages_per_frame']:.0f} |", flush=True)
+              f"| {r['messages_per_frame']:.0f} | {r['axes_frame_ms']:.3f} | {r['axes_messages_per_frame']:.0f} |", flush=True)
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

@@ -40,7 +40,7 @@ from tumble.trajectory import Trajectory
 viser = pytest.importorskip("viser")
 
 from tumble.viewer import load_input, view
-from tumble.viewer.meshes import body_mesh, shape_mesh
+from tumble.viewer.meshes import body_mesh, mesh_key, shape_mesh
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = [
@@ -407,6 +407,11 @@ def test_meshes_keep_the_users_placement():
     np.testing.assert_allclose(vertices.min(axis=0)[2], -0.125)  # the base, seen from the centre of mass
     assert shape_mesh(Plane()) is None
     np.testing.assert_allclose(shape_mesh(Box((1, 2, 3))).extents, [1, 2, 3])
+    # Instancing's key: the same drawn arrays (even as other dtypes) share it; another offset does not.
+    v, f = body_mesh(Box((1, 2, 3)), [0.0, 0.0, 0.0])
+    assert mesh_key(v, f) == mesh_key(v.astype(np.float64).copy(), f.astype(np.int32))
+    assert mesh_key(v, f) != mesh_key(*body_mesh(Box((1, 2, 3)), [0.0, 0.0, 0.1]))
+    assert mesh_key(v, f) != mesh_key(*body_mesh(Box((1, 2, 4)), [0.0, 0.0, 0.0]))
 
 
 # ---- CLI --------------------------------------------------------------------------------------------

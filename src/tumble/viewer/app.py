@@ -42,7 +42,6 @@ which (``port=0`` lets the system choose).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import threading
 import time as _time
 import webbrowser
@@ -53,7 +52,7 @@ import numpy as np
 from ..errors import InputError
 from ..trajectory import Trajectory, load_trajectory
 from .. import visual
-from .meshes import body_mesh
+from .meshes import body_mesh, mesh_key
 
 CONTACT_KEYS = ("contact_point", "contact_force", "contact_count")
 SCENE_SUFFIXES = (".toml", ".json")
@@ -401,11 +400,7 @@ class Viewer:
                     faces = np.ascontiguousarray(geometry[1], dtype=np.int64)
                     # Two records may draw the same mesh (equal boxes written with different names
                     # or key orders): grouping is by the drawn arrays' bytes, not by the record.
-                    h = hashlib.blake2b(digest_size=16)
-                    h.update(np.asarray(vertices.shape).tobytes())
-                    h.update(vertices.tobytes())
-                    h.update(faces.tobytes())
-                    digest = h.digest()
+                    digest = mesh_key(vertices, faces)
                     geometry_of_digest.setdefault(digest, (vertices, faces))
                     radius = float(np.max(np.linalg.norm(vertices, axis=1))) if len(vertices) else 0.0
                     meshes[key] = (vertices, faces, digest, radius, False, shape)
