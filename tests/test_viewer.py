@@ -40,6 +40,7 @@ from tumble.trajectory import Trajectory
 viser = pytest.importorskip("viser")
 
 from tumble.viewer import load_input, view
+from tumble.viewer.app import SELECTED_COLOR, linear_colors
 from tumble.viewer.meshes import body_mesh, mesh_key, shape_mesh
 
 CHROMIUM = "/usr/bin/chromium"
@@ -349,6 +350,8 @@ def test_gui_scrub_select_toggles_and_no_contacts(viewer):
 
     viewer.select(4)  # the highlight moves within the group: body 0's own colour is back
     assert viewer.body_color(0) == (66, 135, 245) and viewer.body_color(4) == (255, 215, 0)
+    group = viewer.mesh_groups[0]  # what was sent: linear values of those sRGB colours
+    np.testing.assert_array_equal(group.handle.batched_colors, linear_colors([viewer.colors[0], SELECTED_COLOR]))
     viewer.select(0)
 
     assert not viewer.axes_node.visible

@@ -167,6 +167,18 @@ def quaternion_matrix(q) -> np.ndarray:
     ])
 
 
+def linear_colors(colors) -> np.ndarray:
+    """sRGB colours (..., 3), 0-255, as the linear-light values (uint8, 0-255) batched meshes are sent.
+
+    viser 1.1.1's client reads ``batched_colors`` with ``THREE.Color.setRGB``, i.e. as
+    linear values, while a single mesh's ``color`` is read as sRGB: sent as they are,
+    the palette would come out paler than in the other views (and than before instancing).
+    """
+    c = np.asarray(colors, dtype=float) / 255.0
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return np.round(255.0 * linear).astype(np.uint8)
+
+
 def _fmt(v) -> str:
     return " | ".join(f"{float(c):+.4g}" for c in v)
 
@@ -178,11 +190,12 @@ class MeshGroup:
     Attributes:
         handle: the viser ``BatchedMeshHandle``; row j of its ``batched_positions``
             (M, 3, world, m), ``batched_wxyzs`` (M, 4, body to world) and
-            ``batched_colors`` (M, 3, sRGB 0-255) is body ``bodies[j]``.
+            ``batched_colors`` (M, 3, linear 0-255: ``linear_colors``) is body ``bodies[j]``.
         bodies: (M,) body indices, increasing.
         static: True if every body of the group keeps its pose over the whole run
             (the group is posed once, never updated per frame).
-        colors: (M, 3) uint8, the bodies' own colours (without the selection's highlight).
+        colors: (M, 3) uint8, the sRGB colours the bodies are drawn in now (the selected
+            body's row is the highlight).
     """
 
     handle: object
@@ -335,11 +348,14 @@ class Viewer:
         return np.array(handle.batched_positions[j], float), np.array(handle.batched_wxyzs[j], float)
 
     def body_color(self, i: int) -> tuple[int, int, int] | None:
-        """sRGB colour (0-255) of body ``i`` as last sent to the browser (None for planes)."""
+        """sRGB colour (0-255) body ``i`` is drawn in now, the highlight if selected (None for planes).
+
+        The browser is sent ``linear_colors`` of it (``mesh_groups[g].handle.batched_colors``).
+        """
         g = self._group_of[int(i)]
         if g < 0:
             return None
-        return tuple(int(c) for c in self.mesh_groups[g].handle.batched_colors[self._row_of[int(i)]])
+        return tuple(int(c) for c in self.mesh_groups[g].colors[self._row_of[int(i)]])
 
     def stop(self):
         """Stop playback and the server (idempotent)."""
@@ -428,7 +444,7 @@ class Viewer:
             group_colors = colors[bodies].copy()
             handle = scene.add_batched_meshes_simple(
                 f"/bodies/g{g}", vertices, faces, self.orientation[0, rows], self.position[0, rows],
-                batched_colors=group_colors, flat_shading=len(faces) <= 24)
+                batched_colors=linear_colors(group_colors), flat_shading=len(faces) <= 24)
             # The browser says which instance was clicked: row j of this group is body bodies[j].
             handle.on_click(lambda event, bodies=bodies: self._pick(bodies, event.instance_index))
             self.mesh_groups.append(MeshGroup(handle, bodies, group_static, group_colors, rows))
@@ -485,9 +501,8 @@ class Viewer:
         if g < 0:
             return  # planes are grids: not highlighted
         group = self.mesh_groups[g]
-        colors = group.handle.batched_colors.copy()
-        colors[self._row_of[i]] = color
-        group.handle.batched_colors = colors
+        group.colors[self._row_of[i]] = color
+        group.handle.batched_colors = linear_colors(group.colors)
 
     def _pose_axes(self, k: int):
         """Pose every body's axes at frame ``k`` (one message)."""
