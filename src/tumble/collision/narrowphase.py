@@ -22,18 +22,22 @@ from .pairs.sphere import collide_plane_sphere, collide_sphere_sphere
 
 
 @njit(**JIT)
-def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                   normal, point, separation, feature):
-    """Dispatch one pair with ``ta <= tb`` in SHAPE_* order to its ``collide_<a>_<b>``; 0 for pairs without a routine.
+def is_analytic_shape(t):
+    """True for the shapes whose pairs have closed-form routines: plane, sphere, capsule, box."""
+    return t == SHAPE_PLANE or t == SHAPE_SPHERE or t == SHAPE_CAPSULE or t == SHAPE_BOX
 
-    ``geometry`` is ``ShapeTable.geometry`` (hull and mesh arrays) and a, b the shape rows
-    (only the convex and mesh routines read them).
+
+@njit(**JIT)
+def collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
+                          normal, point, separation, feature):
+    """Dispatch one pair of plane, sphere, capsule and box shapes (``ta <= tb`` in SHAPE_* order) to
+    its closed-form ``collide_<a>_<b>``; 0 for plane-plane.
+
+    Kept apart from ``collide_shapes`` so that a world of these shapes alone compiles only these
+    routines (``collide_pairs`` picks the analytic kernels): the GJK/EPA, hull and mesh routines
+    are most of the narrowphase's compile time (measured cold: 108 s for the first step of a
+    box and a sphere on a plane with every routine, of which ~45 s mesh and convex).
     """
-    if tb == SHAPE_MESH:
-        if ta == SHAPE_PLANE or ta == SHAPE_MESH:
-            return 0  # both fixed
-        return collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                                   normal, point, separation, feature)
     if ta == SHAPE_PLANE:
         if tb == SHAPE_SPHERE:
             return collide_plane_sphere(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
@@ -44,10 +48,6 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
         if tb == SHAPE_BOX:
             return collide_plane_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
                                      separation, feature)
-        if tb == SHAPE_CYLINDER or tb == SHAPE_CONE or tb == SHAPE_CONVEX:
-            # collide_plane_cylinder, collide_plane_cone, collide_plane_convex
-            return collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
-                                              geometry, b, normal, point, separation, feature)
         return 0
     if ta == SHAPE_SPHERE:
         if tb == SHAPE_SPHERE:
@@ -59,17 +59,43 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
         if tb == SHAPE_BOX:
             return collide_sphere_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
                                       separation, feature)
-    elif ta == SHAPE_CAPSULE:
+        return 0
+    if ta == SHAPE_CAPSULE:
         if tb == SHAPE_CAPSULE:
             return collide_capsule_capsule(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
                                            point, separation, feature)
         if tb == SHAPE_BOX:
             return collide_capsule_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
                                        separation, feature)
-    elif ta == SHAPE_BOX:
-        if tb == SHAPE_BOX:
-            return collide_box_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
-                                   separation, feature)
+        return 0
+    if ta == SHAPE_BOX and tb == SHAPE_BOX:
+        return collide_box_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
+                               separation, feature)
+    return 0
+
+
+@njit(**JIT)
+def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
+                   normal, point, separation, feature):
+    """Dispatch one pair with ``ta <= tb`` in SHAPE_* order to its ``collide_<a>_<b>``; 0 for pairs without a routine.
+
+    ``geometry`` is ``ShapeTable.geometry`` (hull and mesh arrays) and a, b the shape rows
+    (only the convex and mesh routines read them).
+    """
+    if is_analytic_shape(ta) and is_analytic_shape(tb):
+        return collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
+                                     point, separation, feature)
+    if tb == SHAPE_MESH:
+        if ta == SHAPE_PLANE or ta == SHAPE_MESH:
+            return 0  # both fixed
+        return collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
+                                   normal, point, separation, feature)
+    if ta == SHAPE_PLANE:
+        if tb == SHAPE_CYLINDER or tb == SHAPE_CONE or tb == SHAPE_CONVEX:
+            # collide_plane_cylinder, collide_plane_cone, collide_plane_convex
+            return collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
+                                              geometry, b, normal, point, separation, feature)
+        return 0
     if ta >= SHAPE_SPHERE and tb <= SHAPE_CONVEX:
         # every other pair of sphere, capsule, cylinder, cone, box, convex: GJK/EPA and face clipping
         # (collide_sphere_cylinder ... collide_convex_convex, pairs/convex.py)
@@ -84,16 +110,17 @@ PARALLEL_MIN_CANDIDATES = 1024  # fewer candidate pairs are collided on one thre
 
 
 @njit(**JIT)
-def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
-                       shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
-                       # outputs
-                       out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+def _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
+                    shape_aabb, body_moving, speculative, shape_margin, excluded,
+                    # outputs
+                    out_a, out_b, out_count):
     """Candidate k of collide_pairs: k < P a sweep pair, then (plane, shape) for each plane and
-    each shape. Row k gets the pair (out_a, out_b, ordered by SHAPE_* type), its point count
-    (0: no contact) and its points. A pair keeps contacts while its gap is below
-    margin_a + margin_b - speculative: the speculative distance plus how far the two can close
-    in the step (bounds.py). Body pairs whose key lo * N + hi is in ``excluded`` (sorted) get
-    no contact (jointed bodies)."""
+    each shape. Returns (a, b, pair_speculative): the shape rows ordered by SHAPE_* type (also
+    written to out_a, out_b) and the gap (m) below which the pair keeps contacts,
+    margin_a + margin_b - speculative (the speculative distance plus how far the two can close
+    in the step, bounds.py); a = -1 when the candidate is culled (out_count[k] = 0 either way:
+    the caller writes the point count). Body pairs whose key lo * N + hi is in ``excluded``
+    (sorted) are culled (jointed bodies)."""
     S = shape_type.shape[0]
     N = body_moving.shape[0]
     n_sweep = pair_a.shape[0]
@@ -105,7 +132,7 @@ def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_
         a = planes[(k - n_sweep) // S]
         b = (k - n_sweep) % S
         if shape_type[b] == SHAPE_PLANE or not body_moving[shape_body[b]] or shape_body[b] == shape_body[a]:
-            return
+            return -1, -1, 0.0
         # cull by the AABB (grown by the margin): its lowest corner along n above the plane
         p = shape_params[a]
         r = shape_rot[a]
@@ -117,24 +144,56 @@ def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_
             + ny * (shape_aabb[b, 0, 1] if ny > 0.0 else shape_aabb[b, 1, 1]) \
             + nz * (shape_aabb[b, 0, 2] if nz > 0.0 else shape_aabb[b, 1, 2])
         if low - d > shape_margin[b] + shape_margin[a] - speculative:
-            return
+            return -1, -1, 0.0
     if excluded.shape[0] > 0:
         ba = shape_body[a]
         bb = shape_body[b]
         pair_key = min(ba, bb) * N + max(ba, bb)
         i = np.searchsorted(excluded, pair_key)
         if i < excluded.shape[0] and excluded[i] == pair_key:
-            return
+            return -1, -1, 0.0
     if shape_type[a] > shape_type[b]:
         a, b = b, a
     out_a[k] = a
     out_b[k] = b
-    pair_speculative = shape_margin[a] + shape_margin[b] - speculative
-    out_count[k] = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
-                                  shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry,
-                                  a, b, out_normal[k], out_point[k], out_separation[k], out_feature[k])
+    return a, b, shape_margin[a] + shape_margin[b] - speculative
 
 
+@njit(**JIT)
+def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
+                       shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
+                       # outputs
+                       out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+    """Candidate k with every shape routine (``collide_shapes``): row k gets the pair, its point
+    count (0: no contact) and its points."""
+    a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
+                                             shape_pos, shape_rot, shape_aabb, body_moving, speculative,
+                                             shape_margin, excluded, out_a, out_b, out_count)
+    if a >= 0:
+        out_count[k] = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
+                                      shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry,
+                                      a, b, out_normal[k], out_point[k], out_separation[k], out_feature[k])
+
+
+@njit(**JIT)
+def _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
+                                shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
+                                # outputs
+                                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+    """``_collide_candidate`` for worlds of plane, sphere, capsule and box shapes only
+    (``collide_analytic_pair``: the same routines, so the same bits)."""
+    a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
+                                             shape_pos, shape_rot, shape_aabb, body_moving, speculative,
+                                             shape_margin, excluded, out_a, out_b, out_count)
+    if a >= 0:
+        out_count[k] = collide_analytic_pair(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a],
+                                             shape_params[a], shape_pos[b], shape_rot[b], shape_params[b],
+                                             pair_speculative, out_normal[k], out_point[k], out_separation[k],
+                                             out_feature[k])
+
+
+# Four kernels: every routine or the analytic ones only (a smaller compile), each on all threads
+# in chunks or on this one. The loops are the same; the candidate function differs.
 @njit(**JIT, parallel=True)
 def _collide_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
                                         shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
@@ -163,6 +222,38 @@ def _collide_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, s
         _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                            shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
                            out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature)
+
+
+@njit(**JIT, parallel=True)
+def _collide_analytic_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params,
+                                                 shape_pos, shape_rot, shape_aabb, body_moving, speculative,
+                                                 shape_margin, geometry, excluded,
+                                                 # outputs
+                                                 out_a, out_b, out_count, out_normal, out_point, out_separation,
+                                                 out_feature):
+    """``_collide_candidates_parallel_kernel`` with the analytic routines only."""
+    total = out_count.shape[0]
+    n_chunks = (total + CHUNK - 1) // CHUNK
+    for chunk in prange(n_chunks):
+        for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
+            _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
+                                        shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
+                                        excluded, out_a, out_b, out_count, out_normal, out_point, out_separation,
+                                        out_feature)
+
+
+@njit(**JIT)
+def _collide_analytic_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
+                                        shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
+                                        excluded,
+                                        # outputs
+                                        out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+    """``_collide_candidates_kernel`` with the analytic routines only."""
+    for k in range(out_count.shape[0]):
+        _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
+                                    shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
+                                    excluded, out_a, out_b, out_count, out_normal, out_point, out_separation,
+                                    out_feature)
 
 
 @njit(**JIT)
@@ -239,7 +330,12 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
     cand = out.candidates(total)
     if shape_margin is None:
         shape_margin = np.full(S, float(speculative))
-    kernel = _collide_candidates_parallel_kernel if total >= PARALLEL_MIN_CANDIDATES else _collide_candidates_kernel
+    parallel = total >= PARALLEL_MIN_CANDIDATES
+    if np.all((table.shape_type == SHAPE_PLANE) | (table.shape_type == SHAPE_SPHERE)
+              | (table.shape_type == SHAPE_CAPSULE) | (table.shape_type == SHAPE_BOX)):
+        kernel = _collide_analytic_candidates_parallel_kernel if parallel else _collide_analytic_candidates_kernel
+    else:
+        kernel = _collide_candidates_parallel_kernel if parallel else _collide_candidates_kernel
     kernel(np.ascontiguousarray(pair_a, dtype=np.int64), np.ascontiguousarray(pair_b, dtype=np.int64),
                                planes, table.shape_type, table.shape_body, table.shape_params, shape_pos, shape_rot,
                                shape_aabb, table.body_moving, float(speculative), shape_margin, table.geometry,
