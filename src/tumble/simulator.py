@@ -485,6 +485,7 @@ class Simulator:
             raise checks.blow_up(w.names, problem[0], problem[1], w.t, "check_state", f"start of step {self.step_index + 1}")
         scratch = Scratch(w.body_count, w.state_size)
         bar = _progress_bar(frames, progress)
+        notice = _first_frame_notice() if bar is not None else None
         try:
             for _ in range(frames):
                 snapshot = (Y.copy(), self.step_index, set(w.applied_impulses), dict(self.stats))
@@ -499,11 +500,16 @@ class Simulator:
                 w.unpack(Y)
                 record()
                 self._check_energy()
+                if notice is not None:
+                    notice.cancel()
+                    notice = None
                 if bar is not None:
                     bar.update(1)
                 if after_frame is not None and after_frame():
                     break
         finally:
+            if notice is not None:
+                notice.cancel()
             if bar is not None:
                 bar.close()
 
@@ -689,6 +695,26 @@ def static_values(world: World) -> dict:
         "shapes": np.array([json.dumps(shape_to_dict(sh)) for sh in world.shapes], dtype=str),
         "fixed": world.fixed.copy(),
     }
+
+
+#: s: a first frame slower than this gets one line on stderr saying why (see _first_frame_notice)
+FIRST_FRAME_NOTICE_S = 3.0
+FIRST_FRAME_NOTICE = ("tumble: the first frame is still running: on a first run the kernels for this scene are "
+                      "compiled (up to a minute or two with contacts), then cached on disk")
+
+
+def _first_frame_notice():
+    """A started timer that writes FIRST_FRAME_NOTICE to stderr unless cancelled within
+    FIRST_FRAME_NOTICE_S: the first frame of a run compiles the Numba kernels it needs (a minute
+    with contacts on a fresh install) and the progress bar, which waits for a frame, would
+    otherwise show nothing at all. Only with a progress bar (an interactive run)."""
+    import sys
+    import threading
+
+    timer = threading.Timer(FIRST_FRAME_NOTICE_S, lambda: print(FIRST_FRAME_NOTICE, file=sys.stderr, flush=True))
+    timer.daemon = True
+    timer.start()
+    return timer
 
 
 def _progress_bar(frames: int, progress: bool | None):
