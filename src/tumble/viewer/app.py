@@ -22,9 +22,9 @@ What it shows (z up, metres, DESIGN.md's conventions):
   x/y/z; one batched axes node for all bodies, moved only while shown), contact
   points and contact forces, the ground grid.
 
-Contacts. Trajectories carry no contact data yet. The toggles exist already and
-draw whatever the trajectory provides under these optional names (attributes of
-the ``Trajectory``, or keys of the ``.npz`` file), and nothing otherwise:
+Contacts. A run with ``record_contacts`` (scene ``[simulation] record_contacts``) records
+them; the toggles draw whatever the trajectory provides under these optional names
+(attributes of the ``Trajectory``, or keys of the ``.npz`` file), and nothing otherwise:
 
 * ``contact_point``: (F, C, 3) world points, m; rows with a non-finite entry are
   padding (frames have different numbers of contacts);
