@@ -37,7 +37,10 @@ JOINT_TYPES = {"ball": JOINT_BALL, "hinge": JOINT_HINGE, "slider": JOINT_SLIDER,
 # columns of the solver's per-joint parameter table ``joint_param`` (J, PARAM_COUNT)
 P_LOWER, P_UPPER, P_LIMIT_ON, P_MOTOR_ON, P_MOTOR_SPEED, P_MAX_MOTOR = 0, 1, 2, 3, 4, 5
 P_STIFFNESS, P_DAMPING, P_TARGET, P_MAX_DRIVE, P_MAX_FORCE, P_MAX_TORQUE, P_RIGID = 6, 7, 8, 9, 10, 11, 12
-PARAM_COUNT = 13
+# the second angular coordinate of a joint: a ball joint's twist, a universal joint's angle
+# about axis_b (limits, and a motor on the universal joint)
+P_LOWER2, P_UPPER2, P_LIMIT2_ON, P_MOTOR2_ON, P_MOTOR2_SPEED, P_MAX_MOTOR2 = 13, 14, 15, 16, 17, 18
+PARAM_COUNT = 19
 
 
 def _number(value, key, *, minimum=None, allow_inf=False) -> float:
@@ -140,19 +143,49 @@ def lower_or_upper(lower, upper) -> bool:
     return lower is not None or upper is not None
 
 
+def _angle_limits(lower, upper, lkey, ukey):
+    """Limits of an angle measured in [-pi, pi] (a ball joint's twist, a universal joint's
+    angles): each within [-pi, pi], lower <= upper; None: no limit on that side."""
+    lo, hi = _limits(lower, upper, lkey, ukey)
+    for value, key in ((lo, lkey), (hi, ukey)):
+        if not math.isinf(value) and abs(value) > math.pi:
+            raise InputError(f"must be between -pi and pi, got {value:g}", key)
+    return lo, hi
+
+
 @dataclass(eq=False)
 class BallJoint(Joint):
     """Ball (spherical) joint: the anchor points coincide; rotation is free.
 
+    The joint frame (x, y, z) is fixed in each body, z = ``axis``, both frames together at
+    creation; Q = Fa^T Fb is the rotation of b's joint frame relative to a's. It splits into
+    swing and twist, Q = Q_swing Q_twist (the swing-twist decomposition; Jolt's
+    SwingTwistConstraint, PhysX's spherical joint with twist): Q_twist turns about z by the
+    twist angle, Q_swing about an axis perpendicular to z (the shortest arc taking a's z to
+    b's z) by the swing angle. With the world axes xa, ya, za of a's joint frame and xb, yb,
+    zb of b's, and the unit quaternion (w, v) of Q, tan(twist / 2) = v_z / w, so
+
+        twist = atan2(ya . xb - xa . yb, xa . xb + ya . yb)   in (-pi, pi]
+        swing = atan2(|za x zb|, za . zb)                     in [0, pi]
+
+    (Q_yx - Q_xy = 4 w v_z and Q_xx + Q_yy = 2 (w^2 - v_z^2); the twist has the hinge
+    angle's formula). Its rate is (wb - wa) . (za + zb) / (1 + za . zb); the twist is
+    undefined at swing pi (the limit rows switch off beyond a swing of about 179.9 deg).
+
     Args:
-        axis: (3,) the cone axis (world, or body_a's frame with ``frame="body"``);
-            only used with ``cone_limit``. Default z.
-        cone_limit: rad, optional: the largest angle between the cone axis fixed
-            in body_a and the same axis fixed in body_b (both start together), in [0, pi].
+        axis: (3,) the cone and twist axis (world, or body_a's frame with ``frame="body"``);
+            only used with ``cone_limit`` or the twist limits. Default z.
+        cone_limit: rad, optional: the largest swing angle (between the cone axis fixed
+            in body_a and the same axis fixed in body_b, both start together), in [0, pi].
+        twist_lower, twist_upper: rad, optional limits of the twist angle, each in
+            [-pi, pi], twist_lower <= twist_upper. Combined with ``cone_limit`` they make
+            a ragdoll's shoulder or hip (a swing cone plus a twist range).
     """
 
     axis: Any = (0.0, 0.0, 1.0)
     cone_limit: float | None = None
+    twist_lower: float | None = None
+    twist_upper: float | None = None
     kind: ClassVar[str] = "ball"
 
     def _frame_world(self, axis_to_world):
@@ -165,6 +198,10 @@ class BallJoint(Joint):
                 raise InputError(f"must be between 0 and pi, got {c:g}", "cone_limit")
             p[P_UPPER] = c
             p[P_LIMIT_ON] = 1.0
+        if lower_or_upper(self.twist_lower, self.twist_upper):
+            p[P_LOWER2], p[P_UPPER2] = _angle_limits(self.twist_lower, self.twist_upper, "twist_lower",
+                                                     "twist_upper")
+            p[P_LIMIT2_ON] = 1.0
 
 
 @dataclass(eq=False)
@@ -287,13 +324,51 @@ class UniversalJoint(Joint):
     """Universal (Cardan) joint: the anchors coincide; body_a turns about ``axis`` fixed
     in it, body_b about ``axis_b`` fixed in it, and the two axes stay perpendicular.
 
+    Its two angles, 0 at creation: with the joint frame x = axis, y = axis_b, z = x x y
+    fixed in each body (world axes xa, ya, za of a's, xb, yb, zb of b's), the relative
+    rotation is Q = Fa^T Fb = Rx(angle) Ry(angle_b) (the cross piece turns about ``axis``,
+    then body_b about ``axis_b``), so
+
+        angle   = atan2(za . yb, ya . yb)   about axis   (rate (wb - wa) . xa)
+        angle_b = atan2(xa . zb, xa . xb)   about axis_b (rate (wb - wa) . yb)
+
+    both in (-pi, pi], positive by the right-hand rule.
+
     Args:
         axis, axis_b: (3,) perpendicular at creation (world, or each body's frame).
+        lower, upper: rad, optional limits of ``angle``; lower_b, upper_b: of ``angle_b``;
+            each in [-pi, pi], lower <= upper.
+        motor_speed, motor_speed_b: rad/s, optional target rates of the two angles, reached
+            with at most ``max_motor_torque``, ``max_motor_torque_b`` N m (default inf).
     """
 
     axis: Any = (1.0, 0.0, 0.0)
     axis_b: Any = (0.0, 1.0, 0.0)
+    lower: float | None = None
+    upper: float | None = None
+    lower_b: float | None = None
+    upper_b: float | None = None
+    motor_speed: float | None = None
+    max_motor_torque: float = math.inf
+    motor_speed_b: float | None = None
+    max_motor_torque_b: float = math.inf
     kind: ClassVar[str] = "universal"
+
+    def _params(self, p, length):
+        if lower_or_upper(self.lower, self.upper):
+            p[P_LOWER], p[P_UPPER] = _angle_limits(self.lower, self.upper, "lower", "upper")
+            p[P_LIMIT_ON] = 1.0
+        if lower_or_upper(self.lower_b, self.upper_b):
+            p[P_LOWER2], p[P_UPPER2] = _angle_limits(self.lower_b, self.upper_b, "lower_b", "upper_b")
+            p[P_LIMIT2_ON] = 1.0
+        if self.motor_speed is not None:
+            p[P_MOTOR_ON] = 1.0
+            p[P_MOTOR_SPEED] = _number(self.motor_speed, "motor_speed")
+            p[P_MAX_MOTOR] = _number(self.max_motor_torque, "max_motor_torque", minimum=0.0, allow_inf=True)
+        if self.motor_speed_b is not None:
+            p[P_MOTOR2_ON] = 1.0
+            p[P_MOTOR2_SPEED] = _number(self.motor_speed_b, "motor_speed_b")
+            p[P_MAX_MOTOR2] = _number(self.max_motor_torque_b, "max_motor_torque_b", minimum=0.0, allow_inf=True)
 
 
 JOINT_CLASSES = {"ball": BallJoint, "hinge": HingeJoint, "slider": SliderJoint, "fixed": FixedJoint,
@@ -373,7 +448,8 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
 
     param = np.zeros(PARAM_COUNT)
     param[P_LOWER], param[P_UPPER] = -math.inf, math.inf
-    param[P_MAX_MOTOR] = param[P_MAX_DRIVE] = math.inf
+    param[P_LOWER2], param[P_UPPER2] = -math.inf, math.inf
+    param[P_MAX_MOTOR] = param[P_MAX_DRIVE] = param[P_MAX_MOTOR2] = math.inf
     joint._params(param, float(np.linalg.norm(pb - pa)))
     param[P_MAX_FORCE] = _number(joint.max_force, "max_force", minimum=0.0, allow_inf=True)
     param[P_MAX_TORQUE] = _number(joint.max_torque, "max_torque", minimum=0.0, allow_inf=True)

@@ -14,8 +14,15 @@ Each entry is one joint of ``tumble.joints``; bodies are named as in ``[[bodies]
     upper_deg = 0
     motor_speed = 2.0              # rad/s, with max_motor_torque (N m)
 
+A ball joint takes ``twist_lower``, ``twist_upper`` (rad, in [-pi, pi]) besides its
+``cone_limit``; a universal joint ``lower``, ``upper`` (its angle about ``axis``) and
+``lower_b``, ``upper_b`` (about ``axis_b``), each in [-pi, pi], and motors ``motor_speed``,
+``motor_speed_b`` with ``max_motor_torque``, ``max_motor_torque_b``.
+
 Angles may be given in degrees with the ``_deg`` keys (``lower_deg``, ``upper_deg``,
-``target_deg``, ``cone_limit_deg``, ``motor_speed_deg`` in deg/s) instead of radians.
+``target_deg``, ``cone_limit_deg``, ``twist_lower_deg``, ``twist_upper_deg``,
+``lower_b_deg``, ``upper_b_deg``, ``motor_speed_deg`` and ``motor_speed_b_deg`` in deg/s)
+instead of radians.
 Errors are ``InputError`` lines ``FILE: joints[2].axis: must not be the zero vector``, as
 in ``tumble.scene``.
 """
@@ -34,20 +41,24 @@ COMMON_KEYS = ("type", "name", "body_a", "body_b", "anchor", "anchor_b", "frame"
 DRIVE_KEYS = ("lower", "upper", "motor_speed", "stiffness", "damping", "target")
 # per type: its own keys besides COMMON_KEYS
 TYPE_KEYS = {
-    "ball": ("axis", "cone_limit", "cone_limit_deg"),
+    "ball": ("axis", "cone_limit", "cone_limit_deg", "twist_lower", "twist_upper", "twist_lower_deg",
+             "twist_upper_deg"),
     "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "motor_speed_deg", "max_motor_torque",
               "max_drive_torque"),
     "slider": ("axis", *DRIVE_KEYS, "max_motor_force", "max_drive_force"),
     "fixed": (),
     "distance": ("min_length", "max_length", "stiffness", "damping", "target", "max_drive_force"),
-    "universal": ("axis", "axis_b"),
+    "universal": ("axis", "axis_b", "lower", "upper", "lower_b", "upper_b", "lower_deg", "upper_deg", "lower_b_deg",
+                  "upper_b_deg", "motor_speed", "motor_speed_b", "motor_speed_deg", "motor_speed_b_deg",
+                  "max_motor_torque", "max_motor_torque_b"),
 }
 VECTOR_KEYS = ("anchor", "anchor_b", "axis", "axis_b")
 # keys that may be inf (TOML "inf")
 UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_force", "max_drive_torque",
-                  "max_drive_force")
+                  "max_drive_force", "max_motor_torque_b")
 DEGREE_KEYS = {"lower_deg": "lower", "upper_deg": "upper", "target_deg": "target", "cone_limit_deg": "cone_limit",
-               "motor_speed_deg": "motor_speed"}
+               "motor_speed_deg": "motor_speed", "twist_lower_deg": "twist_lower", "twist_upper_deg": "twist_upper",
+               "lower_b_deg": "lower_b", "upper_b_deg": "upper_b", "motor_speed_b_deg": "motor_speed_b"}
 SOLVER_KEYS = ("method", "hertz", "damping_ratio", "velocity_iterations", "relax_iterations", "bias_factor")
 
 

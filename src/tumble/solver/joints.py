@@ -47,18 +47,24 @@ from ..joints import (
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
     P_DAMPING,
+    P_LIMIT2_ON,
     P_LIMIT_ON,
     P_LOWER,
+    P_LOWER2,
     P_MAX_DRIVE,
     P_MAX_FORCE,
     P_MAX_MOTOR,
+    P_MAX_MOTOR2,
     P_MAX_TORQUE,
+    P_MOTOR2_ON,
+    P_MOTOR2_SPEED,
     P_MOTOR_ON,
     P_MOTOR_SPEED,
     P_RIGID,
     P_STIFFNESS,
     P_TARGET,
     P_UPPER,
+    P_UPPER2,
     PARAM_COUNT,
 )
 from ..math3d import (
@@ -68,8 +74,12 @@ from ..math3d import (
     quat_to_matrix_into,
 )
 
-# columns of ``axial_impulse`` (J, 5): accumulated impulses of the 1-D coordinate rows
+# columns of ``axial_impulse`` (J, AXIAL_COUNT): accumulated impulses of the 1-D coordinate
+# rows (spring, motor, lower, upper, equal), then of the second angular coordinate (a ball
+# joint's twist, a universal joint's angle about axis_b: lower, upper limit, motor)
 A_SPRING, A_MOTOR, A_LOWER, A_UPPER, A_EQUAL = 0, 1, 2, 3, 4
+A_LOWER2, A_UPPER2, A_MOTOR2 = 5, 6, 7
+AXIAL_COUNT = 8
 
 
 @dataclass
@@ -327,7 +337,8 @@ def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_p
     hinge: angle of b about the axis (rad), unwrapped around ``last_position``;
     slider: displacement along the axis (m), arm of a is ra + d (Box2D prismatic);
     distance: length (m) along the unit line a -> b; ball: swing angle between the cone
-    axes (rad), about their common normal.
+    axes (rad), about their common normal; universal: the angle about ``axis`` (rad, in
+    (-pi, pi], ``tumble.joints.UniversalJoint``), rate about a's axis.
     """
     ra, pa = _anchor(x, R, a, local_a, j)
     rb, pb = _anchor(x, R, b, local_b, j)
@@ -355,7 +366,56 @@ def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_p
         if sn < 1e-12:
             return False, False, za, ra, rb, 0.0 if _dot(za, zb) > 0 else math.pi
         return True, False, _scale(1.0 / sn, s), ra, rb, math.atan2(sn, _dot(za, zb))
+    if t == JOINT_UNIVERSAL:
+        # Q = Fa^T Fb = Rx(angle) Ry(angle_b): b's y axis in a's joint frame is (0, cos, sin)
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        yb = _axis(R, b, frame_b, j, 1)
+        return True, False, xa, ra, rb, math.atan2(_dot(za, yb), _dot(ya, yb))
     return False, False, za, ra, rb, 0.0
+
+
+@njit(**JIT)
+def twist_angle(xa, ya, za, xb, yb, zb):
+    """Twist (rad, in (-pi, pi]) of frame b relative to frame a about the z axis, by the
+    swing-twist decomposition Q = Fa^T Fb = Q_swing Q_twist (Q_twist about z, Q_swing
+    about an axis perpendicular to z; Jolt's SwingTwistConstraint). With Q's unit
+    quaternion (w, v), tan(twist / 2) = v_z / w, hence sin twist = 2 w v_z / (w^2 + v_z^2)
+    and cos twist = (w^2 - v_z^2) / (w^2 + v_z^2); with Q_yx - Q_xy = 4 w v_z and
+    Q_xx + Q_yy = 2 (w^2 - v_z^2),
+
+        twist = atan2(ya.xb - xa.yb, xa.xb + ya.yb)
+
+    (the hinge angle's formula: with no swing the two agree). Rounding error about
+    eps / (w^2 + v_z^2) = eps / cos^2(swing / 2); the form 2 atan2(4 w v_z, 4 w^2) has an
+    extra 1 / |w| near twist pi. The axes are (3,) unit vectors of the two right-handed
+    frames, in any common frame. 0 where the twist is undefined (swing pi: w = v_z = 0)."""
+    return math.atan2(_dot(ya, xb) - _dot(xa, yb), _dot(xa, xb) + _dot(ya, yb))
+
+
+@njit(**JIT)
+def _second_row(t, j, a, b, R, frame_a, frame_b):
+    """The joint's second angular coordinate: (has_row, n, position).
+
+    ball: the twist about the cone axis (``twist_angle``); its rate is (wb - wa) . n with
+    n = (za + zb) / (1 + za . zb) (the time derivative of 2 atan2(v_z, w) under
+    dQ/dt = [wb - wa] Q; n = za at zero swing), no row near swing pi where it blows up.
+    universal: the angle about axis_b, atan2(xa . zb, xa . xb), rate (wb - wa) . yb.
+    """
+    xa = _axis(R, a, frame_a, j, 0)
+    za = _axis(R, a, frame_a, j, 2)
+    xb = _axis(R, b, frame_b, j, 0)
+    yb = _axis(R, b, frame_b, j, 1)
+    zb = _axis(R, b, frame_b, j, 2)
+    if t == JOINT_BALL:
+        ya = _axis(R, a, frame_a, j, 1)
+        c = 1.0 + _dot(za, zb)
+        if c < 1e-6:
+            return False, za, 0.0
+        return True, _scale(1.0 / c, _add(za, zb)), twist_angle(xa, ya, za, xb, yb, zb)
+    if t == JOINT_UNIVERSAL:
+        return True, yb, math.atan2(_dot(xa, zb), _dot(xa, xb))
+    return False, za, 0.0
 
 
 @njit(**JIT)
@@ -388,7 +448,7 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     # it would cause (impulse -K^-1 c per unit). Alone, the row sees only the bodies' own
     # inertias: a 1 m pendulum's limit was 250x too soft and Gauss-Seidel took hundreds of
     # sweeps to pass the load to the anchor (I measured a 4 deg overshoot of a hinge limit).
-    couple = (t == JOINT_HINGE or t == JOINT_BALL) and not linear
+    couple = (t == JOINT_HINGE or t == JOINT_BALL or t == JOINT_UNIVERSAL) and not linear
     comp = (0.0, 0.0, 0.0)
     if couple:
         c = _scale(-1.0, _add(_cross(rb, _mat_vec(I_inv, b, n)), _cross(ra, _mat_vec(I_inv, a, n))))
@@ -443,6 +503,68 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
             new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
             axial_impulse[j, slot] = new
             _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, sign * (new - old))
+
+
+@njit(**JIT)
+def _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb):
+    """(k_eff, comp) of an angular row about n on a joint that pins its anchor: as in
+    ``_solve_axial``, k_eff = k - c.K^-1 c and comp = -K^-1 c, the anchor impulse per unit
+    row impulse that keeps the anchor's velocity (c = J_anchor M^-1 J_row^T)."""
+    k = _row_mass(inv_mass, I_inv, a, b, False, n, ra, rb)
+    c = _scale(-1.0, _add(_cross(rb, _mat_vec(I_inv, b, n)), _cross(ra, _mat_vec(I_inv, a, n))))
+    comp = _scale(-1.0, _solve3(_point_K(inv_mass, I_inv, a, b, ra, rb), c))
+    return k + _dot(c, comp), comp
+
+
+@njit(**JIT)
+def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h, soft,
+                  v, omega, linear_impulse, axial_impulse):
+    """Motor (universal joints), then lower and upper limit of the second angular
+    coordinate (``_second_row``: a ball joint's twist, a universal joint's angle about
+    axis_b), the same rows as the first coordinate's in ``_solve_axial`` (Box2D v3's
+    revolute limit: velocity level, speculative while the limit is apart, soft once
+    crossed; solved with the anchor block). Accumulated in ``axial_impulse[j, A_*2]``.
+    The first coordinate's code is left as it is so that joints without these rows give
+    the same numbers as before."""
+    p = param[j]
+    if p[P_LIMIT2_ON] == 0.0 and p[P_MOTOR2_ON] == 0.0:
+        return
+    has, n, pos = _second_row(t, j, a, b, R, frame_a, frame_b)
+    if not has:
+        return
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    k, comp = _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb)
+    if k <= 0.0:
+        return
+    m_eff = 1.0 / k
+    if p[P_MOTOR2_ON] != 0.0:
+        cdot = _row_velocity(v, omega, a, b, False, n, ra, rb)
+        old = axial_impulse[j, A_MOTOR2]
+        lim = p[P_MAX_MOTOR2] * h
+        new = min(max(old - m_eff * (cdot - p[P_MOTOR2_SPEED]), -lim), lim)
+        axial_impulse[j, A_MOTOR2] = new
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, False, n, ra, rb, comp, j, linear_impulse, new - old)
+    if p[P_LIMIT2_ON] == 0.0:
+        return
+    for side in range(2):
+        # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
+        sign = 1.0 if side == 0 else -1.0
+        bound = p[P_LOWER2] if side == 0 else p[P_UPPER2]
+        if math.isinf(bound):
+            continue
+        C = sign * (pos - bound)
+        bias, ms, iscale = 0.0, 1.0, 0.0
+        if C > 0.0:
+            bias = C * inv_h  # speculative: the gap may close within this substep, no more
+        else:
+            bias, ms, iscale = soft[0] * C, soft[1], soft[2]
+        slot = A_LOWER2 + side
+        cdot = sign * _row_velocity(v, omega, a, b, False, n, ra, rb)
+        old = axial_impulse[j, slot]
+        new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
+        axial_impulse[j, slot] = new
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, False, n, ra, rb, comp, j, linear_impulse, sign * (new - old))
 
 
 @njit(**JIT)
@@ -560,6 +682,8 @@ def solve_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
             t = joint_type[j]
             _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
                          h, inv_h, soft, v, omega, linear_impulse, axial_impulse)
+            _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h, soft,
+                          v, omega, linear_impulse, axial_impulse)
             if gauss_seidel[j]:
                 _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
                              v, omega, linear_impulse, angular_impulse)
@@ -591,6 +715,11 @@ def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, fra
                                                             position)
             if has:
                 _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra1, rb1, total)
+        total2 = axial_impulse[j, A_LOWER2] - axial_impulse[j, A_UPPER2] + axial_impulse[j, A_MOTOR2]
+        if total2 != 0.0:
+            has2, n2, _pos2 = _second_row(t, j, a, b, R, frame_a, frame_b)
+            if has2:
+                _apply_angular(omega, I_inv, a, b, _scale(total2, n2))
 
 
 # ---------------------------------------------------------------------- position projection
@@ -733,6 +862,11 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
             f = _add(f, _scale(axial, n))
         elif has:
             tq = _add(tq, _scale(axial, n))
+        axial2 = axial_impulse[j, A_LOWER2] - axial_impulse[j, A_UPPER2] + axial_impulse[j, A_MOTOR2]
+        if axial2 != 0.0:
+            has2, n2, _pos2 = _second_row(t, j, a, b, R, frame_a, frame_b)
+            if has2:
+                tq = _add(tq, _scale(axial2, n2))
         for k in range(3):
             reaction_force[j, k] = f[k] * inv_h
             reaction_torque[j, k] = tq[k] * inv_h
@@ -747,7 +881,7 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
                 for k in range(3):
                     linear_impulse[j, k] = 0.0
                     angular_impulse[j, k] = 0.0
-                for k in range(5):
+                for k in range(axial_impulse.shape[1]):
                     axial_impulse[j, k] = 0.0
     return count
 
@@ -853,11 +987,14 @@ class JointSolver:
     writable between steps, e.g. ``param[j, P_MOTOR_SPEED]``).
 
     State: ``enabled`` (J,) bool (False once broken), ``linear_impulse``, ``angular_impulse``
-    (J, 3) N s and ``axial_impulse`` (J, 5) N s or N m s (spring, motor, lower, upper,
-    equal rows), world, accumulated over the last substep, carried to the next for warm starting.
+    (J, 3) N s and ``axial_impulse`` (J, AXIAL_COUNT = 8) N s or N m s (the coordinate's
+    spring, motor, lower, upper, equal rows; then the second angular coordinate's lower,
+    upper, motor rows: ball twist, universal angle_b), world, accumulated over the last
+    substep, carried to the next for warm starting.
 
     Read after each step (``store``): ``position`` (J,) joint coordinate (hinge angle rad,
-    slider displacement m, distance m, ball swing angle rad; 0 for fixed and universal),
+    slider displacement m, distance m, ball swing angle rad, universal angle about ``axis``
+    rad; 0 for fixed),
     ``rate`` (J,) its time derivative, ``reaction_force`` (J, 3) N and ``reaction_torque``
     (J, 3) N m on body b from body a (world; the torque excludes the moment of the force
     about body b's centre), ``broke`` (J,) bool: broke in this step. See ``readings``.
@@ -883,11 +1020,16 @@ class JointSolver:
         self.local_b = np.array([j.bound.local_b for j in joints], dtype=float).reshape(J, 3)
         self.frame_a = np.ascontiguousarray(np.array([j.bound.frame_a for j in joints], dtype=float).reshape(J, 3, 3))
         self.frame_b = np.ascontiguousarray(np.array([j.bound.frame_b for j in joints], dtype=float).reshape(J, 3, 3))
-        self.param = np.array([j.bound.param for j in joints], dtype=float).reshape(J, PARAM_COUNT)
+        # NOTE: a record bound with a shorter parameter row (a checkpoint written before the
+        # second-coordinate columns) gets zeros there: those rows off
+        self.param = np.zeros((J, PARAM_COUNT))
+        for k, rec in enumerate(joints):
+            row = np.asarray(rec.bound.param, dtype=float)
+            self.param[k, :row.shape[0]] = row
         self.enabled = np.array([not j.broken for j in joints], dtype=bool)
         self.linear_impulse = np.zeros((J, 3))
         self.angular_impulse = np.zeros((J, 3))
-        self.axial_impulse = np.zeros((J, 5))
+        self.axial_impulse = np.zeros((J, AXIAL_COUNT))
         self.position = np.zeros(J)
         # joints kept from before (a joint added later goes at the end): keep their state
         k = self.count
@@ -1091,9 +1233,10 @@ class JointSolver:
                 "force": np.copy(self.reaction_force[sel]), "torque": np.copy(self.reaction_torque[sel]),
                 "enabled": np.copy(self.enabled[sel])}
 
-    def set_motor_speed(self, joint, speed: float):
-        """Change a motor's target rate (rad/s or m/s) between steps."""
-        self.param[self.index(joint), P_MOTOR_SPEED] = float(speed)
+    def set_motor_speed(self, joint, speed: float, axis_b: bool = False):
+        """Change a motor's target rate (rad/s or m/s) between steps; ``axis_b=True``: a
+        universal joint's motor about axis_b (``motor_speed_b``)."""
+        self.param[self.index(joint), P_MOTOR2_SPEED if axis_b else P_MOTOR_SPEED] = float(speed)
 
 
 # ---------------------------------------------------------------------- standalone stepper
