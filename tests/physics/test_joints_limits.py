@@ -374,3 +374,82 @@ def test_limit_impulses_are_internal(name, kind):
     assert acted > 0.0
     assert worst / L0 < 1e-4
     assert w.kinetic_energy() < E0
+
+
+# ---------------------------------------------------------------------- scene files
+SCENE = """
+[simulation]
+duration = 1.0
+frame_rate = 60
+dt = 0.004166666666666667
+substeps = 4
+gravity = [0, 0, 0]
+
+[[bodies]]
+name = "arm"
+shape = { type = "box", size = [0.1, 0.2, 0.3] }
+mass = 1.0
+position = [0, 0, -0.5]
+angular_velocity = [0, 0, 5]
+
+[[bodies]]
+name = "leg"
+shape = { type = "box", size = [0.1, 0.2, 0.3] }
+mass = 1.0
+position = [2, 0, -0.5]
+velocity = [0, 2, 0]            # omega x (centre - anchor): turning about the hip
+angular_velocity = [4, 0, 0]
+
+[[joints]]
+type = "ball"
+name = "shoulder"
+body_a = "world"
+body_b = "arm"
+anchor = [0, 0, 0]
+axis = [0, 0, 1]
+cone_limit_deg = 30
+twist_lower_deg = -20
+twist_upper_deg = 20
+
+[[joints]]
+type = "universal"
+name = "hip"
+body_a = "world"
+body_b = "leg"
+anchor = [2, 0, 0]
+axis = [1, 0, 0]
+axis_b = [0, 1, 0]
+lower_deg = -10
+upper_deg = 15
+lower_b_deg = -30
+upper_b_deg = 30
+"""
+
+
+def test_scene_file_keys_reach_the_simulator(tmp_path):
+    # Compared with the limits given in degrees in the scene file, through tumble.load_scene
+    # and the Simulator's soft step (contacts and joints, Box2D's settings). The arm spins at
+    # 5 rad/s about the twist axis into its 20 deg twist limit, the leg at 4 rad/s about the
+    # hip's axis into its 15 deg limit; both stop there. Measured: the twist stops at 20 deg
+    # exactly (0 past it); the hip never passes 15 deg and rests 3.2e-5 rad below it (the
+    # soft rows push back a little). Bounds: 1e-6 rad past a limit, 1e-4 rad from it at the end.
+    path = tmp_path / "limits.toml"
+    path.write_text(SCENE)
+    scene = tb.load_scene(path)
+    records = scene.world.joints
+    assert records[0].twist_lower == pytest.approx(math.radians(-20))
+    assert records[1].upper == pytest.approx(math.radians(15)) and records[1].lower_b == pytest.approx(math.radians(-30))
+    sim = scene.simulator()
+    w = scene.world
+    twist, hip = [], []
+    for _ in range(120):
+        sim.step()
+        solver = sim.soft_step.joints
+        twist.append(twist_of(*joint_frames(w, solver, 0)))
+        hip.append(universal_angles(*joint_frames(w, solver, 1))[0])
+    assert max(twist) <= math.radians(20) + 1e-6
+    assert twist[-1] == pytest.approx(math.radians(20), abs=1e-4)
+    assert max(hip) <= math.radians(15) + 1e-6
+    assert hip[-1] == pytest.approx(math.radians(15), abs=1e-4)
+    # the universal joint's position reading is its angle about axis
+    assert sim.joint_readings()["position"][1] == pytest.approx(hip[-1], abs=1e-12)
