@@ -103,6 +103,55 @@ def test_twist_angle_of_hand_built_rotations():
     assert twist_of(np.eye(3), rot((0.0, 0.0, 1.0), 0.3)) == pytest.approx(0.3, abs=1e-15)
 
 
+def test_limit_row_directions_give_the_rates_of_the_angles():
+    # The limit rows act along n with angle rate = (omega_b - omega_a) . n: n = (za + zb) /
+    # (1 + za . zb) for the twist, xa and yb for the universal joint's angles (the solver's
+    # _second_row and _coordinate_row). Compared with the central difference of the angle
+    # itself along a rotation of body b at a random angular velocity, from random poses (swing
+    # up to 150 deg; universal poses Rx Ry with xa . yb = 0). Tolerance 1e-6 relative to
+    # |omega|: the difference's truncation (step 1e-5 s, ~1e-10) and rounding (eps / 1e-5,
+    # ~1e-11); measured 3.9e-10. A wrong direction (zb instead) is off by up to 2.1.
+    from tumble.joints import JOINT_BALL, JOINT_UNIVERSAL
+    from tumble.solver.joints import _coordinate_row, _second_row
+
+    rng = np.random.default_rng(3)
+    frame = np.eye(3)[None].copy()
+    local = np.zeros((1, 3))
+    step = 1e-5
+    worst = 0.0
+    for _ in range(100):
+        Ra = rot(rng.normal(size=3), rng.uniform(0.0, math.pi))
+        omega_b = rng.normal(size=3)
+        for kind in ("ball", "universal"):
+            if kind == "ball":
+                swing_axis = (math.cos(rng.uniform(0, 6.3)), math.sin(rng.uniform(0, 6.3)), 0.0)
+                Q = rot(swing_axis, rng.uniform(0.0, math.radians(150))) @ rot((0, 0, 1), rng.uniform(-3.0, 3.0))
+            else:
+                Q = rot((1, 0, 0), rng.uniform(-3.0, 3.0)) @ rot((0, 1, 0), rng.uniform(-3.0, 3.0))
+            Rb = Ra @ Q
+
+            def angles(Rb_now):
+                if kind == "ball":
+                    return [twist_of(Ra, Rb_now)]
+                return list(universal_angles(Ra, Rb_now))
+
+            R = np.stack([Ra, Rb])
+            if kind == "ball":
+                _has, n2, _pos = _second_row(JOINT_BALL, 0, 0, 1, R, frame, frame)
+                directions = [np.array(n2)]
+            else:
+                row = _coordinate_row(JOINT_UNIVERSAL, 0, 0, 1, np.zeros((2, 3)), R, local, local, frame, frame,
+                                      np.zeros(1))
+                _has, n2, _pos = _second_row(JOINT_UNIVERSAL, 0, 0, 1, R, frame, frame)
+                directions = [np.array(row[2]), np.array(n2)]
+            plus = angles(rot(omega_b, step * np.linalg.norm(omega_b)) @ Rb)
+            minus = angles(rot(omega_b, -step * np.linalg.norm(omega_b)) @ Rb)
+            for n, p_, m_ in zip(directions, plus, minus):
+                rate = (p_ - m_) / (2 * step)
+                worst = max(worst, abs(rate - n @ omega_b) / np.linalg.norm(omega_b))
+    assert worst < 1e-6
+
+
 # ---------------------------------------------------------------------- ball joint: twist limit
 def spun_box(twist_limit, omega, free=False):
     """A box (0.1 x 0.2 x 0.3 m, 1 kg) 0.5 m below a ball joint (cone and twist axis z, cone

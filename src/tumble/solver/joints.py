@@ -16,7 +16,9 @@ then per step (dt = ``substeps`` x h), in the order of Box2D v3's ``b2SolverStag
 
 Each joint is a set of rows solved by sequential impulses (Gauss-Seidel over joints, in
 the order they were added; Catto, "Iterative dynamics with temporal coherence", 2005):
-the 1-D joint coordinate first (spring/PD drive, motor, lower and upper limit), then the
+the 1-D joint coordinate first (spring/PD drive, motor, lower and upper limit), then a
+second angular coordinate where the joint has one (a ball joint's twist, a universal
+joint's angle about axis_b: motor, lower and upper limit; ``_solve_axial2``), then the
 rigid blocks, each solved exactly as a block (angular 3x3 / 2x2 / 1x1, then the anchor
 3x3, or the slider's 2x2 perpendicular rows), the anchor last since it matters most
 (Box2D ``b2SolveRevoluteJoint``). Rows read the current poses (x, R), so arms and errors
