@@ -144,13 +144,19 @@ def lower_or_upper(lower, upper) -> bool:
 
 
 def _angle_limits(lower, upper, lkey, ukey):
-    """Limits of an angle measured in [-pi, pi] (a ball joint's twist, a universal joint's
-    angles): each within [-pi, pi], lower <= upper; None: no limit on that side."""
-    lo, hi = _limits(lower, upper, lkey, ukey)
+    """(lower, upper, on) of an angle measured in (-pi, pi] (a ball joint's twist, a universal
+    joint's angles): each within [-pi, pi], lower <= upper. A side left out is -pi or pi: the
+    angle lives on a circle, and a stop at the chart's edge keeps it from jumping across it
+    (from -pi to pi, which the other limit would take for a violation of 2 pi - ...). Both at
+    the edges (or both left out): no limit (on False)."""
+    lo = -math.pi if lower is None else _number(lower, lkey)
+    hi = math.pi if upper is None else _number(upper, ukey)
     for value, key in ((lo, lkey), (hi, ukey)):
-        if not math.isinf(value) and abs(value) > math.pi:
+        if abs(value) > math.pi:
             raise InputError(f"must be between -pi and pi, got {value:g}", key)
-    return lo, hi
+    if lo > hi:
+        raise InputError(f"limits the wrong way round: {lkey} {lo:g} > {ukey} {hi:g}", lkey)
+    return lo, hi, not (lo == -math.pi and hi == math.pi)
 
 
 @dataclass(eq=False)
@@ -178,7 +184,8 @@ class BallJoint(Joint):
         cone_limit: rad, optional: the largest swing angle (between the cone axis fixed
             in body_a and the same axis fixed in body_b, both start together), in [0, pi].
         twist_lower, twist_upper: rad, optional limits of the twist angle, each in
-            [-pi, pi], twist_lower <= twist_upper. Combined with ``cone_limit`` they make
+            [-pi, pi], twist_lower <= twist_upper; one left out is -pi or pi (a stop there:
+            the twist cannot cross from -pi to pi). Combined with ``cone_limit`` they make
             a ragdoll's shoulder or hip (a swing cone plus a twist range).
     """
 
@@ -199,9 +206,9 @@ class BallJoint(Joint):
             p[P_UPPER] = c
             p[P_LIMIT_ON] = 1.0
         if lower_or_upper(self.twist_lower, self.twist_upper):
-            p[P_LOWER2], p[P_UPPER2] = _angle_limits(self.twist_lower, self.twist_upper, "twist_lower",
-                                                     "twist_upper")
-            p[P_LIMIT2_ON] = 1.0
+            lo, hi, on = _angle_limits(self.twist_lower, self.twist_upper, "twist_lower", "twist_upper")
+            if on:
+                p[P_LOWER2], p[P_UPPER2], p[P_LIMIT2_ON] = lo, hi, 1.0
 
 
 @dataclass(eq=False)
@@ -337,7 +344,8 @@ class UniversalJoint(Joint):
     Args:
         axis, axis_b: (3,) perpendicular at creation (world, or each body's frame).
         lower, upper: rad, optional limits of ``angle``; lower_b, upper_b: of ``angle_b``;
-            each in [-pi, pi], lower <= upper.
+            each in [-pi, pi], lower <= upper; one left out is -pi or pi (as the ball
+            joint's twist limits).
         motor_speed, motor_speed_b: rad/s, optional target rates of the two angles, reached
             with at most ``max_motor_torque``, ``max_motor_torque_b`` N m (default inf).
     """
@@ -356,11 +364,13 @@ class UniversalJoint(Joint):
 
     def _params(self, p, length):
         if lower_or_upper(self.lower, self.upper):
-            p[P_LOWER], p[P_UPPER] = _angle_limits(self.lower, self.upper, "lower", "upper")
-            p[P_LIMIT_ON] = 1.0
+            lo, hi, on = _angle_limits(self.lower, self.upper, "lower", "upper")
+            if on:
+                p[P_LOWER], p[P_UPPER], p[P_LIMIT_ON] = lo, hi, 1.0
         if lower_or_upper(self.lower_b, self.upper_b):
-            p[P_LOWER2], p[P_UPPER2] = _angle_limits(self.lower_b, self.upper_b, "lower_b", "upper_b")
-            p[P_LIMIT2_ON] = 1.0
+            lo, hi, on = _angle_limits(self.lower_b, self.upper_b, "lower_b", "upper_b")
+            if on:
+                p[P_LOWER2], p[P_UPPER2], p[P_LIMIT2_ON] = lo, hi, 1.0
         if self.motor_speed is not None:
             p[P_MOTOR_ON] = 1.0
             p[P_MOTOR_SPEED] = _number(self.motor_speed, "motor_speed")

@@ -443,6 +443,8 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
     if not has:
         return
+    if t == JOINT_UNIVERSAL and p[P_LIMIT_ON] != 0.0:
+        pos = _centred_angle(pos, p[P_LOWER], p[P_UPPER])
     k = _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb)
     # An angular row of a joint that also pins its anchor (hinge angle, ball cone) moves
     # the bodies about the anchor, not about their centres: solve it with the anchor block,
@@ -508,6 +510,17 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
 
 
 @njit(**JIT)
+def _centred_angle(angle, lower, upper):
+    """An angle of (-pi, pi] (twist, universal angles) seen in the chart of width 2 pi centred
+    on the middle of its limits [lower, upper] (within [-pi, pi]): the cut where the angle
+    jumps by 2 pi then lies in the middle of the forbidden arc (upper, lower + 2 pi), as far
+    as it can be from both limits, so an overshoot past a limit reads as one (not as a
+    violation of the other limit by nearly 2 pi)."""
+    mid = 0.5 * (lower + upper)
+    return mid + _wrap(angle - mid)
+
+
+@njit(**JIT)
 def _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb):
     """(k_eff, comp) of an angular row about n on a joint that pins its anchor: as in
     ``_solve_axial``, k_eff = k - c.K^-1 c and comp = -K^-1 c, the anchor impulse per unit
@@ -534,6 +547,8 @@ def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, i
     has, n, pos = _second_row(t, j, a, b, R, frame_a, frame_b)
     if not has:
         return
+    if p[P_LIMIT2_ON] != 0.0:
+        pos = _centred_angle(pos, p[P_LOWER2], p[P_UPPER2])
     ra, pa = _anchor(x, R, a, local_a, j)
     rb, pb = _anchor(x, R, b, local_b, j)
     k, comp = _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb)
