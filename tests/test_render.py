@@ -131,6 +131,28 @@ def test_video_files_read_back(traj, tmp_path):
     assert frames.shape[:3] == (7, 120, 160)
 
 
+def test_gif_plays_at_24_fps_on_average(traj, tmp_path):
+    """A GIF's delays are hundredths of a second: 24 fps (4.17 cs) is written as delays of 4 and
+    5 cs whose running sum stays within 5 ms of k / 24 s (a single rounded delay, 4 cs, would play
+    at 25 fps: 100 frames end 167 ms early). Read back with Pillow, frame by frame."""
+    from PIL import Image
+
+    from tumble.render.video import gif_durations_ms
+
+    durations = gif_durations_ms(100, 24.0)
+    assert set(durations) == {40, 50}
+    assert np.all(np.abs(np.cumsum(durations) - 1000.0 * np.arange(1, 101) / 24.0) <= 5.0 + 1e-9)
+    gif = render_video(traj, tmp_path / "run24.gif", width=64, height=48, fps=24, progress=False)
+    with Image.open(gif) as im:
+        read = []
+        for k in range(im.n_frames):
+            im.seek(k)
+            read.append(im.info["duration"])
+    assert len(read) == 49  # 2 s resampled at 24 fps, as 3 fps gives 7 frames above
+    assert set(read) == {40, 50}
+    assert sum(read) == pytest.approx(1000.0 * len(read) / 24.0, abs=5.0)
+
+
 def test_cli_render_and_plot(traj_file, tmp_path, capsys):
     mp4, gif = tmp_path / "out.mp4", tmp_path / "out.gif"
     assert main(["render", str(traj_file), "-o", str(mp4), "--width", "160", "--height", "120", "--no-progress"]) == 0

@@ -495,4 +495,17 @@ def _write_gif(path, images, width, height, fps):
     from PIL import Image
 
     frames = [Image.fromarray(img).quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE) for img in images]
-    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=max(20, round(1000 / fps)), loop=0)
+    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=gif_durations_ms(len(frames), fps),
+                   loop=0)
+
+
+def gif_durations_ms(count: int, fps: float) -> list[int]:
+    """Per-frame delays (ms, multiples of 10) of a GIF playing at ``fps`` on average.
+
+    A GIF stores delays in hundredths of a second, so 24 fps (4.17 cs) cannot be one delay:
+    rounded it plays at 25 fps (4 cs), 4 % fast. Frame k instead starts at round(100 k / fps)
+    cs, so the delays mix 4 and 5 cs and frame k is never off by more than half a hundredth.
+    At least 2 cs a frame: browsers show shorter delays as 10 cs.
+    """
+    starts = [round(100.0 * k / fps) for k in range(count + 1)]
+    return [10 * max(2, starts[k + 1] - starts[k]) for k in range(count)]
