@@ -131,6 +131,29 @@ def test_video_files_read_back(traj, tmp_path):
     assert frames.shape[:3] == (7, 120, 160)
 
 
+def test_antialiasing_softens_the_edges(traj, tmp_path):
+    """Super-sampled frames (the default) blend the colours across the box's and sphere's edges:
+    fewer hard steps between neighbouring pixels (sum of |RGB differences| above 150) and more
+    distinct colours than the same frame rendered with ``antialias=False``; the video option
+    reaches the frames (the CLI's --no-antialias file differs from the default one)."""
+    steps, colours = {}, {}
+    for aa in (True, False):
+        img = render_frame(traj, 6, 320, 240, antialias=aa).astype(int)
+        d = np.abs(np.diff(img, axis=1)).sum(-1)
+        steps[aa] = int((d > 150).sum())
+        colours[aa] = len(np.unique(img.reshape(-1, 3), axis=0))
+    assert steps[True] < 0.8 * steps[False], steps
+    assert colours[True] > 1.5 * colours[False], colours
+    sharp, smooth = tmp_path / "sharp.gif", tmp_path / "smooth.gif"
+    assert main(["render", str(tmp_path / "t.npz"), "-o", str(sharp)]) == 2  # no trajectory: one-line error
+    path = traj.save(tmp_path / "t.npz")
+    assert main(["render", str(path), "-o", str(sharp), "--width", "96", "--height", "64", "--fps", "3",
+                 "--no-antialias", "--no-progress"]) == 0
+    assert main(["render", str(path), "-o", str(smooth), "--width", "96", "--height", "64", "--fps", "3",
+                 "--no-progress"]) == 0
+    assert not np.array_equal(iio.imread(sharp, index=None), iio.imread(smooth, index=None))
+
+
 def test_gif_plays_at_24_fps_on_average(traj, tmp_path):
     """A GIF's delays are hundredths of a second: 24 fps (4.17 cs) is written as delays of 4 and
     5 cs whose running sum stays within 5 ms of k / 24 s (a single rounded delay, 4 cs, would play

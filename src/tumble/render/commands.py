@@ -28,6 +28,8 @@ def add_commands(subparsers) -> dict:
     render.add_argument("--camera", default="frame", metavar="frame|follow:NAME",
                         help="'frame' (fixed, frames all bodies over the run; default) or 'follow:NAME' (follows body NAME)")
     render.add_argument("--force", action="store_true", help="overwrite VIDEO if it exists")
+    render.add_argument("--no-antialias", action="store_true", help="sharp-edged frames, about 1.7x faster "
+                        "(by default edges are smoothed by super-sampling)")
     render.add_argument("--no-progress", action="store_true", help="never show a progress bar")
 
     plot = subparsers.add_parser("plot", help="plot energy, momentum and orthonormality error over time (PNG)",
@@ -60,7 +62,8 @@ def cmd_render(args) -> int:
     traj = load_trajectory(traj_path)
     progress = (not args.no_progress) and sys.stderr.isatty()
     try:
-        render_video(traj, out, width=args.width, height=args.height, fps=args.fps, camera=args.camera, progress=progress)
+        render_video(traj, out, width=args.width, height=args.height, fps=args.fps, camera=args.camera, progress=progress,
+                     antialias=not args.no_antialias)
     except InputError as err:
         if err.key in CLI_KEYS:  # name the option the user typed
             raise InputError(err.problem, CLI_KEYS[err.key], err.file) from None

@@ -226,8 +226,9 @@ def trajectory_fps(traj) -> float:
 class _Stage:
     """Meshes, colours, ground and camera framing of one trajectory; renders poses into images."""
 
-    def __init__(self, traj, width, height, camera="frame", colors=None):
+    def __init__(self, traj, width, height, camera="frame", colors=None, antialias=True):
         self.traj = traj
+        self.antialias = bool(antialias)
         self.width = _check_size(width, "width")
         self.height = _check_size(height, "height")
         self.follow = _parse_camera(traj, camera)
@@ -332,6 +333,10 @@ class _Stage:
             actor.prop.interpolation = "gouraud"  # shade with the normals we move (pyvista's smooth shading would copy the mesh)
             self.poly = poly
         self.label = p.add_text("", position="upper_left", font_size=max(8, self.height // 60), color=(0.15, 0.15, 0.15))
+        if self.antialias:
+            # Super-sampling: VTK with EGL has no FXAA (it falls back to this), and 8x MSAA
+            # changed no pixel here. Measured: 49 frames of 960 x 540 in 8.6 s instead of 5.1 s.
+            p.enable_anti_aliasing("ssaa")
         self.plotter = p
         return self
 
@@ -399,9 +404,11 @@ def _nice_step(x: float) -> float:
 # --------------------------------------------------------------------------- public entry points
 
 
-def render_frame(traj, frame_index: int, width: int = 1280, height: int = 720, camera: str = "frame", colors=None) -> np.ndarray:
-    """Frame ``frame_index`` of ``traj`` as an (H, W, 3) uint8 RGB image (row 0 at the top)."""
-    stage = _Stage(traj, width, height, camera, colors)
+def render_frame(traj, frame_index: int, width: int = 1280, height: int = 720, camera: str = "frame", colors=None,
+                 antialias: bool = True) -> np.ndarray:
+    """Frame ``frame_index`` of ``traj`` as an (H, W, 3) uint8 RGB image (row 0 at the top);
+    ``antialias``: smooth edges by super-sampling (as ``render_video``)."""
+    stage = _Stage(traj, width, height, camera, colors, antialias)
     k = _frame_index(traj, frame_index)
     try:
         return stage.render(*stage.poses_at_frame(k))
@@ -410,7 +417,7 @@ def render_frame(traj, frame_index: int, width: int = 1280, height: int = 720, c
 
 
 def render_video(traj, path, width: int = 1280, height: int = 720, fps: float | None = None, camera: str = "frame",
-                 progress: bool = True, colors=None) -> Path:
+                 progress: bool = True, colors=None, antialias: bool = True) -> Path:
     """Render ``traj`` to ``path`` (``.mp4``: H.264, yuv420p; ``.gif``: looping) and return the path.
 
     Args:
@@ -423,17 +430,19 @@ def render_video(traj, path, width: int = 1280, height: int = 720, fps: float | 
             ``"follow:NAME"`` (keeps body NAME in the middle).
         progress: show a progress bar (tqdm) on stderr.
         colors: per-body colours, see ``body_colors``.
+        antialias: smooth edges (super-sampling; about 1.7x the time of a frame without).
 
     The file is written under a temporary name beside ``path`` and renamed
     into place when complete. A GIF stores frame times in hundredths of a
-    second, so its rate is rounded (24 fps plays at 25); Pillow merges
-    identical consecutive frames into one longer frame.
+    second: its delays mix two values so that it plays at ``fps`` on average
+    (``gif_durations_ms``); Pillow merges identical consecutive frames into one
+    longer frame.
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in VIDEO_SUFFIXES:
         raise InputError(f"video must end in {' or '.join(VIDEO_SUFFIXES)}, got {path.suffix or 'no suffix'!r}", None, str(path))
-    stage = _Stage(traj, width, height, camera, colors)
+    stage = _Stage(traj, width, height, camera, colors, antialias)
     if suffix == ".mp4" and (stage.width % 2 or stage.height % 2):
         raise InputError(f"width and height must be even for .mp4 (yuv420p), got {stage.width}x{stage.height}", None, str(path))
     fps = _check_fps(trajectory_fps(traj) if fps is None else fps)
