@@ -158,6 +158,23 @@ def cmd_validate(args) -> int:
     return EXIT_OK
 
 
+def _energy_worker(sim) -> str | None:
+    """What in the simulator's world adds or takes energy (forces other than gravity and undamped
+    springs, contacts, joints), as words for the run's summary line; None for a conservative world,
+    whose energy change is the integrator's error."""
+    from .forces import Spring
+
+    w = sim.world
+    found = []
+    if any(not (isinstance(f, Spring) and f.damping == 0.0) for f in w.forces):
+        found.append("forces")
+    if getattr(w, "joints", None):
+        found.append("joints")
+    elif sim._contact_on():
+        found.append("contacts")
+    return " and ".join(found) if found else None
+
+
 def _count(n, one, many):
     return f"{n} {one if n == 1 else many}"
 
@@ -311,7 +328,12 @@ def _stream(sim, out: Path, duration, frame_rate, args, info, resume: bool) -> i
           f"in {r['wall_time_s']:.2f} s wall time")
     drift = r["energy_drift_relative"]
     drift_text = "n/a" if drift is None else f"{drift:+.3g}"
-    print(f"energy: {r['energy_initial']:.6g} J -> {r['energy_final']:.6g} J (relative drift {drift_text})")
+    worker = _energy_worker(sim)
+    if worker is None:  # gravity and undamped springs only: the change is the integrator's error
+        print(f"energy: {r['energy_initial']:.6g} J -> {r['energy_final']:.6g} J (relative drift {drift_text})")
+    else:
+        print(f"energy: {r['energy_initial']:.6g} J -> {r['energy_final']:.6g} J (relative change {drift_text}; "
+              f"{worker} in this scene do work, so it is not an error)")
     print(f"wrote {traj_path}, {summary_path}, {out / info['copy']}, {ckpt_path}")
     return EXIT_OK
 
