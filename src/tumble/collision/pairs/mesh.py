@@ -65,8 +65,10 @@ def _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, grow, lo, hi):
 
 
 @njit(**JIT)
-def _on_inactive_feature(tri, px, py, pz, active):
-    """Whether the triangle point p (mesh frame) lies on an inactive edge, or a vertex with both edges inactive."""
+def _barycentric(tri, px, py, pz):
+    """(ok, b1, b2): the barycentric weights of corners 1 and 2 of triangle ``tri`` (3, 3) for the
+    projection of p onto its plane (mesh frame; corner 0's weight is 1 - b1 - b2); ok is False
+    for a degenerate triangle."""
     ux, uy, uz = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
     vx, vy, vz = tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2]
     wx, wy, wz = px - tri[0, 0], py - tri[0, 1], pz - tri[0, 2]
@@ -77,9 +79,18 @@ def _on_inactive_feature(tri, px, py, pz, active):
     d21 = wx * vx + wy * vy + wz * vz
     den = d00 * d11 - d01 * d01
     if den <= 0.0:
-        return False
+        return False, 0.0, 0.0
     b1 = (d11 * d20 - d01 * d21) / den
     b2 = (d00 * d21 - d01 * d20) / den
+    return True, b1, b2
+
+
+@njit(**JIT)
+def _on_inactive_feature(tri, px, py, pz, active):
+    """Whether the triangle point p (mesh frame) lies on an inactive edge, or a vertex with both edges inactive."""
+    ok, b1, b2 = _barycentric(tri, px, py, pz)
+    if not ok:
+        return False
     b0 = 1.0 - b1 - b2
     # edge k runs from corner k to k + 1: it is where the weight of corner k + 2 vanishes
     on0 = b2 < EDGE_WEIGHT
@@ -105,19 +116,9 @@ def _to_mesh(x, y, z, pos_b, rot_b):
 @njit(**JIT)
 def _over_triangle(tri, px, py, pz):
     """Whether p (mesh frame) projects into the triangle (barycentric weights >= -1e-9)."""
-    ux, uy, uz = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
-    vx, vy, vz = tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2]
-    wx, wy, wz = px - tri[0, 0], py - tri[0, 1], pz - tri[0, 2]
-    d00 = ux * ux + uy * uy + uz * uz
-    d01 = ux * vx + uy * vy + uz * vz
-    d11 = vx * vx + vy * vy + vz * vz
-    d20 = wx * ux + wy * uy + wz * uz
-    d21 = wx * vx + wy * vy + wz * vz
-    den = d00 * d11 - d01 * d01
-    if den <= 0.0:
+    ok, b1, b2 = _barycentric(tri, px, py, pz)
+    if not ok:
         return False
-    b1 = (d11 * d20 - d01 * d21) / den
-    b2 = (d00 * d21 - d01 * d20) / den
     return b1 >= -1e-9 and b2 >= -1e-9 and 1.0 - b1 - b2 >= -1e-9
 
 
