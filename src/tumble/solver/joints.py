@@ -78,10 +78,14 @@ from ..math3d import (
 
 # columns of ``axial_impulse`` (J, AXIAL_COUNT): accumulated impulses of the 1-D coordinate
 # rows (spring, motor, lower, upper, equal), then of the second angular coordinate (a ball
-# joint's twist, a universal joint's angle about axis_b: lower, upper limit, motor)
+# joint's twist, a universal joint's angle about axis_b: lower, upper limit, motor), then
+# the anchor impulse (x, y, z world, N s) that the two motor rows add to keep the anchor's
+# velocity (``_solve_axial``'s ``comp``), kept apart from the anchor's own ``linear_impulse``
+# so that the soft anchor row's impulse scale does not relax it (see ``_axial_apply``)
 A_SPRING, A_MOTOR, A_LOWER, A_UPPER, A_EQUAL = 0, 1, 2, 3, 4
 A_LOWER2, A_UPPER2, A_MOTOR2 = 5, 6, 7
-AXIAL_COUNT = 8
+A_MOTOR_ANCHOR = 8
+AXIAL_COUNT = 11
 
 
 @dataclass
@@ -421,15 +425,30 @@ def _second_row(t, j, a, b, R, frame_a, frame_b):
 
 
 @njit(**JIT)
-def _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, impulse):
+def _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, acc, col, impulse):
     """A 1-D coordinate row's impulse, with the anchor impulse ``comp`` per unit that keeps
-    the anchor's velocity (zero for rows without an anchor block)."""
+    the anchor's velocity (zero for rows without an anchor block), accumulated in
+    ``acc[j, col:col + 3]``: the anchor's ``linear_impulse`` (col 0) for springs and
+    limits, ``axial_impulse[:, A_MOTOR_ANCHOR:]`` for motors.
+
+    Why motors apart: the soft anchor row takes ``impulse_scale`` x its accumulated impulse
+    back every biased sweep (Box2D's softness). A motor with unlimited torque put its
+    compensation there each sweep and takes back none of its own impulse (its row has no
+    softness, no clamp), while the warm start applies the motor's full angular impulse
+    about the body's centre: what the anchor relaxed, a force at the anchor arm, spun the
+    body about its centre, and the motor answered with more. A box on a hinge driven at
+    1 rad/s with ``JointSettings()`` reached 1e8 rad/s in two steps of 1/240 s; stable with
+    hertz 0 (impulse scale 0) or a finite torque (measured). Kept apart, motor row and its
+    compensation act as one rigid row about the anchor, warm started whole: the same box
+    holds 1 rad/s to 1.3e-5 rad/s (tests/physics/test_joints_stability.py). Springs and
+    limits have their own softness (gamma, the limit's impulse scale) and clamps and were
+    stable; they stay in ``linear_impulse`` so that their numbers do not change."""
     _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, impulse)
     if comp[0] != 0.0 or comp[1] != 0.0 or comp[2] != 0.0:
         p = _scale(impulse, comp)
         _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, p)
         for k in range(3):
-            linear_impulse[j, k] += p[k]
+            acc[j, col + k] += p[k]
 
 
 @njit(**JIT)
@@ -474,20 +493,21 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
         lim = p[P_MAX_DRIVE] * h
         new = min(max(old + imp, -lim), lim)
         axial_impulse[j, A_SPRING] = new
-        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, new - old)
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0, new - old)
     if p[P_MOTOR_ON] != 0.0:
         cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
         old = axial_impulse[j, A_MOTOR]
         lim = p[P_MAX_MOTOR] * h
         new = min(max(old - m_eff * (cdot - p[P_MOTOR_SPEED]), -lim), lim)
         axial_impulse[j, A_MOTOR] = new
-        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, new - old)
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
+                     new - old)
     if p[P_RIGID] != 0.0:
         cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
         old = axial_impulse[j, A_EQUAL]
         imp = -m_eff * soft[1] * (cdot + soft[0] * (pos - p[P_LOWER])) - soft[2] * old
         axial_impulse[j, A_EQUAL] = old + imp
-        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, imp)
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0, imp)
     elif p[P_LIMIT_ON] != 0.0:
         for side in range(2):
             # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
@@ -506,7 +526,8 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
             old = axial_impulse[j, slot]
             new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
             axial_impulse[j, slot] = new
-            _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, sign * (new - old))
+            _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0,
+                         sign * (new - old))
 
 
 @njit(**JIT)
@@ -561,7 +582,8 @@ def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, i
         lim = p[P_MAX_MOTOR2] * h
         new = min(max(old - m_eff * (cdot - p[P_MOTOR2_SPEED]), -lim), lim)
         axial_impulse[j, A_MOTOR2] = new
-        _axial_apply(v, omega, inv_mass, I_inv, a, b, False, n, ra, rb, comp, j, linear_impulse, new - old)
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, False, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
+                     new - old)
     if p[P_LIMIT2_ON] == 0.0:
         return
     for side in range(2):
@@ -581,7 +603,8 @@ def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, i
         old = axial_impulse[j, slot]
         new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
         axial_impulse[j, slot] = new
-        _axial_apply(v, omega, inv_mass, I_inv, a, b, False, n, ra, rb, comp, j, linear_impulse, sign * (new - old))
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, False, n, ra, rb, comp, j, linear_impulse, 0,
+                     sign * (new - old))
 
 
 @njit(**JIT)
@@ -724,6 +747,10 @@ def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, fra
             ra = _add(ra, _sub(pb, pa))
         _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb,
                       (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2]))
+        motor_anchor = (axial_impulse[j, A_MOTOR_ANCHOR], axial_impulse[j, A_MOTOR_ANCHOR + 1],
+                        axial_impulse[j, A_MOTOR_ANCHOR + 2])
+        if motor_anchor[0] != 0.0 or motor_anchor[1] != 0.0 or motor_anchor[2] != 0.0:
+            _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, motor_anchor)
         _apply_angular(omega, I_inv, a, b, (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2]))
         total = (axial_impulse[j, A_SPRING] + axial_impulse[j, A_MOTOR] + axial_impulse[j, A_LOWER]
                  - axial_impulse[j, A_UPPER] + axial_impulse[j, A_EQUAL])
@@ -874,6 +901,10 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
         axial = (axial_impulse[j, A_SPRING] + axial_impulse[j, A_MOTOR] + axial_impulse[j, A_LOWER]
                  - axial_impulse[j, A_UPPER] + axial_impulse[j, A_EQUAL])
         f = (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2])
+        if axial_impulse[j, A_MOTOR_ANCHOR] != 0.0 or axial_impulse[j, A_MOTOR_ANCHOR + 1] != 0.0 \
+                or axial_impulse[j, A_MOTOR_ANCHOR + 2] != 0.0:
+            f = _add(f, (axial_impulse[j, A_MOTOR_ANCHOR], axial_impulse[j, A_MOTOR_ANCHOR + 1],
+                         axial_impulse[j, A_MOTOR_ANCHOR + 2]))
         tq = (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2])
         if has and linear:
             f = _add(f, _scale(axial, n))
@@ -1004,9 +1035,10 @@ class JointSolver:
     writable between steps, e.g. ``param[j, P_MOTOR_SPEED]``).
 
     State: ``enabled`` (J,) bool (False once broken), ``linear_impulse``, ``angular_impulse``
-    (J, 3) N s and ``axial_impulse`` (J, AXIAL_COUNT = 8) N s or N m s (the coordinate's
+    (J, 3) N s and ``axial_impulse`` (J, AXIAL_COUNT = 11) N s or N m s (the coordinate's
     spring, motor, lower, upper, equal rows; then the second angular coordinate's lower,
-    upper, motor rows: ball twist, universal angle_b), world, accumulated over the last
+    upper, motor rows: ball twist, universal angle_b; then the motors' anchor impulse,
+    (3,) N s world, ``A_MOTOR_ANCHOR``), world, accumulated over the last
     substep, carried to the next for warm starting.
 
     Read after each step (``store``): ``position`` (J,) joint coordinate (hinge angle rad,
@@ -1411,6 +1443,53 @@ def _invert6(A, out):
 
 
 @njit(**JIT)
+def _project_accumulated(j, t, a, b, x, R, local_a, local_b, m, Jb, inv_mass, I_inv, v, omega,
+                         linear_impulse, angular_impulse):
+    """Put joint j's accumulated angular (hinge: 2 rows, universal: 1) and linear (slider: 2
+    rows) impulses back in the span of its current rigid rows (``Jb[j]``, unit directions,
+    orthogonal within a block), and take the part outside it back off the bodies (the warm
+    start of this substep applied it).
+
+    Why: the tree solve adds lambda along the rows of the current pose, which turn with the
+    bodies, so the sum of a rotating direction's impulses leaves a part along the joint's
+    free axes; warm started every substep, that part is a torque (or force) about a free
+    axis that does work. It pumped a floating, spinning ball + universal chain up 5e4 times
+    in energy in 2 s (docs/joints.md). ``_solve_rigid`` (Gauss-Seidel) keeps only the parts
+    along the current rows ((o1 + i1) n) and has no such drift. With 3 rows of a kind
+    (anchor, fixed, slider's angular block) the span is everything: nothing to do."""
+    n_ang = 0
+    n_lin = 0
+    for r in range(m):
+        if Jb[j, r, 0] != 0.0 or Jb[j, r, 1] != 0.0 or Jb[j, r, 2] != 0.0:
+            n_lin += 1
+        else:
+            n_ang += 1
+    if t == JOINT_DISTANCE:
+        return  # its row is accumulated in axial_impulse (a scalar along the current line)
+    if 0 < n_ang < 3:
+        old = (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2])
+        kept = (0.0, 0.0, 0.0)
+        for r in range(n_ang):
+            u = (Jb[j, r, 3], Jb[j, r, 4], Jb[j, r, 5])
+            kept = _add(kept, _scale(_dot(old, u), u))
+        _apply_angular(omega, I_inv, a, b, _sub(kept, old))
+        angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2] = kept
+    if 0 < n_lin < 3:
+        old = (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2])
+        kept = (0.0, 0.0, 0.0)
+        for r in range(n_ang, m):
+            u = (Jb[j, r, 0], Jb[j, r, 1], Jb[j, r, 2])
+            kept = _add(kept, _scale(_dot(old, u), u))
+        ra, pa = _anchor(x, R, a, local_a, j)
+        rb, pb = _anchor(x, R, b, local_b, j)
+        if t == JOINT_SLIDER:
+            ra = _add(ra, _sub(pb, pa))
+        _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, _sub(kept, old))
+        for c in range(3):
+            linear_impulse[j, c] = kept[c]
+
+
+@njit(**JIT)
 def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                       frame_a, frame_b, param, x, R, inv_mass, I_inv, bias_rate,
                       # scratch
@@ -1424,7 +1503,16 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
     ``node_parent[k]`` (-1 for a root). Adds lambda to the joints' accumulated impulses.
     """
     n_nodes = order.shape[0]
-    # rows, diagonal blocks and right-hand sides
+    # the rows at the current pose, and the accumulated impulses put back in their span
+    # (all joints first: the undo changes velocities the right-hand sides read)
+    for k in range(n_nodes):
+        j = node_joint[k]
+        if j >= 0:
+            nrow[j] = _joint_rows(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, frame_a, frame_b,
+                                  param, Ja, Jb, C)
+            _project_accumulated(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, nrow[j], Jb,
+                                 inv_mass, I_inv, v, omega, linear_impulse, angular_impulse)
+    # diagonal blocks and right-hand sides
     for k in range(n_nodes):
         j = node_joint[k]
         for r in range(6):
@@ -1434,8 +1522,7 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
         if j >= 0:
             a = joint_a[j]
             b = joint_b[j]
-            m = _joint_rows(j, joint_type[j], a, b, x, R, local_a, local_b, frame_a, frame_b, param, Ja, Jb, C)
-            nrow[j] = m
+            m = nrow[j]
             for r in range(m, 6):
                 D[k, r, r] = 1.0
             for r in range(m):
