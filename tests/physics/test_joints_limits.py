@@ -352,7 +352,7 @@ def test_universal_joint_limits_hold_when_both_act(name, bound):
 
 def test_universal_joint_motors_drive_both_angles():
     # Compared with the motors' target rates (1 and -2 rad/s), ACCURATE settings (the rigid
-    # rows; see the note in docs/joints.md on motors with Box2D's soft settings). Each
+    # rows; the soft rows are tested in tests/physics/test_joints_stability.py). Each
     # motor holds its rate to within 0.2 % at 0.5 s (measured 0.9988 and -1.999999 rad/s by
     # differencing the angles over one step, 1.0013 in the rate reading): the two motor rows and
     # the joint's rigid rows are coupled through the box's inertia about the anchor and two
