@@ -2,7 +2,7 @@
 joint benchmark, ``benchmarks/ragdolls.py``).
 
 The ragdoll is the one of ``examples/joints/ragdoll_stairs.toml`` (11 bodies: pelvis, torso,
-head, upper and lower arms and legs; ball joints with cone limits at the waist, neck,
+head, upper and lower arms and legs; ball joints with cone and twist limits at the waist, neck,
 shoulders and hips, hinges with angle limits at the elbows and knees). Its moving bodies and
 their joints are read from the TOML file with ``tomllib`` (the fixed bodies, the ground and
 the stairs, are left out, as are the bodies' launch velocities: the ragdolls are dropped from
