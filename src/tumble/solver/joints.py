@@ -456,6 +456,36 @@ def _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, ac
 
 
 @njit(**JIT)
+def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp, m_eff, soft, inv_h,
+                      inv_mass, I_inv, v, omega, linear_impulse, axial_impulse):
+    """The lower and upper limit rows of one joint coordinate (``pos``, rad or m, along row n:
+    linear or angular), accumulated in ``axial_impulse[j, slot0]`` and ``[j, slot0 + 1]``: a
+    one-sided row each, speculative while the limit is apart (the gap may close within this
+    substep, no more), soft once crossed (Box2D v3's revolute and prismatic limits). An infinite
+    bound has no row. Shared by the first coordinate (``_solve_axial``) and the second
+    (``_solve_axial2``: a ball joint's twist, a universal joint's angle about axis_b)."""
+    for side in range(2):
+        # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
+        sign = 1.0 if side == 0 else -1.0
+        bound = lower if side == 0 else upper
+        if math.isinf(bound):
+            continue
+        C = sign * (pos - bound)
+        bias, ms, iscale = 0.0, 1.0, 0.0
+        if C > 0.0:
+            bias = C * inv_h  # speculative: the gap may close within this substep, no more
+        else:
+            bias, ms, iscale = soft[0] * C, soft[1], soft[2]
+        slot = slot0 + side
+        cdot = sign * _row_velocity(v, omega, a, b, linear, n, ra, rb)
+        old = axial_impulse[j, slot]
+        new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
+        axial_impulse[j, slot] = new
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0,
+                     sign * (new - old))
+
+
+@njit(**JIT)
 def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
                  h, inv_h, soft, v, omega, linear_impulse, axial_impulse):
     """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate."""
@@ -515,25 +545,8 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
         axial_impulse[j, A_EQUAL] = old + imp
         _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0, imp)
     elif p[P_LIMIT_ON] != 0.0:
-        for side in range(2):
-            # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
-            sign = 1.0 if side == 0 else -1.0
-            bound = p[P_LOWER] if side == 0 else p[P_UPPER]
-            if math.isinf(bound):
-                continue
-            C = sign * (pos - bound)
-            bias, ms, iscale = 0.0, 1.0, 0.0
-            if C > 0.0:
-                bias = C * inv_h  # speculative: the gap may close within this substep, no more
-            else:
-                bias, ms, iscale = soft[0] * C, soft[1], soft[2]
-            slot = A_LOWER + side
-            cdot = sign * _row_velocity(v, omega, a, b, linear, n, ra, rb)
-            old = axial_impulse[j, slot]
-            new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
-            axial_impulse[j, slot] = new
-            _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0,
-                         sign * (new - old))
+        _solve_limit_rows(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos, a, b, linear, n, ra, rb, comp, m_eff, soft, inv_h,
+                          inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
 
 
 @njit(**JIT)
@@ -592,25 +605,8 @@ def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, i
                      new - old)
     if p[P_LIMIT2_ON] == 0.0:
         return
-    for side in range(2):
-        # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
-        sign = 1.0 if side == 0 else -1.0
-        bound = p[P_LOWER2] if side == 0 else p[P_UPPER2]
-        if math.isinf(bound):
-            continue
-        C = sign * (pos - bound)
-        bias, ms, iscale = 0.0, 1.0, 0.0
-        if C > 0.0:
-            bias = C * inv_h  # speculative: the gap may close within this substep, no more
-        else:
-            bias, ms, iscale = soft[0] * C, soft[1], soft[2]
-        slot = A_LOWER2 + side
-        cdot = sign * _row_velocity(v, omega, a, b, False, n, ra, rb)
-        old = axial_impulse[j, slot]
-        new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
-        axial_impulse[j, slot] = new
-        _axial_apply(v, omega, inv_mass, I_inv, a, b, False, n, ra, rb, comp, j, linear_impulse, 0,
-                     sign * (new - old))
+    _solve_limit_rows(j, A_LOWER2, p[P_LOWER2], p[P_UPPER2], pos, a, b, False, n, ra, rb, comp, m_eff, soft, inv_h,
+                      inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
 
 
 @njit(**JIT)
