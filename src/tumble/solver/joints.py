@@ -724,8 +724,11 @@ def solve_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
             t = joint_type[j]
             _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
                          h, inv_h, soft, v, omega, linear_impulse, axial_impulse)
-            _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h, soft,
-                          v, omega, linear_impulse, axial_impulse)
+            if param[j, P_LIMIT2_ON] != 0.0 or param[j, P_MOTOR2_ON] != 0.0:
+                # PERF: tested here, not only inside: the call itself (some 20 array arguments,
+                # not inlined) cost 25 % of the joint_grid step, whose joints have no such rows
+                _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h,
+                              soft, v, omega, linear_impulse, axial_impulse)
             if gauss_seidel[j]:
                 _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
                              v, omega, linear_impulse, angular_impulse)
