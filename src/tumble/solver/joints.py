@@ -456,6 +456,21 @@ def _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, ac
 
 
 @njit(**JIT)
+def _solve_motor_row(j, slot, speed, max_impulse, m_eff, a, b, linear, n, ra, rb, comp, inv_mass, I_inv,
+                     v, omega, axial_impulse):
+    """A motor on one joint coordinate (row n, linear or angular): drives the row's rate to
+    ``speed`` (m/s or rad/s) with an accumulated impulse ``axial_impulse[j, slot]`` clamped to
+    +-``max_impulse`` (N s or N m s: the force or torque limit times h); its anchor
+    compensation goes to ``axial_impulse[j, A_MOTOR_ANCHOR:]`` (see ``_axial_apply``)."""
+    cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
+    old = axial_impulse[j, slot]
+    new = min(max(old - m_eff * (cdot - speed), -max_impulse), max_impulse)
+    axial_impulse[j, slot] = new
+    _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
+                 new - old)
+
+
+@njit(**JIT)
 def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp, m_eff, soft, inv_h,
                       inv_mass, I_inv, v, omega, linear_impulse, axial_impulse):
     """The lower and upper limit rows of one joint coordinate (``pos``, rad or m, along row n:
@@ -498,19 +513,16 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
         return
     if t == JOINT_UNIVERSAL and p[P_LIMIT_ON] != 0.0:
         pos = _centred_angle(pos, p[P_LOWER], p[P_UPPER])
-    k = _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb)
     # An angular row of a joint that also pins its anchor (hinge angle, ball cone) moves
-    # the bodies about the anchor, not about their centres: solve it with the anchor block,
-    # k_eff = k - c.K^-1 c with c = J_anchor M^-1 J_row^T, and cancel the anchor velocity
-    # it would cause (impulse -K^-1 c per unit). Alone, the row sees only the bodies' own
-    # inertias: a 1 m pendulum's limit was 250x too soft and Gauss-Seidel took hundreds of
-    # sweeps to pass the load to the anchor (I measured a 4 deg overshoot of a hinge limit).
-    couple = (t == JOINT_HINGE or t == JOINT_BALL or t == JOINT_UNIVERSAL) and not linear
-    comp = (0.0, 0.0, 0.0)
-    if couple:
-        c = _scale(-1.0, _add(_cross(rb, _mat_vec(I_inv, b, n)), _cross(ra, _mat_vec(I_inv, a, n))))
-        comp = _scale(-1.0, _solve3(_point_K(inv_mass, I_inv, a, b, ra, rb), c))
-        k += _dot(c, comp)
+    # the bodies about the anchor, not about their centres: solve it with the anchor block
+    # (``_coupled_row_mass``). Alone, the row sees only the bodies' own inertias: a 1 m
+    # pendulum's limit was 250x too soft and Gauss-Seidel took hundreds of sweeps to pass
+    # the load to the anchor (I measured a 4 deg overshoot of a hinge limit).
+    if (t == JOINT_HINGE or t == JOINT_BALL or t == JOINT_UNIVERSAL) and not linear:
+        k, comp = _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb)
+    else:
+        k = _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb)
+        comp = (0.0, 0.0, 0.0)
     if k <= 0.0:
         return
     m_eff = 1.0 / k
@@ -531,13 +543,8 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
         _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
                      new - old)
     if p[P_MOTOR_ON] != 0.0:
-        cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
-        old = axial_impulse[j, A_MOTOR]
-        lim = p[P_MAX_MOTOR] * h
-        new = min(max(old - m_eff * (cdot - p[P_MOTOR_SPEED]), -lim), lim)
-        axial_impulse[j, A_MOTOR] = new
-        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
-                     new - old)
+        _solve_motor_row(j, A_MOTOR, p[P_MOTOR_SPEED], p[P_MAX_MOTOR] * h, m_eff, a, b, linear, n, ra, rb, comp,
+                         inv_mass, I_inv, v, omega, axial_impulse)
     if p[P_RIGID] != 0.0:
         cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
         old = axial_impulse[j, A_EQUAL]
@@ -562,9 +569,10 @@ def _centred_angle(angle, lower, upper):
 
 @njit(**JIT)
 def _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb):
-    """(k_eff, comp) of an angular row about n on a joint that pins its anchor: as in
-    ``_solve_axial``, k_eff = k - c.K^-1 c and comp = -K^-1 c, the anchor impulse per unit
-    row impulse that keeps the anchor's velocity (c = J_anchor M^-1 J_row^T)."""
+    """(k_eff, comp) of an angular row about n on a joint that pins its anchor (both joint
+    coordinates' rows): k_eff = k - c.K^-1 c and comp = -K^-1 c, the anchor impulse per unit
+    row impulse that keeps the anchor's velocity (c = J_anchor M^-1 J_row^T, K the anchor's
+    3x3 block)."""
     k = _row_mass(inv_mass, I_inv, a, b, False, n, ra, rb)
     c = _scale(-1.0, _add(_cross(rb, _mat_vec(I_inv, b, n)), _cross(ra, _mat_vec(I_inv, a, n))))
     comp = _scale(-1.0, _solve3(_point_K(inv_mass, I_inv, a, b, ra, rb), c))
@@ -596,13 +604,8 @@ def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, i
         return
     m_eff = 1.0 / k
     if p[P_MOTOR2_ON] != 0.0:
-        cdot = _row_velocity(v, omega, a, b, False, n, ra, rb)
-        old = axial_impulse[j, A_MOTOR2]
-        lim = p[P_MAX_MOTOR2] * h
-        new = min(max(old - m_eff * (cdot - p[P_MOTOR2_SPEED]), -lim), lim)
-        axial_impulse[j, A_MOTOR2] = new
-        _axial_apply(v, omega, inv_mass, I_inv, a, b, False, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
-                     new - old)
+        _solve_motor_row(j, A_MOTOR2, p[P_MOTOR2_SPEED], p[P_MAX_MOTOR2] * h, m_eff, a, b, False, n, ra, rb, comp,
+                         inv_mass, I_inv, v, omega, axial_impulse)
     if p[P_LIMIT2_ON] == 0.0:
         return
     _solve_limit_rows(j, A_LOWER2, p[P_LOWER2], p[P_UPPER2], pos, a, b, False, n, ra, rb, comp, m_eff, soft, inv_h,
