@@ -212,6 +212,24 @@ def machine() -> dict:
                 tumble_git=head + (" + uncommitted changes in src/" if dirty else ""), numba_threads=threads, **versions)
 
 
+def write_results(out: Path, stem: str, markdown: str, rows: list, info: dict) -> None:
+    """``out/stem.md`` (the report as printed) and ``out/stem.csv``: one line per row, the row's
+    keys in first-seen order then the run's ``info`` (machine, versions, date) on every line."""
+    (out / f"{stem}.md").write_text(markdown)
+    keys = []
+    for r in rows:
+        for k in r:
+            if k not in keys:
+                keys.append(k)
+    keys += [k for k in info if k not in keys]
+    with open(out / f"{stem}.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        for r in rows:
+            w.writerow({**info, **r})
+    print(f"wrote {out / (stem + '.csv')} and .md", flush=True)
+
+
 def md_table(header, rows) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
@@ -407,19 +425,7 @@ def main(argv=None):
     args.out.mkdir(parents=True, exist_ok=True)
     tag = args.tag or (f"{duration:g}s" if args.duration else None)
     stem = f"contact_{scene}" + (f"_{n}" if scene in ("pile", "pyramid") or n != 10 else "") + (f"_{tag}" if tag else "")
-    (args.out / f"{stem}.md").write_text(header + "\n" + text + "\n" + errors + notes + "\n")
-    keys = []
-    for r in rows:
-        for k in r:
-            if k not in keys:
-                keys.append(k)
-    keys += [k for k in info if k not in keys]
-    with open(args.out / f"{stem}.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        for r in rows:
-            w.writerow({**{k: info.get(k) for k in info}, **r})
-    print(f"wrote {args.out / (stem + '.csv')} and .md", flush=True)
+    write_results(args.out, stem, header + "\n" + text + "\n" + errors + notes + "\n", rows, info)
     return 0
 
 

@@ -71,7 +71,6 @@ Prints a Markdown table and writes benchmarks/results/ragdolls[_<n>][_<tag>].csv
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import os
 import sys
@@ -84,8 +83,9 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 sys.path.insert(0, str(HERE))
 
-from contact import machine, md_table
+from contact import machine, md_table, write_results
 from peers.common import fmt, median
+from peers.mujoco_scenes import step_counting_iterations
 
 SAMPLE_INTERVAL = 1.0 / 60.0
 LIMIT_TOLERANCE_DEG = 2.0
@@ -392,12 +392,7 @@ class MujocoRagdolls:
         self._steps = 0
 
     def step(self, k: int):
-        m, d, step = self.model, self.data, self.mj.mj_step
-        niter = d.solver_niter
-        for _ in range(k):
-            step(m, d)
-            ni = d.nisland
-            self._iters += int(niter[:ni].max()) if ni > 1 else int(niter[0])
+        self._iters += step_counting_iterations(self.mj, self.model, self.data, k)
         self._steps += k
 
     def poses(self):
@@ -554,19 +549,7 @@ def main(argv=None):
     default = args.n == 100 and args.duration == 5.0 and args.spacing == 1.0 and tuple(args.heights) == (1.0, 3.0)
     tag = args.tag or (None if default else f"{args.n}_{args.duration:g}s_spacing{args.spacing:g}")
     stem = "ragdolls" + (f"_{tag}" if tag else "")
-    (args.out / f"{stem}.md").write_text(header + "\n" + text + "\n" + notes)
-    keys = []
-    for r in rows:
-        for k in r:
-            if k not in keys:
-                keys.append(k)
-    keys += [k for k in info if k not in keys]
-    with open(args.out / f"{stem}.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        for r in rows:
-            w.writerow({**info, **r})
-    print(f"wrote {args.out / (stem + '.csv')} and .md", flush=True)
+    write_results(args.out, stem, header + "\n" + text + "\n" + notes, rows, info)
     return 0
 
 

@@ -34,6 +34,19 @@ def _f(x) -> str:
     return " ".join(repr(float(v)) for v in np.atleast_1d(x))
 
 
+def step_counting_iterations(mujoco, model, data, k: int) -> int:
+    """``k`` calls of ``mujoco.mj_step``; returns the sum over them of the solver iterations of
+    the island that needed most (islands are on by default: one count per island in
+    ``data.solver_niter[:data.nisland]``)."""
+    step, niter = mujoco.mj_step, data.solver_niter
+    total = 0
+    for _ in range(k):
+        step(model, data)
+        ni = data.nisland
+        total += int(niter[:ni].max()) if ni > 1 else int(niter[0])
+    return total
+
+
 def mjcf(spec: SceneSpec, variant: str = "euler", dt: float = DT) -> str:
     """The MJCF text of the scene for ``variant``."""
     integrator, solver = VARIANTS[variant]
@@ -88,14 +101,7 @@ class MujocoScene:
         self._steps = 0
 
     def step(self, k: int):
-        m, d, step = self.model, self.data, self.mujoco.mj_step
-        niter = d.solver_niter
-        for _ in range(k):
-            step(m, d)
-            # islands are on by default: one count per island (the first len(niter)); keep the
-            # largest, the iterations of the island that needed most
-            ni = d.nisland
-            self._iters += int(niter[:ni].max()) if ni > 1 else int(niter[0])
+        self._iters += step_counting_iterations(self.mujoco, self.model, self.data, k)
         self._steps += k
 
     def state(self):
