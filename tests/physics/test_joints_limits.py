@@ -153,10 +153,10 @@ def test_limit_row_directions_give_the_rates_of_the_angles():
 
 
 # ---------------------------------------------------------------------- ball joint: twist limit
-def spun_box(twist_limit, omega, free=False):
-    """A box (0.1 x 0.2 x 0.3 m, 1 kg) 0.5 m below a ball joint (cone and twist axis z, cone
-    0.5 rad), no gravity, spun at ``omega`` rad/s; twist limits +-0.5 rad or none. ``free``:
-    the joint's other body is a free 2 kg cube above the joint instead of the world."""
+def _spinning_box(omega, free):
+    """(world, other, box): no gravity; a box (0.1 x 0.2 x 0.3 m, 1 kg) centred 0.5 m below the
+    origin, turning at ``omega`` rad/s about the origin (its v = omega x r); ``other`` is "world",
+    or with ``free`` a 2 kg cube of 0.2 m centred 0.3 m above the origin."""
     w = tb.World(gravity=(0.0, 0.0, 0.0))
     other = "world"
     if free:
@@ -164,6 +164,14 @@ def spun_box(twist_limit, omega, free=False):
     b = w.add_body(tb.Box((0.1, 0.2, 0.3)), mass=1.0, position=(0.0, 0.0, -0.5), name="box")
     b.omega = omega
     b.v = tuple(np.cross(omega, (0.0, 0.0, -0.5)))
+    return w, other, b
+
+
+def spun_box(twist_limit, omega, free=False):
+    """A box (0.1 x 0.2 x 0.3 m, 1 kg) 0.5 m below a ball joint (cone and twist axis z, cone
+    0.5 rad), no gravity, spun at ``omega`` rad/s; twist limits +-0.5 rad or none. ``free``:
+    the joint's other body is a free 2 kg cube above the joint instead of the world."""
+    w, other, b = _spinning_box(omega, free)
     lo, hi = (-0.5, 0.5) if twist_limit else (None, None)
     w.add_joint(BallJoint(other, b, anchor=(0, 0, 0), axis=(0, 0, 1), cone_limit=0.5, twist_lower=lo, twist_upper=hi))
     return w
@@ -289,13 +297,7 @@ LIMITS = {"lower": -0.4, "upper": 0.3, "lower_b": -0.2, "upper_b": 0.5}
 def universal_box(omega, limits=True, free=False, **extra):
     """A box (0.1 x 0.2 x 0.3 m, 1 kg) 0.5 m below a universal joint (axis x in the world or
     the free cube above, axis_b y in the box), no gravity, spun at ``omega`` rad/s."""
-    w = tb.World(gravity=(0.0, 0.0, 0.0))
-    other = "world"
-    if free:
-        other = w.add_body(tb.Box((0.2, 0.2, 0.2)), mass=2.0, position=(0.0, 0.0, 0.3), name="top")
-    b = w.add_body(tb.Box((0.1, 0.2, 0.3)), mass=1.0, position=(0.0, 0.0, -0.5), name="box")
-    b.omega = omega
-    b.v = tuple(np.cross(omega, (0.0, 0.0, -0.5)))
+    w, other, b = _spinning_box(omega, free)
     w.add_joint(UniversalJoint(other, b, anchor=(0, 0, 0), axis=(1, 0, 0), axis_b=(0, 1, 0),
                                **(LIMITS if limits else {}), **extra))
     return w
