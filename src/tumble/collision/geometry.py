@@ -118,6 +118,10 @@ class ShapeTable:
     def __post_init__(self):
         if self.shape_data is None:
             self.shape_data = np.zeros((len(self.shape_type), 4), dtype=np.int64)
+        #: every shape is a plane, sphere, capsule or box: ``collide_pairs`` then uses the kernels
+        #: that dispatch to the closed-form routines alone (a smaller compile, narrowphase.py)
+        self.analytic_only = bool(np.all((self.shape_type == SHAPE_PLANE) | (self.shape_type == SHAPE_SPHERE)
+                                         | (self.shape_type == SHAPE_CAPSULE) | (self.shape_type == SHAPE_BOX)))
 
     @property
     def shape_count(self) -> int:

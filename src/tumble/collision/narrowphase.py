@@ -331,8 +331,7 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
     if shape_margin is None:
         shape_margin = np.full(S, float(speculative))
     parallel = total >= PARALLEL_MIN_CANDIDATES
-    if np.all((table.shape_type == SHAPE_PLANE) | (table.shape_type == SHAPE_SPHERE)
-              | (table.shape_type == SHAPE_CAPSULE) | (table.shape_type == SHAPE_BOX)):
+    if table.analytic_only:
         kernel = _collide_analytic_candidates_parallel_kernel if parallel else _collide_analytic_candidates_kernel
     else:
         kernel = _collide_candidates_parallel_kernel if parallel else _collide_candidates_kernel
