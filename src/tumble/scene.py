@@ -497,8 +497,10 @@ class _Parser:
         t = self.table(value, "contact", CONTACT_KEYS)
         kw = {}
         for k, v in t.items():
-            if k == "substeps":
-                kw[k] = self.integer(v, "contact.substeps", 1)
+            if k in ("substeps", "partitions"):
+                kw[k] = self.integer(v, f"contact.{k}", 1)
+            elif k == "partition_min_contacts":
+                kw[k] = self.integer(v, f"contact.{k}", 0)
             elif k in ("contact_hertz", "hertz_cap_per_substep", "speculative_distance"):
                 kw[k] = self.positive(v, f"contact.{k}")
             else:

@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..collision.constants import SPECULATIVE_DISTANCE
 from ..collision.manifold import match_contacts
@@ -59,6 +59,11 @@ class SoftStepSettings:
     restitution_threshold: m/s, see RESTITUTION_THRESHOLD.
     speculative_distance: m, contacts are made this far apart (plus the motion bound of the
         step) and AABBs grown by it (collision.constants.SPECULATIVE_DISTANCE, 0.02).
+    partitions: (2) a step with at least ``partition_min_contacts`` (1024) contact points solves
+        them in this many spatial slabs side by side, then the contacts joining two slabs
+        (``partition_contacts_kernel``): one slab per core. The order of the Gauss-Seidel sweep,
+        and so the bits, follow these two settings, never the number of threads; 1 solves every
+        contact in the narrowphase's order on one thread (as smaller steps always are).
 
     NOTE (why the hertz follows h): a soft contact is a spring of stiffness m omega^2, so a
     stack rests compressed by load / (m omega^2) at each contact: 0.28 mm per box of load at
@@ -79,6 +84,8 @@ class SoftStepSettings:
     contact_speed: float = 3.0
     restitution_threshold: float = RESTITUTION_THRESHOLD
     speculative_distance: float = SPECULATIVE_DISTANCE
+    partitions: int = 2
+    partition_min_contacts: int = 1024
 
 
 def soft_coefficients(hertz: float, zeta: float, h: float):
@@ -171,7 +178,7 @@ def _arms(x, R, a, b, local_a, local_b, c):
 
 
 # ---------------------------------------------------------------------- kernels
-@njit(**JIT)
+@njit(**JIT, parallel=True)
 def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
                             old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
                             body_friction, body_restitution, soft_dynamic, soft_static,
@@ -180,8 +187,9 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
                             tangent_mass, soft, friction, restitution, relative_velocity,
                             normal_impulse, tangent_impulse, max_normal_impulse):
     """Per contact: arms, tangent basis, effective masses, softness, mixed material, the
-    pre-step normal speed (for restitution) and the warm-start impulses carried over by ``match``."""
-    for c in range(body_a.shape[0]):
+    pre-step normal speed (for restitution) and the warm-start impulses carried over by ``match``.
+    Each contact writes only its own rows: the bits do not depend on the threads."""
+    for c in prange(body_a.shape[0]):
         a = body_a[c]
         b = body_b[c]
         n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
@@ -230,45 +238,154 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
             tangent_impulse[c, 1] = 0.0
 
 
-@njit(**JIT)
-def warm_start_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
+@njit(**JIT, inline="always")
+def _warm_start_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
+                        tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b, gap):
+    """Contact c's part of ``warm_start_kernel``."""
+    jn = normal_impulse[c]
+    j1 = tangent_impulse[c, 0]
+    j2 = tangent_impulse[c, 1]
+    p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
+    p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
+    p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
+    if fresh:
+        ra, rb, d = _arms(x, R, body_a[c], body_b[c], local_a, local_b, c)
+        for k in range(3):
+            arm_a[c, k] = ra[k]
+            arm_b[c, k] = rb[k]
+        gap[c] = normal[c, 0] * d[0] + normal[c, 1] * d[1] + normal[c, 2] * d[2]
+    else:
+        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+    _apply_impulse(v, omega, inv_mass, I_inv, body_a[c], body_b[c], ra, rb, p0, p1, p2)
+
+
+@njit(**JIT, parallel=True)
+def warm_start_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
                       tangent_impulse, x, R, inv_mass, I_inv, fresh,
                       # outputs
                       v, omega, arm_a, arm_b, gap):
-    """Apply the accumulated impulses (normal and both friction directions) once.
+    """Apply the accumulated impulses (normal and both friction directions) once, in the order
+    ``order`` (C,) cut by ``bounds`` (P + 2,) as in ``solve_contacts_kernel``.
 
     The arms and n.d of each contact (``_arms``) at the current poses are cached in arm_a,
     arm_b (C, 3) and gap (C,): computed here when ``fresh`` (the first substep), else read from
     the last relax, which ran at the same poses. PERF: the biased solve reads them too, so
     ``_arms`` runs twice per substep instead of four times (same bits).
     """
-    for c in range(body_a.shape[0]):
-        jn = normal_impulse[c]
-        j1 = tangent_impulse[c, 0]
-        j2 = tangent_impulse[c, 1]
-        p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
-        p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
-        p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
-        if fresh:
-            ra, rb, d = _arms(x, R, body_a[c], body_b[c], local_a, local_b, c)
-            for k in range(3):
-                arm_a[c, k] = ra[k]
-                arm_b[c, k] = rb[k]
-            gap[c] = normal[c, 0] * d[0] + normal[c, 1] * d[1] + normal[c, 2] * d[2]
-        else:
-            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
-            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-        _apply_impulse(v, omega, inv_mass, I_inv, body_a[c], body_b[c], ra, rb, p0, p1, p2)
+    parts = bounds.shape[0] - 2
+    if parts > 0:
+        for p in prange(parts):
+            for i in range(bounds[p], bounds[p + 1]):
+                _warm_start_contact(order[i], body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
+                                    normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega,
+                                    arm_a, arm_b, gap)
+    for i in range(bounds[parts], bounds[parts + 1]):
+        _warm_start_contact(order[i], body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
+                            normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega,
+                            arm_a, arm_b, gap)
 
 
-@njit(**JIT)
-def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
+@njit(**JIT, inline="always")  # PERF: a call per contact (LLVM did not inline it) cost 5x, measured
+def _solve_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation, normal_mass,
+                   tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega,
+                   normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed, arm_a,
+                   arm_b, gap):
+    """Contact c's part of ``solve_contacts_kernel``: its normal impulse, then its friction."""
+    a = body_a[c]
+    b = body_b[c]
+    n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+    if use_bias:  # the poses of the warm start: its cached arms
+        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+    else:  # the relax, after the positions moved: new arms, cached for the next warm start
+        ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+        for k in range(3):
+            arm_a[c, k] = ra[k]
+            arm_b[c, k] = rb[k]
+        gap[c] = n0 * d[0] + n1 * d[1] + n2 * d[2]
+    s = separation[c] + gap[c]
+    bias = 0.0
+    mass_scale = 1.0
+    impulse_scale = 0.0
+    if s > 0.0:
+        bias = s * inv_h
+    elif use_bias:
+        bias = max(soft[c, 0] * s, -contact_speed)
+        mass_scale = soft[c, 1]
+        impulse_scale = soft[c, 2]
+    va0, va1, va2 = _point_velocity(v, omega, a, ra)
+    vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+    vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
+    impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
+    new_impulse = max(normal_impulse[c] + impulse, 0.0)
+    if not use_bias and s > 0.0 and new_impulse > normal_impulse[c]:
+        # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
+        # here (the next substep's biased solve sees the gap before any position update)
+        # and it slows a falling body before it lands: the step after has a smaller approach
+        # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
+        # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
+        # takes back push-out here.
+        new_impulse = normal_impulse[c]
+    if new_impulse > 0.0 and vn < relative_velocity[c]:
+        u = -vn
+        w0 = -last_normal_speed[c]
+        if s > 0.0 and w0 > 0.0 and u > w0:
+            accel = (u - w0) * inv_h
+            u = min(math.sqrt(w0 * w0 + 2.0 * accel * s), u)
+        relative_velocity[c] = min(-u, relative_velocity[c])
+    impulse = new_impulse - normal_impulse[c]
+    normal_impulse[c] = new_impulse
+    max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+    if not use_bias:
+        # the normal speed this substep ends with: the next substep's speed before its kick
+        last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
+    _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
+
+    # Coulomb friction: each direction with its own effective mass, then the accumulated
+    # 2-vector clamped to the disc of radius mu * normal impulse (isotropic friction cone)
+    va0, va1, va2 = _point_velocity(v, omega, a, ra)
+    vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+    d0, d1, d2 = vb0 - va0, vb1 - va1, vb2 - va2
+    vt1 = d0 * tangent1[c, 0] + d1 * tangent1[c, 1] + d2 * tangent1[c, 2]
+    vt2 = d0 * tangent2[c, 0] + d1 * tangent2[c, 1] + d2 * tangent2[c, 2]
+    old1 = tangent_impulse[c, 0]
+    old2 = tangent_impulse[c, 1]
+    new1 = old1 - tangent_mass[c, 0] * vt1
+    new2 = old2 - tangent_mass[c, 1] * vt2
+    limit = friction[c] * normal_impulse[c]
+    mag2 = new1 * new1 + new2 * new2
+    if mag2 > limit * limit:
+        scale = limit / math.sqrt(mag2)
+        new1 *= scale
+        new2 *= scale
+    tangent_impulse[c, 0] = new1
+    tangent_impulse[c, 1] = new2
+    j1 = new1 - old1
+    j2 = new2 - old2
+    _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb,
+                   j1 * tangent1[c, 0] + j2 * tangent2[c, 0],
+                   j1 * tangent1[c, 1] + j2 * tangent2[c, 1],
+                   j1 * tangent1[c, 2] + j2 * tangent2[c, 2])
+
+
+@njit(**JIT, parallel=True)  # PERF: the parallel pipeline also drops the inlined body's per-contact refcounts
+def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
                           separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
                           inv_h, contact_speed, use_bias,
                           # outputs
                           v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
                           last_normal_speed, arm_a, arm_b, gap):
     """One Gauss-Seidel sweep: per contact the normal impulse (soft when ``use_bias``), then friction.
+
+    The contacts are taken in the order ``order`` (C,), cut by ``bounds`` (P + 2,) into P
+    partitions, order[bounds[p]:bounds[p + 1]], and the rest, order[bounds[P]:bounds[P + 1]]
+    (``partition_contacts_kernel``). The partitions are swept side by side: no two share a
+    moving body, so each writes only its own bodies' v, omega and its own contacts' rows (fixed
+    bodies are written too, with 0 * impulse: the value read). The rest, contacts that join two
+    partitions, follow on this thread. The order depends on the partitions, never on the
+    threads, so the bits are the same on any number of threads. P = 0 with order = 0..C-1 is
+    the plain sweep in the narrowphase's order.
 
     The separation is followed as the bodies move within the step: s = s0 + n.(d - d0),
     d = (xB + RB lB) - (xA + RA lA), with d0 = 0 since both anchors start at the contact point.
@@ -285,82 +402,19 @@ def solve_contacts_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, l
     from the approach speed w0 before the kick (``last_normal_speed``) and the kick's
     acceleration a = (w1 - w0) / h over the gap: u = sqrt(w0^2 + 2 a s), between w0 and w1.
     """
-    for c in range(body_a.shape[0]):
-        a = body_a[c]
-        b = body_b[c]
-        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
-        if use_bias:  # the poses of the warm start: its cached arms
-            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
-            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-        else:  # the relax, after the positions moved: new arms, cached for the next warm start
-            ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
-            for k in range(3):
-                arm_a[c, k] = ra[k]
-                arm_b[c, k] = rb[k]
-            gap[c] = n0 * d[0] + n1 * d[1] + n2 * d[2]
-        s = separation[c] + gap[c]
-        bias = 0.0
-        mass_scale = 1.0
-        impulse_scale = 0.0
-        if s > 0.0:
-            bias = s * inv_h
-        elif use_bias:
-            bias = max(soft[c, 0] * s, -contact_speed)
-            mass_scale = soft[c, 1]
-            impulse_scale = soft[c, 2]
-        va0, va1, va2 = _point_velocity(v, omega, a, ra)
-        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
-        vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
-        impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
-        new_impulse = max(normal_impulse[c] + impulse, 0.0)
-        if not use_bias and s > 0.0 and new_impulse > normal_impulse[c]:
-            # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
-            # here (the next substep's biased solve sees the gap before any position update)
-            # and it slows a falling body before it lands: the step after has a smaller approach
-            # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
-            # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
-            # takes back push-out here.
-            new_impulse = normal_impulse[c]
-        if new_impulse > 0.0 and vn < relative_velocity[c]:
-            u = -vn
-            w0 = -last_normal_speed[c]
-            if s > 0.0 and w0 > 0.0 and u > w0:
-                accel = (u - w0) * inv_h
-                u = min(math.sqrt(w0 * w0 + 2.0 * accel * s), u)
-            relative_velocity[c] = min(-u, relative_velocity[c])
-        impulse = new_impulse - normal_impulse[c]
-        normal_impulse[c] = new_impulse
-        max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
-        if not use_bias:
-            # the normal speed this substep ends with: the next substep's speed before its kick
-            last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
-        _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
-
-        # Coulomb friction: each direction with its own effective mass, then the accumulated
-        # 2-vector clamped to the disc of radius mu * normal impulse (isotropic friction cone)
-        va0, va1, va2 = _point_velocity(v, omega, a, ra)
-        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
-        d0, d1, d2 = vb0 - va0, vb1 - va1, vb2 - va2
-        vt1 = d0 * tangent1[c, 0] + d1 * tangent1[c, 1] + d2 * tangent1[c, 2]
-        vt2 = d0 * tangent2[c, 0] + d1 * tangent2[c, 1] + d2 * tangent2[c, 2]
-        old1 = tangent_impulse[c, 0]
-        old2 = tangent_impulse[c, 1]
-        new1 = old1 - tangent_mass[c, 0] * vt1
-        new2 = old2 - tangent_mass[c, 1] * vt2
-        limit = friction[c] * normal_impulse[c]
-        mag2 = new1 * new1 + new2 * new2
-        if mag2 > limit * limit:
-            scale = limit / math.sqrt(mag2)
-            new1 *= scale
-            new2 *= scale
-        tangent_impulse[c, 0] = new1
-        tangent_impulse[c, 1] = new2
-        j1 = new1 - old1
-        j2 = new2 - old2
-        _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb,
-                       j1 * tangent1[c, 0] + j2 * tangent2[c, 0],
-                       j1 * tangent1[c, 1] + j2 * tangent2[c, 1],
-                       j1 * tangent1[c, 2] + j2 * tangent2[c, 2])
+    parts = bounds.shape[0] - 2
+    if parts > 0:
+        for p in prange(parts):
+            for i in range(bounds[p], bounds[p + 1]):
+                _solve_contact(order[i], body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation,
+                               normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h,
+                               contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
+                               max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
+    for i in range(bounds[parts], bounds[parts + 1]):
+        _solve_contact(order[i], body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation,
+                       normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed,
+                       use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                       last_normal_speed, arm_a, arm_b, gap)
 
 
 @njit(**JIT)
@@ -402,6 +456,84 @@ def store_impulses_kernel(key, normal_impulse, tangent_impulse, tangent1, tangen
             old_friction_impulse[c, k] = tangent_impulse[c, 0] * tangent1[c, k] + tangent_impulse[c, 1] * tangent2[c, k]
 
 
+@njit(**JIT)
+def partition_contacts_kernel(body_a, body_b, moving, x, parts,
+                              # outputs
+                              body_part, order, bounds):
+    """Split the contacts into ``parts`` partitions that share no moving body, and a seam.
+
+    The moving bodies of the contacts are ranked along the world axis in which their centres
+    x (N, >= 3) m spread most and cut into ``parts`` slabs of equal count; a contact whose moving
+    bodies lie in one slab is that slab's, one joining two slabs is the seam's. ``order`` (C,)
+    lists the contacts slab by slab, then the seam, each in the contacts' own order (a stable
+    counting sort): partition p is order[bounds[p]:bounds[p + 1]], the seam
+    order[bounds[parts]:bounds[parts + 1]]; bounds is (parts + 2,). body_part (N,) int64 is
+    scratch: each body's slab, -1 for bodies that the contacts do not move.
+
+    Box2D v3 spreads its solve over threads by graph colouring (each colour's constraints share
+    no body), with a barrier after each colour; tried here first and dropped: a dozen barriers a
+    sweep cost more than the sweep (docs/benchmarks.md). Slabs need one barrier a sweep, and a
+    large scene has few contacts across a cut (large_pyramid: 1 %).
+    """
+    n_contacts = body_a.shape[0]
+    for i in range(body_part.shape[0]):
+        body_part[i] = -1
+    count = 0
+    for c in range(n_contacts):
+        a = body_a[c]
+        b = body_b[c]
+        if moving[a] and body_part[a] < 0:
+            body_part[a] = 0
+            count += 1
+        if moving[b] and body_part[b] < 0:
+            body_part[b] = 0
+            count += 1
+    ids = np.empty(count, dtype=np.int64)
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    k = 0
+    for i in range(body_part.shape[0]):
+        if body_part[i] == 0:
+            ids[k] = i
+            k += 1
+            for d in range(3):
+                lo[d] = min(lo[d], x[i, d])
+                hi[d] = max(hi[d], x[i, d])
+    axis = 0
+    for d in range(1, 3):
+        if hi[d] - lo[d] > hi[axis] - lo[axis]:
+            axis = d
+    coord = np.empty(count)
+    for k in range(count):
+        coord[k] = x[ids[k], axis]
+    rank = np.argsort(coord, kind="mergesort")
+    for r in range(count):
+        body_part[ids[rank[r]]] = r * parts // count
+    # stable counting sort of the contacts by group: slab 0 .. parts - 1, then the seam (parts)
+    group_count = np.zeros(parts + 1, dtype=np.int64)
+    for c in range(n_contacts):
+        group_count[_contact_group(body_part[body_a[c]], body_part[body_b[c]], parts)] += 1
+    bounds[0] = 0
+    for g in range(parts + 1):
+        bounds[g + 1] = bounds[g] + group_count[g]
+    cursor = bounds[:parts + 1].copy()
+    for c in range(n_contacts):
+        g = _contact_group(body_part[body_a[c]], body_part[body_b[c]], parts)
+        order[cursor[g]] = c
+        cursor[g] += 1
+
+
+@njit(**JIT)
+def _contact_group(part_a, part_b, parts):
+    """The partition of a contact between bodies in slabs part_a, part_b (-1: not moved), or
+    ``parts`` (the seam) when they differ or neither body moves."""
+    if part_a < 0:
+        return part_b if part_b >= 0 else parts
+    if part_b < 0 or part_b == part_a:
+        return part_a
+    return parts
+
+
 # ---------------------------------------------------------------------- the solver object
 _C_FLOAT = {
     "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "tangent1": (3,), "tangent2": (3,),
@@ -433,6 +565,10 @@ class ContactSolver:
         self.old_key = np.zeros(0, dtype=np.int64)
         self.contacts = None
         self._material_bodies = -1
+        self.partitioned = False  # this step's contacts solved in slabs (partition_contacts_kernel)
+        self.order = np.zeros(0, dtype=np.int64)  # (C,) the sweeps' order; bounds (P + 2,) its partitions
+        self.bounds = np.zeros(2, dtype=np.int64)
+        self._body_part = np.zeros(0, dtype=np.int64)
 
     def _reserve(self, n: int):
         cap = max(self._capacity, 1)
@@ -497,24 +633,44 @@ class ContactSolver:
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
+        self._partition(world, contacts, n)
+
+    def _partition(self, world, contacts, n: int):
+        """The order of this step's sweeps: slabs and a seam when the step has at least
+        ``partition_min_contacts`` contacts, else the narrowphase's order (``self.bounds`` [0, n])."""
+        st = self.settings
+        parts = int(st.partitions)
+        self.partitioned = parts > 1 and n >= st.partition_min_contacts
+        if len(self.order) < n:
+            self.order = np.arange(2 * n, dtype=np.int64)
+        if not self.partitioned:
+            self.order[:n] = np.arange(n)
+            self.bounds = np.array([0, n], dtype=np.int64)
+            return
+        if len(self._body_part) != world.body_count:
+            self._body_part = np.zeros(world.body_count, dtype=np.int64)
+        if len(self.bounds) != parts + 2:
+            self.bounds = np.zeros(parts + 2, dtype=np.int64)
+        partition_contacts_kernel(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, parts,
+                                  self._body_part, self.order[:n], self.bounds)
 
     def warm_start(self, fresh: bool = True):
         """Apply the accumulated impulses; ``fresh=False`` when the poses are those of the last
         relax (the substeps after the first), whose cached arms are then used."""
         c = self.contacts
-        warm_start_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
-                          self.local_a, self.local_b, self.normal_impulse, self.tangent_impulse,
-                          self.x, self.R, self.world.inv_mass, self.I_inv, bool(fresh), self.v, self.omega,
-                          self.arm_a, self.arm_b, self.gap)
+        warm_start_kernel(self.order[:self.count], self.bounds, c.contact_body_a, c.contact_body_b, c.contact_normal,
+                          self.tangent1, self.tangent2, self.local_a, self.local_b, self.normal_impulse,
+                          self.tangent_impulse, self.x, self.R, self.world.inv_mass, self.I_inv, bool(fresh), self.v,
+                          self.omega, self.arm_a, self.arm_b, self.gap)
 
     def solve_contacts(self, use_bias: bool):
         c = self.contacts
         w = self.world
-        solve_contacts_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
-                              self.local_a, self.local_b, c.contact_separation,
-                              self.normal_mass, self.tangent_mass, self.soft, self.friction, self.x, self.R,
-                              w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed, bool(use_bias),
-                              self.v, self.omega, self.normal_impulse, self.tangent_impulse,
+        solve_contacts_kernel(self.order[:self.count], self.bounds, c.contact_body_a, c.contact_body_b,
+                              c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
+                              c.contact_separation, self.normal_mass, self.tangent_mass, self.soft, self.friction,
+                              self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed,
+                              bool(use_bias), self.v, self.omega, self.normal_impulse, self.tangent_impulse,
                               self.max_normal_impulse, self.relative_velocity, self.last_normal_speed,
                               self.arm_a, self.arm_b, self.gap)
 
