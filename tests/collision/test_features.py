@@ -123,3 +123,20 @@ def test_match_contacts():
     new = np.array([7, 1, 5, 10, 2], dtype=np.int64)
     assert match_contacts(old, new).tolist() == [3, -1, 0, -1, 2]
     assert match_contacts([], new).tolist() == [-1] * 5
+
+
+def test_match_contacts_equals_a_dictionary_on_many_keys():
+    # keys shaped as contact keys ((a << 42) | (b << 21) | feature), old and new overlapping in part
+    # and in another order (the hashed path; the in-place path needs the same rows): compared
+    # with a Python dict, key by key
+    rng = np.random.default_rng(3)
+    a = rng.integers(0, 5000, size=30000)
+    b = a + rng.integers(1, 40, size=30000)
+    f = rng.integers(0, 1 << 20, size=30000)
+    keys = np.unique((a << 42) | (b << 21) | f)
+    rng.shuffle(keys)
+    old, new = keys[:20000], np.concatenate([keys[10000:25000], keys[:100]])
+    rng.shuffle(new)
+    row = {int(k): i for i, k in enumerate(old)}
+    expect = [row.get(int(k), -1) for k in new]
+    assert match_contacts(old, new).tolist() == expect

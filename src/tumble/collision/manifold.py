@@ -130,13 +130,44 @@ def match_contacts(old_key, new_key) -> np.ndarray:
     # every key sits in the same row as last step and no sort is needed.
     if _match_in_place_kernel(old_key, new_key, out):
         return out
-    order = np.argsort(old_key, kind="stable")
-    sorted_keys = old_key[order]
-    pos = np.searchsorted(sorted_keys, new_key)
-    pos_c = np.minimum(pos, len(sorted_keys) - 1)
-    hit = sorted_keys[pos_c] == new_key
-    out[hit] = order[pos_c[hit]]
+    # PERF: a hash table of the old keys, O(C); an argsort and searchsorted took 3.5 ms a step
+    # of the large pyramid (60 000 contacts), this 0.5 ms. Same map (keys are unique).
+    size = 1
+    while size < 2 * len(old_key):
+        size *= 2
+    _match_hashed_kernel(old_key, new_key, np.full(size, -1, dtype=np.int64), out)
     return out
+
+
+@njit(**JIT)
+def _key_hash(key, mask):
+    """Slot of ``key`` in a table of mask + 1 slots: the key's bits mixed (splitmix64's finaliser)."""
+    z = np.uint64(key)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    z = z ^ (z >> np.uint64(31))
+    return np.int64(z & np.uint64(mask))
+
+
+@njit(**JIT)
+def _match_hashed_kernel(old_key, new_key, table, out):
+    """out[c] = the row of old_key equal to new_key[c], or -1, through ``table`` (a power of two
+    of slots, all -1, at least twice the old keys: open addressing, linear probing)."""
+    mask = table.shape[0] - 1
+    for i in range(old_key.shape[0]):
+        h = _key_hash(old_key[i], mask)
+        while table[h] >= 0:
+            h = (h + 1) & mask
+        table[h] = i
+    for c in range(new_key.shape[0]):
+        key = new_key[c]
+        h = _key_hash(key, mask)
+        out[c] = -1
+        while table[h] >= 0:
+            if old_key[table[h]] == key:
+                out[c] = table[h]
+                break
+            h = (h + 1) & mask
 
 
 @njit(**JIT)
