@@ -286,87 +286,146 @@ def warm_start_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2,
                             arm_a, arm_b, gap)
 
 
-@njit(**JIT, inline="always")  # PERF: a call per contact (LLVM did not inline it) cost 5x, measured
-def _solve_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation, normal_mass,
-                   tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega,
-                   normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed, arm_a,
-                   arm_b, gap):
-    """Contact c's part of ``solve_contacts_kernel``: its normal impulse, then its friction."""
-    a = body_a[c]
-    b = body_b[c]
-    n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
-    if use_bias:  # the poses of the warm start: its cached arms
-        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
-        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-    else:  # the relax, after the positions moved: new arms, cached for the next warm start
-        ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
-        for k in range(3):
-            arm_a[c, k] = ra[k]
-            arm_b[c, k] = rb[k]
-        gap[c] = n0 * d[0] + n1 * d[1] + n2 * d[2]
-    s = separation[c] + gap[c]
-    bias = 0.0
-    mass_scale = 1.0
-    impulse_scale = 0.0
-    if s > 0.0:
-        bias = s * inv_h
-    elif use_bias:
-        bias = max(soft[c, 0] * s, -contact_speed)
-        mass_scale = soft[c, 1]
-        impulse_scale = soft[c, 2]
-    va0, va1, va2 = _point_velocity(v, omega, a, ra)
-    vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
-    vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
-    impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
-    new_impulse = max(normal_impulse[c] + impulse, 0.0)
-    if not use_bias and s > 0.0 and new_impulse > normal_impulse[c]:
-        # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
-        # here (the next substep's biased solve sees the gap before any position update)
-        # and it slows a falling body before it lands: the step after has a smaller approach
-        # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
-        # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
-        # takes back push-out here.
-        new_impulse = normal_impulse[c]
-    if new_impulse > 0.0 and vn < relative_velocity[c]:
-        u = -vn
-        w0 = -last_normal_speed[c]
-        if s > 0.0 and w0 > 0.0 and u > w0:
-            accel = (u - w0) * inv_h
-            u = min(math.sqrt(w0 * w0 + 2.0 * accel * s), u)
-        relative_velocity[c] = min(-u, relative_velocity[c])
-    impulse = new_impulse - normal_impulse[c]
-    normal_impulse[c] = new_impulse
-    max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
-    if not use_bias:
-        # the normal speed this substep ends with: the next substep's speed before its kick
-        last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
-    _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
+@njit(**JIT, inline="always")
+def _load_body(v, omega, I_inv, i):
+    """Body i's v (3 floats), omega (3) and world I^-1 (9, row by row), into registers."""
+    return ((v[i, 0], v[i, 1], v[i, 2]), (omega[i, 0], omega[i, 1], omega[i, 2]),
+            (I_inv[i, 0, 0], I_inv[i, 0, 1], I_inv[i, 0, 2], I_inv[i, 1, 0], I_inv[i, 1, 1], I_inv[i, 1, 2],
+             I_inv[i, 2, 0], I_inv[i, 2, 1], I_inv[i, 2, 2]))
 
-    # Coulomb friction: each direction with its own effective mass, then the accumulated
-    # 2-vector clamped to the disc of radius mu * normal impulse (isotropic friction cone)
-    va0, va1, va2 = _point_velocity(v, omega, a, ra)
-    vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
-    d0, d1, d2 = vb0 - va0, vb1 - va1, vb2 - va2
-    vt1 = d0 * tangent1[c, 0] + d1 * tangent1[c, 1] + d2 * tangent1[c, 2]
-    vt2 = d0 * tangent2[c, 0] + d1 * tangent2[c, 1] + d2 * tangent2[c, 2]
-    old1 = tangent_impulse[c, 0]
-    old2 = tangent_impulse[c, 1]
-    new1 = old1 - tangent_mass[c, 0] * vt1
-    new2 = old2 - tangent_mass[c, 1] * vt2
-    limit = friction[c] * normal_impulse[c]
-    mag2 = new1 * new1 + new2 * new2
-    if mag2 > limit * limit:
-        scale = limit / math.sqrt(mag2)
-        new1 *= scale
-        new2 *= scale
-    tangent_impulse[c, 0] = new1
-    tangent_impulse[c, 1] = new2
-    j1 = new1 - old1
-    j2 = new2 - old2
-    _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb,
-                   j1 * tangent1[c, 0] + j2 * tangent2[c, 0],
-                   j1 * tangent1[c, 1] + j2 * tangent2[c, 1],
-                   j1 * tangent1[c, 2] + j2 * tangent2[c, 2])
+
+@njit(**JIT, inline="always")
+def _store_body(v, omega, i, vi, wi):
+    v[i, 0], v[i, 1], v[i, 2] = vi
+    omega[i, 0], omega[i, 1], omega[i, 2] = wi
+
+
+@njit(**JIT, inline="always")
+def _velocity_at(vi, wi, r):
+    """Velocity (3 floats) of the point at arm r of a body moving with vi, wi: vi + wi x r."""
+    c0, c1, c2 = _cross(wi[0], wi[1], wi[2], r[0], r[1], r[2])
+    return vi[0] + c0, vi[1] + c1, vi[2] + c2
+
+
+@njit(**JIT, inline="always")
+def _impulse_on(inv_m, Ii, r, vi, wi, sign, p0, p1, p2):
+    """vi, wi after the impulse sign * P at arm r (sign +-1: the same bits as ``_apply_impulse``)."""
+    vi = (vi[0] + sign * (inv_m * p0), vi[1] + sign * (inv_m * p1), vi[2] + sign * (inv_m * p2))
+    c0, c1, c2 = _cross(r[0], r[1], r[2], p0, p1, p2)
+    wi = (wi[0] + sign * (Ii[0] * c0 + Ii[1] * c1 + Ii[2] * c2),
+          wi[1] + sign * (Ii[3] * c0 + Ii[4] * c1 + Ii[5] * c2),
+          wi[2] + sign * (Ii[6] * c0 + Ii[7] * c1 + Ii[8] * c2))
+    return vi, wi
+
+
+@njit(**JIT)
+def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation,
+                         normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed,
+                         use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                         last_normal_speed, arm_a, arm_b, gap):
+    """Contacts order[lo:hi] of ``solve_contacts_kernel``, each its normal impulse, then its friction.
+
+    PERF: the velocities of the two bodies stay in registers while consecutive contacts join the
+    same pair (the points of a manifold): 14 % faster than reading and writing v, omega per
+    impulse (large pyramid, measured), with the same arithmetic in the same order (same bits).
+    """
+    cached_a = -1
+    cached_b = -1
+    va = wa = vb = wb = (0.0, 0.0, 0.0)
+    Ia = Ib = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    ma = mb = 0.0
+    for i in range(lo, hi):
+        c = order[i]
+        a = body_a[c]
+        b = body_b[c]
+        if a != cached_a or b != cached_b:  # a new pair: store the last pair's velocities, load this one's
+            if cached_a >= 0:
+                _store_body(v, omega, cached_a, va, wa)
+                _store_body(v, omega, cached_b, vb, wb)
+            cached_a = a
+            cached_b = b
+            va, wa, Ia = _load_body(v, omega, I_inv, a)
+            vb, wb, Ib = _load_body(v, omega, I_inv, b)
+            ma = inv_mass[a]
+            mb = inv_mass[b]
+        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+        if use_bias:  # the poses of the warm start: its cached arms
+            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+        else:  # the relax, after the positions moved: new arms, cached for the next warm start
+            ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+            for k in range(3):
+                arm_a[c, k] = ra[k]
+                arm_b[c, k] = rb[k]
+            gap[c] = n0 * d[0] + n1 * d[1] + n2 * d[2]
+        s = separation[c] + gap[c]
+        bias = 0.0
+        mass_scale = 1.0
+        impulse_scale = 0.0
+        if s > 0.0:
+            bias = s * inv_h
+        elif use_bias:
+            bias = max(soft[c, 0] * s, -contact_speed)
+            mass_scale = soft[c, 1]
+            impulse_scale = soft[c, 2]
+        pa0, pa1, pa2 = _velocity_at(va, wa, ra)
+        pb0, pb1, pb2 = _velocity_at(vb, wb, rb)
+        vn = n0 * (pb0 - pa0) + n1 * (pb1 - pa1) + n2 * (pb2 - pa2)
+        impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
+        new_impulse = max(normal_impulse[c] + impulse, 0.0)
+        if not use_bias and s > 0.0 and new_impulse > normal_impulse[c]:
+            # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
+            # here (the next substep's biased solve sees the gap before any position update)
+            # and it slows a falling body before it lands: the step after has a smaller approach
+            # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
+            # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
+            # takes back push-out here.
+            new_impulse = normal_impulse[c]
+        if new_impulse > 0.0 and vn < relative_velocity[c]:
+            u = -vn
+            w0 = -last_normal_speed[c]
+            if s > 0.0 and w0 > 0.0 and u > w0:
+                accel = (u - w0) * inv_h
+                u = min(math.sqrt(w0 * w0 + 2.0 * accel * s), u)
+            relative_velocity[c] = min(-u, relative_velocity[c])
+        impulse = new_impulse - normal_impulse[c]
+        normal_impulse[c] = new_impulse
+        max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+        if not use_bias:
+            # the normal speed this substep ends with: the next substep's speed before its kick
+            last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
+        va, wa = _impulse_on(ma, Ia, ra, va, wa, -1.0, impulse * n0, impulse * n1, impulse * n2)
+        vb, wb = _impulse_on(mb, Ib, rb, vb, wb, 1.0, impulse * n0, impulse * n1, impulse * n2)
+
+        # Coulomb friction: each direction with its own effective mass, then the accumulated
+        # 2-vector clamped to the disc of radius mu * normal impulse (isotropic friction cone)
+        pa0, pa1, pa2 = _velocity_at(va, wa, ra)
+        pb0, pb1, pb2 = _velocity_at(vb, wb, rb)
+        d0, d1, d2 = pb0 - pa0, pb1 - pa1, pb2 - pa2
+        vt1 = d0 * tangent1[c, 0] + d1 * tangent1[c, 1] + d2 * tangent1[c, 2]
+        vt2 = d0 * tangent2[c, 0] + d1 * tangent2[c, 1] + d2 * tangent2[c, 2]
+        old1 = tangent_impulse[c, 0]
+        old2 = tangent_impulse[c, 1]
+        new1 = old1 - tangent_mass[c, 0] * vt1
+        new2 = old2 - tangent_mass[c, 1] * vt2
+        limit = friction[c] * normal_impulse[c]
+        mag2 = new1 * new1 + new2 * new2
+        if mag2 > limit * limit:
+            scale = limit / math.sqrt(mag2)
+            new1 *= scale
+            new2 *= scale
+        tangent_impulse[c, 0] = new1
+        tangent_impulse[c, 1] = new2
+        j1 = new1 - old1
+        j2 = new2 - old2
+        p0 = j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
+        p1 = j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
+        p2 = j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
+        va, wa = _impulse_on(ma, Ia, ra, va, wa, -1.0, p0, p1, p2)
+        vb, wb = _impulse_on(mb, Ib, rb, vb, wb, 1.0, p0, p1, p2)
+    if cached_a >= 0:
+        _store_body(v, omega, cached_a, va, wa)
+        _store_body(v, omega, cached_b, vb, wb)
 
 
 @njit(**JIT, parallel=True)  # PERF: the parallel pipeline also drops the inlined body's per-contact refcounts
@@ -405,16 +464,14 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
     parts = bounds.shape[0] - 2
     if parts > 0:
         for p in prange(parts):
-            for i in range(bounds[p], bounds[p + 1]):
-                _solve_contact(order[i], body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation,
-                               normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h,
-                               contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
-                               max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
-    for i in range(bounds[parts], bounds[parts + 1]):
-        _solve_contact(order[i], body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation,
-                       normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed,
-                       use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
-                       last_normal_speed, arm_a, arm_b, gap)
+            _solve_contact_range(bounds[p], bounds[p + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
+                                 local_b, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass,
+                                 I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
+                                 max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
+    _solve_contact_range(bounds[parts], bounds[parts + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
+                         local_b, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h,
+                         contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse,
+                         relative_velocity, last_normal_speed, arm_a, arm_b, gap)
 
 
 @njit(**JIT)
