@@ -13,7 +13,7 @@ from ..math3d import JIT
 from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
                       SHAPE_SPHERE)
 from .manifold import KEY_BITS, ContactManifolds
-from .pairs.box import collide_box_box, collide_capsule_box, collide_plane_box, collide_sphere_box
+from .pairs.box import BOX_WORK_ROWS, box_box_contact, collide_capsule_box, collide_plane_box, collide_sphere_box
 from .pairs.capsule import collide_capsule_capsule, collide_plane_capsule, collide_sphere_capsule
 from .pairs.convex import collide_convex_pair
 from .pairs.plane import collide_plane_convex_shape
@@ -29,7 +29,7 @@ def is_analytic_shape(t):
 
 @njit(**JIT)
 def collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
-                          normal, point, separation, feature):
+                          normal, point, separation, feature, work):
     """Dispatch one pair of plane, sphere, capsule and box shapes (``ta <= tb`` in SHAPE_* order) to
     its closed-form ``collide_<a>_<b>``; 0 for plane-plane.
 
@@ -37,6 +37,7 @@ def collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b
     routines (``collide_pairs`` picks the analytic kernels): the GJK/EPA, hull and mesh routines
     are most of the narrowphase's compile time (measured cold: 108 s for the first step of a
     box and a sphere on a plane with every routine, of which ~45 s mesh and convex).
+    ``work``: a (PAIR_WORK_ROWS, 3) scratch for the routines' intermediate polygons.
     """
     if ta == SHAPE_PLANE:
         if tb == SHAPE_SPHERE:
@@ -69,22 +70,22 @@ def collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b
                                        separation, feature)
         return 0
     if ta == SHAPE_BOX and tb == SHAPE_BOX:
-        return collide_box_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
-                               separation, feature)
+        return box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
+                               separation, feature, work)
     return 0
 
 
 @njit(**JIT)
 def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                   normal, point, separation, feature):
+                   normal, point, separation, feature, work):
     """Dispatch one pair with ``ta <= tb`` in SHAPE_* order to its ``collide_<a>_<b>``; 0 for pairs without a routine.
 
     ``geometry`` is ``ShapeTable.geometry`` (hull and mesh arrays) and a, b the shape rows
-    (only the convex and mesh routines read them).
+    (only the convex and mesh routines read them); ``work`` a (PAIR_WORK_ROWS, 3) scratch.
     """
     if is_analytic_shape(ta) and is_analytic_shape(tb):
         return collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
-                                     point, separation, feature)
+                                     point, separation, feature, work)
     if tb == SHAPE_MESH:
         if ta == SHAPE_PLANE or ta == SHAPE_MESH:
             return 0  # both fixed
@@ -105,6 +106,7 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
 
 
 CHUNK = 64  # candidate pairs per parallel task
+PAIR_WORK_ROWS = BOX_WORK_ROWS  # rows of the (R, 3) scratch each task lends its pair routines
 _NO_PAIRS = np.zeros(0, dtype=np.int64)
 PARALLEL_MIN_CANDIDATES = 1024  # fewer candidate pairs are collided on one thread
 
@@ -163,7 +165,7 @@ def _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_par
 def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                        shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
                        # outputs
-                       out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+                       out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work):
     """Candidate k with every shape routine (``collide_shapes``): row k gets the pair, its point
     count (0: no contact) and its points."""
     a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
@@ -172,14 +174,14 @@ def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_
     if a >= 0:
         out_count[k] = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
                                       shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry,
-                                      a, b, out_normal[k], out_point[k], out_separation[k], out_feature[k])
+                                      a, b, out_normal[k], out_point[k], out_separation[k], out_feature[k], work)
 
 
 @njit(**JIT)
 def _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
                                 shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
                                 # outputs
-                                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+                                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work):
     """``_collide_candidate`` for worlds of plane, sphere, capsule and box shapes only
     (``collide_analytic_pair``: the same routines, so the same bits)."""
     a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
@@ -189,7 +191,7 @@ def _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_bod
         out_count[k] = collide_analytic_pair(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a],
                                              shape_params[a], shape_pos[b], shape_rot[b], shape_params[b],
                                              pair_speculative, out_normal[k], out_point[k], out_separation[k],
-                                             out_feature[k])
+                                             out_feature[k], work)
 
 
 # Four kernels: every routine or the analytic ones only (a smaller compile), each on all threads
@@ -205,10 +207,11 @@ def _collide_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shap
     total = out_count.shape[0]
     n_chunks = (total + CHUNK - 1) // CHUNK
     for chunk in prange(n_chunks):
+        work = np.empty((PAIR_WORK_ROWS, 3))  # one scratch per task, lent to its pairs
         for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
             _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                                shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
-                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature)
+                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work)
 
 
 @njit(**JIT)
@@ -218,10 +221,11 @@ def _collide_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, s
                                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
     """Every candidate, on this thread (small worlds: the threads' start-up cost more than the
     pairs; measured 15 ms a step for 5 balls on a busy machine)."""
+    work = np.empty((PAIR_WORK_ROWS, 3))
     for k in range(out_count.shape[0]):
         _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                            shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
-                           out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature)
+                           out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work)
 
 
 @njit(**JIT, parallel=True)
@@ -235,11 +239,12 @@ def _collide_analytic_candidates_parallel_kernel(pair_a, pair_b, planes, shape_t
     total = out_count.shape[0]
     n_chunks = (total + CHUNK - 1) // CHUNK
     for chunk in prange(n_chunks):
+        work = np.empty((PAIR_WORK_ROWS, 3))
         for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
             _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
                                         shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
                                         excluded, out_a, out_b, out_count, out_normal, out_point, out_separation,
-                                        out_feature)
+                                        out_feature, work)
 
 
 @njit(**JIT)
@@ -249,11 +254,12 @@ def _collide_analytic_candidates_kernel(pair_a, pair_b, planes, shape_type, shap
                                         # outputs
                                         out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
     """``_collide_candidates_kernel`` with the analytic routines only."""
+    work = np.empty((PAIR_WORK_ROWS, 3))
     for k in range(out_count.shape[0]):
         _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
                                     shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
                                     excluded, out_a, out_b, out_count, out_normal, out_point, out_separation,
-                                    out_feature)
+                                    out_feature, work)
 
 
 @njit(**JIT)
