@@ -179,8 +179,6 @@ def compile_probe(integrators=TUMBLE_INTEGRATORS):
         warm = statistics.median(warm)
         out["rows"].append(dict(integrator=integ, first_s=first, warm_s=warm, compile_s=first - warm,
                                 cache_hits=h1 - h0, cache_misses=m1 - m0))
-    from tumble import integrators as K
-
     out["cache_path"] = str(_dispatchers()[0].stats.cache_path) if _dispatchers() else ""
     return out
 
