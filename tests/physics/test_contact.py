@@ -287,8 +287,8 @@ def pile_after_4_s():
 @pytest.mark.slow
 def test_pile_of_1000_boxes_has_no_penetration_over_5_mm_at_4_s(pile_after_4_s):
     """Issue: after 4 s the pile has no penetration over 5 mm: no box corner 5 mm below the ground,
-    no two boxes overlapping 5 mm (separating-axis depth). Measured at the default step: 0.13 mm
-    and 0.65 mm. (At Box3D's coarser step, dt 1/60 s, the box-box overlap is 7-11 mm: soft contacts
+    no two boxes overlapping 5 mm (separating-axis depth). Measured at the default step: 0.17 mm
+    and 0.62 mm. (At Box3D's coarser step, dt 1/60 s, the box-box overlap is 7-11 mm: soft contacts
     of 30 Hz compress under the weight above them, 0.28 mm per box of load; docs/contact.md.)"""
     from tumble.scenes.contact import box_corners, max_box_overlap
 
@@ -305,8 +305,8 @@ def test_pile_of_1000_boxes_has_no_penetration_over_5_mm_at_4_s(pile_after_4_s):
 def test_pile_of_1000_boxes_is_at_rest_within_its_region_at_4_s(pile_after_4_s):
     """Issue: after 4 s no body faster than 1 cm/s and none outside the pile's region (the start's
     bounding box grown by 2 m, BENCHMARKS.md's "left region"). NOT MET, and not met by PyBullet or
-    MuJoCo either. Measured at 4 s (default step): 22 boxes above 1 cm/s (the fastest 1.06 m/s,
-    on the flank: all below 1 cm/s by 4.5 s with sleeping off), 2 boxes out (0.82 m past the margin).
+    MuJoCo either. Measured at 4 s (default step): 14 boxes above 1 cm/s (the fastest 1.42 m/s,
+    on the flank; at 4.5 s 2, the fastest 2.8 cm/s), 3 boxes out (1.67 m past the margin).
 
     Why: the 10 x 10 x 10 grid lands as 100 columns of tilted cubes, a block 2 m tall and 3.6 m
     wide, which then collapses like a granular column (side views in docs/contact.md). Collapse
@@ -316,11 +316,11 @@ def test_pile_of_1000_boxes_is_at_rest_within_its_region_at_4_s(pile_after_4_s):
     energy never rises (tests/test_examples_contact.py::test_pile_only_loses_energy_and_nothing_sinks);
     the boxes out are the tops of the outer columns, thrown as the columns topple. The better
     converged the solve, the farther the runout. Over orientation seeds 0-4 (the benchmark's runs,
-    docs/benchmarks.md "pile across seeds"), boxes out at 4 s: tumble at Box3D's step 1, 2, 1, 4, 2;
-    tumble at the default step 7, 8, 2, 3, 6; PyBullet (dt 1/240 s) 0, 4, 3, 3, 0; MuJoCo CG 8, 6,
-    4, 3, 1; runs whose fastest box is below 1 cm/s at 4 s: tumble 1 of 5 at either step, PyBullet
-    and MuJoCo 0 of 5. The item needs a region that admits the collapse's runout, or a later time:
-    the issue's author to decide."""
+    docs/benchmarks.md "pile across seeds"), boxes out at 4 s: tumble at Box3D's step 0, 6, 0, 1, 1
+    (but boxes overlap 7-11 mm there); tumble at the default resolution (h = 1/960 s) 4, 6, 8, 3, 8; PyBullet (dt 1/240
+    s) 0, 4, 3, 3, 0; MuJoCo CG 8, 6, 4, 3, 1; runs whose fastest box is below 1 cm/s at 4 s: tumble
+    3 of 5 at Box3D's step, 0 of 5 at the default resolution, PyBullet and MuJoCo 0 of 5. The item needs
+    a region that admits the collapse's runout, or a later time: the issue's author to decide."""
     w, lo, hi = pile_after_4_s
     m = w.moving
     assert np.linalg.norm(w.v[m], axis=1).max() < 0.01
