@@ -238,26 +238,50 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
             tangent_impulse[c, 1] = 0.0
 
 
-@njit(**JIT, inline="always")
-def _warm_start_contact(c, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
-                        tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b, gap):
-    """Contact c's part of ``warm_start_kernel``."""
-    jn = normal_impulse[c]
-    j1 = tangent_impulse[c, 0]
-    j2 = tangent_impulse[c, 1]
-    p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
-    p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
-    p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
-    if fresh:
-        ra, rb, d = _arms(x, R, body_a[c], body_b[c], local_a, local_b, c)
-        for k in range(3):
-            arm_a[c, k] = ra[k]
-            arm_b[c, k] = rb[k]
-        gap[c] = normal[c, 0] * d[0] + normal[c, 1] * d[1] + normal[c, 2] * d[2]
-    else:
-        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
-        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-    _apply_impulse(v, omega, inv_mass, I_inv, body_a[c], body_b[c], ra, rb, p0, p1, p2)
+@njit(**JIT)
+def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
+                      tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b, gap):
+    """Contacts order[lo:hi] of ``warm_start_kernel``; the bodies' velocities in registers over a
+    pair's consecutive contacts, as in ``_solve_contact_range`` (same bits as per impulse)."""
+    cached_a = -1
+    cached_b = -1
+    va = wa = vb = wb = (0.0, 0.0, 0.0)
+    Ia = Ib = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    ma = mb = 0.0
+    for i in range(lo, hi):
+        c = order[i]
+        a = body_a[c]
+        b = body_b[c]
+        if a != cached_a or b != cached_b:
+            if cached_a >= 0:
+                _store_body(v, omega, cached_a, va, wa)
+                _store_body(v, omega, cached_b, vb, wb)
+            cached_a = a
+            cached_b = b
+            va, wa, Ia = _load_body(v, omega, I_inv, a)
+            vb, wb, Ib = _load_body(v, omega, I_inv, b)
+            ma = inv_mass[a]
+            mb = inv_mass[b]
+        jn = normal_impulse[c]
+        j1 = tangent_impulse[c, 0]
+        j2 = tangent_impulse[c, 1]
+        p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
+        p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
+        p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
+        if fresh:
+            ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+            for k in range(3):
+                arm_a[c, k] = ra[k]
+                arm_b[c, k] = rb[k]
+            gap[c] = normal[c, 0] * d[0] + normal[c, 1] * d[1] + normal[c, 2] * d[2]
+        else:
+            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+        va, wa = _impulse_on(ma, Ia, ra, va, wa, -1.0, p0, p1, p2)
+        vb, wb = _impulse_on(mb, Ib, rb, vb, wb, 1.0, p0, p1, p2)
+    if cached_a >= 0:
+        _store_body(v, omega, cached_a, va, wa)
+        _store_body(v, omega, cached_b, vb, wb)
 
 
 @njit(**JIT, parallel=True)
@@ -276,14 +300,12 @@ def warm_start_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2,
     parts = bounds.shape[0] - 2
     if parts > 0:
         for p in prange(parts):
-            for i in range(bounds[p], bounds[p + 1]):
-                _warm_start_contact(order[i], body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
-                                    normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega,
-                                    arm_a, arm_b, gap)
-    for i in range(bounds[parts], bounds[parts + 1]):
-        _warm_start_contact(order[i], body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
-                            normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega,
-                            arm_a, arm_b, gap)
+            _warm_start_range(bounds[p], bounds[p + 1], order, body_a, body_b, normal, tangent1, tangent2,
+                              local_a, local_b, normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v,
+                              omega, arm_a, arm_b, gap)
+    _warm_start_range(bounds[parts], bounds[parts + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
+                      local_b, normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b,
+                      gap)
 
 
 @njit(**JIT, inline="always")
