@@ -59,7 +59,8 @@ UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_forc
 DEGREE_KEYS = {"lower_deg": "lower", "upper_deg": "upper", "target_deg": "target", "cone_limit_deg": "cone_limit",
                "motor_speed_deg": "motor_speed", "twist_lower_deg": "twist_lower", "twist_upper_deg": "twist_upper",
                "lower_b_deg": "lower_b", "upper_b_deg": "upper_b", "motor_speed_b_deg": "motor_speed_b"}
-SOLVER_KEYS = ("method", "hertz", "damping_ratio", "velocity_iterations", "relax_iterations", "bias_factor")
+SOLVER_KEYS = ("method", "hertz", "damping_ratio", "velocity_iterations", "relax_iterations", "bias_factor",
+               "partitions", "partition_min_joints")
 
 
 def _number(value, key: str, file, unbounded=False) -> float:
@@ -163,7 +164,8 @@ def _parse_one(entry: dict, key: str, world, file, names: set):
 
 def parse_joint_settings(table, file: str | None = None):
     """A ``[joint_solver]`` table (method, hertz, damping_ratio, velocity_iterations,
-    relax_iterations, bias_factor) as ``tumble.solver.joints.JointSettings``."""
+    relax_iterations, bias_factor, partitions, partition_min_joints) as
+    ``tumble.solver.joints.JointSettings``."""
     from .solver.joints import JointSettings
 
     if table is None:
@@ -179,9 +181,13 @@ def parse_joint_settings(table, file: str | None = None):
             if v not in ("gauss-seidel", "tree"):
                 raise InputError(f"must be \"gauss-seidel\" or \"tree\", got {_describe(v)}", sub, file)
             kw[k] = v
-        elif k in ("velocity_iterations", "relax_iterations"):
+        elif k in ("velocity_iterations", "relax_iterations", "partitions"):
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise InputError(f"must be a whole number >= 1, got {_describe(v)}", sub, file)
+            kw[k] = v
+        elif k == "partition_min_joints":
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise InputError(f"must be a whole number >= 0, got {_describe(v)}", sub, file)
             kw[k] = v
         else:
             x = _number(v, sub, file)

@@ -1,5 +1,5 @@
 """The contact solve in spatial slabs (``SoftStepSettings.partitions``,
-``solver.contact.partition_contacts_kernel``): a large step's contacts are swept slab by slab on
+``solver.contact.partition_pairs_kernel``): a large step's contacts are swept slab by slab on
 both cores, then the contacts that join two slabs.
 
 What is checked: the partitions share no moving body (else two threads would write one body's
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import tumble as tb
-from tumble.solver.contact import SoftStepSettings, partition_contacts_kernel
+from tumble.solver.contact import SoftStepSettings, partition_pairs_kernel
 
 
 def _partition(body_a, body_b, moving, x, parts):
@@ -21,7 +21,7 @@ def _partition(body_a, body_b, moving, x, parts):
     body_part = np.zeros(n, dtype=np.int64)
     order = np.zeros(len(body_a), dtype=np.int64)
     bounds = np.zeros(parts + 2, dtype=np.int64)
-    partition_contacts_kernel(np.asarray(body_a, dtype=np.int64), np.asarray(body_b, dtype=np.int64),
+    partition_pairs_kernel(np.asarray(body_a, dtype=np.int64), np.asarray(body_b, dtype=np.int64),
                               np.asarray(moving), np.asarray(x, dtype=float), parts, body_part, order, bounds)
     return body_part, order, bounds
 

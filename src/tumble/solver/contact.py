@@ -61,7 +61,7 @@ class SoftStepSettings:
         step) and AABBs grown by it (collision.constants.SPECULATIVE_DISTANCE, 0.02).
     partitions: (2) a step with at least ``partition_min_contacts`` (1024) contact points solves
         them in this many spatial slabs side by side, then the contacts joining two slabs
-        (``partition_contacts_kernel``): one slab per core. The order of the Gauss-Seidel sweep,
+        (``partition_pairs_kernel``): one slab per core. The order of the Gauss-Seidel sweep,
         and so the bits, follow these two settings, never the number of threads; 1 solves every
         contact in the narrowphase's order on one thread (as smaller steps always are).
 
@@ -461,7 +461,7 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
 
     The contacts are taken in the order ``order`` (C,), cut by ``bounds`` (P + 2,) into P
     partitions, order[bounds[p]:bounds[p + 1]], and the rest, order[bounds[P]:bounds[P + 1]]
-    (``partition_contacts_kernel``). The partitions are swept side by side: no two share a
+    (``partition_pairs_kernel``). The partitions are swept side by side: no two share a
     moving body, so each writes only its own bodies' v, omega and its own contacts' rows (fixed
     bodies are written too, with 0 * impulse: the value read). The rest, contacts that join two
     partitions, follow on this thread. The order depends on the partitions, never on the
@@ -536,10 +536,11 @@ def store_impulses_kernel(key, normal_impulse, tangent_impulse, tangent1, tangen
 
 
 @njit(**JIT)
-def partition_contacts_kernel(body_a, body_b, moving, x, parts,
-                              # outputs
-                              body_part, order, bounds):
-    """Split the contacts into ``parts`` partitions that share no moving body, and a seam.
+def partition_pairs_kernel(body_a, body_b, moving, x, parts,
+                           # outputs
+                           body_part, order, bounds):
+    """Split the contacts (or joints: body_a, body_b (C,) int64, -1 for the world) into
+    ``parts`` partitions that share no moving body, and a seam.
 
     The moving bodies of the contacts are ranked along the world axis in which their centres
     x (N, >= 3) m spread most and cut into ``parts`` slabs of equal count; a contact whose moving
@@ -561,10 +562,10 @@ def partition_contacts_kernel(body_a, body_b, moving, x, parts,
     for c in range(n_contacts):
         a = body_a[c]
         b = body_b[c]
-        if moving[a] and body_part[a] < 0:
+        if a >= 0 and moving[a] and body_part[a] < 0:
             body_part[a] = 0
             count += 1
-        if moving[b] and body_part[b] < 0:
+        if b >= 0 and moving[b] and body_part[b] < 0:
             body_part[b] = 0
             count += 1
     ids = np.empty(count, dtype=np.int64)
@@ -591,21 +592,23 @@ def partition_contacts_kernel(body_a, body_b, moving, x, parts,
     # stable counting sort of the contacts by group: slab 0 .. parts - 1, then the seam (parts)
     group_count = np.zeros(parts + 1, dtype=np.int64)
     for c in range(n_contacts):
-        group_count[_contact_group(body_part[body_a[c]], body_part[body_b[c]], parts)] += 1
+        group_count[_pair_group(body_part, body_a[c], body_b[c], parts)] += 1
     bounds[0] = 0
     for g in range(parts + 1):
         bounds[g + 1] = bounds[g] + group_count[g]
     cursor = bounds[:parts + 1].copy()
     for c in range(n_contacts):
-        g = _contact_group(body_part[body_a[c]], body_part[body_b[c]], parts)
+        g = _pair_group(body_part, body_a[c], body_b[c], parts)
         order[cursor[g]] = c
         cursor[g] += 1
 
 
 @njit(**JIT)
-def _contact_group(part_a, part_b, parts):
-    """The partition of a contact between bodies in slabs part_a, part_b (-1: not moved), or
-    ``parts`` (the seam) when they differ or neither body moves."""
+def _pair_group(body_part, a, b, parts):
+    """The partition of a pair of bodies a, b (-1: the world) by their slabs (-1: not moved), or
+    ``parts`` (the seam) when the slabs differ or neither body moves."""
+    part_a = body_part[a] if a >= 0 else -1
+    part_b = body_part[b] if b >= 0 else -1
     if part_a < 0:
         return part_b if part_b >= 0 else parts
     if part_b < 0 or part_b == part_a:
@@ -644,7 +647,7 @@ class ContactSolver:
         self.old_key = np.zeros(0, dtype=np.int64)
         self.contacts = None
         self._material_bodies = -1
-        self.partitioned = False  # this step's contacts solved in slabs (partition_contacts_kernel)
+        self.partitioned = False  # this step's contacts solved in slabs (partition_pairs_kernel)
         self.order = np.zeros(0, dtype=np.int64)  # (C,) the sweeps' order; bounds (P + 2,) its partitions
         self.bounds = np.zeros(2, dtype=np.int64)
         self._body_part = np.zeros(0, dtype=np.int64)
@@ -730,7 +733,7 @@ class ContactSolver:
             self._body_part = np.zeros(world.body_count, dtype=np.int64)
         if len(self.bounds) != parts + 2:
             self.bounds = np.zeros(parts + 2, dtype=np.int64)
-        partition_contacts_kernel(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, parts,
+        partition_pairs_kernel(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, parts,
                                   self._body_part, self.order[:n], self.bounds)
 
     def warm_start(self, fresh: bool = True):

@@ -290,7 +290,7 @@ class SoftStep:
         # joints (Box2D's order: joints before contacts in each solve); x is read from Y's first columns
         joints = self.joints if self.has_joints() else None
         if joints is not None:
-            joints.prepare(w, h, w.inv_mass, self.I_inv)
+            joints.prepare(w, h, w.inv_mass, self.I_inv, x=Y)
         for k in range(substeps):
             if k > 0:
                 w.evaluate_forces(t + k * h, Y, s)
