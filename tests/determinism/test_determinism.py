@@ -19,6 +19,7 @@ from tumble.checks import state_hash
 from tumble.cli import main as cli_main
 from tumble.scene import load_scene
 
+from ..threads import numba_threads
 from .scenes import GOLDEN, final_hash, scene_paths
 
 SCENES = scene_paths()
@@ -62,15 +63,11 @@ def test_parallel_kernel_bits_do_not_depend_on_the_thread_count():
 
     assert 640 >= K.PARALLEL_MIN_BODIES
     hashes = []
-    before = numba.get_num_threads()
-    try:
-        for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
-            numba.set_num_threads(threads)
+    for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+        with numba_threads(threads):
             w = _many_free_bodies()
             tb.Simulator(w).run(0.5)
             hashes.append(state_hash(w))
-    finally:
-        numba.set_num_threads(before)
     serial = _many_free_bodies()
     sim = tb.Simulator(serial)
     for _ in range(12):  # the serial kernel on chunks below the parallel threshold gives the same rows

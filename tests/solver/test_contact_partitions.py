@@ -15,6 +15,8 @@ import pytest
 import tumble as tb
 from tumble.solver.contact import SoftStepSettings, partition_pairs_kernel
 
+from ..threads import numba_threads
+
 
 def _partition(body_a, body_b, moving, x, parts):
     n = len(moving)
@@ -70,16 +72,12 @@ def test_partitions_share_no_moving_body_and_keep_the_contacts_order(parts):
 def _pile_bits(threads, **settings):
     from tumble.scenes.contact import pile
 
-    before = numba.get_num_threads()
-    numba.set_num_threads(threads)
-    try:
+    with numba_threads(threads):
         w, _ = pile(125)
         w.sleeping = False
         sim = tb.Simulator(w, dt=1.0 / 60.0, contact_settings=SoftStepSettings(**settings))
         sim.run(1.0, frame_rate=4)
         return w.pack().tobytes(), sim.soft_step.solver
-    finally:
-        numba.set_num_threads(before)
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two threads")

@@ -17,6 +17,8 @@ from tumble.checks import state_hash
 from tumble.solver.contact import partition_pairs_kernel
 from tumble.solver.joints import JointSettings
 
+from ..threads import numba_threads
+
 
 def test_joints_to_the_world_go_with_their_body():
     # a row of 8 bodies along x, body 0 fixed; joints: a chain 1-2-...-7, each of 1..7 also
@@ -46,15 +48,11 @@ def test_joints_to_the_world_go_with_their_body():
 def _ragdolls(threads, n=16, seconds=2.0, **settings):
     from tumble.scenes.ragdolls import ragdolls
 
-    before = numba.get_num_threads()
-    numba.set_num_threads(threads)
-    try:
+    with numba_threads(threads):
         w, scene = ragdolls(n, 0)
         sim = tb.Simulator(w, dt=scene["dt"], joint_settings=JointSettings(**settings))
         sim.run(seconds, frame_rate=4)
         return w, sim
-    finally:
-        numba.set_num_threads(before)
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two threads")

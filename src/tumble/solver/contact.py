@@ -253,15 +253,10 @@ def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2,
         a = body_a[c]
         b = body_b[c]
         if a != cached_a or b != cached_b:
-            if cached_a >= 0:
-                _store_body(v, omega, cached_a, va, wa)
-                _store_body(v, omega, cached_b, vb, wb)
+            _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
             cached_a = a
             cached_b = b
-            va, wa, Ia = _load_body(v, omega, I_inv, a)
-            vb, wb, Ib = _load_body(v, omega, I_inv, b)
-            ma = inv_mass[a]
-            mb = inv_mass[b]
+            va, wa, Ia, ma, vb, wb, Ib, mb = _load_pair(v, omega, I_inv, inv_mass, a, b)
         jn = normal_impulse[c]
         j1 = tangent_impulse[c, 0]
         j2 = tangent_impulse[c, 1]
@@ -279,9 +274,7 @@ def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2,
             rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
         va, wa = _impulse_on(ma, Ia, ra, va, wa, -1.0, p0, p1, p2)
         vb, wb = _impulse_on(mb, Ib, rb, vb, wb, 1.0, p0, p1, p2)
-    if cached_a >= 0:
-        _store_body(v, omega, cached_a, va, wa)
-        _store_body(v, omega, cached_b, vb, wb)
+    _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
 
 
 @njit(**JIT, parallel=True)
@@ -323,6 +316,22 @@ def _store_body(v, omega, i, vi, wi):
 
 
 @njit(**JIT, inline="always")
+def _load_pair(v, omega, I_inv, inv_mass, a, b):
+    """Bodies a and b into registers: (va, wa, Ia, 1/ma, vb, wb, Ib, 1/mb) (``_load_body``)."""
+    va, wa, Ia = _load_body(v, omega, I_inv, a)
+    vb, wb, Ib = _load_body(v, omega, I_inv, b)
+    return va, wa, Ia, inv_mass[a], vb, wb, Ib, inv_mass[b]
+
+
+@njit(**JIT, inline="always")
+def _store_pair(v, omega, a, b, va, wa, vb, wb):
+    """Write the registers of the pair a, b back (a = -1: no pair loaded yet)."""
+    if a >= 0:
+        _store_body(v, omega, a, va, wa)
+        _store_body(v, omega, b, vb, wb)
+
+
+@njit(**JIT, inline="always")
 def _velocity_at(vi, wi, r):
     """Velocity (3 floats) of the point at arm r of a body moving with vi, wi: vi + wi x r."""
     c0, c1, c2 = _cross(wi[0], wi[1], wi[2], r[0], r[1], r[2])
@@ -361,15 +370,10 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
         a = body_a[c]
         b = body_b[c]
         if a != cached_a or b != cached_b:  # a new pair: store the last pair's velocities, load this one's
-            if cached_a >= 0:
-                _store_body(v, omega, cached_a, va, wa)
-                _store_body(v, omega, cached_b, vb, wb)
+            _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
             cached_a = a
             cached_b = b
-            va, wa, Ia = _load_body(v, omega, I_inv, a)
-            vb, wb, Ib = _load_body(v, omega, I_inv, b)
-            ma = inv_mass[a]
-            mb = inv_mass[b]
+            va, wa, Ia, ma, vb, wb, Ib, mb = _load_pair(v, omega, I_inv, inv_mass, a, b)
         n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
         if use_bias:  # the poses of the warm start: its cached arms
             ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
@@ -445,9 +449,7 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
         p2 = j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
         va, wa = _impulse_on(ma, Ia, ra, va, wa, -1.0, p0, p1, p2)
         vb, wb = _impulse_on(mb, Ib, rb, vb, wb, 1.0, p0, p1, p2)
-    if cached_a >= 0:
-        _store_body(v, omega, cached_a, va, wa)
-        _store_body(v, omega, cached_b, vb, wb)
+    _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
 
 
 @njit(**JIT, parallel=True)  # PERF: the parallel pipeline also drops the inlined body's per-contact refcounts
