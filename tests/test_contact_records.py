@@ -149,3 +149,12 @@ def test_scene_keys_turn_collisions_off_and_record_contacts():
     doc["contact"] = {"substeps": 0}
     with pytest.raises(tb.InputError, match="contact.substeps: must be >= 1"):
         parse_scene(doc, "s.toml")
+    doc["contact"] = {"partitions": 0}
+    with pytest.raises(tb.InputError, match="contact.partitions: must be >= 1"):
+        parse_scene(doc, "s.toml")
+    doc["contact"] = {"partition_min_contacts": -1}
+    with pytest.raises(tb.InputError, match="contact.partition_min_contacts: must be >= 0"):
+        parse_scene(doc, "s.toml")
+    doc["contact"] = {"partitions": 3, "partition_min_contacts": 0}
+    settings = parse_scene(doc, "s.toml").simulator().contact_settings
+    assert settings.partitions == 3 and settings.partition_min_contacts == 0

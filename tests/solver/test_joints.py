@@ -373,6 +373,12 @@ def test_parse_joint_settings():
         parse_joint_settings({"method": "pgs"}, "s.toml")
     with pytest.raises(tb.InputError, match="joint_solver.relax_iterations: must be a whole number"):
         parse_joint_settings({"relax_iterations": 0}, "s.toml")
+    st = parse_joint_settings({"partitions": 1, "partition_min_joints": 0}, "s.toml")
+    assert st.partitions == 1 and st.partition_min_joints == 0
+    with pytest.raises(tb.InputError, match="joint_solver.partitions: must be a whole number >= 1"):
+        parse_joint_settings({"partitions": 0}, "s.toml")
+    with pytest.raises(tb.InputError, match="joint_solver.partition_min_joints: must be a whole number >= 0"):
+        parse_joint_settings({"partition_min_joints": 2.5}, "s.toml")
 
 
 @pytest.mark.parametrize("method", ["gauss-seidel", "tree"])
