@@ -101,6 +101,13 @@ def test_small_steps_keep_the_plain_order():
     assert not solver.partitioned
     assert list(solver.bounds) == [0, solver.count]
     assert np.array_equal(solver.order[:solver.count], np.arange(solver.count))
+    # and after partitioned steps, a step below the threshold goes back to that order
+    _, solver = _pile_bits(2, partition_min_contacts=0)
+    assert solver.partitioned and not np.array_equal(solver.order[:solver.count], np.arange(solver.count))
+    solver.settings.partition_min_contacts = solver.count + 1
+    solver._partition(solver.world, solver.contacts, solver.count)
+    assert not solver.partitioned and list(solver.bounds) == [0, solver.count]
+    assert np.array_equal(solver.order[:solver.count], np.arange(solver.count))
 
 
 @pytest.mark.slow

@@ -651,6 +651,7 @@ class ContactSolver:
         self._material_bodies = -1
         self.partitioned = False  # this step's contacts solved in slabs (partition_pairs_kernel)
         self.order = np.zeros(0, dtype=np.int64)  # (C,) the sweeps' order; bounds (P + 2,) its partitions
+        self._order_is_identity = True
         self.bounds = np.zeros(2, dtype=np.int64)
         self._body_part = np.zeros(0, dtype=np.int64)
 
@@ -727,16 +728,23 @@ class ContactSolver:
         self.partitioned = parts > 1 and n >= st.partition_min_contacts
         if len(self.order) < n:
             self.order = np.arange(2 * n, dtype=np.int64)
+            self._order_is_identity = True
         if not self.partitioned:
-            self.order[:n] = np.arange(n)
-            self.bounds = np.array([0, n], dtype=np.int64)
+            # PERF: nothing to write while the order is still 0, 1, ... (every step of a small scene)
+            if not self._order_is_identity:
+                self.order[:] = np.arange(len(self.order))
+                self._order_is_identity = True
+            if len(self.bounds) != 2:
+                self.bounds = np.zeros(2, dtype=np.int64)
+            self.bounds[1] = n
             return
         if len(self._body_part) != world.body_count:
             self._body_part = np.zeros(world.body_count, dtype=np.int64)
         if len(self.bounds) != parts + 2:
             self.bounds = np.zeros(parts + 2, dtype=np.int64)
         partition_pairs_kernel(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, parts,
-                                  self._body_part, self.order[:n], self.bounds)
+                               self._body_part, self.order[:n], self.bounds)
+        self._order_is_identity = False
 
     def warm_start(self, fresh: bool = True):
         """Apply the accumulated impulses; ``fresh=False`` when the poses are those of the last
