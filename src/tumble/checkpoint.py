@@ -61,12 +61,12 @@ JOINT_SOLVER_STATE = ("enabled", "linear_impulse", "angular_impulse", "axial_imp
 # bound joint records (types, bodies, anchors, frames), the tree solve's forest (from
 # ``world.moving`` and ``enabled``) and scratch (refilled in every solve: no factorization
 # is kept between steps), the soft step's inverse masses and inertias (passed to every
-# ``prepare``), the softness coefficients (from the settings and h), and the sweep's order
-# (slabs cut by the positions in every ``prepare``). A new JointSolver
+# ``prepare``), the softness coefficients (from the settings and h), and ``sweep`` (the
+# sweep's order, cut from the positions in every ``prepare``). A new JointSolver
 # array must go in one of the two lists (tests/test_reliability_joints.py checks).
 JOINT_SOLVER_REBUILT = ("joint_type", "joint_a", "joint_b", "local_a", "local_b", "frame_a", "frame_b",
                         "gauss_seidel", "node_joint", "node_body", "node_parent", "node_order",
-                        "inv_mass", "I_inv", "soft_bias", "soft_relax", "order", "bounds", "_body_part")
+                        "inv_mass", "I_inv", "soft_bias", "soft_relax")
 # fields of a joint record that are not constructor arguments: kept apart in the meta
 JOINT_STATE_FIELDS = ("bound", "broken")
 

@@ -86,11 +86,12 @@ def test_partitioned_solve_gives_the_same_bits_on_one_and_two_threads():
     # step partitioned (partition_min_contacts = 0); the state must be equal bit for bit
     two, solver = _pile_bits(2, partition_min_contacts=0)
     one, _ = _pile_bits(1, partition_min_contacts=0)
-    assert solver.partitioned and solver.bounds[1] > 0 and solver.bounds[2] > solver.bounds[1]
+    bounds = solver.sweep.bounds
+    assert solver.sweep.partitioned and bounds[1] > 0 and bounds[2] > bounds[1]
     assert two == one
     # and the order matters: the plain sweep (partitions = 1) is another Gauss-Seidel order
     plain, solver = _pile_bits(2, partitions=1)
-    assert not solver.partitioned
+    assert not solver.sweep.partitioned
     assert plain != two
 
 
@@ -98,16 +99,18 @@ def test_small_steps_keep_the_plain_order():
     # below partition_min_contacts the sweep is the narrowphase's order: bounds [0, C]
     _, solver = _pile_bits(2)
     assert solver.count < SoftStepSettings().partition_min_contacts
-    assert not solver.partitioned
-    assert list(solver.bounds) == [0, solver.count]
-    assert np.array_equal(solver.order[:solver.count], np.arange(solver.count))
+    assert not solver.sweep.partitioned
+    assert list(solver.sweep.bounds) == [0, solver.count]
+    assert np.array_equal(solver.sweep.order[:solver.count], np.arange(solver.count))
     # and after partitioned steps, a step below the threshold goes back to that order
     _, solver = _pile_bits(2, partition_min_contacts=0)
-    assert solver.partitioned and not np.array_equal(solver.order[:solver.count], np.arange(solver.count))
-    solver.settings.partition_min_contacts = solver.count + 1
-    solver._partition(solver.world, solver.contacts, solver.count)
-    assert not solver.partitioned and list(solver.bounds) == [0, solver.count]
-    assert np.array_equal(solver.order[:solver.count], np.arange(solver.count))
+    assert solver.sweep.partitioned
+    assert not np.array_equal(solver.sweep.order[:solver.count], np.arange(solver.count))
+    c = solver.contacts
+    solver.sweep.update(c.contact_body_a, c.contact_body_b, solver.world.moving, solver.x, 2,
+                        solver.count + 1)
+    assert not solver.sweep.partitioned and list(solver.sweep.bounds) == [0, solver.count]
+    assert np.array_equal(solver.sweep.order[:solver.count], np.arange(solver.count))
 
 
 @pytest.mark.slow
@@ -125,7 +128,7 @@ def test_tower_and_pyramid_stand_when_solved_in_slabs():
     top0 = w.x[-1].copy()
     sim = tb.Simulator(w, contact_settings=settings)
     sim.run(30.0, frame_rate=1)
-    assert sim.soft_step.solver.partitioned
+    assert sim.soft_step.solver.sweep.partitioned
     assert np.linalg.norm(w.x[-1] - top0) < 0.01
 
     w, _ = pyramid(20)
@@ -133,7 +136,7 @@ def test_tower_and_pyramid_stand_when_solved_in_slabs():
     x0 = w.x.copy()
     sim = tb.Simulator(w, contact_settings=settings)
     sim.run(10.0, frame_rate=2)
-    assert sim.soft_step.solver.partitioned
+    assert sim.soft_step.solver.sweep.partitioned
     assert np.linalg.norm(w.x - x0, axis=1).max() < 0.01
     assert np.abs(w.v).max() < 0.01
 
@@ -159,5 +162,5 @@ def test_partitioned_run_resumes_from_a_checkpoint_bit_for_bit(tmp_path):
     resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
     assert resumed.soft_step.solver.settings.partition_min_contacts == 0
     resumed.run(0.5, frame_rate=4)
-    assert resumed.soft_step.solver.partitioned
+    assert resumed.soft_step.solver.sweep.partitioned
     assert state_hash(resumed.world) == state_hash(whole.world)

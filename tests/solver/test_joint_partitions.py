@@ -62,10 +62,11 @@ def test_partitioned_joints_give_the_same_bits_on_one_and_two_threads():
     w2, sim = _ragdolls(2, partition_min_joints=0)
     w1, _ = _ragdolls(1, partition_min_joints=0)
     joints = sim.soft_step.joints
-    assert joints.partitioned and joints.bounds[1] > 0 and joints.bounds[2] > joints.bounds[1]
+    bounds = joints.sweep.bounds
+    assert joints.sweep.partitioned and bounds[1] > 0 and bounds[2] > bounds[1]
     assert state_hash(w2) == state_hash(w1)
     plain, sim = _ragdolls(2, partitions=1)
-    assert not sim.soft_step.joints.partitioned
+    assert not sim.soft_step.joints.sweep.partitioned
     assert state_hash(plain) != state_hash(w2)
 
 

@@ -243,11 +243,7 @@ def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2,
                       tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b, gap):
     """Contacts order[lo:hi] of ``warm_start_kernel``; the bodies' velocities in registers over a
     pair's consecutive contacts, as in ``_solve_contact_range`` (same bits as per impulse)."""
-    cached_a = -1
-    cached_b = -1
-    va = wa = vb = wb = (0.0, 0.0, 0.0)
-    Ia = Ib = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    ma = mb = 0.0
+    cached_a, cached_b, va, wa, Ia, ma, vb, wb, Ib, mb = _no_pair()
     for i in range(lo, hi):
         c = order[i]
         a = body_a[c]
@@ -316,6 +312,14 @@ def _store_body(v, omega, i, vi, wi):
 
 
 @njit(**JIT, inline="always")
+def _no_pair():
+    """The registers of ``_load_pair`` before any pair is loaded (bodies -1, all 0)."""
+    z3 = (0.0, 0.0, 0.0)
+    z9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return -1, -1, z3, z3, z9, 0.0, z3, z3, z9, 0.0
+
+
+@njit(**JIT, inline="always")
 def _load_pair(v, omega, I_inv, inv_mass, a, b):
     """Bodies a and b into registers: (va, wa, Ia, 1/ma, vb, wb, Ib, 1/mb) (``_load_body``)."""
     va, wa, Ia = _load_body(v, omega, I_inv, a)
@@ -360,11 +364,7 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
     same pair (the points of a manifold): 14 % faster than reading and writing v, omega per
     impulse (large pyramid, measured), with the same arithmetic in the same order (same bits).
     """
-    cached_a = -1
-    cached_b = -1
-    va = wa = vb = wb = (0.0, 0.0, 0.0)
-    Ia = Ib = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    ma = mb = 0.0
+    cached_a, cached_b, va, wa, Ia, ma, vb, wb, Ib, mb = _no_pair()
     for i in range(lo, hi):
         c = order[i]
         a = body_a[c]
@@ -618,6 +618,49 @@ def _pair_group(body_part, a, b, parts):
     return parts
 
 
+class SweepOrder:
+    """The order of a Gauss-Seidel sweep over pairs of bodies (the contacts of a step, or the
+    joints), kept between steps: slabs and a seam (``partition_pairs_kernel``) for a sweep of
+    at least ``min_count`` pairs when ``parts`` > 1, else the pairs' own order.
+
+    ``order`` (>= n,) int64 and ``bounds`` (P + 2,) int64 are what the sweep kernels take
+    (``order[:n]``): P = 0 and bounds [0, n] for the pairs' own order. ``partitioned``: the last
+    ``update`` cut slabs.
+    """
+
+    def __init__(self):
+        self.partitioned = False
+        self.order = np.zeros(0, dtype=np.int64)
+        self.bounds = np.zeros(2, dtype=np.int64)
+        self._order_is_identity = True
+        self._body_part = np.zeros(0, dtype=np.int64)
+
+    def update(self, body_a, body_b, moving, x, parts: int, min_count: int):
+        """The order for the pairs (body_a[k], body_b[k]) (n,) int64 (-1: the world) of bodies at
+        x (N, >= 3) m, ``moving`` (N,) bool; returns (order[:n], bounds)."""
+        n = len(body_a)
+        self.partitioned = parts > 1 and n > 0 and n >= min_count
+        if len(self.order) < n:
+            self.order = np.arange(2 * n, dtype=np.int64)
+            self._order_is_identity = True
+        if not self.partitioned:
+            # PERF: nothing to write while the order is still 0, 1, ... (every step of a small scene)
+            if not self._order_is_identity:
+                self.order[:] = np.arange(len(self.order))
+                self._order_is_identity = True
+            if len(self.bounds) != 2:
+                self.bounds = np.zeros(2, dtype=np.int64)
+            self.bounds[1] = n
+            return self.order[:n], self.bounds
+        if len(self._body_part) != len(moving):
+            self._body_part = np.zeros(len(moving), dtype=np.int64)
+        if len(self.bounds) != parts + 2:
+            self.bounds = np.zeros(parts + 2, dtype=np.int64)
+        partition_pairs_kernel(body_a, body_b, moving, x, parts, self._body_part, self.order[:n], self.bounds)
+        self._order_is_identity = False
+        return self.order[:n], self.bounds
+
+
 # ---------------------------------------------------------------------- the solver object
 _C_FLOAT = {
     "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "tangent1": (3,), "tangent2": (3,),
@@ -649,11 +692,7 @@ class ContactSolver:
         self.old_key = np.zeros(0, dtype=np.int64)
         self.contacts = None
         self._material_bodies = -1
-        self.partitioned = False  # this step's contacts solved in slabs (partition_pairs_kernel)
-        self.order = np.zeros(0, dtype=np.int64)  # (C,) the sweeps' order; bounds (P + 2,) its partitions
-        self._order_is_identity = True
-        self.bounds = np.zeros(2, dtype=np.int64)
-        self._body_part = np.zeros(0, dtype=np.int64)
+        self.sweep = SweepOrder()  # the order of this step's sweeps (slabs for a large step)
 
     def _reserve(self, n: int):
         cap = max(self._capacity, 1)
@@ -718,47 +757,22 @@ class ContactSolver:
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
-        self._partition(world, contacts, n)
-
-    def _partition(self, world, contacts, n: int):
-        """The order of this step's sweeps: slabs and a seam when the step has at least
-        ``partition_min_contacts`` contacts, else the narrowphase's order (``self.bounds`` [0, n])."""
-        st = self.settings
-        parts = int(st.partitions)
-        self.partitioned = parts > 1 and n >= st.partition_min_contacts
-        if len(self.order) < n:
-            self.order = np.arange(2 * n, dtype=np.int64)
-            self._order_is_identity = True
-        if not self.partitioned:
-            # PERF: nothing to write while the order is still 0, 1, ... (every step of a small scene)
-            if not self._order_is_identity:
-                self.order[:] = np.arange(len(self.order))
-                self._order_is_identity = True
-            if len(self.bounds) != 2:
-                self.bounds = np.zeros(2, dtype=np.int64)
-            self.bounds[1] = n
-            return
-        if len(self._body_part) != world.body_count:
-            self._body_part = np.zeros(world.body_count, dtype=np.int64)
-        if len(self.bounds) != parts + 2:
-            self.bounds = np.zeros(parts + 2, dtype=np.int64)
-        partition_pairs_kernel(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, parts,
-                               self._body_part, self.order[:n], self.bounds)
-        self._order_is_identity = False
+        self.sweep.update(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, int(st.partitions),
+                          st.partition_min_contacts)
 
     def warm_start(self, fresh: bool = True):
         """Apply the accumulated impulses; ``fresh=False`` when the poses are those of the last
         relax (the substeps after the first), whose cached arms are then used."""
         c = self.contacts
-        warm_start_kernel(self.order[:self.count], self.bounds, c.contact_body_a, c.contact_body_b, c.contact_normal,
-                          self.tangent1, self.tangent2, self.local_a, self.local_b, self.normal_impulse,
-                          self.tangent_impulse, self.x, self.R, self.world.inv_mass, self.I_inv, bool(fresh), self.v,
-                          self.omega, self.arm_a, self.arm_b, self.gap)
+        warm_start_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
+                          c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
+                          self.normal_impulse, self.tangent_impulse, self.x, self.R, self.world.inv_mass, self.I_inv,
+                          bool(fresh), self.v, self.omega, self.arm_a, self.arm_b, self.gap)
 
     def solve_contacts(self, use_bias: bool):
         c = self.contacts
         w = self.world
-        solve_contacts_kernel(self.order[:self.count], self.bounds, c.contact_body_a, c.contact_body_b,
+        solve_contacts_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
                               c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
                               c.contact_separation, self.normal_mass, self.tangent_mass, self.soft, self.friction,
                               self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed,

@@ -75,6 +75,7 @@ from ..math3d import (
     quat_exp_multiply_inplace,
     quat_to_matrix_into,
 )
+from .contact import SweepOrder
 
 # columns of ``axial_impulse`` (J, AXIAL_COUNT): accumulated impulses of the 1-D coordinate
 # rows (spring, motor, lower, upper, equal), then of the second angular coordinate (a ball
@@ -722,8 +723,9 @@ def _sweep_joints(lo, hi, backward, order, joint_type, joint_a, joint_b, local_a
         _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
                      h, inv_h, soft, v, omega, linear_impulse, axial_impulse)
         if param[j, P_LIMIT2_ON] != 0.0 or param[j, P_MOTOR2_ON] != 0.0:
-            # PERF: tested here, not only inside: the call itself (some 20 array arguments,
-            # not inlined) cost 25 % of the joint_grid step, whose joints have no such rows
+            # PERF: tested here, not only inside: while _solve_axial2 was a call (some 20
+            # array arguments), the call alone cost 25 % of the joint_grid step, whose joints
+            # have no such rows; it is inlined now, and the test still skips its set-up
             _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h,
                           soft, v, omega, linear_impulse, axial_impulse)
         if gauss_seidel[j]:
@@ -1094,10 +1096,7 @@ class JointSolver:
         self.h = 1.0 / 240.0
         self.last_projection_error = 0.0
         self._soft_key = None
-        self.partitioned = False
-        self.order = np.zeros(0, dtype=np.int64)  # (J,) the sweep's order, cut by bounds (P + 2,)
-        self.bounds = np.zeros(2, dtype=np.int64)
-        self._body_part = np.zeros(0, dtype=np.int64)
+        self.sweep = SweepOrder()  # the joints' order in the sweeps (slabs for a large world)
         self._build([])
 
     def _build(self, joints):
@@ -1248,29 +1247,9 @@ class JointSolver:
                 self.soft_bias = np.array([st.bias_factor / h, 1.0, 0.0])
             self.soft_relax = np.array([0.0, 1.0, 0.0])
             self._soft_key = key
-        self._partition(world, world.x if x is None else x)
-
-    def _partition(self, world, x):
-        """The sweep's order: slabs and a seam (``contact.partition_pairs_kernel``) from
-        ``partition_min_joints`` joints on, else the joints' own order (``bounds`` [0, J])."""
-        from .contact import partition_pairs_kernel
-
         st = self.settings
-        parts = int(st.partitions)
-        n = self.count
-        self.partitioned = parts > 1 and n > 0 and n >= st.partition_min_joints
-        if not self.partitioned:
-            if len(self.order) != n or len(self.bounds) != 2:
-                self.order = np.arange(n, dtype=np.int64)
-                self.bounds = np.array([0, n], dtype=np.int64)
-            return
-        if len(self.order) != n or len(self.bounds) != parts + 2:
-            self.order = np.zeros(n, dtype=np.int64)
-            self.bounds = np.zeros(parts + 2, dtype=np.int64)
-        if len(self._body_part) != world.body_count:
-            self._body_part = np.zeros(world.body_count, dtype=np.int64)
-        partition_pairs_kernel(self.joint_a, self.joint_b, np.asarray(world.moving), x, parts, self._body_part,
-                               self.order, self.bounds)
+        self.sweep.update(self.joint_a, self.joint_b, np.asarray(world.moving), world.x if x is None else x,
+                          int(st.partitions), st.partition_min_joints)
 
     def warm_start(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray):
         """Apply the accumulated impulses once to v, omega (N, 3) (each substep, before solve)."""
@@ -1288,8 +1267,8 @@ class JointSolver:
             st = self.settings
             iterations = st.velocity_iterations if use_bias else st.relax_iterations
             soft = self.soft_bias if use_bias else self.soft_relax
-            args = (self.order, self.bounds, self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,
-                    self.frame_a, self.frame_b,
+            args = (self.sweep.order[:self.count], self.sweep.bounds, self.joint_type, self.joint_a, self.joint_b,
+                    self.local_a, self.local_b, self.frame_a, self.frame_b,
                     self.param, self.enabled, self.gauss_seidel, self.position, x, R, self.inv_mass, self.I_inv, self.h,
                     soft)
             out = (v, omega, self.linear_impulse, self.angular_impulse, self.axial_impulse)
