@@ -520,7 +520,8 @@ def _box_face_contact(ref_pos, ref_rot, ref_h, inc_pos, inc_rot, inc_h, axis, re
 
 
 # Rows of the (BOX_WORK_ROWS, 3) scratch of box_box_contact: the clipped polygon and its copy
-# (8 rows each), the |a_i . b_j| matrix (3), the incident face's centre (1), separations (8, column 0).
+# (8 rows each), the |a_i . b_j| matrix (3), the incident face's centre (1), separations (8,
+# column 0; column 1 holds the 4 kept after a reduction). The edge contact reuses rows 0 and 1.
 BOX_WORK_ROWS = 28
 
 
