@@ -304,6 +304,14 @@ class World:
             return int(body)
         raise InputError(f"unknown body {body!r}", "body")
 
+    def ray_cast(self, origin, direction, max_distance=math.inf, exclude=None):
+        """The first shape along each ray at the bodies' current poses: ``collision.raycast.ray_cast``
+        (origin, direction (3,) or (R, 3), world; returns a ``RayHits`` of body, distance m, point,
+        normal per ray; a solid shape that holds the origin is not hit)."""
+        from .collision.raycast import ray_cast
+
+        return ray_cast(self, origin, direction, max_distance, exclude)
+
     def body(self, key) -> "Body":
         """The view of a body by name or index."""
         return Body(self, self.index_of(key))

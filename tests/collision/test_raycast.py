@@ -1,0 +1,299 @@
+"""Ray casts (``World.ray_cast``, ``collision.raycast``) against closed forms and brute force.
+
+Two kinds of check:
+- analytic: rays whose first hit is known by hand (a cube's top, a sphere's side, a cone's
+  slant), to 1e-12 m: the routines are closed forms in float64, so any error above round-off
+  is a wrong formula;
+- brute force: random rays at random poses, each hit checked against an independent membership
+  test written here in NumPy (SciPy's ConvexHull for hulls, all triangles for meshes): no
+  sampled point of the ray before the hit is inside the shape, the points just past the hit and
+  just behind its normal are inside, the point just outside the normal is not; and a miss has no
+  sampled point inside. Samples are 2000 per ray, so only slivers thinner than ~1/2000 of the
+  ray could hide (the analytic tests cover grazing hits).
+"""
+
+import numpy as np
+import pytest
+from scipy.spatial import ConvexHull
+
+import tumble as tb
+from tumble.errors import InputError
+from tumble.math3d import quat_to_matrix
+
+from .test_mesh import heightfield
+
+
+def unit(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+# ---------------------------------------------------------------------- analytic
+def test_rays_straight_down_meet_each_shape_at_its_top():
+    """Rays down the z axis above each shape type: hit at the top (box, sphere, capsule, cylinder:
+    centre + half height; cone: apex at base + H; plane: its height), normal +z except the cone's
+    apex (+z too, by the rule for the apex)."""
+    w = tb.World()
+    w.add_body(tb.Plane(normal=(0, 0, 1), offset=-1.0), fixed=True)
+    shapes = [tb.Box(size=(1, 2, 3)), tb.Sphere(radius=0.7), tb.Capsule(radius=0.3, length=1.0),
+              tb.Cylinder(radius=0.4, length=1.2), tb.Cone(radius=0.5, height=1.5)]
+    tops = [1.5, 0.7, 0.5 + 0.3, 0.6, 1.5]
+    for i, s in enumerate(shapes):
+        w.add_body(s, mass=1.0, position=(3.0 * i, 0, 2))
+    origin = [(3.0 * i, 0, 10) for i in range(len(shapes))] + [(50, 0, 10)]
+    hits = w.ray_cast(origin, (0, 0, -1))
+    assert list(hits.body) == [1, 2, 3, 4, 5, 0]
+    np.testing.assert_allclose(hits.distance, [8 - t for t in tops] + [11.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(hits.normal, np.tile([0, 0, 1.0], (6, 1)), atol=1e-12)
+    np.testing.assert_allclose(hits.point[:, 2], 10 - hits.distance, atol=1e-12)
+
+
+def test_sideways_rays_meet_the_curved_surfaces_where_geometry_says():
+    """A sphere, cylinder, capsule and cone hit from the side, off their axes: distance and
+    normal from the circle the ray's line cuts (d = offset from the axis: x = sqrt(r^2 - d^2));
+    the cone at height z has radius r (1 - z / H) and normal (cos, sin, r / H) / sqrt(1 + (r/H)^2)."""
+    w = tb.World()
+    w.add_body(tb.Sphere(radius=1.0), mass=1.0, position=(0, 0, 0))
+    w.add_body(tb.Cylinder(radius=0.5, length=2.0), mass=1.0, position=(0, 10, 0))
+    w.add_body(tb.Capsule(radius=0.5, length=2.0), mass=1.0, position=(0, 20, 0))
+    w.add_body(tb.Cone(radius=1.0, height=2.0), mass=1.0, position=(0, 30, 0))
+    off = 0.3
+    hits = w.ray_cast([(-5, off, 0), (-5, 10 + off, 0.4), (-5, 20 + off, -0.9), (-5, 30 + off, 0.5)], (1, 0, 0))
+    assert list(hits.body) == [0, 1, 2, 3]
+    r_cone = 1.0 * (1 - 0.5 / 2.0)
+    xs = [np.sqrt(1.0 - off ** 2), np.sqrt(0.25 - off ** 2), np.sqrt(0.25 - off ** 2), np.sqrt(r_cone ** 2 - off ** 2)]
+    np.testing.assert_allclose(hits.distance, [5 - x for x in xs], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(hits.normal[0], [-xs[0], off, 0], atol=1e-12)
+    np.testing.assert_allclose(hits.normal[1], [-xs[1] / 0.5, off / 0.5, 0], atol=1e-12)
+    np.testing.assert_allclose(hits.normal[2], [-xs[2] / 0.5, off / 0.5, 0], atol=1e-12)
+    k = 0.5
+    np.testing.assert_allclose(hits.normal[3], np.array([-xs[3] / r_cone, off / r_cone, k]) / np.sqrt(1 + k * k),
+                               atol=1e-12)
+
+
+def test_capsule_end_cap_and_cylinder_cap_and_cone_base():
+    """Rays along the axis from below: a capsule's lower end sphere (h + r below the centre), a
+    cylinder's flat cap (normal -z), a cone's base (its shape origin, normal -z)."""
+    w = tb.World()
+    w.add_body(tb.Capsule(radius=0.25, length=1.0), mass=1.0, position=(0, 0, 0))
+    w.add_body(tb.Cylinder(radius=0.5, length=1.0), mass=1.0, position=(5, 0, 0))
+    w.add_body(tb.Cone(radius=0.5, height=1.0), mass=1.0, position=(10, 0, 0))
+    hits = w.ray_cast([(0.1, 0, -5), (5.2, 0.1, -5), (10.1, 0.2, -5)], (0, 0, 1))
+    assert list(hits.body) == [0, 1, 2]
+    cap = np.sqrt(0.25 ** 2 - 0.1 ** 2)
+    np.testing.assert_allclose(hits.distance, [5 - 0.5 - cap, 4.5, 5.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(hits.normal[0], [0.1 / 0.25, 0, -cap / 0.25], atol=1e-12)
+    np.testing.assert_allclose(hits.normal[1:], [[0, 0, -1.0], [0, 0, -1.0]], atol=1e-12)
+
+
+def test_rotated_box_and_plane_at_an_angle():
+    """A unit cube turned 45 degrees about x: a ray down its middle meets the top edge at
+    z = c + sqrt(2) / 2 (entering by the face that faces the ray, a normal of the two at 45
+    degrees); a ray at 60 degrees from the vertical meets the ground plane z = 0 from height 3
+    after 3 / cos 60 = 6 m."""
+    c = np.cos(np.pi / 8)
+    s = np.sin(np.pi / 8)
+    w = tb.World()
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
+    w.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, position=(0, 0, 2), orientation=(c, s, 0, 0))
+    hits = w.ray_cast([(0.2, 0.0, 10.0), (10, 0, 3)], [(0, 0, -1), (np.sin(np.pi / 3), 0, -np.cos(np.pi / 3))])
+    assert list(hits.body) == [1, 0]
+    np.testing.assert_allclose(hits.distance, [8 - np.sqrt(0.5), 6.0], rtol=0, atol=1e-12)
+    assert abs(hits.normal[0, 2] - np.sqrt(0.5)) < 1e-12 and abs(abs(hits.normal[0, 1]) - np.sqrt(0.5)) < 1e-12
+
+
+def test_the_nearest_shape_wins_and_exclude_and_max_distance_apply():
+    """Five spheres on the x axis: a ray along +x meets the first; excluding it (as a Body, a name
+    or per ray by index) the second; max_distance short of the first: nothing. A batch gives
+    exactly the rows of the single casts."""
+    w = tb.World()
+    bodies = [w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(2.0 * i, 0, 0), name=f"s{i}") for i in range(5)]
+    h = w.ray_cast((-10, 0, 0), (1, 0, 0))
+    assert h.body[0] == 0 and abs(h.distance[0] - 9.5) < 1e-12
+    for ex in (bodies[0], "s0", 0):
+        h = w.ray_cast((-10, 0, 0), (1, 0, 0), exclude=ex)
+        assert h.body[0] == 1 and abs(h.distance[0] - 11.5) < 1e-12
+    h = w.ray_cast((-10, 0, 0), (1, 0, 0), max_distance=9.0)
+    assert not h.hit[0] and h.body[0] == -1 and np.isinf(h.distance[0]) and np.all(np.isnan(h.point[0]))
+    rng = np.random.default_rng(3)
+    origins = rng.uniform(-12, 12, size=(40, 3))
+    dirs = 2.0 * rng.integers(0, 5, size=(40, 1)) * np.array([1.0, 0, 0]) + rng.normal(scale=0.4, size=(40, 3)) - origins
+    excl = rng.integers(-1, 5, size=40)
+    batch = w.ray_cast(origins, dirs, max_distance=20.0, exclude=excl)
+    assert batch.hit.sum() > 0
+    for r in range(40):
+        one = w.ray_cast(origins[r], dirs[r], max_distance=20.0, exclude=int(excl[r]) if excl[r] >= 0 else None)
+        assert one.body[0] == batch.body[r] and one.distance[0] == batch.distance[r]
+        assert np.array_equal(one.normal[0], batch.normal[r], equal_nan=True)
+
+
+def test_a_shape_holding_the_origin_is_not_hit_and_the_next_is():
+    """Box2D's rule: a ray from inside a solid sees out of it. From the centre of a box, upward,
+    the ray meets the sphere above it and not the box; from below the ground plane, nothing."""
+    w = tb.World()
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
+    w.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, position=(0, 0, 1))
+    w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(0, 0, 4))
+    h = w.ray_cast([(0, 0, 1), (5, 5, -1)], [(0, 0, 1), (0, 0, 1)])
+    assert list(h.body) == [2, -1]
+    assert abs(h.distance[0] - 2.5) < 1e-12
+
+
+def test_compound_parts_and_the_body_they_belong_to():
+    """A compound of two boxes side by side (a 2 x 1 x 1 block): a ray down through the right half
+    hits the right part's top, and reports the compound's body."""
+    w = tb.World()
+    w.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(0, 5, 0))
+    halves = tb.Compound([(tb.Box((1, 1, 1)), (0.5, 0, 0), (1, 0, 0, 0)), (tb.Box((1, 1, 1)), (-0.5, 0, 0), (1, 0, 0, 0))])
+    w.add_body(halves, mass=2.0, position=(0, 0, 1))
+    h = w.ray_cast([(0.7, 0, 5), (-0.3, 0.2, 5)], (0, 0, -1))
+    assert list(h.body) == [1, 1]
+    assert h.shape[0] != h.shape[1]
+    np.testing.assert_allclose(h.distance, [3.5, 3.5], atol=1e-12)
+
+
+# ---------------------------------------------------------------------- brute force
+def _inside(kind, params, p):
+    """(M,) bool: points p (M, 3), shape frame, inside the solid (independent of tumble)."""
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    if kind == "sphere":
+        return np.linalg.norm(p, axis=1) <= params
+    if kind == "box":
+        return np.all(np.abs(p) <= params, axis=1)
+    if kind == "capsule":
+        r, h = params
+        return x * x + y * y + (z - np.clip(z, -h, h)) ** 2 <= r * r
+    if kind == "cylinder":
+        r, h = params
+        return (x * x + y * y <= r * r) & (np.abs(z) <= h)
+    if kind == "cone":
+        r, H = params
+        return (z >= 0) & (z <= H) & (np.sqrt(x * x + y * y) <= r * (1 - z / H))
+    if kind == "convex":
+        eq = params  # SciPy's hull facets: n . p + c <= 0 inside
+        return np.all(p @ eq[:, :3].T + eq[:, 3] <= 0.0, axis=1)
+    raise AssertionError(kind)
+
+
+CASES = {
+    "sphere": (lambda rng: tb.Sphere(radius=0.6), 0.6),
+    "box": (lambda rng: tb.Box(size=(0.6, 1.0, 1.6)), np.array([0.3, 0.5, 0.8])),
+    "capsule": (lambda rng: tb.Capsule(radius=0.35, length=1.2), (0.35, 0.6)),
+    "cylinder": (lambda rng: tb.Cylinder(radius=0.45, length=1.1), (0.45, 0.55)),
+    "cone": (lambda rng: tb.Cone(radius=0.5, height=1.3), (0.5, 1.3)),
+}
+HULL_POINTS = np.random.default_rng(11).normal(size=(14, 3)) * np.array([0.5, 0.35, 0.6])
+
+
+@pytest.mark.parametrize("kind", list(CASES) + ["convex"])
+def test_random_rays_agree_with_brute_force_membership(kind):
+    rng = np.random.default_rng(sum(map(ord, kind)))  # a fixed seed per shape
+    if kind == "convex":
+        shape, params = tb.Convex(points=HULL_POINTS), ConvexHull(HULL_POINTS).equations
+    else:
+        make, params = CASES[kind]
+        shape = make(rng)
+    hits = misses = 0
+    for trial in range(12):
+        q = unit(rng.normal(size=4))
+        w = tb.World()
+        body = w.add_body(shape, mass=1.0, position=rng.uniform(-0.5, 0.5, 3), orientation=q)
+        R = quat_to_matrix(q)
+        com = np.asarray(w.com_offset[body.index])
+
+        def local(p):  # world -> shape frame: R^T (p - x) + com_offset
+            return (np.atleast_2d(p) - body.x) @ R + com
+
+        # rays from a shell around the body towards points near it: most hit, some graze or miss
+        n = 60
+        origin = body.x + np.array([unit(v) * 3.0 for v in rng.normal(size=(n, 3))])
+        target = body.x + rng.normal(size=(n, 3)) * 0.6
+        d = target - origin
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        h = w.ray_cast(origin, d, max_distance=6.0)
+        s = np.linspace(0.0, 1.0, 2000)
+        for r in range(n):
+            assert not _inside(kind, params, local(origin[r]))[0]
+            if not h.hit[r]:
+                misses += 1
+                assert not np.any(_inside(kind, params, local(origin[r] + 6.0 * s[:, None] * d[r])))
+                continue
+            hits += 1
+            t = h.distance[r]
+            nrm = h.normal[r]
+            assert abs(np.linalg.norm(nrm) - 1.0) < 1e-12
+            assert nrm @ d[r] <= 1e-12  # the normal faces the ray
+            np.testing.assert_allclose(h.point[r], origin[r] + t * d[r], atol=1e-12)
+            before = origin[r] + (t - 1e-7) * s[:, None] * d[r]
+            assert not np.any(_inside(kind, params, local(before))), (kind, r)
+            if abs(nrm @ d[r]) > 1e-3:  # not grazing: past the hit and behind the normal is inside
+                p = h.point[r]
+                assert _inside(kind, params, local(p + 1e-7 * d[r]))[0], (kind, r)
+                assert _inside(kind, params, local(p - 1e-7 * nrm))[0], (kind, r)
+                assert not _inside(kind, params, local(p + 1e-7 * nrm))[0], (kind, r)
+    assert hits > 200 and misses > 20  # both kinds of ray were exercised
+
+
+def _terrain(n=12, size=4.0, seed=5):
+    """A closed bumpy slab (tests/collision/test_mesh.heightfield: height field on top, flat bottom
+    at z = -1, walls): meshes must be closed."""
+    rng = np.random.default_rng(seed)
+    return heightfield(n, size, lambda X, Y: 0.3 * rng.normal(size=X.shape))
+
+
+def _brute_mesh(vertices, faces, o, d):
+    """Nearest triangle along o + t d, both sides, every triangle (plain linear algebra)."""
+    best = np.inf
+    for f in faces:
+        a, b, c = vertices[f]
+        M = np.column_stack([b - a, c - a, -d])
+        if abs(np.linalg.det(M)) < 1e-14:
+            continue
+        u, v, t = np.linalg.solve(M, o - a)
+        if u >= 0 and v >= 0 and u + v <= 1 and 0 <= t < best:
+            best = t
+    return best
+
+
+def test_mesh_terrain_against_every_triangle():
+    """A bumpy static terrain (a closed slab of 624 triangles, so the BVH prunes): random rays from
+    above and from below meet the same nearest triangle as a loop over all of
+    them, to 1e-10 m; the normal is the triangle's, turned to face the ray."""
+    vertices, faces = _terrain()
+    w = tb.World()
+    w.add_body(tb.Mesh(vertices=vertices, faces=faces), fixed=True, position=(1.0, -0.5, 0.2))
+    rng = np.random.default_rng(8)
+    n = 150
+    origin = np.column_stack([rng.uniform(-0.8, 2.8, n), rng.uniform(-2.3, 1.3, n), rng.choice([-3.0, 3.0], n)])
+    d = np.column_stack([rng.normal(scale=0.4, size=(n, 2)), -np.sign(origin[:, 2])])
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    h = w.ray_cast(origin, d)
+    shift = np.array([1.0, -0.5, 0.2])
+    found = 0
+    for r in range(n):
+        t = _brute_mesh(vertices, faces, origin[r] - shift, d[r])
+        if np.isinf(t):
+            assert not h.hit[r]
+            continue
+        found += 1
+        assert h.hit[r] and abs(h.distance[r] - t) < 1e-10
+        assert h.normal[r] @ d[r] < 0
+    assert found > 100
+
+
+@pytest.mark.parametrize("kwargs, key", [
+    (dict(origin=(0, 0), direction=(1, 0, 0)), "origin"),
+    (dict(origin=(0, 0, 0), direction=(0, 0, 0)), "direction"),
+    (dict(origin=[(0, 0, 0)] * 3, direction=[(1, 0, 0)] * 2), "direction"),
+    (dict(origin=(0, 0, np.nan), direction=(1, 0, 0)), "origin"),
+    (dict(origin=(0, 0, 0), direction=(1, 0, 0), max_distance=-1.0), "max_distance"),
+    (dict(origin=(0, 0, 0), direction=(1, 0, 0), exclude="nobody"), "exclude"),
+    (dict(origin=[(0, 0, 0)] * 2, direction=(1, 0, 0), exclude=[0, 0, 0]), "exclude"),
+])
+def test_bad_arguments_raise_one_line_naming_the_argument(kwargs, key):
+    w = tb.World()
+    w.add_body(tb.Sphere(radius=0.5), mass=1.0, name="ball")
+    with pytest.raises(InputError) as err:
+        w.ray_cast(**kwargs)
+    assert err.value.key == key and "\n" not in str(err.value)
+    assert str(err.value).startswith(f"{key}: ")
