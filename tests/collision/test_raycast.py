@@ -297,3 +297,31 @@ def test_bad_arguments_raise_one_line_naming_the_argument(kwargs, key):
         w.ray_cast(**kwargs)
     assert err.value.key == key and "\n" not in str(err.value)
     assert str(err.value).startswith(f"{key}: ")
+
+
+def test_many_spheres_through_the_tree_equal_a_loop_over_all_of_them():
+    """400 spheres scattered in a 10 m cube (a tree of ~7 levels) and 1000 random rays: each ray's
+    nearest sphere and distance equal those of the closed form evaluated for every sphere in
+    NumPy (with the same rule: a sphere holding the origin is not hit), to 1e-12 m."""
+    rng = np.random.default_rng(21)
+    centre = rng.uniform(-5, 5, size=(400, 3))
+    radius = rng.uniform(0.05, 0.4, size=400)
+    w = tb.World()
+    for c, r in zip(centre, radius):
+        w.add_body(tb.Sphere(radius=r), mass=1.0, position=c)
+    origin = rng.uniform(-6, 6, size=(1000, 3))
+    d = rng.normal(size=(1000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    h = w.ray_cast(origin, d, max_distance=8.0)
+    oc = origin[:, None, :] - centre[None, :, :]
+    b = np.einsum("rsk,rk->rs", oc, d)
+    c = np.einsum("rsk,rsk->rs", oc, oc) - radius[None, :] ** 2
+    disc = b * b - c
+    with np.errstate(invalid="ignore"):
+        t = -b - np.sqrt(disc)
+    t = np.where((c >= 0) & (b <= 0) & (disc >= 0) & (t <= 8.0), t, np.inf)
+    nearest = np.where(np.isfinite(t.min(axis=1)), t.argmin(axis=1), -1)
+    assert (nearest >= 0).sum() > 150
+    assert np.array_equal(h.body, nearest)
+    hit = nearest >= 0
+    np.testing.assert_allclose(h.distance[hit], t.min(axis=1)[hit], rtol=0, atol=1e-12)

@@ -14,11 +14,12 @@ Rules (as Box2D's):
 - the normal is the shape's outward unit normal at the hit point (world frame); on an edge or a
   corner, that of the face the ray entered by (a box's, a hull's, a cylinder's cap or side).
 
-Each ray is tested against every shape's world AABB, then exactly in the shape's frame (closed
-forms; hulls by clipping the ray with their face planes, Cyrus and Beck 1978; meshes through
-their BVH with the Moller-Trumbore triangle test, 1997). Rays are spread over the cores, each
-writing only its own row, so the bits do not depend on the thread count. Cost: about one AABB
-test per ray and shape (no broadphase tree over the shapes yet), figures in docs/benchmarks.md.
+Each ray walks a tree of the shapes' world AABBs (``build_shape_bvh``, built for each query;
+planes, unbounded, are tested apart), then tests exactly, in the shape's frame, the shapes whose
+boxes it crosses before its nearest hit so far (closed forms; hulls by clipping the ray with their
+face planes, Cyrus and Beck 1978; meshes through their own BVH with the Moller-Trumbore triangle
+test, 1997). Rays are spread over the cores, each writing only its own row, so the bits do not
+depend on the thread count. Figures in docs/benchmarks.md ("raycast").
 """
 
 from __future__ import annotations
@@ -321,69 +322,175 @@ def _ray_mesh(node_first_row, node_count, mesh_triangle, node_aabb, leaf_first, 
 
 
 # ---------------------------------------------------------------------- all rays, all shapes
+SHAPES_PER_LEAF = 4
+
+
+@njit(**JIT)
+def build_shape_bvh(aabb, items, node_aabb, node_first, node_count, node_skip):
+    """A bounding volume hierarchy over the boxes aabb[items] (items (M,) shape rows, reordered in
+    place so that each leaf's shapes are consecutive), in preorder with skip links (the node after
+    a node's subtree: a stackless walk, as the meshes' BVH). Split at the median centroid along
+    the axis the centroids spread most, down to ``SHAPES_PER_LEAF``. Outputs sized >= 2 M.
+    Returns the number of nodes."""
+    m = items.shape[0]
+    if m == 0:
+        return 0
+    right = np.full(2 * m, -1, dtype=np.int64)  # an inner node's right child (its left is the next node)
+    stack_lo = np.empty(2 * m, dtype=np.int64)
+    stack_hi = np.empty(2 * m, dtype=np.int64)
+    stack_parent = np.empty(2 * m, dtype=np.int64)  # the inner node whose right child this is (-1: a left one)
+    centre = np.empty(m)
+    top = 0
+    stack_lo[0], stack_hi[0], stack_parent[0] = 0, m, -1
+    nodes = 0
+    while top >= 0:
+        lo, hi, parent = stack_lo[top], stack_hi[top], stack_parent[top]
+        top -= 1
+        n = nodes
+        nodes += 1
+        if parent >= 0:
+            right[parent] = n
+        for k in range(3):
+            node_aabb[n, 0, k] = np.inf
+            node_aabb[n, 1, k] = -np.inf
+        for i in range(lo, hi):
+            for k in range(3):
+                node_aabb[n, 0, k] = min(node_aabb[n, 0, k], aabb[items[i], 0, k])
+                node_aabb[n, 1, k] = max(node_aabb[n, 1, k], aabb[items[i], 1, k])
+        if hi - lo <= SHAPES_PER_LEAF:
+            node_first[n] = lo
+            node_count[n] = hi - lo
+            continue
+        node_first[n] = lo
+        node_count[n] = 0
+        axis = 0
+        spread = -1.0
+        for k in range(3):
+            c_lo = np.inf
+            c_hi = -np.inf
+            for i in range(lo, hi):
+                c = aabb[items[i], 0, k] + aabb[items[i], 1, k]
+                c_lo = min(c_lo, c)
+                c_hi = max(c_hi, c)
+            if c_hi - c_lo > spread:
+                spread = c_hi - c_lo
+                axis = k
+        for i in range(lo, hi):
+            centre[i - lo] = aabb[items[i], 0, axis] + aabb[items[i], 1, axis]
+        sorted_items = items[lo:hi][np.argsort(centre[:hi - lo], kind="mergesort")]
+        items[lo:hi] = sorted_items
+        mid = (lo + hi) // 2
+        # the right half is pushed first, so the left one is built next: it follows its parent
+        top += 1
+        stack_lo[top], stack_hi[top], stack_parent[top] = mid, hi, n
+        top += 1
+        stack_lo[top], stack_hi[top], stack_parent[top] = lo, mid, -1
+    # skip links, parents before children: a left child skips to its sibling, a right child
+    # to where its parent skips
+    node_skip[0] = nodes
+    for n in range(nodes):
+        if node_count[n] == 0:
+            node_skip[n + 1] = right[n]
+            node_skip[right[n]] = node_skip[n]
+    return nodes
+
+
+@njit(**JIT)
+def _ray_shape(s, lo, dl, best, shape_type, shape_params, shape_data, hull_plane, mesh_triangle, node_aabb,
+               leaf_first, leaf_count, node_skip):
+    """Shape s against the ray (lo, dl) in its frame, up to ``best``: the ``_ray_<shape>`` it takes."""
+    t = shape_type[s]
+    p = shape_params[s]
+    if t == SHAPE_PLANE:
+        return _ray_plane(p, lo, dl, best)
+    if t == SHAPE_SPHERE:
+        return _ray_sphere(p[0], 0.0, lo, dl, best)
+    if t == SHAPE_BOX:
+        return _ray_box(p, lo, dl, best)
+    if t == SHAPE_CAPSULE:
+        return _ray_capsule(p[0], p[1], lo, dl, best)
+    if t == SHAPE_CYLINDER:
+        return _ray_cylinder(p[0], p[1], lo, dl, best)
+    if t == SHAPE_CONE:
+        return _ray_cone(p[0], p[1], lo, dl, best)
+    if t == SHAPE_CONVEX:
+        return _ray_convex(shape_data[s, 2], shape_data[s, 3], hull_plane, lo, dl, best)
+    if t == SHAPE_MESH:
+        return _ray_mesh(shape_data[s, 2], shape_data[s, 3], mesh_triangle, node_aabb, leaf_first, leaf_count,
+                         node_skip, lo, dl, best)
+    return _MISS
+
+
 @njit(**JIT, parallel=True)
-def ray_cast_kernel(origin, direction, max_distance, exclude, shape_type, shape_body, shape_params, shape_pos,
-                    shape_rot, shape_aabb, shape_data, hull_plane, mesh_triangle, node_aabb, leaf_first, leaf_count,
-                    node_skip,
+def ray_cast_kernel(origin, direction, max_distance, exclude, planes, items, tree_aabb, tree_first, tree_count,
+                    tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
+                    mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip,
                     # outputs
                     hit_shape, hit_distance, hit_normal):
     """Per ray r: the nearest shape s (hit_shape[r], -1: none) within max_distance[r] along the unit
     ``direction[r]`` from ``origin[r]`` (R, 3) m, skipping the body ``exclude[r]`` (-1: none);
-    its distance (R,) m and outward normal (R, 3), world. Shapes as ``update_bounds`` leaves them."""
+    its distance (R,) m and outward normal (R, 3), world.
+
+    The shapes: ``planes`` (P,) rows, each tested, and the rest through the tree
+    (``build_shape_bvh``: its nodes tree_* and the shape rows ``items`` its leaves point into),
+    whose boxes are passed over once they start beyond the nearest hit so far. Shape poses as
+    ``update_bounds`` leaves them; meshes' own BVHs in node_aabb, leaf_first, leaf_count, node_skip.
+    """
+    nodes = tree_first.shape[0]
     for r in prange(origin.shape[0]):
         best = max_distance[r]
         best_s = -1
         n0 = n1 = n2 = 0.0
-        for s in range(shape_type.shape[0]):
-            if shape_body[s] == exclude[r]:
-                continue
-            t = shape_type[s]
-            if t != SHAPE_PLANE:  # the world AABB first (a plane's is unbounded)
+        o0, o1, o2 = origin[r, 0], origin[r, 1], origin[r, 2]
+        e0, e1, e2 = direction[r, 0], direction[r, 1], direction[r, 2]
+        j = -len(planes)  # the planes first (j < 0), then the tree's nodes (j >= 0)
+        leaf_at = 0
+        leaf_end = 0
+        while True:
+            if leaf_at < leaf_end:  # the next shape of the current leaf
+                s = items[leaf_at]
+                leaf_at += 1
+            elif j < 0:
+                s = planes[len(planes) + j]
+                j += 1
+            elif j < nodes:
                 enter = 0.0
                 leave = best
                 for k in range(3):
-                    t1, t2 = _slab(origin[r, k], direction[r, k], shape_aabb[s, 0, k], shape_aabb[s, 1, k])
+                    t1, t2 = _slab(origin[r, k], direction[r, k], tree_aabb[j, 0, k], tree_aabb[j, 1, k])
                     enter = max(enter, t1)
                     leave = min(leave, t2)
                 if enter > leave:
-                    continue
+                    j = tree_skip[j]
+                elif tree_count[j] > 0:
+                    leaf_at = tree_first[j]
+                    leaf_end = leaf_at + tree_count[j]
+                    j += 1
+                else:
+                    j += 1
+                continue
+            else:
+                break
+            if shape_body[s] == exclude[r]:
+                continue
             # the ray in the shape's frame: o' = Rs^T (o - ps), d' = Rs^T d
-            w0 = origin[r, 0] - shape_pos[s, 0]
-            w1 = origin[r, 1] - shape_pos[s, 1]
-            w2 = origin[r, 2] - shape_pos[s, 2]
+            w0 = o0 - shape_pos[s, 0]
+            w1 = o1 - shape_pos[s, 1]
+            w2 = o2 - shape_pos[s, 2]
             rs = shape_rot[s]
             lo = (rs[0, 0] * w0 + rs[1, 0] * w1 + rs[2, 0] * w2, rs[0, 1] * w0 + rs[1, 1] * w1 + rs[2, 1] * w2,
                   rs[0, 2] * w0 + rs[1, 2] * w1 + rs[2, 2] * w2)
-            e0, e1, e2 = direction[r, 0], direction[r, 1], direction[r, 2]
             dl = (rs[0, 0] * e0 + rs[1, 0] * e1 + rs[2, 0] * e2, rs[0, 1] * e0 + rs[1, 1] * e1 + rs[2, 1] * e2,
                   rs[0, 2] * e0 + rs[1, 2] * e1 + rs[2, 2] * e2)
-            p = shape_params[s]
-            if t == SHAPE_PLANE:
-                hit = _ray_plane(p, lo, dl, best)
-            elif t == SHAPE_SPHERE:
-                hit = _ray_sphere(p[0], 0.0, lo, dl, best)
-            elif t == SHAPE_BOX:
-                hit = _ray_box(p, lo, dl, best)
-            elif t == SHAPE_CAPSULE:
-                hit = _ray_capsule(p[0], p[1], lo, dl, best)
-            elif t == SHAPE_CYLINDER:
-                hit = _ray_cylinder(p[0], p[1], lo, dl, best)
-            elif t == SHAPE_CONE:
-                hit = _ray_cone(p[0], p[1], lo, dl, best)
-            elif t == SHAPE_CONVEX:
-                hit = _ray_convex(shape_data[s, 2], shape_data[s, 3], hull_plane, lo, dl, best)
-            elif t == SHAPE_MESH:
-                hit = _ray_mesh(shape_data[s, 2], shape_data[s, 3], mesh_triangle, node_aabb, leaf_first, leaf_count,
-                                node_skip, lo, dl, best)
-            else:
-                hit = _MISS
+            hit = _ray_shape(s, lo, dl, best, shape_type, shape_params, shape_data, hull_plane, mesh_triangle,
+                             node_aabb, leaf_first, leaf_count, node_skip)
             if hit[0] and hit[1] <= best:
                 best = hit[1]
                 best_s = s
                 # the normal back to the world: n = Rs n'
-                n0 = shape_rot[s, 0, 0] * hit[2] + shape_rot[s, 0, 1] * hit[3] + shape_rot[s, 0, 2] * hit[4]
-                n1 = shape_rot[s, 1, 0] * hit[2] + shape_rot[s, 1, 1] * hit[3] + shape_rot[s, 1, 2] * hit[4]
-                n2 = shape_rot[s, 2, 0] * hit[2] + shape_rot[s, 2, 1] * hit[3] + shape_rot[s, 2, 2] * hit[4]
+                n0 = rs[0, 0] * hit[2] + rs[0, 1] * hit[3] + rs[0, 2] * hit[4]
+                n1 = rs[1, 0] * hit[2] + rs[1, 1] * hit[3] + rs[1, 2] * hit[4]
+                n2 = rs[2, 0] * hit[2] + rs[2, 1] * hit[3] + rs[2, 2] * hit[4]
         hit_shape[r] = best_s
         hit_distance[r] = best if best_s >= 0 else np.inf
         hit_normal[r, 0] = n0
@@ -454,10 +561,19 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
     if table is None:
         table = build_shape_table(world, skip_unsupported=True)
     pos, rot, aabb = update_bounds(world.x, world.R, table, 0.0)
+    planes = np.flatnonzero(table.shape_type == SHAPE_PLANE).astype(np.int64)
+    items = np.flatnonzero(table.shape_type != SHAPE_PLANE).astype(np.int64)
+    M = max(2 * len(items), 1)
+    tree_aabb = np.empty((M, 2, 3))
+    tree_first = np.empty(M, dtype=np.int64)
+    tree_count = np.empty(M, dtype=np.int64)
+    tree_skip = np.empty(M, dtype=np.int64)
+    nodes = build_shape_bvh(aabb, items, tree_aabb, tree_first, tree_count, tree_skip)
     shape = np.empty(R, dtype=np.int64)
     distance = np.empty(R)
     normal = np.empty((R, 3))
-    ray_cast_kernel(o, d, dist, skip, table.shape_type, table.shape_body, table.shape_params, pos, rot, aabb,
+    ray_cast_kernel(o, d, dist, skip, planes, items, tree_aabb[:nodes], tree_first[:nodes], tree_count[:nodes],
+                    tree_skip[:nodes], table.shape_type, table.shape_body, table.shape_params, pos, rot,
                     table.shape_data, table.hull_plane, table.mesh_triangle, table.mesh_node_aabb,
                     table.mesh_node_first, table.mesh_node_count, table.mesh_node_skip, shape, distance, normal)
     hit = shape >= 0
