@@ -1,12 +1,14 @@
-"""raycast: a grid of rays down onto the pile of 1000 boxes, tumble's ``World.ray_cast`` beside
-PyBullet's ``rayTestBatch`` on the same boxes, in the same run.
+"""raycast: a range camera looking down onto the pile of 1000 boxes, tumble's ``World.ray_cast``
+beside PyBullet's ``rayTestBatch`` and MuJoCo's ``mj_multiRay`` on the same boxes, in the same run.
 
 Scene: BENCHMARKS.md's pile (``tumble.scenes.contact.pile(1000)``: cubes of half-extent 0.1 m at
 seeded random orientations on a 10 x 10 x 10 grid 0.4 m apart, ground plane z = 0), at its start
-poses. Rays: a K x K grid (default 100 x 100 = 10 000) over x, y in [-2.5, 2.5] m from z = 10 m
-straight down, 11 m long: a down-looking range camera. PyBullet: the same cubes as plain rigid
-bodies (``useMaximalCoordinates``), the same poses, a plane; ``rayTestBatch`` on one thread
-(its default) and on all threads (``numThreads=0``).
+poses. Rays: a range camera at (0, 0, 10) m, one ray towards each point of a K x K grid
+(default 100 x 100 = 10 000) over x, y in [-2.5, 2.5] m on the ground, 20 m long (all rays from
+one point: what ``mj_multiRay`` takes). PyBullet: the same cubes as plain rigid bodies
+(``useMaximalCoordinates``), the same poses, a plane; ``rayTestBatch`` on one thread (its
+default) and on all threads (``numThreads=0``). MuJoCo: the cubes as box geoms of the world body
+at the same poses, a plane, ``mj_multiRay`` (one thread) after ``mj_forward``.
 
 Timed: the query alone, median of ``--runs`` (tumble's first call, which compiles its kernel or
 loads it from the cache, is timed apart). Agreement: the bodies hit and the distances of the two
@@ -30,9 +32,39 @@ from tumble.scenes.contact import pile
 def rays(k: int):
     g = np.linspace(-2.5, 2.5, k)
     X, Y = np.meshgrid(g, g, indexing="ij")
-    origin = np.column_stack([X.ravel(), Y.ravel(), np.full(k * k, 10.0)])
-    direction = np.tile([0.0, 0.0, -1.0], (k * k, 1))
-    return origin, direction, 11.0
+    target = np.column_stack([X.ravel(), Y.ravel(), np.zeros(k * k)])
+    origin = np.tile([0.0, 0.0, 10.0], (k * k, 1))
+    direction = target - origin
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    return origin, direction, 20.0
+
+
+def mujoco_cast(world, origin, direction, length, runs):
+    import mujoco
+
+    geoms = ['<geom type="plane" size="0 0 1"/>']
+    boxes = np.flatnonzero(world.moving)
+    for i in boxes:
+        x, q = world.x[i], world.q[i]
+        pos = " ".join(repr(float(v)) for v in x)
+        quat = " ".join(repr(float(v)) for v in q)
+        geoms.append(f'<geom type="box" size="0.1 0.1 0.1" pos="{pos}" quat="{quat}"/>')
+    m = mujoco.MjModel.from_xml_string("<mujoco><worldbody>" + "".join(geoms) + "</worldbody></mujoco>")
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    n = len(direction)
+    vec = np.ascontiguousarray(direction).ravel()
+    geomid = np.zeros(n, dtype=np.int32)
+    dist = np.zeros(n)
+    normal = np.zeros(3 * n)
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        mujoco.mj_multiRay(m, d, origin[0].copy(), vec, None, 1, -1, geomid, dist, normal, n, length)
+        times.append(time.perf_counter() - t)
+    # geom 0 is the plane (tumble body 0), geom g >= 1 the box of tumble body boxes[g - 1]
+    body = np.where(geomid < 0, -1, np.where(geomid == 0, 0, boxes[np.maximum(geomid - 1, 0)]))
+    return body, np.where(geomid < 0, np.inf, dist), statistics.median(times)
 
 
 def tumble_cast(world, origin, direction, length, runs):
@@ -98,24 +130,23 @@ def main(argv=None):
     print(f"rays: {n}, bodies: {world.body_count} (1000 boxes + ground)")
     print(f"tumble World.ray_cast: first call {first:.2f} s (compile or cache load), median {t_tumble * 1e3:.2f} ms"
           f" = {n / t_tumble / 1e6:.2f} M rays/s; {hits.hit.sum()} hits, {np.sum(hits.body > 0)} on boxes")
+    results = [(f"pybullet rayTestBatch ({'1 thread' if threads == 1 else 'all threads'})",
+                pybullet_cast(world, origin, direction, length, args.runs, threads)) for threads in (1, 0)]
     try:
-        import pybullet  # noqa: F401
+        results.append(("mujoco mj_multiRay", mujoco_cast(world, origin, direction, length, args.runs)))
     except ImportError:
-        print("pybullet not installed: pip install pybullet")
-        return
-    for threads in (1, 0):
-        body, dist, t_pb = pybullet_cast(world, origin, direction, length, args.runs, threads)
+        print("mujoco not installed: pip install mujoco")
+    for label, (body, dist, t_peer) in results:
         same = body == hits.body
         both = same & np.isfinite(dist)
-        diff = np.abs(dist[both] - hits.distance[both]).max() if both.any() else float("nan")
-        label = "1 thread" if threads == 1 else "all threads"
-        print(f"pybullet rayTestBatch ({label}): median {t_pb * 1e3:.2f} ms = {n / t_pb / 1e6:.2f} M rays/s;"
-              f" same body on {same.mean() * 100:.2f} % of rays, distance differences there: median"
-              f" {np.median(np.abs(dist[both] - hits.distance[both])):.1e} m, largest {diff:.2e} m")
-        # where the bodies differ: does the exact slab test put PyBullet's box in front of tumble's hit?
+        diff = np.abs(dist[both] - hits.distance[both])
+        print(f"{label}: median {t_peer * 1e3:.2f} ms = {n / t_peer / 1e6:.2f} M rays/s (tumble {t_peer / t_tumble:.1f}x"
+              f" faster); same body on {same.mean() * 100:.2f} % of rays, distance differences there: median"
+              f" {np.median(diff):.1e} m, largest {diff.max():.2e} m")
+        # where the bodies differ: does the exact slab test put the peer's box in front of tumble's hit?
         wrong = [r for r in np.flatnonzero(~same) if body[r] > 0
                  and exact_entry(world, body[r], origin[r], direction[r]) < hits.distance[r] - 1e-9]
-        print(f"  rays with another body: {np.sum(~same)}; of those, PyBullet's box is in front of tumble's hit"
+        print(f"  rays with another body: {np.sum(~same)}; of those, the peer's box is in front of tumble's hit"
               f" by the exact slab test on {len(wrong)}")
 
 

@@ -325,3 +325,13 @@ def test_many_spheres_through_the_tree_equal_a_loop_over_all_of_them():
     assert np.array_equal(h.body, nearest)
     hit = nearest >= 0
     np.testing.assert_allclose(h.distance[hit], t.min(axis=1)[hit], rtol=0, atol=1e-12)
+
+
+def test_a_body_added_after_a_cast_is_seen_by_the_next():
+    """The shape table is kept between casts (it is built in Python); adding a body rebuilds it."""
+    w = tb.World()
+    w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(5, 0, 0))
+    assert w.ray_cast((0, 0, 0), (1, 0, 0)).body[0] == 0
+    w.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, position=(2, 0, 0))
+    h = w.ray_cast((0, 0, 0), (1, 0, 0))
+    assert h.body[0] == 1 and abs(h.distance[0] - 1.5) < 1e-12

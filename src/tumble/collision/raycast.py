@@ -323,6 +323,7 @@ def _ray_mesh(node_first_row, node_count, mesh_triangle, node_aabb, leaf_first, 
 
 # ---------------------------------------------------------------------- all rays, all shapes
 SHAPES_PER_LEAF = 4
+RAYS_PER_CHUNK = 64  # rays per task of the parallel loop (each task allocates its traversal stack once)
 
 
 @njit(**JIT)
@@ -396,6 +397,18 @@ def build_shape_bvh(aabb, items, node_aabb, node_first, node_count, node_skip):
 
 
 @njit(**JIT)
+def _box_entry(origin, direction, r, boxes, j, t_max):
+    """Where ray r enters box j (boxes (B, 2, 3) min row, max row) within [0, t_max]; inf: it does not."""
+    enter = 0.0
+    leave = t_max
+    for k in range(3):
+        t1, t2 = _slab(origin[r, k], direction[r, k], boxes[j, 0, k], boxes[j, 1, k])
+        enter = max(enter, t1)
+        leave = min(leave, t2)
+    return enter if enter <= leave else np.inf
+
+
+@njit(**JIT)
 def _ray_shape(s, lo, dl, best, shape_type, shape_params, shape_data, hull_plane, mesh_triangle, node_aabb,
                leaf_first, leaf_count, node_skip):
     """Shape s against the ray (lo, dl) in its frame, up to ``best``: the ``_ray_<shape>`` it takes."""
@@ -421,6 +434,87 @@ def _ray_shape(s, lo, dl, best, shape_type, shape_params, shape_data, hull_plane
     return _MISS
 
 
+@njit(**JIT)
+def _cast_one(r, origin, direction, max_distance, exclude, planes, items, tree_aabb, tree_first, tree_count,
+              tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
+              mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip, stack, stack_enter, hit_shape,
+              hit_distance, hit_normal):
+    """Ray r of ``ray_cast_kernel``; ``stack``, ``stack_enter`` (64,) its scratch."""
+    nodes = tree_first.shape[0]
+    best = max_distance[r]
+    best_s = -1
+    n0 = n1 = n2 = 0.0
+    sp = 0
+    if nodes > 0:
+        stack[0] = 0
+        stack_enter[0] = 0.0
+        sp = 1
+    j = -len(planes)  # the planes first
+    leaf_at = 0
+    leaf_end = 0
+    while True:
+        if j < 0:
+            s = planes[len(planes) + j]
+            j += 1
+        elif leaf_at < leaf_end:  # the next shape of the current leaf
+            s = items[leaf_at]
+            leaf_at += 1
+        elif sp > 0:
+            sp -= 1
+            node = stack[sp]
+            if stack_enter[sp] > best:
+                continue
+            if tree_count[node] > 0:
+                leaf_at = tree_first[node]
+                leaf_end = leaf_at + tree_count[node]
+                continue
+            near = node + 1
+            far = tree_skip[node + 1]
+            t_near = _box_entry(origin, direction, r, tree_aabb, near, best)
+            t_far = _box_entry(origin, direction, r, tree_aabb, far, best)
+            if t_far < t_near:
+                near, far = far, near
+                t_near, t_far = t_far, t_near
+            if t_far < np.inf:
+                stack[sp] = far
+                stack_enter[sp] = t_far
+                sp += 1
+            if t_near < np.inf:
+                stack[sp] = near
+                stack_enter[sp] = t_near
+                sp += 1
+            continue
+        else:
+            break
+        if shape_body[s] == exclude[r]:
+            continue
+        # the ray in the shape's frame: o' = Rs^T (o - ps), d' = Rs^T d
+        o0, o1, o2 = origin[r, 0], origin[r, 1], origin[r, 2]
+        e0, e1, e2 = direction[r, 0], direction[r, 1], direction[r, 2]
+        w0 = o0 - shape_pos[s, 0]
+        w1 = o1 - shape_pos[s, 1]
+        w2 = o2 - shape_pos[s, 2]
+        rs = shape_rot[s]
+        lo = (rs[0, 0] * w0 + rs[1, 0] * w1 + rs[2, 0] * w2, rs[0, 1] * w0 + rs[1, 1] * w1 + rs[2, 1] * w2,
+              rs[0, 2] * w0 + rs[1, 2] * w1 + rs[2, 2] * w2)
+        dl = (rs[0, 0] * e0 + rs[1, 0] * e1 + rs[2, 0] * e2, rs[0, 1] * e0 + rs[1, 1] * e1 + rs[2, 1] * e2,
+              rs[0, 2] * e0 + rs[1, 2] * e1 + rs[2, 2] * e2)
+        hit = _ray_shape(s, lo, dl, best, shape_type, shape_params, shape_data, hull_plane, mesh_triangle,
+                         node_aabb, leaf_first, leaf_count, node_skip)
+        if hit[0] and hit[1] <= best:
+            best = hit[1]
+            best_s = s
+            # the normal back to the world: n = Rs n'
+            n0 = rs[0, 0] * hit[2] + rs[0, 1] * hit[3] + rs[0, 2] * hit[4]
+            n1 = rs[1, 0] * hit[2] + rs[1, 1] * hit[3] + rs[1, 2] * hit[4]
+            n2 = rs[2, 0] * hit[2] + rs[2, 1] * hit[3] + rs[2, 2] * hit[4]
+    hit_shape[r] = best_s
+    hit_distance[r] = best if best_s >= 0 else np.inf
+    hit_normal[r, 0] = n0
+    hit_normal[r, 1] = n1
+    hit_normal[r, 2] = n2
+
+
 @njit(**JIT, parallel=True)
 def ray_cast_kernel(origin, direction, max_distance, exclude, planes, items, tree_aabb, tree_first, tree_count,
                     tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
@@ -433,69 +527,21 @@ def ray_cast_kernel(origin, direction, max_distance, exclude, planes, items, tre
 
     The shapes: ``planes`` (P,) rows, each tested, and the rest through the tree
     (``build_shape_bvh``: its nodes tree_* and the shape rows ``items`` its leaves point into),
-    whose boxes are passed over once they start beyond the nearest hit so far. Shape poses as
+    walked front to back, its boxes passed over once they start beyond the nearest hit so far. Shape poses as
     ``update_bounds`` leaves them; meshes' own BVHs in node_aabb, leaf_first, leaf_count, node_skip.
     """
-    nodes = tree_first.shape[0]
-    for r in prange(origin.shape[0]):
-        best = max_distance[r]
-        best_s = -1
-        n0 = n1 = n2 = 0.0
-        o0, o1, o2 = origin[r, 0], origin[r, 1], origin[r, 2]
-        e0, e1, e2 = direction[r, 0], direction[r, 1], direction[r, 2]
-        j = -len(planes)  # the planes first (j < 0), then the tree's nodes (j >= 0)
-        leaf_at = 0
-        leaf_end = 0
-        while True:
-            if leaf_at < leaf_end:  # the next shape of the current leaf
-                s = items[leaf_at]
-                leaf_at += 1
-            elif j < 0:
-                s = planes[len(planes) + j]
-                j += 1
-            elif j < nodes:
-                enter = 0.0
-                leave = best
-                for k in range(3):
-                    t1, t2 = _slab(origin[r, k], direction[r, k], tree_aabb[j, 0, k], tree_aabb[j, 1, k])
-                    enter = max(enter, t1)
-                    leave = min(leave, t2)
-                if enter > leave:
-                    j = tree_skip[j]
-                elif tree_count[j] > 0:
-                    leaf_at = tree_first[j]
-                    leaf_end = leaf_at + tree_count[j]
-                    j += 1
-                else:
-                    j += 1
-                continue
-            else:
-                break
-            if shape_body[s] == exclude[r]:
-                continue
-            # the ray in the shape's frame: o' = Rs^T (o - ps), d' = Rs^T d
-            w0 = o0 - shape_pos[s, 0]
-            w1 = o1 - shape_pos[s, 1]
-            w2 = o2 - shape_pos[s, 2]
-            rs = shape_rot[s]
-            lo = (rs[0, 0] * w0 + rs[1, 0] * w1 + rs[2, 0] * w2, rs[0, 1] * w0 + rs[1, 1] * w1 + rs[2, 1] * w2,
-                  rs[0, 2] * w0 + rs[1, 2] * w1 + rs[2, 2] * w2)
-            dl = (rs[0, 0] * e0 + rs[1, 0] * e1 + rs[2, 0] * e2, rs[0, 1] * e0 + rs[1, 1] * e1 + rs[2, 1] * e2,
-                  rs[0, 2] * e0 + rs[1, 2] * e1 + rs[2, 2] * e2)
-            hit = _ray_shape(s, lo, dl, best, shape_type, shape_params, shape_data, hull_plane, mesh_triangle,
-                             node_aabb, leaf_first, leaf_count, node_skip)
-            if hit[0] and hit[1] <= best:
-                best = hit[1]
-                best_s = s
-                # the normal back to the world: n = Rs n'
-                n0 = rs[0, 0] * hit[2] + rs[0, 1] * hit[3] + rs[0, 2] * hit[4]
-                n1 = rs[1, 0] * hit[2] + rs[1, 1] * hit[3] + rs[1, 2] * hit[4]
-                n2 = rs[2, 0] * hit[2] + rs[2, 1] * hit[3] + rs[2, 2] * hit[4]
-        hit_shape[r] = best_s
-        hit_distance[r] = best if best_s >= 0 else np.inf
-        hit_normal[r, 0] = n0
-        hit_normal[r, 1] = n1
-        hit_normal[r, 2] = n2
+    count = origin.shape[0]
+    chunks = (count + RAYS_PER_CHUNK - 1) // RAYS_PER_CHUNK
+    for chunk in prange(chunks):
+        # the tree front to back: a node's nearer child first, and nodes whose box starts beyond
+        # the nearest hit so far are passed over (a stack of (node, entry distance), one per chunk)
+        stack = np.empty(64, dtype=np.int64)
+        stack_enter = np.empty(64)
+        for r in range(chunk * RAYS_PER_CHUNK, min(count, (chunk + 1) * RAYS_PER_CHUNK)):
+            _cast_one(r, origin, direction, max_distance, exclude, planes, items, tree_aabb, tree_first, tree_count,
+                      tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
+                      mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip, stack, stack_enter, hit_shape,
+                      hit_distance, hit_normal)
 
 
 # ---------------------------------------------------------------------- the query
@@ -523,7 +569,8 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         max_distance: m, a number or (R,), how far each ray looks (inf: without end).
         exclude: a body (``Body``, name or index) or (R,) body indices (-1: none) that the
             rays do not see, e.g. the body a sensor is mounted on.
-        table: a ``ShapeTable`` of ``world`` to reuse (default: built from the world).
+        table: a ``ShapeTable`` of ``world`` to use (default: built from the world at the first
+            cast and kept until bodies are added).
 
     Returns:
         ``RayHits`` with a row per ray.
@@ -559,7 +606,12 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         if skip.shape != (R,):
             raise InputError(f"must be one body or one index per ray ({R}), got shape {skip.shape}", "exclude")
     if table is None:
-        table = build_shape_table(world, skip_unsupported=True)
+        # PERF: built in Python (7.6 ms for 1000 boxes, more than the 10 000 rays' kernel), and the
+        # shapes change only when bodies are added: kept on the world by its body count
+        count, table = getattr(world, "_ray_cast_table", (-1, None))
+        if count != world.body_count:
+            table = build_shape_table(world, skip_unsupported=True)
+            world._ray_cast_table = (world.body_count, table)
     pos, rot, aabb = update_bounds(world.x, world.R, table, 0.0)
     planes = np.flatnonzero(table.shape_type == SHAPE_PLANE).astype(np.int64)
     items = np.flatnonzero(table.shape_type != SHAPE_PLANE).astype(np.int64)
