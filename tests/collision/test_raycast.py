@@ -127,6 +127,16 @@ def test_the_nearest_shape_wins_and_exclude_and_max_distance_apply():
         assert np.array_equal(one.normal[0], batch.normal[r], equal_nan=True)
 
 
+def test_one_origin_with_many_directions_and_many_origins_with_one_direction():
+    """A camera: one origin, a direction per ray; and a sweep: an origin per ray, one direction."""
+    w = tb.World()
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
+    fan = w.ray_cast((0, 0, 2), [(np.sin(a), 0, -np.cos(a)) for a in (0.0, 0.5, 1.0)])
+    np.testing.assert_allclose(fan.distance, [2 / np.cos(a) for a in (0.0, 0.5, 1.0)], rtol=1e-14)
+    sweep = w.ray_cast([(x, 0, 1 + x) for x in range(4)], (0, 0, -1))
+    np.testing.assert_allclose(sweep.distance, [1.0, 2.0, 3.0, 4.0], rtol=1e-14)
+
+
 def test_a_shape_holding_the_origin_is_not_hit_and_the_next_is():
     """Box2D's rule: a ray from inside a solid sees out of it. From the centre of a box, upward,
     the ray meets the sphere above it and not the box; from below the ground plane, nothing."""

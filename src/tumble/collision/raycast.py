@@ -527,14 +527,17 @@ def ray_cast_kernel(origin, direction, max_distance, exclude, planes, items, tre
 
     The shapes: ``planes`` (P,) rows, each tested, and the rest through the tree
     (``build_shape_bvh``: its nodes tree_* and the shape rows ``items`` its leaves point into),
-    walked front to back, its boxes passed over once they start beyond the nearest hit so far. Shape poses as
-    ``update_bounds`` leaves them; meshes' own BVHs in node_aabb, leaf_first, leaf_count, node_skip.
+    walked front to back, its boxes passed over once they start beyond the nearest hit so far.
+    Shape poses as ``update_bounds`` leaves them; meshes' own BVHs in node_aabb, leaf_first,
+    leaf_count, node_skip.
     """
     count = origin.shape[0]
     chunks = (count + RAYS_PER_CHUNK - 1) // RAYS_PER_CHUNK
     for chunk in prange(chunks):
         # the tree front to back: a node's nearer child first, and nodes whose box starts beyond
         # the nearest hit so far are passed over (a stack of (node, entry distance), one per chunk)
+        # 64: the stack holds at most one node per level plus one, and the median split keeps the
+        # depth at log2(shapes / SHAPES_PER_LEAF) + 1
         stack = np.empty(64, dtype=np.int64)
         stack_enter = np.empty(64)
         for r in range(chunk * RAYS_PER_CHUNK, min(count, (chunk + 1) * RAYS_PER_CHUNK)):
@@ -551,7 +554,7 @@ def _rays(name: str, value, count: int | None) -> np.ndarray:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != 3:
         raise InputError(f"must be a 3-vector or an (R, 3) array, got shape {np.shape(value)}", name)
-    if count is not None and len(a) not in (1, count):
+    if count is not None and count > 1 and len(a) not in (1, count):
         raise InputError(f"has {len(a)} rows but origin has {count}", name)
     if not np.all(np.isfinite(a)):
         raise InputError("must be finite", name)
