@@ -394,3 +394,18 @@ def test_random_rays_agree_with_mujoco_mj_ray():
             assert abs(h.distance[r] - t) < 1e-9, r
             shapes_hit += body > 0
     assert shapes_hit > 60  # the rays met the shapes, not only the plane
+
+
+def test_casts_follow_the_bodies_as_the_simulation_moves_them():
+    """The poses' tree is kept between casts while x and R stay as they were: after the
+    Simulator moves the bodies, a cast sees them where they are now (the top of a falling
+    sphere at its current height), and a cast in a world of the same poses stays the same."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    ball = w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(0, 0, 5))
+    first = w.ray_cast((0, 0, 20), (0, 0, -1))
+    assert abs(first.distance[0] - 14.5) < 1e-12
+    assert w.ray_cast((0, 0, 20), (0, 0, -1)).distance[0] == first.distance[0]
+    tb.Simulator(w, dt=1 / 240).run(0.5)
+    assert ball.x[2] < 4.0
+    h = w.ray_cast((0, 0, 20), (0, 0, -1))
+    assert abs(h.distance[0] - (20 - ball.x[2] - 0.5)) < 1e-12
