@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from ..collision.constants import SPECULATIVE_DISTANCE
+from ..collision.constants import DEEP_OVERLAP, SPECULATIVE_DISTANCE
 from ..collision.manifold import match_contacts
 from ..math3d import (
     JIT,
@@ -183,12 +183,24 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
                             old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
                             body_friction, body_restitution, soft_dynamic, soft_static,
                             # outputs
-                            anchor_a, anchor_b, local_a, local_b, tangent1, tangent2, normal_mass,
+                            anchor_a, anchor_b, local_a, local_b, separation_base, tangent1, tangent2, normal_mass,
                             tangent_mass, soft, friction, restitution, relative_velocity,
                             normal_impulse, tangent_impulse, max_normal_impulse):
     """Per contact: arms, tangent basis, effective masses, softness, mixed material, the
     pre-step normal speed (for restitution) and the warm-start impulses carried over by ``match``.
-    Each contact writes only its own rows: the bits do not depend on the threads."""
+    Each contact writes only its own rows: the bits do not depend on the threads.
+
+    The anchors that follow the bodies through the step (``local_a``, ``local_b``, body frames)
+    start at the contact point p (the midpoint of the two surfaces, Box2D's) and
+    ``separation_base`` is the separation s, so that ``separation_base + n.d`` (d = pb - pa, 0 at
+    the start) is the separation as they move (``solve_contacts_kernel``). A contact deeper than
+    ``DEEP_OVERLAP`` (collision.constants) moves each anchor towards its own body's surface by
+    half the overlap beyond it, p -/+ ((s + DEEP_OVERLAP) / 2) n, and ``separation_base`` becomes
+    s - n.d0 for their start d0. NOTE: why: a body deep in another (a box 100 m under a plane,
+    where the README's example once left one) carried an anchor 50 m from its centre, which swung
+    50 m per radian the body turned: the separation seen and the arms blew up within a step
+    (v 7e3 m/s). Surface anchors for shallow contacts too fixed that, but the pile of 1000 boxes then
+    gained energy between two frames (3-26 mJ of 22 563 J), which the single point never does."""
     for c in prange(body_a.shape[0]):
         a = body_a[c]
         b = body_b[c]
@@ -210,9 +222,21 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
             anchor_a[c, k] = point[c, k] - x[a, k]
             anchor_b[c, k] = point[c, k] - x[b, k]
         # the anchors in each body's frame, to follow the separation as the bodies move
-        for k in range(3):
-            local_a[c, k] = R[a, 0, k] * anchor_a[c, 0] + R[a, 1, k] * anchor_a[c, 1] + R[a, 2, k] * anchor_a[c, 2]
-            local_b[c, k] = R[b, 0, k] * anchor_b[c, 0] + R[b, 1, k] * anchor_b[c, 1] + R[b, 2, k] * anchor_b[c, 2]
+        deep = separation[c] + DEEP_OVERLAP
+        if deep >= 0.0:
+            for k in range(3):
+                local_a[c, k] = R[a, 0, k] * anchor_a[c, 0] + R[a, 1, k] * anchor_a[c, 1] + R[a, 2, k] * anchor_a[c, 2]
+                local_b[c, k] = R[b, 0, k] * anchor_b[c, 0] + R[b, 1, k] * anchor_b[c, 1] + R[b, 2, k] * anchor_b[c, 2]
+            separation_base[c] = separation[c]
+        else:  # a deep overlap: each anchor towards its own surface (see the docstring)
+            half = 0.5 * deep
+            sa0, sa1, sa2 = anchor_a[c, 0] - half * n0, anchor_a[c, 1] - half * n1, anchor_a[c, 2] - half * n2
+            sb0, sb1, sb2 = anchor_b[c, 0] + half * n0, anchor_b[c, 1] + half * n1, anchor_b[c, 2] + half * n2
+            for k in range(3):
+                local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
+                local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
+            _, _, d = _arms(x, R, a, b, local_a, local_b, c)
+            separation_base[c] = separation[c] - (n0 * d[0] + n1 * d[1] + n2 * d[2])
         ra = anchor_a[c]
         rb = anchor_b[c]
         normal_mass[c] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, n0, n1, n2)
@@ -471,7 +495,9 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
     the plain sweep in the narrowphase's order.
 
     The separation is followed as the bodies move within the step: s = s0 + n.(d - d0),
-    d = (xB + RB lB) - (xA + RA lA), with d0 = 0 since both anchors start at the contact point.
+    d = (xB + RB lB) - (xA + RA lA), with d0 = 0 since both anchors start at the contact point
+    (but for deep overlaps: ``separation`` here is ``separation_base`` = s0 - n.d0,
+    ``prepare_contacts_kernel``).
     s > 0 (speculative): the bias lets the gap close in exactly this substep and no more.
     s <= 0 with bias: a soft spring pushes out at no more than ``contact_speed``.
     Relax (no bias): rigid, so the push-out velocity is taken back out and adds no energy.
@@ -663,7 +689,8 @@ class SweepOrder:
 
 # ---------------------------------------------------------------------- the solver object
 _C_FLOAT = {
-    "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "tangent1": (3,), "tangent2": (3,),
+    "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "separation_base": (), "tangent1": (3,),
+    "tangent2": (3,),
     "normal_mass": (), "tangent_mass": (2,), "soft": (3,), "friction": (), "restitution": (),
     "relative_velocity": (), "last_normal_speed": (), "normal_impulse": (), "tangent_impulse": (2,), "max_normal_impulse": (),
     "old_normal_impulse": (), "old_friction_impulse": (3,),
@@ -752,7 +779,7 @@ class ContactSolver:
             contacts.contact_separation, match, b["old_normal_impulse"][: self.old_count],
             b["old_friction_impulse"][: self.old_count], self.x, self.R, v, omega, world.inv_mass, self.I_inv,
             world.moving, self.body_friction, self.body_restitution, self.soft_dynamic, self.soft_static,
-            self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.tangent1, self.tangent2,
+            self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.separation_base, self.tangent1, self.tangent2,
             self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
@@ -774,7 +801,7 @@ class ContactSolver:
         w = self.world
         solve_contacts_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
                               c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
-                              c.contact_separation, self.normal_mass, self.tangent_mass, self.soft, self.friction,
+                              self.separation_base, self.normal_mass, self.tangent_mass, self.soft, self.friction,
                               self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed,
                               bool(use_bias), self.v, self.omega, self.normal_impulse, self.tangent_impulse,
                               self.max_normal_impulse, self.relative_velocity, self.last_normal_speed,
