@@ -441,6 +441,8 @@ def _cast_one(r, origin, direction, max_distance, exclude, planes, items, tree_a
               hit_distance, hit_normal):
     """Ray r of ``ray_cast_kernel``; ``stack``, ``stack_enter`` (64,) its scratch."""
     nodes = tree_first.shape[0]
+    o0, o1, o2 = origin[r, 0], origin[r, 1], origin[r, 2]
+    e0, e1, e2 = direction[r, 0], direction[r, 1], direction[r, 2]
     best = max_distance[r]
     best_s = -1
     n0 = n1 = n2 = 0.0
@@ -489,8 +491,6 @@ def _cast_one(r, origin, direction, max_distance, exclude, planes, items, tree_a
         if shape_body[s] == exclude[r]:
             continue
         # the ray in the shape's frame: o' = Rs^T (o - ps), d' = Rs^T d
-        o0, o1, o2 = origin[r, 0], origin[r, 1], origin[r, 2]
-        e0, e1, e2 = direction[r, 0], direction[r, 1], direction[r, 2]
         w0 = o0 - shape_pos[s, 0]
         w1 = o1 - shape_pos[s, 1]
         w2 = o2 - shape_pos[s, 2]

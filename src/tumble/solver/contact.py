@@ -222,21 +222,17 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
             anchor_a[c, k] = point[c, k] - x[a, k]
             anchor_b[c, k] = point[c, k] - x[b, k]
         # the anchors in each body's frame, to follow the separation as the bodies move
-        deep = separation[c] + DEEP_OVERLAP
-        if deep >= 0.0:
-            for k in range(3):
-                local_a[c, k] = R[a, 0, k] * anchor_a[c, 0] + R[a, 1, k] * anchor_a[c, 1] + R[a, 2, k] * anchor_a[c, 2]
-                local_b[c, k] = R[b, 0, k] * anchor_b[c, 0] + R[b, 1, k] * anchor_b[c, 1] + R[b, 2, k] * anchor_b[c, 2]
-            separation_base[c] = separation[c]
-        else:  # a deep overlap: each anchor towards its own surface (see the docstring)
-            half = 0.5 * deep
-            sa0, sa1, sa2 = anchor_a[c, 0] - half * n0, anchor_a[c, 1] - half * n1, anchor_a[c, 2] - half * n2
-            sb0, sb1, sb2 = anchor_b[c, 0] + half * n0, anchor_b[c, 1] + half * n1, anchor_b[c, 2] + half * n2
-            for k in range(3):
-                local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
-                local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
+        # 0 but for a deep overlap, where each anchor moves towards its own surface (see the docstring)
+        half = 0.5 * min(separation[c] + DEEP_OVERLAP, 0.0)
+        sa0, sa1, sa2 = anchor_a[c, 0] - half * n0, anchor_a[c, 1] - half * n1, anchor_a[c, 2] - half * n2
+        sb0, sb1, sb2 = anchor_b[c, 0] + half * n0, anchor_b[c, 1] + half * n1, anchor_b[c, 2] + half * n2
+        for k in range(3):
+            local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
+            local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
+        separation_base[c] = separation[c]
+        if half < 0.0:  # the anchors no longer coincide: d0 = pb - pa at these poses
             _, _, d = _arms(x, R, a, b, local_a, local_b, c)
-            separation_base[c] = separation[c] - (n0 * d[0] + n1 * d[1] + n2 * d[2])
+            separation_base[c] -= n0 * d[0] + n1 * d[1] + n2 * d[2]
         ra = anchor_a[c]
         rb = anchor_b[c]
         normal_mass[c] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, n0, n1, n2)
