@@ -44,11 +44,17 @@ RESTITUTION_THRESHOLD = 1.0
 # manifold's points (normals, then friction) that changes some point's speed by more than
 # MANIFOLD_IMPACT_SPEED (m/s) is followed by more passes until none changes one by more than
 # MANIFOLD_PASS_SPEED (m/s), at most MANIFOLD_PASSES in all; the restitution pass likewise.
-# Other manifolds take one pass, as Box2D's. NOTE: 0.5 m/s costs nothing measurable on the
-# large pyramid (1 thread: 79.0 vs 78.7 ms a step, same hour); 0.25 cost 8 % there (its heavy
-# boxes sag at Box3D's step, with changes of 0.25-0.5 m/s a pass), 0.1 cost 26 %. So an impact
+# Other manifolds take one pass, as Box2D's. NOTE (measured against one pass, same hour): the
+# large pyramid (1 thread) 79.0 vs 78.7 ms a step with a 0.5 m/s trigger; 0.25 cost 8 % there
+# (its heavy boxes sag at Box3D's step, changing 0.25-0.5 m/s a pass), 0.1 cost 26 %. The
+# 1000-box pile, where every box lands, costs 11-15 % more (1 thread, runs paired). So an impact
 # below ~2 m/s (a quarter of it on each corner of a box) still takes one pass: a cube bouncing
 # flat at 2 m/s leaves with 1.4 cm/s sideways. @warning speeds: scaled for bodies of 0.1-10 m.
+# Dead ends, each cheaper on the pile: passes over the normals alone until they converge, then
+# the friction (0-5 %): the pile's energy then rose 6.8 mJ between two frames late in the run,
+# which one pass never does (tests/test_examples_contact.py); the same with the push-out only in
+# the first pass: a box deep under a plane, whose manifold passes every step, no longer climbed
+# out; stopping when a pass shrank the changes by less than half: flat landings still turned.
 MANIFOLD_IMPACT_SPEED = 0.5
 MANIFOLD_PASS_SPEED = 0.001
 MANIFOLD_PASSES = 32
