@@ -28,7 +28,7 @@ def test_bouncing_sphere_apexes_follow_h_e_2k():
     is h e^(2k) (each bounce returns e of the speed, so e^2 of the height). The apex is read from
     the highest recorded frame of each flight as z + vz^2 / 2g (exact on a parabola, and the flight
     away from the ground is the rk4 step, exact for constant gravity). Tolerance: the issue's 1 %.
-    Measured (dt 1/240 s, 4 solver substeps): -0.01, -0.02, -0.04, -0.09, -0.17 %: the steps the
+    Measured (dt 1/240 s, 4 solver substeps): -0.001, -0.007, -0.02, -0.04, -0.07 %: the steps the
     ball spends within the speculative margin after each bounce are semi-implicit Euler, which
     loses g h^2 / 2 of height a substep."""
     h, e, r = 2.0, 0.8, 0.5
