@@ -113,3 +113,64 @@ def test_an_edge_impact_gives_the_rigid_impact_velocities(speed, mu):
     w = world.omega[1]
     assert np.linalg.norm(v - np.array([0.0, *v_ref])) < 0.01 * speed
     assert np.linalg.norm(w - np.array([w_ref, 0.0, 0.0])) * arm < 0.01 * speed
+
+
+def _corner_orientations(count, min_gap=0.1, seed=3):
+    """Seeded unit quaternions (w, x, y, z) of the cube whose lowest corner is at least ``min_gap``
+    m below the next: the impact is on that one corner, and no second corner lands within the
+    few steps read after it."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(seed)
+    corners = np.array([[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)])
+    kept = []
+    while len(kept) < count:
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        z = np.sort(corners @ Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix().T[:, 2])
+        if z[1] - z[0] >= min_gap:
+            kept.append(q)
+    return kept
+
+
+@pytest.mark.parametrize("mu", [0.0, 1.0])
+@pytest.mark.parametrize("q", _corner_orientations(6), ids=lambda q: "q%.3f" % q[0])
+def test_a_corner_impact_gives_the_rigid_impact_velocities(q, mu):
+    """A cube at a random orientation lands on one corner at 5 m/s in zero gravity, e = 0:
+    against the rigid impact at that corner rho (3-D): frictionless (the impulse along the normal
+    that stops the corner's approach) and sticking (mu = 1: the impulse P that stops the corner,
+    K P = -u with K = 1/m + [rho]x^T I^-1 [rho]x, checked to lie in the friction cone). Tolerance
+    1 % of the speed, as for the edge. Measured: under 0.31 % in v, 0.41 % in omega |rho|; with
+    one pass a point (the code before), five of the six sticking corners were off by 8-10 %."""
+    from scipy.spatial.transform import Rotation
+
+    speed = 5.0
+    R = Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix()
+    corners = np.array([[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)]) @ R.T
+    rho = corners[np.argmin(corners[:, 2])]  # the lowest corner, from the centre, m
+    world = tb.World(gravity=(0.0, 0.0, 0.0))
+    world.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground", material=tb.Material(friction=mu))
+    world.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, position=(0.0, 0.0, -rho[2] + 0.3 * speed / 240.0),
+                   velocity=(0.0, 0.0, -speed), orientation=q,
+                   material=tb.Material(friction=mu, restitution=0.0), name="box")
+    sim = tb.Simulator(world)
+    for _ in range(3):
+        sim.step()
+
+    I_inv = np.eye(3) / CUBE_INERTIA
+
+    def corner_velocity_change(P):  # of the corner, per impulse P on the cube at rho
+        return P + np.cross(I_inv @ np.cross(rho, P), rho)
+
+    K = np.column_stack([corner_velocity_change(e) for e in np.eye(3)])
+    u = np.array([0.0, 0.0, -speed])
+    if mu == 0.0:
+        P = np.array([0.0, 0.0, speed / K[2, 2]])
+    else:
+        P = np.linalg.solve(K, -u)
+        assert np.hypot(P[0], P[1]) <= mu * P[2]  # sticking is the rigid solution
+    v_ref = u + P
+    w_ref = I_inv @ np.cross(rho, P)
+    arm = np.linalg.norm(rho)
+    assert np.linalg.norm(world.v[1] - v_ref) < 0.01 * speed
+    assert np.linalg.norm(world.omega[1] - w_ref) * arm < 0.01 * speed
