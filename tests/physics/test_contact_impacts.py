@@ -23,14 +23,29 @@ import tumble as tb
 CUBE_INERTIA = 1.0 / 6.0  # kg m^2, a 1 m cube of 1 kg about any axis through its centre
 
 
-def _box_on_ground(speed, tilt, mu, e, gravity, height_gap):
-    """A 1 m cube of 1 kg, turned by ``tilt`` rad about x, its lowest point ``height_gap`` m above
+CORNERS = np.array([[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)])  # m
+
+
+def _rotation(q):
+    """The rotation matrix (3, 3) of the unit quaternion q = (w, x, y, z)."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix()
+
+
+def _about_x(tilt):
+    """The unit quaternion (w, x, y, z) of a turn by ``tilt`` rad about x."""
+    return np.array([np.cos(tilt / 2), np.sin(tilt / 2), 0.0, 0.0])
+
+
+def _box_on_ground(speed, q, mu, e, gravity, height_gap):
+    """A 1 m cube of 1 kg at orientation q (w, x, y, z), its lowest corner ``height_gap`` m above
     the plane z = 0, moving down at ``speed`` m/s; ground and cube share friction ``mu``."""
     world = tb.World(gravity=(0.0, 0.0, -gravity))
     world.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground", material=tb.Material(friction=mu))
-    lowest = 0.5 * np.sin(tilt) + 0.5 * np.cos(tilt)
+    lowest = -(CORNERS @ _rotation(q).T)[:, 2].min()
     world.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, position=(0.0, 0.0, lowest + height_gap),
-                   velocity=(0.0, 0.0, -speed), orientation=(np.cos(tilt / 2), np.sin(tilt / 2), 0.0, 0.0),
+                   velocity=(0.0, 0.0, -speed), orientation=q,
                    material=tb.Material(friction=mu, restitution=e), name="box")
     return world
 
@@ -62,7 +77,7 @@ def test_a_cube_landing_flat_stops_dead_without_sliding_or_turning(speed):
     were solved together, at 2 / 20 / 77 m/s it turned at 0.3 / 3.3 / 6.2 rad/s and slid 5 mm /
     0.23 m / 3.7 m. Measured now: under 5e-4 rad/s, 4e-7 m, no rebound; the bounds are 20-30
     times that and far below the old figures."""
-    world = _box_on_ground(speed, 0.0, 0.5, 0.0, 9.81, speed / 480.0)
+    world = _box_on_ground(speed, _about_x(0.0), 0.5, 0.0, 9.81, speed / 480.0)
     sim = tb.Simulator(world)
     largest_spin = largest_rebound = 0.0
     for _ in range(120):  # 0.5 s
@@ -83,7 +98,7 @@ def test_a_cube_bouncing_flat_leaves_at_e_times_its_speed_without_turning(speed,
     turning at 4.2 rad/s (20 m/s). Measured now: e * speed to 6e-5 relative, under 2e-4 rad/s
     of spin, under 3e-4 m/s sideways. (At 2 m/s, below ``MANIFOLD_IMPACT_SPEED``'s reach, one
     pass as before: e * speed still, but 1.4 cm/s sideways.)"""
-    world = _box_on_ground(speed, 0.0, 0.5, e, 0.0, speed / 800.0)
+    world = _box_on_ground(speed, _about_x(0.0), 0.5, e, 0.0, speed / 800.0)
     sim = tb.Simulator(world)
     for _ in range(5):
         sim.step()
@@ -104,7 +119,7 @@ def test_an_edge_impact_gives_the_rigid_impact_velocities(speed, mu):
     corners took their friction in turn: 3 % sideways at 5 m/s, mu 0.5, and the relax kept the
     second corner from sharing the load (5-15 % off)."""
     tilt = np.radians(20.0)
-    world = _box_on_ground(speed, tilt, mu, 0.0, 0.0, 0.3 * speed / 240.0)
+    world = _box_on_ground(speed, _about_x(tilt), mu, 0.0, 0.0, 0.3 * speed / 240.0)
     sim = tb.Simulator(world)
     for _ in range(3):  # the impact, then free flight
         sim.step()
@@ -119,15 +134,12 @@ def _corner_orientations(count, min_gap=0.1, seed=3):
     """Seeded unit quaternions (w, x, y, z) of the cube whose lowest corner is at least ``min_gap``
     m below the next: the impact is on that one corner, and no second corner lands within the
     few steps read after it."""
-    from scipy.spatial.transform import Rotation
-
     rng = np.random.default_rng(seed)
-    corners = np.array([[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)])
     kept = []
     while len(kept) < count:
         q = rng.normal(size=4)
         q /= np.linalg.norm(q)
-        z = np.sort(corners @ Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix().T[:, 2])
+        z = np.sort((CORNERS @ _rotation(q).T)[:, 2])
         if z[1] - z[0] >= min_gap:
             kept.append(q)
     return kept
@@ -142,17 +154,10 @@ def test_a_corner_impact_gives_the_rigid_impact_velocities(q, mu):
     K P = -u with K = 1/m + [rho]x^T I^-1 [rho]x, checked to lie in the friction cone). Tolerance
     1 % of the speed, as for the edge. Measured: under 0.31 % in v, 0.41 % in omega |rho|; with
     one pass a point (the code before), five of the six sticking corners were off by 8-10 %."""
-    from scipy.spatial.transform import Rotation
-
     speed = 5.0
-    R = Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix()
-    corners = np.array([[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)]) @ R.T
+    corners = CORNERS @ _rotation(q).T
     rho = corners[np.argmin(corners[:, 2])]  # the lowest corner, from the centre, m
-    world = tb.World(gravity=(0.0, 0.0, 0.0))
-    world.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground", material=tb.Material(friction=mu))
-    world.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, position=(0.0, 0.0, -rho[2] + 0.3 * speed / 240.0),
-                   velocity=(0.0, 0.0, -speed), orientation=q,
-                   material=tb.Material(friction=mu, restitution=0.0), name="box")
+    world = _box_on_ground(speed, q, mu, 0.0, 0.0, 0.3 * speed / 240.0)
     sim = tb.Simulator(world)
     for _ in range(3):
         sim.step()

@@ -7,10 +7,10 @@ The stages follow Box2D v3's solver (``src/solver.c``, ``src/contact_solver.c``;
     per substep h = dt / substeps:
         integrate_velocities         forces of the step (solver.soft_step)
         warm_start                   last substep's accumulated impulses
-        solve_contacts(use_bias=1)   soft non-penetration + Coulomb friction
+        solve_contacts(use_bias=1)   soft non-penetration + Coulomb friction, a manifold at a time
         integrate_positions          x += h v, rotation by the exact rotation of omega h (soft_step)
         solve_contacts(use_bias=0)   relax: removes the push-out velocity (no energy added)
-    apply_restitution                one pass, v+ = -e v- above RESTITUTION_THRESHOLD
+    apply_restitution                v+ = -e v- above RESTITUTION_THRESHOLD, a manifold at a time
     store_impulses                   keyed by ``contact_key`` for the next step's warm start
 
 This module holds the contact stages; ``solver.soft_step.SoftStep`` runs them with the
@@ -541,7 +541,8 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
                           # outputs
                           v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
                           last_normal_speed, arm_a, arm_b, gap):
-    """One Gauss-Seidel sweep: per contact the normal impulse (soft when ``use_bias``), then friction.
+    """One Gauss-Seidel sweep: per manifold the normal impulses (soft when ``use_bias``), then the
+    friction; an impact's manifold passed over until it converges (``_solve_contact_range``).
 
     The contacts are taken in the order ``order`` (C,), cut by ``bounds`` (P + 2,) into P
     partitions, order[bounds[p]:bounds[p + 1]], and the rest, order[bounds[P]:bounds[P + 1]]
@@ -587,7 +588,7 @@ def apply_restitution_kernel(body_a, body_b, normal, local_a, local_b, normal_ma
                              relative_velocity, max_normal_impulse, threshold, arm_a, arm_b, inv_mass, I_inv,
                              # outputs
                              v, omega, normal_impulse):
-    """One pass after the substeps: where the pre-step approach speed was above ``threshold``
+    """After the substeps: where the pre-step approach speed was above ``threshold``
     and the contact pushed this step, set the normal speed to -e times the approach speed.
 
     A manifold (the consecutive contacts of one pair) is passed over until no impulse changes
