@@ -91,13 +91,14 @@ def test_a_cube_landing_flat_stops_dead_without_sliding_or_turning(speed):
 
 
 @pytest.mark.parametrize("e", [0.3, 0.8])
-@pytest.mark.parametrize("speed", [5.0, 20.0])
+@pytest.mark.parametrize("speed", [1.5, 5.0, 20.0])
 def test_a_cube_bouncing_flat_leaves_at_e_times_its_speed_without_turning(speed, e):
     """Symmetry and v+ = -e v-: in zero gravity the cube leaves at e * speed and does not turn.
     Before, one restitution pass over the corners left it at 0.491 * speed for e = 0.5 and
     turning at 4.2 rad/s (20 m/s). Measured now: e * speed to 6e-5 relative, under 2e-4 rad/s
-    of spin, under 3e-4 m/s sideways. (At 2 m/s, below ``MANIFOLD_IMPACT_SPEED``'s reach, one
-    pass as before: e * speed still, but 1.4 cm/s sideways.)"""
+    of spin, under 4e-4 m/s sideways. (At 1.5 m/s, before the passes were also started by a
+    point's approach speed (``MANIFOLD_APPROACH_SPEED``), one pass: e * speed still, but 1.1 cm/s
+    sideways.)"""
     world = _box_on_ground(speed, _about_x(0.0), 0.5, e, 0.0, speed / 800.0)
     sim = tb.Simulator(world)
     for _ in range(5):
@@ -106,6 +107,25 @@ def test_a_cube_bouncing_flat_leaves_at_e_times_its_speed_without_turning(speed,
     assert v[2] == pytest.approx(e * speed, rel=1e-3)
     assert np.linalg.norm(v[:2]) < 1e-3
     assert np.linalg.norm(w) < 0.01
+
+
+@pytest.mark.parametrize("speed", [0.3, 1.0, 2.0])
+def test_a_slow_flat_landing_stops_dead_in_zero_gravity(speed):
+    """Symmetry, at e = 0 and without gravity's help: a cube landing flat at 0.3-2 m/s stops where
+    it is. These impacts change each corner's speed by less than ``MANIFOLD_IMPACT_SPEED`` in a
+    first pass; the passes start because the corners approach faster than
+    ``MANIFOLD_APPROACH_SPEED``. With one pass (the code before) the cube rebounded at 0.7 % of
+    the speed, slid at 0.7 % and turned (at 2 m/s: 1.4 cm/s up, 1.4 cm/s sideways, 0.02 rad/s).
+    Measured now: under 1e-4 m/s up or down, 4e-4 m/s sideways, 8e-4 rad/s; bounds 1e-3 m/s and
+    2e-3 rad/s, 2.5-10 times that and a fifth to a fourteenth of the old figures."""
+    world = _box_on_ground(speed, _about_x(0.0), 0.5, 0.0, 0.0, speed / 800.0)
+    sim = tb.Simulator(world)
+    for _ in range(5):
+        sim.step()
+    v, w = world.v[1], world.omega[1]
+    assert abs(v[2]) < 1e-3
+    assert np.linalg.norm(v[:2]) < 1e-3
+    assert np.linalg.norm(w) < 2e-3
 
 
 @pytest.mark.parametrize("speed, mu", [(1.0, 0.5), (5.0, 0.2), (5.0, 0.5), (5.0, 0.0), (20.0, 1.0)])

@@ -42,20 +42,34 @@ RESTITUTION_THRESHOLD = 1.0
 
 # An impact is solved a manifold at a time (``_solve_contact_range``): a first pass over a
 # manifold's points (normals, then friction) that changes some point's speed by more than
-# MANIFOLD_IMPACT_SPEED (m/s) is followed by more passes until none changes one by more than
-# MANIFOLD_PASS_SPEED (m/s), at most MANIFOLD_PASSES in all; the restitution pass likewise.
-# Other manifolds take one pass, as Box2D's. NOTE (measured against one pass, same hour): the
-# large pyramid (1 thread) 79.0 vs 78.7 ms a step with a 0.5 m/s trigger; 0.25 cost 8 % there
-# (its heavy boxes sag at Box3D's step, changing 0.25-0.5 m/s a pass), 0.1 cost 26 %. The
-# 1000-box pile, where every box lands, costs 11-15 % more (1 thread, runs paired). So an impact
-# below ~2 m/s (a quarter of it on each corner of a box) still takes one pass: a cube bouncing
-# flat at 2 m/s leaves with 1.4 cm/s sideways. @warning speeds: scaled for bodies of 0.1-10 m.
+# MANIFOLD_IMPACT_SPEED (m/s), or, in the relax, pushes a point that came into the substep
+# approaching faster than MANIFOLD_APPROACH_SPEED (m/s), is followed by more passes until none
+# changes one by more than MANIFOLD_PASS_SPEED (m/s), at most MANIFOLD_PASSES in all; the
+# restitution pass likewise. Other manifolds take one pass, as Box2D's. The approach speed is
+# the point's normal speed at the end of the previous substep's relax (``last_normal_speed``;
+# at a new contact, the speed the step began with), not the speed the sweep meets, which in a
+# heavy stack carries the weight the points above have just passed down (a trigger on that cost
+# 29 % on the large pyramid).
+# NOTE (measured against one pass, same hour): the large pyramid (1 thread) 79.0 vs 78.7 ms a
+# step with the 0.5 m/s change trigger alone; a 0.25 m/s change trigger cost 8 % there (its
+# heavy boxes sag at Box3D's step, changing 0.25-0.5 m/s a pass), 0.1 cost 26 %. The 1000-box
+# pile, where every box lands, costs 11-15 % more than one pass (1 thread, runs paired). The
+# approach trigger adds nothing measurable to either (interleaved rounds, busy hour: pyramid
+# 95 / 88 vs 99 / 108 ms, pile 4.33-4.61 vs 4.49-4.96 s). With the change trigger alone an
+# impact below ~3 m/s (a quarter of it on each corner of a box) took one pass: a cube landing
+# flat at 2 m/s with e = 0 in zero gravity rebounded at 1.4 cm/s, slid at 1.4 cm/s and turned
+# at 0.02 rad/s; now 1e-5 m/s, 2e-4 m/s, 6e-5 rad/s (tests/physics/test_contact_impacts.py).
+# Why in the relax only: the approach trigger in the biased solve as well (same residues) made
+# the pile's energy rise 1.5 mJ between two frames near its end (tests/test_examples_contact.py
+# allows none); the relax's passes only take velocity away, the biased ones push out overlap.
+# @warning speeds: scaled for bodies of 0.1-10 m.
 # Dead ends, each cheaper on the pile: passes over the normals alone until they converge, then
 # the friction (0-5 %): the pile's energy then rose 6.8 mJ between two frames late in the run,
 # which one pass never does (tests/test_examples_contact.py); the same with the push-out only in
 # the first pass: a box deep under a plane, whose manifold passes every step, no longer climbed
 # out; stopping when a pass shrank the changes by less than half: flat landings still turned.
 MANIFOLD_IMPACT_SPEED = 0.5
+MANIFOLD_APPROACH_SPEED = 0.1  # m/s: 2.5 g h at Box3D's substep, 10 g h at the default one
 MANIFOLD_PASS_SPEED = 0.001
 MANIFOLD_PASSES = 32
 
@@ -401,8 +415,9 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
     contacts of one pair of bodies): the normal impulses of all its points, then their friction
     (the order of Box2D v3 and Catto's Solver2D: non-penetration, then friction).
 
-    A first pass that changes some point's speed by more than ``MANIFOLD_IMPACT_SPEED`` (an
-    impact) is followed by more, until no change passes ``MANIFOLD_PASS_SPEED``. NOTE: why: one
+    A first pass that changes some point's speed by more than ``MANIFOLD_IMPACT_SPEED``, or in
+    the relax pushes a point that came in approaching faster than ``MANIFOLD_APPROACH_SPEED`` (an
+    impact), is followed by more, until no change passes ``MANIFOLD_PASS_SPEED``. NOTE: why: one
     Gauss-Seidel pass over the four corners of a box landing flat stops the first corner alone,
     which tips the box; friction at that corner then pushes it sideways. A cube landing flat at
     20 m/s with restitution 0 came out sliding at 2.1 m/s and spinning at 2.6 rad/s about the
@@ -490,6 +505,8 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
                 max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
                 if abs(impulse) > speed * normal_mass[c]:
                     again = True
+                if not use_bias and sweep == 0 and impulse > 0.0 and last_normal_speed[c] < -MANIFOLD_APPROACH_SPEED:
+                    again = True  # it came in approaching (read before the line below overwrites it)
                 if not use_bias:
                     # the normal speed this substep ends with: the next substep's speed before its kick
                     last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
