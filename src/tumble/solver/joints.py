@@ -256,6 +256,21 @@ def _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb):
 
 
 @njit(**JIT)
+def _slider_rows(inv_mass, I_inv, R, a, b, frame_a, j, ra, rb):
+    """A slider's two linear rows, across its axis: the unit axes p1, p2 (3,) (world frame;
+    columns 0 and 1 of joint j's frame on body a) and the rows' 2x2 K = J M^-1 J^T as k11, k12,
+    k22 (1/kg), at arms ra (a's centre to b's anchor) and rb (m, world frame). Shared by the
+    velocity solve and the position projection."""
+    p1 = _axis(R, a, frame_a, j, 0)
+    p2 = _axis(R, a, frame_a, j, 1)
+    k11 = _row_mass(inv_mass, I_inv, a, b, True, p1, ra, rb)
+    k22 = _row_mass(inv_mass, I_inv, a, b, True, p2, ra, rb)
+    k12 = (_dot(_cross(ra, p1), _mat_vec(I_inv, a, _cross(ra, p2)))
+           + _dot(_cross(rb, p1), _mat_vec(I_inv, b, _cross(rb, p2))))
+    return p1, p2, k11, k12, k22
+
+
+@njit(**JIT)
 def _row_velocity(v, omega, a, b, linear, n, ra, rb):
     if linear:
         return _dot(n, _sub(_point_velocity(v, omega, b, rb), _point_velocity(v, omega, a, ra)))
@@ -673,12 +688,7 @@ def _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass,
     old = (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2])
     if t == JOINT_SLIDER:
         ra = _add(ra, d)
-        p1 = _axis(R, a, frame_a, j, 0)
-        p2 = _axis(R, a, frame_a, j, 1)
-        k11 = _row_mass(inv_mass, I_inv, a, b, True, p1, ra, rb)
-        k22 = _row_mass(inv_mass, I_inv, a, b, True, p2, ra, rb)
-        k12 = (_dot(_cross(ra, p1), _mat_vec(I_inv, a, _cross(ra, p2)))
-               + _dot(_cross(rb, p1), _mat_vec(I_inv, b, _cross(rb, p2))))
+        p1, p2, k11, k12, k22 = _slider_rows(inv_mass, I_inv, R, a, b, frame_a, j, ra, rb)
         o1 = _dot(old, p1)
         o2 = _dot(old, p2)
         l1, l2 = _solve2(k11, k12, k22,
@@ -898,12 +908,7 @@ def project_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_
                 err = abs(C)
             elif t == JOINT_SLIDER:
                 ra = _add(ra, d)
-                p1 = _axis(R, a, frame_a, j, 0)
-                p2 = _axis(R, a, frame_a, j, 1)
-                k11 = _row_mass(inv_mass, I_inv, a, b, True, p1, ra, rb)
-                k22 = _row_mass(inv_mass, I_inv, a, b, True, p2, ra, rb)
-                k12 = (_dot(_cross(ra, p1), _mat_vec(I_inv, a, _cross(ra, p2)))
-                       + _dot(_cross(rb, p1), _mat_vec(I_inv, b, _cross(rb, p2))))
+                p1, p2, k11, k12, k22 = _slider_rows(inv_mass, I_inv, R, a, b, frame_a, j, ra, rb)
                 c1 = _dot(d, p1)
                 c2 = _dot(d, p2)
                 l1, l2 = _solve2(k11, k12, k22, c1, c2)
