@@ -94,6 +94,12 @@ class Simulator:
             raise InputError(f"expected a number, got {max_energy_growth!r}", "simulation.max_energy_growth") from None
         if not self.max_energy_growth >= 1.0:
             raise InputError(f"must be a number >= 1, got {max_energy_growth!r}", "simulation.max_energy_growth")
+        if joint_settings is not None and getattr(joint_settings, "position_iterations", 0) != 0:
+            # NOTE: the NGS projection moves x, q, R apart from the packed state the soft step
+            # integrates, and it made energy worse where measured (docs/joints.md): refused here
+            # rather than ignored without a word.
+            raise InputError("the Simulator's step does not project joint positions; use 0 (the projection runs "
+                             "only in tumble.solver.joints.step_with_joints)", "joint_settings.position_iterations")
         self.validate = checks.validation_enabled()
         self.energy_reference = None  # [E0 J, scale J, impulses applied] of the current run
         self.checkpoint_run = None  # the ``run`` data of the checkpoint this simulator was loaded from

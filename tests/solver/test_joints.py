@@ -70,6 +70,20 @@ def test_not_a_joint_is_refused():
         w.add_joint("hinge")
 
 
+def test_the_simulator_refuses_a_projection_it_would_not_run():
+    """JointSettings.position_iterations drives only the standalone stepper's NGS projection; the
+    Simulator's step has none, so a value other than 0 is refused in one line naming the key
+    (before, it was taken and silently did nothing)."""
+    w, bodies = world_with((0, 0, 0), (1, 0, 0))
+    w.add_joint(BallJoint(bodies[0], bodies[1], anchor=(0.5, 0, 0)))
+    with pytest.raises(tb.InputError) as err:
+        tb.Simulator(w, joint_settings=JointSettings(position_iterations=3))
+    assert err.value.key == "joint_settings.position_iterations"
+    assert "does not project" in str(err.value)
+    assert "\n" not in str(err.value)
+    tb.Simulator(w, joint_settings=JointSettings(position_iterations=0)).step()  # 0 is the default and runs
+
+
 # ---------------------------------------------------------------------- kinematics per type
 def test_body_frame_anchors_equal_world_anchors():
     # the same joint given in world coordinates and in the bodies' frames (joint_grid style)

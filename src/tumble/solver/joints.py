@@ -26,9 +26,11 @@ follow the bodies through the substeps; the inverse world inertia is the caller'
 ``I_inv`` (N, 3, 3) at call time. With ``method="tree"`` the rigid rows of a spanning
 forest are instead solved exactly in linear time (Baraff 1996; ``tree_solve_kernel``).
 
-``step_with_joints`` is a standalone stepper (the World's built-in forces, evaluated at
-the start of the step, and joints; no contacts), for tests and benchmarks until the
-Simulator's soft step calls the JointSolver itself.
+``step_with_joints`` is a standalone stepper (the World's built-in forces and joints; no
+contacts, no user callables) in the stage order of the Simulator's soft step
+(``solver.soft_step``). It differs in its forces (evaluated once a step, not every substep),
+its velocity update (the gyroscopic term by one implicit Newton step, where the soft step
+keeps L as the state) and the NGS projection (``position_iterations``), which only it runs.
 
 NOTE: this module is over STYLE's ~600 lines; the natural cut is the tree solve
 (``_joint_rows`` to the end) into a module of its own.
