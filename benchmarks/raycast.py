@@ -15,6 +15,7 @@ loads it from the cache, is timed apart). Agreement: the bodies hit and the dist
 engines compared ray by ray.
 
     PYTHONPATH=src python benchmarks/raycast.py [--rays-per-side 100] [--runs 7]
+    PYTHONPATH=src python benchmarks/raycast.py --moving [N ...]   # a cast after every pose change
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import time
 
 import numpy as np
 
-import tumble as tb  # noqa: F401  (the package the scene comes from)
+import tumble as tb
 from tumble.scenes.contact import pile
 
 
@@ -118,11 +119,67 @@ def exact_entry(world, i, o, d, half=0.1):
     return a if a <= b and a >= 0 else np.inf
 
 
+def moving_query(count: int, runs: int, steps: int = 20):
+    """A cast of one ray after every pose change (a sensor read each step), in a grid of ``count``
+    cubes, each moved 1 mm and turned a little before each cast: the tree refitted (kept) against
+    the tree built anew for each cast (``REFIT_GROWTH = 0``). Returns (refit ms, rebuild ms, the
+    poses' boxes ms): medians over ``runs`` of the mean over ``steps`` casts; the last is
+    ``update_bounds`` alone, which both pay."""
+    import tumble.collision.raycast as rc
+    from tumble.collision.bounds import update_bounds
+
+    side = int(np.ceil(np.sqrt(count)))
+    world = tb.World()
+    world.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
+    for i in range(count):
+        world.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(0.4 * (i % side), 0.4 * (i // side), 0.5))
+    turn = np.array([[1.0, -1e-3, 0.0], [1e-3, 1.0, 0.0], [0.0, 0.0, 1.0]])  # about z, nearly orthonormal
+    moving = world.moving
+
+    def per_cast(growth):
+        rc.REFIT_GROWTH = growth
+        world._ray_scene = None
+        world.ray_cast((0.2, 0.2, 5.0), (0, 0, -1))  # table and first tree, apart
+        times = []
+        for _ in range(runs):
+            total = 0.0
+            for _ in range(steps):
+                world.x[moving] += 1e-3
+                world.R[moving] = world.R[moving] @ turn
+                t = time.perf_counter()  # the cast alone, not the pose change
+                world.ray_cast((0.2, 0.2, 5.0), (0, 0, -1))
+                total += time.perf_counter() - t
+            times.append(total / steps)
+        return statistics.median(times)
+
+    saved = rc.REFIT_GROWTH
+    try:
+        refit = per_cast(saved)
+        rebuild = per_cast(0.0)
+    finally:
+        rc.REFIT_GROWTH = saved
+    table = world._ray_scene.table
+    bounds = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        update_bounds(np.asarray(world.x), np.asarray(world.R), table, 0.0)
+        bounds.append(time.perf_counter() - t)
+    return refit * 1e3, rebuild * 1e3, statistics.median(bounds) * 1e3
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rays-per-side", type=int, default=100)
     ap.add_argument("--runs", type=int, default=7)
+    ap.add_argument("--moving", type=int, nargs="*", default=None, metavar="N",
+                    help="instead: one ray cast after every pose change in grids of N cubes, tree refitted vs rebuilt")
     args = ap.parse_args(argv)
+    if args.moving is not None:
+        for count in args.moving or (1000, 10000, 100000):
+            refit, rebuild, bounds = moving_query(count, args.runs)
+            print(f"{count} cubes, one ray after each pose change: refit {refit:.3f} ms, rebuilt {rebuild:.3f} ms"
+                  f" a cast ({rebuild / refit:.1f}x); of which the shapes' world boxes {bounds:.3f} ms")
+        return
     world, _ = pile(1000)
     origin, direction, length = rays(args.rays_per_side)
     n = len(origin)

@@ -14,12 +14,13 @@ Rules (as Box2D's):
 - the normal is the shape's outward unit normal at the hit point (world frame); on an edge or a
   corner, that of the face the ray entered by (a box's, a hull's, a cylinder's cap or side).
 
-Each ray walks a tree of the shapes' world AABBs (``build_shape_bvh``, built for each query;
-planes, unbounded, are tested apart), then tests exactly, in the shape's frame, the shapes whose
-boxes it crosses before its nearest hit so far (closed forms; hulls by clipping the ray with their
-face planes, Cyrus and Beck 1978; meshes through their own BVH with the Moller-Trumbore triangle
-test, 1997). Rays are spread over the cores, each writing only its own row, so the bits do not
-depend on the thread count. Figures in docs/benchmarks.md ("raycast").
+Each ray walks a tree of the shapes' world AABBs (``build_shape_bvh``; kept between queries and
+refitted to moved shapes, ``refit_shape_bvh``; planes, unbounded, are tested apart), then tests
+exactly, in the shape's frame, the shapes whose boxes it crosses before its nearest hit so far
+(closed forms; hulls by clipping the ray with their face planes, Cyrus and Beck 1978; meshes
+through their own BVH with the Moller-Trumbore triangle test, 1997). Rays are spread over the
+cores, each writing only its own row, so the bits do not depend on the thread count. Figures in
+docs/benchmarks.md ("raycast").
 """
 
 from __future__ import annotations
@@ -397,6 +398,40 @@ def build_shape_bvh(aabb, items, node_aabb, node_first, node_count, node_skip):
 
 
 @njit(**JIT)
+def refit_shape_bvh(aabb, items, node_aabb, node_first, node_count, node_skip, nodes):
+    """The boxes of a tree from ``build_shape_bvh`` made anew for the shapes' new boxes ``aabb``
+    (S, 2, 3) m, world, in place, its shapes and nodes kept: each leaf the union of its shapes'
+    boxes, each inner node of its two children's (the left one is the next node, the right one
+    where the left skips to), children before parents by walking the preorder backwards.
+    O(nodes), no allocation (Box2D's dynamic tree refits its moved leaves' ancestors the same
+    way). Returns the sum of the nodes' box areas, m^2: the tree's cost measure, which grows as
+    the shapes move from where the tree was built (the surface area heuristic's measure,
+    MacDonald and Booth 1990)."""
+    total = 0.0
+    for n in range(nodes - 1, -1, -1):
+        if node_count[n] > 0:
+            for k in range(3):
+                lo = np.inf
+                hi = -np.inf
+                for i in range(node_first[n], node_first[n] + node_count[n]):
+                    lo = min(lo, aabb[items[i], 0, k])
+                    hi = max(hi, aabb[items[i], 1, k])
+                node_aabb[n, 0, k] = lo
+                node_aabb[n, 1, k] = hi
+        else:
+            left = n + 1
+            right = node_skip[n + 1]
+            for k in range(3):
+                node_aabb[n, 0, k] = min(node_aabb[left, 0, k], node_aabb[right, 0, k])
+                node_aabb[n, 1, k] = max(node_aabb[left, 1, k], node_aabb[right, 1, k])
+        ex = node_aabb[n, 1, 0] - node_aabb[n, 0, 0]
+        ey = node_aabb[n, 1, 1] - node_aabb[n, 0, 1]
+        ez = node_aabb[n, 1, 2] - node_aabb[n, 0, 2]
+        total += 2.0 * (ex * ey + ey * ez + ez * ex)
+    return total
+
+
+@njit(**JIT)
 def _box_entry(origin, direction, r, boxes, j, t_max):
     """Where ray r enters box j (boxes (B, 2, 3) min row, max row) within [0, t_max]; inf: it does not."""
     enter = 0.0
@@ -561,17 +596,29 @@ def _rays(name: str, value, count: int | None) -> np.ndarray:
     return a
 
 
+# A kept tree is refitted to moved shapes (``refit_shape_bvh``) until the sum of its boxes' areas
+# passes REFIT_GROWTH times what it was when built, then built anew: refitting costs about a
+# tenth of a build (measured, docs/benchmarks.md "raycast"), but the boxes of a refitted tree
+# overlap more as its shapes move apart, and each ray then tests more of them. Either way the
+# hits are the same (the tree only orders and prunes the exact tests).
+REFIT_GROWTH = 2.0
+
+
 class _RayScene:
     """What ray casts need of a world besides the rays: its ``ShapeTable`` (built in Python, 7.6 ms
     for 1000 boxes: more than 10 000 rays take, and constant until bodies are added) and, for the
-    poses of the last query, the shapes' world poses and the tree of their boxes (0.3 ms for 1000
-    shapes: kept while x and R stay as they were, so that many small queries between two steps
-    pay for it once)."""
+    poses of the last query, the shapes' world poses and the tree of their boxes: kept while x and
+    R stay as they were, so that many small queries between two steps pay for it once, and
+    refitted when they moved (a query after every step), rebuilt when refitting has let it grow
+    past ``REFIT_GROWTH``."""
 
     def __init__(self, world, table=None):
         self.body_count = world.body_count
         self.table = build_shape_table(world, skip_unsupported=True) if table is None else table
         self.x = self.R = None
+        self._tree = None
+        self.built_area = 0.0
+        self.builds = self.refits = 0
 
     def tree(self, world):
         """(shape_pos (S, 3), shape_rot (S, 3, 3), planes (P,), items (M,), (tree_aabb, tree_first,
@@ -581,13 +628,24 @@ class _RayScene:
             return self._tree
         table = self.table
         pos, rot, aabb = update_bounds(x, R, table, 0.0)
+        if self._tree is not None:
+            _, _, planes, items, tree = self._tree
+            area = refit_shape_bvh(aabb, items, *tree, len(tree[0]))
+            if area <= REFIT_GROWTH * self.built_area:
+                self.refits += 1
+                self._tree = pos, rot, planes, items, tree
+                self.x, self.R = x.copy(), R.copy()
+                return self._tree
         planes = np.flatnonzero(table.shape_type == SHAPE_PLANE).astype(np.int64)
         items = np.flatnonzero(table.shape_type != SHAPE_PLANE).astype(np.int64)
         M = max(2 * len(items), 1)
         tree = (np.empty((M, 2, 3)), np.empty(M, dtype=np.int64), np.empty(M, dtype=np.int64),
                 np.empty(M, dtype=np.int64))
         nodes = build_shape_bvh(aabb, items, *tree)
-        self._tree = pos, rot, planes, items, tuple(a[:nodes] for a in tree)
+        tree = tuple(a[:nodes] for a in tree)
+        self.built_area = refit_shape_bvh(aabb, items, *tree, nodes)  # the same boxes: its area as built
+        self.builds += 1
+        self._tree = pos, rot, planes, items, tree
         self.x, self.R = x.copy(), R.copy()
         return self._tree
 
