@@ -112,7 +112,7 @@ def test_limit_row_directions_give_the_rates_of_the_angles():
     # |omega|: the difference's truncation (step 1e-5 s, ~1e-10) and rounding (eps / 1e-5,
     # ~1e-11); measured 3.9e-10. A wrong direction (zb instead) is off by up to 2.1.
     from tumble.joints import JOINT_BALL, JOINT_UNIVERSAL
-    from tumble.solver.joints import _coordinate_row, _second_row
+    from tumble.solver.joint_solve import _coordinate_row, _second_row
 
     rng = np.random.default_rng(3)
     frame = np.eye(3)[None].copy()

@@ -1,0 +1,531 @@
+"""The joint rows' velocity solve (``solver.joints``' sweep): the 1-D coordinate rows (spring
+or PD drive, motor, limits), a ball or universal joint's second angular coordinate, and the
+rigid blocks, joint by joint (``solve_joints_kernel``, ``warm_start_joints_kernel``). Reads x,
+R, inv_mass, I_inv and the joint tables; writes v, omega (N, 3) and the accumulated impulses."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+
+from ..joints import (
+    JOINT_BALL,
+    JOINT_DISTANCE,
+    JOINT_HINGE,
+    JOINT_SLIDER,
+    JOINT_UNIVERSAL,
+    P_DAMPING,
+    P_LIMIT2_ON,
+    P_LIMIT_ON,
+    P_LOWER,
+    P_LOWER2,
+    P_MAX_DRIVE,
+    P_MAX_MOTOR,
+    P_MAX_MOTOR2,
+    P_MOTOR2_ON,
+    P_MOTOR2_SPEED,
+    P_MOTOR_ON,
+    P_MOTOR_SPEED,
+    P_RIGID,
+    P_STIFFNESS,
+    P_TARGET,
+    P_UPPER,
+    P_UPPER2,
+)
+from ..math3d import (
+    JIT,
+)
+from .joint_math import (
+    _add,
+    _anchor,
+    _angular_K,
+    _angular_velocity,
+    _apply_angular,
+    _apply_linear,
+    _axis,
+    _cross,
+    _dot,
+    _inv_m,
+    _mat_vec,
+    _point_K,
+    _point_velocity,
+    _row_apply,
+    _row_mass,
+    _row_velocity,
+    _scale,
+    _slider_rows,
+    _solve2,
+    _solve3,
+    _sub,
+    _wrap,
+)
+
+# columns of ``axial_impulse`` (J, AXIAL_COUNT): accumulated impulses of the 1-D coordinate
+# rows (spring, motor, lower, upper, equal), then of the second angular coordinate (a ball
+# joint's twist, a universal joint's angle about axis_b: lower, upper limit, motor), then
+# the anchor impulse (x, y, z world, N s) that the motor rows and the spring/PD drive row add
+# to keep the anchor's velocity (``_solve_axial``'s ``comp``), kept apart from the anchor's
+# own ``linear_impulse`` so that the soft anchor row's impulse scale does not relax it
+# (see ``_axial_apply``)
+A_SPRING, A_MOTOR, A_LOWER, A_UPPER, A_EQUAL = 0, 1, 2, 3, 4
+A_LOWER2, A_UPPER2, A_MOTOR2 = 5, 6, 7
+A_MOTOR_ANCHOR = 8
+AXIAL_COUNT = 11
+
+
+@njit(**JIT)
+def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_position):
+    """The joint's 1-D coordinate: (has_row, linear, n, arm_a, arm_b, position).
+
+    hinge: angle of b about the axis (rad), unwrapped around ``last_position``;
+    slider: displacement along the axis (m), arm of a is ra + d (Box2D prismatic);
+    distance: length (m) along the unit line a -> b; ball: swing angle between the cone
+    axes (rad), about their common normal; universal: the angle about ``axis`` (rad, in
+    (-pi, pi], ``tumble.joints.UniversalJoint``), rate about a's axis.
+    """
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    d = _sub(pb, pa)
+    za = _axis(R, a, frame_a, j, 2)
+    if t == JOINT_HINGE:
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        xb = _axis(R, b, frame_b, j, 0)
+        yb = _axis(R, b, frame_b, j, 1)
+        angle = math.atan2(_dot(ya, xb) - _dot(xa, yb), _dot(xa, xb) + _dot(ya, yb))
+        base = last_position[j]
+        return True, False, za, ra, rb, base + _wrap(angle - base)
+    if t == JOINT_SLIDER:
+        return True, True, za, _add(ra, d), rb, _dot(d, za)
+    if t == JOINT_DISTANCE:
+        length = math.sqrt(_dot(d, d))
+        if length < 1e-12:
+            return False, True, za, ra, rb, 0.0
+        return True, True, _scale(1.0 / length, d), ra, rb, length
+    if t == JOINT_BALL:
+        zb = _axis(R, b, frame_b, j, 2)
+        s = _cross(za, zb)
+        sn = math.sqrt(_dot(s, s))
+        if sn < 1e-12:
+            return False, False, za, ra, rb, 0.0 if _dot(za, zb) > 0 else math.pi
+        return True, False, _scale(1.0 / sn, s), ra, rb, math.atan2(sn, _dot(za, zb))
+    if t == JOINT_UNIVERSAL:
+        # Q = Fa^T Fb = Rx(angle) Ry(angle_b): b's y axis in a's joint frame is (0, cos, sin)
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        yb = _axis(R, b, frame_b, j, 1)
+        return True, False, xa, ra, rb, math.atan2(_dot(za, yb), _dot(ya, yb))
+    return False, False, za, ra, rb, 0.0
+
+
+@njit(**JIT)
+def twist_angle(xa, ya, za, xb, yb, zb):
+    """Twist (rad, in (-pi, pi]) of frame b relative to frame a about the z axis, by the
+    swing-twist decomposition Q = Fa^T Fb = Q_swing Q_twist (Q_twist about z, Q_swing
+    about an axis perpendicular to z; Jolt's SwingTwistConstraint). With Q's unit
+    quaternion (w, v), tan(twist / 2) = v_z / w, hence sin twist = 2 w v_z / (w^2 + v_z^2)
+    and cos twist = (w^2 - v_z^2) / (w^2 + v_z^2); with Q_yx - Q_xy = 4 w v_z and
+    Q_xx + Q_yy = 2 (w^2 - v_z^2),
+
+        twist = atan2(ya.xb - xa.yb, xa.xb + ya.yb)
+
+    (the hinge angle's formula: with no swing the two agree). Rounding error about
+    eps / (w^2 + v_z^2) = eps / cos^2(swing / 2); the form 2 atan2(4 w v_z, 4 w^2) has an
+    extra 1 / |w| near twist pi. The axes are (3,) unit vectors of the two right-handed
+    frames, in any common frame. 0 where the twist is undefined (swing pi: w = v_z = 0)."""
+    return math.atan2(_dot(ya, xb) - _dot(xa, yb), _dot(xa, xb) + _dot(ya, yb))
+
+
+@njit(**JIT)
+def _second_row(t, j, a, b, R, frame_a, frame_b):
+    """The joint's second angular coordinate: (has_row, n, position).
+
+    ball: the twist about the cone axis (``twist_angle``); its rate is (wb - wa) . n with
+    n = (za + zb) / (1 + za . zb) (the time derivative of 2 atan2(v_z, w) under
+    dQ/dt = [wb - wa] Q; n = za at zero swing), no row near swing pi where it blows up.
+    universal: the angle about axis_b, atan2(xa . zb, xa . xb), rate (wb - wa) . yb.
+    """
+    xa = _axis(R, a, frame_a, j, 0)
+    za = _axis(R, a, frame_a, j, 2)
+    xb = _axis(R, b, frame_b, j, 0)
+    yb = _axis(R, b, frame_b, j, 1)
+    zb = _axis(R, b, frame_b, j, 2)
+    if t == JOINT_BALL:
+        ya = _axis(R, a, frame_a, j, 1)
+        c = 1.0 + _dot(za, zb)
+        if c < 1e-6:
+            return False, za, 0.0
+        return True, _scale(1.0 / c, _add(za, zb)), twist_angle(xa, ya, za, xb, yb, zb)
+    if t == JOINT_UNIVERSAL:
+        return True, yb, math.atan2(_dot(xa, zb), _dot(xa, xb))
+    return False, za, 0.0
+
+
+@njit(**JIT)
+def _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, acc, col, impulse):
+    """A 1-D coordinate row's impulse, with the anchor impulse ``comp`` per unit that keeps
+    the anchor's velocity (zero for rows without an anchor block), accumulated in
+    ``acc[j, col:col + 3]``: the anchor's ``linear_impulse`` (col 0) for limits,
+    ``axial_impulse[:, A_MOTOR_ANCHOR:]`` for motors and the spring/PD drive.
+
+    Why motors apart: the soft anchor row takes ``impulse_scale`` x its accumulated impulse
+    back every biased sweep (Box2D's softness). A motor with unlimited torque put its
+    compensation there each sweep and takes back none of its own impulse (its row has no
+    softness, no clamp), while the warm start applies the motor's full angular impulse
+    about the body's centre: what the anchor relaxed, a force at the anchor arm, spun the
+    body about its centre, and the motor answered with more. A box on a hinge driven at
+    1 rad/s with ``JointSettings()`` reached 1e8 rad/s in two steps of 1/240 s; stable with
+    hertz 0 (impulse scale 0) or a finite torque (measured). Kept apart, motor row and its
+    compensation act as one rigid row about the anchor, warm started whole: the same box
+    holds 1 rad/s to 1.3e-5 rad/s (tests/physics/test_joints_stability.py). A stiff PD
+    drive did the same (its row's own softness gamma is tiny when stiff): a 1 m arm driven
+    to 1 rad with 1e5 N m/rad, 1e4 N m s/rad spun at 280 rad/s and sat at 0.54 rad after
+    2 s; apart, it rests at 1 rad (as with rigid rows). Limits have their own softness
+    (the impulse scale) and a one-sided clamp and were stable; they stay in
+    ``linear_impulse`` so that their numbers do not change."""
+    _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, impulse)
+    if comp[0] != 0.0 or comp[1] != 0.0 or comp[2] != 0.0:
+        p = _scale(impulse, comp)
+        _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, p)
+        for k in range(3):
+            acc[j, col + k] += p[k]
+
+
+@njit(**JIT)
+def _solve_motor_row(j, slot, speed, max_impulse, m_eff, a, b, linear, n, ra, rb, comp, inv_mass, I_inv,
+                     v, omega, axial_impulse):
+    """A motor on one joint coordinate (row n, linear or angular): drives the row's rate to
+    ``speed`` (m/s or rad/s) with an accumulated impulse ``axial_impulse[j, slot]`` clamped to
+    +-``max_impulse`` (N s or N m s: the force or torque limit times h); its anchor
+    compensation goes to ``axial_impulse[j, A_MOTOR_ANCHOR:]`` (see ``_axial_apply``)."""
+    cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
+    old = axial_impulse[j, slot]
+    new = min(max(old - m_eff * (cdot - speed), -max_impulse), max_impulse)
+    axial_impulse[j, slot] = new
+    _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
+                 new - old)
+
+
+@njit(**JIT)
+def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp, m_eff, soft, inv_h,
+                      inv_mass, I_inv, v, omega, linear_impulse, axial_impulse):
+    """The lower and upper limit rows of one joint coordinate (``pos``, rad or m, along row n:
+    linear or angular), accumulated in ``axial_impulse[j, slot0]`` and ``[j, slot0 + 1]``: a
+    one-sided row each, speculative while the limit is apart (the gap may close within this
+    substep, no more), soft once crossed (Box2D v3's revolute and prismatic limits). An infinite
+    bound has no row. Shared by the first coordinate (``_solve_axial``) and the second
+    (``_solve_axial2``: a ball joint's twist, a universal joint's angle about axis_b)."""
+    for side in range(2):
+        # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
+        sign = 1.0 if side == 0 else -1.0
+        bound = lower if side == 0 else upper
+        if math.isinf(bound):
+            continue
+        C = sign * (pos - bound)
+        bias, ms, iscale = 0.0, 1.0, 0.0
+        if C > 0.0:
+            bias = C * inv_h  # speculative: the gap may close within this substep, no more
+        else:
+            bias, ms, iscale = soft[0] * C, soft[1], soft[2]
+        slot = slot0 + side
+        cdot = sign * _row_velocity(v, omega, a, b, linear, n, ra, rb)
+        old = axial_impulse[j, slot]
+        new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
+        axial_impulse[j, slot] = new
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0,
+                     sign * (new - old))
+
+
+@njit(**JIT, inline="always")
+def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
+                 h, inv_h, soft, v, omega, linear_impulse, axial_impulse):
+    """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate."""
+    p = param[j]
+    if (p[P_STIFFNESS] == 0.0 and p[P_DAMPING] == 0.0 and p[P_MOTOR_ON] == 0.0 and p[P_RIGID] == 0.0
+            and p[P_LIMIT_ON] == 0.0):
+        return  # PERF: most joints (a net, a chain) have no 1-D rows; skip their geometry
+    has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
+    if not has:
+        return
+    if t == JOINT_UNIVERSAL and p[P_LIMIT_ON] != 0.0:
+        pos = _centred_angle(pos, p[P_LOWER], p[P_UPPER])
+    # An angular row of a joint that also pins its anchor (hinge angle, ball cone) moves
+    # the bodies about the anchor, not about their centres: solve it with the anchor block
+    # (``_coupled_row_mass``). Alone, the row sees only the bodies' own inertias: a 1 m
+    # pendulum's limit was 250x too soft and Gauss-Seidel took hundreds of sweeps to pass
+    # the load to the anchor (I measured a 4 deg overshoot of a hinge limit).
+    if (t == JOINT_HINGE or t == JOINT_BALL or t == JOINT_UNIVERSAL) and not linear:
+        k, comp = _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb)
+    else:
+        k = _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb)
+        comp = (0.0, 0.0, 0.0)
+    if k <= 0.0:
+        return
+    m_eff = 1.0 / k
+    ks = p[P_STIFFNESS]
+    cs = p[P_DAMPING]
+    if ks > 0.0 or cs > 0.0:
+        # implicit spring-damper as a soft row (Catto, GDC 2011): gamma = 1 / (h (c + h k))
+        # is the compliance, k / (c + h k) the rate at which the error feeds the bias
+        gamma = 1.0 / (h * (cs + h * ks))
+        eff = 1.0 / (k + gamma)
+        cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
+        old = axial_impulse[j, A_SPRING]
+        imp = -eff * (cdot + ks / (cs + h * ks) * (pos - p[P_TARGET])) - gamma * eff * old
+        lim = p[P_MAX_DRIVE] * h
+        new = min(max(old + imp, -lim), lim)
+        axial_impulse[j, A_SPRING] = new
+        # the drive: its anchor compensation apart, as the motor's (see _axial_apply)
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
+                     new - old)
+    if p[P_MOTOR_ON] != 0.0:
+        _solve_motor_row(j, A_MOTOR, p[P_MOTOR_SPEED], p[P_MAX_MOTOR] * h, m_eff, a, b, linear, n, ra, rb, comp,
+                         inv_mass, I_inv, v, omega, axial_impulse)
+    if p[P_RIGID] != 0.0:
+        cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
+        old = axial_impulse[j, A_EQUAL]
+        imp = -m_eff * soft[1] * (cdot + soft[0] * (pos - p[P_LOWER])) - soft[2] * old
+        axial_impulse[j, A_EQUAL] = old + imp
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0, imp)
+    elif p[P_LIMIT_ON] != 0.0:
+        _solve_limit_rows(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos, a, b, linear, n, ra, rb, comp, m_eff, soft, inv_h,
+                          inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
+
+
+@njit(**JIT)
+def _centred_angle(angle, lower, upper):
+    """An angle of (-pi, pi] (twist, universal angles) seen in the chart of width 2 pi centred
+    on the middle of its limits [lower, upper] (within [-pi, pi]): the cut where the angle
+    jumps by 2 pi then lies in the middle of the forbidden arc (upper, lower + 2 pi), as far
+    as it can be from both limits, so an overshoot past a limit reads as one (not as a
+    violation of the other limit by nearly 2 pi)."""
+    mid = 0.5 * (lower + upper)
+    return mid + _wrap(angle - mid)
+
+
+@njit(**JIT)
+def _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb):
+    """(k_eff, comp) of an angular row about n on a joint that pins its anchor (both joint
+    coordinates' rows): k_eff = k - c.K^-1 c and comp = -K^-1 c, the anchor impulse per unit
+    row impulse that keeps the anchor's velocity (c = J_anchor M^-1 J_row^T, K the anchor's
+    3x3 block)."""
+    k = _row_mass(inv_mass, I_inv, a, b, False, n, ra, rb)
+    c = _scale(-1.0, _add(_cross(rb, _mat_vec(I_inv, b, n)), _cross(ra, _mat_vec(I_inv, a, n))))
+    comp = _scale(-1.0, _solve3(_point_K(inv_mass, I_inv, a, b, ra, rb), c))
+    return k + _dot(c, comp), comp
+
+
+@njit(**JIT, inline="always")
+def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h, soft,
+                  v, omega, linear_impulse, axial_impulse):
+    """Motor (universal joints), then lower and upper limit of the second angular
+    coordinate (``_second_row``: a ball joint's twist, a universal joint's angle about
+    axis_b), the same rows as the first coordinate's in ``_solve_axial`` (Box2D v3's
+    revolute limit: velocity level, speculative while the limit is apart, soft once
+    crossed; solved with the anchor block). Accumulated in ``axial_impulse[j, A_*2]``.
+    The first coordinate's code is left as it is so that joints without these rows give
+    the same numbers as before."""
+    p = param[j]
+    if p[P_LIMIT2_ON] == 0.0 and p[P_MOTOR2_ON] == 0.0:
+        return
+    has, n, pos = _second_row(t, j, a, b, R, frame_a, frame_b)
+    if not has:
+        return
+    if p[P_LIMIT2_ON] != 0.0:
+        pos = _centred_angle(pos, p[P_LOWER2], p[P_UPPER2])
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    k, comp = _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb)
+    if k <= 0.0:
+        return
+    m_eff = 1.0 / k
+    if p[P_MOTOR2_ON] != 0.0:
+        _solve_motor_row(j, A_MOTOR2, p[P_MOTOR2_SPEED], p[P_MAX_MOTOR2] * h, m_eff, a, b, False, n, ra, rb, comp,
+                         inv_mass, I_inv, v, omega, axial_impulse)
+    if p[P_LIMIT2_ON] == 0.0:
+        return
+    _solve_limit_rows(j, A_LOWER2, p[P_LOWER2], p[P_UPPER2], pos, a, b, False, n, ra, rb, comp, m_eff, soft, inv_h,
+                      inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
+
+
+@njit(**JIT, inline="always")
+def _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
+                 v, omega, linear_impulse, angular_impulse):
+    """The rigid blocks: angular (3x3 fixed/slider, 2x2 hinge, 1 universal), then the anchor
+    (3x3) or the slider's two perpendicular rows (2x2)."""
+    br, ms, iscale = soft[0], soft[1], soft[2]
+    if t != JOINT_BALL and t != JOINT_DISTANCE:
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        za = _axis(R, a, frame_a, j, 2)
+        xb = _axis(R, b, frame_b, j, 0)
+        yb = _axis(R, b, frame_b, j, 1)
+        zb = _axis(R, b, frame_b, j, 2)
+        wrel = _sub(_angular_velocity(omega, b), _angular_velocity(omega, a))
+        old = (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2])
+        K = _angular_K(I_inv, a, b)
+        if t == JOINT_HINGE:
+            e = _cross(za, zb)
+            Kx = _sym_mat_vec(K, xa)
+            Ky = _sym_mat_vec(K, ya)
+            o1 = _dot(old, xa)
+            o2 = _dot(old, ya)
+            l1, l2 = _solve2(_dot(xa, Kx), _dot(xa, Ky), _dot(ya, Ky),
+                             _dot(wrel, xa) + br * _dot(e, xa), _dot(wrel, ya) + br * _dot(e, ya))
+            i1 = -ms * l1 - iscale * o1
+            i2 = -ms * l2 - iscale * o2
+            imp = _add(_scale(i1, xa), _scale(i2, ya))
+            acc = _add(_scale(o1 + i1, xa), _scale(o2 + i2, ya))
+        elif t == JOINT_UNIVERSAL:
+            nn = _cross(yb, xa)
+            nl = math.sqrt(_dot(nn, nn))
+            nn = _scale(1.0 / nl, nn)
+            kk = _dot(nn, _sym_mat_vec(K, nn))
+            o1 = _dot(old, nn)
+            i1 = 0.0
+            if kk > 0.0:
+                i1 = -ms * (_dot(wrel, nn) + br * _dot(xa, yb)) / kk - iscale * o1
+            imp = _scale(i1, nn)
+            acc = _scale(o1 + i1, nn)
+        else:  # fixed, slider: no relative rotation; e = rotation vector of b relative to a (small)
+            e = _scale(0.5, _add(_add(_cross(xa, xb), _cross(ya, yb)), _cross(za, zb)))
+            lam = _solve3(K, _add(wrel, _scale(br, e)))
+            imp = _sub(_scale(-ms, lam), _scale(iscale, old))
+            acc = _add(old, imp)
+        angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2] = acc
+        _apply_angular(omega, I_inv, a, b, imp)
+    if t == JOINT_DISTANCE:
+        return
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    d = _sub(pb, pa)
+    old = (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2])
+    if t == JOINT_SLIDER:
+        ra = _add(ra, d)
+        p1, p2, k11, k12, k22 = _slider_rows(inv_mass, I_inv, R, a, b, frame_a, j, ra, rb)
+        o1 = _dot(old, p1)
+        o2 = _dot(old, p2)
+        l1, l2 = _solve2(k11, k12, k22,
+                         _row_velocity(v, omega, a, b, True, p1, ra, rb) + br * _dot(d, p1),
+                         _row_velocity(v, omega, a, b, True, p2, ra, rb) + br * _dot(d, p2))
+        i1 = -ms * l1 - iscale * o1
+        i2 = -ms * l2 - iscale * o2
+        imp = _add(_scale(i1, p1), _scale(i2, p2))
+        acc = _add(_scale(o1 + i1, p1), _scale(o2 + i2, p2))
+    else:
+        cdot = _sub(_point_velocity(v, omega, b, rb), _point_velocity(v, omega, a, ra))
+        lam = _solve3(_point_K(inv_mass, I_inv, a, b, ra, rb), _add(cdot, _scale(br, d)))
+        imp = _sub(_scale(-ms, lam), _scale(iscale, old))
+        acc = _add(old, imp)
+    linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2] = acc
+    _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, imp)
+
+
+@njit(**JIT)
+def _sym_mat_vec(K, u):
+    """K u for K as 6 numbers."""
+    k00, k01, k02, k11, k12, k22 = K
+    return (k00 * u[0] + k01 * u[1] + k02 * u[2],
+            k01 * u[0] + k11 * u[1] + k12 * u[2],
+            k02 * u[0] + k12 * u[1] + k22 * u[2])
+
+
+@njit(**JIT, inline="always")
+def _sweep_joints(lo, hi, backward, order, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param,
+                  enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h, inv_h, soft, v, omega, linear_impulse,
+                  angular_impulse, axial_impulse):
+    """One Gauss-Seidel sweep over joints order[lo:hi], forward or ``backward``."""
+    for k in range(lo, hi):
+        j = order[lo + hi - 1 - k] if backward else order[k]
+        if not enabled[j]:
+            continue
+        a = joint_a[j]
+        b = joint_b[j]
+        if _inv_m(inv_mass, a) + _inv_m(inv_mass, b) == 0.0:
+            continue
+        t = joint_type[j]
+        _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
+                     h, inv_h, soft, v, omega, linear_impulse, axial_impulse)
+        if param[j, P_LIMIT2_ON] != 0.0 or param[j, P_MOTOR2_ON] != 0.0:
+            # PERF: tested here, not only inside: while _solve_axial2 was a call (some 20
+            # array arguments), the call alone cost 25 % of the joint_grid step, whose joints
+            # have no such rows; it is inlined now, and the test still skips its set-up
+            _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h,
+                          soft, v, omega, linear_impulse, axial_impulse)
+        if gauss_seidel[j]:
+            _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
+                         v, omega, linear_impulse, angular_impulse)
+
+
+@njit(**JIT, parallel=True)
+def solve_joints_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param,
+                        enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h, soft, iterations,
+                        # outputs
+                        v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """``iterations`` Gauss-Seidel sweeps over the joints, forward then backward in turn.
+
+    soft: (3,) (bias rate 1/s, mass scale, impulse scale) of the rigid rows in this pass
+    (Box2D ``b2Softness``; (0, 1, 0) in relax). Joints between two immovable bodies are skipped.
+    ``gauss_seidel`` (J,) bool: whose rigid rows this sweep solves (the others are left to
+    ``tree_solve_kernel``); the 1-D coordinate rows of every joint are solved here.
+
+    The joints are taken in the order ``order`` (J,), cut by ``bounds`` (P + 2,) into P
+    partitions that share no moving body (``contact.partition_pairs_kernel``), swept side by
+    side, then the joints joining two partitions on this thread; P = 0 with order = 0..J-1 is
+    one sweep of all in their own order. The bits depend on the partitions, not the threads.
+    PERF: the sweep's body is inlined into this parallel kernel: 20 % faster than calls from a
+    serial kernel on the 100 ragdolls, same bits (Numba's parallel pipeline also removes the
+    inlined calls' reference counting).
+    """
+    parts = bounds.shape[0] - 2
+    inv_h = 1.0 / h
+    for it in range(iterations):
+        # NOTE: alternating the sweep direction (symmetric Gauss-Seidel) lets an error
+        # travel along a chain both ways within two sweeps
+        backward = it % 2 == 1
+        if parts > 0:
+            for p in prange(parts):
+                _sweep_joints(bounds[p], bounds[p + 1], backward, order, joint_type, joint_a, joint_b, local_a,
+                              local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, x, R, inv_mass,
+                              I_inv, h, inv_h, soft, v, omega, linear_impulse, angular_impulse, axial_impulse)
+        _sweep_joints(bounds[parts], bounds[parts + 1], backward, order, joint_type, joint_a, joint_b, local_a,
+                      local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h,
+                      inv_h, soft, v, omega, linear_impulse, angular_impulse, axial_impulse)
+
+
+@njit(**JIT)
+def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, enabled,
+                             position, x, R, inv_mass, I_inv, linear_impulse, angular_impulse, axial_impulse,
+                             # outputs
+                             v, omega):
+    """Apply each joint's accumulated impulses (of the last substep) once."""
+    for j in range(joint_type.shape[0]):
+        if not enabled[j]:
+            continue
+        a = joint_a[j]
+        b = joint_b[j]
+        t = joint_type[j]
+        ra, pa = _anchor(x, R, a, local_a, j)
+        rb, pb = _anchor(x, R, b, local_b, j)
+        if t == JOINT_SLIDER:
+            ra = _add(ra, _sub(pb, pa))
+        _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb,
+                      (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2]))
+        motor_anchor = (axial_impulse[j, A_MOTOR_ANCHOR], axial_impulse[j, A_MOTOR_ANCHOR + 1],
+                        axial_impulse[j, A_MOTOR_ANCHOR + 2])
+        if motor_anchor[0] != 0.0 or motor_anchor[1] != 0.0 or motor_anchor[2] != 0.0:
+            _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, motor_anchor)
+        _apply_angular(omega, I_inv, a, b, (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2]))
+        total = (axial_impulse[j, A_SPRING] + axial_impulse[j, A_MOTOR] + axial_impulse[j, A_LOWER]
+                 - axial_impulse[j, A_UPPER] + axial_impulse[j, A_EQUAL])
+        if total != 0.0:
+            has, linear, n, ra1, rb1, _pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b,
+                                                            position)
+            if has:
+                _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra1, rb1, total)
+        total2 = axial_impulse[j, A_LOWER2] - axial_impulse[j, A_UPPER2] + axial_impulse[j, A_MOTOR2]
+        if total2 != 0.0:
+            has2, n2, _pos2 = _second_row(t, j, a, b, R, frame_a, frame_b)
+            if has2:
+                _apply_angular(omega, I_inv, a, b, _scale(total2, n2))

@@ -1,0 +1,342 @@
+"""The exact solve of the rigid rows of a spanning forest of joints in linear time (Baraff,
+"Linear-Time Dynamics using Lagrange Multipliers", SIGGRAPH 1996): ``JointSettings.method =
+"tree"``. Reads x, R, inv_mass, I_inv and the joint tables; writes v, omega (N, 3)."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from ..joints import (
+    JOINT_BALL,
+    JOINT_DISTANCE,
+    JOINT_HINGE,
+    JOINT_SLIDER,
+    JOINT_UNIVERSAL,
+    P_LOWER,
+    P_RIGID,
+)
+from ..math3d import (
+    JIT,
+)
+from .joint_math import (
+    _add,
+    _anchor,
+    _apply_angular,
+    _apply_linear,
+    _axis,
+    _cross,
+    _dot,
+    _scale,
+    _sub,
+)
+from .joint_solve import (
+    A_EQUAL,
+)
+
+
+# ---------------------------------------------------------------------- exact solve on trees
+# Baraff, "Linear-Time Dynamics using Lagrange Multipliers", SIGGRAPH 1996: the KKT matrix
+# H = [[M, J^T], [J, 0]] of a tree of bodies and joints, ordered leaves first, factors as
+# L D L^T with no fill-in. Each node (a moving body: 6 dofs v, omega; a joint: up to 6 rigid
+# rows, padded with identity rows) is one 6x6 block.
+@njit(**JIT)
+def _joint_rows(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, Ja, Jb, C):
+    """Rigid rows of joint j at the current pose into Ja[j], Jb[j] (6, 6) (rows x (v, omega)
+    of body a / b) and their errors C[j] (6,) (m or rad). Returns the row count."""
+    for r in range(6):
+        C[j, r] = 0.0
+        for c in range(6):
+            Ja[j, r, c] = 0.0
+            Jb[j, r, c] = 0.0
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    d = _sub(pb, pa)
+    n = 0
+    if t != JOINT_BALL and t != JOINT_DISTANCE:
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        za = _axis(R, a, frame_a, j, 2)
+        xb = _axis(R, b, frame_b, j, 0)
+        yb = _axis(R, b, frame_b, j, 1)
+        zb = _axis(R, b, frame_b, j, 2)
+        if t == JOINT_HINGE:
+            e = _cross(za, zb)
+            dirs = (xa, ya, za)
+            errs = (_dot(e, xa), _dot(e, ya), 0.0)
+            count = 2
+        elif t == JOINT_UNIVERSAL:
+            nn = _cross(yb, xa)
+            nn = _scale(1.0 / max(math.sqrt(_dot(nn, nn)), 1e-12), nn)
+            dirs = (nn, xa, ya)
+            errs = (_dot(xa, yb), 0.0, 0.0)
+            count = 1
+        else:
+            e = _scale(0.5, _add(_add(_cross(xa, xb), _cross(ya, yb)), _cross(za, zb)))
+            dirs = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+            errs = e
+            count = 3
+        for k in range(count):
+            u = dirs[k]
+            for c in range(3):
+                Ja[j, n, 3 + c] = -u[c]
+                Jb[j, n, 3 + c] = u[c]
+            C[j, n] = errs[k]
+            n += 1
+    if t == JOINT_DISTANCE:
+        if param[j, P_RIGID] == 0.0:
+            return n
+        length = math.sqrt(_dot(d, d))
+        if length < 1e-12:
+            return n
+        dirs = (_scale(1.0 / length, d), d, d)
+        errs = (length - param[j, P_LOWER], 0.0, 0.0)
+        count = 1
+    elif t == JOINT_SLIDER:
+        ra = _add(ra, d)
+        p1 = _axis(R, a, frame_a, j, 0)
+        p2 = _axis(R, a, frame_a, j, 1)
+        dirs = (p1, p2, p2)
+        errs = (_dot(d, p1), _dot(d, p2), 0.0)
+        count = 2
+    else:
+        dirs = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        errs = d
+        count = 3
+    for k in range(count):
+        u = dirs[k]
+        ca = _cross(ra, u)
+        cb = _cross(rb, u)
+        for c in range(3):
+            Ja[j, n, c] = -u[c]
+            Ja[j, n, 3 + c] = -ca[c]
+            Jb[j, n, c] = u[c]
+            Jb[j, n, 3 + c] = cb[c]
+        C[j, n] = errs[k]
+        n += 1
+    return n
+
+
+@njit(**JIT)
+def _invert6(A, out):
+    """out = A^-1 for a 6x6 A (Gauss-Jordan, partial pivoting); A is overwritten. False if singular."""
+    for r in range(6):
+        for c in range(6):
+            out[r, c] = 1.0 if r == c else 0.0
+    for c in range(6):
+        p = c
+        for r in range(c + 1, 6):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if A[p, c] == 0.0:
+            return False
+        if p != c:
+            for k in range(6):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+                out[c, k], out[p, k] = out[p, k], out[c, k]
+        inv = 1.0 / A[c, c]
+        for k in range(6):
+            A[c, k] *= inv
+            out[c, k] *= inv
+        for r in range(6):
+            if r != c and A[r, c] != 0.0:
+                f = A[r, c]
+                for k in range(6):
+                    A[r, k] -= f * A[c, k]
+                    out[r, k] -= f * out[c, k]
+    return True
+
+
+@njit(**JIT)
+def _project_accumulated(j, t, a, b, x, R, local_a, local_b, m, Jb, inv_mass, I_inv, v, omega,
+                         linear_impulse, angular_impulse):
+    """Put joint j's accumulated angular (hinge: 2 rows, universal: 1) and linear (slider: 2
+    rows) impulses back in the span of its current rigid rows (``Jb[j]``, unit directions,
+    orthogonal within a block), and take the part outside it back off the bodies (the warm
+    start of this substep applied it).
+
+    Why: the tree solve adds lambda along the rows of the current pose, which turn with the
+    bodies, so the sum of a rotating direction's impulses leaves a part along the joint's
+    free axes; warm started every substep, that part is a torque (or force) about a free
+    axis that does work. It pumped a floating, spinning ball + universal chain up 5e4 times
+    in energy in 2 s (docs/joints.md). ``_solve_rigid`` (Gauss-Seidel) keeps only the parts
+    along the current rows ((o1 + i1) n) and has no such drift. With 3 rows of a kind
+    (anchor, fixed, slider's angular block) the span is everything: nothing to do."""
+    n_ang = 0
+    n_lin = 0
+    for r in range(m):
+        if Jb[j, r, 0] != 0.0 or Jb[j, r, 1] != 0.0 or Jb[j, r, 2] != 0.0:
+            n_lin += 1
+        else:
+            n_ang += 1
+    if t == JOINT_DISTANCE:
+        return  # its row is accumulated in axial_impulse (a scalar along the current line)
+    if 0 < n_ang < 3:
+        old = (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2])
+        kept = (0.0, 0.0, 0.0)
+        for r in range(n_ang):
+            u = (Jb[j, r, 3], Jb[j, r, 4], Jb[j, r, 5])
+            kept = _add(kept, _scale(_dot(old, u), u))
+        _apply_angular(omega, I_inv, a, b, _sub(kept, old))
+        angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2] = kept
+    if 0 < n_lin < 3:
+        old = (linear_impulse[j, 0], linear_impulse[j, 1], linear_impulse[j, 2])
+        kept = (0.0, 0.0, 0.0)
+        for r in range(n_ang, m):
+            u = (Jb[j, r, 0], Jb[j, r, 1], Jb[j, r, 2])
+            kept = _add(kept, _scale(_dot(old, u), u))
+        ra, pa = _anchor(x, R, a, local_a, j)
+        rb, pb = _anchor(x, R, b, local_b, j)
+        if t == JOINT_SLIDER:
+            ra = _add(ra, _sub(pb, pa))
+        _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, _sub(kept, old))
+        for c in range(3):
+            linear_impulse[j, c] = kept[c]
+
+
+@njit(**JIT)
+def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
+                      frame_a, frame_b, param, x, R, inv_mass, I_inv, bias_rate,
+                      # scratch
+                      Ja, Jb, C, nrow, D, Dinv, H_up, y, sol, work,
+                      # outputs
+                      v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """One exact solve of the rigid rows of the tree joints: J (u + du) = -bias_rate C,
+    M du = J^T lambda, by block L D L^T of the KKT matrix in ``order`` (leaves first).
+
+    Nodes: ``node_joint[k]`` >= 0 for a joint node, else ``node_body[k]`` is a body node;
+    ``node_parent[k]`` (-1 for a root). Adds lambda to the joints' accumulated impulses.
+    """
+    n_nodes = order.shape[0]
+    # the rows at the current pose, and the accumulated impulses put back in their span
+    # (all joints first: the undo changes velocities the right-hand sides read)
+    for k in range(n_nodes):
+        j = node_joint[k]
+        if j >= 0:
+            nrow[j] = _joint_rows(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, frame_a, frame_b,
+                                  param, Ja, Jb, C)
+            _project_accumulated(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, nrow[j], Jb,
+                                 inv_mass, I_inv, v, omega, linear_impulse, angular_impulse)
+    # diagonal blocks and right-hand sides
+    for k in range(n_nodes):
+        j = node_joint[k]
+        for r in range(6):
+            y[k, r] = 0.0
+            for c in range(6):
+                D[k, r, c] = 0.0
+        if j >= 0:
+            a = joint_a[j]
+            b = joint_b[j]
+            m = nrow[j]
+            for r in range(m, 6):
+                D[k, r, r] = 1.0
+            for r in range(m):
+                s = bias_rate * C[j, r]
+                for c in range(3):
+                    if a >= 0:
+                        s += Ja[j, r, c] * v[a, c] + Ja[j, r, 3 + c] * omega[a, c]
+                    if b >= 0:
+                        s += Jb[j, r, c] * v[b, c] + Jb[j, r, 3 + c] * omega[b, c]
+                y[k, r] = -s
+        else:
+            i = node_body[k]
+            # M = diag(m 1, I_world), I_world = I_inv^-1
+            for r in range(3):
+                D[k, r, r] = 1.0 / inv_mass[i]
+            for r in range(3):
+                for c in range(3):
+                    work[r, c] = I_inv[i, r, c]
+                    work[r + 3, c] = 0.0
+                    work[r, c + 3] = 0.0
+                    work[r + 3, c + 3] = 1.0 if r == c else 0.0
+            _invert6(work, Dinv[k])
+            for r in range(3):
+                for c in range(3):
+                    D[k, 3 + r, 3 + c] = Dinv[k, r, c]
+    # H_up[k] = H[k, parent]: joint rows x body dofs, or its transpose
+    for k in range(n_nodes):
+        p = node_parent[k]
+        if p < 0:
+            continue
+        j = node_joint[k]
+        if j >= 0:
+            J = Ja if joint_a[j] == node_body[p] else Jb
+            for r in range(6):
+                for c in range(6):
+                    H_up[k, r, c] = J[j, r, c]
+        else:
+            jp = node_joint[p]
+            J = Ja if joint_a[jp] == node_body[k] else Jb
+            for r in range(6):
+                for c in range(6):
+                    H_up[k, r, c] = J[jp, c, r]
+    # factor and forward substitution, leaves first: D_p -= H_pk D_k^-1 H_kp, y_p -= H_pk D_k^-1 y_k
+    for kk in range(n_nodes):
+        k = order[kk]
+        for r in range(6):
+            for c in range(6):
+                work[r, c] = D[k, r, c]
+        if not _invert6(work, Dinv[k]):
+            for r in range(6):
+                for c in range(6):
+                    Dinv[k, r, c] = 0.0
+        p = node_parent[k]
+        if p < 0:
+            continue
+        # work = D_k^-1 H_kp (6x6), then D_p -= H_kp^T work, y_p -= work^T y_k
+        for r in range(6):
+            for c in range(6):
+                s = 0.0
+                for m in range(6):
+                    s += Dinv[k, r, m] * H_up[k, m, c]
+                work[r, c] = s
+        for r in range(6):
+            for c in range(6):
+                s = 0.0
+                for m in range(6):
+                    s += H_up[k, m, r] * work[m, c]
+                D[p, r, c] -= s
+            s = 0.0
+            for m in range(6):
+                s += work[m, r] * y[k, m]
+            y[p, r] -= s
+    # back substitution, roots first: sol_k = D_k^-1 (y_k - H_kp sol_p)
+    for kk in range(n_nodes - 1, -1, -1):
+        k = order[kk]
+        p = node_parent[k]
+        for r in range(6):
+            s = y[k, r]
+            if p >= 0:
+                for m in range(6):
+                    s -= H_up[k, r, m] * sol[p, m]
+            work[0, r] = s
+        for r in range(6):
+            s = 0.0
+            for m in range(6):
+                s += Dinv[k, r, m] * work[0, m]
+            sol[k, r] = s
+    # apply: body nodes take du; joint nodes give lambda = -mu
+    for k in range(n_nodes):
+        j = node_joint[k]
+        if j < 0:
+            i = node_body[k]
+            for c in range(3):
+                v[i, c] += sol[k, c]
+                omega[i, c] += sol[k, 3 + c]
+            continue
+        t = joint_type[j]
+        m = nrow[j]
+        for r in range(m):
+            lam = -sol[k, r]
+            # a row's world direction is body b's Jacobian: linear part for linear rows,
+            # angular part for angular rows (rows are angular first, see _joint_rows)
+            lin = Jb[j, r, 0] != 0.0 or Jb[j, r, 1] != 0.0 or Jb[j, r, 2] != 0.0
+            if t == JOINT_DISTANCE:
+                axial_impulse[j, A_EQUAL] += lam
+            elif lin:
+                for c in range(3):
+                    linear_impulse[j, c] += lam * Jb[j, r, c]
+            else:
+                for c in range(3):
+                    angular_impulse[j, c] += lam * Jb[j, r, 3 + c]
