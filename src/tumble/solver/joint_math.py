@@ -71,6 +71,14 @@ def _axis(R, i, frame, j, col):
 
 
 @njit(**JIT)
+def _frames(R, a, b, frame_a, frame_b, j):
+    """The world axes (x, y, z) of joint j's frame on body a, then on body b: six unit 3-vectors
+    (columns of R frame; the world's own frame where a body is -1)."""
+    return (_axis(R, a, frame_a, j, 0), _axis(R, a, frame_a, j, 1), _axis(R, a, frame_a, j, 2),
+            _axis(R, b, frame_b, j, 0), _axis(R, b, frame_b, j, 1), _axis(R, b, frame_b, j, 2))
+
+
+@njit(**JIT)
 def _inv_m(inv_mass, i):
     return inv_mass[i] if i >= 0 else 0.0
 

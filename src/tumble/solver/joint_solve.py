@@ -46,6 +46,7 @@ from .joint_math import (
     _axis,
     _cross,
     _dot,
+    _frames,
     _inv_m,
     _mat_vec,
     _point_K,
@@ -356,12 +357,7 @@ def _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass,
     (3x3) or the slider's two perpendicular rows (2x2)."""
     br, ms, iscale = soft[0], soft[1], soft[2]
     if t != JOINT_BALL and t != JOINT_DISTANCE:
-        xa = _axis(R, a, frame_a, j, 0)
-        ya = _axis(R, a, frame_a, j, 1)
-        za = _axis(R, a, frame_a, j, 2)
-        xb = _axis(R, b, frame_b, j, 0)
-        yb = _axis(R, b, frame_b, j, 1)
-        zb = _axis(R, b, frame_b, j, 2)
+        xa, ya, za, xb, yb, zb = _frames(R, a, b, frame_a, frame_b, j)
         wrel = _sub(_angular_velocity(omega, b), _angular_velocity(omega, a))
         old = (angular_impulse[j, 0], angular_impulse[j, 1], angular_impulse[j, 2])
         K = _angular_K(I_inv, a, b)

@@ -28,6 +28,7 @@ from .joint_math import (
     _axis,
     _cross,
     _dot,
+    _frames,
     _scale,
     _sub,
 )
@@ -55,12 +56,7 @@ def _joint_rows(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, Ja,
     d = _sub(pb, pa)
     n = 0
     if t != JOINT_BALL and t != JOINT_DISTANCE:
-        xa = _axis(R, a, frame_a, j, 0)
-        ya = _axis(R, a, frame_a, j, 1)
-        za = _axis(R, a, frame_a, j, 2)
-        xb = _axis(R, b, frame_b, j, 0)
-        yb = _axis(R, b, frame_b, j, 1)
-        zb = _axis(R, b, frame_b, j, 2)
+        xa, ya, za, xb, yb, zb = _frames(R, a, b, frame_a, frame_b, j)
         if t == JOINT_HINGE:
             e = _cross(za, zb)
             dirs = (xa, ya, za)

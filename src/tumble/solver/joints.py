@@ -71,9 +71,9 @@ from .joint_math import (
     _add,
     _anchor,
     _angular_K,
-    _axis,
     _cross,
     _dot,
+    _frames,
     _inv_m,
     _mat_vec,
     _point_K,
@@ -207,12 +207,7 @@ def project_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_
                 continue
             t = joint_type[j]
             if t != JOINT_BALL and t != JOINT_DISTANCE:
-                xa = _axis(R, a, frame_a, j, 0)
-                ya = _axis(R, a, frame_a, j, 1)
-                za = _axis(R, a, frame_a, j, 2)
-                xb = _axis(R, b, frame_b, j, 0)
-                yb = _axis(R, b, frame_b, j, 1)
-                zb = _axis(R, b, frame_b, j, 2)
+                xa, ya, za, xb, yb, zb = _frames(R, a, b, frame_a, frame_b, j)
                 K = _angular_K(I_inv, a, b)
                 if t == JOINT_HINGE:
                     e = _cross(za, zb)
