@@ -1,5 +1,5 @@
 """The contact solve in spatial slabs (``SoftStepSettings.partitions``,
-``solver.contact.partition_pairs_kernel``): a large step's contacts are swept slab by slab on
+``solver.partition.partition_pairs_kernel``): a large step's contacts are swept slab by slab on
 both cores, then the contacts that join two slabs.
 
 What is checked: the partitions share no moving body (else two threads would write one body's
@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import tumble as tb
-from tumble.solver.contact import SoftStepSettings, partition_pairs_kernel
+from tumble.solver.contact import SoftStepSettings
+from tumble.solver.partition import partition_pairs_kernel
 
 from ..threads import numba_threads
 

@@ -14,8 +14,8 @@ import pytest
 
 import tumble as tb
 from tumble.checks import state_hash
-from tumble.solver.contact import partition_pairs_kernel
 from tumble.solver.joints import JointSettings
+from tumble.solver.partition import partition_pairs_kernel
 
 from ..threads import numba_threads
 

@@ -66,7 +66,6 @@ from ..math3d import (
     quat_exp_multiply_inplace,
     quat_to_matrix_into,
 )
-from .contact import SweepOrder
 from .joint_math import (
     _add,
     _anchor,
@@ -111,6 +110,7 @@ from .joint_stepper import (  # noqa: F401  (public here, as before the split: t
 from .joint_tree import (
     tree_solve_kernel,
 )
+from .partition import SweepOrder
 
 
 @dataclass

@@ -1,0 +1,567 @@
+"""The contact stages' kernels (``solver.contact``'s stage list): prepare (arms, effective
+masses, softness), warm start, the solve a manifold at a time (soft non-penetration, Coulomb
+friction, the relax), restitution and the impulses' store. Reads x, R, inv_mass, I_inv and the
+contact arrays; writes v, omega (N, 3) and the per-contact impulses."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+
+from ..collision.constants import DEEP_OVERLAP
+from ..math3d import (
+    JIT,
+)
+
+# An impact is solved a manifold at a time (``_solve_contact_range``): a first pass over a
+# manifold's points (normals, then friction) that changes some point's speed by more than
+# MANIFOLD_IMPACT_SPEED (m/s), or, in the relax, pushes a point that came into the substep
+# approaching faster than MANIFOLD_APPROACH_SPEED (m/s), is followed by more passes until none
+# changes one by more than MANIFOLD_PASS_SPEED (m/s), at most MANIFOLD_PASSES in all; the
+# restitution pass likewise. Other manifolds take one pass, as Box2D's. The approach speed is
+# the point's normal speed at the end of the previous substep's relax (``last_normal_speed``;
+# at a new contact, the speed the step began with), not the speed the sweep meets, which in a
+# heavy stack carries the weight the points above have just passed down (a trigger on that cost
+# 29 % on the large pyramid).
+# NOTE (measured against one pass, same hour): the large pyramid (1 thread) 79.0 vs 78.7 ms a
+# step with the 0.5 m/s change trigger alone; a 0.25 m/s change trigger cost 8 % there (its
+# heavy boxes sag at Box3D's step, changing 0.25-0.5 m/s a pass), 0.1 cost 26 %. The 1000-box
+# pile, where every box lands, costs 11-15 % more than one pass (1 thread, runs paired). The
+# approach trigger adds nothing measurable to either (interleaved rounds, busy hour: pyramid
+# 95 / 88 vs 99 / 108 ms, pile 4.33-4.61 vs 4.49-4.96 s). With the change trigger alone an
+# impact below ~3 m/s (a quarter of it on each corner of a box) took one pass: a cube landing
+# flat at 2 m/s with e = 0 in zero gravity rebounded at 1.4 cm/s, slid at 1.4 cm/s and turned
+# at 0.02 rad/s; now 1e-5 m/s, 2e-4 m/s, 6e-5 rad/s (tests/physics/test_contact_impacts.py).
+# Why in the relax only: the approach trigger in the biased solve as well (same residues) made
+# the pile's energy rise 1.5 mJ between two frames near its end (tests/test_examples_contact.py
+# allows none); the relax's passes only take velocity away, the biased ones push out overlap.
+# @warning speeds: scaled for bodies of 0.1-10 m.
+# Dead ends, each cheaper on the pile: passes over the normals alone until they converge, then
+# the friction (0-5 %): the pile's energy then rose 6.8 mJ between two frames late in the run,
+# which one pass never does (tests/test_examples_contact.py); the same with the push-out only in
+# the first pass: a box deep under a plane, whose manifold passes every step, no longer climbed
+# out; stopping when a pass shrank the changes by less than half: flat landings still turned.
+MANIFOLD_IMPACT_SPEED = 0.5
+MANIFOLD_APPROACH_SPEED = 0.1  # m/s: 2.5 g h at Box3D's substep, 10 g h at the default one
+MANIFOLD_PASS_SPEED = 0.001
+MANIFOLD_PASSES = 32
+
+
+# ---------------------------------------------------------------------- small helpers
+@njit(**JIT)
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(**JIT)
+def _point_velocity(v, omega, i, r):
+    """Velocity (3 floats) of the point at arm r (3,) of body i: v + omega x r."""
+    c0, c1, c2 = _cross(omega[i, 0], omega[i, 1], omega[i, 2], r[0], r[1], r[2])
+    return v[i, 0] + c0, v[i, 1] + c1, v[i, 2] + c2
+
+
+@njit(**JIT)
+def _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, p0, p1, p2):
+    """Impulse P = (p0, p1, p2) on b at arm rb and -P on a at arm ra."""
+    ma = inv_mass[a]
+    mb = inv_mass[b]
+    v[a, 0] -= ma * p0
+    v[a, 1] -= ma * p1
+    v[a, 2] -= ma * p2
+    v[b, 0] += mb * p0
+    v[b, 1] += mb * p1
+    v[b, 2] += mb * p2
+    c0, c1, c2 = _cross(ra[0], ra[1], ra[2], p0, p1, p2)
+    for k in range(3):
+        omega[a, k] -= I_inv[a, k, 0] * c0 + I_inv[a, k, 1] * c1 + I_inv[a, k, 2] * c2
+    c0, c1, c2 = _cross(rb[0], rb[1], rb[2], p0, p1, p2)
+    for k in range(3):
+        omega[b, k] += I_inv[b, k, 0] * c0 + I_inv[b, k, 1] * c1 + I_inv[b, k, 2] * c2
+
+
+@njit(**JIT)
+def _angular_term(I_inv, i, r, d0, d1, d2):
+    """(r x d) . I_inv[i] (r x d)."""
+    c0, c1, c2 = _cross(r[0], r[1], r[2], d0, d1, d2)
+    return (c0 * (I_inv[i, 0, 0] * c0 + I_inv[i, 0, 1] * c1 + I_inv[i, 0, 2] * c2)
+            + c1 * (I_inv[i, 1, 0] * c0 + I_inv[i, 1, 1] * c1 + I_inv[i, 1, 2] * c2)
+            + c2 * (I_inv[i, 2, 0] * c0 + I_inv[i, 2, 1] * c1 + I_inv[i, 2, 2] * c2))
+
+
+@njit(**JIT)
+def _effective_mass(inv_mass, I_inv, a, b, ra, rb, d0, d1, d2):
+    """1 / (J M^-1 J^T) for the direction d at arms ra, rb (0 when both bodies are fixed)."""
+    k = inv_mass[a] + inv_mass[b] + _angular_term(I_inv, a, ra, d0, d1, d2) + _angular_term(I_inv, b, rb, d0, d1, d2)
+    return 1.0 / k if k > 0.0 else 0.0
+
+
+@njit(**JIT)
+def _arms(x, R, a, b, local_a, local_b, c):
+    """(ra, rb, d) of contact c at the current poses: the anchor points pa = xa + Ra la and
+    pb = xb + Rb lb, their midpoint m, the arms ra = m - xa, rb = m - xb, and d = pb - pa.
+
+    Both impulses of a contact act at the one point m, so they cancel in the total angular
+    momentum about any point: with each arm fixed to its own body (Box2D), the two points drift
+    apart as the bodies move within the step, and sum(x x P) + L changed by 4 % in an off-centre
+    sphere collision.
+    """
+    pa0 = x[a, 0] + R[a, 0, 0] * local_a[c, 0] + R[a, 0, 1] * local_a[c, 1] + R[a, 0, 2] * local_a[c, 2]
+    pa1 = x[a, 1] + R[a, 1, 0] * local_a[c, 0] + R[a, 1, 1] * local_a[c, 1] + R[a, 1, 2] * local_a[c, 2]
+    pa2 = x[a, 2] + R[a, 2, 0] * local_a[c, 0] + R[a, 2, 1] * local_a[c, 1] + R[a, 2, 2] * local_a[c, 2]
+    pb0 = x[b, 0] + R[b, 0, 0] * local_b[c, 0] + R[b, 0, 1] * local_b[c, 1] + R[b, 0, 2] * local_b[c, 2]
+    pb1 = x[b, 1] + R[b, 1, 0] * local_b[c, 0] + R[b, 1, 1] * local_b[c, 1] + R[b, 1, 2] * local_b[c, 2]
+    pb2 = x[b, 2] + R[b, 2, 0] * local_b[c, 0] + R[b, 2, 1] * local_b[c, 1] + R[b, 2, 2] * local_b[c, 2]
+    m0 = 0.5 * (pa0 + pb0)
+    m1 = 0.5 * (pa1 + pb1)
+    m2 = 0.5 * (pa2 + pb2)
+    ra = (m0 - x[a, 0], m1 - x[a, 1], m2 - x[a, 2])
+    rb = (m0 - x[b, 0], m1 - x[b, 1], m2 - x[b, 2])
+    return ra, rb, (pb0 - pa0, pb1 - pa1, pb2 - pa2)
+
+
+# ---------------------------------------------------------------------- kernels
+@njit(**JIT, parallel=True)
+def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
+                            old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
+                            body_friction, body_restitution, soft_dynamic, soft_static,
+                            # outputs
+                            anchor_a, anchor_b, local_a, local_b, separation_base, tangent1, tangent2, normal_mass,
+                            tangent_mass, soft, friction, restitution, relative_velocity,
+                            normal_impulse, tangent_impulse, max_normal_impulse):
+    """Per contact: arms, tangent basis, effective masses, softness, mixed material, the
+    pre-step normal speed (for restitution) and the warm-start impulses carried over by ``match``.
+    Each contact writes only its own rows: the bits do not depend on the threads.
+
+    The anchors that follow the bodies through the step (``local_a``, ``local_b``, body frames)
+    start at the contact point p (the midpoint of the two surfaces, Box2D's) and
+    ``separation_base`` is the separation s, so that ``separation_base + n.d`` (d = pb - pa, 0 at
+    the start) is the separation as they move (``solve_contacts_kernel``). A contact deeper than
+    ``DEEP_OVERLAP`` (collision.constants) moves each anchor towards its own body's surface by
+    half the overlap beyond it, p -/+ ((s + DEEP_OVERLAP) / 2) n, and ``separation_base`` becomes
+    s - n.d0 for their start d0. NOTE: why: a body deep in another (a box 100 m under a plane,
+    where the README's example once left one) carried an anchor 50 m from its centre, which swung
+    50 m per radian the body turned: the separation seen and the arms blew up within a step
+    (v 7e3 m/s). Surface anchors for shallow contacts too fixed that, but the pile of 1000 boxes then
+    gained energy between two frames (3-26 mJ of 22 563 J), which the single point never does."""
+    for c in prange(body_a.shape[0]):
+        a = body_a[c]
+        b = body_b[c]
+        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+        # tangent basis from the normal alone, so that the same normal gives the same
+        # tangents next step (friction impulses are also carried as world vectors)
+        if abs(n0) >= 0.57735:
+            t0, t1, t2 = n1, -n0, 0.0
+        else:
+            t0, t1, t2 = 0.0, n2, -n1
+        inv = 1.0 / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        t0 *= inv
+        t1 *= inv
+        t2 *= inv
+        s0, s1, s2 = _cross(n0, n1, n2, t0, t1, t2)
+        tangent1[c, 0], tangent1[c, 1], tangent1[c, 2] = t0, t1, t2
+        tangent2[c, 0], tangent2[c, 1], tangent2[c, 2] = s0, s1, s2
+        for k in range(3):
+            anchor_a[c, k] = point[c, k] - x[a, k]
+            anchor_b[c, k] = point[c, k] - x[b, k]
+        # the anchors in each body's frame, to follow the separation as the bodies move
+        # 0 but for a deep overlap, where each anchor moves towards its own surface (see the docstring)
+        half = 0.5 * min(separation[c] + DEEP_OVERLAP, 0.0)
+        sa0, sa1, sa2 = anchor_a[c, 0] - half * n0, anchor_a[c, 1] - half * n1, anchor_a[c, 2] - half * n2
+        sb0, sb1, sb2 = anchor_b[c, 0] + half * n0, anchor_b[c, 1] + half * n1, anchor_b[c, 2] + half * n2
+        for k in range(3):
+            local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
+            local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
+        separation_base[c] = separation[c]
+        if half < 0.0:  # the anchors no longer coincide: d0 = pb - pa at these poses
+            _, _, d = _arms(x, R, a, b, local_a, local_b, c)
+            separation_base[c] -= n0 * d[0] + n1 * d[1] + n2 * d[2]
+        ra = anchor_a[c]
+        rb = anchor_b[c]
+        normal_mass[c] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, n0, n1, n2)
+        tangent_mass[c, 0] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, t0, t1, t2)
+        tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
+        src = soft_static if not (moving[a] and moving[b]) else soft_dynamic
+        soft[c, 0], soft[c, 1], soft[c, 2] = src[0], src[1], src[2]
+        friction[c] = math.sqrt(body_friction[a] * body_friction[b])
+        restitution[c] = max(body_restitution[a], body_restitution[b])
+        va0, va1, va2 = _point_velocity(v, omega, a, ra)
+        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+        relative_velocity[c] = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
+        max_normal_impulse[c] = 0.0
+        m = match[c]
+        if m >= 0:
+            normal_impulse[c] = old_normal_impulse[m]
+            f = old_friction_impulse[m]
+            tangent_impulse[c, 0] = f[0] * t0 + f[1] * t1 + f[2] * t2
+            tangent_impulse[c, 1] = f[0] * s0 + f[1] * s1 + f[2] * s2
+        else:
+            normal_impulse[c] = 0.0
+            tangent_impulse[c, 0] = 0.0
+            tangent_impulse[c, 1] = 0.0
+
+
+@njit(**JIT)
+def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
+                      tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b, gap):
+    """Contacts order[lo:hi] of ``warm_start_kernel``; the bodies' velocities in registers over a
+    pair's consecutive contacts, as in ``_solve_contact_range`` (same bits as per impulse)."""
+    cached_a, cached_b, va, wa, Ia, ma, vb, wb, Ib, mb = _no_pair()
+    for i in range(lo, hi):
+        c = order[i]
+        a = body_a[c]
+        b = body_b[c]
+        if a != cached_a or b != cached_b:
+            _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
+            cached_a = a
+            cached_b = b
+            va, wa, Ia, ma, vb, wb, Ib, mb = _load_pair(v, omega, I_inv, inv_mass, a, b)
+        jn = normal_impulse[c]
+        j1 = tangent_impulse[c, 0]
+        j2 = tangent_impulse[c, 1]
+        p0 = jn * normal[c, 0] + j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
+        p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
+        p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
+        if fresh:
+            ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+            for k in range(3):
+                arm_a[c, k] = ra[k]
+                arm_b[c, k] = rb[k]
+            gap[c] = normal[c, 0] * d[0] + normal[c, 1] * d[1] + normal[c, 2] * d[2]
+        else:
+            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+        va, wa = _impulse_on(ma, Ia, ra, va, wa, -1.0, p0, p1, p2)
+        vb, wb = _impulse_on(mb, Ib, rb, vb, wb, 1.0, p0, p1, p2)
+    _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
+
+
+@njit(**JIT, parallel=True)
+def warm_start_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
+                      tangent_impulse, x, R, inv_mass, I_inv, fresh,
+                      # outputs
+                      v, omega, arm_a, arm_b, gap):
+    """Apply the accumulated impulses (normal and both friction directions) once, in the order
+    ``order`` (C,) cut by ``bounds`` (P + 2,) as in ``solve_contacts_kernel``.
+
+    The arms and n.d of each contact (``_arms``) at the current poses are cached in arm_a,
+    arm_b (C, 3) and gap (C,): computed here when ``fresh`` (the first substep), else read from
+    the last relax, which ran at the same poses. PERF: the biased solve reads them too, so
+    ``_arms`` runs twice per substep instead of four times (same bits).
+    """
+    parts = bounds.shape[0] - 2
+    if parts > 0:
+        for p in prange(parts):
+            _warm_start_range(bounds[p], bounds[p + 1], order, body_a, body_b, normal, tangent1, tangent2,
+                              local_a, local_b, normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v,
+                              omega, arm_a, arm_b, gap)
+    _warm_start_range(bounds[parts], bounds[parts + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
+                      local_b, normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b,
+                      gap)
+
+
+@njit(**JIT, inline="always")
+def _load_body(v, omega, I_inv, i):
+    """Body i's v (3 floats), omega (3) and world I^-1 (9, row by row), into registers."""
+    return ((v[i, 0], v[i, 1], v[i, 2]), (omega[i, 0], omega[i, 1], omega[i, 2]),
+            (I_inv[i, 0, 0], I_inv[i, 0, 1], I_inv[i, 0, 2], I_inv[i, 1, 0], I_inv[i, 1, 1], I_inv[i, 1, 2],
+             I_inv[i, 2, 0], I_inv[i, 2, 1], I_inv[i, 2, 2]))
+
+
+@njit(**JIT, inline="always")
+def _store_body(v, omega, i, vi, wi):
+    v[i, 0], v[i, 1], v[i, 2] = vi
+    omega[i, 0], omega[i, 1], omega[i, 2] = wi
+
+
+@njit(**JIT, inline="always")
+def _no_pair():
+    """The registers of ``_load_pair`` before any pair is loaded (bodies -1, all 0)."""
+    z3 = (0.0, 0.0, 0.0)
+    z9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return -1, -1, z3, z3, z9, 0.0, z3, z3, z9, 0.0
+
+
+@njit(**JIT, inline="always")
+def _load_pair(v, omega, I_inv, inv_mass, a, b):
+    """Bodies a and b into registers: (va, wa, Ia, 1/ma, vb, wb, Ib, 1/mb) (``_load_body``)."""
+    va, wa, Ia = _load_body(v, omega, I_inv, a)
+    vb, wb, Ib = _load_body(v, omega, I_inv, b)
+    return va, wa, Ia, inv_mass[a], vb, wb, Ib, inv_mass[b]
+
+
+@njit(**JIT, inline="always")
+def _store_pair(v, omega, a, b, va, wa, vb, wb):
+    """Write the registers of the pair a, b back (a = -1: no pair loaded yet)."""
+    if a >= 0:
+        _store_body(v, omega, a, va, wa)
+        _store_body(v, omega, b, vb, wb)
+
+
+@njit(**JIT, inline="always")
+def _velocity_at(vi, wi, r):
+    """Velocity (3 floats) of the point at arm r of a body moving with vi, wi: vi + wi x r."""
+    c0, c1, c2 = _cross(wi[0], wi[1], wi[2], r[0], r[1], r[2])
+    return vi[0] + c0, vi[1] + c1, vi[2] + c2
+
+
+@njit(**JIT, inline="always")
+def _impulse_on(inv_m, Ii, r, vi, wi, sign, p0, p1, p2):
+    """vi, wi after the impulse sign * P at arm r (sign +-1: the same bits as ``_apply_impulse``)."""
+    vi = (vi[0] + sign * (inv_m * p0), vi[1] + sign * (inv_m * p1), vi[2] + sign * (inv_m * p2))
+    c0, c1, c2 = _cross(r[0], r[1], r[2], p0, p1, p2)
+    wi = (wi[0] + sign * (Ii[0] * c0 + Ii[1] * c1 + Ii[2] * c2),
+          wi[1] + sign * (Ii[3] * c0 + Ii[4] * c1 + Ii[5] * c2),
+          wi[2] + sign * (Ii[6] * c0 + Ii[7] * c1 + Ii[8] * c2))
+    return vi, wi
+
+
+@njit(**JIT)
+def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation,
+                         normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed,
+                         use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                         last_normal_speed, arm_a, arm_b, gap):
+    """Contacts order[lo:hi] of ``solve_contacts_kernel``, a manifold at a time (the consecutive
+    contacts of one pair of bodies): the normal impulses of all its points, then their friction
+    (the order of Box2D v3 and Catto's Solver2D: non-penetration, then friction).
+
+    A first pass that changes some point's speed by more than ``MANIFOLD_IMPACT_SPEED``, or in
+    the relax pushes a point that came in approaching faster than ``MANIFOLD_APPROACH_SPEED`` (an
+    impact), is followed by more, until no change passes ``MANIFOLD_PASS_SPEED``. NOTE: why: one
+    Gauss-Seidel pass over the four corners of a box landing flat stops the first corner alone,
+    which tips the box; friction at that corner then pushes it sideways. A cube landing flat at
+    20 m/s with restitution 0 came out sliding at 2.1 m/s and spinning at 2.6 rad/s about the
+    vertical (which symmetry forbids). The passes converge by ~13x each on that manifold (its
+    4 x 4 K is singular, but the velocities converge), so an impact is solved as one
+    (tests/physics/test_contact_impacts.py: the rigid-impact velocities of an edge landing to
+    1 %). The friction comes after the normals so that it reads the velocities they leave, as
+    Box2D's; the passes take both, since friction at an edge below the centre turns the box and
+    changes the normal speeds.
+
+    PERF: the velocities of the two bodies stay in registers while consecutive contacts join the
+    same pair (the points of a manifold): 14 % faster than reading and writing v, omega per
+    impulse (large pyramid, measured).
+    """
+    cached_a, cached_b, va, wa, Ia, ma, vb, wb, Ib, mb = _no_pair()
+    i = lo
+    while i < hi:
+        c = order[i]
+        a = body_a[c]
+        b = body_b[c]
+        if a != cached_a or b != cached_b:  # a new pair: store the last pair's velocities, load this one's
+            _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
+            cached_a = a
+            cached_b = b
+            va, wa, Ia, ma, vb, wb, Ib, mb = _load_pair(v, omega, I_inv, inv_mass, a, b)
+        end = i + 1  # the manifold: order[i:end], the same pair
+        while end < hi and body_a[order[end]] == a and body_b[order[end]] == b:
+            end += 1
+        va0, wa0, vb0, wb0 = va, wa, vb, wb  # before the manifold's impulses: its points' approach speeds
+        for sweep in range(MANIFOLD_PASSES):
+            again = False
+            # an impact starts the passes; they go on until the manifold has converged
+            speed = MANIFOLD_IMPACT_SPEED if sweep == 0 else MANIFOLD_PASS_SPEED
+            for k in range(i, end):
+                c = order[k]
+                n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+                if use_bias or sweep > 0:  # the poses of the warm start (or of this relax's first pass)
+                    ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+                    rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+                else:  # the relax, after the positions moved: new arms, cached for the next warm start
+                    ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+                    for q in range(3):
+                        arm_a[c, q] = ra[q]
+                        arm_b[c, q] = rb[q]
+                    gap[c] = n0 * d[0] + n1 * d[1] + n2 * d[2]
+                s = separation[c] + gap[c]
+                bias = 0.0
+                mass_scale = 1.0
+                impulse_scale = 0.0
+                if s > 0.0:
+                    bias = s * inv_h
+                elif use_bias:
+                    bias = max(soft[c, 0] * s, -contact_speed)
+                    mass_scale = soft[c, 1]
+                    impulse_scale = soft[c, 2]
+                pa0, pa1, pa2 = _velocity_at(va, wa, ra)
+                pb0, pb1, pb2 = _velocity_at(vb, wb, rb)
+                vn = n0 * (pb0 - pa0) + n1 * (pb1 - pa1) + n2 * (pb2 - pa2)
+                impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
+                new_impulse = max(normal_impulse[c] + impulse, 0.0)
+                if not use_bias and s > 0.0 and normal_impulse[c] == 0.0 and new_impulse > 0.0:
+                    # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
+                    # here (the next substep's biased solve sees the gap before any position update)
+                    # and it slows a falling body before it lands: the step after has a smaller approach
+                    # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
+                    # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
+                    # takes back push-out here. A contact that pushed in this substep is left free:
+                    # blocking any increase while its gap was open kept the second corner of an edge
+                    # landing from sharing the load once the first had closed (an edge impact turned
+                    # the box about the vertical; off the rigid impact's velocities by 3-15 %).
+                    new_impulse = normal_impulse[c]
+                if new_impulse > 0.0 and vn < relative_velocity[c]:
+                    # the approach speed before any point of the manifold pushed: the same for
+                    # the four corners of a box landing flat, which then bounces without turning
+                    pa0, pa1, pa2 = _velocity_at(va0, wa0, ra)
+                    pb0, pb1, pb2 = _velocity_at(vb0, wb0, rb)
+                    u = -(n0 * (pb0 - pa0) + n1 * (pb1 - pa1) + n2 * (pb2 - pa2))
+                    w0 = -last_normal_speed[c]
+                    if s > 0.0 and w0 > 0.0 and u > w0:
+                        accel = (u - w0) * inv_h
+                        u = min(math.sqrt(w0 * w0 + 2.0 * accel * s), u)
+                    relative_velocity[c] = min(-u, relative_velocity[c])
+                impulse = new_impulse - normal_impulse[c]
+                normal_impulse[c] = new_impulse
+                max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+                if abs(impulse) > speed * normal_mass[c]:
+                    again = True
+                if not use_bias and sweep == 0 and impulse > 0.0 and last_normal_speed[c] < -MANIFOLD_APPROACH_SPEED:
+                    again = True  # it came in approaching (read before the line below overwrites it)
+                if not use_bias:
+                    # the normal speed this substep ends with: the next substep's speed before its kick
+                    last_normal_speed[c] = vn + (impulse / normal_mass[c] if normal_mass[c] > 0.0 else 0.0)
+                va, wa = _impulse_on(ma, Ia, ra, va, wa, -1.0, impulse * n0, impulse * n1, impulse * n2)
+                vb, wb = _impulse_on(mb, Ib, rb, vb, wb, 1.0, impulse * n0, impulse * n1, impulse * n2)
+
+            # Coulomb friction: each direction with its own effective mass, then the accumulated
+            # 2-vector clamped to the disc of radius mu * normal impulse (isotropic friction cone)
+            for k in range(i, end):
+                c = order[k]
+                ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+                rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+                pa0, pa1, pa2 = _velocity_at(va, wa, ra)
+                pb0, pb1, pb2 = _velocity_at(vb, wb, rb)
+                d0, d1, d2 = pb0 - pa0, pb1 - pa1, pb2 - pa2
+                vt1 = d0 * tangent1[c, 0] + d1 * tangent1[c, 1] + d2 * tangent1[c, 2]
+                vt2 = d0 * tangent2[c, 0] + d1 * tangent2[c, 1] + d2 * tangent2[c, 2]
+                old1 = tangent_impulse[c, 0]
+                old2 = tangent_impulse[c, 1]
+                new1 = old1 - tangent_mass[c, 0] * vt1
+                new2 = old2 - tangent_mass[c, 1] * vt2
+                limit = friction[c] * normal_impulse[c]
+                mag2 = new1 * new1 + new2 * new2
+                if mag2 > limit * limit:
+                    scale = limit / math.sqrt(mag2)
+                    new1 *= scale
+                    new2 *= scale
+                tangent_impulse[c, 0] = new1
+                tangent_impulse[c, 1] = new2
+                j1 = new1 - old1
+                j2 = new2 - old2
+                if abs(j1) > speed * tangent_mass[c, 0] or abs(j2) > speed * tangent_mass[c, 1]:
+                    again = True
+                p0 = j1 * tangent1[c, 0] + j2 * tangent2[c, 0]
+                p1 = j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
+                p2 = j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
+                va, wa = _impulse_on(ma, Ia, ra, va, wa, -1.0, p0, p1, p2)
+                vb, wb = _impulse_on(mb, Ib, rb, vb, wb, 1.0, p0, p1, p2)
+            if not again:
+                break
+        i = end
+    _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
+
+
+@njit(**JIT, parallel=True)  # PERF: the parallel pipeline also drops the inlined body's per-contact refcounts
+def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
+                          separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
+                          inv_h, contact_speed, use_bias,
+                          # outputs
+                          v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                          last_normal_speed, arm_a, arm_b, gap):
+    """One Gauss-Seidel sweep: per manifold the normal impulses (soft when ``use_bias``), then the
+    friction; an impact's manifold passed over until it converges (``_solve_contact_range``).
+
+    The contacts are taken in the order ``order`` (C,), cut by ``bounds`` (P + 2,) into P
+    partitions, order[bounds[p]:bounds[p + 1]], and the rest, order[bounds[P]:bounds[P + 1]]
+    (``partition_pairs_kernel``). The partitions are swept side by side: no two share a
+    moving body, so each writes only its own bodies' v, omega and its own contacts' rows (fixed
+    bodies are written too, with 0 * impulse: the value read). The rest, contacts that join two
+    partitions, follow on this thread. The order depends on the partitions, never on the
+    threads, so the bits are the same on any number of threads. P = 0 with order = 0..C-1 is
+    the plain sweep in the narrowphase's order.
+
+    The separation is followed as the bodies move within the step: s = s0 + n.(d - d0),
+    d = (xB + RB lB) - (xA + RA lA), with d0 = 0 since both anchors start at the contact point
+    (but for deep overlaps: ``separation`` here is ``separation_base`` = s0 - n.d0,
+    ``prepare_contacts_kernel``).
+    s > 0 (speculative): the bias lets the gap close in exactly this substep and no more.
+    s <= 0 with bias: a soft spring pushes out at no more than ``contact_speed``.
+    Relax (no bias): rigid, so the push-out velocity is taken back out and adds no energy.
+
+    ``relative_velocity`` (the approach speed restitution reflects) is lowered to the impact
+    speed of a solve that pushes. Box2D keeps the pre-step speed only; I measured that this
+    loses the gravity gained within the step before impact (a sphere dropped 2 m with e = 0.8,
+    dt 1/60 s: second apex 4 % low). The normal speed seen by the pushing solve, after the
+    substep's kick, overshoots instead (apexes 0.6-1 % high at dt 1/240 s): the contact closes
+    part way through the substep. So when the gap s is still open, the impact speed is taken
+    from the approach speed w0 before the kick (``last_normal_speed``) and the kick's
+    acceleration a = (w1 - w0) / h over the gap: u = sqrt(w0^2 + 2 a s), between w0 and w1.
+    """
+    parts = bounds.shape[0] - 2
+    if parts > 0:
+        for p in prange(parts):
+            _solve_contact_range(bounds[p], bounds[p + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
+                                 local_b, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass,
+                                 I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
+                                 max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
+    _solve_contact_range(bounds[parts], bounds[parts + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
+                         local_b, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h,
+                         contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse,
+                         relative_velocity, last_normal_speed, arm_a, arm_b, gap)
+
+
+@njit(**JIT)
+def apply_restitution_kernel(body_a, body_b, normal, local_a, local_b, normal_mass, restitution,
+                             relative_velocity, max_normal_impulse, threshold, arm_a, arm_b, inv_mass, I_inv,
+                             # outputs
+                             v, omega, normal_impulse):
+    """After the substeps: where the pre-step approach speed was above ``threshold``
+    and the contact pushed this step, set the normal speed to -e times the approach speed.
+
+    A manifold (the consecutive contacts of one pair) is passed over until no impulse changes
+    its point's speed by more than ``MANIFOLD_PASS_SPEED``, at most ``MANIFOLD_PASSES`` times:
+    NOTE: why: one pass over a cube bouncing flat (e = 0.5, 20 m/s) left it spinning at
+    4.2 rad/s and 1.8 % slow, the corners kicked one after the other (as in the solve)."""
+    n = body_a.shape[0]
+    i = 0
+    while i < n:
+        a = body_a[i]
+        b = body_b[i]
+        end = i + 1
+        while end < n and body_a[end] == a and body_b[end] == b:
+            end += 1
+        for _ in range(MANIFOLD_PASSES):
+            again = False
+            for c in range(i, end):
+                e = restitution[c]
+                if e == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0:
+                    continue
+                ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])  # the last relax's, at these poses
+                rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+                n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+                va0, va1, va2 = _point_velocity(v, omega, a, ra)
+                vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+                vn = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
+                impulse = -normal_mass[c] * (vn + e * relative_velocity[c])
+                new_impulse = max(normal_impulse[c] + impulse, 0.0)
+                impulse = new_impulse - normal_impulse[c]
+                normal_impulse[c] = new_impulse
+                if abs(impulse) > MANIFOLD_PASS_SPEED * normal_mass[c]:
+                    again = True
+                _apply_impulse(v, omega, inv_mass, I_inv, a, b, ra, rb, impulse * n0, impulse * n1, impulse * n2)
+            if not again:
+                break
+        i = end
+
+
+@njit(**JIT)
+def store_impulses_kernel(key, normal_impulse, tangent_impulse, tangent1, tangent2,
+                          # outputs
+                          old_key, old_normal_impulse, old_friction_impulse):
+    """Keep each contact's key, normal impulse and friction impulse (as a world vector, so that
+    the next step's tangent basis may differ) for the next step's warm start."""
+    for c in range(key.shape[0]):
+        old_key[c] = key[c]
+        old_normal_impulse[c] = normal_impulse[c]
+        for k in range(3):
+            old_friction_impulse[c, k] = tangent_impulse[c, 0] * tangent1[c, k] + tangent_impulse[c, 1] * tangent2[c, k]
