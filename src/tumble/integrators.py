@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit, prange
 
 from .forces import UFORCE_CONSTANT, UFORCE_DRAG, UFORCE_POINT_WORLD
-from .math3d import JIT, matrix_to_quat_into
+from .math3d import JIT, matrix_to_quat_into, world_inertia_into
 
 LAYOUT_QUATERNION, LAYOUT_MATRIX = 0, 1
 LAYOUT_IDS = {"quaternion": LAYOUT_QUATERNION, "matrix": LAYOUT_MATRIX}
@@ -795,10 +795,4 @@ def update_derived_kernel(
         else:
             for k in range(4):
                 q[i, k] = Y[i, 3 + k]
-        for r in range(3):
-            for c in range(3):
-                acc = 0.0
-                for a in range(3):
-                    for b in range(3):
-                        acc += R[i, r, a] * inertia_body_inv[i, a, b] * R[i, c, b]
-                I_inv[i, r, c] = acc
+        world_inertia_into(R[i], inertia_body_inv[i], I_inv[i])

@@ -192,6 +192,20 @@ def quat_exp_multiply_inplace(q, wx, wy, wz, h):
     q[3] = dw * z + dx * y - dy * x + dz * w
 
 
+@njit(**JIT)
+def world_inertia_into(R, inertia_body_inv, out):
+    """out = R Ibody^-1 R^T (3, 3), 1/(kg m^2), world: the inverse inertia of a body at
+    orientation R (3, 3) body to world, from inertia_body_inv (3, 3) in the body frame (course:
+    I^-1(t) = R(t) Ibody^-1 R(t)^T)."""
+    for r in range(3):
+        for c in range(3):
+            acc = 0.0
+            for a in range(3):
+                for b in range(3):
+                    acc += R[r, a] * inertia_body_inv[a, b] * R[c, b]
+            out[r, c] = acc
+
+
 def quat_from_euler_deg(angles_deg) -> np.ndarray:
     """Quaternion (4,) from intrinsic z-y'-x'' (yaw, pitch, roll) angles in degrees.
 

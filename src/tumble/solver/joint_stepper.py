@@ -13,6 +13,7 @@ from ..math3d import (
     normalize_quat_inplace,
     quat_exp_multiply_inplace,
     quat_to_matrix_into,
+    world_inertia_into,
 )
 
 if TYPE_CHECKING:
@@ -90,13 +91,7 @@ def integrate_positions_kernel(moving, v, omega, h, inertia_body_inv,
         quat_exp_multiply_inplace(q[i], omega[i, 0], omega[i, 1], omega[i, 2], h)
         normalize_quat_inplace(q[i])
         quat_to_matrix_into(q[i], R[i])
-        for r in range(3):
-            for c in range(3):
-                s = 0.0
-                for k in range(3):
-                    for m in range(3):
-                        s += R[i, r, k] * inertia_body_inv[i, k, m] * R[i, c, m]
-                I_inv[i, r, c] = s
+        world_inertia_into(R[i], inertia_body_inv[i], I_inv[i])
 
 
 @njit(**JIT)
