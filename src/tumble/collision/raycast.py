@@ -597,10 +597,11 @@ def _rays(name: str, value, count: int | None) -> np.ndarray:
 
 
 # A kept tree is refitted to moved shapes (``refit_shape_bvh``) until the sum of its boxes' areas
-# passes REFIT_GROWTH times what it was when built, then built anew: refitting costs about a
-# tenth of a build (measured, docs/benchmarks.md "raycast"), but the boxes of a refitted tree
-# overlap more as its shapes move apart, and each ray then tests more of them. Either way the
-# hits are the same (the tree only orders and prunes the exact tests).
+# passes REFIT_GROWTH times what it was when built, then built anew: a cast after a pose change
+# costs 2.9-8.2x less with a refit than with a new tree (1000-100 000 cubes, docs/benchmarks.md
+# "raycast"), but the boxes of a refitted tree overlap more as its shapes move apart, and each
+# ray then tests more of them. Either way the hits are the same (the tree only orders and
+# prunes the exact tests).
 REFIT_GROWTH = 2.0
 
 
@@ -628,23 +629,23 @@ class _RayScene:
             return self._tree
         table = self.table
         pos, rot, aabb = update_bounds(x, R, table, 0.0)
-        if self._tree is not None:
+        tree = None
+        if self._tree is not None:  # the poses moved: refit the kept tree, unless it grew too loose
             _, _, planes, items, tree = self._tree
-            area = refit_shape_bvh(aabb, items, *tree, len(tree[0]))
-            if area <= REFIT_GROWTH * self.built_area:
+            if refit_shape_bvh(aabb, items, *tree, len(tree[0])) <= REFIT_GROWTH * self.built_area:
                 self.refits += 1
-                self._tree = pos, rot, planes, items, tree
-                self.x, self.R = x.copy(), R.copy()
-                return self._tree
-        planes = np.flatnonzero(table.shape_type == SHAPE_PLANE).astype(np.int64)
-        items = np.flatnonzero(table.shape_type != SHAPE_PLANE).astype(np.int64)
-        M = max(2 * len(items), 1)
-        tree = (np.empty((M, 2, 3)), np.empty(M, dtype=np.int64), np.empty(M, dtype=np.int64),
-                np.empty(M, dtype=np.int64))
-        nodes = build_shape_bvh(aabb, items, *tree)
-        tree = tuple(a[:nodes] for a in tree)
-        self.built_area = refit_shape_bvh(aabb, items, *tree, nodes)  # the same boxes: its area as built
-        self.builds += 1
+            else:
+                tree = None
+        if tree is None:
+            planes = np.flatnonzero(table.shape_type == SHAPE_PLANE).astype(np.int64)
+            items = np.flatnonzero(table.shape_type != SHAPE_PLANE).astype(np.int64)
+            M = max(2 * len(items), 1)
+            tree = (np.empty((M, 2, 3)), np.empty(M, dtype=np.int64), np.empty(M, dtype=np.int64),
+                    np.empty(M, dtype=np.int64))
+            nodes = build_shape_bvh(aabb, items, *tree)
+            tree = tuple(a[:nodes] for a in tree)
+            self.built_area = refit_shape_bvh(aabb, items, *tree, nodes)  # the same boxes: its area as built
+            self.builds += 1
         self._tree = pos, rot, planes, items, tree
         self.x, self.R = x.copy(), R.copy()
         return self._tree
