@@ -38,7 +38,7 @@ import numpy as np
 from numba import njit
 
 from ..forces import ConstantForce, CustomForce, PointForce
-from ..integrators import _load, _mat9, _velocities
+from ..body_motion import _load, _mat9, _velocities
 from ..math3d import JIT
 
 # Box3D's body sleep threshold (b3BodyDef.sleepThreshold, 0.05 m/s; Box2D v3's is the same).

@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from ..collision.pipeline import CollisionPipeline
-from ..integrators import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
+from ..body_motion import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
 from ..math3d import JIT
 from ..world import Scratch
 from . import contact as C
