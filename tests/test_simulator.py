@@ -92,7 +92,7 @@ def test_a_slow_first_frame_says_why_once_and_a_fast_one_says_nothing(monkeypatc
     The slow frame here is a user force that sleeps 0.3 s on its first call (threshold 0.05 s)."""
     import time
 
-    from tumble import simulator as simulator_module
+    from tumble import recording as recording_module
 
     calls = []
 
@@ -102,17 +102,17 @@ def test_a_slow_first_frame_says_why_once_and_a_fast_one_says_nothing(monkeypatc
         calls.append(t)
         return np.zeros(3), np.zeros(3)
 
-    monkeypatch.setattr(simulator_module, "FIRST_FRAME_NOTICE_S", 0.05)
+    monkeypatch.setattr(recording_module, "FIRST_FRAME_NOTICE_S", 0.05)
     w = tb.World(gravity=(0, 0, 0))
     w.add_body(tb.Box((1, 1, 1)), mass=1.0)
     w.add_force(tb.CustomForce(slow_once))
     tb.Simulator(w, dt=0.01).run(0.1, frame_rate=20, progress=True)
     err = capsys.readouterr().err
-    assert err.count(simulator_module.FIRST_FRAME_NOTICE) == 1
+    assert err.count(recording_module.FIRST_FRAME_NOTICE) == 1
 
-    monkeypatch.setattr(simulator_module, "FIRST_FRAME_NOTICE_S", 2.0)
+    monkeypatch.setattr(recording_module, "FIRST_FRAME_NOTICE_S", 2.0)
     w2 = tb.World(gravity=(0, 0, 0))
     w2.add_body(tb.Box((1, 1, 1)), mass=1.0)
     tb.Simulator(w2, dt=0.01).run(0.1, frame_rate=20, progress=True)
     time.sleep(0.1)
-    assert simulator_module.FIRST_FRAME_NOTICE not in capsys.readouterr().err
+    assert recording_module.FIRST_FRAME_NOTICE not in capsys.readouterr().err

@@ -28,7 +28,7 @@ FLUSH_WALL_SECONDS = 60.0
 
 def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, progress=None, handle_signals=False,
                summary=None, resume=False, run_info=None):
-    from .simulator import RunResult, frame_values, static_values
+    from .recording import RunResult, frame_values, static_values
 
     out = Path(out_dir)
     w = sim.world
