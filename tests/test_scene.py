@@ -481,7 +481,7 @@ def test_library_errors_get_the_scene_key_prefixed():
 
 
 def test_unexpected_exception_becomes_input_error(tmp_path, monkeypatch):
-    import tumble.scene as scene_module
+    import tumble.scene_bodies as scene_module  # where the [[bodies]] entries build their shapes
 
     def broken(*args, **kwargs):
         raise KeyError("surprise")

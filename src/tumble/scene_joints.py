@@ -34,7 +34,7 @@ from typing import Any
 
 from .errors import InputError
 from .joints import JOINT_CLASSES
-from .scene import _describe  # the scene parser's wording for a value of the wrong type
+from .scene_values import _describe  # the scene parser's wording for a value of the wrong type
 
 COMMON_KEYS = ("type", "name", "body_a", "body_b", "anchor", "anchor_b", "frame", "collide_connected",
                "max_force", "max_torque")

@@ -1,0 +1,281 @@
+"""Scene files: the ``[[bodies]]`` entries (shape, mass or density, inertia, pose, velocities,
+material) and the ``[[forces]]`` entries, each added to the ``World`` as it is read.
+
+A shape is one of ``SHAPE_KEYS``' types; a compound's parts are solid convex shapes
+(``PART_TYPES``); a mesh or hull may come from a file, resolved against the scene's folder and
+checked against ``checks.memory_limit()`` before it is read. Bodies are referred to by name.
+Errors are ``InputError`` lines ``FILE: bodies[2].shape.radius: must be positive, got -1``
+(``scene_values.ValueReader``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from . import checks
+from .errors import InputError
+from .forces import ConstantForce, Drag, Impulse, PointForce, Spring, Wind
+from .math3d import quat_from_euler_deg
+from .scene_values import ValueReader, _describe
+from .shapes import (
+    Box,
+    Capsule,
+    Compound,
+    Cone,
+    Convex,
+    Cylinder,
+    Mesh,
+    Particles,
+    Plane,
+    Sphere,
+)
+from .world import Material, World
+
+BODY_KEYS = (
+    "name", "shape", "mass", "density", "inertia", "fixed", "position", "orientation", "euler_deg",
+    "velocity", "angular_velocity", "angular_velocity_frame", "material",
+)
+MATERIAL_KEYS = ("friction", "restitution")
+# Per shape type: (required keys, optional keys).
+SHAPE_KEYS = {
+    "sphere": (("radius",), ()),
+    "box": (("size",), ()),
+    "capsule": (("radius", "length"), ()),
+    "cylinder": (("radius", "length"), ()),
+    "cone": (("radius", "height"), ()),
+    "plane": ((), ("normal", "offset")),
+    "mesh": ((), ("path", "vertices", "faces")),
+    "convex": ((), ("path", "points")),
+    "particles": (("points", "masses"), ()),
+    "compound": (("parts",), ()),
+}
+# A compound's parts: solid convex shapes only (no plane, mesh, particles, nor another compound).
+PART_KEYS = ("shape", "position", "orientation", "euler_deg")
+PART_TYPES = ("sphere", "box", "capsule", "cylinder", "cone", "convex")
+# Per force type: (required keys, optional keys), besides "type".
+FORCE_KEYS = {
+    "drag": ((), ("linear", "quadratic", "angular_linear", "angular_quadratic", "wind", "bodies")),
+    "wind": (("velocity",), ("linear", "quadratic", "bodies")),
+    "constant": (("body",), ("force", "torque")),
+    "point": (("body", "force", "point"), ("frame",)),
+    "spring": (("body_a", "stiffness"), ("body_b", "anchor_a", "anchor_b", "damping", "rest_length")),
+    "impulse": (("body", "impulse"), ("point", "time")),
+}
+
+
+class BodyReader(ValueReader):
+    """``ValueReader`` and the entries that build bodies and forces."""
+
+    def body(self, world: World, b: dict, key: str, names: dict):
+        self.table(b, key, BODY_KEYS, required=("name", "shape"))
+        name = self.string(b["name"], f"{key}.name")
+        if not name:
+            raise self.error("must not be empty", f"{key}.name")
+        if name in names:
+            raise self.error(f"duplicate body name {name!r} (also bodies[{names[name]}])", f"{key}.name")
+        shape = self.shape(b["shape"], f"{key}.shape")
+
+        kw: dict[str, Any] = {"name": name}
+        fixed = self.boolean(b["fixed"], f"{key}.fixed") if "fixed" in b else False
+        kw["fixed"] = fixed
+        if "mass" in b and "density" in b:
+            raise self.error("give either mass or density, not both", f"{key}.density")
+        if "mass" in b:
+            kw["mass"] = self.positive(b["mass"], f"{key}.mass")
+        if "density" in b:
+            kw["density"] = self.positive(b["density"], f"{key}.density")
+        if isinstance(shape, Plane):
+            if not fixed:
+                raise self.error("a plane can only be a fixed body (set fixed = true)", f"{key}.fixed")
+            for k in ("mass", "density", "inertia"):
+                if k in b:
+                    raise self.error("a plane has no mass properties (it is fixed)", f"{key}.{k}")
+        elif isinstance(shape, Particles):
+            if "density" in b:
+                raise self.error("particles carry their own masses: give no density (mass rescales them)", f"{key}.density")
+        elif not fixed and "mass" not in b and "density" not in b:
+            raise self.error("missing key 'mass' (or 'density')", key)
+        if "inertia" in b:
+            kw["inertia"] = self.inertia(b["inertia"], f"{key}.inertia")
+        for k in ("position", "velocity", "angular_velocity", "euler_deg"):
+            if k in b:
+                kw[k] = self.vector(b[k], f"{key}.{k}")
+        if "orientation" in b:
+            if "euler_deg" in b:
+                raise self.error("give orientation or euler_deg, not both", f"{key}.euler_deg")
+            q = self.vector(b["orientation"], f"{key}.orientation", 4)
+            if all(c == 0 for c in q):
+                raise self.error("quaternion must not be zero (w, x, y, z = 0, 0, 0, 0)", f"{key}.orientation")
+            kw["orientation"] = q
+        if "angular_velocity_frame" in b:
+            kw["angular_velocity_frame"] = self.string(b["angular_velocity_frame"], f"{key}.angular_velocity_frame", ("world", "body"))
+        if "material" in b:
+            m = self.table(b["material"], f"{key}.material", MATERIAL_KEYS)
+            values = {k: self.number(v, f"{key}.material.{k}") for k, v in m.items()}
+            # built here, not in add_body: its errors are keyed "friction", not "material.friction"
+            kw["material"] = self.library(f"{key}.material", Material, **values)
+        self.library(key, world.add_body, shape, **kw)
+        names[name] = len(names)
+
+    def inertia(self, value, key: str):
+        self.where = key
+        if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
+            return self.rows(value, key, 3)
+        if isinstance(value, list) and len(value) == 3:
+            return self.vector(value, key, 3, self.positive)
+        raise self.error(f"expected 3 numbers (the diagonal) or a 3x3 matrix, got {_describe(value)}", key)
+
+    def shape(self, value, key: str):
+        self.where = key
+        if not isinstance(value, dict):
+            raise self.error(f"expected a table with a 'type' key, got {_describe(value)}", key)
+        if "type" not in value:
+            raise self.error("missing key 'type'", key)
+        kind = self.string(value["type"], f"{key}.type")
+        if kind not in SHAPE_KEYS:
+            raise self.error(f"unknown shape type {kind!r} (expected one of {', '.join(SHAPE_KEYS)})", f"{key}.type")
+        required, optional = SHAPE_KEYS[kind]
+        s = self.table(value, key, ("type",) + required + optional, required)
+        g = lambda k: f"{key}.{k}"  # noqa: E731
+        if kind == "sphere":
+            return self.library(key, Sphere, self.positive(s["radius"], g("radius")))
+        if kind == "box":
+            return self.library(key, Box, self.vector(s["size"], g("size"), 3, self.positive))
+        if kind in ("capsule", "cylinder"):
+            cls = Capsule if kind == "capsule" else Cylinder
+            return self.library(key, cls, self.positive(s["radius"], g("radius")), self.positive(s["length"], g("length")))
+        if kind == "cone":
+            return self.library(key, Cone, self.positive(s["radius"], g("radius")), self.positive(s["height"], g("height")))
+        if kind == "plane":
+            normal = self.vector(s.get("normal", [0.0, 0.0, 1.0]), g("normal"))
+            if all(c == 0 for c in normal):
+                raise self.error("must not be the zero vector", g("normal"))
+            return self.library(key, Plane, normal, self.number(s.get("offset", 0.0), g("offset")))
+        if kind == "particles":
+            points = self.rows(s["points"], g("points"), 3)
+            masses = s["masses"]
+            if isinstance(masses, list):
+                if len(masses) != len(points):
+                    raise self.error(f"expected {len(points)} masses (one per point), got {len(masses)}", g("masses"))
+                masses = [self.positive(m, f"{g('masses')}[{i}]") for i, m in enumerate(masses)]
+            else:
+                masses = self.positive(masses, g("masses"))
+            return self.library(key, Particles, points, masses)
+        if kind == "mesh":
+            if "path" in s:
+                if "vertices" in s or "faces" in s:
+                    raise self.error("give either a mesh file path or inline vertices and faces, not both", g("path"))
+                return self.library(key, Mesh, path=self.mesh_path(s["path"], g("path")))
+            if "vertices" not in s or "faces" not in s:
+                missing = "vertices" if "vertices" not in s else "faces"
+                raise self.error(f"missing key {missing!r} (give a mesh file 'path', or 'vertices' and 'faces')", key)
+            vertices = self.rows(s["vertices"], g("vertices"), 3)
+            faces = self.rows(s["faces"], g("faces"), 3, lambda v, k: self.integer(v, k, 0))
+            return self.library(key, Mesh, vertices=vertices, faces=faces)
+        if kind == "compound":
+            return self.compound(s["parts"], g("parts"), key)
+        # convex
+        if "path" in s:
+            if "points" in s:
+                raise self.error("give either a mesh file path or points, not both", g("path"))
+            return self.library(key, Convex, path=self.mesh_path(s["path"], g("path")))
+        if "points" not in s:
+            raise self.error("missing key 'points' (or a mesh file 'path')", key)
+        return self.library(key, Convex, points=self.rows(s["points"], g("points"), 3))
+
+    def compound(self, value, key: str, shape_key: str):
+        """``parts = [{shape = {...}, position = [...], orientation = [w, x, y, z] or euler_deg = [...]}, ...]``."""
+        self.where = key
+        if not isinstance(value, list):
+            raise self.error(f"expected a list of part tables, got {_describe(value)}", key)
+        if not value:
+            raise self.error("a compound needs at least one part", key)
+        parts = []
+        for i, part in enumerate(value):
+            pk = f"{key}[{i}]"
+            t = self.table(part, pk, PART_KEYS, required=("shape",))
+            kind = t["shape"].get("type") if isinstance(t["shape"], dict) else None
+            if isinstance(kind, str) and kind in SHAPE_KEYS and kind not in PART_TYPES:
+                raise self.error(f"a compound part cannot be a {kind} (expected one of {', '.join(PART_TYPES)})", f"{pk}.shape.type")
+            shape = self.shape(t["shape"], f"{pk}.shape")
+            position = self.vector(t["position"], f"{pk}.position") if "position" in t else [0.0, 0.0, 0.0]
+            if "orientation" in t:
+                if "euler_deg" in t:
+                    raise self.error("give orientation or euler_deg, not both", f"{pk}.euler_deg")
+                q = self.vector(t["orientation"], f"{pk}.orientation", 4)
+                if all(c == 0 for c in q):
+                    raise self.error("quaternion must not be zero (w, x, y, z = 0, 0, 0, 0)", f"{pk}.orientation")
+            elif "euler_deg" in t:
+                q = [float(c) for c in quat_from_euler_deg(self.vector(t["euler_deg"], f"{pk}.euler_deg"))]
+            else:
+                q = [1.0, 0.0, 0.0, 0.0]
+            parts.append((shape, position, q))
+        return self.library(shape_key, Compound, parts)
+
+    def mesh_path(self, value, key: str) -> str:
+        rel = self.string(value, key)
+        if not rel:
+            raise self.error("must not be empty", key)
+        p = Path(rel).expanduser()
+        if not p.is_absolute():
+            p = self.base_dir / p
+        if not p.is_file():
+            raise self.error(f"mesh file not found: {p}", key)
+        size = p.stat().st_size
+        if size == 0:
+            raise self.error(f"mesh file is empty: {p}", key)
+        try:
+            checks.check_memory(size * checks.FILE_EXPANSION, f"reading the {checks.fmt_bytes(size)} mesh file {p}", key, self.file)
+        except InputError as err:
+            raise self.error(err.problem, key) from None
+        return str(p)
+
+    def force(self, world: World, f: dict, key: str, names: dict):
+        self.where = key
+        if "type" not in f:
+            raise self.error("missing key 'type'", key)
+        kind = self.string(f["type"], f"{key}.type")
+        if kind not in FORCE_KEYS:
+            raise self.error(f"unknown force type {kind!r} (expected one of {', '.join(FORCE_KEYS)})", f"{key}.type")
+        required, optional = FORCE_KEYS[kind]
+        self.table(f, key, ("type",) + required + optional, required)
+        g = lambda k: f"{key}.{k}"  # noqa: E731
+        nonneg = lambda k: self.nonnegative(f[k], g(k))  # noqa: E731
+        vec = lambda k: self.vector(f[k], g(k))  # noqa: E731
+        kw: dict[str, Any] = {}
+        if kind in ("drag", "wind"):
+            for k in ("linear", "quadratic", "angular_linear", "angular_quadratic"):
+                if k in f:
+                    kw[k] = nonneg(k)
+            for k in ("wind", "velocity"):
+                if k in f:
+                    kw[k] = vec(k)
+            if "bodies" in f:
+                kw["bodies"] = self.name_list(f["bodies"], g("bodies"), names)
+            record = self.library(key, Drag if kind == "drag" else Wind, **kw)
+        elif kind == "constant":
+            kw = {k: vec(k) for k in ("force", "torque") if k in f}
+            record = self.library(key, ConstantForce, self.body_ref(f["body"], g("body"), names), **kw)
+        elif kind == "point":
+            frame = self.string(f["frame"], g("frame"), ("world", "body")) if "frame" in f else "world"
+            record = self.library(key, PointForce, self.body_ref(f["body"], g("body"), names), vec("force"), vec("point"), frame)
+        elif kind == "spring":
+            a = self.body_ref(f["body_a"], g("body_a"), names)
+            b = None if f.get("body_b") is None else self.body_ref(f["body_b"], g("body_b"), names)
+            if b is not None and b == a:
+                raise self.error(f"a spring needs two different bodies, got {a!r} twice", g("body_b"))
+            kw = {k: vec(k) for k in ("anchor_a", "anchor_b") if k in f}
+            kw["stiffness"] = nonneg("stiffness")
+            if "damping" in f:
+                kw["damping"] = nonneg("damping")
+            if f.get("rest_length") is not None:
+                kw["rest_length"] = nonneg("rest_length")
+            record = self.library(key, Spring, a, b, **kw)
+        else:  # impulse
+            body = self.body_ref(f["body"], g("body"), names)
+            kw = {"point": vec("point")} if "point" in f else {}
+            if "time" in f:
+                kw["time"] = nonneg("time")
+            record = self.library(key, Impulse, body, vec("impulse"), **kw)
+        self.library(key, world.add_force, record)
