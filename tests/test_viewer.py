@@ -41,6 +41,7 @@ viser = pytest.importorskip("viser")
 
 from tumble.viewer import load_input, view
 from tumble.viewer.app import SELECTED_COLOR, linear_colors
+from tumble.viewer.contacts import contacts_at
 from tumble.viewer.meshes import body_mesh, mesh_key, shape_mesh
 
 CHROMIUM = "/usr/bin/chromium"
@@ -391,7 +392,7 @@ def test_contacts_are_drawn_when_the_trajectory_has_them(tmp_path):
     v = view(path, port=0, play=False)
     try:
         assert v.contact_points_checkbox.value and v.contact_forces_checkbox.value
-        assert len(v._contacts_at(0)[0]) == 1 and len(v._contacts_at(4)[0]) == 2
+        assert len(contacts_at(v.contacts, 0)[0]) == 1 and len(contacts_at(v.contacts, 4)[0]) == 2
         assert v.contact_points_node is not None and v.contact_forces_node is not None
         v.set_frame(4)
         assert np.asarray(v.contact_points_node.points).shape == (2, 3)

@@ -20,19 +20,8 @@ What it shows (z up, metres, DESIGN.md's conventions):
   ``(v . P + omega . L) / 2``, beside the total kinetic and potential energy;
 * toggles: body axes (a frame at each centre of mass, red/green/blue = body
   x/y/z; one batched axes node for all bodies, moved only while shown), contact
-  points and contact forces, the ground grid.
-
-Contacts. A run with ``record_contacts`` (scene ``[simulation] record_contacts``) records
-them; the toggles draw whatever the trajectory provides under these optional names
-(attributes of the ``Trajectory``, or keys of the ``.npz`` file), and nothing otherwise:
-
-* ``contact_point``: (F, C, 3) world points, m; rows with a non-finite entry are
-  padding (frames have different numbers of contacts);
-* ``contact_force``: (F, C, 3) world force at the same rows, N (optional);
-  drawn as arrows from the point, scaled so that the largest force of the run
-  is a quarter of the scene's size;
-* ``contact_count``: (F,) number of valid rows per frame (optional; when given,
-  only the first ``contact_count[k]`` rows of frame k are used).
+  points and contact forces, the ground grid (the contacts a trajectory may carry:
+  ``tumble.viewer.contacts``).
 
 The server binds to 127.0.0.1 unless another ``host`` is given. If ``port`` is
 busy, viser takes the next free one; ``Viewer.port`` and ``Viewer.url`` say
@@ -41,7 +30,6 @@ which (``port=0`` lets the system choose).
 
 from __future__ import annotations
 
-import dataclasses
 import threading
 import time as _time
 import webbrowser
@@ -52,17 +40,15 @@ import numpy as np
 from ..errors import InputError
 from ..trajectory import Trajectory, load_trajectory
 from .. import visual
-from .meshes import body_mesh, mesh_key
+from .contacts import CONTACT_FORCE_COLOR, CONTACT_KEYS, CONTACT_POINT_COLOR, contact_arrays, contacts_at
+from .meshes import MeshGroup, body_mesh, linear_colors, mesh_key, quaternion_matrix
 
-CONTACT_KEYS = ("contact_point", "contact_force", "contact_count")
 SCENE_SUFFIXES = (".toml", ".json")
 TRAJECTORY_SUFFIXES = (".npz",)
 
 PALETTE = visual.PALETTE  # body colours shared with export and video
 SELECTED_COLOR = (255, 215, 0)
 PLANE_COLOR = (120, 120, 120)
-CONTACT_POINT_COLOR = (255, 40, 40)
-CONTACT_FORCE_COLOR = (255, 140, 0)
 PLAYBACK_TICK_S = 1.0 / 60.0
 
 
@@ -157,52 +143,8 @@ def check_address(host: str, port: int):
         raise InputError(f"cannot bind to host {host!r} ({exc.strerror or exc})", "host") from None
 
 
-def quaternion_matrix(q) -> np.ndarray:
-    """R (body to world) of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
-
-
-def linear_colors(colors) -> np.ndarray:
-    """sRGB colours (..., 3), 0-255, as the linear-light values (uint8, 0-255) batched meshes are sent.
-
-    viser 1.1.1's client reads ``batched_colors`` with ``THREE.Color.setRGB``, i.e. as
-    linear values, while a single mesh's ``color`` is read as sRGB: sent as they are,
-    the palette would come out paler than in the other views (and than before instancing).
-    """
-    c = np.asarray(colors, dtype=float) / 255.0
-    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    return np.round(255.0 * linear).astype(np.uint8)
-
-
 def _fmt(v) -> str:
     return " | ".join(f"{float(c):+.4g}" for c in v)
-
-
-@dataclasses.dataclass
-class MeshGroup:
-    """Bodies drawn by one batched mesh node: they have the same mesh in the body frame.
-
-    Attributes:
-        handle: the viser ``BatchedMeshHandle``; row j of its ``batched_positions``
-            (M, 3, world, m), ``batched_wxyzs`` (M, 4, body to world) and
-            ``batched_colors`` (M, 3, linear 0-255: ``linear_colors``) is body ``bodies[j]``.
-        bodies: (M,) body indices, increasing.
-        static: True if every body of the group keeps its pose over the whole run
-            (the group is posed once, never updated per frame).
-        colors: (M, 3) uint8, the sRGB colours the bodies are drawn in now (the selected
-            body's row is the highlight).
-    """
-
-    handle: object
-    bodies: np.ndarray
-    static: bool
-    colors: np.ndarray
-    rows: object = None  # bodies as a slice when they are consecutive (a view, no copy, per frame)
 
 
 class Viewer:
@@ -232,7 +174,7 @@ class Viewer:
         self.names = [str(n) for n in np.asarray(traj.names)]
         self.frame_count = len(self.time)
         self.body_count = len(self.names)
-        self.contacts = self._contact_arrays(traj, extras or {})
+        self.contacts = contact_arrays(traj, extras or {})
 
         self._lock = threading.RLock()
         self._stop_event = threading.Event()
@@ -533,48 +475,9 @@ class Viewer:
                                           position=foot, wxyz=wxyz, plane_color=PLANE_COLOR, plane_opacity=0.25,
                                           cell_size=0.5, section_size=2.0)
 
-    @staticmethod
-    def _contact_arrays(traj, extras) -> dict:
-        F = len(traj.time)
-        out = {}
-        for key in CONTACT_KEYS:
-            value = getattr(traj, key, None)
-            if value is None:
-                value = extras.get(key)
-            if value is None:
-                continue
-            value = np.asarray(value, dtype=float)
-            expected_ndim = 1 if key == "contact_count" else 3
-            if value.ndim != expected_ndim or value.shape[0] != F or (expected_ndim == 3 and value.shape[2] != 3):
-                raise InputError(f"expected shape ({F},{' C, 3' if expected_ndim == 3 else ''}), got {value.shape}", key)
-            out[key] = value
-        if "contact_force" in out and "contact_point" not in out:
-            raise InputError("contact_force needs contact_point (the points the forces act at)", "contact_force")
-        if "contact_force" in out and out["contact_force"].shape != out["contact_point"].shape:
-            raise InputError(f"expected the shape of contact_point {out['contact_point'].shape}, got {out['contact_force'].shape}",
-                             "contact_force")
-        if "contact_force" in out:
-            f = out["contact_force"]
-            mags = np.linalg.norm(np.where(np.isfinite(f), f, 0.0), axis=-1)
-            out["force_max"] = float(mags.max()) if mags.size else 0.0
-        return out
-
-    def _contacts_at(self, k: int):
-        """(points (n, 3), forces (n, 3) or None) of frame k: the valid rows only."""
-        if "contact_point" not in self.contacts:
-            return np.zeros((0, 3)), None
-        p = self.contacts["contact_point"][k]
-        f = self.contacts["contact_force"][k] if "contact_force" in self.contacts else None
-        valid = np.all(np.isfinite(p), axis=1)
-        if f is not None:
-            valid &= np.all(np.isfinite(f), axis=1)
-        if "contact_count" in self.contacts:
-            valid &= np.arange(len(p)) < int(self.contacts["contact_count"][k])
-        return p[valid], (None if f is None else f[valid])
-
     def _draw_contacts(self, k: int):
         scene = self.server.scene
-        points, forces = self._contacts_at(k)
+        points, forces = contacts_at(self.contacts, k)
         show_points = self.contact_points_checkbox.value and len(points) > 0
         if show_points:
             self.contact_points_node = scene.add_point_cloud(

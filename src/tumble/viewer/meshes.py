@@ -1,4 +1,5 @@
-"""Display meshes of shape records (``tumble.shapes``), tessellated with ``trimesh.creation``.
+"""Display meshes of shape records (``tumble.shapes``), tessellated with ``trimesh.creation``,
+and the batched groups the viewer draws them in (``MeshGroup``, ``linear_colors``).
 
 Each mesh is in the shape's own frame (the frame the user wrote the shape in).
 ``body_mesh`` moves it into the body frame (origin at the centre of mass) by
@@ -9,6 +10,7 @@ centre of mass ``x`` with rotation ``R`` draws the mesh where the user put it:
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 
 import numpy as np
@@ -52,4 +54,49 @@ def mesh_key(vertices, faces) -> bytes:
     return h.digest()
 
 
-__all__ = ["body_mesh", "mesh_key", "shape_mesh"]
+
+def quaternion_matrix(q) -> np.ndarray:
+    """R (body to world) of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def linear_colors(colors) -> np.ndarray:
+    """sRGB colours (..., 3), 0-255, as the linear-light values (uint8, 0-255) batched meshes are sent.
+
+    viser 1.1.1's client reads ``batched_colors`` with ``THREE.Color.setRGB``, i.e. as
+    linear values, while a single mesh's ``color`` is read as sRGB: sent as they are,
+    the palette would come out paler than in the other views (and than before instancing).
+    """
+    c = np.asarray(colors, dtype=float) / 255.0
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return np.round(255.0 * linear).astype(np.uint8)
+
+
+@dataclasses.dataclass
+class MeshGroup:
+    """Bodies drawn by one batched mesh node: they have the same mesh in the body frame.
+
+    Attributes:
+        handle: the viser ``BatchedMeshHandle``; row j of its ``batched_positions``
+            (M, 3, world, m), ``batched_wxyzs`` (M, 4, body to world) and
+            ``batched_colors`` (M, 3, linear 0-255: ``linear_colors``) is body ``bodies[j]``.
+        bodies: (M,) body indices, increasing.
+        static: True if every body of the group keeps its pose over the whole run
+            (the group is posed once, never updated per frame).
+        colors: (M, 3) uint8, the sRGB colours the bodies are drawn in now (the selected
+            body's row is the highlight).
+    """
+
+    handle: object
+    bodies: np.ndarray
+    static: bool
+    colors: np.ndarray
+    rows: object = None  # bodies as a slice when they are consecutive (a view, no copy, per frame)
+
+
+__all__ = ["MeshGroup", "body_mesh", "linear_colors", "mesh_key", "quaternion_matrix", "shape_mesh"]
