@@ -41,7 +41,8 @@ from ..errors import InputError
 from ..trajectory import Trajectory, load_trajectory
 from .. import visual
 from .contacts import CONTACT_FORCE_COLOR, CONTACT_KEYS, CONTACT_POINT_COLOR, contact_arrays, contacts_at
-from .meshes import MeshGroup, body_mesh, linear_colors, mesh_key, quaternion_matrix
+from ..math3d import quat_to_matrix
+from .meshes import MeshGroup, body_mesh, linear_colors, mesh_key
 
 SCENE_SUFFIXES = (".toml", ".json")
 TRAJECTORY_SUFFIXES = (".npz",)
@@ -459,7 +460,8 @@ class Viewer:
         """
         n = np.asarray(shape.normal, float)
         foot = n * float(shape.offset) - np.asarray(com_offset, float)
-        R = quaternion_matrix(self.orientation[0, i])
+        q = np.asarray(self.orientation[0, i], float)
+        R = quat_to_matrix(q / np.linalg.norm(q))
         if (R @ n)[2] > 1 - 1e-9 and abs((self.position[0, i] + R @ foot)[2]) < 1e-9:
             return None
         zhat = np.array([0.0, 0.0, 1.0])

@@ -55,16 +55,6 @@ def mesh_key(vertices, faces) -> bytes:
 
 
 
-def quaternion_matrix(q) -> np.ndarray:
-    """R (body to world) of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
-
-
 def linear_colors(colors) -> np.ndarray:
     """sRGB colours (..., 3), 0-255, as the linear-light values (uint8, 0-255) batched meshes are sent.
 
@@ -99,4 +89,4 @@ class MeshGroup:
     rows: object = None  # bodies as a slice when they are consecutive (a view, no copy, per frame)
 
 
-__all__ = ["MeshGroup", "body_mesh", "linear_colors", "mesh_key", "quaternion_matrix", "shape_mesh"]
+__all__ = ["MeshGroup", "body_mesh", "linear_colors", "mesh_key", "shape_mesh"]
