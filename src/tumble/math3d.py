@@ -229,3 +229,44 @@ def random_quaternions(count: int, rng: np.random.Generator) -> np.ndarray:
         axis=1,
     )
     return q
+
+
+@njit(**JIT)
+def argsort_stable(keys):
+    """The stable ascending order (n,) int64 of ``keys`` (n,): what ``np.argsort(keys,
+    kind="stable")`` returns for keys without NaN (bottom-up merge sort; ties keep index order).
+
+    COMPILE: Numba's own argsort and sort took 3.4 s of a first contact run's compile (the
+    broadphase's two sorts); this one compiles in a fraction of that and gives the same order.
+    """
+    n = keys.shape[0]
+    order = np.arange(n)
+    if n < 2:
+        return order
+    src = order
+    dst = np.empty(n, dtype=np.int64)
+    width = 1
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            i, j, k = lo, mid, lo
+            while i < mid and j < hi:
+                if keys[src[j]] < keys[src[i]]:  # strictly smaller: a tie keeps the left (earlier) index
+                    dst[k] = src[j]
+                    j += 1
+                else:
+                    dst[k] = src[i]
+                    i += 1
+                k += 1
+            while i < mid:
+                dst[k] = src[i]
+                i += 1
+                k += 1
+            while j < hi:
+                dst[k] = src[j]
+                j += 1
+                k += 1
+        src, dst = dst, src
+        width *= 2
+    return src

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..math3d import JIT
+from ..math3d import JIT, argsort_stable
 from ..shapes import SHAPE_PLANE
 
 
@@ -114,7 +114,7 @@ def _find_pairs_kernel(aabb, shape_type, shape_body, body_moving,
     keys = np.empty(n)
     for k in range(n):
         keys[k] = aabb[idx[k], 0, axis]
-    order = np.argsort(keys, kind="mergesort")
+    order = argsort_stable(keys)
     # bucket the shapes into columns in that order (a counting sort), so that each
     # column's list is already sorted along the sweep axis; big shapes are kept apart
     cells = n1 * n2
@@ -153,7 +153,7 @@ def _find_pairs_kernel(aabb, shape_type, shape_body, body_moving,
                 c = c1 * n2 + c2
                 column[fill[c]] = s
                 fill[c] += 1
-    count = 0
+    count = np.int64(0)  # not a literal: _emit would be compiled twice
     for c in range(cells):
         c1 = c // n2
         c2 = c % n2
@@ -194,10 +194,11 @@ def _find_pairs_kernel(aabb, shape_type, shape_body, body_moving,
     pkey = np.empty(count, dtype=np.int64)
     for k in range(count):
         pkey[k] = pair_a[k] * S + pair_b[k]
-    pkey.sort()
+    rank = argsort_stable(pkey)  # the keys are unique: the same order as any sort
     for k in range(count):
-        pair_a[k] = pkey[k] // S
-        pair_b[k] = pkey[k] % S
+        key = pkey[rank[k]]
+        pair_a[k] = key // S
+        pair_b[k] = key % S
     return count
 
 

@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import InputError
-from ..math3d import JIT
+from ..math3d import JIT, argsort_stable
 from ..shapes import SHAPE_PLANE
 from .bounds import update_bounds
 from .ray_shapes import _ray_shape, _slab
@@ -121,7 +121,7 @@ def build_shape_bvh(aabb, items, node_aabb, node_first, node_count, node_skip):
                 axis = k
         for i in range(lo, hi):
             centre[i - lo] = aabb[items[i], 0, axis] + aabb[items[i], 1, axis]
-        sorted_items = items[lo:hi][np.argsort(centre[:hi - lo], kind="mergesort")]
+        sorted_items = items[lo:hi][argsort_stable(centre[:hi - lo])]
         items[lo:hi] = sorted_items
         mid = (lo + hi) // 2
         # the right half is pushed first, so the left one is built next: it follows its parent

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from ..collision.constants import DEEP_OVERLAP
@@ -174,7 +175,7 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
             local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
         separation_base[c] = separation[c]
         if half < 0.0:  # the anchors no longer coincide: d0 = pb - pa at these poses
-            _, _, d = _arms(x, R, a, b, local_a, local_b, c)
+            _, _, d = _arms(x, R, a, b, local_a, local_b, np.int64(c))  # prange's c is unsigned: one compile of _arms
             separation_base[c] -= n0 * d[0] + n1 * d[1] + n2 * d[2]
         ra = anchor_a[c]
         rb = anchor_b[c]

@@ -7,9 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..math3d import (
-    JIT,
-)
+from ..math3d import JIT, argsort_stable
 
 
 @njit(**JIT)
@@ -63,7 +61,7 @@ def partition_pairs_kernel(body_a, body_b, moving, x, parts,
     coord = np.empty(count)
     for k in range(count):
         coord[k] = x[ids[k], axis]
-    rank = np.argsort(coord, kind="mergesort")
+    rank = argsort_stable(coord)
     for r in range(count):
         body_part[ids[rank[r]]] = r * parts // count
     # stable counting sort of the contacts by group: slab 0 .. parts - 1, then the seam (parts)

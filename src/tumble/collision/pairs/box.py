@@ -246,7 +246,7 @@ def collide_capsule_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculat
         l1[k] = rot_b[0, k] * (w1[0] - pos_b[0]) + rot_b[1, k] * (w1[1] - pos_b[1]) + rot_b[2, k] * (w1[2] - pos_b[2])
     p0 = (l0[0], l0[1], l0[2])
     p1 = (l1[0], l1[1], l1[2])
-    t0, t1 = _clip_segment_to_slabs(p0, p1, h, -1)
+    t0, t1 = _clip_segment_to_slabs(p0, p1, h, np.int64(-1))
     core_inside = t0 <= t1
     out = (0.0, 0.0, 1.0)
     s_pt = (0.0, 0.0, 0.0)
@@ -288,7 +288,7 @@ def collide_capsule_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculat
     if core_inside:
         # SAT on the core: face axes, then core x edge axes; an edge must win clearly
         u = (p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2])
-        best_face, face_k, face_side = np.inf, 0, 1.0
+        best_face, face_k, face_side = np.inf, np.int64(0), 1.0  # np.int64: see _reduce_manifold
         for k in range(3):
             lo = min(p0[k], p1[k])
             hi = max(p0[k], p1[k])
@@ -298,7 +298,7 @@ def collide_capsule_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculat
                 best_face, face_k, face_side = up, k, 1.0
             if down < best_face:
                 best_face, face_k, face_side = down, k, -1.0
-        best_edge, edge_k = np.inf, -1
+        best_edge, edge_k = np.inf, np.int64(-1)
         edge_n = (0.0, 0.0, 0.0)
         for k in range(3):
             # n = u x e_k
@@ -386,11 +386,14 @@ def _reduce_manifold(pts, seps, n, nx, ny, nz, keep):
     negative triangle area (about the normal) with those two. Gregorius 2015,
     "Contact reduction"; Box3D reduces the same way. Ties go to the lower index.
     """
-    i1 = 0
+    # COMPILE: integers that reach a call start as np.int64, not a literal: Numba compiles the
+    # callee once more for each literal value its arguments are typed with on the way (measured:
+    # the box-box routines compiled 2-4 times each, 11 s of a first run's 78 s)
+    i1 = np.int64(0)
     for k in range(1, n):
         if seps[k] < seps[i1]:
             i1 = k
-    i2 = -1
+    i2 = np.int64(-1)
     best = -1.0
     for k in range(n):
         d = (pts[k, 0] - pts[i1, 0]) ** 2 + (pts[k, 1] - pts[i1, 1]) ** 2 + (pts[k, 2] - pts[i1, 2]) ** 2
@@ -465,7 +468,7 @@ def _box_face_contact(ref_pos, ref_rot, ref_h, inc_pos, inc_rot, inc_h, axis, re
         s2 = 1.0 if v < 2 else -1.0
         for i in range(3):
             poly[v, i] = centre[i] + s1 * inc_h[j1] * inc_rot[i, j1] + s2 * inc_h[j2] * inc_rot[i, j2]
-    n = 4
+    n = np.int64(4)
     # side planes of the reference face: +-axis k1, +-axis k2
     for step in range(1, 3):
         k = (axis + step) % 3
@@ -476,7 +479,7 @@ def _box_face_contact(ref_pos, ref_rot, ref_h, inc_pos, inc_rot, inc_h, axis, re
     # keep the points below the speculative distance; separation along n from the reference face
     face_offset = nx * ref_pos[0] + ny * ref_pos[1] + nz * ref_pos[2] + ref_h[axis]
     seps = work[20:28, 0]
-    m = 0
+    m = np.int64(0)
     for v in range(n):
         sep = nx * poly[v, 0] + ny * poly[v, 1] + nz * poly[v, 2] - face_offset
         if sep < speculative:
@@ -548,7 +551,7 @@ def box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
         for j in range(3):
             C[i, j] = abs(rot_a[0, i] * rot_b[0, j] + rot_a[1, i] * rot_b[1, j] + rot_a[2, i] * rot_b[2, j])
     # separation along an axis: |t . n| minus both boxes' half widths along n
-    face_a, axis_a = -np.inf, 0
+    face_a, axis_a = -np.inf, np.int64(0)  # np.int64: see _reduce_manifold
     for i in range(3):
         d = abs(tx * rot_a[0, i] + ty * rot_a[1, i] + tz * rot_a[2, i])
         sep = d - ha[i] - (C[i, 0] * hb[0] + C[i, 1] * hb[1] + C[i, 2] * hb[2])
@@ -556,7 +559,7 @@ def box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
             return 0
         if sep > face_a:
             face_a, axis_a = sep, i
-    face_b, axis_b = -np.inf, 0
+    face_b, axis_b = -np.inf, np.int64(0)
     for j in range(3):
         d = abs(tx * rot_b[0, j] + ty * rot_b[1, j] + tz * rot_b[2, j])
         sep = d - hb[j] - (C[0, j] * ha[0] + C[1, j] * ha[1] + C[2, j] * ha[2])
@@ -564,7 +567,7 @@ def box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
             return 0
         if sep > face_b:
             face_b, axis_b = sep, j
-    edge, edge_i, edge_j = -np.inf, -1, -1
+    edge, edge_i, edge_j = -np.inf, np.int64(-1), np.int64(-1)
     en = (0.0, 0.0, 0.0)
     for i in range(3):
         for j in range(3):
@@ -591,9 +594,9 @@ def box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
         return _box_edge_contact(pos_a, rot_a, ha, pos_b, rot_b, hb, edge_i, edge_j, en, edge,
                                  normal, point, separation, feature, work)
     if face_b > REL_FACE_TOLERANCE * face_a + ABS_TOLERANCE:
-        return _box_face_contact(pos_b, rot_b, hb, pos_a, rot_a, ha, axis_b, True, speculative,
+        return _box_face_contact(pos_b, rot_b, hb, pos_a, rot_a, ha, axis_b, np.bool_(True), speculative,
                                  normal, point, separation, feature, work)
-    return _box_face_contact(pos_a, rot_a, ha, pos_b, rot_b, hb, axis_a, False, speculative,
+    return _box_face_contact(pos_a, rot_a, ha, pos_b, rot_b, hb, axis_a, np.bool_(False), speculative,
                              normal, point, separation, feature, work)
 
 

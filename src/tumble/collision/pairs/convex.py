@@ -72,7 +72,7 @@ def reduce_points(pts, seps, n, nx, ny, nz, keep):
     Unlike the box version, areas below 1e-3 of the
     squared span are ignored, so collinear points (a capsule on a tessellated floor) give 2, not 4.
     """
-    i1 = 0
+    i1 = np.int64(0)  # np.int64: a literal would compile the callee again (box._reduce_manifold)
     for k in range(1, n):
         if seps[k] < seps[i1]:
             i1 = k
@@ -91,7 +91,7 @@ def reduce_points(pts, seps, n, nx, ny, nz, keep):
             if d > far * (1.0 + 1e-12):
                 far, i1 = d, k
     keep[0] = i1
-    i2 = -1
+    i2 = np.int64(-1)
     best = 1e-18
     for k in range(n):
         d = (pts[k, 0] - pts[i1, 0]) ** 2 + (pts[k, 1] - pts[i1, 1]) ** 2 + (pts[k, 2] - pts[i1, 2]) ** 2
