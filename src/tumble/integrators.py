@@ -37,7 +37,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.extending import overload
 
 from .body_motion import LAYOUT_IDS, LAYOUT_QUATERNION, STATE_WIDTH  # noqa: F401 (re-exported: World, Scene, the tests)
 from .body_motion import (  # one body in registers
@@ -148,51 +149,124 @@ def _spring_forces(Y, Rs, vs, omegas, moving, spring_body, spring_anchor, spring
             T[b, 2] -= rb[0] * f1 - rb[1] * f0
 
 
+# One step of one body by one integrator, in registers. Each takes (layout, h, i, x, o, P, L,
+# mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param, uforce_start) and returns the
+# new (x, o, P, L) before the projection onto SO(3).
+@njit(**JIT, inline="always")
+def _step_explicit_euler(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param, uforce_start):
+    # X(t + h) = X(t) + h dX/dt  (course, "Schéma d'Euler explicite")
+    v, w, F, T = _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+    dx, do, dP, dL = _derivative(layout, o, v, w, F, T)
+    return _axpy(x, o, P, L, h, dx, do, dP, dL)
+
+
+@njit(**JIT, inline="always")
+def _step_midpoint(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param, uforce_start):
+    v, w, F, T = _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+    dx, do, dP, dL = _derivative(layout, o, v, w, F, T)
+    x1, o1, P1, L1 = _axpy(x, o, P, L, 0.5 * h, dx, do, dP, dL)
+    v, w, F, T = _body_forces(layout, i, x1, o1, P1, L1, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+    dx, do, dP, dL = _derivative(layout, o1, v, w, F, T)
+    return _axpy(x, o, P, L, h, dx, do, dP, dL)
+
+
+@njit(**JIT, inline="always")
+def _step_rk4(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param, uforce_start):
+    # k1..k4 with the classic weights 1/6, 1/3, 1/3, 1/6; (ax, ao, aP, aL) sums them
+    v, w, F, T = _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+    dx, do, dP, dL = _derivative(layout, o, v, w, F, T)
+    ax, ao, aP, aL = _axpy(dx, do, dP, dL, 0.0, dx, do, dP, dL)
+    x1, o1, P1, L1 = _axpy(x, o, P, L, 0.5 * h, dx, do, dP, dL)
+    for stage in range(3):
+        v, w, F, T = _body_forces(layout, i, x1, o1, P1, L1, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+        dx, do, dP, dL = _derivative(layout, o1, v, w, F, T)
+        if stage < 2:
+            ax, ao, aP, aL = _axpy(ax, ao, aP, aL, 2.0, dx, do, dP, dL)
+            x1, o1, P1, L1 = _axpy(x, o, P, L, 0.5 * h if stage == 0 else h, dx, do, dP, dL)
+        else:
+            ax, ao, aP, aL = _axpy(ax, ao, aP, aL, 1.0, dx, do, dP, dL)
+    return _axpy(x, o, P, L, h / 6.0, ax, ao, aP, aL)
+
+
+@njit(**JIT, inline="always")
+def _step_semi_implicit_euler(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param, uforce_start):
+    F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+    P, L = _kick(P, L, F, T, h)
+    x, o = _drift(layout, False, h, x, o, P, L, inv_mass, ib, pq, pm)
+    return x, o, P, L
+
+
+@njit(**JIT, inline="always")
+def _step_splitting(n_sub, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param, uforce_start):
+    # SPLITTING (n_sub 1), SPLITTING4 (n_sub 3): kick (h/2) - drift (h, exact free rotation) - kick (h/2)
+    for sub in range(n_sub):
+        hh = h if n_sub == 1 else (_YOSHIDA_W0 * h if sub == 1 else _YOSHIDA_W1 * h)
+        F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+        P, L = _kick(P, L, F, T, 0.5 * hh)
+        x, o = _drift(layout, True, hh, x, o, P, L, inv_mass, ib, pq, pm)
+        F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+        P, L = _kick(P, L, F, T, 0.5 * hh)
+    return x, o, P, L
+
+
+def _body_step(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param, uforce_start):
+    """One step of one body by ``integrator`` (for compiled code only: ``_body_step_overload``)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_body_step, jit_options=JIT, prefer_literal=True)
+def _body_step_overload(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param,
+                        uforce_start):
+    """``_body_step`` typed for ``integrator``: a literal integrator (a constant of the kernels of
+    ``_step_bodies_kernels``) compiles that integrator's step alone, any other int all of
+    them behind a branch. COMPILE: Numba does not prune the branches on a literal argument, so
+    the whole chain was compiled for every run whatever its integrator: 8 s of a first run's
+    compile (measured), where one integrator's step takes 1-3 s. Same operations, same bits."""
+    if isinstance(integrator, types.IntegerLiteral):
+        kind = integrator.literal_value
+        if kind == SPLITTING or kind == SPLITTING4:
+            n_sub = 1 if kind == SPLITTING else 3
+
+            def splitting(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind,
+                          uforce_param, uforce_start):
+                return _step_splitting(n_sub, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity,
+                                       uforce_kind, uforce_param, uforce_start)
+            return splitting
+        step = {EXPLICIT_EULER: _step_explicit_euler, MIDPOINT: _step_midpoint, RK4: _step_rk4,
+                SEMI_IMPLICIT_EULER: _step_semi_implicit_euler}[kind]
+
+        def one(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param,
+                uforce_start):
+            return step(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param,
+                        uforce_start)
+        return one
+
+    def any_integrator(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind,
+                       uforce_param, uforce_start):
+        if integrator == EXPLICIT_EULER:
+            return _step_explicit_euler(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind,
+                                        uforce_param, uforce_start)
+        if integrator == MIDPOINT:
+            return _step_midpoint(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind,
+                                  uforce_param, uforce_start)
+        if integrator == RK4:
+            return _step_rk4(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param,
+                             uforce_start)
+        if integrator == SEMI_IMPLICIT_EULER:
+            return _step_semi_implicit_euler(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity,
+                                             uforce_kind, uforce_param, uforce_start)
+        return _step_splitting(1 if integrator == SPLITTING else 3, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq,
+                               pm, gravity, uforce_kind, uforce_param, uforce_start)
+    return any_integrator
+
+
 @njit(**JIT)
 def _advance_body(integrator, layout, h, n_steps, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param, uforce_start):
     """n_steps steps of one body whose forces depend on itself only (no springs), in registers:
     the same operations in the same order as ``_one_step`` over all bodies."""
     for _ in range(n_steps):
-        if integrator == EXPLICIT_EULER:
-            # X(t + h) = X(t) + h dX/dt  (course, "Schéma d'Euler explicite")
-            v, w, F, T = _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-            dx, do, dP, dL = _derivative(layout, o, v, w, F, T)
-            x, o, P, L = _axpy(x, o, P, L, h, dx, do, dP, dL)
-        elif integrator == MIDPOINT:
-            v, w, F, T = _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-            dx, do, dP, dL = _derivative(layout, o, v, w, F, T)
-            x1, o1, P1, L1 = _axpy(x, o, P, L, 0.5 * h, dx, do, dP, dL)
-            v, w, F, T = _body_forces(layout, i, x1, o1, P1, L1, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-            dx, do, dP, dL = _derivative(layout, o1, v, w, F, T)
-            x, o, P, L = _axpy(x, o, P, L, h, dx, do, dP, dL)
-        elif integrator == RK4:
-            # k1..k4 with the classic weights 1/6, 1/3, 1/3, 1/6; (ax, ao, aP, aL) sums them
-            v, w, F, T = _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-            dx, do, dP, dL = _derivative(layout, o, v, w, F, T)
-            ax, ao, aP, aL = _axpy(dx, do, dP, dL, 0.0, dx, do, dP, dL)
-            x1, o1, P1, L1 = _axpy(x, o, P, L, 0.5 * h, dx, do, dP, dL)
-            for stage in range(3):
-                v, w, F, T = _body_forces(layout, i, x1, o1, P1, L1, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-                dx, do, dP, dL = _derivative(layout, o1, v, w, F, T)
-                if stage < 2:
-                    ax, ao, aP, aL = _axpy(ax, ao, aP, aL, 2.0, dx, do, dP, dL)
-                    x1, o1, P1, L1 = _axpy(x, o, P, L, 0.5 * h if stage == 0 else h, dx, do, dP, dL)
-                else:
-                    ax, ao, aP, aL = _axpy(ax, ao, aP, aL, 1.0, dx, do, dP, dL)
-            x, o, P, L = _axpy(x, o, P, L, h / 6.0, ax, ao, aP, aL)
-        elif integrator == SEMI_IMPLICIT_EULER:
-            F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-            P, L = _kick(P, L, F, T, h)
-            x, o = _drift(layout, False, h, x, o, P, L, inv_mass, ib, pq, pm)
-        else:  # SPLITTING, SPLITTING4: kick (h/2) - drift (h, exact free rotation) - kick (h/2)
-            n_sub = 1 if integrator == SPLITTING else 3
-            for sub in range(n_sub):
-                hh = h if n_sub == 1 else (_YOSHIDA_W0 * h if sub == 1 else _YOSHIDA_W1 * h)
-                F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-                P, L = _kick(P, L, F, T, 0.5 * hh)
-                x, o = _drift(layout, True, hh, x, o, P, L, inv_mass, ib, pq, pm)
-                F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-                P, L = _kick(P, L, F, T, 0.5 * hh)
+        x, o, P, L = _body_step(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind,
+                                uforce_param, uforce_start)
         o = _project(layout, o)
     return x, o, P, L
 
@@ -218,25 +292,55 @@ def _advance_chunk(c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia
             _store(layout, Y, i, x, o, P, L)
 
 
-@njit(**JIT, parallel=True)
+def _step_bodies_kernels(integrator: int):
+    """The two compiled kernels (serial, parallel) of ``step_bodies_kernel`` for one integrator.
+
+    COMPILE: ``integrator`` is a constant of the closures, so ``_advance_body`` and
+    ``_body_step_overload`` see a literal and compile that integrator's step alone (8 s of a
+    first run's compile went to the others before). Numba caches each closure apart (its cache
+    key hashes the closure's constants). ``numba.literally`` on an argument did the same, but
+    every call from Python then went through the compiler's dispatch again (10-90 ms a call).
+    """
+
+    @njit(**JIT)
+    def serial(layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+               uforce_kind, uforce_param, uforce_start):
+        n_chunks = (Y.shape[0] + BODY_CHUNK - 1) // BODY_CHUNK
+        for c in range(n_chunks):
+            _advance_chunk(c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q,
+                           principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
+
+    @njit(**JIT, parallel=True)
+    def parallel(layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving,
+                 gravity, uforce_kind, uforce_param, uforce_start):
+        n_chunks = (Y.shape[0] + BODY_CHUNK - 1) // BODY_CHUNK
+        for c in prange(n_chunks):
+            _advance_chunk(c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q,
+                           principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
+
+    return serial, parallel
+
+
+_STEP_BODIES = {kind: _step_bodies_kernels(kind) for kind in
+                (EXPLICIT_EULER, SEMI_IMPLICIT_EULER, MIDPOINT, RK4, SPLITTING, SPLITTING4)}
+
+
 def step_bodies_parallel_kernel(integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start):
     """``step_bodies_kernel`` with the chunks spread over all cores. Each task writes only
     its own rows, so the bits are the same as the serial kernel's for any thread count."""
-    n_chunks = (Y.shape[0] + BODY_CHUNK - 1) // BODY_CHUNK
-    for c in prange(n_chunks):
-        _advance_chunk(c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
+    _STEP_BODIES[int(integrator)][1](layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q,
+                                     principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
 
 
-@njit(**JIT)
 def step_bodies_kernel(integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start):
     """Advance Y (N, W) in place by n_steps steps of h s when no force couples two bodies (no springs).
 
     Each body takes all its steps in registers (``_advance_body``): the same
-    operations in the same order as ``step_kernel``, so the same bits.
+    operations in the same order as ``step_kernel``, so the same bits. Called from
+    Python; the compiled kernel of ``integrator`` does the work (``_step_bodies_kernels``).
     """
-    n_chunks = (Y.shape[0] + BODY_CHUNK - 1) // BODY_CHUNK
-    for c in range(n_chunks):
-        _advance_chunk(c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
+    _STEP_BODIES[int(integrator)][0](layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q,
+                                     principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
 
 
 # --------------------------------------------------------------------------- all bodies, stage by stage
