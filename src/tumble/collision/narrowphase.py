@@ -7,7 +7,8 @@ from ``update_bounds``; writes a ``ContactManifolds``.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.extending import overload
 
 from ..math3d import JIT
 from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
@@ -73,6 +74,66 @@ def collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b
         return box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
                                separation, feature, work)
     return 0
+
+
+# Families of analytic worlds: the narrowphase of a world of planes and boxes (stacks, piles,
+# pyramids, dominoes) or of planes and spheres compiles only the routines it can call.
+FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES = 0, 1, 2
+
+
+def analytic_family(shape_type) -> int:
+    """The family of a world whose shapes (S,) SHAPE_* are all analytic: FAMILY_BOXES when they
+    are planes and boxes, FAMILY_SPHERES when planes and spheres, else FAMILY_ALL."""
+    present = set(np.unique(shape_type).tolist())
+    if present <= {SHAPE_PLANE, SHAPE_BOX}:
+        return FAMILY_BOXES
+    if present <= {SHAPE_PLANE, SHAPE_SPHERE}:
+        return FAMILY_SPHERES
+    return FAMILY_ALL
+
+
+def _family_pair(family, ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
+                 separation, feature, work):
+    """``collide_analytic_pair`` for a world of one family (compiled code only: the overload below)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_family_pair, jit_options=JIT, prefer_literal=True)
+def _family_pair_overload(family, ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
+                          point, separation, feature, work):
+    """The routines a literal ``family`` can meet, and no others. COMPILE: the analytic
+    dispatch compiles every plane, sphere, capsule and box routine (box-box, capsule-box and the
+    sphere pairs: 9 s of a first run's compile of planes and boxes, measured); a family compiles
+    its own two. Same routines, same bits."""
+    kind = family.literal_value if isinstance(family, types.IntegerLiteral) else FAMILY_ALL
+    if kind == FAMILY_BOXES:
+        def boxes(family, ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
+                  separation, feature, work):
+            if ta == SHAPE_PLANE and tb == SHAPE_BOX:
+                return collide_plane_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
+                                         separation, feature)
+            if ta == SHAPE_BOX and tb == SHAPE_BOX:
+                return box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
+                                       separation, feature, work)
+            return 0
+        return boxes
+    if kind == FAMILY_SPHERES:
+        def spheres(family, ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
+                    separation, feature, work):
+            if ta == SHAPE_PLANE and tb == SHAPE_SPHERE:
+                return collide_plane_sphere(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
+                                            point, separation, feature)
+            if ta == SHAPE_SPHERE and tb == SHAPE_SPHERE:
+                return collide_sphere_sphere(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
+                                             point, separation, feature)
+            return 0
+        return spheres
+
+    def every(family, ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point, separation,
+              feature, work):
+        return collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
+                                     point, separation, feature, work)
+    return every
 
 
 @njit(**JIT)
@@ -178,24 +239,25 @@ def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_
 
 
 @njit(**JIT)
-def _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
+def _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
                                 shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
                                 # outputs
                                 out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work):
     """``_collide_candidate`` for worlds of plane, sphere, capsule and box shapes only
-    (``collide_analytic_pair``: the same routines, so the same bits)."""
+    (``collide_analytic_pair``, or the routines of one ``family``: the same routines, so the
+    same bits)."""
     a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
                                              shape_pos, shape_rot, shape_aabb, body_moving, speculative,
                                              shape_margin, excluded, out_a, out_b, out_count)
     if a >= 0:
-        out_count[k] = collide_analytic_pair(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a],
-                                             shape_params[a], shape_pos[b], shape_rot[b], shape_params[b],
-                                             pair_speculative, out_normal[k], out_point[k], out_separation[k],
-                                             out_feature[k], work)
+        out_count[k] = _family_pair(family, shape_type[a], shape_type[b], shape_pos[a], shape_rot[a],
+                                    shape_params[a], shape_pos[b], shape_rot[b], shape_params[b], pair_speculative,
+                                    out_normal[k], out_point[k], out_separation[k], out_feature[k], work)
 
 
-# Four kernels: every routine or the analytic ones only (a smaller compile), each on all threads
-# in chunks or on this one. The loops are the same; the candidate function differs.
+# Kernels of every routine, or of the analytic ones only (a smaller compile: ``_analytic_kernels``,
+# per family), each on all threads in chunks or on this one. The loops are the same; the
+# candidate function differs.
 @njit(**JIT, parallel=True)
 def _collide_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
                                         shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
@@ -228,38 +290,43 @@ def _collide_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, s
                            out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work)
 
 
-@njit(**JIT, parallel=True)
-def _collide_analytic_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params,
-                                                 shape_pos, shape_rot, shape_aabb, body_moving, speculative,
-                                                 shape_margin, geometry, excluded,
-                                                 # outputs
-                                                 out_a, out_b, out_count, out_normal, out_point, out_separation,
-                                                 out_feature):
-    """``_collide_candidates_parallel_kernel`` with the analytic routines only."""
-    total = out_count.shape[0]
-    n_chunks = (total + CHUNK - 1) // CHUNK
-    for chunk in prange(n_chunks):
+def _analytic_kernels(family: int):
+    """(parallel, serial) kernels of the analytic candidates for one ``family`` (a constant of
+    the closures, so ``_family_pair`` sees a literal; Numba caches each closure apart)."""
+
+    @njit(**JIT, parallel=True)
+    def parallel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
+                 body_moving, speculative, shape_margin, geometry, excluded,
+                 # outputs
+                 out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+        """``_collide_candidates_parallel_kernel`` with the analytic routines only."""
+        total = out_count.shape[0]
+        n_chunks = (total + CHUNK - 1) // CHUNK
+        for chunk in prange(n_chunks):
+            work = np.empty((PAIR_WORK_ROWS, 3))
+            for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
+                _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
+                                            shape_pos, shape_rot, shape_aabb, body_moving, speculative, shape_margin,
+                                            geometry, excluded, out_a, out_b, out_count, out_normal, out_point,
+                                            out_separation, out_feature, work)
+
+    @njit(**JIT)
+    def serial(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
+               body_moving, speculative, shape_margin, geometry, excluded,
+               # outputs
+               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+        """``_collide_candidates_kernel`` with the analytic routines only."""
         work = np.empty((PAIR_WORK_ROWS, 3))
-        for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
-            _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
-                                        shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
-                                        excluded, out_a, out_b, out_count, out_normal, out_point, out_separation,
-                                        out_feature, work)
+        for k in range(out_count.shape[0]):
+            _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
+                                        shape_pos, shape_rot, shape_aabb, body_moving, speculative, shape_margin,
+                                        geometry, excluded, out_a, out_b, out_count, out_normal, out_point,
+                                        out_separation, out_feature, work)
+
+    return parallel, serial
 
 
-@njit(**JIT)
-def _collide_analytic_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
-                                        shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
-                                        excluded,
-                                        # outputs
-                                        out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
-    """``_collide_candidates_kernel`` with the analytic routines only."""
-    work = np.empty((PAIR_WORK_ROWS, 3))
-    for k in range(out_count.shape[0]):
-        _collide_analytic_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
-                                    shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
-                                    excluded, out_a, out_b, out_count, out_normal, out_point, out_separation,
-                                    out_feature, work)
+_ANALYTIC_KERNELS = {family: _analytic_kernels(family) for family in (FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES)}
 
 
 @njit(**JIT)
@@ -338,7 +405,10 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
         shape_margin = np.full(S, float(speculative))
     parallel = total >= PARALLEL_MIN_CANDIDATES
     if table.analytic_only:
-        kernel = _collide_analytic_candidates_parallel_kernel if parallel else _collide_analytic_candidates_kernel
+        family = table.__dict__.get("analytic_family")
+        if family is None:  # computed once per shape table
+            family = table.analytic_family = analytic_family(table.shape_type)
+        kernel = _ANALYTIC_KERNELS[family][0 if parallel else 1]
     else:
         kernel = _collide_candidates_parallel_kernel if parallel else _collide_candidates_kernel
     kernel(np.ascontiguousarray(pair_a, dtype=np.int64), np.ascontiguousarray(pair_b, dtype=np.int64),
