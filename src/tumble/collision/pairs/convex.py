@@ -135,10 +135,10 @@ def supporting_face(t, pos, rot, params, verts, f0, nf, hull_face_first, hull_fa
     if t == SHAPE_CAPSULE:
         h = params[1]
         if abs(lz) < SIDE_TOLERANCE:
-            _world(pos, rot, 0.0, 0.0, -h, poly, 0)
-            _world(pos, rot, 0.0, 0.0, h, poly, 1)
+            _world(pos, rot, 0.0, 0.0, -h, poly, np.int64(0))
+            _world(pos, rot, 0.0, 0.0, h, poly, np.int64(1))
             return 2, 2, none, -1.0
-        _world(pos, rot, 0.0, 0.0, h if lz > 0.0 else -h, poly, 0)
+        _world(pos, rot, 0.0, 0.0, h if lz > 0.0 else -h, poly, np.int64(0))
         return 1, 1 if lz > 0.0 else 0, none, -1.0
     if t == SHAPE_BOX:
         k = 0
@@ -184,11 +184,11 @@ def supporting_face(t, pos, rot, params, verts, f0, nf, hull_face_first, hull_fa
             return CAP_SIDES, cap_id, n, cap_align
         if side_align > 1.0 - 0.5 * SIDE_TOLERANCE * SIDE_TOLERANCE:
             if t == SHAPE_CYLINDER:
-                _world(pos, rot, r * cx, r * cy, -params[1], poly, 0)
-                _world(pos, rot, r * cx, r * cy, params[1], poly, 1)
+                _world(pos, rot, r * cx, r * cy, -params[1], poly, np.int64(0))
+                _world(pos, rot, r * cx, r * cy, params[1], poly, np.int64(1))
             else:
-                _world(pos, rot, r * cx, r * cy, 0.0, poly, 0)
-                _world(pos, rot, 0.0, 0.0, params[1], poly, 1)
+                _world(pos, rot, r * cx, r * cy, 0.0, poly, np.int64(0))
+                _world(pos, rot, 0.0, 0.0, params[1], poly, np.int64(1))
             return 2, 2, none, -1.0
         p = support(t, pos, rot, params, verts, dx, dy, dz)
         for i in range(3):
@@ -390,7 +390,7 @@ def _measure_clipped(pts, n, ref, rn, inc, kin, ref_is_b, nx, ny, nz, ra, rb, co
                      cand, seps, cid):
     """Clipped incident points -> contact points (midway), separations along n and slot ids; returns the count."""
     dn = nx * rn[0] + ny * rn[1] + nz * rn[2]
-    count = 0
+    count = np.int64(0)  # not a literal: one compile of reduce_points
     for v in range(n):
         t = ((pts[v, 0] - ref[0, 0]) * rn[0] + (pts[v, 1] - ref[0, 1]) * rn[1] + (pts[v, 2] - ref[0, 2]) * rn[2]) / dn
         s = -t if ref_is_b else t

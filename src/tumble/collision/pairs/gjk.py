@@ -198,26 +198,26 @@ def _reduce_simplex(W, SA, SB, k, lam, sub, lam3, best_sub, best_lam, tmp):
     if k == 2:
         ex, ey, ez = W[1, 0] - W[0, 0], W[1, 1] - W[0, 1], W[1, 2] - W[0, 2]
         ee = ex * ex + ey * ey + ez * ez
-        t = -_dot(W, 0, ex, ey, ez) / ee if ee > 0.0 else 0.0
+        t = -_dot(W, np.int64(0), ex, ey, ez) / ee if ee > 0.0 else 0.0
         if t <= 0.0:
             lam[0] = 1.0
             return 1
         if t >= 1.0:
             sub[0] = 1
-            _keep(W, SA, SB, sub, 1, tmp)
+            _keep(W, SA, SB, sub, np.int64(1), tmp)
             lam[0] = 1.0
             return 1
         lam[0], lam[1] = 1.0 - t, t
         return 2
     if k == 3:
-        n, _ = _closest_triangle(W, 0, 1, 2, lam3, sub)
+        n, _ = _closest_triangle(W, np.int64(0), np.int64(1), np.int64(2), lam3, sub)
         _keep(W, SA, SB, sub, n, tmp)
         for j in range(n):
             lam[j] = lam3[j]
         return n
     # tetrahedron: the faces whose plane separates the origin from the opposite vertex
     best = np.inf
-    best_n = 0
+    best_n = np.int64(0)  # np.int64, not literals: one compile of each callee
     outside_any = False
     # a flat tetrahedron (4 coplanar points: two parallel faces) cannot hold the origin: try every face
     size = 0.0
@@ -368,7 +368,7 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         for j in range(6):
             s = 1.0 if j < 3 else -1.0
             _add_support(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b,
-                         s if j % 3 == 0 else 0.0, s if j % 3 == 1 else 0.0, s if j % 3 == 2 else 0.0, V, VA, VB, 1)
+                         s if j % 3 == 0 else 0.0, s if j % 3 == 1 else 0.0, s if j % 3 == 2 else 0.0, V, VA, VB, np.int64(1))
             if abs(V[1, 0] - V[0, 0]) + abs(V[1, 1] - V[0, 1]) + abs(V[1, 2] - V[0, 2]) > eps:
                 k = 2
                 break
@@ -388,7 +388,7 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         for j in range(6):
             c, s = math.cos(j * math.pi / 3.0), math.sin(j * math.pi / 3.0)
             _add_support(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b,
-                         c * px + s * qx, c * py + s * qy, c * pz + s * qz, V, VA, VB, 2)
+                         c * px + s * qx, c * py + s * qy, c * pz + s * qz, V, VA, VB, np.int64(2))
             fx, fy, fz = V[2, 0] - V[0, 0], V[2, 1] - V[0, 1], V[2, 2] - V[0, 2]
             cx, cy, cz = ey * fz - ez * fy, ez * fx - ex * fz, ex * fy - ey * fx
             if math.sqrt(cx * cx + cy * cy + cz * cz) > eps * le:
@@ -404,7 +404,7 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         for j in range(2):
             s = 1.0 if j == 0 else -1.0
             _add_support(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b,
-                         s * nx, s * ny, s * nz, V, VA, VB, 3)
+                         s * nx, s * ny, s * nz, V, VA, VB, np.int64(3))
             h = ((V[3, 0] - V[0, 0]) * nx + (V[3, 1] - V[0, 1]) * ny + (V[3, 2] - V[0, 2]) * nz) / ln
             if abs(h) > eps:
                 k = 4
@@ -422,8 +422,8 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         if N[f, 0] * (V[f, 0] - V[i0, 0]) + N[f, 1] * (V[f, 1] - V[i0, 1]) + N[f, 2] * (V[f, 2] - V[i0, 2]) > 0.0:
             _face(V, F, N, D, f, i0, i2, i1)
         alive[f] = True
-    n_faces = 4
-    n_verts = 4
+    n_faces = np.int64(4)
+    n_verts = np.int64(4)
     for i in range(4):
         scale = max(scale, abs(V[i, 0]) + abs(V[i, 1]) + abs(V[i, 2]))
     visible = 1e-10 * scale

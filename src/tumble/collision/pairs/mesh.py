@@ -51,6 +51,12 @@ SLOT_FACE = 30
 # Points of two triangles closer than this (m) are one point (0.1 mm: below any useful lever arm).
 SAME_POINT = 1e-4
 
+# COMPILE: NumPy integers, not Python literals, for the triangle's type and its empty hull range: a
+# literal argument makes Numba compile convex_contact, face_manifold and everything under them
+# (GJK, EPA, clipping) a second time for triangles (measured: 30 s of a first mesh run)
+TRIANGLE = np.int64(SHAPE_TRIANGLE)
+ZERO = np.int64(0)
+
 
 @njit(**JIT)
 def _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, grow, lo, hi):
@@ -130,7 +136,7 @@ def _sphere_triangle(c, r, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, normal
             W[v, i] = pos_b[i] + rot_b[i, 0] * tri[v, 0] + rot_b[i, 1] * tri[v, 1] + rot_b[i, 2] * tri[v, 2] - c[i]
     lam = np.empty(3)
     sub = np.empty(4, dtype=np.int64)
-    k, dd = _closest_triangle(W, 0, 1, 2, lam, sub)
+    k, dd = _closest_triangle(W, ZERO, np.int64(1), np.int64(2), lam, sub)
     dist = math.sqrt(dd)
     if dist - r >= speculative:
         return 0
@@ -287,7 +293,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
     ts = np.empty(MAX_MANIFOLD_POINTS)
     tf = np.empty(MAX_MANIFOLD_POINTS, dtype=np.int64)
     W = np.empty((3, 3))
-    count = 0
+    count = np.int64(0)  # not a literal (see TRIANGLE)
     n0 = shape_data[b, 2]
     n_end = n0 + shape_data[b, 3]
     i = n0
@@ -336,8 +342,8 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                 # one-point fallback, kept only if that point is over the triangle (else a neighbour's job).
                 core = depth_sep + ra
                 px, py, pz = low[0] - core * Nx, low[1] - core * Ny, low[2] - core * Nz
-                n = face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, SHAPE_TRIANGLE, pos_b, rot_b,
-                                  params_b, tri, 0, 0, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
+                n = face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, TRIANGLE, pos_b, rot_b,
+                                  params_b, tri, ZERO, ZERO, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
                                   hull_vertex, speculative, -Nx, -Ny, -Nz, depth_sep, core, low, (px, py, pz),
                                   tn, tp, ts, tf)
                 if n == 1 and tf[0] == FEATURE_SINGLE:
@@ -348,8 +354,8 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             elif ta == SHAPE_SPHERE:
                 n = _sphere_triangle(pos_a, ra, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, tn, tp, ts, tf)
             else:
-                n = convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, SHAPE_TRIANGLE, pos_b, rot_b,
-                                   params_b, tri, 0, 0, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
+                n = convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, TRIANGLE, pos_b, rot_b,
+                                   params_b, tri, ZERO, ZERO, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
                                    hull_vertex, speculative, tn, tp, ts, tf)
             if n == 0:
                 continue

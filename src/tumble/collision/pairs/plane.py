@@ -37,10 +37,10 @@ def collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_
         cand = np.empty((nv, 3))
         seps = np.empty(nv)
         cid = np.empty(nv, dtype=np.int64)
-        n_face, face_id, _, _ = supporting_face(tb, pos_b, rot_b, params_b, hull_vertex[0:0], 0, 0, hull_face_first,
+        n_face, face_id, _, _ = supporting_face(tb, pos_b, rot_b, params_b, hull_vertex[0:0], np.int64(0), np.int64(0), hull_face_first,
                                                 hull_face_count, hull_face_vertex, hull_plane, hull_vertex,
                                                 -nx, -ny, -nz, cand)
-    count = 0
+    count = np.int64(0)
     smin = np.inf
     if tb == SHAPE_CONVEX:
         for v in range(nv):
