@@ -433,7 +433,6 @@ def axpy_kernel(Y0, a, dY, out):
             out[i, k] = Y0[i, k] + a * dY[i, k]
 
 
-@njit(**JIT)
 def step_kernel(
     integrator, layout, h, n_steps,
     Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
@@ -442,63 +441,128 @@ def step_kernel(
     Y1, K, Kacc, Rs, vs, omegas, F, T,
 ):
     """Advance Y (N, W) in place by n_steps steps of h s, all bodies together stage by stage
-    (springs couple them). The whole loop runs compiled. Built-in forces only:
-    ``CustomForce`` takes ``Simulator``'s stage-by-stage path, which calls the same
-    kernels in the same order and so gives the same bits."""
-    for _ in range(n_steps):
-        _one_step(
-            integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-            uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
-            Y1, K, Kacc, Rs, vs, omegas, F, T,
-        )
+    (springs couple them). The whole loop runs compiled (the kernel of ``integrator``,
+    ``_step_kernels``). Built-in forces only: ``CustomForce`` takes ``Simulator``'s
+    stage-by-stage path, which calls the same kernels in the same order and so gives the same
+    bits."""
+    _STEP_ALL[int(integrator)](layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments,
+                               moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor,
+                               spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
 
 
-@njit(**JIT)
-def _one_step(
-    integrator, layout, h,
-    Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-    uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
-    Y1, K, Kacc, Rs, vs, omegas, F, T,
-):
-    """One step of all bodies together, stage by stage (springs couple them)."""
-    if integrator == EXPLICIT_EULER:
-        # X(t + h) = X(t) + h dX/dt  (course, "Schéma d'Euler explicite")
-        accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-        derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
-        axpy_kernel(Y, h, K, Y)
-    elif integrator == MIDPOINT:
-        accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-        derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
-        axpy_kernel(Y, 0.5 * h, K, Y1)
+def _step_kernels(integrator: int):
+    """``step_kernel``'s compiled loop for one integrator, a constant of the closure (COMPILE: as
+    ``_step_bodies_kernels``; ``_one_step_overload`` types that integrator's stages alone)."""
+
+    @njit(**JIT)
+    def loop(layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+             uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs,
+             omegas, F, T):
+        for _ in range(n_steps):
+            _one_step(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments,
+                      moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor,
+                      spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
+            project_orientation_kernel(layout, Y, moving)
+
+    return loop
+
+
+# One step of all bodies together by one integrator, stage by stage (springs couple them), before
+# the projection onto SO(3): the implementations ``_one_step_overload`` picks from (plain functions,
+# compiled only through it).
+def _all_explicit_euler(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+    # X(t + h) = X(t) + h dX/dt  (course, "Schéma d'Euler explicite")
+    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+    derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
+    axpy_kernel(Y, h, K, Y)
+
+
+def _all_midpoint(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+    derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
+    axpy_kernel(Y, 0.5 * h, K, Y1)
+    accumulate_forces_kernel(layout, Y1, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+    derivative_kernel(layout, Y1, Rs, vs, omegas, moving, F, T, K)
+    axpy_kernel(Y, h, K, Y)
+
+
+def _all_rk4(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+    # k1..k4 with the classic weights 1/6, 1/3, 1/3, 1/6; Kacc sums them.
+    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+    derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
+    axpy_kernel(K, 0.0, K, Kacc)
+    axpy_kernel(Y, 0.5 * h, K, Y1)
+    for stage in range(3):
         accumulate_forces_kernel(layout, Y1, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
         derivative_kernel(layout, Y1, Rs, vs, omegas, moving, F, T, K)
-        axpy_kernel(Y, h, K, Y)
-    elif integrator == RK4:
-        # k1..k4 with the classic weights 1/6, 1/3, 1/3, 1/6; Kacc sums them.
-        accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-        derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
-        axpy_kernel(K, 0.0, K, Kacc)
-        axpy_kernel(Y, 0.5 * h, K, Y1)
-        for stage in range(3):
-            accumulate_forces_kernel(layout, Y1, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-            derivative_kernel(layout, Y1, Rs, vs, omegas, moving, F, T, K)
-            if stage < 2:
-                axpy_kernel(Kacc, 2.0, K, Kacc)
-                axpy_kernel(Y, 0.5 * h if stage == 0 else h, K, Y1)
-            else:
-                axpy_kernel(Kacc, 1.0, K, Kacc)
-        axpy_kernel(Y, h / 6.0, Kacc, Y)
-    elif integrator == SEMI_IMPLICIT_EULER:
-        accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-        kick_kernel(layout, Y, moving, F, T, h)
-        drift_kernel(layout, Y, moving, inv_mass, inertia_body_inv, principal_q, principal_moments, False, h)
-    elif integrator == SPLITTING:
-        _split_step(layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-    elif integrator == SPLITTING4:
-        for sub in range(3):
-            hh = _YOSHIDA_W0 * h if sub == 1 else _YOSHIDA_W1 * h
-            _split_step(layout, hh, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-    project_orientation_kernel(layout, Y, moving)
+        if stage < 2:
+            axpy_kernel(Kacc, 2.0, K, Kacc)
+            axpy_kernel(Y, 0.5 * h if stage == 0 else h, K, Y1)
+        else:
+            axpy_kernel(Kacc, 1.0, K, Kacc)
+    axpy_kernel(Y, h / 6.0, Kacc, Y)
+
+
+def _all_semi_implicit_euler(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+    kick_kernel(layout, Y, moving, F, T, h)
+    drift_kernel(layout, Y, moving, inv_mass, inertia_body_inv, principal_q, principal_moments, False, h)
+
+
+def _all_splitting(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+    _split_step(layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+
+
+def _all_splitting4(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+    for sub in range(3):
+        hh = _YOSHIDA_W0 * h if sub == 1 else _YOSHIDA_W1 * h
+        _split_step(layout, hh, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+
+
+def _one_step(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+    """One step of all bodies together (compiled code only: ``_one_step_overload``)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_one_step, jit_options=JIT, prefer_literal=True)
+def _one_step_overload(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+    """``_one_step`` for a literal ``integrator``: that integrator's stages alone (COMPILE: all
+    six cost 6.8 s of the demo's 10 s of compile, measured); for any other int, a branch over
+    all of them. Same kernels in the same order, same bits."""
+    impls = {EXPLICIT_EULER: _all_explicit_euler, MIDPOINT: _all_midpoint, RK4: _all_rk4,
+             SEMI_IMPLICIT_EULER: _all_semi_implicit_euler, SPLITTING: _all_splitting, SPLITTING4: _all_splitting4}
+    if isinstance(integrator, types.IntegerLiteral):
+        return impls[integrator.literal_value]
+
+    def any_integrator(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
+        if integrator == EXPLICIT_EULER:
+            _one_step(EXPLICIT_EULER, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
+        elif integrator == MIDPOINT:
+            _one_step(MIDPOINT, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
+        elif integrator == RK4:
+            _one_step(RK4, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
+        elif integrator == SEMI_IMPLICIT_EULER:
+            _one_step(SEMI_IMPLICIT_EULER, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
+        elif integrator == SPLITTING:
+            _one_step(SPLITTING, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
+        else:
+            _one_step(SPLITTING4, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
+               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
+    return any_integrator
 
 
 @njit(**JIT)
@@ -512,6 +576,10 @@ def _split_step(
     drift_kernel(layout, Y, moving, inv_mass, inertia_body_inv, principal_q, principal_moments, True, h)
     accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
     kick_kernel(layout, Y, moving, F, T, 0.5 * h)
+
+
+_STEP_ALL = {kind: _step_kernels(kind) for kind in
+             (EXPLICIT_EULER, SEMI_IMPLICIT_EULER, MIDPOINT, RK4, SPLITTING, SPLITTING4)}
 
 
 @njit(**JIT)
