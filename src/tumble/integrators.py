@@ -218,10 +218,10 @@ def _body_step(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm,
 def _body_step_overload(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param,
                         uforce_start):
     """``_body_step`` typed for ``integrator``: a literal integrator (a constant of the kernels of
-    ``_step_bodies_kernels``) compiles that integrator's step alone, any other int all of
-    them behind a branch. COMPILE: Numba does not prune the branches on a literal argument, so
-    the whole chain was compiled for every run whatever its integrator: 8 s of a first run's
-    compile (measured), where one integrator's step takes 1-3 s. Same operations, same bits."""
+    ``_step_bodies_kernels``, its only callers) compiles that integrator's step alone. COMPILE:
+    Numba does not prune the branches on a literal argument, so the whole chain was compiled for
+    every run whatever its integrator: 8 s of a first run's compile (measured), where one
+    integrator's step takes 1-3 s. Same operations, same bits."""
     if isinstance(integrator, types.IntegerLiteral):
         kind = integrator.literal_value
         if kind == SPLITTING or kind == SPLITTING4:
@@ -241,23 +241,7 @@ def _body_step_overload(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib
                         uforce_start)
         return one
 
-    def any_integrator(integrator, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind,
-                       uforce_param, uforce_start):
-        if integrator == EXPLICIT_EULER:
-            return _step_explicit_euler(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind,
-                                        uforce_param, uforce_start)
-        if integrator == MIDPOINT:
-            return _step_midpoint(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind,
-                                  uforce_param, uforce_start)
-        if integrator == RK4:
-            return _step_rk4(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity, uforce_kind, uforce_param,
-                             uforce_start)
-        if integrator == SEMI_IMPLICIT_EULER:
-            return _step_semi_implicit_euler(layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm, gravity,
-                                             uforce_kind, uforce_param, uforce_start)
-        return _step_splitting(1 if integrator == SPLITTING else 3, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq,
-                               pm, gravity, uforce_kind, uforce_param, uforce_start)
-    return any_integrator
+    return None  # a literal integrator only: every caller is a kernel of _step_bodies_kernels
 
 
 @njit(**JIT)
@@ -535,34 +519,14 @@ def _one_step(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, princi
 def _one_step_overload(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
         uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
     """``_one_step`` for a literal ``integrator``: that integrator's stages alone (COMPILE: all
-    six cost 6.8 s of the demo's 10 s of compile, measured); for any other int, a branch over
-    all of them. Same kernels in the same order, same bits."""
+    six cost 6.8 s of the demo's 10 s of compile, measured). Same kernels in the same order,
+    same bits."""
     impls = {EXPLICIT_EULER: _all_explicit_euler, MIDPOINT: _all_midpoint, RK4: _all_rk4,
              SEMI_IMPLICIT_EULER: _all_semi_implicit_euler, SPLITTING: _all_splitting, SPLITTING4: _all_splitting4}
     if isinstance(integrator, types.IntegerLiteral):
         return impls[integrator.literal_value]
 
-    def any_integrator(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
-        if integrator == EXPLICIT_EULER:
-            _one_step(EXPLICIT_EULER, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
-        elif integrator == MIDPOINT:
-            _one_step(MIDPOINT, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
-        elif integrator == RK4:
-            _one_step(RK4, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
-        elif integrator == SEMI_IMPLICIT_EULER:
-            _one_step(SEMI_IMPLICIT_EULER, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
-        elif integrator == SPLITTING:
-            _one_step(SPLITTING, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
-        else:
-            _one_step(SPLITTING4, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-               uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T)
-    return any_integrator
+    return None  # a literal integrator only: every caller is a loop of _step_kernels
 
 
 @njit(**JIT)

@@ -1,4 +1,4 @@
-"""The narrowphase's analytic families (``collision.narrowphase.analytic_family``): a world of
+"""The narrowphase's analytic families (``collision.geometry.analytic_family``): a world of
 planes and boxes, or of planes and spheres, compiles only its own pair routines. Compared
 with the dispatch over every analytic routine (FAMILY_ALL) on the same poses: the same
 manifolds to the bit, or a family would have dropped or changed a pair."""
@@ -9,15 +9,16 @@ import pytest
 import tumble as tb
 from tumble.collision import CollisionPipeline
 from tumble.collision import narrowphase as NP
+from tumble.collision.geometry import analytic_family
 from tumble.shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_PLANE, SHAPE_SPHERE
 
 
 def test_family_of_a_world_is_what_its_shapes_allow():
-    assert NP.analytic_family(np.array([SHAPE_PLANE, SHAPE_BOX, SHAPE_BOX])) == NP.FAMILY_BOXES
-    assert NP.analytic_family(np.array([SHAPE_BOX])) == NP.FAMILY_BOXES
-    assert NP.analytic_family(np.array([SHAPE_PLANE, SHAPE_SPHERE])) == NP.FAMILY_SPHERES
-    assert NP.analytic_family(np.array([SHAPE_SPHERE, SHAPE_BOX])) == NP.FAMILY_ALL
-    assert NP.analytic_family(np.array([SHAPE_PLANE, SHAPE_CAPSULE])) == NP.FAMILY_ALL
+    assert analytic_family(np.array([SHAPE_PLANE, SHAPE_BOX, SHAPE_BOX])) == NP.FAMILY_BOXES
+    assert analytic_family(np.array([SHAPE_BOX])) == NP.FAMILY_BOXES
+    assert analytic_family(np.array([SHAPE_PLANE, SHAPE_SPHERE])) == NP.FAMILY_SPHERES
+    assert analytic_family(np.array([SHAPE_SPHERE, SHAPE_BOX])) == NP.FAMILY_ALL
+    assert analytic_family(np.array([SHAPE_PLANE, SHAPE_CAPSULE])) == NP.FAMILY_ALL
 
 
 def _jumble(shape, n, seed):
@@ -42,7 +43,7 @@ def test_a_family_finds_the_manifolds_of_every_routine(shape, family, parallel, 
     assert got.contact_count > 20  # the jumble touches: the comparison below is not of empty sets
     pipe = CollisionPipeline(w)
     table = pipe.refresh()
-    assert NP.analytic_family(table.shape_type) == family
+    assert table.analytic_family == family
     table.analytic_family = NP.FAMILY_ALL  # the dispatch over every analytic routine
     every = pipe.detect()
     for name in ("manifold_shape_a", "manifold_shape_b", "manifold_normal", "contact_point", "contact_separation",

@@ -67,6 +67,23 @@ def _empty(shape, dtype=float):
     return lambda: np.zeros(shape, dtype=dtype)
 
 
+# Families of analytic worlds: the narrowphase of a world of planes and boxes (stacks, piles,
+# pyramids, dominoes) or of planes and spheres compiles only the routines it can call
+# (narrowphase._family_pair_overload).
+FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES = 0, 1, 2
+
+
+def analytic_family(shape_type) -> int:
+    """The family of a world whose shapes (S,) SHAPE_* are all analytic: FAMILY_BOXES when they
+    are planes and boxes, FAMILY_SPHERES when planes and spheres, else FAMILY_ALL."""
+    present = set(np.unique(shape_type).tolist())
+    if present <= {SHAPE_PLANE, SHAPE_BOX}:
+        return FAMILY_BOXES
+    if present <= {SHAPE_PLANE, SHAPE_SPHERE}:
+        return FAMILY_SPHERES
+    return FAMILY_ALL
+
+
 @dataclass
 class ShapeTable:
     """Every collision shape of a World, one row each (constants: they change only when bodies are added).
@@ -122,6 +139,8 @@ class ShapeTable:
         #: that dispatch to the closed-form routines alone (a smaller compile, narrowphase.py)
         self.analytic_only = bool(np.all((self.shape_type == SHAPE_PLANE) | (self.shape_type == SHAPE_SPHERE)
                                          | (self.shape_type == SHAPE_CAPSULE) | (self.shape_type == SHAPE_BOX)))
+        #: which of those kernels: the routines of planes and boxes, of planes and spheres, or all
+        self.analytic_family = analytic_family(self.shape_type)
 
     @property
     def shape_count(self) -> int:

@@ -13,6 +13,7 @@ from numba.extending import overload
 from ..math3d import JIT
 from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
                       SHAPE_SPHERE)
+from .geometry import FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES
 from .manifold import KEY_BITS, ContactManifolds
 from .pairs.box import BOX_WORK_ROWS, box_box_contact, collide_capsule_box, collide_plane_box, collide_sphere_box
 from .pairs.capsule import collide_capsule_capsule, collide_plane_capsule, collide_sphere_capsule
@@ -74,22 +75,6 @@ def collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b
         return box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
                                separation, feature, work)
     return 0
-
-
-# Families of analytic worlds: the narrowphase of a world of planes and boxes (stacks, piles,
-# pyramids, dominoes) or of planes and spheres compiles only the routines it can call.
-FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES = 0, 1, 2
-
-
-def analytic_family(shape_type) -> int:
-    """The family of a world whose shapes (S,) SHAPE_* are all analytic: FAMILY_BOXES when they
-    are planes and boxes, FAMILY_SPHERES when planes and spheres, else FAMILY_ALL."""
-    present = set(np.unique(shape_type).tolist())
-    if present <= {SHAPE_PLANE, SHAPE_BOX}:
-        return FAMILY_BOXES
-    if present <= {SHAPE_PLANE, SHAPE_SPHERE}:
-        return FAMILY_SPHERES
-    return FAMILY_ALL
 
 
 def _family_pair(family, ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal, point,
@@ -405,10 +390,7 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
         shape_margin = np.full(S, float(speculative))
     parallel = total >= PARALLEL_MIN_CANDIDATES
     if table.analytic_only:
-        family = table.__dict__.get("analytic_family")
-        if family is None:  # computed once per shape table
-            family = table.analytic_family = analytic_family(table.shape_type)
-        kernel = _ANALYTIC_KERNELS[family][0 if parallel else 1]
+        kernel = _ANALYTIC_KERNELS[table.analytic_family][0 if parallel else 1]
     else:
         kernel = _collide_candidates_parallel_kernel if parallel else _collide_candidates_kernel
     kernel(np.ascontiguousarray(pair_a, dtype=np.int64), np.ascontiguousarray(pair_b, dtype=np.int64),
