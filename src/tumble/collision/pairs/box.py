@@ -527,6 +527,7 @@ def _box_face_contact(ref_pos, ref_rot, ref_h, inc_pos, inc_rot, inc_h, axis, re
 # holds the 4 kept after a reduction). The edge contact reuses rows 0 and 1. The SAT, done
 # before either, uses rows 16-22: a_i . b_j (3), |a_i . b_j| (3), t in a's frame (1).
 BOX_WORK_ROWS = 28
+RAB, ABS_RAB, TA = 16, 19, 22
 
 
 @njit(**JIT)
@@ -547,19 +548,20 @@ def box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
     contact, measured), more when threads shared the allocator."""
     ha, hb = params_a, params_b
     tx, ty, tz = pos_b[0] - pos_a[0], pos_b[1] - pos_a[1], pos_b[2] - pos_a[2]
-    # Rab[i, j] = a_i . b_j (b's axes in a's frame), C = |Rab|; ta = t in a's frame
-    Rab = work[16:19]
-    C = work[19:22]
-    ta = work[22]
+    # work[RAB + i, j] = a_i . b_j (b's axes in a's frame), work[ABS_RAB + i, j] its magnitude,
+    # work[TA] = t in a's frame
+    # (in rows RAB, ABS_RAB and TA of work, indexed in place: a slice is a view, whose reference
+    # count cost more than the arithmetic here: 6-7 % of a pair, measured)
     for i in range(3):
         for j in range(3):
-            Rab[i, j] = rot_a[0, i] * rot_b[0, j] + rot_a[1, i] * rot_b[1, j] + rot_a[2, i] * rot_b[2, j]
-            C[i, j] = abs(Rab[i, j])
+            work[RAB + i, j] = rot_a[0, i] * rot_b[0, j] + rot_a[1, i] * rot_b[1, j] + rot_a[2, i] * rot_b[2, j]
+            work[ABS_RAB + i, j] = abs(work[RAB + i, j])
     # separation along an axis: |t . n| minus both boxes' half widths along n
     face_a, axis_a = -np.inf, np.int64(0)  # np.int64: see _reduce_manifold
     for i in range(3):
-        ta[i] = tx * rot_a[0, i] + ty * rot_a[1, i] + tz * rot_a[2, i]
-        sep = abs(ta[i]) - ha[i] - (C[i, 0] * hb[0] + C[i, 1] * hb[1] + C[i, 2] * hb[2])
+        work[TA, i] = tx * rot_a[0, i] + ty * rot_a[1, i] + tz * rot_a[2, i]
+        sep = abs(work[TA, i]) - ha[i] - (work[ABS_RAB + i, 0] * hb[0] + work[ABS_RAB + i, 1] * hb[1]
+                                          + work[ABS_RAB + i, 2] * hb[2])
         if sep > speculative:
             return 0
         if sep > face_a:
@@ -567,18 +569,19 @@ def box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
     face_b, axis_b = -np.inf, np.int64(0)
     for j in range(3):
         d = abs(tx * rot_b[0, j] + ty * rot_b[1, j] + tz * rot_b[2, j])
-        sep = d - hb[j] - (C[0, j] * ha[0] + C[1, j] * ha[1] + C[2, j] * ha[2])
+        sep = d - hb[j] - (work[ABS_RAB, j] * ha[0] + work[ABS_RAB + 1, j] * ha[1] + work[ABS_RAB + 2, j] * ha[2])
         if sep > speculative:
             return 0
         if sep > face_b:
             face_b, axis_b = sep, j
     # the edge axes n = a_i x b_j in a's frame (Gottschalk et al. 1996, "OBBTree", table 1):
-    # t . n, each box's half width along n and |n| from Rab and ta alone, no normalized axis
-    # until one is chosen (the world-frame axis, normalized, took 3 divisions and 18 products
-    # more a pair of edges). PERF: box_box_contact over the large pyramid's 14 950 pairs 884-907
-    # -> 820-839 ns a pair, the same manifolds. Measured there too: half of a pair's time is not
-    # the geometry but the calls' array views and their reference counts (an early return at
-    # the top still costs 330 ns a pair; scratch copies instead of views 200 ns).
+    # t . n, each box's half width along n and |n| from a.b and t in a's frame alone, no
+    # normalized axis until one is chosen (the world-frame axis, normalized, took 3 divisions
+    # and 18 products more a pair of edges). PERF: box_box_contact over the large pyramid's
+    # 14 950 pairs 884-907 -> 820-839 ns a pair, the same manifolds. Measured there too: much of
+    # a pair's time is not the geometry but the array views of the calls and their reference
+    # counts (an early return at the top still costs 330 ns a pair; scratch copies instead of
+    # views 200 ns).
     edge, edge_i, edge_j = -np.inf, np.int64(-1), np.int64(-1)
     for i in range(3):
         i1 = (i + 1) % 3
@@ -586,11 +589,12 @@ def box_box_contact(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
         for j in range(3):
             j1 = (j + 1) % 3
             j2 = (j + 2) % 3
-            ln = math.sqrt(Rab[i1, j] * Rab[i1, j] + Rab[i2, j] * Rab[i2, j])
+            ln = math.sqrt(work[RAB + i1, j] * work[RAB + i1, j] + work[RAB + i2, j] * work[RAB + i2, j])
             if ln < 1e-6:  # parallel edges give no axis (the face axes cover them)
                 continue
-            tn = abs(ta[i2] * Rab[i1, j] - ta[i1] * Rab[i2, j])
-            ext = ha[i1] * C[i2, j] + ha[i2] * C[i1, j] + hb[j1] * C[i, j2] + hb[j2] * C[i, j1]
+            tn = abs(work[TA, i2] * work[RAB + i1, j] - work[TA, i1] * work[RAB + i2, j])
+            ext = (ha[i1] * work[ABS_RAB + i2, j] + ha[i2] * work[ABS_RAB + i1, j]
+                   + hb[j1] * work[ABS_RAB + i, j2] + hb[j2] * work[ABS_RAB + i, j1])
             sep = (tn - ext) / ln
             if sep > speculative:
                 return 0
