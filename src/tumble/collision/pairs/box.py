@@ -354,24 +354,26 @@ def collide_capsule_box(pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculat
 
 
 @njit(**JIT)
-def _clip_polygon(poly_in, n_in, nx, ny, nz, offset, poly_out):
-    """Sutherland-Hodgman: the part of the polygon (n_in rows of poly_in) where n . p <= offset; returns its size."""
+def _clip_polygon(work, src, n_in, nx, ny, nz, offset, dst):
+    """Sutherland-Hodgman: the part of the polygon in rows src .. src + n_in - 1 of ``work``
+    where n . p <= offset, written from row dst; returns its size. (Rows, not slices: a slice is
+    a view whose reference count costs as much as a clip, see ``box_box_contact``.)"""
     n_out = 0
     if n_in == 0:
         return 0
-    prev = n_in - 1
-    d_prev = nx * poly_in[prev, 0] + ny * poly_in[prev, 1] + nz * poly_in[prev, 2] - offset
-    for cur in range(n_in):
-        d_cur = nx * poly_in[cur, 0] + ny * poly_in[cur, 1] + nz * poly_in[cur, 2] - offset
+    prev = src + n_in - 1
+    d_prev = nx * work[prev, 0] + ny * work[prev, 1] + nz * work[prev, 2] - offset
+    for cur in range(src, src + n_in):
+        d_cur = nx * work[cur, 0] + ny * work[cur, 1] + nz * work[cur, 2] - offset
         if (d_prev <= 0.0) != (d_cur <= 0.0):
             # the edge crosses the plane: add the crossing point
             s = d_prev / (d_prev - d_cur)
             for i in range(3):
-                poly_out[n_out, i] = poly_in[prev, i] + s * (poly_in[cur, i] - poly_in[prev, i])
+                work[dst + n_out, i] = work[prev, i] + s * (work[cur, i] - work[prev, i])
             n_out += 1
         if d_cur <= 0.0:
             for i in range(3):
-                poly_out[n_out, i] = poly_in[cur, i]
+                work[dst + n_out, i] = work[cur, i]
             n_out += 1
         prev = cur
         d_prev = d_cur
@@ -458,47 +460,45 @@ def _box_face_contact(ref_pos, ref_rot, ref_h, inc_pos, inc_rot, inc_h, axis, re
     inc_side = -1.0 if nx * inc_rot[0, inc] + ny * inc_rot[1, inc] + nz * inc_rot[2, inc] >= 0.0 else 1.0
     j1 = (inc + 1) % 3
     j2 = (inc + 2) % 3
-    centre = work[19]
-    for i in range(3):
-        centre[i] = inc_pos[i] + inc_side * inc_h[inc] * inc_rot[i, inc]
-    poly = work[0:8]
-    tmp = work[8:16]
+    for i in range(3):  # the incident face's centre
+        work[CENTRE, i] = inc_pos[i] + inc_side * inc_h[inc] * inc_rot[i, inc]
     for v in range(4):
         s1 = 1.0 if v == 0 or v == 3 else -1.0  # (+,+) (-,+) (-,-) (+,-): around the face
         s2 = 1.0 if v < 2 else -1.0
         for i in range(3):
-            poly[v, i] = centre[i] + s1 * inc_h[j1] * inc_rot[i, j1] + s2 * inc_h[j2] * inc_rot[i, j2]
+            work[POLY + v, i] = work[CENTRE, i] + s1 * inc_h[j1] * inc_rot[i, j1] + s2 * inc_h[j2] * inc_rot[i, j2]
     n = np.int64(4)
     # side planes of the reference face: +-axis k1, +-axis k2
     for step in range(1, 3):
         k = (axis + step) % 3
         ax, ay, az = ref_rot[0, k], ref_rot[1, k], ref_rot[2, k]
         c = ax * ref_pos[0] + ay * ref_pos[1] + az * ref_pos[2]
-        n = _clip_polygon(poly, n, ax, ay, az, c + ref_h[k], tmp)
-        n = _clip_polygon(tmp, n, -ax, -ay, -az, -c + ref_h[k], poly)
-    # keep the points below the speculative distance; separation along n from the reference face
+        n = _clip_polygon(work, POLY, n, ax, ay, az, c + ref_h[k], CLIPPED)
+        n = _clip_polygon(work, CLIPPED, n, -ax, -ay, -az, -c + ref_h[k], POLY)
+    # keep the points below the speculative distance (rows CLIPPED.., separations in column 0 of
+    # rows SEPS..); separation along n from the reference face
     face_offset = nx * ref_pos[0] + ny * ref_pos[1] + nz * ref_pos[2] + ref_h[axis]
-    seps = work[20:28, 0]
     m = np.int64(0)
     for v in range(n):
-        sep = nx * poly[v, 0] + ny * poly[v, 1] + nz * poly[v, 2] - face_offset
+        sep = nx * work[POLY + v, 0] + ny * work[POLY + v, 1] + nz * work[POLY + v, 2] - face_offset
         if sep < speculative:
             for i in range(3):
-                tmp[m, i] = poly[v, i] - 0.5 * sep * (nx if i == 0 else (ny if i == 1 else nz))
-            seps[m] = sep
+                work[CLIPPED + m, i] = work[POLY + v, i] - 0.5 * sep * (nx if i == 0 else (ny if i == 1 else nz))
+            work[SEPS + m, 0] = sep
             m += 1
     if m == 0:
         return 0
-    pts = tmp
-    if m > MAX_MANIFOLD_POINTS:  # rare (a deep clip): the 4 kept, in keep's order, to poly and column 1
+    pts = CLIPPED  # the first row of the points kept, and the column of their separations
+    col = 0
+    if m > MAX_MANIFOLD_POINTS:  # rare (a deep clip): the 4 kept, in keep's order, to POLY and column 1
         keep = np.arange(8)
-        m = _reduce_manifold(tmp, seps, m, nx, ny, nz, keep)
+        m = _reduce_manifold(work[CLIPPED:CLIPPED + 8], work[SEPS:SEPS + 8, 0], m, nx, ny, nz, keep)
         for c in range(m):
             for i in range(3):
-                poly[c, i] = tmp[keep[c], i]
-            work[20 + c, 1] = seps[keep[c]]
-        pts = poly
-        seps = work[20:28, 1]
+                work[POLY + c, i] = work[CLIPPED + keep[c], i]
+            work[SEPS + c, 1] = work[SEPS + keep[c], 0]
+        pts = POLY
+        col = 1
     sign = -1.0 if ref_is_b else 1.0
     normal[0], normal[1], normal[2] = sign * nx, sign * ny, sign * nz
     ref_face = 6 * (1 if ref_is_b else 0) + 2 * axis + (1 if side > 0 else 0)
@@ -509,24 +509,26 @@ def _box_face_contact(ref_pos, ref_rot, ref_h, inc_pos, inc_rot, inc_h, axis, re
         u = 0.0
         w = 0.0
         for i in range(3):
-            u += (pts[c, i] - centre[i]) * inc_rot[i, j1]
-            w += (pts[c, i] - centre[i]) * inc_rot[i, j2]
+            u += (work[pts + c, i] - work[CENTRE, i]) * inc_rot[i, j1]
+            w += (work[pts + c, i] - work[CENTRE, i]) * inc_rot[i, j2]
         slot = (1 if u >= 0.0 else 0) + (2 if w >= 0.0 else 0)
         while used & (1 << slot):
             slot = (slot + 1) % 8  # two points in one quadrant (a deep clip): next free id
         used |= 1 << slot
         for i in range(3):
-            point[c, i] = pts[c, i]
-        separation[c] = seps[c]
+            point[c, i] = work[pts + c, i]
+        separation[c] = work[SEPS + c, col]
         feature[c] = base + slot
     return m
 
 
 # Rows of the (BOX_WORK_ROWS, 3) scratch of box_box_contact: the clipped polygon and its copy
-# (8 rows each, 0-15), the incident face's centre (19), separations (20-27, column 0; column 1
-# holds the 4 kept after a reduction). The edge contact reuses rows 0 and 1. The SAT, done
-# before either, uses rows 16-22: a_i . b_j (3), |a_i . b_j| (3), t in a's frame (1).
+# (8 rows each from POLY and CLIPPED), the incident face's centre (CENTRE), separations (8 rows
+# from SEPS, column 0; column 1 holds the 4 kept after a reduction). The edge contact reuses
+# rows 0 and 1. The SAT, done before either, uses 7 rows: a_i . b_j (3 from RAB), |a_i . b_j|
+# (3 from ABS_RAB), t in a's frame (TA).
 BOX_WORK_ROWS = 28
+POLY, CLIPPED, CENTRE, SEPS = 0, 8, 19, 20
 RAB, ABS_RAB, TA = 16, 19, 22
 
 
