@@ -177,8 +177,9 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         if half < 0.0:  # the anchors no longer coincide: d0 = pb - pa at these poses
             _, _, d = _arms(x, R, a, b, local_a, local_b, np.int64(c))  # prange's c is unsigned: one compile of _arms
             separation_base[c] -= n0 * d[0] + n1 * d[1] + n2 * d[2]
-        ra = anchor_a[c]
-        rb = anchor_b[c]
+        # tuples, not the rows: a row is a view, whose reference count costs per contact
+        ra = (anchor_a[c, 0], anchor_a[c, 1], anchor_a[c, 2])
+        rb = (anchor_b[c, 0], anchor_b[c, 1], anchor_b[c, 2])
         normal_mass[c] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, n0, n1, n2)
         tangent_mass[c, 0] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, t0, t1, t2)
         tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
@@ -193,9 +194,9 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         m = match[c]
         if m >= 0:
             normal_impulse[c] = old_normal_impulse[m]
-            f = old_friction_impulse[m]
-            tangent_impulse[c, 0] = f[0] * t0 + f[1] * t1 + f[2] * t2
-            tangent_impulse[c, 1] = f[0] * s0 + f[1] * s1 + f[2] * s2
+            f0, f1, f2 = old_friction_impulse[m, 0], old_friction_impulse[m, 1], old_friction_impulse[m, 2]
+            tangent_impulse[c, 0] = f0 * t0 + f1 * t1 + f2 * t2
+            tangent_impulse[c, 1] = f0 * s0 + f1 * s1 + f2 * s2
         else:
             normal_impulse[c] = 0.0
             tangent_impulse[c, 0] = 0.0

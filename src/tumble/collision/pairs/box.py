@@ -437,7 +437,9 @@ def add_widest_triangle_points(pts, n, i1, i2, nx, ny, nz, min_area, keep):
     return m
 
 
-@njit(**JIT)
+# PERF: inlined into box_box_contact (Numba IR inlining): the call passed ten arrays' structs;
+# a box-box pair 708 -> 571 ns on the large pyramid (min of 25 interleaved runs, same manifolds).
+@njit(**JIT, inline="always")
 def _box_face_contact(ref_pos, ref_rot, ref_h, inc_pos, inc_rot, inc_h, axis, ref_is_b, speculative,
                       normal, point, separation, feature, work):
     """Face contact: reference face ``axis`` of the ref box (the side facing the other box), clip the incident face.
