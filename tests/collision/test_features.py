@@ -6,7 +6,7 @@ import pytest
 
 import tumble as tb
 from tumble.collision import CollisionPipeline, match_contacts
-from tumble.collision.pairs.box import collide_box_box
+from tumble.collision.pairs.box_box import collide_box_box
 from tumble.collision.pairs.capsule import collide_capsule_capsule
 from tumble.collision.pairs.sphere import collide_sphere_sphere
 

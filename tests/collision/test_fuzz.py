@@ -10,7 +10,7 @@ edges for the distance; capsules: a densely sampled core).
 import numpy as np
 import pytest
 
-from tumble.collision.pairs.box import FEATURE_FACE
+from tumble.collision.constants import FEATURE_FACE
 
 from .helpers import (SPEC, box, box_box_distance, box_sdf, boxes_intersect, capsule, collide, penetration_depth,
                       random_rotation, segment_distance, sphere)

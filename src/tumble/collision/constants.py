@@ -1,4 +1,5 @@
-"""Collision tolerances, in metres (Box2D v3 / Box3D defaults, /work/shared/BENCHMARKS.md).
+"""Collision tolerances, in metres (Box2D v3 / Box3D defaults, /work/shared/BENCHMARKS.md), and
+the contact feature-id bases.
 
 NOTE: STYLE 5.1 puts tolerances in ``tumble/constants.py``; they live here until
 that module exists (this package may only add files under ``collision/``).
@@ -26,3 +27,16 @@ DEEP_OVERLAP = 0.25
 
 # Largest number of contact points of one shape pair (Box3D: 4).
 MAX_MANIFOLD_POINTS = 4
+
+# Face and edge tolerances of the axis choice (Gregorius 2015, "Robust Contact
+# Creation", slide "Feature selection"): an edge axis wins only if clearly better than
+# the best face, and box b's face only if clearly better than box a's, so that the
+# reference face does not flip between steps when two axes are nearly tied (a box
+# resting on a box of the same size has two equal face axes).
+REL_EDGE_TOLERANCE = 0.90
+REL_FACE_TOLERANCE = 0.98
+ABS_TOLERANCE = 0.5 * LINEAR_SLOP
+
+# feature-id bases, so that the ids of the different kinds of contact never collide
+FEATURE_EDGE = 1 << 12
+FEATURE_FACE = 1 << 13

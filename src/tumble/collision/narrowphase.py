@@ -15,7 +15,8 @@ from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_
                       SHAPE_SPHERE)
 from .geometry import FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES
 from .manifold import KEY_BITS, ContactManifolds
-from .pairs.box import BOX_WORK_ROWS, box_box_contact, collide_capsule_box, collide_plane_box, collide_sphere_box
+from .pairs.box import collide_capsule_box, collide_plane_box, collide_sphere_box
+from .pairs.box_box import BOX_WORK_ROWS, box_box_contact
 from .pairs.capsule import collide_capsule_capsule, collide_plane_capsule, collide_sphere_capsule
 from .pairs.convex import collide_convex_pair
 from .pairs.plane import collide_plane_convex_shape

@@ -1,6 +1,6 @@
 """Pair routines ``collide_<a>_<b>`` (a <= b in SHAPE_* order), one module per family.
 
-sphere.py, capsule.py, box.py: closed forms and SAT for plane, sphere, capsule, box.
+sphere.py, capsule.py, box.py, box_box.py: closed forms and SAT for plane, sphere, capsule, box.
 convex.py (with gjk.py): every other pair of sphere, capsule, cylinder, cone, box and
 convex hull. plane.py: the plane against cylinder, cone and hull. mesh.py: sphere ...
 convex against a static triangle mesh.

@@ -40,7 +40,7 @@ from ...shapes import (
     SHAPE_SPHERE,
 )
 from ..constants import MAX_MANIFOLD_POINTS
-from .box import add_widest_triangle_points
+from .box_box import add_widest_triangle_points
 from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, support
 
 # Vertices of a cylinder cap or cone base used as a polygon (a regular polygon of rim points).
@@ -409,7 +409,7 @@ def _measure_clipped(pts, n, ref, rn, inc, kin, ref_is_b, nx, ny, nz, ra, rb, co
             cand[count, i] = 0.5 * (a_i + b_i)
         seps[count] = s - ra - rb
         # the point's name: the incident vertex nearest to it, so that a corner and the clipped
-        # point next to it (a face on a face of the same size) keep one id (box.py's quadrants)
+        # point next to it (a face on a face of the same size) keep one id (box_box.py's quadrants)
         near = 0
         dmin = np.inf
         for u in range(kin):
