@@ -451,37 +451,47 @@ def _step_kernels(integrator: int):
     return loop
 
 
+@njit(**JIT)
+def _slope(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start,
+           spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, K):
+    """K (N, W) = dX/dt at the state rows Y: the forces and torques at Y (F, T), then the
+    derivative (course "ComputeForceAndTorque" then "Dxdt"); one stage of the explicit steppers."""
+    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param,
+                             uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+    derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
+
+
 # One step of all bodies together by one integrator, stage by stage (springs couple them), before
 # the projection onto SO(3): the implementations ``_one_step_overload`` picks from (plain functions,
 # compiled only through it).
 def _all_explicit_euler(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
         uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
     # X(t + h) = X(t) + h dX/dt  (course, "Schéma d'Euler explicite")
-    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-    derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
+    _slope(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start,
+           spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, K)
     axpy_kernel(Y, h, K, Y)
 
 
 def _all_midpoint(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
         uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
-    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-    derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
+    _slope(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start,
+           spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, K)
     axpy_kernel(Y, 0.5 * h, K, Y1)
-    accumulate_forces_kernel(layout, Y1, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-    derivative_kernel(layout, Y1, Rs, vs, omegas, moving, F, T, K)
+    _slope(layout, Y1, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start,
+           spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, K)
     axpy_kernel(Y, h, K, Y)
 
 
 def _all_rk4(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
         uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
     # k1..k4 with the classic weights 1/6, 1/3, 1/3, 1/6; Kacc sums them.
-    accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-    derivative_kernel(layout, Y, Rs, vs, omegas, moving, F, T, K)
+    _slope(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start,
+           spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, K)
     axpy_kernel(K, 0.0, K, Kacc)
     axpy_kernel(Y, 0.5 * h, K, Y1)
     for stage in range(3):
-        accumulate_forces_kernel(layout, Y1, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-        derivative_kernel(layout, Y1, Rs, vs, omegas, moving, F, T, K)
+        _slope(layout, Y1, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start,
+               spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, K)
         if stage < 2:
             axpy_kernel(Kacc, 2.0, K, Kacc)
             axpy_kernel(Y, 0.5 * h if stage == 0 else h, K, Y1)
