@@ -31,6 +31,7 @@ import numpy as np
 
 from ..collision.constants import SPECULATIVE_DISTANCE
 from ..collision.manifold import match_contacts
+from .contact_anchor import anchor_offsets_kernel
 from .contact_solve import (
     apply_restitution_kernel,
     prepare_contacts_kernel,
@@ -115,7 +116,8 @@ def soft_coefficients(hertz: float, zeta: float, h: float):
 
 # ---------------------------------------------------------------------- the solver object
 _C_FLOAT = {
-    "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "separation_base": (), "tangent1": (3,),
+    "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "anchor_offset": (7,),
+    "separation_base": (), "tangent1": (3,),
     "tangent2": (3,),
     "normal_mass": (), "tangent_mass": (2,), "soft": (3,), "friction": (), "restitution": (),
     "relative_velocity": (), "last_normal_speed": (), "normal_impulse": (), "tangent_impulse": (2,), "max_normal_impulse": (),
@@ -168,8 +170,12 @@ class ContactSolver:
 
     # -- stages --------------------------------------------------------------------------
     def prepare_contacts(self, world, contacts, h: float, v: np.ndarray, omega: np.ndarray, x=None, R=None,
-                         I_inv=None):
+                         I_inv=None, *, shapes):
         """Set up this step's contacts from ``contacts`` (a ContactManifolds) at substep ``h``.
+
+        shapes: the ``CollisionPipeline`` that found them (its ShapeTable and the shapes' poses
+        ``shape_pos``, ``shape_rot`` at the step's start), for the anchors' round offsets
+        (``contact_anchor``).
 
         v, omega: (N, 3) the velocity arrays the solve will change (m/s, rad/s, world).
         x: (N, >= 3) centres of mass (or the packed state), R: (N, 3, 3), I_inv: (N, 3, 3)
@@ -200,12 +206,17 @@ class ContactSolver:
         b = self._buf
         b["step_normal_impulse"][:n] = 0.0
         b["step_tangent_impulse"][:n] = 0.0
+        table = shapes.table
+        anchor_offsets_kernel(contacts.contact_manifold, contacts.manifold_shape_a, contacts.manifold_shape_b,
+                              contacts.contact_point, contacts.contact_normal, contacts.contact_separation,
+                              table.shape_type, table.shape_params, shapes.shape_pos, shapes.shape_rot,
+                              self.anchor_offset)
         prepare_contacts_kernel(
             contacts.contact_body_a, contacts.contact_body_b, contacts.contact_point, contacts.contact_normal,
             contacts.contact_separation, match, b["old_normal_impulse"][: self.old_count],
             b["old_friction_impulse"][: self.old_count], self.x, self.R, v, omega, world.inv_mass, self.I_inv,
             world.moving, self.body_friction, self.body_restitution, self.soft_dynamic, self.soft_static,
-            self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.separation_base, self.tangent1, self.tangent2,
+            self.anchor_offset, self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.separation_base, self.tangent1, self.tangent2,
             self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
@@ -219,7 +230,7 @@ class ContactSolver:
         c = self.contacts
         warm_start_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
                           c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
-                          self.normal_impulse, self.tangent_impulse, self.x, self.R, self.world.inv_mass, self.I_inv,
+                          self.anchor_offset, self.normal_impulse, self.tangent_impulse, self.x, self.R, self.world.inv_mass, self.I_inv,
                           bool(fresh), self.v, self.omega, self.arm_a, self.arm_b, self.gap)
 
     def solve_contacts(self, use_bias: bool):
@@ -227,7 +238,7 @@ class ContactSolver:
         w = self.world
         solve_contacts_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
                               c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
-                              self.separation_base, self.normal_mass, self.tangent_mass, self.soft, self.friction,
+                              self.anchor_offset, self.separation_base, self.normal_mass, self.tangent_mass, self.soft, self.friction,
                               self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed,
                               bool(use_bias), self.v, self.omega, self.normal_impulse, self.tangent_impulse,
                               self.max_normal_impulse, self.relative_velocity, self.last_normal_speed,

@@ -14,6 +14,7 @@ from ..collision.constants import DEEP_OVERLAP
 from ..math3d import (
     JIT,
 )
+from .contact_anchor import _arms
 
 # An impact is solved a manifold at a time (``_solve_contact_range``): a first pass over a
 # manifold's points (normals, then friction) that changes some point's speed by more than
@@ -97,35 +98,11 @@ def _effective_mass(inv_mass, I_inv, a, b, ra, rb, d0, d1, d2):
     return 1.0 / k if k > 0.0 else 0.0
 
 
-@njit(**JIT)
-def _arms(x, R, a, b, local_a, local_b, c):
-    """(ra, rb, d) of contact c at the current poses: the anchor points pa = xa + Ra la and
-    pb = xb + Rb lb, their midpoint m, the arms ra = m - xa, rb = m - xb, and d = pb - pa.
-
-    Both impulses of a contact act at the one point m, so they cancel in the total angular
-    momentum about any point: with each arm fixed to its own body (Box2D), the two points drift
-    apart as the bodies move within the step, and sum(x x P) + L changed by 4 % in an off-centre
-    sphere collision.
-    """
-    pa0 = x[a, 0] + R[a, 0, 0] * local_a[c, 0] + R[a, 0, 1] * local_a[c, 1] + R[a, 0, 2] * local_a[c, 2]
-    pa1 = x[a, 1] + R[a, 1, 0] * local_a[c, 0] + R[a, 1, 1] * local_a[c, 1] + R[a, 1, 2] * local_a[c, 2]
-    pa2 = x[a, 2] + R[a, 2, 0] * local_a[c, 0] + R[a, 2, 1] * local_a[c, 1] + R[a, 2, 2] * local_a[c, 2]
-    pb0 = x[b, 0] + R[b, 0, 0] * local_b[c, 0] + R[b, 0, 1] * local_b[c, 1] + R[b, 0, 2] * local_b[c, 2]
-    pb1 = x[b, 1] + R[b, 1, 0] * local_b[c, 0] + R[b, 1, 1] * local_b[c, 1] + R[b, 1, 2] * local_b[c, 2]
-    pb2 = x[b, 2] + R[b, 2, 0] * local_b[c, 0] + R[b, 2, 1] * local_b[c, 1] + R[b, 2, 2] * local_b[c, 2]
-    m0 = 0.5 * (pa0 + pb0)
-    m1 = 0.5 * (pa1 + pb1)
-    m2 = 0.5 * (pa2 + pb2)
-    ra = (m0 - x[a, 0], m1 - x[a, 1], m2 - x[a, 2])
-    rb = (m0 - x[b, 0], m1 - x[b, 1], m2 - x[b, 2])
-    return ra, rb, (pb0 - pa0, pb1 - pa1, pb2 - pa2)
-
-
 # ---------------------------------------------------------------------- kernels
 @njit(**JIT, parallel=True)
 def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
                             old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
-                            body_friction, body_restitution, soft_dynamic, soft_static,
+                            body_friction, body_restitution, soft_dynamic, soft_static, anchor_offset,
                             # outputs
                             anchor_a, anchor_b, local_a, local_b, separation_base, tangent1, tangent2, normal_mass,
                             tangent_mass, soft, friction, restitution, relative_velocity,
@@ -134,8 +111,9 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
     pre-step normal speed (for restitution) and the warm-start impulses carried over by ``match``.
     Each contact writes only its own rows: the bits do not depend on the threads.
 
-    The anchors that follow the bodies through the step (``local_a``, ``local_b``, body frames)
-    start at the contact point p (the midpoint of the two surfaces, Box2D's) and
+    The anchors that follow the bodies through the step (``local_a``, ``local_b``, body frames,
+    less each round surface's world offset ``anchor_offset``: ``contact_anchor``) start at the
+    contact point p (the midpoint of the two surfaces, Box2D's) and
     ``separation_base`` is the separation s, so that ``separation_base + n.d`` (d = pb - pa, 0 at
     the start) is the separation as they move (``solve_contacts_kernel``). A contact deeper than
     ``DEEP_OVERLAP`` (collision.constants) moves each anchor towards its own body's surface by
@@ -168,14 +146,20 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         # the anchors in each body's frame, to follow the separation as the bodies move
         # 0 but for a deep overlap, where each anchor moves towards its own surface (see the docstring)
         half = 0.5 * min(separation[c] + DEEP_OVERLAP, 0.0)
-        sa0, sa1, sa2 = anchor_a[c, 0] - half * n0, anchor_a[c, 1] - half * n1, anchor_a[c, 2] - half * n2
-        sb0, sb1, sb2 = anchor_b[c, 0] + half * n0, anchor_b[c, 1] + half * n1, anchor_b[c, 2] + half * n2
+        # less the round offsets (``contact_anchor``): the body-fixed part is the core point
+        sa0 = anchor_a[c, 0] - half * n0 - anchor_offset[c, 0]
+        sa1 = anchor_a[c, 1] - half * n1 - anchor_offset[c, 1]
+        sa2 = anchor_a[c, 2] - half * n2 - anchor_offset[c, 2]
+        sb0 = anchor_b[c, 0] + half * n0 - anchor_offset[c, 3]
+        sb1 = anchor_b[c, 1] + half * n1 - anchor_offset[c, 4]
+        sb2 = anchor_b[c, 2] + half * n2 - anchor_offset[c, 5]
         for k in range(3):
             local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
             local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
         separation_base[c] = separation[c]
         if half < 0.0:  # the anchors no longer coincide: d0 = pb - pa at these poses
-            _, _, d = _arms(x, R, a, b, local_a, local_b, np.int64(c))  # prange's c is unsigned: one compile of _arms
+            # prange's c is unsigned: np.int64 for one compile of _arms
+            _, _, d = _arms(x, R, a, b, local_a, local_b, anchor_offset, np.int64(c))
             separation_base[c] -= n0 * d[0] + n1 * d[1] + n2 * d[2]
         # tuples, not the rows: a row is a view, whose reference count costs per contact
         ra = (anchor_a[c, 0], anchor_a[c, 1], anchor_a[c, 2])
@@ -204,8 +188,8 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
 
 
 @njit(**JIT)
-def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
-                      tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b, gap):
+def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
+                      normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b, gap):
     """Contacts order[lo:hi] of ``warm_start_kernel``; the bodies' velocities in registers over a
     pair's consecutive contacts, as in ``_solve_contact_range`` (same bits as per impulse)."""
     cached_a, cached_b, va, wa, Ia, ma, vb, wb, Ib, mb = _no_pair()
@@ -225,7 +209,7 @@ def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2,
         p1 = jn * normal[c, 1] + j1 * tangent1[c, 1] + j2 * tangent2[c, 1]
         p2 = jn * normal[c, 2] + j1 * tangent1[c, 2] + j2 * tangent2[c, 2]
         if fresh:
-            ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+            ra, rb, d = _arms(x, R, a, b, local_a, local_b, anchor_offset, c)
             for k in range(3):
                 arm_a[c, k] = ra[k]
                 arm_b[c, k] = rb[k]
@@ -239,8 +223,8 @@ def _warm_start_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2,
 
 
 @njit(**JIT, parallel=True)
-def warm_start_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_impulse,
-                      tangent_impulse, x, R, inv_mass, I_inv, fresh,
+def warm_start_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
+                      normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh,
                       # outputs
                       v, omega, arm_a, arm_b, gap):
     """Apply the accumulated impulses (normal and both friction directions) once, in the order
@@ -255,11 +239,11 @@ def warm_start_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2,
     if parts > 0:
         for p in prange(parts):
             _warm_start_range(bounds[p], bounds[p + 1], order, body_a, body_b, normal, tangent1, tangent2,
-                              local_a, local_b, normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v,
-                              omega, arm_a, arm_b, gap)
+                              local_a, local_b, anchor_offset, normal_impulse, tangent_impulse, x, R, inv_mass, I_inv,
+                              fresh, v, omega, arm_a, arm_b, gap)
     _warm_start_range(bounds[parts], bounds[parts + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
-                      local_b, normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega, arm_a, arm_b,
-                      gap)
+                      local_b, anchor_offset, normal_impulse, tangent_impulse, x, R, inv_mass, I_inv, fresh, v, omega,
+                      arm_a, arm_b, gap)
 
 
 @njit(**JIT, inline="always")
@@ -348,10 +332,10 @@ def _push2(inv_m, vi, wi, j1, j2, e0, e1, e2, f0, f1, f2, k1, k2):
 
 
 @njit(**JIT)
-def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, separation,
-                         normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h, contact_speed,
-                         use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
-                         last_normal_speed, arm_a, arm_b, gap):
+def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
+                         separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h,
+                         contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse,
+                         relative_velocity, last_normal_speed, arm_a, arm_b, gap):
     """Contacts order[lo:hi] of ``solve_contacts_kernel``, a manifold at a time (the consecutive
     contacts of one pair of bodies): the normal impulses of all its points, then their friction
     (the order of Box2D v3 and Catto's Solver2D: non-penetration, then friction).
@@ -411,7 +395,7 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
                     ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
                     rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
                 else:  # the relax, after the positions moved: new arms, cached for the next warm start
-                    ra, rb, d = _arms(x, R, a, b, local_a, local_b, c)
+                    ra, rb, d = _arms(x, R, a, b, local_a, local_b, anchor_offset, c)
                     for q in range(3):
                         arm_a[c, q] = ra[q]
                         arm_b[c, q] = rb[q]
@@ -506,7 +490,7 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
 
 @njit(**JIT, parallel=True)  # PERF: the parallel pipeline also drops the inlined body's per-contact refcounts
 def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
-                          separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
+                          anchor_offset, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
                           inv_h, contact_speed, use_bias,
                           # outputs
                           v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
@@ -524,7 +508,8 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
     the plain sweep in the narrowphase's order.
 
     The separation is followed as the bodies move within the step: s = s0 + n.(d - d0),
-    d = (xB + RB lB) - (xA + RA lA), with d0 = 0 since both anchors start at the contact point
+    d = (xB + RB lB + oB) - (xA + RA lA + oA) (``contact_anchor._arms``), with d0 = 0 since both
+    anchors start at the contact point
     (but for deep overlaps: ``separation`` here is ``separation_base`` = s0 - n.d0,
     ``prepare_contacts_kernel``).
     s > 0 (speculative): the bias lets the gap close in exactly this substep and no more.
@@ -544,13 +529,14 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
     if parts > 0:
         for p in prange(parts):
             _solve_contact_range(bounds[p], bounds[p + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
-                                 local_b, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass,
-                                 I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
-                                 max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
+                                 local_b, anchor_offset, separation, normal_mass, tangent_mass, soft, friction, x, R,
+                                 inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse,
+                                 tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed, arm_a,
+                                 arm_b, gap)
     _solve_contact_range(bounds[parts], bounds[parts + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
-                         local_b, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h,
-                         contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse,
-                         relative_velocity, last_normal_speed, arm_a, arm_b, gap)
+                         local_b, anchor_offset, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass,
+                         I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
+                         max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
 
 
 @njit(**JIT)

@@ -285,7 +285,8 @@ class SoftStep:
         self.dt = dt
         solver = self.solver
         # v, omega before the step: the approach speeds restitution reflects
-        solver.prepare_contacts(w, self.contacts, h, s.v, s.omega, x=Y, R=s.R, I_inv=self._inverse_inertia(Y))
+        solver.prepare_contacts(w, self.contacts, h, s.v, s.omega, x=Y, R=s.R, I_inv=self._inverse_inertia(Y),
+                                shapes=self.pipeline)
         # joints (Box2D's order: joints before contacts in each solve); x is read from Y's first columns
         joints = self.joints if self.has_joints() else None
         if joints is not None:
