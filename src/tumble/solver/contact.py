@@ -148,6 +148,8 @@ class ContactSolver:
         self.contacts = None
         self._material_bodies = -1
         self.sweep = SweepOrder()  # the order of this step's sweeps (slabs for a large step)
+        # ``anchor_offset`` rows stay zero (new rows are zeros) while no shape is round or a plane
+        self._offsets_written = False
 
     def _reserve(self, n: int):
         cap = max(self._capacity, 1)
@@ -207,17 +209,22 @@ class ContactSolver:
         b["step_normal_impulse"][:n] = 0.0
         b["step_tangent_impulse"][:n] = 0.0
         table = shapes.table
-        anchor_offsets_kernel(contacts.contact_manifold, contacts.manifold_shape_a, contacts.manifold_shape_b,
-                              contacts.contact_point, contacts.contact_normal, contacts.contact_separation,
-                              table.shape_type, table.shape_params, shapes.shape_pos, shapes.shape_rot,
-                              self.anchor_offset)
+        if table.round_or_plane:
+            anchor_offsets_kernel(contacts.contact_manifold, contacts.manifold_shape_a, contacts.manifold_shape_b,
+                                  contacts.contact_point, contacts.contact_normal, contacts.contact_separation,
+                                  table.shape_type, table.shape_params, shapes.shape_pos, shapes.shape_rot,
+                                  self.anchor_offset)
+            self._offsets_written = True
+        elif self._offsets_written:  # rows of zeros: anchors fixed in the bodies, m their midpoint
+            b["anchor_offset"][:] = 0.0
+            self._offsets_written = False
         prepare_contacts_kernel(
             contacts.contact_body_a, contacts.contact_body_b, contacts.contact_point, contacts.contact_normal,
             contacts.contact_separation, match, b["old_normal_impulse"][: self.old_count],
             b["old_friction_impulse"][: self.old_count], self.x, self.R, v, omega, world.inv_mass, self.I_inv,
             world.moving, self.body_friction, self.body_restitution, self.soft_dynamic, self.soft_static,
-            self.anchor_offset, self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.separation_base, self.tangent1, self.tangent2,
-            self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
+            self.anchor_offset, self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.separation_base,
+            self.tangent1, self.tangent2, self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
@@ -230,16 +237,16 @@ class ContactSolver:
         c = self.contacts
         warm_start_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
                           c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
-                          self.anchor_offset, self.normal_impulse, self.tangent_impulse, self.x, self.R, self.world.inv_mass, self.I_inv,
-                          bool(fresh), self.v, self.omega, self.arm_a, self.arm_b, self.gap)
+                          self.anchor_offset, self.normal_impulse, self.tangent_impulse, self.x, self.R,
+                          self.world.inv_mass, self.I_inv, bool(fresh), self.v, self.omega, self.arm_a, self.arm_b, self.gap)
 
     def solve_contacts(self, use_bias: bool):
         c = self.contacts
         w = self.world
         solve_contacts_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
                               c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
-                              self.anchor_offset, self.separation_base, self.normal_mass, self.tangent_mass, self.soft, self.friction,
-                              self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed,
+                              self.anchor_offset, self.separation_base, self.normal_mass, self.tangent_mass, self.soft,
+                              self.friction, self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed,
                               bool(use_bias), self.v, self.omega, self.normal_impulse, self.tangent_impulse,
                               self.max_normal_impulse, self.relative_velocity, self.last_normal_speed,
                               self.arm_a, self.arm_b, self.gap)
