@@ -20,7 +20,9 @@ first order in dt. A round surface is its core (a sphere's centre, a capsule's s
 cylinder's or a cone's axis) grown by a radius: its anchor is the core point, fixed in the body,
 plus the radius along the direction from the core to the contact, fixed in the world for the
 step. Then a ball's anchor stays at its lowest point however it turns, and a capsule's at its
-segment ends turning with it about any other axis.
+segment ends turning with it about any other axis. A round side's anchor starts on its own
+surface, not at the contact's midpoint (``prepare_contacts_kernel``), so that its arm is its
+radius from the first substep of an impact.
 
 NOTE: why the weight w: the two impulses must act at one point m, or they change the total
 angular momentum (with an arm fixed to each body, as Box2D, sum(x x P) + L changed by 4 % in an

@@ -143,24 +143,40 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         for k in range(3):
             anchor_a[c, k] = point[c, k] - x[a, k]
             anchor_b[c, k] = point[c, k] - x[b, k]
-        # the anchors in each body's frame, to follow the separation as the bodies move
-        # 0 but for a deep overlap, where each anchor moves towards its own surface (see the docstring)
+        # the anchors in each body's frame, to follow the separation as the bodies move: at p,
+        # but for a deep overlap, where each moves towards its own surface (see the docstring),
+        # and for a round side, whose anchor is its own surface point p -/+ s/2 n (its core point
+        # fixed in the body, less its round offset: ``contact_anchor``). NOTE: why: at p, a ball
+        # 12.5 mm above the floor at the step's start hit it with an arm 6.25 mm too long; its
+        # friction then stopped the slip of a point below the ball: a ball landing at 3 m/s while
+        # sliding at 2 m/s left at 1.477 m/s instead of 5/7 of 2, still slipping.
         half = 0.5 * min(separation[c] + DEEP_OVERLAP, 0.0)
-        # less the round offsets (``contact_anchor``): the body-fixed part is the core point
-        sa0 = anchor_a[c, 0] - half * n0 - anchor_offset[c, 0]
-        sa1 = anchor_a[c, 1] - half * n1 - anchor_offset[c, 1]
-        sa2 = anchor_a[c, 2] - half * n2 - anchor_offset[c, 2]
-        sb0 = anchor_b[c, 0] + half * n0 - anchor_offset[c, 3]
-        sb1 = anchor_b[c, 1] + half * n1 - anchor_offset[c, 4]
-        sb2 = anchor_b[c, 2] + half * n2 - anchor_offset[c, 5]
+        shift_a = half
+        shift_b = half
+        round_a = anchor_offset[c, 0] != 0.0 or anchor_offset[c, 1] != 0.0 or anchor_offset[c, 2] != 0.0
+        round_b = anchor_offset[c, 3] != 0.0 or anchor_offset[c, 4] != 0.0 or anchor_offset[c, 5] != 0.0
+        if round_a:
+            shift_a = 0.5 * separation[c]
+        if round_b:
+            shift_b = 0.5 * separation[c]
+        sa0 = anchor_a[c, 0] - shift_a * n0 - anchor_offset[c, 0]
+        sa1 = anchor_a[c, 1] - shift_a * n1 - anchor_offset[c, 1]
+        sa2 = anchor_a[c, 2] - shift_a * n2 - anchor_offset[c, 2]
+        sb0 = anchor_b[c, 0] + shift_b * n0 - anchor_offset[c, 3]
+        sb1 = anchor_b[c, 1] + shift_b * n1 - anchor_offset[c, 4]
+        sb2 = anchor_b[c, 2] + shift_b * n2 - anchor_offset[c, 5]
         for k in range(3):
             local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
             local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
         separation_base[c] = separation[c]
-        if half < 0.0:  # the anchors no longer coincide: d0 = pb - pa at these poses
+        if half < 0.0 or round_a or round_b:  # the anchors no longer coincide: d0 = pb - pa at these poses
             # prange's c is unsigned: np.int64 for one compile of _arms
-            _, _, d = _arms(x, R, a, b, local_a, local_b, anchor_offset, np.int64(c))
+            ra, rb, d = _arms(x, R, a, b, local_a, local_b, anchor_offset, np.int64(c))
             separation_base[c] -= n0 * d[0] + n1 * d[1] + n2 * d[2]
+            if round_a or round_b:  # the impulses' shared point is no longer p
+                for k in range(3):
+                    anchor_a[c, k] = ra[k]
+                    anchor_b[c, k] = rb[k]
         # tuples, not the rows: a row is a view, whose reference count costs per contact
         ra = (anchor_a[c, 0], anchor_a[c, 1], anchor_a[c, 2])
         rb = (anchor_b[c, 0], anchor_b[c, 1], anchor_b[c, 2])
