@@ -143,6 +143,23 @@ def project(camera, point, width, height) -> tuple[float, float]:
     return width / 2 + f * p[0] / p[2], height / 2 + f * p[1] / p[2]
 
 
+def camera_settled(camera, timeout: float) -> bool:
+    """True once the client's reported camera (pose and field of view) is the same over 1 s.
+    NOTE: why: the client's first report can come before the viewer's initial camera reaches it;
+    a box projected from that report was looked for 200 px from where it was drawn (seen once, on
+    a loaded machine)."""
+    last = None
+
+    def same():
+        nonlocal last
+        now = (tuple(camera.position), tuple(camera.wxyz), float(camera.fov))
+        ok = now == last
+        last = now
+        return ok
+
+    return bool(wait_for(same, timeout, interval=1.0))
+
+
 def png_pixels(png: bytes) -> np.ndarray:
     from PIL import Image
 
@@ -231,6 +248,7 @@ def test_page_loads_renders_and_scrubs(browser, viewer, tmp_path):
         page.add_style_tag(content=CANVAS_ONLY_CSS)
 
         cam = client.camera
+        assert camera_settled(cam, 30), "the client's camera never settled"
         height, width = blank.shape[:2]
         start = project(cam, viewer.traj.position[0, 0], width, height)
         end = project(cam, viewer.traj.position[-1, 0], width, height)

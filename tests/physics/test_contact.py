@@ -287,8 +287,8 @@ def pile_after_4_s():
 @pytest.mark.slow
 def test_pile_of_1000_boxes_has_no_penetration_over_5_mm_at_4_s(pile_after_4_s):
     """Issue: after 4 s the pile has no penetration over 5 mm: no box corner 5 mm below the ground,
-    no two boxes overlapping 5 mm (separating-axis depth). Measured at the default step: 0.17 mm
-    and 0.67 mm. (At Box3D's coarser step, dt 1/60 s, the box-box overlap is 7-11 mm: soft contacts
+    no two boxes overlapping 5 mm (separating-axis depth). Measured at the default step: 0.16 mm
+    and 1.14 mm. (At Box3D's coarser step, dt 1/60 s, the box-box overlap is 7-11 mm: soft contacts
     of 30 Hz compress under the weight above them, 0.28 mm per box of load; docs/contact.md.)"""
     from tumble.scenes.contact import box_corners, max_box_overlap
 
@@ -305,9 +305,9 @@ def test_pile_of_1000_boxes_has_no_penetration_over_5_mm_at_4_s(pile_after_4_s):
 def test_pile_of_1000_boxes_is_at_rest_within_its_region_at_4_s(pile_after_4_s):
     """Issue: after 4 s no body faster than 1 cm/s and none outside the pile's region (the start's
     bounding box grown by 2 m, BENCHMARKS.md's "left region"). NOT MET, and not met by PyBullet or
-    MuJoCo either. Measured at 4 s (default step): 27 boxes above 1 cm/s (the fastest 2.5 m/s, a
-    box falling 1.4 m off the pile's flank; at 4.5 s 29; at 5 s 15, the fastest 0.47 m/s; at
-    5.5 s none, the fastest 2 mm/s), 3 boxes out (0.38 m past the margin, where they stay).
+    MuJoCo either. Measured at 4 s (default step): 56 boxes above 1 cm/s (the fastest 0.99 m/s;
+    at 4.5 s 4, the fastest 0.08 m/s; at 5 s none, the fastest 9.2 mm/s), 3 boxes out (0.22 m
+    past the margin, where they stay).
 
     Why: the 10 x 10 x 10 grid lands as 100 columns of tilted cubes, a block 2 m tall and 3.6 m
     wide, which then collapses like a granular column (side views in docs/contact.md). Collapse
@@ -317,10 +317,10 @@ def test_pile_of_1000_boxes_is_at_rest_within_its_region_at_4_s(pile_after_4_s):
     energy never rises (tests/test_examples_contact.py::test_pile_only_loses_energy_and_nothing_sinks);
     the boxes out are the tops of the outer columns, thrown as the columns topple. The better
     converged the solve, the farther the runout. Over orientation seeds 0-4 (the benchmark's runs,
-    docs/benchmarks.md "pile across seeds" and "Rolling contact"), boxes out at 4 s: tumble at
-    Box3D's step 0, 1, 2, 0, 1 (and boxes overlap 7-11 mm there); tumble at the default resolution
-    (h = 1/960 s, "4x4") 4, 2, 2, 6, 5; PyBullet (dt 1/240 s) 0, 4, 3, 3, 0; MuJoCo CG 8, 6, 4, 3, 1; runs
-    whose fastest box is below 1 cm/s at 4 s: tumble 1 of 5 at Box3D's step, 0 of 5 at the default
+    docs/benchmarks.md "pile across seeds" and "The solve's chain"), boxes out at 4 s: tumble at
+    Box3D's step 2, 3, 1, 2, 2 (and boxes overlap 7-11 mm there); tumble at the default resolution
+    (h = 1/960 s) 1, 2, 6, 4, 2; PyBullet (dt 1/240 s) 0, 4, 3, 3, 0; MuJoCo CG 8, 6, 4, 3, 1; runs
+    whose fastest box is below 1 cm/s at 4 s: tumble 3 of 5 at Box3D's step, 0 of 5 at the default
     resolution, PyBullet and MuJoCo 0 of 5. The item needs a region that admits the collapse's
     runout, or a later time: the issue's author to decide."""
     w, lo, hi = pile_after_4_s

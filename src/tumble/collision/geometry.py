@@ -141,10 +141,10 @@ class ShapeTable:
                                          | (self.shape_type == SHAPE_CAPSULE) | (self.shape_type == SHAPE_BOX)))
         #: which of those kernels: the routines of planes and boxes, of planes and spheres, or all
         self.analytic_family = analytic_family(self.shape_type)
-        #: some shape is round or a plane: the contact solver's anchors then take the round offsets
-        #: and shared points of ``solver.contact_anchor`` (else every anchor is fixed in its body)
-        self.round_or_plane = bool(np.any(np.isin(self.shape_type, (SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE,
-                                                                    SHAPE_CYLINDER, SHAPE_CONE))))
+        #: some shape is round: the contact solver's anchors then take the round offsets and shared
+        #: points of ``solver.contact_anchor`` (else every anchor is fixed in its body)
+        self.has_round = bool(np.any(np.isin(self.shape_type, (SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER,
+                                                               SHAPE_CONE))))
 
     @property
     def shape_count(self) -> int:

@@ -148,7 +148,7 @@ class ContactSolver:
         self.contacts = None
         self._material_bodies = -1
         self.sweep = SweepOrder()  # the order of this step's sweeps (slabs for a large step)
-        # ``anchor_offset`` rows stay zero (new rows are zeros) while no shape is round or a plane
+        # ``anchor_offset`` rows stay zero (new rows are zeros) while no shape is round
         self._offsets_written = False
 
     def _reserve(self, n: int):
@@ -209,7 +209,7 @@ class ContactSolver:
         b["step_normal_impulse"][:n] = 0.0
         b["step_tangent_impulse"][:n] = 0.0
         table = shapes.table
-        if table.round_or_plane:
+        if table.has_round:
             anchor_offsets_kernel(contacts.contact_manifold, contacts.manifold_shape_a, contacts.manifold_shape_b,
                                   contacts.contact_point, contacts.contact_normal, contacts.contact_separation,
                                   table.shape_type, table.shape_params, shapes.shape_pos, shapes.shape_rot,

@@ -26,16 +26,17 @@ radius from the first substep of an impact.
 
 NOTE: why the weight w: the two impulses must act at one point m, or they change the total
 angular momentum (with an arm fixed to each body, as Box2D, sum(x x P) + L changed by 4 % in an
-off-centre sphere collision). Where one side touches with a flat face (a plane, or the flat
-side of a body against a round one), the contact slides over that face with the other body,
-so m is the other body's anchor (w = 1 for b's, 0 for a's); elsewhere (box on box, ball on
-ball) it is their midpoint, w = 1/2, which is the contact point at the start of the step.
-A contact deeper than ``DEEP_OVERLAP`` keeps the midpoint too: its anchors sit on the two
-surfaces (``prepare_contacts_kernel``), so the midpoint is far from the body, and a friction
-impulse there turns it little. NOTE: with m on the box's own corner, a box 100 m under a plane,
-falling at 77 m/s and turning at 3.4 rad/s, left its first step at 52 m/s and 126 rad/s: the
-corners' friction, each as large as half the impulse that stops 77 m/s, spun it up
-(tests/physics/test_contact_issues.py::test_a_turned_box_deep_under_a_plane_climbs_out_without_blowing_up).
+off-centre sphere collision). Where a round side touches a side that is not (a ball on a plane,
+a box's face or a mesh), the contact moves with the round body over the other's face, so m is
+the round body's anchor (w = 1 for b's, 0 for a's); elsewhere (box on plane or box, ball on
+ball) it is their midpoint, w = 1/2, the contact point at the start of the step. Dead end: m on
+a box's corner against a plane too (the corner is where that contact is): the rigid-impact tests
+drifted from the instantaneous impact they compare with, which a step spreads over a substep
+in which the corner's arm turns (an edge landing at 20 m/s, mu 1: omega off by 0.68 % of the
+speed instead of 0.02 %; frictionless corners 0.39 % in v instead of 0.24 %), and sliding boxes
+gained nothing (slide distances the same to 1e-6). A contact deeper than ``DEEP_OVERLAP``
+keeps the midpoint too: its anchors sit on the two surfaces (``prepare_contacts_kernel``), so
+the midpoint is far from the body, and a friction impulse there turns it little.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ from numba import njit, prange
 
 from ..collision.constants import DEEP_OVERLAP
 from ..math3d import JIT
-from ..shapes import SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CYLINDER, SHAPE_PLANE, SHAPE_SPHERE
+from ..shapes import SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CYLINDER, SHAPE_SPHERE
 
 # A contact on a cylinder or a cone counts as on its round side or rim when its surface point
 # lies within ROUND_RIM_FRACTION of the radius from the axis and its direction from the axis is
@@ -167,9 +168,9 @@ def anchor_offsets_kernel(contact_manifold, manifold_shape_a, manifold_shape_b, 
                                               point[c, 2] + half * n2, -n0, -n1, -n2)
         if separation[c] < -DEEP_OVERLAP:
             w = 0.5  # the midpoint, far from both (see the module docstring)
-        elif ta == SHAPE_PLANE or (round_b and not round_a):
+        elif round_b and not round_a:
             w = 1.0
-        elif tb == SHAPE_PLANE or (round_a and not round_b):
+        elif round_a and not round_b:
             w = 0.0
         else:
             w = 0.5
