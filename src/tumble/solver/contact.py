@@ -148,8 +148,6 @@ class ContactSolver:
         self.contacts = None
         self._material_bodies = -1
         self.sweep = SweepOrder()  # the order of this step's sweeps (slabs for a large step)
-        # ``anchor_offset`` rows stay zero (new rows are zeros) while no shape is round
-        self._offsets_written = False
 
     def _reserve(self, n: int):
         cap = max(self._capacity, 1)
@@ -209,15 +207,14 @@ class ContactSolver:
         b["step_normal_impulse"][:n] = 0.0
         b["step_tangent_impulse"][:n] = 0.0
         table = shapes.table
+        # Without a round shape the rows of ``anchor_offset`` stay as allocated, zeros (anchors fixed
+        # in the bodies, m their midpoint): a world's shapes are only ever added to, so once it has
+        # a round one this kernel writes every row, every step.
         if table.has_round:
             anchor_offsets_kernel(contacts.contact_manifold, contacts.manifold_shape_a, contacts.manifold_shape_b,
                                   contacts.contact_point, contacts.contact_normal, contacts.contact_separation,
                                   table.shape_type, table.shape_params, shapes.shape_pos, shapes.shape_rot,
                                   self.anchor_offset)
-            self._offsets_written = True
-        elif self._offsets_written:  # rows of zeros: anchors fixed in the bodies, m their midpoint
-            b["anchor_offset"][:] = 0.0
-            self._offsets_written = False
         prepare_contacts_kernel(
             contacts.contact_body_a, contacts.contact_body_b, contacts.contact_point, contacts.contact_normal,
             contacts.contact_separation, match, b["old_normal_impulse"][: self.old_count],

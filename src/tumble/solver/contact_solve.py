@@ -113,9 +113,10 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
 
     The anchors that follow the bodies through the step (``local_a``, ``local_b``, body frames,
     less each round surface's world offset ``anchor_offset``: ``contact_anchor``) start at the
-    contact point p (the midpoint of the two surfaces, Box2D's) and
-    ``separation_base`` is the separation s, so that ``separation_base + n.d`` (d = pb - pa, 0 at
-    the start) is the separation as they move (``solve_contacts_kernel``). A contact deeper than
+    contact point p (the midpoint of the two surfaces, Box2D's), a round side's on its own
+    surface, and ``separation_base`` is s - n.d0 (d = pb - pa, d0 its value at the start, 0 when
+    both start at p), so that ``separation_base + n.d`` is the separation as they move
+    (``solve_contacts_kernel``). A contact deeper than
     ``DEEP_OVERLAP`` (collision.constants) moves each anchor towards its own body's surface by
     half the overlap beyond it, p -/+ ((s + DEEP_OVERLAP) / 2) n, and ``separation_base`` becomes
     s - n.d0 for their start d0. NOTE: why: a body deep in another (a box 100 m under a plane,
@@ -524,10 +525,9 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
     the plain sweep in the narrowphase's order.
 
     The separation is followed as the bodies move within the step: s = s0 + n.(d - d0),
-    d = (xB + RB lB + oB) - (xA + RA lA + oA) (``contact_anchor._arms``), with d0 = 0 since both
-    anchors start at the contact point
-    (but for deep overlaps: ``separation`` here is ``separation_base`` = s0 - n.d0,
-    ``prepare_contacts_kernel``).
+    d = (xB + RB lB + oB) - (xA + RA lA + oA) (``contact_anchor._arms``), with d0 = 0 where both
+    anchors start at the contact point (for deep overlaps and round sides they do not:
+    ``separation`` here is ``separation_base`` = s0 - n.d0, ``prepare_contacts_kernel``).
     s > 0 (speculative): the bias lets the gap close in exactly this substep and no more.
     s <= 0 with bias: a soft spring pushes out at no more than ``contact_speed``.
     Relax (no bias): rigid, so the push-out velocity is taken back out and adds no energy.
