@@ -250,7 +250,7 @@ BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
 SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound"
 BODY_KEYS = ("name, shape, mass, density, inertia, fixed, position, orientation, euler_deg, velocity, "
-             "angular_velocity, angular_velocity_frame, material")
+             "angular_velocity, angular_velocity_frame, material, collision_filter")
 
 
 def body(**keys):
@@ -264,7 +264,7 @@ OPEN_BOX_FACES = CUBE_FACES[:10]  # two triangles short of closed
 
 BAD_SCENES = [
     # unknown keys, everywhere
-    ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver)"),
+    ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver, collision_exclusions)"),
     ("unknown-simulation", "[simulation]\nspeed = 2\n" + BODY, "simulation.speed",
      "unknown key (expected one of duration, frame_rate, dt, integrator, substeps, gravity, layout, rtol, atol, max_energy_growth, "
      "collisions, record_contacts, record_joints, sleeping)"),
@@ -300,6 +300,30 @@ BAD_SCENES = [
     ("negative-radius", body(shape='{ type = "sphere", radius = -0.1 }'), "bodies[0].shape.radius", "must be positive, got -0.1"),
     ("negative-friction", body(material="{ friction = -1 }"), "bodies[0].material.friction", "must be a finite number >= 0, got -1.0"),
     ("negative-stiffness", BODY + '[[forces]]\ntype = "spring"\nbody_a = "a"\nstiffness = -3\n', "forces[0].stiffness", "must be >= 0, got -3"),
+    # collision filters and exclusions (collision/filter.py)
+    ("filter-unknown-key", body(collision_filter="{ layer = 2 }"), "bodies[0].collision_filter.layer",
+     "unknown key (expected one of category, mask, group)"),
+    ("filter-not-table", body(collision_filter="2"), "bodies[0].collision_filter", "expected a table, got 2 (a number)"),
+    ("filter-float-mask", body(collision_filter="{ mask = 1.5 }"), "bodies[0].collision_filter.mask", "expected an integer, got 1.5"),
+    ("filter-bool-category", body(collision_filter="{ category = true }"), "bodies[0].collision_filter.category",
+     "expected an integer, got True"),
+    ("filter-category-too-wide", body(collision_filter="{ category = 0x100000000 }"), "bodies[0].collision_filter.category",
+     "must be between 0 and 0xffffffff, got 4294967296"),
+    ("filter-negative-mask", body(collision_filter="{ mask = -1 }"), "bodies[0].collision_filter.mask",
+     "must be between 0 and 0xffffffff, got -1"),
+    ("filter-group-too-large", body(collision_filter="{ group = 2147483648 }"), "bodies[0].collision_filter.group",
+     "must be between -2147483648 and 2147483647, got 2147483648"),
+    ("exclusion-unknown-body", BODY + '[[collision_exclusions]]\nbodies = ["a", "b"]\n', "collision_exclusions[0].bodies[1]",
+     "unknown body 'b'"),
+    ("exclusion-self", BODY + '[[collision_exclusions]]\nbodies = ["a", "a"]\n', "collision_exclusions[0].bodies",
+     "a body cannot be excluded from itself ('a')"),
+    ("exclusion-three-bodies", BODY + '[[collision_exclusions]]\nbodies = ["a", "a", "a"]\n', "collision_exclusions[0].bodies",
+     "expected a list of two body names, got a list of 3"),
+    ("exclusion-no-bodies", BODY + '[[collision_exclusions]]\n', "collision_exclusions[0]", "missing key 'bodies'"),
+    ("exclusion-unknown-key", BODY + '[[collision_exclusions]]\nbody = "a"\n', "collision_exclusions[0].body",
+     "unknown key (expected one of bodies)"),
+    ("exclusions-not-list", 'collision_exclusions = 3\n' + BODY, "collision_exclusions",
+     "expected a list of tables ([[collision_exclusions]]), got 3 (a number)"),
     # non-finite numbers (TOML nan / inf literals)
     ("nan-mass", body(mass="nan"), "bodies[0].mass", "must be a finite number, got nan"),
     ("inf-position", body(position="[0, inf, 0]"), "bodies[0].position[1]", "must be a finite number, got inf"),
@@ -511,7 +535,7 @@ def test_a_key_with_control_characters_still_gives_one_line():
 
     with pytest.raises(InputError) as err:
         parse_scene({"\n": None}, "f.toml")
-    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver)"
+    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver, collision_exclusions)"
 
 
 # ---------------------------------------------------------------------- compounds

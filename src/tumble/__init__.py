@@ -10,6 +10,7 @@ Quick start::
 
 __version__ = "0.1.0"
 
+from .collision.filter import CollisionFilter
 from .errors import InputError, SimulationError, TumbleError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
 from .joints import BallJoint, DistanceJoint, FixedJoint, HingeJoint, SliderJoint, UniversalJoint
@@ -27,7 +28,7 @@ def load_scene(path):
 
 
 __all__ = [
-    "World", "Body", "Material", "Simulator", "Trajectory", "load_trajectory", "load_scene",
+    "World", "Body", "Material", "CollisionFilter", "Simulator", "Trajectory", "load_trajectory", "load_scene",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint",

@@ -3,8 +3,8 @@
 A checkpoint is an .npz (loaded with ``allow_pickle=False``) holding:
 
 * ``meta``: JSON text: format and version, the time and step index, the world's
-  layout and gravity, per body its name, shape (``shapes.shape_to_dict``) and
-  material, the force records (bodies by name; ``CustomForce`` as a placeholder),
+  layout and gravity, per body its name, shape (``shapes.shape_to_dict``),
+  material and collision filter, the excluded collision pairs, the force records (bodies by name; ``CustomForce`` as a placeholder),
   the joint records (``_joint_to_dict``: fields, bodies by name, ``broken``, and the
   anchors, axes and parameters they were bound to at creation), the impulses
   already applied, the simulator's settings (joint settings and ``record_joints``
@@ -184,6 +184,9 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "names": list(w.names),
         "shapes": [shape_to_dict(s) for s in w.shapes],
         "materials": [{"friction": m.friction, "restitution": m.restitution} for m in w.materials],
+        "collision_filters": [{"category": f.category, "mask": f.mask, "group": f.group}
+                              for f in w.collision_filters],
+        "collision_exclusions": sorted([int(a), int(b)] for a, b in w.excluded_collisions),
         "forces": [_force_to_dict(w, f) for f in w.forces],
         "joints": [_joint_to_dict(w, j) for j in getattr(w, "joints", ())],
         "applied_impulses": sorted(int(k) for k in w.applied_impulses),
@@ -315,12 +318,17 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
             raise InputError(f"array {name!r} has dtype {arr.dtype}, expected numbers")
     w = World(gravity=meta["gravity"], layout=meta["layout"])
     moving = arrays["moving"].astype(bool)
+    # checkpoints written before collision filters existed have none: every body the default
+    filters = meta.get("collision_filters") or [None] * n
     for i, name in enumerate(names):
         shape = shape_from_dict(meta["shapes"][i])
         kw = {}
         if moving[i] and type(shape).__name__ != "Particles":
             kw["mass"] = float(arrays["mass"][i])
-        w.add_body(shape, name=name, fixed=not moving[i], material=Material(**meta["materials"][i]), **kw)
+        w.add_body(shape, name=name, fixed=not moving[i], material=Material(**meta["materials"][i]),
+                   collision_filter=filters[i], **kw)
+    for a, b in meta.get("collision_exclusions") or ():
+        w.exclude_collision(int(a), int(b))
     for name in CONSTANTS + STATE:
         getattr(w, name)[:] = arrays[name]
     customs = list(custom_forces or [])

@@ -15,7 +15,9 @@ The format is DESIGN.md's "Scene file" contract::
     [[bodies]]              name, shape = {type = ..., ...}, mass or density,
                             inertia, fixed, position, orientation or euler_deg,
                             velocity, angular_velocity, angular_velocity_frame,
-                            material = {friction, restitution} (tumble.scene_bodies)
+                            material = {friction, restitution},
+                            collision_filter = {category, mask, group} (tumble.scene_bodies)
+    [[collision_exclusions]] bodies = [NAME, NAME]: a pair that never touches
     [[forces]]              type = drag | wind | constant | point | spring | impulse,
                             with that type's keys; bodies are referred to by name
                             (tumble.scene_bodies).
@@ -71,7 +73,7 @@ DEFAULTS = {
     "sleeping": True,
 }
 
-TOP_KEYS = ("simulation", "bodies", "forces", "contact", "joints", "joint_solver")
+TOP_KEYS = ("simulation", "bodies", "forces", "contact", "joints", "joint_solver", "collision_exclusions")
 # [contact]: the soft step's settings (tumble.solver.contact.SoftStepSettings), all optional.
 CONTACT_KEYS = tuple(f.name for f in dataclasses.fields(SoftStepSettings))
 SIMULATION_KEYS = tuple(DEFAULTS)
@@ -302,6 +304,13 @@ class _Parser(BodyReader):
         for i, force in enumerate(forces):
             self.force(world, force, f"forces[{i}]", names)
 
+        exclusions = doc.get("collision_exclusions", [])
+        if not isinstance(exclusions, list) or not all(isinstance(e, dict) for e in exclusions):
+            raise self.error(f"expected a list of tables ([[collision_exclusions]]), got {_describe(exclusions)}",
+                             "collision_exclusions")
+        for i, entry in enumerate(exclusions):
+            self.exclusion(world, entry, f"collision_exclusions[{i}]", names)
+
         from .scene_joints import parse_joint_settings, parse_joints
 
         self.where = "joints"
@@ -316,6 +325,19 @@ class _Parser(BodyReader):
             record_contacts=sim["record_contacts"], contact=contact, joint_settings=joint_settings,
             record_joints=sim["record_joints"],
         )
+
+    def exclusion(self, world: World, entry: dict, key: str, names: dict):
+        """One [[collision_exclusions]] entry: ``bodies = [NAME, NAME]``, two different bodies."""
+        self.table(entry, key, ("bodies",), required=("bodies",))
+        pair = entry["bodies"]
+        if not isinstance(pair, list) or len(pair) != 2 or not all(isinstance(n, str) for n in pair):
+            raise self.error(f"expected a list of two body names, got {_describe(pair)}", f"{key}.bodies")
+        for j, n in enumerate(pair):
+            if n not in names:
+                raise self.error(f"unknown body {n!r}", f"{key}.bodies[{j}]")
+        if pair[0] == pair[1]:
+            raise self.error(f"a body cannot be excluded from itself ({pair[0]!r})", f"{key}.bodies")
+        self.library(key, world.exclude_collision, pair[0], pair[1])
 
     def contact(self, value) -> SoftStepSettings:
         t = self.table(value, "contact", CONTACT_KEYS)

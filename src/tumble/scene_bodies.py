@@ -30,13 +30,16 @@ from .shapes import (
     Plane,
     Sphere,
 )
-from .world import Material, World
+from .collision.filter import FILTER_KEYS, CollisionFilter
+from .material import Material
+from .world import World
 
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "position", "orientation", "euler_deg",
-    "velocity", "angular_velocity", "angular_velocity_frame", "material",
+    "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter",
 )
 MATERIAL_KEYS = ("friction", "restitution")
+# collision_filter = {category, mask, group}: which bodies this one touches (collision/filter.py)
 # Per shape type: (required keys, optional keys).
 SHAPE_KEYS = {
     "sphere": (("radius",), ()),
@@ -115,6 +118,9 @@ class BodyReader(ValueReader):
             values = {k: self.number(v, f"{key}.material.{k}") for k, v in m.items()}
             # built here, not in add_body: its errors are keyed "friction", not "material.friction"
             kw["material"] = self.library(f"{key}.material", Material, **values)
+        if "collision_filter" in b:
+            f = self.table(b["collision_filter"], f"{key}.collision_filter", FILTER_KEYS)
+            kw["collision_filter"] = self.library(f"{key}.collision_filter", CollisionFilter, **f)
         self.library(key, world.add_body, shape, **kw)
         names[name] = len(names)
 

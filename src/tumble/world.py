@@ -22,13 +22,13 @@ accumulated ``force`` (N, 3) N, ``torque`` (N, 3) N m, world, about the centre o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from . import integrators as K
 from .errors import InputError
+from .collision.filter import CollisionFilter
 from .forces import (
     ConstantForce,
     CustomForce,
@@ -39,39 +39,9 @@ from .forces import (
     build_force_tables,
 )
 from .mass import mass_properties
+from .material import Material
 from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
 from .shapes import Plane, finite_vector
-
-
-@dataclass(frozen=True)
-class Material:
-    """Surface material: Coulomb ``friction`` coefficient (>= 0) and ``restitution`` (0..1)."""
-
-    friction: float = 0.5
-    restitution: float = 0.0
-
-    def __post_init__(self):
-        f = float(self.friction)
-        e = float(self.restitution)
-        if not math.isfinite(f) or f < 0:
-            raise InputError(f"must be a finite number >= 0, got {self.friction}", "friction")
-        if not math.isfinite(e) or not 0.0 <= e <= 1.0:
-            raise InputError(f"must be between 0 and 1, got {self.restitution}", "restitution")
-        object.__setattr__(self, "friction", f)
-        object.__setattr__(self, "restitution", e)
-
-    @classmethod
-    def coerce(cls, value) -> "Material":
-        if value is None:
-            return cls()
-        if isinstance(value, Material):
-            return value
-        if isinstance(value, Mapping):
-            unknown = set(value) - {"friction", "restitution"}
-            if unknown:
-                raise InputError(f"unknown key {sorted(unknown)[0]!r} (expected friction, restitution)", "material")
-            return cls(**value)
-        raise InputError(f"expected a Material or a mapping, got {value!r}", "material")
 
 
 def unit_quaternion(value, key="orientation") -> np.ndarray:
@@ -118,6 +88,9 @@ class World:
         self._index_by_name: dict[str, int] = {}
         self.shapes: list[Any] = []
         self.materials: list[Material] = []
+        self.collision_filters: list[CollisionFilter] = []  # per body (collision/filter.py)
+        self.excluded_collisions: set[tuple[int, int]] = set()  # (lo, hi) body rows that never touch
+        self.filter_version = 0  # bumped when either changes: the collision pipeline rereads them
         self.forces: list[Any] = []
         self.joints: list[Any] = []  # joint records of tumble.joints, bound (add_joint)
         # indices into ``forces`` of the Impulse records already applied (once each); plain
@@ -161,6 +134,7 @@ class World:
         angular_velocity=(0.0, 0.0, 0.0),
         angular_velocity_frame: str = "world",
         material=None,
+        collision_filter=None,
         fixed: bool = False,
         name: str | None = None,
     ) -> "Body":
@@ -182,6 +156,9 @@ class World:
                 centre of mass: (3, 3) symmetric positive definite, or (3,) the
                 diagonal. The shape still gives the mass and centre of mass.
             material: ``Material`` or a mapping with its keys.
+            collision_filter: ``CollisionFilter`` (category, mask, group: which bodies this
+                one touches, Box2D's rule; collision/filter.py) or a mapping with its keys;
+                default: touches every body with the default filter.
             fixed: a static body: infinite mass, never moves.
             name: unique; default "body<i>".
         """
@@ -206,6 +183,10 @@ class World:
             material = Material.coerce(material)
         except InputError as err:
             raise err.within("material") from None
+        try:
+            collision_filter = CollisionFilter.coerce(collision_filter)
+        except InputError as err:
+            raise err.within("collision_filter") from None
         R = quat_to_matrix(q)
 
         if fixed:
@@ -257,6 +238,7 @@ class World:
         self._index_by_name[name] = i
         self.shapes.append(shape)
         self.materials.append(material)
+        self.collision_filters.append(collision_filter)
         self._tables = None
         # force/torque are filled by the simulator's first evaluation (or update_derived())
         return Body(self, i)
@@ -311,6 +293,26 @@ class World:
         from .collision.raycast import ray_cast
 
         return ray_cast(self, origin, direction, max_distance, exclude)
+
+    def exclude_collision(self, body_a, body_b):
+        """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,
+        whatever their filters (MuJoCo's ``<exclude>``, PyBullet's ``setCollisionFilterPair``)."""
+        a, b = self.index_of(body_a), self.index_of(body_b)
+        if a == b:
+            raise InputError(f"a body cannot be excluded from itself ({self.names[a]!r})", "body_b")
+        self.excluded_collisions.add((min(a, b), max(a, b)))
+        self.filter_version += 1
+
+    def should_collide(self, body_a, body_b) -> bool:
+        """Whether contact between two bodies is allowed: their filters meet, the pair is not
+        excluded and no joint between them has ``collide_connected=False``."""
+        from .joints import jointed_body_pairs
+
+        a, b = self.index_of(body_a), self.index_of(body_b)
+        pair = (min(a, b), max(a, b))
+        if a == b or pair in self.excluded_collisions or list(pair) in jointed_body_pairs(self).tolist():
+            return False
+        return self.collision_filters[a].collides_with(self.collision_filters[b])
 
     def body(self, key) -> "Body":
         """The view of a body by name or index."""
@@ -559,6 +561,19 @@ class Body:
     name = property(lambda self: self.world.names[self.index])
     shape = property(lambda self: self.world.shapes[self.index])
     material = property(lambda self: self.world.materials[self.index])
+
+    @property
+    def collision_filter(self) -> CollisionFilter:
+        return self.world.collision_filters[self.index]
+
+    @collision_filter.setter
+    def collision_filter(self, value):
+        try:
+            self.world.collision_filters[self.index] = CollisionFilter.coerce(value)
+        except InputError as err:
+            raise err.within("collision_filter") from None
+        self.world.filter_version += 1
+
     fixed = property(lambda self: not bool(self.world.moving[self.index]))
     mass = property(lambda self: float(self.world.mass[self.index]))
     inertia_body = property(lambda self: self.world.inertia_body[self.index])

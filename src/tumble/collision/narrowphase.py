@@ -14,6 +14,7 @@ from ..math3d import JIT
 from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
                       SHAPE_SPHERE)
 from .geometry import FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES
+from .filter import NO_FILTER, filter_allows
 from .manifold import KEY_BITS, ContactManifolds
 from .pairs.box import collide_capsule_box, collide_plane_box, collide_sphere_box
 from .pairs.box_box import BOX_WORK_ROWS, box_box_contact
@@ -164,7 +165,7 @@ PARALLEL_MIN_CANDIDATES = 1024  # fewer candidate pairs are collided on one thre
 # process, the same manifolds; the 210-box pyramid 1.12 -> 0.92 ms).
 @njit(**JIT, inline="always")
 def _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
-                    shape_aabb, body_moving, speculative, shape_margin, excluded,
+                    shape_aabb, body_moving, speculative, shape_margin, excluded, body_filter,
                     # outputs
                     out_a, out_b, out_count):
     """Candidate k of collide_pairs: k < P a sweep pair, then (plane, shape) for each plane and
@@ -173,7 +174,8 @@ def _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_par
     margin_a + margin_b - speculative (the speculative distance plus how far the two can close
     in the step, bounds.py); a = -1 when the candidate is culled (out_count[k] = 0 either way:
     the caller writes the point count). Body pairs whose key lo * N + hi is in ``excluded``
-    (sorted) are culled (jointed bodies)."""
+    (sorted: jointed bodies, ``World.exclude_collision``) are culled, and so are pairs whose
+    filters do not meet (``body_filter`` (N, 3) or empty, ``filter.filter_allows``)."""
     S = shape_type.shape[0]
     N = body_moving.shape[0]
     n_sweep = pair_a.shape[0]
@@ -205,6 +207,8 @@ def _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_par
         i = np.searchsorted(excluded, pair_key)
         if i < excluded.shape[0] and excluded[i] == pair_key:
             return -1, -1, 0.0
+    if not filter_allows(body_filter, shape_body[a], shape_body[b]):
+        return -1, -1, 0.0
     if shape_type[a] > shape_type[b]:
         a, b = b, a
     out_a[k] = a
@@ -214,14 +218,14 @@ def _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_par
 
 @njit(**JIT)
 def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
-                       shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
+                       shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                        # outputs
                        out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work):
     """Candidate k with every shape routine (``collide_shapes``): row k gets the pair, its point
     count (0: no contact) and its points."""
     a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
                                              shape_pos, shape_rot, shape_aabb, body_moving, speculative,
-                                             shape_margin, excluded, out_a, out_b, out_count)
+                                             shape_margin, excluded, body_filter, out_a, out_b, out_count)
     if a >= 0:
         out_count[k] = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
                                       shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry,
@@ -230,7 +234,7 @@ def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_
 
 @njit(**JIT, inline="always")
 def _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
-                                shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
+                                shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                                 # outputs
                                 out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work):
     """``_collide_candidate`` for worlds of plane, sphere, capsule and box shapes only
@@ -238,7 +242,7 @@ def _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, s
     same bits)."""
     a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
                                              shape_pos, shape_rot, shape_aabb, body_moving, speculative,
-                                             shape_margin, excluded, out_a, out_b, out_count)
+                                             shape_margin, excluded, body_filter, out_a, out_b, out_count)
     if a >= 0:
         out_count[k] = _family_pair(family, shape_type[a], shape_type[b], shape_pos[a], shape_rot[a],
                                     shape_params[a], shape_pos[b], shape_rot[b], shape_params[b], pair_speculative,
@@ -251,7 +255,7 @@ def _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, s
 @njit(**JIT, parallel=True)
 def _collide_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
                                         shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
-                                        excluded,
+                                        excluded, body_filter,
                                         # outputs
                                         out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
     """Every candidate, in parallel chunks: each task writes only its own rows, so the result
@@ -262,13 +266,13 @@ def _collide_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shap
         work = np.empty((PAIR_WORK_ROWS, 3))  # one scratch per task, lent to its pairs
         for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
             _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
-                               shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
+                               shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work)
 
 
 @njit(**JIT)
 def _collide_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
-                               shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
+                               shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                                # outputs
                                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
     """Every candidate, on this thread (small worlds: the threads' start-up cost more than the
@@ -276,7 +280,7 @@ def _collide_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, s
     work = np.empty((PAIR_WORK_ROWS, 3))
     for k in range(out_count.shape[0]):
         _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
-                           shape_aabb, body_moving, speculative, shape_margin, geometry, excluded,
+                           shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                            out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work)
 
 
@@ -286,7 +290,7 @@ def _analytic_kernels(family: int):
 
     @njit(**JIT, parallel=True)
     def parallel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
-                 body_moving, speculative, shape_margin, geometry, excluded,
+                 body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                  # outputs
                  out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
         """``_collide_candidates_parallel_kernel`` with the analytic routines only."""
@@ -297,12 +301,12 @@ def _analytic_kernels(family: int):
             for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
                 _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
                                             shape_pos, shape_rot, shape_aabb, body_moving, speculative, shape_margin,
-                                            geometry, excluded, out_a, out_b, out_count, out_normal, out_point,
+                                            geometry, excluded, body_filter, out_a, out_b, out_count, out_normal, out_point,
                                             out_separation, out_feature, work)
 
     @njit(**JIT)
     def serial(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
-               body_moving, speculative, shape_margin, geometry, excluded,
+               body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                # outputs
                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
         """``_collide_candidates_kernel`` with the analytic routines only."""
@@ -310,7 +314,7 @@ def _analytic_kernels(family: int):
         for k in range(out_count.shape[0]):
             _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
                                         shape_pos, shape_rot, shape_aabb, body_moving, speculative, shape_margin,
-                                        geometry, excluded, out_a, out_b, out_count, out_normal, out_point,
+                                        geometry, excluded, body_filter, out_a, out_b, out_count, out_normal, out_point,
                                         out_separation, out_feature, work)
 
     return parallel, serial
@@ -362,7 +366,8 @@ def _compact_manifolds_kernel(cand_a, cand_b, cand_count, cand_normal, cand_poin
 
 
 def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, speculative,
-                  out: ContactManifolds | None = None, shape_margin=None, excluded_pairs=None) -> ContactManifolds:
+                  out: ContactManifolds | None = None, shape_margin=None, excluded_pairs=None,
+                  body_filter=None) -> ContactManifolds:
     """Contact manifolds of the broadphase pairs, and of each plane against each moving shape.
 
     Args:
@@ -375,6 +380,8 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
         shape_margin: (S,) m from ``update_bounds`` (speculative distance plus motion bound);
             None: ``speculative`` for every shape.
         excluded_pairs: sorted (K,) int64 keys lo * N + hi of body pairs that get no contact.
+        body_filter: (N, 3) int64 rows (category, mask, group) of the bodies' collision
+            filters (``filter.filter_table``), or None / (0, 3): every pair may collide.
 
     Returns:
         ``out``, filled: manifolds in pair order (sweep pairs by (a, b), then planes).
@@ -401,7 +408,8 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
     kernel(np.ascontiguousarray(pair_a, dtype=np.int64), np.ascontiguousarray(pair_b, dtype=np.int64),
                                planes, table.shape_type, table.shape_body, table.shape_params, shape_pos, shape_rot,
                                shape_aabb, table.body_moving, float(speculative), shape_margin, table.geometry,
-                               _NO_PAIRS if excluded_pairs is None else excluded_pairs, *cand)
+                               _NO_PAIRS if excluded_pairs is None else excluded_pairs,
+                               NO_FILTER if body_filter is None else body_filter, *cand)
     m, c = _compact_manifolds_kernel(*cand, table.shape_body, *out.buffers())
     out.manifold_count = m
     out.contact_count = c

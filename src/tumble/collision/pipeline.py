@@ -10,6 +10,7 @@ import numpy as np
 from .bounds import update_bounds
 from .broadphase import PairBuffer, find_pairs
 from .constants import SPECULATIVE_DISTANCE
+from .filter import NO_FILTER, exclusion_keys, filter_table
 from .geometry import build_shape_table
 from .manifold import ContactManifolds
 from .narrowphase import collide_pairs
@@ -38,8 +39,13 @@ class CollisionPipeline:
         self.contacts = ContactManifolds()
         self.shape_pos = self.shape_rot = self.shape_aabb = self.shape_margin = None
         self.pair_a = self.pair_b = None
-        # sorted int64 keys lo * N + hi of body pairs that must not collide (jointed bodies), or None
+        # sorted int64 keys lo * N + hi of jointed body pairs that must not collide (set by the
+        # soft step), or None; the World's own exclusions are added to them (``_filters``)
         self.excluded_pairs = None
+        self._filter_key = None
+        self._excluded = None  # jointed and World-excluded keys, merged
+        self._joint_keys = None
+        self._body_filter = NO_FILTER
 
     def refresh(self):
         """Rebuild the shape table if bodies were added since the last call."""
@@ -53,6 +59,21 @@ class CollisionPipeline:
             self.shape_aabb = np.empty((S, 2, 3))
             self.shape_margin = np.empty(S)
         return self.table
+
+    def _filters(self):
+        """(excluded keys or None, body filter table): the World's filters and exclusions
+        (collision/filter.py) with the jointed pairs, rebuilt only when one of them changed."""
+        w = self.world
+        key = (w.body_count, w.filter_version)
+        if key != self._filter_key or self._joint_keys is not self.excluded_pairs:
+            self._body_filter = filter_table(w.collision_filters[: w.body_count])
+            excluded = exclusion_keys(w.excluded_collisions, w.body_count)
+            if self.excluded_pairs is not None:
+                excluded = np.union1d(excluded, self.excluded_pairs).astype(np.int64)
+            self._excluded = excluded if excluded.shape[0] else None
+            self._joint_keys = self.excluded_pairs
+            self._filter_key = key
+        return self._excluded, self._body_filter
 
     def detect(self, x=None, R=None, v=None, omega=None, dt: float = 0.0) -> ContactManifolds:
         """Run the three stages; returns the contacts.
@@ -71,6 +92,7 @@ class CollisionPipeline:
                       v=v, omega=omega, dt=dt, shape_margin=self.shape_margin)
         self.pair_a, self.pair_b = find_pairs(self.shape_aabb, table.shape_type, table.shape_body,
                                               table.body_moving, self.pairs)
+        excluded, body_filter = self._filters()
         return collide_pairs(self.pair_a, self.pair_b, table, self.shape_pos, self.shape_rot, self.shape_aabb,
                              self.speculative, self.contacts, shape_margin=self.shape_margin,
-                             excluded_pairs=self.excluded_pairs)
+                             excluded_pairs=excluded, body_filter=body_filter)

@@ -94,6 +94,8 @@ def merge_worlds(worlds: list[World]) -> World:
             merged._index_by_name[f"{k}/{name}"] = offset + j
         merged.shapes.extend(w.shapes)
         merged.materials.extend(w.materials)
+        merged.collision_filters.extend(w.collision_filters)
+        merged.excluded_collisions.update((offset + a, offset + b) for a, b in w.excluded_collisions)
         for rec in w.forces:
             merged.add_force(_moved(rec, w, offset))
         offset += w.body_count
