@@ -1,0 +1,176 @@
+"""Collision filters and exclusions (``collision/filter.py``) in the narrowphase.
+
+The rule is compared with Box2D's ``b2ShouldShapesCollide`` written out case by case (the
+table below), and the narrowphase with that rule: on jumbles of touching shapes, the body
+pairs that get contacts with filters are exactly the pairs that touch without them and that
+the rule allows, with the same manifolds to the bit (a filter removes pairs, never changes
+one). Every kernel is checked: the box and sphere families, the dispatch over every routine
+(hulls, cylinders, cones, capsules), each serial and in parallel chunks.
+"""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import tumble as tb
+from tumble.collision import CollisionPipeline
+from tumble.collision import narrowphase as NP
+from tumble.collision.filter import ALL_CATEGORIES, CollisionFilter, filter_table
+from tumble.errors import InputError
+
+F = CollisionFilter
+
+# (filter a, filter b, collide?) after Box2D v3's b2ShouldShapesCollide:
+#   same non-zero group -> group > 0; else (a.category & b.mask) and (b.category & a.mask)
+RULE = [
+    (F(), F(), True),                                           # defaults touch
+    (F(category=2, mask=1), F(category=2, mask=1), False),      # debris passes through debris
+    (F(category=2, mask=1), F(), True),                         # ... and lands on the ground
+    (F(mask=0), F(), False),                                    # a mask of nothing touches nothing
+    (F(), F(category=2, mask=2), False),                        # either side can refuse
+    (F(category=1, mask=1, group=3), F(category=4, mask=4, group=3), True),   # positive group beats bits
+    (F(group=-3), F(group=-3), False),                          # negative group beats bits
+    (F(group=-3), F(group=-4), True),                           # different groups: bits decide
+    (F(group=-3), F(), True),
+    (F(category=8, mask=8, group=-3), F(category=1, mask=1, group=2), False),
+    (F(category=ALL_CATEGORIES, mask=ALL_CATEGORIES), F(category=1 << 31, mask=1 << 31), True),
+]
+
+
+@pytest.mark.parametrize("a, b, expected", RULE)
+def test_rule_is_box2ds(a, b, expected):
+    assert a.collides_with(b) is expected
+    assert b.collides_with(a) is expected
+
+
+filters = st.builds(F, category=st.integers(0, 15), mask=st.integers(0, 15), group=st.integers(-2, 2))
+
+
+@given(filters, filters)
+def test_rule_is_symmetric(a, b):
+    assert a.collides_with(b) == b.collides_with(a)
+
+
+def test_default_filters_give_an_empty_table_so_the_kernels_skip_the_test():
+    assert filter_table([F(), F(), F()]).shape == (0, 3)
+    table = filter_table([F(), F(category=2, mask=5, group=-1)])
+    assert table.tolist() == [[1, ALL_CATEGORIES, 0], [2, 5, -1]]
+
+
+def test_filter_values_are_checked():
+    with pytest.raises(InputError, match="category: must be between 0 and 0xffffffff, got -1"):
+        F(category=-1)
+    with pytest.raises(InputError, match="mask: expected an integer, got 1.0"):
+        F(mask=1.0)
+    with pytest.raises(InputError, match="collision_filter: unknown key 'layer'"):
+        F.coerce({"layer": 1})
+    w = tb.World()
+    with pytest.raises(InputError, match="collision_filter.group: expected an integer, got 'a'"):
+        w.add_body(tb.Sphere(1), mass=1, collision_filter={"group": "a"})
+    a = w.add_body(tb.Sphere(1), mass=1)
+    with pytest.raises(InputError, match="cannot be excluded from itself"):
+        w.exclude_collision(a, a)
+    with pytest.raises(InputError, match="unknown body 'x'"):
+        w.exclude_collision(a, "x")
+
+
+SHAPES = {
+    "boxes": lambda i: tb.Box((1.0, 0.8, 0.9)),
+    "spheres": lambda i: tb.Sphere(0.5),
+    "mixed": lambda i: [tb.Box((1.0, 0.8, 0.9)), tb.Sphere(0.5), tb.Capsule(0.3, 0.6), tb.Cylinder(0.4, 0.8),
+                        tb.Cone(0.5, 0.9), tb.Convex(points=np.random.default_rng(i).normal(size=(12, 3)) * 0.4)][i % 6],
+}
+# a small palette, so that every rule case occurs among neighbours
+PALETTE = [F(), F(category=2, mask=1), F(category=2, mask=3), F(group=-1), F(category=4, mask=4, group=1), F(mask=0)]
+
+
+def _jumble(kind, n, seed):
+    """A plane and n shapes in a 0.9 m grid of 1 m cells, turned at random and pushed into each
+    other and the plane (tests/collision/test_families.py's jumble), with filters drawn from
+    PALETTE and a few pairs excluded."""
+    rng = np.random.default_rng(seed)
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, collision_filter=F(category=1 | 2))
+    for i in range(n):
+        pos = (0.9 * (i % 4), 0.9 * ((i // 4) % 4), 0.45 + 0.9 * (i // 16) + 0.05 * rng.standard_normal())
+        w.add_body(SHAPES[kind](i), mass=1.0, position=pos, euler_deg=tuple(rng.uniform(-180, 180, 3)),
+                   collision_filter=PALETTE[rng.integers(len(PALETTE))])
+    return w
+
+
+def _pairs(contacts):
+    m = contacts.manifold_count
+    return {(int(a), int(b)) for a, b in zip(contacts.manifold_body_a[:m], contacts.manifold_body_b[:m])}
+
+
+def _manifolds(contacts):
+    """Per body pair: (normal, points, separations, keys) of its manifolds."""
+    out = {}
+    for k in range(contacts.manifold_count):
+        a, b = int(contacts.manifold_body_a[k]), int(contacts.manifold_body_b[k])
+        first, count = int(contacts.manifold_first[k]), int(contacts.manifold_point_count[k])
+        sl = slice(first, first + count)
+        out.setdefault((a, b), []).append((contacts.manifold_normal[k].tobytes(), contacts.contact_point[sl].tobytes(),
+                                            contacts.contact_separation[sl].tobytes(), contacts.contact_key[sl].tobytes()))
+    return out
+
+
+@pytest.mark.parametrize("kind", ["boxes", "spheres", "mixed"])
+@pytest.mark.parametrize("parallel", [False, True])
+def test_narrowphase_keeps_exactly_the_touching_pairs_the_filters_allow(kind, parallel, monkeypatch):
+    monkeypatch.setattr(NP, "PARALLEL_MIN_CANDIDATES", 0 if parallel else 10 ** 9)
+    w = _jumble(kind, 48, seed=5)
+    w.exclude_collision(1, 2)
+    w.exclude_collision(0, 5)
+    filtered = CollisionPipeline(w).detect()
+    got, got_manifolds = _pairs(filtered), _manifolds(filtered)
+
+    saved = list(w.collision_filters), set(w.excluded_collisions)
+    w.collision_filters[:] = [F()] * w.body_count
+    w.excluded_collisions.clear()
+    w.filter_version += 1
+    every = CollisionPipeline(w).detect()
+    touching, every_manifolds = _pairs(every), _manifolds(every)
+    w.collision_filters[:], w.excluded_collisions = saved[0], saved[1]
+
+    allowed = {p for p in touching if w.should_collide(*p)}
+    # the jumble must exercise both outcomes, or this comparison proves nothing
+    assert len(allowed) > 10 and len(touching - allowed) > 10
+    assert {(1, 2), (0, 5)} & touching == {(1, 2), (0, 5)} & set(every_manifolds)
+    assert got == allowed
+    for pair in got:
+        assert got_manifolds[pair] == every_manifolds[pair], pair
+
+
+def test_pipeline_rereads_filters_and_exclusions_when_they_change():
+    w = tb.World()
+    w.add_body(tb.Plane(), fixed=True, name="ground")
+    box = w.add_body(tb.Box((1, 1, 1)), mass=1, position=(0, 0, 0.45), name="box")
+    pipe = CollisionPipeline(w)
+    assert pipe.detect().manifold_count == 1
+    box.collision_filter = {"mask": 2}  # the ground is category 1
+    assert pipe.detect().manifold_count == 0
+    box.collision_filter = None
+    assert pipe.detect().manifold_count == 1
+    w.exclude_collision("box", "ground")
+    assert pipe.detect().manifold_count == 0
+    assert not w.should_collide("box", "ground")
+
+
+def test_jointed_pairs_and_world_exclusions_are_both_culled():
+    """The soft step's jointed pairs (collide_connected false) are merged with the World's own
+    exclusions: neither replaces the other."""
+    w = tb.World()
+    w.add_body(tb.Plane(), fixed=True, name="ground")
+    a = w.add_body(tb.Box((1, 1, 1)), mass=1, position=(0, 0, 0.45), name="a")
+    b = w.add_body(tb.Box((1, 1, 1)), mass=1, position=(0, 0, 1.4), name="b")
+    c = w.add_body(tb.Box((1, 1, 1)), mass=1, position=(0, 0, 2.35), name="c")
+    w.add_joint(tb.HingeJoint(body_a=a, body_b=b, anchor=(0, 0, 0.95), axis=(1, 0, 0)))
+    w.exclude_collision("b", "c")
+    sim = tb.Simulator(w)
+    sim.step(1)
+    pairs = {tuple(sorted((w.names[i], w.names[j]))) for i, j in
+             zip(sim.contacts().body_a, sim.contacts().body_b)}
+    assert pairs == {("a", "ground")}
+    assert not w.should_collide(a, b) and not w.should_collide(b, c) and w.should_collide(a, c)
