@@ -286,13 +286,14 @@ class World:
             return int(body)
         raise InputError(f"unknown body {body!r}", "body")
 
-    def ray_cast(self, origin, direction, max_distance=math.inf, exclude=None):
+    def ray_cast(self, origin, direction, max_distance=math.inf, exclude=None, mask=0xFFFFFFFF):
         """The first shape along each ray at the bodies' current poses: ``collision.raycast.ray_cast``
         (origin, direction (3,) or (R, 3), world; returns a ``RayHits`` of body, distance m, point,
-        normal per ray; a solid shape that holds the origin is not hit)."""
+        normal per ray; a solid shape that holds the origin is not hit; only bodies whose
+        collision category meets ``mask`` are seen)."""
         from .collision.raycast import ray_cast
 
-        return ray_cast(self, origin, direction, max_distance, exclude)
+        return ray_cast(self, origin, direction, max_distance, exclude, mask=mask)
 
     def exclude_collision(self, body_a, body_b):
         """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,

@@ -34,6 +34,7 @@ from ..errors import InputError
 from ..math3d import JIT, argsort_stable
 from ..shapes import SHAPE_PLANE
 from .bounds import update_bounds
+from .filter import ALL_CATEGORIES, DEFAULT_FILTER, CollisionFilter
 from .ray_shapes import _ray_shape, _slab
 from .geometry import build_shape_table
 
@@ -186,7 +187,7 @@ def _box_entry(origin, direction, r, boxes, j, t_max):
 
 
 @njit(**JIT)
-def _cast_one(r, origin, direction, max_distance, exclude, planes, items, tree_aabb, tree_first, tree_count,
+def _cast_one(r, origin, direction, max_distance, exclude, seen, planes, items, tree_aabb, tree_first, tree_count,
               tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
               mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip, stack, stack_enter, hit_shape,
               hit_distance, hit_normal):
@@ -239,7 +240,7 @@ def _cast_one(r, origin, direction, max_distance, exclude, planes, items, tree_a
             continue
         else:
             break
-        if shape_body[s] == exclude[r]:
+        if shape_body[s] == exclude[r] or not seen[shape_body[s]]:
             continue
         # the ray in the shape's frame: o' = Rs^T (o - ps), d' = Rs^T d
         w0 = o0 - shape_pos[s, 0]
@@ -267,13 +268,14 @@ def _cast_one(r, origin, direction, max_distance, exclude, planes, items, tree_a
 
 
 @njit(**JIT, parallel=True)
-def ray_cast_kernel(origin, direction, max_distance, exclude, planes, items, tree_aabb, tree_first, tree_count,
+def ray_cast_kernel(origin, direction, max_distance, exclude, seen, planes, items, tree_aabb, tree_first, tree_count,
                     tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
                     mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip,
                     # outputs
                     hit_shape, hit_distance, hit_normal):
     """Per ray r: the nearest shape s (hit_shape[r], -1: none) within max_distance[r] along the unit
-    ``direction[r]`` from ``origin[r]`` (R, 3) m, skipping the body ``exclude[r]`` (-1: none);
+    ``direction[r]`` from ``origin[r]`` (R, 3) m, skipping the body ``exclude[r]`` (-1: none)
+    and every body b with ``seen[b]`` False ((N,) bool: the query's mask);
     its distance (R,) m and outward normal (R, 3), world.
 
     The shapes: ``planes`` (P,) rows, each tested, and the rest through the tree
@@ -292,7 +294,7 @@ def ray_cast_kernel(origin, direction, max_distance, exclude, planes, items, tre
         stack = np.empty(64, dtype=np.int64)
         stack_enter = np.empty(64)
         for r in range(chunk * RAYS_PER_CHUNK, min(count, (chunk + 1) * RAYS_PER_CHUNK)):
-            _cast_one(r, origin, direction, max_distance, exclude, planes, items, tree_aabb, tree_first, tree_count,
+            _cast_one(r, origin, direction, max_distance, exclude, seen, planes, items, tree_aabb, tree_first, tree_count,
                       tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
                       mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip, stack, stack_enter, hit_shape,
                       hit_distance, hit_normal)
@@ -367,7 +369,15 @@ class _RayScene:
         return self._tree
 
 
-def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=None) -> RayHits:
+def _seen(world, mask) -> np.ndarray:
+    """(N,) bool: the bodies whose collision category meets the query's ``mask``."""
+    mask = CollisionFilter(mask=mask).mask  # the same checks and messages as a filter's mask
+    filters = getattr(world, "collision_filters", None) or [DEFAULT_FILTER] * world.body_count
+    return np.array([(f.category & mask) != 0 for f in filters[: world.body_count]], dtype=np.bool_)
+
+
+def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=None,
+             mask=ALL_CATEGORIES) -> RayHits:
     """The first shape of ``world`` along each ray, at the bodies' current poses.
 
     Args:
@@ -378,6 +388,8 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         max_distance: m, a number or (R,), how far each ray looks (inf: without end).
         exclude: a body (``Body``, name or index) or (R,) body indices (-1: none) that the
             rays do not see, e.g. the body a sensor is mounted on.
+        mask: int bit set of the collision categories the rays see (Box2D's query filter):
+            a body is seen when its ``CollisionFilter.category`` meets ``mask`` (default all).
         table: a ``ShapeTable`` of ``world`` to use (default: built from the world at the first
             cast and kept until bodies are added).
 
@@ -414,6 +426,7 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         skip = np.asarray(exclude, dtype=np.int64)
         if skip.shape != (R,):
             raise InputError(f"must be one body or one index per ray ({R}), got shape {skip.shape}", "exclude")
+    seen = _seen(world, mask)
     if table is None:
         scene = getattr(world, "_ray_scene", None)
         if scene is None or scene.body_count != world.body_count:
@@ -425,7 +438,7 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
     distance = np.empty(R)
     normal = np.empty((R, 3))
     table = scene.table
-    ray_cast_kernel(o, d, dist, skip, planes, items, *tree, table.shape_type, table.shape_body, table.shape_params,
+    ray_cast_kernel(o, d, dist, skip, seen, planes, items, *tree, table.shape_type, table.shape_body, table.shape_params,
                     pos, rot, table.shape_data, table.hull_plane, table.mesh_triangle, table.mesh_node_aabb,
                     table.mesh_node_first, table.mesh_node_count, table.mesh_node_skip, shape, distance, normal)
     hit = shape >= 0
