@@ -270,7 +270,7 @@ BAD_SCENES = [
      "collisions, record_contacts, record_joints, sleeping)"),
     ("unknown-body", body(colour='"red"'), "bodies[0].colour", f"unknown key (expected one of {BODY_KEYS})"),
     ("unknown-shape", body(shape='{ type = "sphere", radius = 1, size = 2 }'), "bodies[0].shape.size", "unknown key (expected one of type, radius)"),
-    ("unknown-material", body(material="{ friction = 0.5, bounce = 1 }"), "bodies[0].material.bounce", "unknown key (expected one of friction, restitution)"),
+    ("unknown-material", body(material="{ friction = 0.5, bounce = 1 }"), "bodies[0].material.bounce", "unknown key (expected one of friction, restitution, rolling_resistance, spinning_friction)"),
     ("unknown-force", BODY + '[[forces]]\ntype = "drag"\nlinear = 0.1\nstrength = 2\n', "forces[0].strength",
      "unknown key (expected one of type, linear, quadratic, angular_linear, angular_quadratic, wind, bodies)"),
     # wrong types
@@ -299,6 +299,10 @@ BAD_SCENES = [
     ("zero-size", body(shape='{ type = "box", size = [1, 1, 0] }'), "bodies[0].shape.size[2]", "must be positive, got 0"),
     ("negative-radius", body(shape='{ type = "sphere", radius = -0.1 }'), "bodies[0].shape.radius", "must be positive, got -0.1"),
     ("negative-friction", body(material="{ friction = -1 }"), "bodies[0].material.friction", "must be a finite number >= 0, got -1.0"),
+    ("negative-rolling-resistance", body(material="{ rolling_resistance = -0.1 }"), "bodies[0].material.rolling_resistance",
+     "must be a finite number >= 0, got -0.1"),
+    ("string-spinning-friction", body(material='{ spinning_friction = "a" }'), "bodies[0].material.spinning_friction",
+     "expected a number, got 'a' (a string)"),
     ("negative-stiffness", BODY + '[[forces]]\ntype = "spring"\nbody_a = "a"\nstiffness = -3\n', "forces[0].stiffness", "must be >= 0, got -3"),
     # collision filters and exclusions (collision/filter.py)
     ("filter-unknown-key", body(collision_filter="{ layer = 2 }"), "bodies[0].collision_filter.layer",

@@ -183,7 +183,7 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "gravity": [float(g) for g in w.gravity],
         "names": list(w.names),
         "shapes": [shape_to_dict(s) for s in w.shapes],
-        "materials": [{"friction": m.friction, "restitution": m.restitution} for m in w.materials],
+        "materials": [m.to_dict() for m in w.materials],
         "collision_filters": [{"category": f.category, "mask": f.mask, "group": f.group}
                               for f in w.collision_filters],
         "collision_exclusions": sorted([int(a), int(b)] for a, b in w.excluded_collisions),
@@ -236,7 +236,8 @@ def load_checkpoint(cls, path, custom_forces=None):
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE}
-            warm = {name[len("contact_"):]: np.array(data[name]) for name in WARM_START if name in data.files}
+            warm = {name[len("contact_"):]: np.array(data[name]) for name in WARM_START + WARM_START_OPTIONAL
+                    if name in data.files}
             sleep = {name[len("sleep_"):]: np.array(data[name]) for name in data.files if name.startswith("sleep_")}
             joint_state = {name[len("joint_"):]: np.array(data[name]) for name in data.files if name.startswith("joint_")}
     except Exception as exc:  # damaged or foreign file: one line
@@ -247,7 +248,7 @@ def load_checkpoint(cls, path, custom_forces=None):
         raise InputError(f"checkpoint format version {meta.get('version')!r} is not supported (expected {VERSION})", None, file)
     try:
         sim = _rebuild(cls, meta, arrays, custom_forces)
-        if len(warm) == len(WARM_START):
+        if all(name[len("contact_"):] in warm for name in WARM_START):
             _restore_warm_start(sim, warm)
         if joint_state:
             _restore_joint_solver(sim, joint_state)
@@ -266,11 +267,15 @@ def load_checkpoint(cls, path, custom_forces=None):
 
 
 WARM_START = ("contact_key", "contact_normal_impulse", "contact_friction_impulse")
+# the rolling and spinning impulses (solver.contact_rolling); absent from older checkpoints: zeros
+WARM_START_OPTIONAL = ("contact_rolling_impulse",)
 
 
 def _restore_warm_start(sim, warm: dict):
     k = len(warm["key"])
     if warm["key"].dtype.kind != "i" or warm["normal_impulse"].shape != (k,) or warm["friction_impulse"].shape != (k, 3):
+        raise InputError("contact warm-start arrays have inconsistent shapes")
+    if "rolling_impulse" in warm and warm["rolling_impulse"].shape != (k, 3):
         raise InputError("contact warm-start arrays have inconsistent shapes")
     if sim._contact_on():
         sim.soft_step.solver.set_warm_start_state(warm)

@@ -11,22 +11,54 @@ from typing import Mapping
 from .errors import InputError
 
 
+MATERIAL_KEYS = ("friction", "restitution", "rolling_resistance", "spinning_friction")
+
+
 @dataclass(frozen=True)
 class Material:
-    """Surface material: Coulomb ``friction`` coefficient (>= 0) and ``restitution`` (0..1)."""
+    """Surface material of a body.
+
+    Args:
+        friction: Coulomb coefficient (>= 0); per contact sqrt(fa fb).
+        restitution: 0..1; per contact max(ea, eb).
+        rolling_resistance: dimensionless (>= 0, Box2D/Box3D's): a round surface (sphere,
+            capsule, the side of a cylinder or cone) rolling on another is braked by a torque of
+            at most ``rolling_resistance * r * N`` (r its radius, N the normal force); per
+            contact max(ca, cb). 0 (the default): balls roll on for ever, as rigid bodies do.
+        spinning_friction: m (>= 0, MuJoCo's torsional friction): a torque of at most
+            ``spinning_friction * N`` against turning about the contact normal (a ball or a top
+            spinning in place); per contact max(sa, sb).
+    """
 
     friction: float = 0.5
     restitution: float = 0.0
+    rolling_resistance: float = 0.0
+    spinning_friction: float = 0.0
 
     def __post_init__(self):
-        f = float(self.friction)
-        e = float(self.restitution)
-        if not math.isfinite(f) or f < 0:
-            raise InputError(f"must be a finite number >= 0, got {self.friction}", "friction")
-        if not math.isfinite(e) or not 0.0 <= e <= 1.0:
-            raise InputError(f"must be between 0 and 1, got {self.restitution}", "restitution")
-        object.__setattr__(self, "friction", f)
-        object.__setattr__(self, "restitution", e)
+        for key in MATERIAL_KEYS:
+            raw = getattr(self, key)
+            if isinstance(raw, bool):
+                raise InputError(f"expected a number, got {raw}", key)
+            try:
+                value = float(raw)
+            except (TypeError, ValueError):
+                raise InputError(f"expected a number, got {raw!r}", key) from None
+            if key == "restitution":
+                if not math.isfinite(value) or not 0.0 <= value <= 1.0:
+                    raise InputError(f"must be between 0 and 1, got {raw}", key)
+            elif not math.isfinite(value) or value < 0:
+                raise InputError(f"must be a finite number >= 0, got {raw}", key)
+            object.__setattr__(self, key, value)
+
+    @property
+    def resists_rolling(self) -> bool:
+        """Whether contacts of this material need the rolling and spinning rows
+        (``solver.contact_rolling``)."""
+        return self.rolling_resistance > 0.0 or self.spinning_friction > 0.0
+
+    def to_dict(self) -> dict:
+        return {key: getattr(self, key) for key in MATERIAL_KEYS}
 
     @classmethod
     def coerce(cls, value) -> "Material":
@@ -35,8 +67,9 @@ class Material:
         if isinstance(value, Material):
             return value
         if isinstance(value, Mapping):
-            unknown = set(value) - {"friction", "restitution"}
+            unknown = set(value) - set(MATERIAL_KEYS)
             if unknown:
-                raise InputError(f"unknown key {sorted(unknown)[0]!r} (expected friction, restitution)", "material")
+                raise InputError(f"unknown key {sorted(unknown)[0]!r} (expected {', '.join(MATERIAL_KEYS)})",
+                                 "material")
             return cls(**value)
         raise InputError(f"expected a Material or a mapping, got {value!r}", "material")

@@ -15,7 +15,8 @@ The format is DESIGN.md's "Scene file" contract::
     [[bodies]]              name, shape = {type = ..., ...}, mass or density,
                             inertia, fixed, position, orientation or euler_deg,
                             velocity, angular_velocity, angular_velocity_frame,
-                            material = {friction, restitution},
+                            material = {friction, restitution, rolling_resistance,
+                            spinning_friction},
                             collision_filter = {category, mask, group} (tumble.scene_bodies)
     [[collision_exclusions]] bodies = [NAME, NAME]: a pair that never touches
     [[forces]]              type = drag | wind | constant | point | spring | impulse,

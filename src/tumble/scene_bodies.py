@@ -31,14 +31,13 @@ from .shapes import (
     Sphere,
 )
 from .collision.filter import FILTER_KEYS, CollisionFilter
-from .material import Material
+from .material import MATERIAL_KEYS, Material
 from .world import World
 
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter",
 )
-MATERIAL_KEYS = ("friction", "restitution")
 # collision_filter = {category, mask, group}: which bodies this one touches (collision/filter.py)
 # Per shape type: (required keys, optional keys).
 SHAPE_KEYS = {

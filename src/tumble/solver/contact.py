@@ -32,6 +32,12 @@ import numpy as np
 from ..collision.constants import SPECULATIVE_DISTANCE
 from ..collision.manifold import match_contacts
 from .contact_anchor import anchor_offsets_kernel
+from .contact_rolling import (
+    prepare_rolling_kernel,
+    solve_rolling_kernel,
+    store_rolling_kernel,
+    warm_start_rolling_kernel,
+)
 from .contact_solve import (
     apply_restitution_kernel,
     prepare_contacts_kernel,
@@ -114,6 +120,9 @@ def soft_coefficients(hertz: float, zeta: float, h: float):
     return omega / a1, a2 * a3, a3
 
 
+_NO_ROWS = np.zeros(0, dtype=np.int64)
+
+
 # ---------------------------------------------------------------------- the solver object
 _C_FLOAT = {
     "anchor_a": (3,), "anchor_b": (3,), "local_a": (3,), "local_b": (3,), "anchor_offset": (7,),
@@ -124,6 +133,8 @@ _C_FLOAT = {
     "old_normal_impulse": (), "old_friction_impulse": (3,),
     "step_normal_impulse": (), "step_tangent_impulse": (2,),
     "arm_a": (3,), "arm_b": (3,), "gap": (),
+    # rolling and spinning rows (solver.contact_rolling), written only where a material resists rolling
+    "rolling_mass": (3,), "rolling_limit": (2,), "rolling_impulse": (3,), "old_rolling_impulse": (3,),
 }
 
 
@@ -147,6 +158,8 @@ class ContactSolver:
         self.old_key = np.zeros(0, dtype=np.int64)
         self.contacts = None
         self._material_bodies = -1
+        self.rolling_rows = _NO_ROWS  # contacts with rolling and spinning rows this step
+        self._rolling_stored = False  # whether old_rolling_impulse holds the last step's
         self.sweep = SweepOrder()  # the order of this step's sweeps (slabs for a large step)
 
     def _reserve(self, n: int):
@@ -202,6 +215,10 @@ class ContactSolver:
         if nb != self._material_bodies:  # materials are constants: read them once per body count
             self.body_friction = np.array([m.friction for m in world.materials[:nb]], dtype=float)
             self.body_restitution = np.array([m.restitution for m in world.materials[:nb]], dtype=float)
+            self.body_rolling = np.array([m.rolling_resistance for m in world.materials[:nb]], dtype=float)
+            self.body_spinning = np.array([m.spinning_friction for m in world.materials[:nb]], dtype=float)
+            self.body_resists_rolling = np.array([m.resists_rolling for m in world.materials[:nb]], dtype=bool)
+            self.any_resists_rolling = bool(self.body_resists_rolling.any())
             self._material_bodies = nb
         b = self._buf
         b["step_normal_impulse"][:n] = 0.0
@@ -225,8 +242,26 @@ class ContactSolver:
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
+        self._prepare_rolling(contacts, match)
         self.sweep.update(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, int(st.partitions),
                           st.partition_min_contacts)
+
+    def _prepare_rolling(self, contacts, match):
+        """The rolling and spinning rows (``contact_rolling``) of the contacts that touch a body
+        whose material resists rolling; none (and nothing run) in a world without one."""
+        n = self.count
+        if not self.any_resists_rolling:
+            self.rolling_rows = _NO_ROWS
+            return
+        resists = self.body_resists_rolling
+        self.rolling_rows = np.flatnonzero(resists[contacts.contact_body_a] | resists[contacts.contact_body_b])
+        self._buf["rolling_impulse"][:n] = 0.0  # the rows' impulses are stored for every contact
+        if not self._rolling_stored:  # the last step kept none: start from zero
+            match = np.full(n, -1, dtype=np.int64)
+        prepare_rolling_kernel(self.rolling_rows, contacts.contact_body_a, contacts.contact_body_b,
+                               contacts.contact_normal, self.tangent1, self.tangent2, self.anchor_offset, match,
+                               self._buf["old_rolling_impulse"][: self.old_count], self.I_inv, self.body_rolling,
+                               self.body_spinning, self.rolling_mass, self.rolling_limit, self.rolling_impulse)
 
     def warm_start(self, fresh: bool = True):
         """Apply the accumulated impulses; ``fresh=False`` when the poses are those of the last
@@ -236,6 +271,9 @@ class ContactSolver:
                           c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
                           self.anchor_offset, self.normal_impulse, self.tangent_impulse, self.x, self.R,
                           self.world.inv_mass, self.I_inv, bool(fresh), self.v, self.omega, self.arm_a, self.arm_b, self.gap)
+        if len(self.rolling_rows):
+            warm_start_rolling_kernel(self.rolling_rows, c.contact_body_a, c.contact_body_b, c.contact_normal,
+                                      self.tangent1, self.tangent2, self.rolling_impulse, self.I_inv, self.omega)
 
     def solve_contacts(self, use_bias: bool):
         c = self.contacts
@@ -247,6 +285,10 @@ class ContactSolver:
                               bool(use_bias), self.v, self.omega, self.normal_impulse, self.tangent_impulse,
                               self.max_normal_impulse, self.relative_velocity, self.last_normal_speed,
                               self.arm_a, self.arm_b, self.gap)
+        if len(self.rolling_rows):  # after the contacts, whose normal impulses bound them
+            solve_rolling_kernel(self.rolling_rows, c.contact_body_a, c.contact_body_b, c.contact_normal,
+                                 self.tangent1, self.tangent2, self.normal_impulse, self.rolling_mass,
+                                 self.rolling_limit, self.I_inv, self.omega, self.rolling_impulse)
 
     def apply_restitution(self):
         c = self.contacts
@@ -269,8 +311,9 @@ class ContactSolver:
         """The impulses kept for the next step's warm start, as arrays (for checkpoints): the keys
         (K,) int64, normal impulses (K,) N s and friction impulses (K, 3) N s, world."""
         k = self.old_count
+        rolling = self._buf["old_rolling_impulse"][:k].copy() if self._rolling_stored else np.zeros((k, 3))
         return {"key": self.old_key[:k].copy(), "normal_impulse": self._buf["old_normal_impulse"][:k].copy(),
-                "friction_impulse": self._buf["old_friction_impulse"][:k].copy()}
+                "friction_impulse": self._buf["old_friction_impulse"][:k].copy(), "rolling_impulse": rolling}
 
     def set_warm_start_state(self, state: dict):
         """Inverse of ``warm_start_state``."""
@@ -279,6 +322,9 @@ class ContactSolver:
         self._reserve(max(k, self.count))
         self._buf["old_normal_impulse"][:k] = state["normal_impulse"]
         self._buf["old_friction_impulse"][:k] = state["friction_impulse"]
+        # (K, 3) N m s, world, of the rolling and spinning rows; absent (older checkpoints): zeros
+        self._buf["old_rolling_impulse"][:k] = state.get("rolling_impulse", 0.0)
+        self._rolling_stored = True
         self.old_key = key.copy()
         self.old_count = k
 
@@ -291,5 +337,9 @@ class ContactSolver:
             keys = self._old_key_buffer = np.zeros(max(2 * n, 64), dtype=np.int64)
         store_impulses_kernel(self.contacts.contact_key, self.normal_impulse, self.tangent_impulse, self.tangent1,
                               self.tangent2, keys, b["old_normal_impulse"], b["old_friction_impulse"])
+        self._rolling_stored = len(self.rolling_rows) > 0
+        if self._rolling_stored:
+            store_rolling_kernel(n, self.contacts.contact_normal, self.tangent1, self.tangent2, self.rolling_impulse,
+                                 b["old_rolling_impulse"])
         self.old_key = keys[:n]  # a view: prepare_contacts reads it before the next store writes
         self.old_count = n
