@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Mapping
+
 
 class TumbleError(Exception):
     """Base class of every error tumble raises on purpose."""
@@ -47,3 +49,19 @@ def _printable(text: str) -> str:
 
 class SimulationError(TumbleError, RuntimeError):
     """The state of a run went bad (non-finite numbers, a quaternion off unit length)."""
+
+
+def coerce_record(cls, value, keys, key: str, default=None):
+    """``value`` as a record of dataclass ``cls`` (Material, CollisionFilter): None (``default``,
+    else ``cls()``), a ``cls``, or a mapping whose keys are among ``keys``; else an InputError
+    keyed ``key``."""
+    if value is None:
+        return cls() if default is None else default
+    if isinstance(value, cls):
+        return value
+    if isinstance(value, Mapping):
+        unknown = set(value) - set(keys)
+        if unknown:
+            raise InputError(f"unknown key {sorted(unknown)[0]!r} (expected {', '.join(keys)})", key)
+        return cls(**value)
+    raise InputError(f"expected a {cls.__name__} or a mapping, got {value!r}", key)

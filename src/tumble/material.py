@@ -6,9 +6,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Mapping
 
-from .errors import InputError
+from .errors import InputError, coerce_record
 
 
 MATERIAL_KEYS = ("friction", "restitution", "rolling_resistance", "spinning_friction")
@@ -62,14 +61,5 @@ class Material:
 
     @classmethod
     def coerce(cls, value) -> "Material":
-        if value is None:
-            return cls()
-        if isinstance(value, Material):
-            return value
-        if isinstance(value, Mapping):
-            unknown = set(value) - set(MATERIAL_KEYS)
-            if unknown:
-                raise InputError(f"unknown key {sorted(unknown)[0]!r} (expected {', '.join(MATERIAL_KEYS)})",
-                                 "material")
-            return cls(**value)
-        raise InputError(f"expected a Material or a mapping, got {value!r}", "material")
+        """None (the default material), a ``Material``, or a mapping with its keys."""
+        return coerce_record(cls, value, MATERIAL_KEYS, "material")

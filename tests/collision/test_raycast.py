@@ -312,6 +312,18 @@ def test_bad_arguments_raise_one_line_naming_the_argument(kwargs, key):
     assert str(err.value).startswith(f"{key}: ")
 
 
+def _sphere_distances(origin, d, centre, radius, max_distance):
+    """(R, S) distance along each unit ray to each sphere by the closed form, in NumPy (inf: no
+    hit; the rule of the casts: a sphere holding the origin is not hit)."""
+    oc = origin[:, None, :] - centre[None, :, :]
+    b = np.einsum("rsk,rk->rs", oc, d)
+    c = np.einsum("rsk,rsk->rs", oc, oc) - radius[None, :] ** 2
+    disc = b * b - c
+    with np.errstate(invalid="ignore"):
+        t = -b - np.sqrt(disc)
+    return np.where((c >= 0) & (b <= 0) & (disc >= 0) & (t <= max_distance), t, np.inf)
+
+
 def test_many_spheres_through_the_tree_equal_a_loop_over_all_of_them():
     """400 spheres scattered in a 10 m cube (a tree of ~7 levels) and 1000 random rays: each ray's
     nearest sphere and distance equal those of the closed form evaluated for every sphere in
@@ -326,13 +338,7 @@ def test_many_spheres_through_the_tree_equal_a_loop_over_all_of_them():
     d = rng.normal(size=(1000, 3))
     d /= np.linalg.norm(d, axis=1)[:, None]
     h = w.ray_cast(origin, d, max_distance=8.0)
-    oc = origin[:, None, :] - centre[None, :, :]
-    b = np.einsum("rsk,rk->rs", oc, d)
-    c = np.einsum("rsk,rsk->rs", oc, oc) - radius[None, :] ** 2
-    disc = b * b - c
-    with np.errstate(invalid="ignore"):
-        t = -b - np.sqrt(disc)
-    t = np.where((c >= 0) & (b <= 0) & (disc >= 0) & (t <= 8.0), t, np.inf)
+    t = _sphere_distances(origin, d, centre, radius, 8.0)
     nearest = np.where(np.isfinite(t.min(axis=1)), t.argmin(axis=1), -1)
     assert (nearest >= 0).sum() > 150
     assert np.array_equal(h.body, nearest)
@@ -355,13 +361,7 @@ def test_a_mask_sees_only_the_categories_it_names():
     origin = rng.uniform(-6, 6, size=(2000, 3))
     d = rng.normal(size=(2000, 3))
     d /= np.linalg.norm(d, axis=1)[:, None]
-    oc = origin[:, None, :] - centre[None, :, :]
-    b = np.einsum("rsk,rk->rs", oc, d)
-    c = np.einsum("rsk,rsk->rs", oc, oc) - radius[None, :] ** 2
-    disc = b * b - c
-    with np.errstate(invalid="ignore"):
-        t = -b - np.sqrt(disc)
-    t = np.where((c >= 0) & (b <= 0) & (disc >= 0) & (t <= 8.0), t, np.inf)
+    t = _sphere_distances(origin, d, centre, radius, 8.0)
     for mask in (1, 2 | 4, 0):
         tm = np.where((category & mask)[None, :] != 0, t, np.inf)
         nearest = np.where(np.isfinite(tm.min(axis=1)), tm.argmin(axis=1), -1)

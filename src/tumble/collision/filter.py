@@ -32,12 +32,11 @@ before filters existed: golden hashes).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 from numba import njit
 
-from ..errors import InputError
+from ..errors import InputError, coerce_record
 from ..math3d import JIT
 
 ALL_CATEGORIES = 0xFFFFFFFF  # the 32 category bits
@@ -80,17 +79,7 @@ class CollisionFilter:
     def coerce(cls, value) -> "CollisionFilter":
         """``value`` as a filter: None (the default), a ``CollisionFilter``, or a mapping with
         the keys category, mask, group."""
-        if value is None:
-            return DEFAULT_FILTER
-        if isinstance(value, CollisionFilter):
-            return value
-        if isinstance(value, Mapping):
-            unknown = set(value) - set(FILTER_KEYS)
-            if unknown:
-                raise InputError(f"unknown key {sorted(unknown)[0]!r} (expected category, mask, group)",
-                                 "collision_filter")
-            return cls(**value)
-        raise InputError(f"expected a CollisionFilter or a mapping, got {value!r}", "collision_filter")
+        return coerce_record(cls, value, FILTER_KEYS, "collision_filter", DEFAULT_FILTER)
 
     def collides_with(self, other: "CollisionFilter") -> bool:
         """Box2D's rule (module docstring): whether two bodies with these filters collide."""
