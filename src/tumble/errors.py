@@ -32,9 +32,10 @@ class InputError(TumbleError, ValueError):
         return ": ".join(_printable(str(p)) for p in parts + [self.problem])
 
     def within(self, key_prefix: str | None = None, file: str | None = None) -> "InputError":
-        """The same error, seen from an outer key (``bodies[2]``) or a file."""
+        """The same error, seen from an outer key (``bodies[2]``) or a file. An error already
+        keyed by that outer key (a record's own ``coerce``: ``material``) keeps its key."""
         key = self.key
-        if key_prefix:
+        if key_prefix and key != key_prefix:
             key = f"{key_prefix}.{key}" if key and not key.startswith("[") else f"{key_prefix}{key or ''}"
         return type(self)(self.problem, key, file or self.file)
 

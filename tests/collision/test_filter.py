@@ -68,6 +68,11 @@ def test_filter_values_are_checked():
     w = tb.World()
     with pytest.raises(InputError, match="collision_filter.group: expected an integer, got 'a'"):
         w.add_body(tb.Sphere(1), mass=1, collision_filter={"group": "a"})
+    # a record's own errors keep their key once (not "material.material")
+    with pytest.raises(InputError, match="^collision_filter: unknown key 'layer'"):
+        w.add_body(tb.Sphere(1), mass=1, collision_filter={"layer": 1})
+    with pytest.raises(InputError, match="^material: expected a Material or a mapping, got 3"):
+        w.add_body(tb.Sphere(1), mass=1, material=3)
     a = w.add_body(tb.Sphere(1), mass=1)
     with pytest.raises(InputError, match="cannot be excluded from itself"):
         w.exclude_collision(a, a)
