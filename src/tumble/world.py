@@ -295,6 +295,14 @@ class World:
 
         return ray_cast(self, origin, direction, max_distance, exclude, mask=mask)
 
+    def overlap_aabb(self, lower, upper, mask=0xFFFFFFFF) -> np.ndarray:
+        """Sorted (K,) int64 indices of the bodies whose shapes' bounding boxes overlap the box
+        ``lower`` .. ``upper`` ((3,) m, world) at their current poses: ``collision.query``
+        (Box2D's OverlapAABB, PyBullet's getOverlappingObjects; ``mask`` as in ``ray_cast``)."""
+        from .collision.query import overlap_aabb
+
+        return overlap_aabb(self, lower, upper, mask)
+
     def exclude_collision(self, body_a, body_b):
         """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,
         whatever their filters (MuJoCo's ``<exclude>``, PyBullet's ``setCollisionFilterPair``)."""
