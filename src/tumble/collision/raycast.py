@@ -370,10 +370,17 @@ class _RayScene:
 
 
 def _seen(world, mask) -> np.ndarray:
-    """(N,) bool: the bodies whose collision category meets the query's ``mask``."""
+    """(N,) bool: the bodies whose collision category meets the query's ``mask``. The categories
+    are read from the filters once per change (``World.filter_version``): a list comprehension
+    per call cost ~0.1 ms at 1000 bodies, more than a single ray's cast."""
     mask = CollisionFilter(mask=mask).mask  # the same checks and messages as a filter's mask
-    filters = getattr(world, "collision_filters", None) or [DEFAULT_FILTER] * world.body_count
-    return np.array([(f.category & mask) != 0 for f in filters[: world.body_count]], dtype=np.bool_)
+    key = (world.body_count, getattr(world, "filter_version", 0))
+    cached = getattr(world, "_query_categories", None)
+    if cached is None or cached[0] != key:
+        filters = getattr(world, "collision_filters", None) or [DEFAULT_FILTER] * world.body_count
+        cached = world._query_categories = (key, np.array([f.category for f in filters[: world.body_count]],
+                                                           dtype=np.int64))
+    return (cached[1] & mask) != 0
 
 
 def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=None,
