@@ -372,6 +372,17 @@ def test_a_mask_sees_only_the_categories_it_names():
         assert (hit.sum() > 50) if mask else not hit.any()
 
 
+def test_a_changed_filter_is_seen_by_the_next_cast():
+    """The categories are kept between casts (read once per change of the filters)."""
+    w = tb.World()
+    near = w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(2, 0, 0))
+    w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(5, 0, 0), collision_filter={"category": 2})
+    assert w.ray_cast((0, 0, 0), (1, 0, 0), mask=2).body[0] == 1
+    near.collision_filter = {"category": 2}
+    assert w.ray_cast((0, 0, 0), (1, 0, 0), mask=2).body[0] == 0
+    assert w.overlap_aabb((1, -1, -1), (3, 1, 1), mask=1).tolist() == []
+
+
 def test_a_body_added_after_a_cast_is_seen_by_the_next():
     """The shape table is kept between casts (it is built in Python); adding a body rebuilds it."""
     w = tb.World()
