@@ -27,6 +27,7 @@ from .errors import InputError, SimulationError
 from .forces import Impulse
 from .recording import RunResult, _first_frame_notice, _progress_bar, _Recorder
 from .solver.contact import SoftStepSettings
+from .solver.contact_events import ContactEventLog
 from .solver.island import SleepState
 from .solver.soft_step import SoftStep
 from .trajectory import Trajectory
@@ -64,7 +65,8 @@ class Simulator:
 
     def __init__(self, world: World, dt: float = 1.0 / 240.0, integrator: str = "rk4", substeps: int = 1, rtol: float = 1e-10, atol: float = 1e-12,
                  max_energy_growth: float = checks.MAX_ENERGY_GROWTH, contact_settings: SoftStepSettings | None = None,
-                 record_contacts: bool = False, joint_settings=None, record_joints: bool = False):
+                 record_contacts: bool = False, joint_settings=None, record_joints: bool = False,
+                 contact_events: bool = False):
         if integrator not in K.INTEGRATOR_IDS:
             names = ", ".join(K.INTEGRATOR_IDS)
             raise InputError(f"unknown integrator {integrator!r} (expected one of {names})", "simulation.integrator")
@@ -107,6 +109,8 @@ class Simulator:
         self.record_contacts = bool(record_contacts)
         self.joint_settings = joint_settings  # tumble.solver.joints.JointSettings, or None for its defaults
         self.record_joints = bool(record_joints)
+        # begin and end touch events, step by step, when asked for (solver.contact_events)
+        self._event_log = ContactEventLog() if contact_events else None
 
     # ------------------------------------------------------------------ stepping
     def step(self, count: int = 1):
@@ -207,6 +211,9 @@ class Simulator:
                     # PERF: one step at a time here, so the parallel kernel's thread start-up would cost more than it saves
                     Y = self._advance_free(Y, 1, scratch, check, parallel=False)
                 moving[:] = all_moving
+                if self._event_log is not None:
+                    stepped = all_moving & sleep.awake if sleep is not None else all_moving
+                    self._event_log.after_step(soft, stepped, (self.step_index + 1) * self.dt)
         finally:
             moving[:] = all_moving
             table.body_moving[:] = all_moving
@@ -239,6 +246,13 @@ class Simulator:
         r = self.joint_readings()
         return {"joint_position": r["position"], "joint_rate": r["rate"], "joint_force": r["force"],
                 "joint_torque": r["torque"], "joint_enabled": np.asarray(r["enabled"], dtype=float)}
+
+    def contact_events(self):
+        """The contact begin and end events since the last call (``solver.contact_events.
+        ContactEvents``; needs ``Simulator(..., contact_events=True)``)."""
+        if self._event_log is None:
+            raise InputError("contact events are off: make the Simulator with contact_events=True", "contact_events")
+        return self._event_log.drain()
 
     def contacts(self):
         """The contacts of the last step (``tumble.solver.soft_step.Contacts``: bodies, points,
