@@ -191,6 +191,9 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "joints": [_joint_to_dict(w, j) for j in getattr(w, "joints", ())],
         "applied_impulses": sorted(int(k) for k in w.applied_impulses),
         "settings": sim.settings(),
+        # the pairs touching after the last step, when contact events are on: the resumed run's
+        # first step then begins only new touches, as the whole run's would
+        "contact_touching": sim._event_log.pairs() if sim._event_log is not None else None,
         "stats": {k: v for k, v in sim.stats.items()},
         "energy_reference": sim.energy_reference,
         "collisions": bool(getattr(w, "collisions", True)),
@@ -365,7 +368,10 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
               contact_settings=SoftStepSettings(**s["contact"]) if "contact" in s else None,
               record_contacts=bool(s.get("record_contacts", False)),
               joint_settings=None if s.get("joint_solver") is None else JointSettings(**s["joint_solver"]),
-              record_joints=bool(s.get("record_joints", False)))
+              record_joints=bool(s.get("record_joints", False)),
+              contact_events=bool(s.get("contact_events", False)))
+    if sim._event_log is not None and meta.get("contact_touching"):
+        sim._event_log.set_pairs(meta["contact_touching"], w.body_count)
     sim.step_index = int(meta["step_index"])
     if not math.isclose(sim.step_index * sim.dt, w.t, rel_tol=1e-12, abs_tol=1e-12):
         raise InputError(f"step index {sim.step_index} does not match t = {w.t}")

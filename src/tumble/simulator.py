@@ -629,4 +629,5 @@ class Simulator:
                 "max_energy_growth": self.max_energy_growth,
                 "contact": dataclasses.asdict(self.contact_settings or SoftStepSettings()),
                 "record_contacts": self.record_contacts, "record_joints": self.record_joints,
+                "contact_events": self._event_log is not None,
                 "joint_solver": None if self.joint_settings is None else dataclasses.asdict(self.joint_settings)}

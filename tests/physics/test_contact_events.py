@@ -85,3 +85,29 @@ def test_events_are_off_unless_asked_for():
     sim.run(1.0)
     with pytest.raises(tb.InputError, match="contact_events: contact events are off"):
         sim.contact_events()
+
+
+def test_a_resumed_run_reports_the_events_of_the_whole_run(tmp_path):
+    """The touching pairs are checkpointed: resumed while the ball rests between bounces or
+    sits on the ground, the continuation reports exactly the events of the uninterrupted run."""
+    def scene():
+        w = _bouncing_ball(e=0.5)
+        w.sleeping = False  # the resting ball stays in the step (asleep, its pair would keep its state anyway)
+        return w
+    whole = tb.Simulator(scene(), dt=DT, contact_events=True)
+    whole.run(3.0)
+    want = whole.contact_events()
+    first = tb.Simulator(scene(), dt=DT, contact_events=True)
+    first.run(2.5)  # the bounces have died out (at about 1.9 s): the ball sits on the ground
+    got_first = first.contact_events()
+    assert first._event_log.pairs() == [[0, 1]]
+    first.save_checkpoint(tmp_path / "c.npz")
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    resumed.run(0.5)
+    got = resumed.contact_events()
+    begins = np.concatenate([got_first.begin_time, got.begin_time])
+    ends = np.concatenate([got_first.end_time, got.end_time])
+    assert np.array_equal(begins, want.begin_time) and np.array_equal(ends, want.end_time)
+    assert np.array_equal(np.concatenate([got_first.begin_approach_speed, got.begin_approach_speed]),
+                          want.begin_approach_speed)
+    assert len(got.begin_time) == 0  # without the saved pairs its first step would begin the touch again

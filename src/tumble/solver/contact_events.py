@@ -96,6 +96,18 @@ class ContactEventLog:
             self._end.append((key // N, key % N, t_end))
         self.touching = now
 
+    def pairs(self) -> list[list[int]]:
+        """The touching pairs [a, b] (a < b) after the last step (for checkpoints)."""
+        if not len(self.touching):
+            return []
+        lo, hi = np.divmod(self.touching, self.body_count)
+        return [[int(a), int(b)] for a, b in zip(lo, hi)]
+
+    def set_pairs(self, pairs, body_count: int):
+        """Inverse of ``pairs``: a resumed run begins no touch that was already on."""
+        self.body_count = int(body_count)
+        self.touching = np.unique(np.array([a * body_count + b for a, b in pairs], dtype=np.int64))
+
     def drain(self) -> ContactEvents:
         """The events since the last call, and forget them."""
         b, e = self._begin, self._end
