@@ -8,11 +8,13 @@ of the step times (ms a step, over ``--steps`` steps after ``--warm`` warm-up st
   default filters (the narrowphase skips the test) and with every body given a filter that
   allows every pair (category 1, mask 0xFFFF: the test runs on every candidate, the contacts
   and the bits are the same);
+- ``events``: the same pyramid with contact events off and on (the touching pairs of 59 800
+  contacts sorted every step);
 - ``rolling``: 1000 balls (radius 5 cm) dropped on a 10 x 10 x 10 grid onto the ground, 1/240 s
   with the default 4 substeps, with rolling resistance 0 and 0.05 (and spinning friction
   0.001 m): every ball contact gets three rows.
 
-Usage: ``python benchmarks/contact_features.py [--case filters|rolling|all] [--rounds 3]``;
+Usage: ``python benchmarks/contact_features.py [--case filters|events|rolling|all] [--rounds 3]``;
 prints one markdown table (the figures in docs/benchmarks.md).
 """
 
@@ -35,7 +37,7 @@ def _git():
         return "?"
 
 
-def _pyramid(filtered: bool):
+def _pyramid(filtered: bool, events: bool = False):
     import tumble as tb
     from tumble.scenes import contact as C
     from tumble.solver.contact import SoftStepSettings
@@ -45,7 +47,7 @@ def _pyramid(filtered: bool):
         for body in world.bodies:
             body.collision_filter = tb.CollisionFilter(category=1, mask=0xFFFF)
     return tb.Simulator(world, dt=settings["dt"], integrator="semi-implicit-euler",
-                        contact_settings=SoftStepSettings(substeps=4))
+                        contact_settings=SoftStepSettings(substeps=4), contact_events=events)
 
 
 def _balls(rolling: bool):
@@ -67,6 +69,8 @@ def _balls(rolling: bool):
 
 CASES = {"filters": (_pyramid, "large_pyramid, 5050 cubes, 1/60 s x 4, 1 thread", "default filters",
                      "a filter on every body"),
+         "events": (lambda on: _pyramid(False, events=on), "large_pyramid, 5050 cubes, 1/60 s x 4, 1 thread",
+                    "contact events off", "contact events on"),
          "rolling": (_balls, "1000 balls dropped on the ground, 1/240 s x 4, 1 thread", "rolling resistance 0",
                      "rolling resistance 0.05, spinning friction 0.001 m")}
 
