@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import tumble as tb
 from tumble.cli import main as cli_main
 from tumble.math3d import quat_to_matrix
 from tumble.scene import load_scene
@@ -181,6 +182,36 @@ def test_dice_come_to_rest_on_a_face():
     assert speeds(traj)[dice].max() < 0.01
     # they were thrown: each bounced or tumbled on the way (turned by more than 45 degrees)
     assert np.all(tilt_deg(traj.orientation[:, dice]).max(axis=0) > 45.0)
+
+
+# ---------------------------------------------------------------------- sieve
+
+def test_sieve_sorts_by_collision_filter():
+    """examples/sieve.toml, 4 s with contacts recorded. Checks: every box ends on the ground
+    (its centre at its half size, 0.15 m, within 2 mm: it fell through the shelf and the balls),
+    every ball but the ghost on the shelf (top at 1.05 m + radius 0.12), the ghost on the ground
+    (excluded from the shelf alone); all at rest; and no frame holds a contact between a box and
+    a ball, a box and the shelf, or the ghost and the shelf. Measured: exactly those heights to
+    0.1 mm; contacts only ground-box, box-box, ball-shelf, ball-ghost, ground-ghost."""
+    scene = load_scene(EXAMPLES / "sieve.toml")
+    sim = tb.Simulator(scene.world, dt=scene.dt, integrator=scene.integrator, record_contacts=True)
+    traj = sim.run(scene.duration, frame_rate=scene.frame_rate)
+    w = scene.world
+    names = np.array(w.names)
+    boxes = indices(traj, "box")
+    balls = indices(traj, "ball")
+    ghost = w.index_of("ghost")
+    assert len(boxes) == 6 and len(balls) == 5
+    np.testing.assert_allclose(w.x[boxes, 2], 0.15, atol=2e-3)
+    np.testing.assert_allclose(w.x[balls, 2], 1.05 + 0.12, atol=2e-3)
+    assert abs(w.x[ghost, 2] - 0.12) < 2e-3
+    assert speeds(traj)[boxes + balls + [ghost]].max() < 0.01
+    a, b = traj.contact_body_a, traj.contact_body_b
+    touched = a >= 0
+    kinds = {tuple(sorted((names[i].rstrip("0123456789"), names[j].rstrip("0123456789"))))
+             for i, j in zip(a[touched], b[touched])}
+    assert {("box", "ground"), ("ball", "shelf"), ("ghost", "ground")} <= kinds
+    assert not kinds & {("ball", "box"), ("box", "shelf"), ("ghost", "shelf"), ("box", "ghost")}
 
 
 # ---------------------------------------------------------------------- marbles
