@@ -4,8 +4,9 @@ A checkpoint is an .npz (loaded with ``allow_pickle=False``) holding:
 
 * ``meta``: JSON text: format and version, the time and step index, the world's
   layout and gravity, per body its name, shape (``shapes.shape_to_dict``),
-  material and collision filter, the excluded collision pairs, the force records (bodies by name; ``CustomForce`` as a placeholder),
-  the joint records (``_joint_to_dict``: fields, bodies by name, ``broken``, and the
+  material and collision filter, the excluded collision pairs, the force records
+  (bodies by name; ``CustomForce`` as a placeholder), the touching pairs of the
+  contact events when they are on, the joint records (``_joint_to_dict``: fields, bodies by name, ``broken``, and the
   anchors, axes and parameters they were bound to at creation), the impulses
   already applied, the simulator's settings (joint settings and ``record_joints``
   included), statistics and energy reference, and the caller's ``run`` data
@@ -25,7 +26,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import fields
+from dataclasses import asdict, fields
 from pathlib import Path
 
 import numpy as np
@@ -184,8 +185,7 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "names": list(w.names),
         "shapes": [shape_to_dict(s) for s in w.shapes],
         "materials": [m.to_dict() for m in w.materials],
-        "collision_filters": [{"category": f.category, "mask": f.mask, "group": f.group}
-                              for f in w.collision_filters],
+        "collision_filters": [asdict(f) for f in w.collision_filters],
         "collision_exclusions": sorted([int(a), int(b)] for a, b in w.excluded_collisions),
         "forces": [_force_to_dict(w, f) for f in w.forces],
         "joints": [_joint_to_dict(w, j) for j in getattr(w, "joints", ())],

@@ -28,7 +28,7 @@ import numpy as np
 
 from . import integrators as K
 from .errors import InputError
-from .collision.filter import CollisionFilter
+from .collision.filter import ALL_CATEGORIES, CollisionFilter
 from .forces import (
     ConstantForce,
     CustomForce,
@@ -286,7 +286,7 @@ class World:
             return int(body)
         raise InputError(f"unknown body {body!r}", "body")
 
-    def ray_cast(self, origin, direction, max_distance=math.inf, exclude=None, mask=0xFFFFFFFF):
+    def ray_cast(self, origin, direction, max_distance=math.inf, exclude=None, mask=ALL_CATEGORIES):
         """The first shape along each ray at the bodies' current poses: ``collision.raycast.ray_cast``
         (origin, direction (3,) or (R, 3), world; returns a ``RayHits`` of body, distance m, point,
         normal per ray; a solid shape that holds the origin is not hit; only bodies whose
@@ -295,7 +295,7 @@ class World:
 
         return ray_cast(self, origin, direction, max_distance, exclude, mask=mask)
 
-    def overlap_aabb(self, lower, upper, mask=0xFFFFFFFF) -> np.ndarray:
+    def overlap_aabb(self, lower, upper, mask=ALL_CATEGORIES) -> np.ndarray:
         """Sorted (K,) int64 indices of the bodies whose shapes' bounding boxes overlap the box
         ``lower`` .. ``upper`` ((3,) m, world) at their current poses: ``collision.query``
         (Box2D's OverlapAABB, PyBullet's getOverlappingObjects; ``mask`` as in ``ray_cast``)."""

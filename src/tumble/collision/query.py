@@ -33,27 +33,25 @@ def overlap_aabb(world, lower, upper, mask=ALL_CATEGORIES) -> np.ndarray:
     """Sorted (K,) int64 indices of the bodies with a shape whose bounding box overlaps the box
     ``lower`` .. ``upper`` ((3,) m, world; touching counts), among those whose collision
     category meets ``mask`` (module docstring)."""
-    from .raycast import _RayScene, _seen
+    from .raycast import _seen, kept_scene
 
     lo = _corner("lower", lower)
     hi = _corner("upper", upper)
     if np.any(lo > hi):
         raise InputError(f"must be >= lower on every axis, got {hi.tolist()} below {lo.tolist()}", "upper")
     seen = _seen(world, mask)
-    scene = getattr(world, "_ray_scene", None)  # the shape table the ray casts keep
-    if scene is None or scene.body_count != world.body_count:
-        scene = world._ray_scene = _RayScene(world)
-    table = scene.table
+    table = kept_scene(world).table  # the shape table the ray casts keep
+
     if table.shape_count == 0:
         return np.zeros(0, dtype=np.int64)
     pos, rot, aabb = update_bounds(np.asarray(world.x), np.asarray(world.R), table, 0.0)
     hit = np.all(aabb[:, 0] <= hi, axis=1) & np.all(aabb[:, 1] >= lo, axis=1)
+    centre, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     for s in np.flatnonzero(table.shape_type == SHAPE_PLANE):
         # n . p <= d below the plane (collision.narrowphase: the same normal and offset)
         p = table.shape_params[s]
         n = rot[s] @ p[:3]
         d = p[3] + n @ pos[s]
-        centre = 0.5 * (lo + hi)
-        hit[s] = n @ centre - np.abs(n) @ (0.5 * (hi - lo)) <= d
+        hit[s] = n @ centre - np.abs(n) @ half <= d
     bodies = table.shape_body[hit]
     return np.unique(bodies[seen[bodies]]).astype(np.int64)

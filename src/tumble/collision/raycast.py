@@ -34,7 +34,7 @@ from ..errors import InputError
 from ..math3d import JIT, argsort_stable
 from ..shapes import SHAPE_PLANE
 from .bounds import update_bounds
-from .filter import ALL_CATEGORIES, DEFAULT_FILTER, CollisionFilter
+from .filter import ALL_CATEGORIES, CollisionFilter
 from .ray_shapes import _ray_shape, _slab
 from .geometry import build_shape_table
 
@@ -369,17 +369,25 @@ class _RayScene:
         return self._tree
 
 
+def kept_scene(world) -> _RayScene:
+    """The ``_RayScene`` kept on ``world`` between queries (ray casts, area queries), made anew
+    when bodies were added."""
+    scene = getattr(world, "_ray_scene", None)
+    if scene is None or scene.body_count != world.body_count:
+        scene = world._ray_scene = _RayScene(world)
+    return scene
+
+
 def _seen(world, mask) -> np.ndarray:
     """(N,) bool: the bodies whose collision category meets the query's ``mask``. The categories
     are read from the filters once per change (``World.filter_version``): a list comprehension
     per call cost ~0.1 ms at 1000 bodies, more than a single ray's cast."""
     mask = CollisionFilter(mask=mask).mask  # the same checks and messages as a filter's mask
-    key = (world.body_count, getattr(world, "filter_version", 0))
+    key = (world.body_count, world.filter_version)
     cached = getattr(world, "_query_categories", None)
     if cached is None or cached[0] != key:
-        filters = getattr(world, "collision_filters", None) or [DEFAULT_FILTER] * world.body_count
-        cached = world._query_categories = (key, np.array([f.category for f in filters[: world.body_count]],
-                                                           dtype=np.int64))
+        categories = [f.category for f in world.collision_filters[: world.body_count]]
+        cached = world._query_categories = (key, np.array(categories, dtype=np.int64))
     return (cached[1] & mask) != 0
 
 
@@ -435,9 +443,7 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
             raise InputError(f"must be one body or one index per ray ({R}), got shape {skip.shape}", "exclude")
     seen = _seen(world, mask)
     if table is None:
-        scene = getattr(world, "_ray_scene", None)
-        if scene is None or scene.body_count != world.body_count:
-            scene = world._ray_scene = _RayScene(world)
+        scene = kept_scene(world)
     else:
         scene = _RayScene(world, table)
     pos, rot, planes, items, tree = scene.tree(world)
