@@ -249,7 +249,7 @@ def test_parse_scene_from_a_dict(tmp_path):
 BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 1\n'
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
 SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound"
-BODY_KEYS = ("name, shape, mass, density, inertia, fixed, position, orientation, euler_deg, velocity, "
+BODY_KEYS = ("name, shape, mass, density, inertia, fixed, kinematic, position, orientation, euler_deg, velocity, "
              "angular_velocity, angular_velocity_frame, material, collision_filter")
 
 
@@ -280,6 +280,10 @@ BAD_SCENES = [
     ("bool-for-number", body(mass="true"), "bodies[0].mass", "expected a number, got true (a boolean)"),
     ("bool-in-list", body(velocity="[1, true, 0]"), "bodies[0].velocity[1]", "expected a number, got true (a boolean)"),
     ("number-for-bool", body(fixed="1"), "bodies[0].fixed", "expected true or false, got 1 (a number)"),
+    ("kinematic-string", body(kinematic='"yes"'), "bodies[0].kinematic", "expected true or false, got 'yes' (a string)"),
+    ("kinematic-and-fixed", body(fixed="true", kinematic="true"), "bodies[0].kinematic", "a body is fixed or kinematic, not both"),
+    ("kinematic-plane", body(shape='{ type = "plane" }', mass=None, kinematic="true"), "bodies[0].kinematic",
+     re.escape("a plane can only be a fixed body (set fixed = true)")),
     ("string-for-shape", body(shape='"sphere"'), "bodies[0].shape", "expected a table with a 'type' key, got 'sphere' (a string)"),
     ("bodies-not-array", '[bodies]\nname = "a"\n', "bodies", "expected a list of tables ([[bodies]]), got a table"),
     ("substeps-fraction", "[simulation]\nsubsteps = 1.5\n" + BODY, "simulation.substeps", "expected a whole number, got 1.5 (a number)"),

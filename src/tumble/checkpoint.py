@@ -45,6 +45,9 @@ FORMAT = "tumble-checkpoint"
 VERSION = 1
 CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q", "principal_moments", "com_offset", "moving")
 STATE = ("x", "q", "R", "P", "L")
+# kinematic bodies (World.kinematic, their velocities): absent from checkpoints written before
+# they existed, which load with none
+KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega")
 FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, CustomForce)}
 BODY_FIELDS = ("body", "body_a", "body_b")
 
@@ -200,7 +203,7 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "sleeping": bool(getattr(w, "sleeping", True)),
         "run": run,
     }
-    arrays = {name: np.ascontiguousarray(getattr(w, name)) for name in CONSTANTS + STATE}
+    arrays = {name: np.ascontiguousarray(getattr(w, name)) for name in CONSTANTS + STATE + KINEMATIC}
     # the contact solver's warm-start impulses: without them a resumed run differs in the last bits
     if sim.soft_step is not None:
         for name, arr in sim.soft_step.solver.warm_start_state().items():
@@ -238,7 +241,10 @@ def load_checkpoint(cls, path, custom_forces=None):
         # our own handle: np.load leaks its own when the zip is damaged
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
-            arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE}
+            arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE + KINEMATIC if name in data.files}
+            missing = [name for name in CONSTANTS + STATE if name not in arrays]
+            if missing:
+                raise KeyError(f"{missing[0]} is not a file in the archive")
             warm = {name[len("contact_"):]: np.array(data[name]) for name in WARM_START + WARM_START_OPTIONAL
                     if name in data.files}
             sleep = {name[len("sleep_"):]: np.array(data[name]) for name in data.files if name.startswith("sleep_")}
@@ -319,13 +325,14 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
     names = meta["names"]
     n = len(names)
     for name, arr in arrays.items():
-        expected = {"moving": (n,), "mass": (n,), "inv_mass": (n,)}.get(name)
+        expected = {"moving": (n,), "kinematic": (n,), "mass": (n,), "inv_mass": (n,)}.get(name)
         if arr.shape[:1] != (n,) or (expected is not None and arr.shape != expected):
             raise InputError(f"array {name!r} has shape {arr.shape}, expected {n} rows")
         if arr.dtype.kind not in "fb":
             raise InputError(f"array {name!r} has dtype {arr.dtype}, expected numbers")
     w = World(gravity=meta["gravity"], layout=meta["layout"])
     moving = arrays["moving"].astype(bool)
+    kinematic = arrays["kinematic"].astype(bool) if "kinematic" in arrays else np.zeros(n, dtype=bool)
     # checkpoints written before collision filters existed have none: every body the default
     filters = meta.get("collision_filters") or [None] * n
     for i, name in enumerate(names):
@@ -333,12 +340,14 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
         kw = {}
         if moving[i] and type(shape).__name__ != "Particles":
             kw["mass"] = float(arrays["mass"][i])
-        w.add_body(shape, name=name, fixed=not moving[i], material=Material(**meta["materials"][i]),
+        w.add_body(shape, name=name, fixed=not (moving[i] or kinematic[i]), kinematic=bool(kinematic[i]),
+                   material=Material(**meta["materials"][i]),
                    collision_filter=filters[i], **kw)
     for a, b in meta.get("collision_exclusions") or ():
         w.exclude_collision(int(a), int(b))
-    for name in CONSTANTS + STATE:
-        getattr(w, name)[:] = arrays[name]
+    for name in CONSTANTS + STATE + KINEMATIC:
+        if name in arrays:
+            getattr(w, name)[:] = arrays[name]
     customs = list(custom_forces or [])
     wanted = sum(1 for f in meta["forces"] if f["type"] == "CustomForce")
     if len(customs) != wanted:

@@ -35,7 +35,7 @@ from .material import MATERIAL_KEYS, Material
 from .world import World
 
 BODY_KEYS = (
-    "name", "shape", "mass", "density", "inertia", "fixed", "position", "orientation", "euler_deg",
+    "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter",
 )
 # collision_filter = {category, mask, group}: which bodies this one touches (collision/filter.py)
@@ -81,6 +81,13 @@ class BodyReader(ValueReader):
         kw: dict[str, Any] = {"name": name}
         fixed = self.boolean(b["fixed"], f"{key}.fixed") if "fixed" in b else False
         kw["fixed"] = fixed
+        kinematic = self.boolean(b["kinematic"], f"{key}.kinematic") if "kinematic" in b else False
+        if kinematic:
+            if fixed:
+                raise self.error("a body is fixed or kinematic, not both", f"{key}.kinematic")
+            if isinstance(shape, Plane):
+                raise self.error("a plane can only be a fixed body (set fixed = true)", f"{key}.kinematic")
+            kw["kinematic"] = True
         if "mass" in b and "density" in b:
             raise self.error("give either mass or density, not both", f"{key}.density")
         if "mass" in b:
@@ -96,7 +103,7 @@ class BodyReader(ValueReader):
         elif isinstance(shape, Particles):
             if "density" in b:
                 raise self.error("particles carry their own masses: give no density (mass rescales them)", f"{key}.density")
-        elif not fixed and "mass" not in b and "density" not in b:
+        elif not (fixed or kinematic) and "mass" not in b and "density" not in b:
             raise self.error("missing key 'mass' (or 'density')", key)
         if "inertia" in b:
             kw["inertia"] = self.inertia(b["inertia"], f"{key}.inertia")

@@ -29,7 +29,7 @@ from .recording import RunResult, _first_frame_notice, _progress_bar, _Recorder
 from .solver.contact import SoftStepSettings
 from .solver.contact_events import ContactEventLog
 from .solver.island import SleepState
-from .solver.soft_step import SoftStep
+from .solver.soft_step import SoftStep, advance_kinematic_kernel
 from .trajectory import Trajectory
 from .world import Scratch, World
 
@@ -137,12 +137,35 @@ class Simulator:
             n = nxt - self.step_index
             if self._contact_on():
                 Y = self._advance_with_contacts(Y, n, scratch, check)
+            elif self.world.kinematic.any():
+                # one step at a time: springs and callables on the dynamic bodies see the
+                # kinematic ones where they are at the start of each step
+                kinematic = self.world.kinematic_moving
+                for k in range(n):
+                    self.step_index = nxt - n + k
+                    Y = self._advance_free(Y, 1, scratch, check, parallel=False)
+                    self._advance_kinematic(Y, kinematic, scratch)
             else:
                 Y = self._advance_free(Y, n, scratch, check)
             self.step_index = nxt
             self.world.t = self.step_index * self.dt
             self.stats["steps"] += n * self.substeps
         return Y
+
+    def _kinematic_substeps(self) -> int:
+        """Substeps of a kinematic body's motion per step: the soft step's (``substeps`` x the
+        contact settings' substeps) whether or not it runs, so its path is one sequence of bits."""
+        settings = self.contact_settings or SoftStepSettings()
+        return self.substeps * int(settings.substeps)
+
+    def _advance_kinematic(self, Y, kinematic, scratch):
+        """One step dt of the ``kinematic`` (N,) bool bodies at their velocities (soft_step.
+        advance_kinematic_kernel): x += h v, the exact turn of omega h, in the soft step's substeps."""
+        if kinematic.any():
+            n = self._kinematic_substeps()
+            w = self.world
+            advance_kinematic_kernel(w.layout_id, Y, kinematic, w.kinematic_v, w.kinematic_omega, self.dt / n, n,
+                                     scratch.R)
 
     def _advance_free(self, Y, n, scratch, check=None, parallel: bool = True):
         """n steps of the chosen integrator for the moving bodies (no contact), from ``step_index``.
@@ -185,6 +208,8 @@ class Simulator:
         all_moving = moving.copy()
         table = soft.pipeline.refresh()
         sleep = self._sleep_state()
+        kinematic = w.kinematic_moving
+        movers = kinematic if kinematic.any() else None
         first = self.step_index
         try:
             for k in range(n):
@@ -197,7 +222,9 @@ class Simulator:
                 active = soft.collide(Y, t, self.dt)
                 if sleep is not None:
                     c = soft.contacts
-                    sleep.update(w, Y, c.contact_body_a, c.contact_body_b, self.dt, moving=all_moving)
+                    touched = None if movers is None else self._touched_by_kinematic(soft, movers, sleep, all_moving)
+                    sleep.update(w, Y, c.contact_body_a, c.contact_body_b, self.dt, moving=all_moving,
+                                 also_awake=touched)
                     if sleep.woke.any() or sleep.fell_asleep.any():
                         moving[:] = all_moving & sleep.awake
                         table.body_moving[:] = moving
@@ -205,8 +232,11 @@ class Simulator:
                 if check is not None:
                     check("collide_pairs", t, Y=Y)
                 if active.any():
-                    soft.step(Y, t, self.dt, self.substeps, check)
+                    # the moving kinematic bodies move in the soft step's substeps, with the bodies they push
+                    soft.step(Y, t, self.dt, self.substeps, check, kinematic=kinematic)
                     moving &= ~active
+                else:
+                    self._advance_kinematic(Y, kinematic, scratch)
                 if moving.any():
                     # PERF: one step at a time here, so the parallel kernel's thread start-up would cost more than it saves
                     Y = self._advance_free(Y, 1, scratch, check, parallel=False)
@@ -219,6 +249,40 @@ class Simulator:
             table.body_moving[:] = all_moving
             self.step_index = first
         return Y
+
+    def _touched_by_kinematic(self, soft, movers, sleep, dynamic) -> np.ndarray:
+        """(N,) bool: the bodies a moving kinematic body (``movers`` (N,) bool) keeps awake this
+        step (``dynamic`` (N,) bool: the dynamic bodies, asleep or not): those in contact with it or jointed to it, and the sleeping bodies whose shapes'
+        bounds (grown by the step's margins) overlap its shapes, whose pairs the broadphase
+        culls (both count as not moving) and whose islands must wake before it reaches them.
+        NOTE: Box2D wakes a sleeping body when a kinematic body's proxy begins to overlap it; the
+        bounds here are the same test, made each step the kinematic body moves."""
+        w = self.world
+        touched = np.zeros(w.body_count, dtype=bool)
+        c = soft.contacts
+        a, b = c.contact_body_a, c.contact_body_b
+        hit = movers[a] | movers[b]
+        touched[a[hit]] = True
+        touched[b[hit]] = True
+        for joint in w.joints:
+            bound = joint.bound
+            if joint.broken or bound is None:
+                continue
+            ja, jb = bound.body_a, bound.body_b
+            if (ja >= 0 and movers[ja]) or (jb >= 0 and movers[jb]):
+                touched[[i for i in (ja, jb) if i >= 0]] = True
+        asleep = dynamic & ~sleep.awake[: w.body_count]
+        if asleep.any():
+            from .collision.broadphase import find_pairs
+
+            pipe = soft.pipeline
+            table = pipe.table
+            pa, pb = find_pairs(pipe.shape_aabb, table.shape_type, table.shape_body, movers)
+            for i, j in zip(table.shape_body[pa].tolist(), table.shape_body[pb].tolist()):
+                other = j if movers[i] else i
+                if asleep[other] and w.should_collide(i, j):
+                    touched[other] = True
+        return touched
 
     def _sleep_state(self):
         """The ``SleepState`` (``self.sleep``) when the world lets bodies sleep, else None."""

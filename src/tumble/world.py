@@ -6,9 +6,15 @@ constants  ``mass`` (N,) kg, ``inv_mass`` (N,) 1/kg (0 for fixed bodies),
            ``inertia_body`` (N, 3, 3) kg m^2 and ``inertia_body_inv`` (N, 3, 3)
            (Ibody, Ibody^-1, body frame), ``principal_q`` (N, 4) principal axes
            to body axes, ``principal_moments`` (N, 3) ascending, ``moving`` (N,)
-           bool, ``com_offset`` (N, 3) m: the shape origin's place in the
+           bool (dynamic: moved by forces and contacts), ``kinematic`` (N,) bool,
+           ``com_offset`` (N, 3) m: the shape origin's place in the
            body frame is ``-com_offset`` (the centre of mass seen from the
            shape origin is ``com_offset``).
+kinematic  ``kinematic_v`` (N, 3) m/s and ``kinematic_omega`` (N, 3) rad/s, world: the
+           velocities a kinematic body moves at (zero for the others). A kinematic body
+           (Box2D's b2_kinematicBody, MuJoCo's mocap body) has infinite mass (``inv_mass``
+           0, P = L = 0): forces, contacts and joints do not move it; it moves at the
+           velocities the user sets, and the bodies it touches feel them.
 state      ``x`` (N, 3) m, ``q`` (N, 4) (w, x, y, z) or ``R`` (N, 3, 3), ``P``
            (N, 3) kg m/s, ``L`` (N, 3) kg m^2/s, all world frame; the layout
            ("quaternion", 13 numbers a body, or the course's "matrix", 18)
@@ -40,7 +46,7 @@ from .forces import (
 )
 from .mass import mass_properties
 from .material import Material
-from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
+from .math3d import matrix_to_quat, quat_from_euler_deg, quat_multiply, quat_to_matrix
 from .shapes import Plane, finite_vector
 
 
@@ -59,6 +65,8 @@ _CONSTANT_ARRAYS = {
 }
 _STATE_ARRAYS = {"x": (3,), "q": (4,), "R": (3, 3), "P": (3,), "L": (3,)}
 _DERIVED_ARRAYS = {"v": (3,), "omega": (3,), "I_inv": (3, 3), "force": (3,), "torque": (3,)}
+_KINEMATIC_ARRAYS = {"kinematic_v": (3,), "kinematic_omega": (3,)}
+_FLAG_ARRAYS = ("moving", "kinematic")
 
 
 class World:
@@ -101,23 +109,30 @@ class World:
     # ------------------------------------------------------------------ storage
     def _allocate(self, capacity: int):
         new = {}
-        for group in (_CONSTANT_ARRAYS, _STATE_ARRAYS, _DERIVED_ARRAYS):
+        for group in (_CONSTANT_ARRAYS, _STATE_ARRAYS, _DERIVED_ARRAYS, _KINEMATIC_ARRAYS):
             for name, shape in group.items():
                 arr = np.zeros((capacity,) + shape)
                 if name in self._arrays:
                     arr[: self.body_count] = self._arrays[name][: self.body_count]
                 new[name] = arr
-        moving = np.zeros(capacity, dtype=bool)
-        if "moving" in self._arrays:
-            moving[: self.body_count] = self._arrays["moving"][: self.body_count]
-        new["moving"] = moving
+        for name in _FLAG_ARRAYS:
+            flag = np.zeros(capacity, dtype=bool)
+            if name in self._arrays:
+                flag[: self.body_count] = self._arrays[name][: self.body_count]
+            new[name] = flag
         self._arrays = new
         self._capacity = capacity
 
     @property
     def fixed(self) -> np.ndarray:
-        """(N,) bool: True for fixed (static) bodies."""
-        return ~self.moving
+        """(N,) bool: True for fixed (static) bodies: neither dynamic nor kinematic."""
+        return ~(self.moving | self.kinematic)
+
+    @property
+    def kinematic_moving(self) -> np.ndarray:
+        """(N,) bool: the kinematic bodies whose velocity is not zero (they move this step)."""
+        k = self.kinematic
+        return k & (np.any(self.kinematic_v != 0.0, axis=1) | np.any(self.kinematic_omega != 0.0, axis=1))
 
     # ------------------------------------------------------------------ building
     def add_body(
@@ -136,6 +151,7 @@ class World:
         material=None,
         collision_filter=None,
         fixed: bool = False,
+        kinematic: bool = False,
         name: str | None = None,
     ) -> "Body":
         """Add one body and return its view.
@@ -160,6 +176,11 @@ class World:
                 one touches, Box2D's rule; collision/filter.py) or a mapping with its keys;
                 default: touches every body with the default filter.
             fixed: a static body: infinite mass, never moves.
+            kinematic: a body of infinite mass that moves at ``velocity`` and
+                ``angular_velocity`` (about its centre of mass; set them between steps
+                with ``Body.v``, ``Body.omega`` or ``Body.set_target``) whatever pushes
+                on it: a moving platform, a conveyor, a paddle. Mass or density are
+                optional (they place the centre of mass), as for a fixed body.
             name: unique; default "body<i>".
         """
         if name is None:
@@ -188,8 +209,12 @@ class World:
         except InputError as err:
             raise err.within("collision_filter") from None
         R = quat_to_matrix(q)
+        if fixed and kinematic:
+            raise InputError("a body is fixed or kinematic, not both", "kinematic")
+        if kinematic and isinstance(shape, Plane):
+            raise InputError("a plane can only be a fixed body (set fixed = true)", "kinematic")
 
-        if fixed:
+        if fixed or kinematic:
             if isinstance(shape, Plane) or (mass is None and density is None):
                 props = None
             else:
@@ -212,8 +237,17 @@ class World:
         a["x"][i] = position + R @ center
         a["q"][i] = q
         a["R"][i] = R
-        a["moving"][i] = not fixed
-        if fixed or props is None:
+        a["moving"][i] = not (fixed or kinematic)
+        a["kinematic"][i] = kinematic
+        a["kinematic_v"][i] = 0.0
+        a["kinematic_omega"][i] = 0.0
+        if kinematic:
+            omega = angular_velocity if angular_velocity_frame == "world" else R @ angular_velocity
+            a["kinematic_v"][i] = velocity
+            a["kinematic_omega"][i] = omega
+            a["v"][i] = velocity
+            a["omega"][i] = omega
+        if fixed or kinematic or props is None:
             a["mass"][i] = math.inf
             a["inv_mass"][i] = 0.0
             a["inertia_body"][i] = np.diag([math.inf] * 3) if props is None else props.inertia
@@ -436,6 +470,15 @@ class World:
             tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param,
             self.q, self.R, self.v, self.omega, self.I_inv, self.force, self.torque,
         )
+        self._kinematic_velocities(self.v, self.omega)
+
+    def _kinematic_velocities(self, v: np.ndarray, omega: np.ndarray):
+        """Write the kinematic bodies' velocities into v, omega (N, 3) (kernels derive v = P / m,
+        which is 0 at infinite mass)."""
+        k = self.kinematic
+        if k.any():
+            v[: self.body_count][k] = self.kinematic_v[k]
+            omega[: self.body_count][k] = self.kinematic_omega[k]
 
     # ------------------------------------------------------------------ diagnostics
     def kinetic_energy(self) -> float:
@@ -496,7 +539,7 @@ def _array_property(name):
     return property(get)
 
 
-for _name in (*_CONSTANT_ARRAYS, *_STATE_ARRAYS, *_DERIVED_ARRAYS, "moving"):
+for _name in (*_CONSTANT_ARRAYS, *_STATE_ARRAYS, *_DERIVED_ARRAYS, *_KINEMATIC_ARRAYS, *_FLAG_ARRAYS):
     setattr(World, _name, _array_property(_name))
 
 
@@ -549,7 +592,8 @@ class Body:
     Reading ``x``, ``q``, ``R``, ``P``, ``L``, ``v``, ``omega``, ``force``,
     ``torque`` gives (3,) / (4,) / (3, 3) views of the current rows. Setting
     ``x``, ``q``, ``R``, ``P``, ``L``, ``v`` (P = m v) or ``omega`` (L = I omega)
-    updates the state and the derived quantities.
+    updates the state and the derived quantities. A kinematic body's ``v`` and
+    ``omega`` set the velocities it moves at (it has no P, L: infinite mass).
     """
 
     __slots__ = ("world", "index")
@@ -583,7 +627,8 @@ class Body:
             raise err.within("collision_filter") from None
         self.world.filter_version += 1
 
-    fixed = property(lambda self: not bool(self.world.moving[self.index]))
+    fixed = property(lambda self: not (self.world.moving[self.index] or self.world.kinematic[self.index]))
+    kinematic = property(lambda self: bool(self.world.kinematic[self.index]))
     mass = property(lambda self: float(self.world.mass[self.index]))
     inertia_body = property(lambda self: self.world.inertia_body[self.index])
     inertia_body_inv = property(lambda self: self.world.inertia_body_inv[self.index])
@@ -593,6 +638,8 @@ class Body:
     torque = property(lambda self: self.world.torque[self.index])
 
     def _set(self, name, value, shape):
+        if name in ("P", "L") and self.kinematic:
+            raise InputError(f"a kinematic body has infinite mass and no momentum: set v or omega instead of {name}", name)
         arr = np.asarray(value, dtype=float)
         if arr.shape != shape or not np.all(np.isfinite(arr)):
             raise InputError(f"expected finite numbers of shape {shape}, got {value!r}", name)
@@ -616,14 +663,54 @@ class Body:
 
     @v.setter
     def v(self, value):
+        if self.kinematic:
+            self.world.kinematic_v[self.index] = finite_vector(value, "v")
+            self.world.update_derived()
+            return
         self.P = self.mass * finite_vector(value, "v")
 
     @property
     def omega(self):
         return self.world.omega[self.index]
 
+    def set_target(self, position, orientation=None, *, euler_deg=None, time: float):
+        """Kinematic body: set v and omega so that it reaches a pose in ``time`` seconds
+        (Box2D's b2Body_SetTargetTransform): ``position`` (3,) m, world, of the shape origin as
+        in ``World.add_body``, ``orientation`` (4,) (w, x, y, z) or ``euler_deg``; default the
+        current orientation. The turn is the shortest rotation, at constant omega."""
+        if not self.kinematic:
+            raise InputError(f"body {self.name!r} is not kinematic: only a kinematic body follows targets", "kinematic")
+        if not (isinstance(time, (int, float)) and math.isfinite(time) and time > 0.0):
+            raise InputError(f"must be a positive number of seconds, got {time!r}", "time")
+        if orientation is not None and euler_deg is not None:
+            raise InputError("give orientation or euler_deg, not both", "orientation")
+        if euler_deg is not None:
+            q1 = quat_from_euler_deg(finite_vector(euler_deg, "euler_deg"))
+        elif orientation is not None:
+            q1 = unit_quaternion(orientation)
+        else:
+            q1 = np.array(self.q, dtype=float)
+        R1 = quat_to_matrix(q1)
+        x1 = finite_vector(position, "position") + R1 @ self.com_offset
+        # omega from the relative turn dq = q1 q0^-1, taken the short way round (w >= 0)
+        q0 = np.array(self.q, dtype=float)
+        dq = quat_multiply(q1, q0 * np.array([1.0, -1.0, -1.0, -1.0]))
+        if dq[0] < 0.0:
+            dq = -dq
+        s = float(np.linalg.norm(dq[1:]))
+        angle = 2.0 * math.atan2(s, float(dq[0]))
+        axis = dq[1:] / s if s > 0.0 else np.zeros(3)
+        w = self.world
+        w.kinematic_v[self.index] = (x1 - self.x) / time
+        w.kinematic_omega[self.index] = axis * (angle / time)
+        w.update_derived()
+
     @omega.setter
     def omega(self, value):
         w = finite_vector(value, "omega")
+        if self.kinematic:
+            self.world.kinematic_omega[self.index] = w
+            self.world.update_derived()
+            return
         R = self.R
         self.L = R @ self.inertia_body @ R.T @ w

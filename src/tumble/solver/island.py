@@ -343,7 +343,7 @@ class SleepState:
 
     # -- the step --------------------------------------------------------------------
     def update(self, world, Y, contact_body_a, contact_body_b, dt: float, extra_pairs=None, keep_awake=None,
-               moving=None) -> np.ndarray:
+               moving=None, also_awake=None) -> np.ndarray:
         """The sleep stage of one step, after ``collide`` and before the bodies move.
 
         Args:
@@ -356,6 +356,8 @@ class SleepState:
             keep_awake: (N,) bool bodies that may not sleep; default ``driven_bodies(world)``.
             moving: (N,) bool, the World's ``moving`` before any masking by the step (sleeping
                 bodies included); default ``world.moving`` (right only when it is not masked).
+            also_awake: (N,) bool bodies kept awake this step on top of ``keep_awake`` (those a
+                moving kinematic body touches or nears: ``Simulator._touched_by_kinematic``).
 
         Returns:
             ``awake`` (N,) bool (the state's own array: copy it to keep it).
@@ -365,6 +367,8 @@ class SleepState:
             pairs, driven = self._world_coupling(world)
             extra_pairs = pairs if extra_pairs is None else extra_pairs
             keep_awake = driven if keep_awake is None else keep_awake
+        if also_awake is not None:
+            keep_awake = np.asarray(keep_awake, dtype=bool) | also_awake
         moving = world.moving if moving is None else moving
         moving = np.ascontiguousarray(moving, dtype=np.bool_)
         _speeds_kernel(world.layout_id, Y, world.inv_mass, world.inertia_body_inv, moving, self.speed, self.angular_speed)

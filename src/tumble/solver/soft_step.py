@@ -43,20 +43,23 @@ from . import contact as C
 # ---------------------------------------------------------------------- kernels over Y
 @njit(**JIT)
 def integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inertia_body_inv, F, T, h,
+                                kinematic_v, kinematic_omega,
                                 # outputs
                                 R, v, omega, I_inv, I_world):
     """Kick the active bodies by their forces over h (P += h F, L += h T) and derive R, v, omega.
 
     Y (N, W) packed state; F, T (N, 3) N, N m, world. Writes R (N, 3, 3), v (N, 3) m/s,
     omega (N, 3) rad/s, I_inv and I_world (N, 3, 3) = R Ibody^-1 R^T and R Ibody R^T.
-    Other bodies get v = omega = 0 and I_inv = 0: the solver sees them as immovable
-    (fixed bodies; moving bodies outside ``active`` have no contact this step).
+    Other bodies get I_inv = 0 and v, omega = ``kinematic_v``, ``kinematic_omega`` (N, 3)
+    (zero but for kinematic bodies): the solver sees them as immovable, moving at those
+    velocities (fixed and kinematic bodies; moving bodies outside ``active`` have no contact
+    this step).
     """
     for i in range(Y.shape[0]):
         if not active[i]:
             for k in range(3):
-                v[i, k] = 0.0
-                omega[i, k] = 0.0
+                v[i, k] = kinematic_v[i, k]
+                omega[i, k] = kinematic_omega[i, k]
                 for j in range(3):
                     I_inv[i, k, j] = 0.0
             continue
@@ -86,21 +89,45 @@ def integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inert
                 I_world[i, k, j] = b
 
 
+@njit(**JIT, inline="always")
+def _drift_row(layout, Y, i, v0, v1, v2, w0, w1, w2, h, R):
+    """Row i of Y: x += h v; the orientation turned by the exact rotation of omega over h and
+    put back on SO(3); R[i] from it."""
+    x, o, P, L = _load(layout, Y, i)
+    x = (x[0] + h * v0, x[1] + h * v1, x[2] + h * v2)
+    o = _project(layout, _rotate(layout, o, (w0, w1, w2), h))
+    _store(layout, Y, i, x, o, P, L)
+    Rm = _matrix(layout, o)
+    for k in range(9):
+        R[i, k // 3, k % 3] = Rm[k]
+
+
 @njit(**JIT)
-def integrate_positions_kernel(layout, Y, active, v, omega, h,
+def integrate_positions_kernel(layout, Y, active, kinematic, v, omega, h,
                                # outputs
                                R):
-    """x += h v; the orientation turned by the exact rotation of omega over h and put back on SO(3); R from it."""
+    """The active and the ``kinematic`` (N,) bool bodies: x += h v; the orientation turned by
+    the exact rotation of omega over h and put back on SO(3); R from it."""
     for i in range(Y.shape[0]):
-        if not active[i]:
+        if not (active[i] or kinematic[i]):
             continue
-        x, o, P, L = _load(layout, Y, i)
-        x = (x[0] + h * v[i, 0], x[1] + h * v[i, 1], x[2] + h * v[i, 2])
-        o = _project(layout, _rotate(layout, o, (omega[i, 0], omega[i, 1], omega[i, 2]), h))
-        _store(layout, Y, i, x, o, P, L)
-        Rm = _matrix(layout, o)
-        for k in range(9):
-            R[i, k // 3, k % 3] = Rm[k]
+        _drift_row(layout, Y, i, v[i, 0], v[i, 1], v[i, 2], omega[i, 0], omega[i, 1], omega[i, 2], h, R)
+
+
+@njit(**JIT)
+def advance_kinematic_kernel(layout, Y, kinematic, kinematic_v, kinematic_omega, h, n,
+                             # outputs
+                             R):
+    """n substeps h of the ``kinematic`` (N,) bool bodies of Y at ``kinematic_v``,
+    ``kinematic_omega`` (N, 3) m/s, rad/s: the arithmetic ``integrate_positions_kernel`` gives
+    them inside the soft step, so their path is the same to the bit whether or not anything
+    touched them in a step. R (N, 3, 3) gets their final orientations."""
+    for i in range(Y.shape[0]):
+        if not kinematic[i]:
+            continue
+        for _ in range(n):
+            _drift_row(layout, Y, i, kinematic_v[i, 0], kinematic_v[i, 1], kinematic_v[i, 2],
+                       kinematic_omega[i, 0], kinematic_omega[i, 1], kinematic_omega[i, 2], h, R)
 
 
 @njit(**JIT)
@@ -214,15 +241,20 @@ class SoftStep:
             self.I_inv = np.zeros((n, 3, 3))
             self.I_world = np.zeros((n, 3, 3))
             self.active = np.zeros(n, dtype=bool)
+            self.no_kinematic = np.zeros(n, dtype=bool)
             self.no_force = np.zeros((n, 3))  # F = T = 0 for _inverse_inertia's kick of zero
             self._n = n
 
     def has_collisions(self) -> bool:
-        """True when collisions are on and at least two shapes can touch (one of them on a moving body)."""
-        if not getattr(self.world, "collisions", True):
+        """True when collisions are on and at least two shapes can touch (one of them on a moving
+        body, or on a moving kinematic body: the bodies it nears must be woken)."""
+        w = self.world
+        if not getattr(w, "collisions", True):
             return False
         table = self.pipeline.refresh()
-        return table.shape_count >= 2 and bool(np.any(table.body_moving[table.shape_body]))
+        if table.shape_count < 2:
+            return False
+        return bool(np.any(table.body_moving[table.shape_body])) or bool(w.kinematic.any() and w.kinematic_moving.any())
 
     def has_joints(self) -> bool:
         return bool(getattr(self.world, "joints", None))
@@ -255,6 +287,7 @@ class SoftStep:
         w = self.world
         s = self.scratch
         w.evaluate_forces(t, Y, s)  # R, v, omega of every body, and the step's first F, T
+        w._kinematic_velocities(s.v, s.omega)  # their margins grow by the way they move (bounds.py)
         if self.has_joints():
             self._refresh_joints()
         else:
@@ -273,13 +306,16 @@ class SoftStep:
             spread_active_kernel(springs, w.moving, self.active)
         return self.active
 
-    def step(self, Y, t: float, dt: float, substeps: int, check=None):
+    def step(self, Y, t: float, dt: float, substeps: int, check=None, kinematic=None):
         """Advance the active bodies of Y by dt in ``substeps * settings.substeps`` substeps
-        (``collide`` must have run on this Y at t)."""
+        (``collide`` must have run on this Y at t), and the ``kinematic`` (N,) bool bodies (the
+        moving kinematic ones; default none) at their velocities in the same substeps."""
         substeps = int(substeps) * int(self.settings.substeps)
         w = self.world
         s = self.scratch
         active = self.active
+        if kinematic is None:
+            kinematic = self.no_kinematic
         layout = w.layout_id
         h = dt / substeps
         self.dt = dt
@@ -297,14 +333,14 @@ class SoftStep:
             if check is not None:
                 check("accumulate_forces", t + k * h, F=s.F, T=s.T)
             integrate_velocities_kernel(layout, Y, active, w.inv_mass, w.inertia_body, w.inertia_body_inv, s.F, s.T, h,
-                                        s.R, s.v, s.omega, self.I_inv, self.I_world)
+                                        w.kinematic_v, w.kinematic_omega, s.R, s.v, s.omega, self.I_inv, self.I_world)
             if joints is not None:
                 joints.warm_start(s.v, s.omega, Y, s.R)
             solver.warm_start(fresh=k == 0)
             if joints is not None:
                 joints.solve(s.v, s.omega, Y, s.R, True)
             solver.solve_contacts(True)
-            integrate_positions_kernel(layout, Y, active, s.v, s.omega, h, s.R)
+            integrate_positions_kernel(layout, Y, active, kinematic, s.v, s.omega, h, s.R)
             if joints is not None:
                 joints.solve(s.v, s.omega, Y, s.R, False)
             solver.solve_contacts(False)
@@ -324,7 +360,8 @@ class SoftStep:
         s = self.scratch
         # a kick of zero fills R, v, omega, I_inv, I_world from Y without changing it
         integrate_velocities_kernel(w.layout_id, Y, self.active, w.inv_mass, w.inertia_body, w.inertia_body_inv,
-                                    self.no_force, self.no_force, 0.0, s.R, s.v, s.omega, self.I_inv, self.I_world)
+                                    self.no_force, self.no_force, 0.0, w.kinematic_v, w.kinematic_omega,
+                                    s.R, s.v, s.omega, self.I_inv, self.I_world)
         return self.I_inv
 
     # -- contacts as data ------------------------------------------------------------
