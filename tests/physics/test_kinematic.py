@@ -302,3 +302,24 @@ def test_kinematic_bad_input_is_one_line():
         d.set_target((0, 0, 0), time=1.0)
     with pytest.raises(InputError, match="positive number of seconds"):
         k.set_target((0, 0, 0), time=0.0)
+
+
+def test_a_kinematic_triangle_mesh_lifts_what_lies_on_it():
+    # a static-mesh shape may be kinematic (a moving floor, a rotating bowl): a slab of 12
+    # triangles rising at 0.5 m/s while drifting and turning carries a ball and a box up at its
+    # speed. Measured: both ride at the slab's vertical speed to 1e-9 m/s, their heights above
+    # it to 5 um (the soft contact's give under the weight).
+    trimesh = pytest.importorskip("trimesh")
+    slab = trimesh.creation.box(extents=(4, 4, 0.2))
+    w = tb.World(gravity=(0, 0, -G))
+    mat = tb.Material(friction=0.8)
+    tray = w.add_body(tb.Mesh(vertices=slab.vertices, faces=slab.faces), kinematic=True, position=(0, 0, -0.1),
+                      velocity=(0.3, 0, 0.5), angular_velocity=(0, 0, 0.2), material=mat, name="tray")
+    ball = w.add_body(tb.Sphere(0.2), mass=1, position=(0, 0, 0.2), material=mat, name="ball")
+    box = w.add_body(tb.Box((0.3, 0.3, 0.3)), mass=1, position=(1, 0, 0.15), material=mat, name="box")
+    tb.Simulator(w, dt=DT).run(2.0, frame_rate=24)
+    np.testing.assert_allclose(tray.x, (0.6, 0, 0.9), rtol=0, atol=1e-12)
+    top = tray.x[2] + 0.1
+    assert ball.x[2] - top == pytest.approx(0.2, abs=5e-5)
+    assert box.x[2] - top == pytest.approx(0.15, abs=5e-5)
+    assert ball.v[2] == pytest.approx(0.5, abs=1e-9) and box.v[2] == pytest.approx(0.5, abs=1e-9)
