@@ -37,6 +37,11 @@ BASE = {
                                   "faces": [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]}, "mass": 1.0, "inertia": [1, 1, 1]},
         {"name": "ground", "shape": {"type": "plane", "normal": [0, 0, 1], "offset": 0}, "fixed": True},
         {"name": "rod", "shape": {"type": "capsule", "radius": 0.1, "length": 1.0}, "mass": 1.0, "orientation": [1, 0, 0, 0]},
+        {"name": "belt", "shape": {"type": "box", "size": [2, 1, 0.1]}, "kinematic": True, "velocity": [0.5, 0, 0],
+         "angular_velocity": [0, 0, 0.1]},
+        {"name": "lift", "shape": {"type": "sphere", "radius": 0.2}, "kinematic": True,
+         "path": {"times": [0, 0.25, 0.5], "positions": [[3, 0, 0], [3, 0, 1], [3, 1, 1]],
+                  "euler_deg": [[0, 0, 0], [0, 0, 90], [0, 0, 0]], "repeat": True}},
     ],
     "forces": [
         {"type": "drag", "linear": 0.1, "bodies": ["box"]},

@@ -250,7 +250,8 @@ BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
 SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound"
 BODY_KEYS = ("name, shape, mass, density, inertia, fixed, kinematic, position, orientation, euler_deg, velocity, "
-             "angular_velocity, angular_velocity_frame, material, collision_filter")
+             "angular_velocity, angular_velocity_frame, material, collision_filter, path")
+PATH = "{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]] }"
 
 
 def body(**keys):
@@ -282,6 +283,19 @@ BAD_SCENES = [
     ("number-for-bool", body(fixed="1"), "bodies[0].fixed", "expected true or false, got 1 (a number)"),
     ("kinematic-string", body(kinematic='"yes"'), "bodies[0].kinematic", "expected true or false, got 'yes' (a string)"),
     ("kinematic-and-fixed", body(fixed="true", kinematic="true"), "bodies[0].kinematic", "a body is fixed or kinematic, not both"),
+    ("path-not-kinematic", body(path=PATH), "bodies[0].path", "a path moves a kinematic body: set kinematic = true"),
+    ("path-and-position", body(mass=None, kinematic="true", path=PATH, position="[0, 0, 1]"), "bodies[0].position",
+     "a body on a path starts at the path's pose and moves at its velocity: give no position, orientation or velocity"),
+    ("path-unknown-key", body(mass=None, kinematic="true", path="{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]], loop = true }"),
+     "bodies[0].path.loop", "unknown key (expected one of times, positions, orientations, euler_deg, repeat)"),
+    ("path-missing-positions", body(mass=None, kinematic="true", path="{ times = [0, 1] }"), "bodies[0].path",
+     "missing key 'positions'"),
+    ("path-times-decrease", body(mass=None, kinematic="true", path="{ times = [1, 0], positions = [[0, 0, 0], [1, 0, 0]] }"),
+     "bodies[0].path.times", "times must increase strictly, got [1.0, 0.0]"),
+    ("path-short-rows", body(mass=None, kinematic="true", path="{ times = [0, 1, 2], positions = [[0, 0, 0], [1, 0, 0]] }"),
+     "bodies[0].path.positions", "expected 3 rows of 3 finite numbers (one per time), got shape [2, 3]"),
+    ("path-repeat-number", body(mass=None, kinematic="true", path="{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]], repeat = 1 }"),
+     "bodies[0].path.repeat", "expected true or false, got 1 (a number)"),
     ("kinematic-plane", body(shape='{ type = "plane" }', mass=None, kinematic="true"), "bodies[0].kinematic",
      re.escape("a plane can only be a fixed body (set fixed = true)")),
     ("string-for-shape", body(shape='"sphere"'), "bodies[0].shape", "expected a table with a 'type' key, got 'sphere' (a string)"),
@@ -651,3 +665,21 @@ def test_cli_validates_and_runs_a_compound_scene(tmp_path, capsys):
         assert main(command) == 2
         err = capsys.readouterr().err
         assert err == f"tumble: error: {bad}: bodies[1].shape.parts[1].shape.radius: must be positive, got -1\n"
+
+
+def test_a_kinematic_body_on_a_path_from_a_scene_file(tmp_path):
+    """A scene's kinematic body with a path: it starts at the path's first pose and passes
+    through each key at its time (to round-off), as the API's KeyframePath does."""
+    path = tmp_path / "s.toml"
+    path.write_text('[simulation]\nduration = 2.0\n'
+                    '[[bodies]]\nname = "lift"\nkinematic = true\nshape = { type = "box", size = [1, 1, 0.1] }\n'
+                    'path = { times = [0, 1, 2], positions = [[0, 0, 0], [0, 0, 1], [1, 0, 1]], '
+                    'euler_deg = [[0, 0, 0], [0, 0, 90], [0, 0, 90]] }\n')
+    scene = tumble.load_scene(path)
+    lift = scene.world.body("lift")
+    assert lift.kinematic and len(scene.world.paths) == 1
+    traj = scene.run(progress=False)
+    for k, (t, p) in enumerate(((0.0, (0, 0, 0)), (1.0, (0, 0, 1)), (2.0, (1, 0, 1)))):
+        frame = int(round(t * scene.frame_rate))
+        np.testing.assert_allclose(traj.position[frame, 0], p, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(traj.orientation[-1, 0], (np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)), rtol=0, atol=1e-12)

@@ -13,6 +13,7 @@ __version__ = "0.1.0"
 from .collision.filter import CollisionFilter
 from .errors import InputError, SimulationError, TumbleError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
+from .kinematic import KeyframePath
 from .joints import BallJoint, DistanceJoint, FixedJoint, HingeJoint, SliderJoint, UniversalJoint
 from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
 from .simulator import Simulator
@@ -31,6 +32,6 @@ __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "Trajectory", "load_trajectory", "load_scene",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
-    "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint",
+    "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "KeyframePath",
     "TumbleError", "InputError", "SimulationError",
 ]

@@ -39,6 +39,7 @@ from .solver.contact import SoftStepSettings
 from .solver.joints import JointSettings
 from .shapes import shape_from_dict, shape_to_dict
 from .trajectory import write_atomic
+from .kinematic import KeyframePath
 from .world import Material, World
 
 FORMAT = "tumble-checkpoint"
@@ -190,6 +191,8 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "materials": [m.to_dict() for m in w.materials],
         "collision_filters": [asdict(f) for f in w.collision_filters],
         "collision_exclusions": sorted([int(a), int(b)] for a, b in w.excluded_collisions),
+        # keyframed paths of kinematic bodies (tumble.kinematic), by body row
+        "kinematic_paths": [{"body": w.index_of(p.body), **p.to_dict()} for p in w.paths],
         "forces": [_force_to_dict(w, f) for f in w.forces],
         "joints": [_joint_to_dict(w, j) for j in getattr(w, "joints", ())],
         "applied_impulses": sorted(int(k) for k in w.applied_impulses),
@@ -345,6 +348,12 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
                    collision_filter=filters[i], **kw)
     for a, b in meta.get("collision_exclusions") or ():
         w.exclude_collision(int(a), int(b))
+    for k, record in enumerate(meta.get("kinematic_paths") or ()):
+        try:
+            # placed already: the saved state holds the body's pose and velocities
+            w.add_path(KeyframePath(**record), place=False)
+        except (InputError, TypeError) as err:
+            raise InputError(f"kinematic_paths[{k}]: {err}") from None
     for name in CONSTANTS + STATE + KINEMATIC:
         if name in arrays:
             getattr(w, name)[:] = arrays[name]

@@ -36,8 +36,10 @@ from .world import World
 
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
-    "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter",
+    "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter", "path",
 )
+# path = {times, positions, orientations or euler_deg, repeat}: a kinematic body's keyframes (tumble.kinematic)
+PATH_KEYS = ("times", "positions", "orientations", "euler_deg", "repeat")
 # collision_filter = {category, mask, group}: which bodies this one touches (collision/filter.py)
 # Per shape type: (required keys, optional keys).
 SHAPE_KEYS = {
@@ -127,7 +129,22 @@ class BodyReader(ValueReader):
         if "collision_filter" in b:
             f = self.table(b["collision_filter"], f"{key}.collision_filter", FILTER_KEYS)
             kw["collision_filter"] = self.library(f"{key}.collision_filter", CollisionFilter, **f)
-        self.library(key, world.add_body, shape, **kw)
+        path = None
+        if "path" in b:
+            path = self.table(b["path"], f"{key}.path", PATH_KEYS, required=("times", "positions"))
+            if not kinematic:
+                raise self.error("a path moves a kinematic body: set kinematic = true", f"{key}.path")
+            for k in ("position", "orientation", "euler_deg", "velocity", "angular_velocity"):
+                if k in b:
+                    raise self.error("a body on a path starts at the path's pose and moves at its velocity: "
+                                     "give no position, orientation or velocity", f"{key}.{k}")
+            if "repeat" in path:
+                path["repeat"] = self.boolean(path["repeat"], f"{key}.path.repeat")
+        body = self.library(key, world.add_body, shape, **kw)
+        if path is not None:
+            from .kinematic import KeyframePath
+
+            self.library(f"{key}.path", lambda: world.add_path(KeyframePath(body, **path)))
         names[name] = len(names)
 
     def inertia(self, value, key: str):

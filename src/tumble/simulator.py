@@ -25,6 +25,7 @@ from . import checks
 from . import integrators as K
 from .errors import InputError, SimulationError
 from .forces import Impulse
+from .kinematic import drive_paths
 from .recording import RunResult, _first_frame_notice, _progress_bar, _Recorder
 from .solver.contact import SoftStepSettings
 from .solver.contact_events import ContactEventLog
@@ -143,6 +144,7 @@ class Simulator:
                 kinematic = self.world.kinematic_moving
                 for k in range(n):
                     self.step_index = nxt - n + k
+                    self._drive_paths(Y)
                     Y = self._advance_free(Y, 1, scratch, check, parallel=False)
                     self._advance_kinematic(Y, kinematic, scratch)
             else:
@@ -157,6 +159,11 @@ class Simulator:
         contact settings' substeps) whether or not it runs, so its path is one sequence of bits."""
         settings = self.contact_settings or SoftStepSettings()
         return self.substeps * int(settings.substeps)
+
+    def _drive_paths(self, Y):
+        """The path bodies' velocities for the step from ``step_index`` (tumble.kinematic)."""
+        if self.world.paths:
+            drive_paths(self.world, Y, self.step_index * self.dt, self.dt)
 
     def _advance_kinematic(self, Y, kinematic, scratch):
         """One step dt of the ``kinematic`` (N,) bool bodies at their velocities (soft_step.
@@ -215,6 +222,7 @@ class Simulator:
             for k in range(n):
                 self.step_index = first + k
                 t = self.step_index * self.dt
+                self._drive_paths(Y)
                 if sleep is not None:
                     sleep.resize(w.body_count)
                     moving[:] = all_moving & sleep.awake

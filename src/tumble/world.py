@@ -46,7 +46,7 @@ from .forces import (
 )
 from .mass import mass_properties
 from .material import Material
-from .math3d import matrix_to_quat, quat_from_euler_deg, quat_multiply, quat_to_matrix
+from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
 from .shapes import Plane, finite_vector
 
 
@@ -101,6 +101,7 @@ class World:
         self.filter_version = 0  # bumped when either changes: the collision pipeline rereads them
         self.forces: list[Any] = []
         self.joints: list[Any] = []  # joint records of tumble.joints, bound (add_joint)
+        self.paths: list[Any] = []  # keyframed paths of kinematic bodies (tumble.kinematic, add_path)
         # indices into ``forces`` of the Impulse records already applied (once each); plain
         # integers, so that a checkpoint can save them
         self.applied_impulses: set[int] = set()
@@ -130,9 +131,12 @@ class World:
 
     @property
     def kinematic_moving(self) -> np.ndarray:
-        """(N,) bool: the kinematic bodies whose velocity is not zero (they move this step)."""
+        """(N,) bool: the kinematic bodies that move: a velocity not zero, or a path."""
         k = self.kinematic
-        return k & (np.any(self.kinematic_v != 0.0, axis=1) | np.any(self.kinematic_omega != 0.0, axis=1))
+        moving = k & (np.any(self.kinematic_v != 0.0, axis=1) | np.any(self.kinematic_omega != 0.0, axis=1))
+        for path in self.paths:
+            moving[self.index_of(path.body)] = True
+        return moving
 
     # ------------------------------------------------------------------ building
     def add_body(
@@ -304,6 +308,28 @@ class World:
         bind_joint(self, joint)
         self.joints.append(joint)
         return joint
+
+    def add_path(self, path, place: bool = True):
+        """Add a ``tumble.kinematic.KeyframePath``: before each step the Simulator sets its
+        kinematic body's velocities to reach the path's pose at the step's end. ``place``: put
+        the body at the path's pose now (at ``t``), at rest; a checkpoint's load does not."""
+        from .kinematic import KeyframePath, bind_path
+
+        if not isinstance(path, KeyframePath):
+            raise InputError(f"not a KeyframePath: {path!r}", "paths")
+        i = bind_path(self, path)
+        if place:
+            p, q = path.pose(self.t)
+            q = self.q[i].copy() if q is None else q
+            R = quat_to_matrix(q)
+            self.q[i] = q
+            self.R[i] = R
+            self.x[i] = p + R @ self.com_offset[i]
+            self.kinematic_v[i] = 0.0
+            self.kinematic_omega[i] = 0.0
+            self.update_derived()
+        self.paths.append(path)
+        return path
 
     def index_of(self, body) -> int:
         """Index of a body given as a ``Body``, a name or an index."""
@@ -690,19 +716,11 @@ class Body:
             q1 = unit_quaternion(orientation)
         else:
             q1 = np.array(self.q, dtype=float)
-        R1 = quat_to_matrix(q1)
-        x1 = finite_vector(position, "position") + R1 @ self.com_offset
-        # omega from the relative turn dq = q1 q0^-1, taken the short way round (w >= 0)
-        q0 = np.array(self.q, dtype=float)
-        dq = quat_multiply(q1, q0 * np.array([1.0, -1.0, -1.0, -1.0]))
-        if dq[0] < 0.0:
-            dq = -dq
-        s = float(np.linalg.norm(dq[1:]))
-        angle = 2.0 * math.atan2(s, float(dq[0]))
-        axis = dq[1:] / s if s > 0.0 else np.zeros(3)
+        from .kinematic import velocities_to
+
+        x1 = finite_vector(position, "position") + quat_to_matrix(q1) @ self.com_offset
         w = self.world
-        w.kinematic_v[self.index] = (x1 - self.x) / time
-        w.kinematic_omega[self.index] = axis * (angle / time)
+        w.kinematic_v[self.index], w.kinematic_omega[self.index] = velocities_to(self.x, self.q, x1, q1, time)
         w.update_derived()
 
     @omega.setter

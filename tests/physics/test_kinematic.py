@@ -323,3 +323,108 @@ def test_a_kinematic_triangle_mesh_lifts_what_lies_on_it():
     assert ball.x[2] - top == pytest.approx(0.2, abs=5e-5)
     assert box.x[2] - top == pytest.approx(0.15, abs=5e-5)
     assert ball.v[2] == pytest.approx(0.5, abs=1e-9) and box.v[2] == pytest.approx(0.5, abs=1e-9)
+
+
+# ---------------------------------------------------------------------- keyframed paths
+
+def _slerp_z(a0, a1, s):
+    return _quat_z((1 - s) * a0 + s * a1)
+
+
+@pytest.mark.parametrize("layout", ["quaternion", "matrix"])
+def test_a_path_body_passes_through_its_keyframes_and_holds_the_last(layout):
+    # keys at 0, 0.5, 1.25 s: positions interpolated linearly, the turn about z by slerp (for a
+    # fixed axis, the angle linear in time). Each step moves the body to the path's pose at the
+    # step's end from where it is: the poses at step ends are the path's to round-off (1e-12).
+    w = tb.World(gravity=(0, 0, -G), layout=layout)
+    pad = w.add_body(tb.Box((1, 1, 0.1)), kinematic=True, name="pad")
+    times, pos = [0.0, 0.5, 1.25], np.array([[0, 0, 1.0], [1, 0, 1.5], [1, 2, 1.0]])
+    yaw = [0.0, 90.0, 45.0]
+    w.add_path(tb.KeyframePath(pad, times=times, positions=pos, euler_deg=[[0, 0, a] for a in yaw]))
+    traj = tb.Simulator(w, dt=DT).run(2.0, frame_rate=240)
+    t = traj.time
+    for (t0, t1), (p0, p1), (a0, a1) in zip(zip(times, times[1:]), zip(pos, pos[1:]), zip(yaw, yaw[1:])):
+        seg = (t >= t0) & (t <= t1)
+        s = ((t[seg] - t0) / (t1 - t0))[:, None]
+        np.testing.assert_allclose(traj.position[seg, 0], (1 - s) * p0 + s * p1, rtol=0, atol=1e-12)
+        q = np.array([_slerp_z(np.radians(a0), np.radians(a1), si) for si in s[:, 0]])
+        np.testing.assert_allclose(traj.orientation[seg, 0], q, rtol=0, atol=1e-12)
+    held = t > times[-1] + DT
+    np.testing.assert_allclose(traj.position[held, 0], np.broadcast_to(pos[-1], (held.sum(), 3)), rtol=0, atol=1e-12)
+    # still, but for the turn that takes back the round-off of the orientation (1e-13 rad/s)
+    assert np.all(traj.velocity[held, 0] == 0.0)
+    np.testing.assert_allclose(traj.angular_velocity[held, 0], 0.0, rtol=0, atol=1e-10)
+    # within a segment the velocity is the segment's: (p1 - p0) / (t1 - t0)
+    mid = (t > 0.6) & (t < 1.2)
+    np.testing.assert_allclose(traj.velocity[mid, 0], np.broadcast_to((0, 2 / 0.75, -0.5 / 0.75), (mid.sum(), 3)),
+                               rtol=0, atol=1e-9)
+
+
+def test_a_repeating_shuttle_carries_its_passenger_back_and_forth():
+    # a platform shuttling 1 m along x and back every 4 s (0.5 m/s out and back) with a box on
+    # it that friction holds but for a slip at each change of velocity: a jump dv in one step
+    # makes the box slide dv^2 / (2 mu g) over it, braked at mu g. So it starts 0.5^2 / (2 mu g)
+    # = 1.6 cm behind (the start from rest), then at each turn (dv = 1 m/s) slides 6.4 cm the
+    # other way: relative to the platform it sits at -0.25 / (2 mu g) on the way out and at
+    # +0.75 / (2 mu g) on the way back, period after period (measured within 0.3 mm).
+    mu = 0.8
+    w = tb.World(gravity=(0, 0, -G))
+    mat = tb.Material(friction=mu)
+    plat = w.add_body(tb.Box((2, 1, 0.2)), kinematic=True, material=mat, name="shuttle")
+    w.add_path(tb.KeyframePath(plat, times=[0, 2, 4], positions=[[0, 0, 0.5], [1, 0, 0.5], [0, 0, 0.5]], repeat=True))
+    box = w.add_body(tb.Box((0.3, 0.3, 0.3)), mass=1, position=(0, 0, 0.75), material=mat, name="box")
+    traj = tb.Simulator(w, dt=DT).run(12.0, frame_rate=24)
+    t = traj.time
+    np.testing.assert_allclose(plat.x, (0, 0, 0.5), rtol=0, atol=1e-12)
+    # the platform's x follows the triangle wave of period 4 s
+    phase = np.mod(t, 4.0)
+    wave = np.where(phase <= 2.0, phase / 2.0, 2.0 - phase / 2.0)
+    np.testing.assert_allclose(traj.position[:, plat.index, 0], wave, rtol=0, atol=1e-12)
+    rel = traj.position[:, box.index, 0] - traj.position[:, plat.index, 0]
+    out = (phase > 0.3) & (phase < 1.95)
+    back = (phase > 2.3) & (phase < 3.95)
+    np.testing.assert_allclose(rel[out], -0.25 / (2 * mu * G), rtol=0, atol=1e-3)
+    np.testing.assert_allclose(rel[back], 0.75 / (2 * mu * G), rtol=0, atol=1e-3)
+    assert box.x[2] == pytest.approx(0.75, abs=1e-4)
+
+
+def test_a_run_with_a_path_resumes_bit_for_bit(tmp_path):
+    def world():
+        w = tb.World(gravity=(0, 0, -G))
+        _ground(w)
+        paddle = w.add_body(tb.Box((0.1, 1, 0.4)), kinematic=True, name="paddle")
+        w.add_path(tb.KeyframePath(paddle, times=[0, 1, 2], positions=[[-1, 0, 0.2], [1, 0, 0.2], [-1, 0, 0.2]],
+                                   euler_deg=[[0, 0, 0], [0, 0, 60], [0, 0, 0]], repeat=True))
+        for k in range(4):
+            w.add_body(tb.Sphere(0.1), mass=0.5, position=(-0.6 + 0.4 * k, 0.1 * k, 0.1), name=f"ball{k}")
+        return w
+
+    w = world()
+    tb.Simulator(w, dt=DT).run(2.5, frame_rate=24)
+    first = tb.Simulator(world(), dt=DT)
+    first.run(1.25, frame_rate=24)
+    first.save_checkpoint(tmp_path / "c.npz")
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    assert len(resumed.world.paths) == 1
+    resumed.run(1.25, frame_rate=24)
+    assert state_hash(resumed.world) == state_hash(w)
+
+
+def test_path_bad_input_is_one_line():
+    w = tb.World()
+    k = w.add_body(tb.Box((1, 1, 1)), kinematic=True, name="k")
+    d = w.add_body(tb.Box((1, 1, 1)), mass=1, name="d")
+    with pytest.raises(InputError, match="not kinematic"):
+        w.add_path(tb.KeyframePath(d, times=[0, 1], positions=[[0, 0, 0], [1, 0, 0]]))
+    with pytest.raises(InputError, match="times must increase strictly"):
+        tb.KeyframePath(k, times=[0, 1, 1], positions=[[0, 0, 0]] * 3)
+    with pytest.raises(InputError, match="at least 2"):
+        tb.KeyframePath(k, times=[0], positions=[[0, 0, 0]])
+    with pytest.raises(InputError, match=r"expected 2 rows of 3 finite numbers \(one per time\), got shape \[3, 3\]"):
+        tb.KeyframePath(k, times=[0, 1], positions=[[0, 0, 0]] * 3)
+    with pytest.raises(InputError, match="orientations or euler_deg, not both"):
+        tb.KeyframePath(k, times=[0, 1], positions=[[0, 0, 0]] * 2, orientations=[[1, 0, 0, 0]] * 2,
+                        euler_deg=[[0, 0, 0]] * 2)
+    w.add_path(tb.KeyframePath(k, times=[0, 1], positions=[[0, 0, 0], [1, 0, 0]]))
+    with pytest.raises(InputError, match="already has a path"):
+        w.add_path(tb.KeyframePath(k, times=[0, 1], positions=[[0, 0, 0], [1, 0, 0]]))

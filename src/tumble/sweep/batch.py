@@ -7,7 +7,7 @@ names and which bodies are fixed, and the steps at which impulses act; and no
 force couples two bodies or calls Python (no springs, no custom forces) and the
 integrator is not adaptive, and the scene has no contact (collisions off, or fewer than two
 shapes that can collide: variants merged into one World must not touch each other, and the
-merged World has collisions off), and no joints. Their bodies may differ in anything else (shape,
+merged World has collisions off), no joints and no kinematic bodies. Their bodies may differ in anything else (shape,
 mass, inertia, state, material) and so may their per-body forces (drag, wind,
 constant, point forces, impulses).
 
@@ -55,6 +55,8 @@ def batch_key(scene):
     if w.collisions and _can_collide(w):
         return None
     if getattr(w, "joints", None):  # merge_worlds copies bodies and forces, not joints
+        return None
+    if w.kinematic.any():  # kinematic bodies are stepped one step at a time, paths by body row
         return None
     impulse_steps = tuple(sorted({int(np.ceil(f.time / scene.dt - 1e-9)) for f in w.forces if isinstance(f, Impulse)}))
     return (
