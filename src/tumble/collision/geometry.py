@@ -340,7 +340,7 @@ class _Builder:
         data = (0, 0, 0, 0)
         if type_id == SHAPE_MESH and moving:
             raise NotImplementedError(
-                f"body {name!r}: a triangle mesh collides only on a fixed body (terrain, ramps, bowls); "
+                f"body {name!r}: a triangle mesh collides only on a fixed or kinematic body (terrain, ramps, bowls); "
                 "make a moving body a Compound of Convex pieces")
         if type_id in (SHAPE_CONVEX, SHAPE_MESH) and id(shape) in self.seen:
             data = self.seen[id(shape)][1]
