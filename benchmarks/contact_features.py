@@ -1,4 +1,5 @@
-"""What collision filters and rolling resistance cost when they are used, in one process.
+"""What collision filters, rolling resistance, contact events and kinematic bodies cost when
+they are used, in one process.
 
 Each case runs a scene twice, interleaved round by round, with the feature off and on, in the
 same process (same compiled kernels, the same minutes of the machine), and reports the minima
@@ -13,8 +14,11 @@ of the step times (ms a step, over ``--steps`` steps after ``--warm`` warm-up st
 - ``rolling``: 1000 balls (radius 5 cm) dropped on a 10 x 10 x 10 grid onto the ground, 1/240 s
   with the default 4 substeps, with rolling resistance 0 and 0.05 (and spinning friction
   0.001 m): every ball contact gets three rows.
+- ``kinematic``: 400 boxes (10 cm, a 10 x 10 x 4 grid) dropped on a 3 m slab, fixed, or
+  kinematic and moving at 0.2 m/s (a conveyor: the slab moves in the substeps, its velocity is
+  felt by every contact with it, its passengers are kept awake).
 
-Usage: ``python benchmarks/contact_features.py [--case filters|events|rolling|all] [--rounds 3]``;
+Usage: ``python benchmarks/contact_features.py [--case filters|events|rolling|kinematic|all] [--rounds 3]``;
 prints one markdown table (the figures in docs/benchmarks.md).
 """
 
@@ -67,12 +71,30 @@ def _balls(rolling: bool):
     return tb.Simulator(world, dt=1.0 / 240.0)
 
 
+def _conveyor(kinematic: bool):
+    import tumble as tb
+
+    world = tb.World(gravity=(0.0, 0.0, -9.81))
+    material = tb.Material(friction=0.6)
+    slab = dict(kinematic=True, velocity=(0.2, 0.0, 0.0)) if kinematic else dict(fixed=True)
+    world.add_body(tb.Box((3.0, 3.0, 0.2)), position=(0.0, 0.0, -0.1), material=material, **slab)
+    rng = np.random.default_rng(0)
+    for i in range(10):
+        for j in range(10):
+            for k in range(4):
+                pos = (0.15 * i - 0.675, 0.15 * j - 0.675, 0.05 + 0.12 * k) + rng.uniform(-0.005, 0.005, 3)
+                world.add_body(tb.Box((0.1, 0.1, 0.1)), mass=0.1, position=pos, material=material)
+    return tb.Simulator(world, dt=1.0 / 240.0)
+
+
 CASES = {"filters": (_pyramid, "large_pyramid, 5050 cubes, 1/60 s x 4, 1 thread", "default filters",
                      "a filter on every body"),
          "events": (lambda on: _pyramid(False, events=on), "large_pyramid, 5050 cubes, 1/60 s x 4, 1 thread",
                     "contact events off", "contact events on"),
          "rolling": (_balls, "1000 balls dropped on the ground, 1/240 s x 4, 1 thread", "rolling resistance 0",
-                     "rolling resistance 0.05, spinning friction 0.001 m")}
+                     "rolling resistance 0.05, spinning friction 0.001 m"),
+         "kinematic": (_conveyor, "400 boxes dropped on a slab, 1/240 s x 4, 1 thread", "fixed slab",
+                       "kinematic slab moving at 0.2 m/s")}
 
 
 def _step_minimum(sim, warm: int, steps: int) -> float:
