@@ -250,7 +250,7 @@ BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
 SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound"
 BODY_KEYS = ("name, shape, mass, density, inertia, fixed, kinematic, position, orientation, euler_deg, velocity, "
-             "angular_velocity, angular_velocity_frame, material, collision_filter, path")
+             "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity")
 PATH = "{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]] }"
 
 
@@ -283,6 +283,7 @@ BAD_SCENES = [
     ("number-for-bool", body(fixed="1"), "bodies[0].fixed", "expected true or false, got 1 (a number)"),
     ("kinematic-string", body(kinematic='"yes"'), "bodies[0].kinematic", "expected true or false, got 'yes' (a string)"),
     ("kinematic-and-fixed", body(fixed="true", kinematic="true"), "bodies[0].kinematic", "a body is fixed or kinematic, not both"),
+    ("surface-velocity-short", body(surface_velocity="[1, 0]"), "bodies[0].surface_velocity", "expected a list of 3 numbers, got 2"),
     ("path-not-kinematic", body(path=PATH), "bodies[0].path", "a path moves a kinematic body: set kinematic = true"),
     ("path-and-position", body(mass=None, kinematic="true", path=PATH, position="[0, 0, 1]"), "bodies[0].position",
      "a body on a path starts at the path's pose and moves at its velocity: give no position, orientation or velocity"),

@@ -46,9 +46,9 @@ FORMAT = "tumble-checkpoint"
 VERSION = 1
 CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q", "principal_moments", "com_offset", "moving")
 STATE = ("x", "q", "R", "P", "L")
-# kinematic bodies (World.kinematic, their velocities): absent from checkpoints written before
-# they existed, which load with none
-KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega")
+# kinematic bodies (World.kinematic, their velocities) and surface velocities: absent from
+# checkpoints written before they existed, which load with none
+KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega", "surface_velocity")
 FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, CustomForce)}
 BODY_FIELDS = ("body", "body_a", "body_b")
 

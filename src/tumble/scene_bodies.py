@@ -37,6 +37,7 @@ from .world import World
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter", "path",
+    "surface_velocity",
 )
 # path = {times, positions, orientations or euler_deg, repeat}: a kinematic body's keyframes (tumble.kinematic)
 PATH_KEYS = ("times", "positions", "orientations", "euler_deg", "repeat")
@@ -109,7 +110,7 @@ class BodyReader(ValueReader):
             raise self.error("missing key 'mass' (or 'density')", key)
         if "inertia" in b:
             kw["inertia"] = self.inertia(b["inertia"], f"{key}.inertia")
-        for k in ("position", "velocity", "angular_velocity", "euler_deg"):
+        for k in ("position", "velocity", "angular_velocity", "euler_deg", "surface_velocity"):
             if k in b:
                 kw[k] = self.vector(b[k], f"{key}.{k}")
         if "orientation" in b:

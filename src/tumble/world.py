@@ -15,6 +15,8 @@ kinematic  ``kinematic_v`` (N, 3) m/s and ``kinematic_omega`` (N, 3) rad/s, worl
            (Box2D's b2_kinematicBody, MuJoCo's mocap body) has infinite mass (``inv_mass``
            0, P = L = 0): forces, contacts and joints do not move it; it moves at the
            velocities the user sets, and the bodies it touches feel them.
+           ``surface_velocity`` (N, 3) m/s, body frame: how fast each body's surface slides
+           along itself in its contacts (a conveyor belt; zero for most bodies).
 state      ``x`` (N, 3) m, ``q`` (N, 4) (w, x, y, z) or ``R`` (N, 3, 3), ``P``
            (N, 3) kg m/s, ``L`` (N, 3) kg m^2/s, all world frame; the layout
            ("quaternion", 13 numbers a body, or the course's "matrix", 18)
@@ -65,7 +67,7 @@ _CONSTANT_ARRAYS = {
 }
 _STATE_ARRAYS = {"x": (3,), "q": (4,), "R": (3, 3), "P": (3,), "L": (3,)}
 _DERIVED_ARRAYS = {"v": (3,), "omega": (3,), "I_inv": (3, 3), "force": (3,), "torque": (3,)}
-_KINEMATIC_ARRAYS = {"kinematic_v": (3,), "kinematic_omega": (3,)}
+_KINEMATIC_ARRAYS = {"kinematic_v": (3,), "kinematic_omega": (3,), "surface_velocity": (3,)}
 _FLAG_ARRAYS = ("moving", "kinematic")
 
 
@@ -156,6 +158,7 @@ class World:
         collision_filter=None,
         fixed: bool = False,
         kinematic: bool = False,
+        surface_velocity=(0.0, 0.0, 0.0),
         name: str | None = None,
     ) -> "Body":
         """Add one body and return its view.
@@ -185,6 +188,10 @@ class World:
                 with ``Body.v``, ``Body.omega`` or ``Body.set_target``) whatever pushes
                 on it: a moving platform, a conveyor, a paddle. Mass or density are
                 optional (they place the centre of mass), as for a fixed body.
+            surface_velocity: (3,) m/s, body frame: the surface of the body slides along itself
+                at this velocity in its contacts (each contact takes its part in its tangent
+                plane), while the body stays where it is: a conveyor belt (Box2D's tangentSpeed).
+                Friction drives what touches it to that speed.
             name: unique; default "body<i>".
         """
         if name is None:
@@ -202,6 +209,7 @@ class World:
         position = finite_vector(position, "position")
         velocity = finite_vector(velocity, "velocity")
         angular_velocity = finite_vector(angular_velocity, "angular_velocity")
+        surface_velocity = finite_vector(surface_velocity, "surface_velocity")
         if angular_velocity_frame not in ("world", "body"):
             raise InputError(f"must be 'world' or 'body', got {angular_velocity_frame!r}", "angular_velocity_frame")
         try:
@@ -245,6 +253,7 @@ class World:
         a["kinematic"][i] = kinematic
         a["kinematic_v"][i] = 0.0
         a["kinematic_omega"][i] = 0.0
+        a["surface_velocity"][i] = surface_velocity
         if kinematic:
             omega = angular_velocity if angular_velocity_frame == "world" else R @ angular_velocity
             a["kinematic_v"][i] = velocity
@@ -655,6 +664,15 @@ class Body:
 
     fixed = property(lambda self: not (self.world.moving[self.index] or self.world.kinematic[self.index]))
     kinematic = property(lambda self: bool(self.world.kinematic[self.index]))
+
+    @property
+    def surface_velocity(self) -> np.ndarray:
+        """(3,) m/s, body frame: how fast the body's surface slides along itself in its contacts."""
+        return self.world.surface_velocity[self.index]
+
+    @surface_velocity.setter
+    def surface_velocity(self, value):
+        self.world.surface_velocity[self.index] = finite_vector(value, "surface_velocity")
     mass = property(lambda self: float(self.world.mass[self.index]))
     inertia_body = property(lambda self: self.world.inertia_body[self.index])
     inertia_body_inv = property(lambda self: self.world.inertia_body_inv[self.index])

@@ -36,7 +36,7 @@ def test_table_rows():
 
 
 def test_unsupported_types_are_named():
-    # particles have no collision shape; a mesh collides only on a fixed body
+    # particles have no collision shape; a mesh collides only on a fixed or kinematic body
     w = make_world()
     w.add_body(tb.Particles([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [1.0] * 4), name="dust")
     with pytest.raises(NotImplementedError, match="'particles'.*not supported") as err:
@@ -49,7 +49,7 @@ def test_unsupported_types_are_named():
     v, f = box_mesh((1, 1, 1))
     w2 = make_world()
     w2.add_body(tb.Mesh(vertices=v, faces=f), mass=1.0, name="rock")
-    with pytest.raises(NotImplementedError, match="'rock'.*fixed body.*Compound of Convex"):
+    with pytest.raises(NotImplementedError, match="'rock'.*fixed or kinematic body.*Compound of Convex"):
         build_shape_table(w2)
 
 

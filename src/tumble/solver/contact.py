@@ -42,6 +42,7 @@ from .contact_solve import (
     apply_restitution_kernel,
     prepare_contacts_kernel,
     solve_contacts_kernel,
+    surface_target_kernel,
     store_impulses_kernel,
     warm_start_kernel,
 )
@@ -133,6 +134,9 @@ _C_FLOAT = {
     "old_normal_impulse": (), "old_friction_impulse": (3,),
     "step_normal_impulse": (), "step_tangent_impulse": (2,),
     "arm_a": (3,), "arm_b": (3,), "gap": (),
+    # the tangential speed friction drives each contact to, from the bodies' surface velocities
+    # (conveyor belts): written only in a world that has one, zero otherwise
+    "surface_target": (2,),
     # rolling and spinning rows (solver.contact_rolling), written only where a material resists rolling
     "rolling_mass": (3,), "rolling_limit": (2,), "rolling_impulse": (3,), "old_rolling_impulse": (3,),
 }
@@ -159,6 +163,7 @@ class ContactSolver:
         self.contacts = None
         self._material_bodies = -1
         self.rolling_rows = _NO_ROWS  # contacts with rolling and spinning rows this step
+        self._surface_written = False  # whether surface_target holds anything but zeros
         self._rolling_stored = False  # whether old_rolling_impulse holds the last step's
         self.sweep = SweepOrder()  # the order of this step's sweeps (slabs for a large step)
 
@@ -242,9 +247,23 @@ class ContactSolver:
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
+        self._prepare_surface(world, contacts)
         self._prepare_rolling(contacts, match)
         self.sweep.update(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, int(st.partitions),
                           st.partition_min_contacts)
+
+    def _prepare_surface(self, world, contacts):
+        """``surface_target`` (C, 2) m/s: t . (R_a s_a - R_b s_b) along the two tangents, s the
+        bodies' ``surface_velocity`` (body frame); zeros (left as they are) in a world without one."""
+        n = self.count
+        used = bool(np.any(world.surface_velocity))
+        if used:
+            surface_target_kernel(contacts.contact_body_a, contacts.contact_body_b, self.tangent1, self.tangent2,
+                                  self.R, world.surface_velocity, self.surface_target)
+        elif self._surface_written:
+            self._buf["surface_target"][:] = 0.0
+        self._surface_written = used
+        return n
 
     def _prepare_rolling(self, contacts, match):
         """The rolling and spinning rows (``contact_rolling``) of the contacts that touch a body
@@ -281,7 +300,8 @@ class ContactSolver:
         solve_contacts_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
                               c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
                               self.anchor_offset, self.separation_base, self.normal_mass, self.tangent_mass, self.soft,
-                              self.friction, self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h, self.settings.contact_speed,
+                              self.friction, self.surface_target, self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h,
+                              self.settings.contact_speed,
                               bool(use_bias), self.v, self.omega, self.normal_impulse, self.tangent_impulse,
                               self.max_normal_impulse, self.relative_velocity, self.last_normal_speed,
                               self.arm_a, self.arm_b, self.gap)

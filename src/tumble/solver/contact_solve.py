@@ -350,7 +350,7 @@ def _push2(inv_m, vi, wi, j1, j2, e0, e1, e2, f0, f1, f2, k1, k2):
 
 @njit(**JIT)
 def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
-                         separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv, inv_h,
+                         separation, normal_mass, tangent_mass, soft, friction, surface_target, x, R, inv_mass, I_inv, inv_h,
                          contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse, max_normal_impulse,
                          relative_velocity, last_normal_speed, arm_a, arm_b, gap):
     """Contacts order[lo:hi] of ``solve_contacts_kernel``, a manifold at a time (the consecutive
@@ -479,8 +479,10 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
                 cb1, kb1 = _angular_direction(Ib, rb, e0, e1, e2)
                 ca2, ka2 = _angular_direction(Ia, ra, f0, f1, f2)
                 cb2, kb2 = _angular_direction(Ib, rb, f0, f1, f2)
-                vt1 = _speed_along(va, wa, vb, wb, e0, e1, e2, ca1, cb1)
-                vt2 = _speed_along(va, wa, vb, wb, f0, f1, f2, ca2, cb2)
+                # the slip of the two surfaces: less the speed their own surface velocities give
+                # (a conveyor belt's); x - 0.0 is x to the bit, so a world without keeps its bits
+                vt1 = _speed_along(va, wa, vb, wb, e0, e1, e2, ca1, cb1) - surface_target[c, 0]
+                vt2 = _speed_along(va, wa, vb, wb, f0, f1, f2, ca2, cb2) - surface_target[c, 1]
                 old1 = tangent_impulse[c, 0]
                 old2 = tangent_impulse[c, 1]
                 new1 = old1 - tangent_mass[c, 0] * vt1
@@ -505,9 +507,32 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
     _store_pair(v, omega, cached_a, cached_b, va, wa, vb, wb)
 
 
+@njit(**JIT)
+def surface_target_kernel(body_a, body_b, tangent1, tangent2, R, surface_velocity,
+                          # outputs
+                          surface_target):
+    """Per contact, the tangential speed t . (R_a s_a - R_b s_b) (m/s) along ``tangent1`` and
+    ``tangent2`` (C, 3), s (N, 3) the bodies' ``surface_velocity`` (body frame, m/s): the slip
+    friction drives to zero is then the bodies' relative tangential speed less it (Box2D's
+    ``tangentSpeed`` of a conveyor belt's shape, as a vector: each contact takes its part in
+    its tangent plane)."""
+    for c in range(body_a.shape[0]):
+        a = body_a[c]
+        b = body_b[c]
+        d = np.zeros(3)
+        for k in range(3):
+            d[k] = (R[a, k, 0] * surface_velocity[a, 0] + R[a, k, 1] * surface_velocity[a, 1]
+                    + R[a, k, 2] * surface_velocity[a, 2]) \
+                - (R[b, k, 0] * surface_velocity[b, 0] + R[b, k, 1] * surface_velocity[b, 1]
+                   + R[b, k, 2] * surface_velocity[b, 2])
+        surface_target[c, 0] = tangent1[c, 0] * d[0] + tangent1[c, 1] * d[1] + tangent1[c, 2] * d[2]
+        surface_target[c, 1] = tangent2[c, 0] * d[0] + tangent2[c, 1] * d[1] + tangent2[c, 2] * d[2]
+
+
 @njit(**JIT, parallel=True)  # PERF: the parallel pipeline also drops the inlined body's per-contact refcounts
 def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
-                          anchor_offset, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass, I_inv,
+                          anchor_offset, separation, normal_mass, tangent_mass, soft, friction, surface_target, x, R,
+                          inv_mass, I_inv,
                           inv_h, contact_speed, use_bias,
                           # outputs
                           v, omega, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
@@ -528,6 +553,8 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
     d = (xB + RB lB + oB) - (xA + RA lA + oA) (``contact_anchor._arms``), with d0 = 0 where both
     anchors start at the contact point (for deep overlaps and round sides they do not:
     ``separation`` here is ``separation_base`` = s0 - n.d0, ``prepare_contacts_kernel``).
+    ``surface_target`` (C, 2) m/s: the tangential slip friction drives each contact to
+    (``surface_target_kernel``; zeros but on a conveyor belt).
     s > 0 (speculative): the bias lets the gap close in exactly this substep and no more.
     s <= 0 with bias: a soft spring pushes out at no more than ``contact_speed``.
     Relax (no bias): rigid, so the push-out velocity is taken back out and adds no energy.
@@ -545,13 +572,14 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
     if parts > 0:
         for p in prange(parts):
             _solve_contact_range(bounds[p], bounds[p + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
-                                 local_b, anchor_offset, separation, normal_mass, tangent_mass, soft, friction, x, R,
-                                 inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse,
+                                 local_b, anchor_offset, separation, normal_mass, tangent_mass, soft, friction,
+                                 surface_target, x, R, inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega,
+                                 normal_impulse,
                                  tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed, arm_a,
                                  arm_b, gap)
     _solve_contact_range(bounds[parts], bounds[parts + 1], order, body_a, body_b, normal, tangent1, tangent2, local_a,
-                         local_b, anchor_offset, separation, normal_mass, tangent_mass, soft, friction, x, R, inv_mass,
-                         I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
+                         local_b, anchor_offset, separation, normal_mass, tangent_mass, soft, friction, surface_target,
+                         x, R, inv_mass, I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
                          max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
 
 
