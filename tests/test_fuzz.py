@@ -39,6 +39,7 @@ BASE = {
         {"name": "rod", "shape": {"type": "capsule", "radius": 0.1, "length": 1.0}, "mass": 1.0, "orientation": [1, 0, 0, 0]},
         {"name": "belt", "shape": {"type": "box", "size": [2, 1, 0.1]}, "kinematic": True, "velocity": [0.5, 0, 0],
          "angular_velocity": [0, 0, 0.1], "surface_velocity": [0, 1, 0]},
+        {"name": "zone", "shape": {"type": "box", "size": [1, 1, 1]}, "fixed": True, "sensor": True, "position": [0, 0, 0.5]},
         {"name": "lift", "shape": {"type": "sphere", "radius": 0.2}, "kinematic": True,
          "path": {"times": [0, 0.25, 0.5], "positions": [[3, 0, 0], [3, 0, 1], [3, 1, 1]],
                   "euler_deg": [[0, 0, 0], [0, 0, 90], [0, 0, 0]], "repeat": True}},

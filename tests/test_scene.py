@@ -250,7 +250,7 @@ BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
 SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound"
 BODY_KEYS = ("name, shape, mass, density, inertia, fixed, kinematic, position, orientation, euler_deg, velocity, "
-             "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity")
+             "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity, sensor")
 PATH = "{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]] }"
 
 
@@ -284,6 +284,9 @@ BAD_SCENES = [
     ("kinematic-string", body(kinematic='"yes"'), "bodies[0].kinematic", "expected true or false, got 'yes' (a string)"),
     ("kinematic-and-fixed", body(fixed="true", kinematic="true"), "bodies[0].kinematic", "a body is fixed or kinematic, not both"),
     ("surface-velocity-short", body(surface_velocity="[1, 0]"), "bodies[0].surface_velocity", "expected a list of 3 numbers, got 2"),
+    ("sensor-string", body(sensor='"yes"'), "bodies[0].sensor", "expected true or false, got 'yes' (a string)"),
+    ("sensor-plane", body(shape='{ type = "plane" }', mass=None, fixed="true", sensor="true"), "bodies[0].sensor",
+     re.escape("a plane cannot be a sensor (it has no inside to enter)")),
     ("path-not-kinematic", body(path=PATH), "bodies[0].path", "a path moves a kinematic body: set kinematic = true"),
     ("path-and-position", body(mass=None, kinematic="true", path=PATH, position="[0, 0, 1]"), "bodies[0].position",
      "a body on a path starts at the path's pose and moves at its velocity: give no position, orientation or velocity"),
@@ -684,3 +687,18 @@ def test_a_kinematic_body_on_a_path_from_a_scene_file(tmp_path):
         frame = int(round(t * scene.frame_rate))
         np.testing.assert_allclose(traj.position[frame, 0], p, rtol=0, atol=1e-12)
     np.testing.assert_allclose(traj.orientation[-1, 0], (np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)), rtol=0, atol=1e-12)
+
+
+def test_a_sensor_from_a_scene_file(tmp_path):
+    """A scene's sensor body reports the ball that falls through it and never touches it."""
+    path = tmp_path / "s.toml"
+    path.write_text('[simulation]\nduration = 1.0\n'
+                    '[[bodies]]\nname = "zone"\nsensor = true\nfixed = true\nshape = { type = "box", size = [1, 1, 1] }\n'
+                    'position = [0, 0, 2]\n'
+                    '[[bodies]]\nname = "ball"\nshape = { type = "sphere", radius = 0.1 }\nmass = 1\nposition = [0, 0, 4]\n')
+    scene = tumble.load_scene(path)
+    assert scene.world.body("zone").sensor
+    sim = scene.simulator()
+    sim.run(scene.duration, frame_rate=scene.frame_rate)
+    ev = sim.sensor_events()
+    assert ev.begin_visitor.tolist() == [1] and ev.end_visitor.tolist() == [1]

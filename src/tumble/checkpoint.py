@@ -46,9 +46,9 @@ FORMAT = "tumble-checkpoint"
 VERSION = 1
 CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q", "principal_moments", "com_offset", "moving")
 STATE = ("x", "q", "R", "P", "L")
-# kinematic bodies (World.kinematic, their velocities) and surface velocities: absent from
-# checkpoints written before they existed, which load with none
-KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega", "surface_velocity")
+# kinematic bodies (World.kinematic, their velocities), surface velocities and sensors: absent
+# from checkpoints written before they existed, which load with none
+KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega", "surface_velocity", "sensor")
 FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, CustomForce)}
 BODY_FIELDS = ("body", "body_a", "body_b")
 
@@ -193,6 +193,8 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "collision_exclusions": sorted([int(a), int(b)] for a, b in w.excluded_collisions),
         # keyframed paths of kinematic bodies (tumble.kinematic), by body row
         "kinematic_paths": [{"body": w.index_of(p.body), **p.to_dict()} for p in w.paths],
+        # the (sensor, visitor) pairs overlapping after the last step: the resumed run's events go on
+        "sensor_pairs": [] if sim._sensor_log is None else sim._sensor_log.pairs.tolist(),
         "forces": [_force_to_dict(w, f) for f in w.forces],
         "joints": [_joint_to_dict(w, j) for j in getattr(w, "joints", ())],
         "applied_impulses": sorted(int(k) for k in w.applied_impulses),
@@ -328,7 +330,7 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
     names = meta["names"]
     n = len(names)
     for name, arr in arrays.items():
-        expected = {"moving": (n,), "kinematic": (n,), "mass": (n,), "inv_mass": (n,)}.get(name)
+        expected = {"moving": (n,), "kinematic": (n,), "sensor": (n,), "mass": (n,), "inv_mass": (n,)}.get(name)
         if arr.shape[:1] != (n,) or (expected is not None and arr.shape != expected):
             raise InputError(f"array {name!r} has shape {arr.shape}, expected {n} rows")
         if arr.dtype.kind not in "fb":
@@ -336,6 +338,7 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
     w = World(gravity=meta["gravity"], layout=meta["layout"])
     moving = arrays["moving"].astype(bool)
     kinematic = arrays["kinematic"].astype(bool) if "kinematic" in arrays else np.zeros(n, dtype=bool)
+    sensor = arrays["sensor"].astype(bool) if "sensor" in arrays else np.zeros(n, dtype=bool)
     # checkpoints written before collision filters existed have none: every body the default
     filters = meta.get("collision_filters") or [None] * n
     for i, name in enumerate(names):
@@ -344,6 +347,7 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
         if moving[i] and type(shape).__name__ != "Particles":
             kw["mass"] = float(arrays["mass"][i])
         w.add_body(shape, name=name, fixed=not (moving[i] or kinematic[i]), kinematic=bool(kinematic[i]),
+                   sensor=bool(sensor[i]),
                    material=Material(**meta["materials"][i]),
                    collision_filter=filters[i], **kw)
     for a, b in meta.get("collision_exclusions") or ():
@@ -390,6 +394,8 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
               contact_events=bool(s.get("contact_events", False)))
     if sim._event_log is not None and meta.get("contact_touching"):
         sim._event_log.set_pairs(meta["contact_touching"], w.body_count)
+    if meta.get("sensor_pairs") and sim._sensors() is not None:
+        sim._sensors().set_pairs(meta["sensor_pairs"])
     sim.step_index = int(meta["step_index"])
     if not math.isclose(sim.step_index * sim.dt, w.t, rel_tol=1e-12, abs_tol=1e-12):
         raise InputError(f"step index {sim.step_index} does not match t = {w.t}")

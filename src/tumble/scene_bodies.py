@@ -37,7 +37,7 @@ from .world import World
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter", "path",
-    "surface_velocity",
+    "surface_velocity", "sensor",
 )
 # path = {times, positions, orientations or euler_deg, repeat}: a kinematic body's keyframes (tumble.kinematic)
 PATH_KEYS = ("times", "positions", "orientations", "euler_deg", "repeat")
@@ -85,6 +85,10 @@ class BodyReader(ValueReader):
         fixed = self.boolean(b["fixed"], f"{key}.fixed") if "fixed" in b else False
         kw["fixed"] = fixed
         kinematic = self.boolean(b["kinematic"], f"{key}.kinematic") if "kinematic" in b else False
+        if "sensor" in b:
+            kw["sensor"] = self.boolean(b["sensor"], f"{key}.sensor")
+            if kw["sensor"] and isinstance(shape, Plane):
+                raise self.error("a plane cannot be a sensor (it has no inside to enter)", f"{key}.sensor")
         if kinematic:
             if fixed:
                 raise self.error("a body is fixed or kinematic, not both", f"{key}.kinematic")

@@ -24,6 +24,7 @@ import numpy as np
 from . import checks
 from . import integrators as K
 from .errors import InputError, SimulationError
+from .collision.sensor import SensorLog
 from .forces import Impulse
 from .kinematic import drive_paths
 from .recording import RunResult, _first_frame_notice, _progress_bar, _Recorder
@@ -112,6 +113,7 @@ class Simulator:
         self.record_joints = bool(record_joints)
         # begin and end touch events, step by step, when asked for (solver.contact_events)
         self._event_log = ContactEventLog() if contact_events else None
+        self._sensor_log = None  # collision.sensor.SensorLog, made on the first step of a world with a sensor
 
     # ------------------------------------------------------------------ stepping
     def step(self, count: int = 1):
@@ -217,6 +219,7 @@ class Simulator:
         sleep = self._sleep_state()
         kinematic = w.kinematic_moving
         movers = kinematic if kinematic.any() else None
+        sensors = self._sensors()
         first = self.step_index
         try:
             for k in range(n):
@@ -252,6 +255,8 @@ class Simulator:
                 if self._event_log is not None:
                     stepped = all_moving & sleep.awake if sleep is not None else all_moving
                     self._event_log.after_step(soft, stepped, (self.step_index + 1) * self.dt)
+                if sensors is not None:
+                    sensors.update(w, soft.pipeline, Y, (self.step_index + 1) * self.dt, *soft.pipeline.user_filters())
         finally:
             moving[:] = all_moving
             table.body_moving[:] = all_moving
@@ -291,6 +296,33 @@ class Simulator:
                 if asleep[other] and w.should_collide(i, j):
                     touched[other] = True
         return touched
+
+    def _sensors(self):
+        """The ``SensorLog`` when the world has a sensor (made on first use), else None."""
+        if self._sensor_log is None and self.world.sensor.any():
+            self._sensor_log = SensorLog()
+        return self._sensor_log
+
+    def sensor_events(self):
+        """The sensor begin and end events since the last call (``collision.sensor.SensorEvents``:
+        (sensor, visitor) body pairs that began or stopped overlapping, at the end of which step)."""
+        log = self._sensors()
+        if log is None:
+            raise InputError("the world has no sensor (add_body(..., sensor=True))", "sensor")
+        return log.drain()
+
+    def sensor_overlaps(self, sensor=None) -> np.ndarray:
+        """The bodies overlapping the sensors at the end of the last step: (K, 2) int64 (sensor,
+        visitor) rows, sorted; with ``sensor`` (a Body, name or index), the visitors' (V,) indices."""
+        log = self._sensors()
+        if log is None:
+            raise InputError("the world has no sensor (add_body(..., sensor=True))", "sensor")
+        if sensor is None:
+            return log.pairs.copy()
+        i = self.world.index_of(sensor)
+        if not self.world.sensor[i]:
+            raise InputError(f"body {self.world.names[i]!r} is not a sensor", "sensor")
+        return log.pairs[log.pairs[:, 0] == i, 1].copy()
 
     def _sleep_state(self):
         """The ``SleepState`` (``self.sleep``) when the world lets bodies sleep, else None."""

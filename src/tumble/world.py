@@ -7,6 +7,7 @@ constants  ``mass`` (N,) kg, ``inv_mass`` (N,) 1/kg (0 for fixed bodies),
            (Ibody, Ibody^-1, body frame), ``principal_q`` (N, 4) principal axes
            to body axes, ``principal_moments`` (N, 3) ascending, ``moving`` (N,)
            bool (dynamic: moved by forces and contacts), ``kinematic`` (N,) bool,
+           ``sensor`` (N,) bool (detects overlaps, touches nothing: collision/sensor.py),
            ``com_offset`` (N, 3) m: the shape origin's place in the
            body frame is ``-com_offset`` (the centre of mass seen from the
            shape origin is ``com_offset``).
@@ -68,7 +69,7 @@ _CONSTANT_ARRAYS = {
 _STATE_ARRAYS = {"x": (3,), "q": (4,), "R": (3, 3), "P": (3,), "L": (3,)}
 _DERIVED_ARRAYS = {"v": (3,), "omega": (3,), "I_inv": (3, 3), "force": (3,), "torque": (3,)}
 _KINEMATIC_ARRAYS = {"kinematic_v": (3,), "kinematic_omega": (3,), "surface_velocity": (3,)}
-_FLAG_ARRAYS = ("moving", "kinematic")
+_FLAG_ARRAYS = ("moving", "kinematic", "sensor")
 
 
 class World:
@@ -159,6 +160,7 @@ class World:
         fixed: bool = False,
         kinematic: bool = False,
         surface_velocity=(0.0, 0.0, 0.0),
+        sensor: bool = False,
         name: str | None = None,
     ) -> "Body":
         """Add one body and return its view.
@@ -192,6 +194,9 @@ class World:
                 at this velocity in its contacts (each contact takes its part in its tangent
                 plane), while the body stays where it is: a conveyor belt (Box2D's tangentSpeed).
                 Friction drives what touches it to that speed.
+            sensor: the body touches nothing and reports the dynamic and kinematic bodies that
+                overlap it (``Simulator.sensor_events``, ``sensor_overlaps``; Box2D's sensor
+                shapes): a trigger zone. It may be fixed, kinematic or dynamic.
             name: unique; default "body<i>".
         """
         if name is None:
@@ -223,6 +228,10 @@ class World:
         R = quat_to_matrix(q)
         if fixed and kinematic:
             raise InputError("a body is fixed or kinematic, not both", "kinematic")
+        if not isinstance(sensor, (bool, np.bool_)):
+            raise InputError(f"expected True or False, got {sensor!r}", "sensor")
+        if sensor and isinstance(shape, Plane):
+            raise InputError("a plane cannot be a sensor (it has no inside to enter)", "sensor")
         if kinematic and isinstance(shape, Plane):
             raise InputError("a plane can only be a fixed body (set fixed = true)", "kinematic")
 
@@ -251,6 +260,7 @@ class World:
         a["R"][i] = R
         a["moving"][i] = not (fixed or kinematic)
         a["kinematic"][i] = kinematic
+        a["sensor"][i] = bool(sensor)
         a["kinematic_v"][i] = 0.0
         a["kinematic_omega"][i] = 0.0
         a["surface_velocity"][i] = surface_velocity
@@ -664,6 +674,7 @@ class Body:
 
     fixed = property(lambda self: not (self.world.moving[self.index] or self.world.kinematic[self.index]))
     kinematic = property(lambda self: bool(self.world.kinematic[self.index]))
+    sensor = property(lambda self: bool(self.world.sensor[self.index]))
 
     @property
     def surface_velocity(self) -> np.ndarray:

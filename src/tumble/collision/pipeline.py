@@ -14,6 +14,7 @@ from .filter import NO_FILTER, exclusion_keys, filter_table
 from .geometry import build_shape_table
 from .manifold import ContactManifolds
 from .narrowphase import collide_pairs
+from .sensor import sensor_filter_table
 
 
 class CollisionPipeline:
@@ -46,6 +47,7 @@ class CollisionPipeline:
         self._excluded = None  # jointed and World-excluded keys, merged
         self._joint_keys = None
         self._body_filter = NO_FILTER
+        self._user_filter = NO_FILTER  # the filters as the user set them (sensors' included)
 
     def refresh(self):
         """Rebuild the shape table if bodies were added since the last call."""
@@ -66,7 +68,11 @@ class CollisionPipeline:
         w = self.world
         key = (w.body_count, w.filter_version)
         if key != self._filter_key or self._joint_keys is not self.excluded_pairs:
-            self._body_filter = filter_table(w.collision_filters[: w.body_count])
+            self._user_filter = filter_table(w.collision_filters[: w.body_count])
+            # sensors touch nothing (collision/sensor.py): their rows meet no other
+            sensor = w.sensor
+            self._body_filter = sensor_filter_table(w.collision_filters[: w.body_count], sensor) \
+                if sensor.any() else self._user_filter
             excluded = exclusion_keys(w.excluded_collisions, w.body_count)
             if self.excluded_pairs is not None:
                 excluded = np.union1d(excluded, self.excluded_pairs).astype(np.int64)
@@ -74,6 +80,12 @@ class CollisionPipeline:
             self._joint_keys = self.excluded_pairs
             self._filter_key = key
         return self._excluded, self._body_filter
+
+    def user_filters(self):
+        """(excluded keys or None, filter table) as the user set them, without the rows that keep
+        sensors out of contact: what a sensor's overlaps obey (collision/sensor.py)."""
+        excluded, _ = self._filters()
+        return excluded, self._user_filter
 
     def detect(self, x=None, R=None, v=None, omega=None, dt: float = 0.0) -> ContactManifolds:
         """Run the three stages; returns the contacts.
