@@ -14,11 +14,13 @@ of the step times (ms a step, over ``--steps`` steps after ``--warm`` warm-up st
 - ``rolling``: 1000 balls (radius 5 cm) dropped on a 10 x 10 x 10 grid onto the ground, 1/240 s
   with the default 4 substeps, with rolling resistance 0 and 0.05 (and spinning friction
   0.001 m): every ball contact gets three rows.
+- ``sensor``: the large pyramid with a sensor box over its top third (every step, the overlaps of
+  its ~560 boxes: bounds, a NumPy box test and the narrowphase on the pairs that meet);
 - ``kinematic``: 400 boxes (10 cm, a 10 x 10 x 4 grid) dropped on a 3 m slab, fixed, or
   kinematic and moving at 0.2 m/s (a conveyor: the slab moves in the substeps, its velocity is
   felt by every contact with it, its passengers are kept awake).
 
-Usage: ``python benchmarks/contact_features.py [--case filters|events|rolling|kinematic|all] [--rounds 3]``;
+Usage: ``python benchmarks/contact_features.py [--case filters|events|rolling|kinematic|sensor|all] [--rounds 3]``;
 prints one markdown table (the figures in docs/benchmarks.md).
 """
 
@@ -52,6 +54,20 @@ def _pyramid(filtered: bool, events: bool = False):
             body.collision_filter = tb.CollisionFilter(category=1, mask=0xFFFF)
     return tb.Simulator(world, dt=settings["dt"], integrator="semi-implicit-euler",
                         contact_settings=SoftStepSettings(substeps=4), contact_events=events)
+
+
+def _pyramid_sensor(sensor: bool):
+    """large_pyramid, with or without a sensor box over its top third (~560 boxes in it)."""
+    import tumble as tb
+
+    sim = _pyramid(False)
+    if sensor:
+        world = sim.world
+        top = float(world.x[:, 2].max())
+        sim.world.add_body(tb.Box((20.0, 20.0, top / 3)), fixed=True, sensor=True,
+                           position=(0.0, 0.0, top - top / 6))
+        sim = type(sim)(world, dt=sim.dt, integrator=sim.integrator, contact_settings=sim.contact_settings)
+    return sim
 
 
 def _balls(rolling: bool):
@@ -93,6 +109,8 @@ CASES = {"filters": (_pyramid, "large_pyramid, 5050 cubes, 1/60 s x 4, 1 thread"
                     "contact events off", "contact events on"),
          "rolling": (_balls, "1000 balls dropped on the ground, 1/240 s x 4, 1 thread", "rolling resistance 0",
                      "rolling resistance 0.05, spinning friction 0.001 m"),
+         "sensor": (_pyramid_sensor, "large_pyramid, 5050 cubes, 1/60 s x 4, 1 thread", "no sensor",
+                    "a sensor box over the top third of the pyramid"),
          "kinematic": (_conveyor, "400 boxes dropped on a slab, 1/240 s x 4, 1 thread", "fixed slab",
                        "kinematic slab moving at 0.2 m/s")}
 
