@@ -48,3 +48,16 @@ def rotation_angle_between(q1, q2):
     dw = w1 * w2 + np.sum(v1 * v2, axis=-1, keepdims=True)
     dv = w1 * v2 - w2 * v1 - np.cross(v1, v2)
     return 2.0 * np.arctan2(np.linalg.norm(dv, axis=-1), np.abs(dw[..., 0]))
+
+
+def assert_dragged_to_belt_speed(traj, index, mu, u, g, slide_atol, ride_atol, ride_from=0.5):
+    """Coulomb's law for a box dropped at rest on a belt whose surface moves at u along x: while it
+    slides (t < 0.9 t*, t* = u / (mu g)) it speeds up at mu g, v = mu g t (within ``slide_atol``
+    m/s); from ``ride_from`` s it moves at (u, 0, 0) (within ``ride_atol``). ``traj`` a Trajectory,
+    ``index`` the box's column."""
+    t = traj.time
+    sliding = t < 0.9 * u / (mu * g)
+    np.testing.assert_allclose(traj.velocity[sliding, index, 0], mu * g * t[sliding], rtol=0, atol=slide_atol)
+    riding = t > ride_from
+    np.testing.assert_allclose(traj.velocity[riding, index], np.broadcast_to((u, 0.0, 0.0), (riding.sum(), 3)),
+                               rtol=0, atol=ride_atol)
