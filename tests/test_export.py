@@ -490,3 +490,34 @@ def test_compound_mesh_is_its_parts_in_place():
                         (Box(size=(0.1, 0.1, 0.3)), (0, 0, 0), (math.cos(math.pi / 4), math.sin(math.pi / 4), 0, 0))])
     bounds = shape_trimesh(c).bounds
     assert np.allclose(bounds, [[-0.1, -0.15, -0.05], [0.1, 0.15, 0.3]], atol=2e-3)
+
+
+def test_sensors_are_drawn_translucent(trajectories, glb_files, tmp_path):
+    # examples/conveyor.toml's bin sensor: in the trajectory file's ``sensor`` flags, a glTF
+    # material with alpha 0.25 blended (the Khronos validator checks the file with the others) and
+    # extras "sensor", a USD displayOpacity of 0.25; every other body opaque.
+    from pxr import Usd, UsdGeom
+
+    traj = trajectories["conveyor"]
+    assert traj.sensor is not None
+    sensor = np.flatnonzero(traj.sensor)
+    assert [str(traj.names[i]) for i in sensor] == ["bin_sensor"]
+    assert trajectories["tower"].sensor is None  # a world without sensors writes no flags
+    gltf, _ = load_glb(glb_files["conveyor"])
+    root = gltf.nodes[gltf.scenes[gltf.scene].nodes[0]]
+    for i, node_index in enumerate(root.children):
+        node = gltf.nodes[node_index]
+        material = gltf.materials[gltf.meshes[node.mesh].primitives[0].material]
+        if i in sensor:
+            assert node.extras["sensor"] is True
+            assert material.alphaMode == "BLEND" and material.pbrMetallicRoughness.baseColorFactor[3] == 0.25
+        else:
+            assert "sensor" not in node.extras
+            assert material.alphaMode in (None, "OPAQUE") and material.pbrMetallicRoughness.baseColorFactor[3] == 1.0
+    stage = Usd.Stage.Open(str(export_usd(traj, tmp_path / "conveyor.usda")))
+    for i, prim in enumerate(stage.GetDefaultPrim().GetChildren()):
+        opacity = UsdGeom.Mesh(prim.GetChild("mesh")).GetDisplayOpacityAttr().Get()
+        if i in sensor:
+            assert list(opacity) == [pytest.approx(0.25)] and prim.GetCustomDataByKey("tumble:sensor") is True
+        else:
+            assert opacity is None

@@ -235,3 +235,19 @@ def test_python_api_rejects_bad_arguments(traj, tmp_path):
         render_frame(traj, 0, W, H, colors={"nobody": "red"})
     with pytest.raises(tb.InputError, match="width"):
         render_video(traj, tmp_path / "v.mp4", width=2.5, progress=False)
+
+
+def test_a_body_inside_a_sensor_shows_through_it():
+    # a red ball inside a large sensor box, seen from outside: drawn translucent, the sensor lets
+    # the ball's red through; the same trajectory with its sensor flags dropped (an opaque box)
+    # hides it. The pixels are counted with red_mask, as for the mover above.
+    world = tb.World(gravity=(0, 0, 0))
+    world.add_body(tb.Box(size=(2.0, 2.0, 2.0)), fixed=True, sensor=True, position=(0, 0, 1), name="zone")
+    world.add_body(tb.Sphere(radius=0.4), mass=1.0, position=(0, 0, 1), name="ball")
+    traj = tb.Simulator(world, dt=1 / 240).run(duration=0.5, frame_rate=6)
+    assert traj.sensor is not None and traj.sensor.tolist() == [True, False]
+    colors = {"zone": (200, 200, 200), "ball": (230, 0, 0)}
+    seen = red_mask(render_frame(traj, 0, W, H, colors=colors)).sum()
+    traj.sensor = None
+    hidden = red_mask(render_frame(traj, 0, W, H, colors=colors)).sum()
+    assert hidden == 0 and seen > 100

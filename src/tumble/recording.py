@@ -98,6 +98,8 @@ def static_values(world: World) -> dict:
         "com_offset": world.com_offset.copy(),
         "shapes": np.array([json.dumps(shape_to_dict(sh)) for sh in world.shapes], dtype=str),
         "fixed": world.fixed.copy(),
+        # only in a world with a sensor: the files of others keep their bytes
+        **({"sensor": world.sensor.copy()} if world.sensor.any() else {}),
     }
 
 

@@ -41,6 +41,8 @@ class Trajectory:
         shapes: (N,) JSON text of each body's shape (``shapes.shape_to_dict``), so that
             the file alone is enough to draw and export the bodies (None in old files).
         fixed: (N,) bool, True for fixed bodies (None in old files).
+        sensor: (N,) bool, True for sensors (touch nothing; drawn translucent), written only
+            when the world has one (None otherwise).
 
     Contacts, when the run recorded them (``record_contacts``; else None). C is the largest
     number of contact points of any frame; frame k uses its first ``contact_count[k]`` rows, the
@@ -77,6 +79,7 @@ class Trajectory:
     com_offset: np.ndarray
     shapes: np.ndarray | None = None
     fixed: np.ndarray | None = None
+    sensor: np.ndarray | None = None
     contact_count: np.ndarray | None = None
     contact_body_a: np.ndarray | None = None
     contact_body_b: np.ndarray | None = None
@@ -94,7 +97,7 @@ class Trajectory:
     joint_enabled: np.ndarray | None = None
 
     OPTIONAL = ("joint_names", "joint_position", "joint_rate", "joint_force", "joint_torque", "joint_enabled",
-                "shapes", "fixed", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
+                "shapes", "fixed", "sensor", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
                 "contact_normal", "contact_separation", "contact_normal_impulse", "contact_friction_impulse",
                 "contact_force")
 

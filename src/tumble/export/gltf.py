@@ -40,6 +40,8 @@ from .meshes import (
     body_meshes,
     continuous_quaternions,
     fixed_flags,
+    sensor_flags,
+    SENSOR_OPACITY,
     srgb_to_linear,
 )
 
@@ -96,6 +98,7 @@ def gltf_document(traj) -> tuple[dict, bytes]:
     names = [str(n) for n in traj.names]
     n_bodies = len(names)
     fixed = fixed_flags(traj)
+    sensor = sensor_flags(traj)
     position = np.asarray(traj.position, dtype=float)
     orientation = np.asarray(traj.orientation, dtype=float)
     com_offset = np.asarray(traj.com_offset, dtype=float)
@@ -125,14 +128,18 @@ def gltf_document(traj) -> tuple[dict, bytes]:
             )
         pos_acc, nrm_acc, idx_acc = geometry_index[key]
         color = srgb_to_linear(body_color(i, bool(fixed[i])))
-        mat_key = (color, mesh.double_sided)
+        alpha = SENSOR_OPACITY if sensor[i] else 1.0
+        mat_key = (color, mesh.double_sided, alpha)
         if mat_key not in material_index:
             material_index[mat_key] = len(materials)
-            materials.append({
+            material = {
                 "name": f"body color {len(materials)}",
-                "pbrMetallicRoughness": {"baseColorFactor": [*color, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.6},
+                "pbrMetallicRoughness": {"baseColorFactor": [*color, alpha], "metallicFactor": 0.0, "roughnessFactor": 0.6},
                 "doubleSided": bool(mesh.double_sided),
-            })
+            }
+            if alpha < 1.0:  # a sensor: translucent, so what it holds shows
+                material["alphaMode"] = "BLEND"
+            materials.append(material)
         meshes.append({
             "name": names[i],
             "primitives": [{"attributes": {"POSITION": pos_acc, "NORMAL": nrm_acc}, "indices": idx_acc,
@@ -143,7 +150,8 @@ def gltf_document(traj) -> tuple[dict, bytes]:
             "mesh": i,
             "translation": [float(v) for v in position[0, i]],
             "rotation": [float(v) for v in q_xyzw[0, i] / np.linalg.norm(q_xyzw[0, i])],
-            "extras": {"body_index": i, "com_offset": [float(v) for v in com_offset[i]], "fixed": bool(fixed[i])},
+            "extras": {"body_index": i, "com_offset": [float(v) for v in com_offset[i]], "fixed": bool(fixed[i]),
+                       **({"sensor": True} if sensor[i] else {})},
         })
 
     animations = []

@@ -135,6 +135,17 @@ def fixed_flags(traj) -> np.ndarray:
     return np.asarray(traj.fixed, dtype=bool)
 
 
+def sensor_flags(traj) -> np.ndarray:
+    """(N,) bool: the trajectory's ``sensor`` flags (all False when it has none)."""
+    if getattr(traj, "sensor", None) is None:
+        return np.zeros(len(traj.names), dtype=bool)
+    return np.asarray(traj.sensor, dtype=bool)
+
+
+#: opacity a sensor is drawn with (video, glTF, USD, viewer): what it holds shows through it
+SENSOR_OPACITY = 0.25
+
+
 def continuous_quaternions(q: np.ndarray) -> np.ndarray:
     """(F, N, 4) quaternions with signs flipped so that consecutive frames have a
     non-negative dot product: interpolating between them (slerp, or nlerp as glTF

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .meshes import body_color, body_meshes, fixed_flags, frame_rate, srgb_to_linear
+from .meshes import SENSOR_OPACITY, body_color, body_meshes, fixed_flags, frame_rate, sensor_flags, srgb_to_linear
 
 SUFFIXES = (".usd", ".usda", ".usdc")
 ROOT_PATH = "/World"
@@ -59,6 +59,7 @@ def build_stage(traj, stage) -> None:
 
     names = [str(n) for n in traj.names]
     fixed = fixed_flags(traj)
+    sensor = sensor_flags(traj)
     position = np.asarray(traj.position, dtype=float)
     orientation = np.asarray(traj.orientation, dtype=float)
     time = np.asarray(traj.time, dtype=float)
@@ -92,6 +93,8 @@ def build_stage(traj, stage) -> None:
         prim.SetCustomDataByKey("tumble:body_index", i)
         prim.SetCustomDataByKey("tumble:com_offset", Gf.Vec3d(*map(float, traj.com_offset[i])))
         prim.SetCustomDataByKey("tumble:fixed", bool(fixed[i]))
+        if sensor[i]:
+            prim.SetCustomDataByKey("tumble:sensor", True)
         translate = xf.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble)
         orient = xf.AddOrientOp(UsdGeom.XformOp.PrecisionDouble)
         if fixed[i] or n_frames == 0:
@@ -122,6 +125,9 @@ def build_stage(traj, stage) -> None:
         color = srgb_to_linear(body_color(i, bool(fixed[i])))
         mesh.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*color)]))
         mesh.GetDisplayColorPrimvar().SetInterpolation(UsdGeom.Tokens.constant)
+        if sensor[i]:  # translucent, so what it holds shows
+            mesh.CreateDisplayOpacityAttr(Vt.FloatArray([SENSOR_OPACITY]))
+            mesh.GetDisplayOpacityPrimvar().SetInterpolation(UsdGeom.Tokens.constant)
 
 
 def export_usd(traj, path) -> Path:

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import InputError
 from .. import visual
+from ..export.meshes import SENSOR_OPACITY, sensor_flags
 from ..shapes import Plane
 from ..trajectory import atomic_path
 
@@ -314,24 +315,14 @@ class _Stage:
         p.set_background(np.array(SKY_BOTTOM) / 255, top=np.array(SKY_TOP) / 255)
         self._add_ground(pv, p)
         # All bodies in one mesh whose points and normals are moved in place each frame:
-        # one actor however many bodies there are.
+        # one actor however many bodies there are (and one more, translucent, for sensors).
         drawn = [i for i, m in enumerate(self.meshes) if m is not None]
         self.bodies = np.array(drawn, dtype=np.int64)
-        if drawn:
-            counts = np.array([len(self.meshes[i][0]) for i in drawn])
-            starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-            self.vertex_body = np.repeat(self.bodies, counts)
-            self.local_points = np.concatenate([self.meshes[i][0] for i in drawn])
-            self.local_normals = np.concatenate([self.meshes[i][1] for i in drawn])
-            faces = np.concatenate([self.meshes[i][2] + s for i, s in zip(drawn, starts)])
-            poly = pv.PolyData.from_regular_faces(self.local_points.copy(), faces)
-            poly.point_data["Normals"] = self.local_normals.copy()
-            poly.point_data.active_normals_name = "Normals"
-            poly.point_data["rgb"] = self.colors[self.vertex_body]
-            actor = p.add_mesh(poly, scalars="rgb", rgb=True, smooth_shading=False, specular=0.3, specular_power=20,
-                               ambient=0.15, diffuse=0.85)
-            actor.prop.interpolation = "gouraud"  # shade with the normals we move (pyvista's smooth shading would copy the mesh)
-            self.poly = poly
+        sensor = sensor_flags(self.traj)
+        self.layers = []
+        for members, opacity in (([i for i in drawn if not sensor[i]], 1.0), ([i for i in drawn if sensor[i]], SENSOR_OPACITY)):
+            if members:
+                self.layers.append(self._add_layer(pv, p, members, opacity))
         self.label = p.add_text("", position="upper_left", font_size=max(8, self.height // 60), color=(0.15, 0.15, 0.15))
         if self.antialias:
             # Super-sampling: VTK with EGL has no FXAA (it falls back to this), and 8x MSAA
@@ -339,6 +330,23 @@ class _Stage:
             p.enable_anti_aliasing("ssaa")
         self.plotter = p
         return self
+
+    def _add_layer(self, pv, p, members, opacity):
+        """One actor drawing the bodies ``members``: (vertex_body, local_points, local_normals, poly)."""
+        counts = np.array([len(self.meshes[i][0]) for i in members])
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        vertex_body = np.repeat(np.asarray(members, dtype=np.int64), counts)
+        local_points = np.concatenate([self.meshes[i][0] for i in members])
+        local_normals = np.concatenate([self.meshes[i][1] for i in members])
+        faces = np.concatenate([self.meshes[i][2] + s for i, s in zip(members, starts)])
+        poly = pv.PolyData.from_regular_faces(local_points.copy(), faces)
+        poly.point_data["Normals"] = local_normals.copy()
+        poly.point_data.active_normals_name = "Normals"
+        poly.point_data["rgb"] = self.colors[vertex_body]
+        actor = p.add_mesh(poly, scalars="rgb", rgb=True, smooth_shading=False, specular=0.3, specular_power=20,
+                           ambient=0.15, diffuse=0.85, opacity=opacity)
+        actor.prop.interpolation = "gouraud"  # shade with the normals we move (pyvista's smooth shading would copy the mesh)
+        return vertex_body, local_points, local_normals, poly
 
     def _add_ground(self, pv, p):
         span = float(max(self.hi[0] - self.lo[0], self.hi[1] - self.lo[1], 1.0))
@@ -371,11 +379,13 @@ class _Stage:
         if self.plotter is None:
             self.open()
         p = self.plotter
-        if len(self.bodies):
-            R = quat_matrices(orientation)[self.vertex_body]
-            self.poly.points[:] = np.einsum("vij,vj->vi", R, self.local_points) + position[self.vertex_body]
-            self.poly.point_data["Normals"][:] = np.einsum("vij,vj->vi", R, self.local_normals)
-            self.poly.Modified()
+        if self.layers:
+            Rs = quat_matrices(orientation)
+            for vertex_body, local_points, local_normals, poly in self.layers:
+                R = Rs[vertex_body]
+                poly.points[:] = np.einsum("vij,vj->vi", R, local_points) + position[vertex_body]
+                poly.point_data["Normals"][:] = np.einsum("vij,vj->vi", R, local_normals)
+                poly.Modified()
         cam = self.camera(t, position, orientation)
         p.camera.position, p.camera.focal_point, p.camera.up = (tuple(map(float, v)) for v in (cam.position, cam.focal_point, cam.view_up))
         p.camera.view_angle = cam.view_angle

@@ -230,4 +230,5 @@ def split_trajectory(traj: Trajectory, rows: slice, world: World, mass: np.ndarr
         com_offset=None if traj.com_offset is None else np.ascontiguousarray(traj.com_offset[rows]),
         shapes=None if traj.shapes is None else traj.shapes[rows].copy(),
         fixed=None if traj.fixed is None else traj.fixed[rows].copy(),
+        sensor=None if traj.sensor is None else traj.sensor[rows].copy(),
     )

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..export.meshes import SENSOR_OPACITY, sensor_flags
 from ..trajectory import Trajectory, load_trajectory
 from .. import visual
 from .contacts import CONTACT_FORCE_COLOR, CONTACT_KEYS, CONTACT_POINT_COLOR, contact_arrays, contacts_at
@@ -327,6 +328,7 @@ class Viewer:
         N = self.body_count
         self.colors = [PALETTE[i % len(PALETTE)] for i in range(N)]
         fixed = np.zeros(N, bool) if self.traj.fixed is None else np.asarray(self.traj.fixed, bool)
+        sensor = sensor_flags(self.traj)
         com_offset = np.asarray(self.traj.com_offset, float)
         # A body that keeps its pose over the whole run is posed once, in a group of its own kind.
         static = np.all(self.position == self.position[:1], axis=(0, 2)) \
@@ -335,7 +337,7 @@ class Viewer:
         # Tessellate each distinct (shape record, com_offset) once: a pile of equal boxes is one mesh,
         # not N (trimesh's creation functions cost ~0.1 ms each).
         meshes: dict = {}  # (shape text, com_offset bytes) -> (vertices, faces, digest, radius, is_plane, shape)
-        group_of_key: dict = {}  # (geometry digest, static) -> list of body indices
+        group_of_key: dict = {}  # (geometry digest, static, sensor) -> list of body indices
         self.plane_frames, self.plane_nodes = {}, []
         self._group_of = np.full(N, -1, dtype=np.int64)  # body -> index in mesh_groups (-1: plane)
         self._row_of = np.full(N, -1, dtype=np.int64)  # body -> row in its group's arrays
@@ -373,11 +375,11 @@ class Viewer:
                 continue
             if fixed[i]:
                 self.colors[i] = tuple(int(0.6 * c + 0.4 * 160) for c in self.colors[i])
-            group_of_key.setdefault((digest, bool(static[i])), []).append(i)
+            group_of_key.setdefault((digest, bool(static[i]), bool(sensor[i])), []).append(i)
 
         self.mesh_groups = []
         colors = np.asarray(self.colors, dtype=np.uint8).reshape(N, 3)
-        for g, ((digest, group_static), members) in enumerate(group_of_key.items()):
+        for g, ((digest, group_static, group_sensor), members) in enumerate(group_of_key.items()):
             vertices, faces = geometry_of_digest[digest]
             bodies = np.asarray(members, dtype=np.int64)
             self._group_of[bodies] = g
@@ -387,7 +389,9 @@ class Viewer:
             group_colors = colors[bodies].copy()
             handle = scene.add_batched_meshes_simple(
                 f"/bodies/g{g}", vertices, faces, self.orientation[0, rows], self.position[0, rows],
-                batched_colors=linear_colors(group_colors), flat_shading=len(faces) <= 24)
+                batched_colors=linear_colors(group_colors), flat_shading=len(faces) <= 24,
+                # sensors translucent, so what they hold shows
+                opacity=SENSOR_OPACITY if group_sensor else None)
             # The browser says which instance was clicked: row j of this group is body bodies[j].
             handle.on_click(lambda event, bodies=bodies: self._pick(bodies, event.instance_index))
             self.mesh_groups.append(MeshGroup(handle, bodies, group_static, group_colors, rows))
