@@ -61,6 +61,12 @@ class Simulator:
             rises past E0 + (max_energy_growth - 1) * scale (``checks.energy_bound``;
             default 1e6, >= 1).
 
+    controller: ``f(sim)``, called before every step with the world at the step's start
+        (``sim.world``, its time ``sim.world.t``): it may set velocities, apply impulses,
+        change motor speeds or kinematic targets (MuJoCo's control callback, the body of a
+        PyBullet loop); it must not add or remove bodies. Runs with one go one step at a
+        time. Settable later as ``sim.controller``.
+
     With ``TUMBLE_VALIDATE=1`` in the environment, ``checks.validate_world`` runs
     after every stage of every step (the stage-by-stage path; same results, slower).
     """
@@ -68,7 +74,7 @@ class Simulator:
     def __init__(self, world: World, dt: float = 1.0 / 240.0, integrator: str = "rk4", substeps: int = 1, rtol: float = 1e-10, atol: float = 1e-12,
                  max_energy_growth: float = checks.MAX_ENERGY_GROWTH, contact_settings: SoftStepSettings | None = None,
                  record_contacts: bool = False, joint_settings=None, record_joints: bool = False,
-                 contact_events: bool = False):
+                 contact_events: bool = False, controller=None):
         if integrator not in K.INTEGRATOR_IDS:
             names = ", ".join(K.INTEGRATOR_IDS)
             raise InputError(f"unknown integrator {integrator!r} (expected one of {names})", "simulation.integrator")
@@ -114,14 +120,31 @@ class Simulator:
         # begin and end touch events, step by step, when asked for (solver.contact_events)
         self._event_log = ContactEventLog() if contact_events else None
         self._sensor_log = None  # collision.sensor.SensorLog, made on the first step of a world with a sensor
+        if controller is not None and not callable(controller):
+            raise InputError(f"expected a function f(sim), got {controller!r}", "controller")
+        self.controller = controller
 
     # ------------------------------------------------------------------ stepping
     def step(self, count: int = 1):
         """Advance the world by ``count`` steps of dt (applying due impulses first)."""
         Y = self.world.pack()
         scratch = Scratch(self.world.body_count, self.world.state_size)
-        Y = self._advance(Y, count, scratch)
+        Y = self._advance_steps(Y, count, scratch)
         self.world.unpack(Y)
+
+    def _advance_steps(self, Y, count: int, scratch):
+        """``_advance`` by ``count`` steps; with a controller, one step at a time, the controller
+        called before each with the world at the step's start (unpacked from Y, packed again)."""
+        if self.controller is None:
+            return self._advance(Y, count, scratch)
+        w = self.world
+        for _ in range(count):
+            w.unpack(Y)
+            w.t = self.step_index * self.dt
+            self.controller(self)
+            Y = w.pack()
+            Y = self._advance(Y, 1, scratch)
+        return Y
 
     def _advance(self, Y: np.ndarray, count: int, scratch: Scratch, check=None) -> np.ndarray:
         """Advance the packed state Y by ``count`` steps, splitting at impulse times.
@@ -217,6 +240,11 @@ class Simulator:
         all_moving = moving.copy()
         table = soft.pipeline.refresh()
         sleep = self._sleep_state()
+        if w.wake_requests:  # bodies the user moved, pushed or placed since the last step
+            if sleep is not None:
+                sleep.resize(w.body_count)
+                sleep.wake(sorted(w.wake_requests))
+            w.wake_requests.clear()
         kinematic = w.kinematic_moving
         movers = kinematic if kinematic.any() else None
         sensors = self._sensors()
@@ -612,7 +640,7 @@ class Simulator:
             for _ in range(frames):
                 snapshot = (Y.copy(), self.step_index, set(w.applied_impulses), dict(self.stats))
                 try:
-                    Y = self._advance(Y, steps_per_frame, scratch)
+                    Y = self._advance_steps(Y, steps_per_frame, scratch)
                     problem = checks.state_problem(Y, w.layout, w.moving)
                     if problem is not None:
                         raise self._diagnose((snapshot[0].copy(),) + snapshot[1:], steps_per_frame, problem)

@@ -105,6 +105,9 @@ class World:
         self.forces: list[Any] = []
         self.joints: list[Any] = []  # joint records of tumble.joints, bound (add_joint)
         self.paths: list[Any] = []  # keyframed paths of kinematic bodies (tumble.kinematic, add_path)
+        # rows a user changed between steps (a pose, a velocity, an impulse): the Simulator wakes
+        # them and their islands before its next step (Box2D's setters wake the body)
+        self.wake_requests: set[int] = set()
         # indices into ``forces`` of the Impulse records already applied (once each); plain
         # integers, so that a checkpoint can save them
         self.applied_impulses: set[int] = set()
@@ -699,6 +702,7 @@ class Body:
         if arr.shape != shape or not np.all(np.isfinite(arr)):
             raise InputError(f"expected finite numbers of shape {shape}, got {value!r}", name)
         getattr(self.world, name)[self.index] = arr
+        self.world.wake_requests.add(self.index)
         if name == "q":
             self.world.R[self.index] = quat_to_matrix(unit_quaternion(arr, "q"))
             self.world.q[self.index] = unit_quaternion(arr, "q")
@@ -727,6 +731,22 @@ class Body:
     @property
     def omega(self):
         return self.world.omega[self.index]
+
+    def apply_impulse(self, impulse, point=None):
+        """Change the body's momenta now by an impulse ``impulse`` (3,) N s, world, at ``point`` (3,)
+        m, world (default the centre of mass): P += J, L += (p - x) x J (Box2D's
+        b2Body_ApplyLinearImpulse, PyBullet's applyExternalForce over one step). A sleeping body
+        given one wakes at the next step. Only for dynamic bodies."""
+        if not self.world.moving[self.index]:
+            kind = "kinematic" if self.kinematic else "fixed"
+            raise InputError(f"body {self.name!r} is {kind}: an impulse moves only a dynamic body", "impulse")
+        J = finite_vector(impulse, "impulse")
+        p = self.x if point is None else finite_vector(point, "point")
+        w = self.world
+        w.P[self.index] += J
+        w.L[self.index] += np.cross(p - self.x, J)
+        w.wake_requests.add(self.index)
+        w.update_derived()
 
     def set_target(self, position, orientation=None, *, euler_deg=None, time: float):
         """Kinematic body: set v and omega so that it reaches a pose in ``time`` seconds
