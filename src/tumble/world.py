@@ -368,22 +368,24 @@ class World:
             return int(body)
         raise InputError(f"unknown body {body!r}", "body")
 
-    def ray_cast(self, origin, direction, max_distance=math.inf, exclude=None, mask=ALL_CATEGORIES):
+    def ray_cast(self, origin, direction, max_distance=math.inf, exclude=None, mask=ALL_CATEGORIES,
+                 category=ALL_CATEGORIES):
         """The first shape along each ray at the bodies' current poses: ``collision.raycast.ray_cast``
         (origin, direction (3,) or (R, 3), world; returns a ``RayHits`` of body, distance m, point,
         normal per ray; a solid shape that holds the origin is not hit; only bodies whose
-        collision category meets ``mask`` are seen)."""
+        collision category meets ``mask`` and whose mask meets ``category`` are seen, never
+        sensors)."""
         from .collision.raycast import ray_cast
 
-        return ray_cast(self, origin, direction, max_distance, exclude, mask=mask)
+        return ray_cast(self, origin, direction, max_distance, exclude, mask=mask, category=category)
 
-    def overlap_aabb(self, lower, upper, mask=ALL_CATEGORIES) -> np.ndarray:
+    def overlap_aabb(self, lower, upper, mask=ALL_CATEGORIES, category=ALL_CATEGORIES) -> np.ndarray:
         """Sorted (K,) int64 indices of the bodies whose shapes' bounding boxes overlap the box
         ``lower`` .. ``upper`` ((3,) m, world) at their current poses: ``collision.query``
         (Box2D's OverlapAABB, PyBullet's getOverlappingObjects; ``mask`` as in ``ray_cast``)."""
         from .collision.query import overlap_aabb
 
-        return overlap_aabb(self, lower, upper, mask)
+        return overlap_aabb(self, lower, upper, mask, category)
 
     def exclude_collision(self, body_a, body_b):
         """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,

@@ -372,6 +372,23 @@ def test_a_mask_sees_only_the_categories_it_names():
         assert (hit.sum() > 50) if mask else not hit.any()
 
 
+def test_a_query_category_and_sensors():
+    """Box2D's query filter both ways: a body is seen when its category meets the query's mask
+    and its own mask meets the query's category; sensors are never seen (not solid). Along x,
+    three spheres in a row: a sensor, one whose mask leaves out category 2, then a plain one."""
+    w = tb.World()
+    w.add_body(tb.Sphere(radius=0.5), fixed=True, sensor=True, position=(2, 0, 0), name="sensor")
+    w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(4, 0, 0), name="picky",
+               collision_filter={"mask": 1})
+    w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(6, 0, 0), name="plain")
+    hit = lambda **kw: w.names[int(w.ray_cast((0, 0, 0), (1, 0, 0), **kw).body[0])]
+    assert hit() == "picky"  # the sensor is passed through
+    assert hit(category=1) == "picky"
+    assert hit(category=2) == "plain"  # picky's mask leaves out category 2
+    assert w.overlap_aabb((0, -1, -1), (7, 1, 1), category=2).tolist() == [w.index_of("plain")]
+    assert w.overlap_aabb((0, -1, -1), (7, 1, 1)).tolist() == [w.index_of("picky"), w.index_of("plain")]
+
+
 def test_a_changed_filter_is_seen_by_the_next_cast():
     """The categories are kept between casts (read once per change of the filters)."""
     w = tb.World()

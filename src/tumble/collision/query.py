@@ -7,7 +7,8 @@ exact for spheres, boxes, capsules and cylinders, the local box's rotation for h
 meshes, a cylinder around a cone), so a body returned may still miss the query box by the
 slack of its bounding box, as in Box2D ("shapes that potentially overlap"). A plane is solid
 below it: it is returned when some corner of the query box is on or below it. Bodies whose
-collision category does not meet ``mask`` are not returned (a query filter, as ray casts).
+collision category does not meet ``mask``, or whose mask does not meet ``category``, are not
+returned (a query filter, as ray casts); nor are sensors.
 """
 
 from __future__ import annotations
@@ -29,17 +30,17 @@ def _corner(name: str, value) -> np.ndarray:
     return a
 
 
-def overlap_aabb(world, lower, upper, mask=ALL_CATEGORIES) -> np.ndarray:
+def overlap_aabb(world, lower, upper, mask=ALL_CATEGORIES, category=ALL_CATEGORIES) -> np.ndarray:
     """Sorted (K,) int64 indices of the bodies with a shape whose bounding box overlaps the box
     ``lower`` .. ``upper`` ((3,) m, world; touching counts), among those whose collision
-    category meets ``mask`` (module docstring)."""
+    category meets ``mask`` and whose mask meets ``category`` (module docstring)."""
     from .raycast import _seen, kept_scene
 
     lo = _corner("lower", lower)
     hi = _corner("upper", upper)
     if np.any(lo > hi):
         raise InputError(f"must be >= lower on every axis, got {hi.tolist()} below {lo.tolist()}", "upper")
-    seen = _seen(world, mask)
+    seen = _seen(world, mask, category)
     table = kept_scene(world).table  # the shape table the ray casts keep
 
     if table.shape_count == 0:

@@ -378,21 +378,24 @@ def kept_scene(world) -> _RayScene:
     return scene
 
 
-def _seen(world, mask) -> np.ndarray:
-    """(N,) bool: the bodies whose collision category meets the query's ``mask``. The categories
-    are read from the filters once per change (``World.filter_version``): a list comprehension
-    per call cost ~0.1 ms at 1000 bodies, more than a single ray's cast."""
-    mask = CollisionFilter(mask=mask).mask  # the same checks and messages as a filter's mask
+def _seen(world, mask, category=ALL_CATEGORIES) -> np.ndarray:
+    """(N,) bool: the bodies a query sees: their collision category meets the query's ``mask``
+    and their mask meets its ``category`` (Box2D's b2ShouldQueryShape), and they are not sensors
+    (sensors are not solid: rays and area queries pass through them, as in Box2D v3). The
+    filters are read once per change (``World.filter_version``): a list comprehension per call
+    cost ~0.1 ms at 1000 bodies, more than a single ray's cast."""
+    query = CollisionFilter(category=category, mask=mask)  # the same checks and messages as a filter's
     key = (world.body_count, world.filter_version)
     cached = getattr(world, "_query_categories", None)
     if cached is None or cached[0] != key:
-        categories = [f.category for f in world.collision_filters[: world.body_count]]
-        cached = world._query_categories = (key, np.array(categories, dtype=np.int64))
-    return (cached[1] & mask) != 0
+        filters = world.collision_filters[: world.body_count]
+        cached = world._query_categories = (key, np.array([f.category for f in filters], dtype=np.int64),
+                                            np.array([f.mask for f in filters], dtype=np.int64))
+    return ((cached[1] & query.mask) != 0) & ((cached[2] & query.category) != 0) & ~world.sensor
 
 
 def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=None,
-             mask=ALL_CATEGORIES) -> RayHits:
+             mask=ALL_CATEGORIES, category=ALL_CATEGORIES) -> RayHits:
     """The first shape of ``world`` along each ray, at the bodies' current poses.
 
     Args:
@@ -403,8 +406,9 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         max_distance: m, a number or (R,), how far each ray looks (inf: without end).
         exclude: a body (``Body``, name or index) or (R,) body indices (-1: none) that the
             rays do not see, e.g. the body a sensor is mounted on.
-        mask: int bit set of the collision categories the rays see (Box2D's query filter):
-            a body is seen when its ``CollisionFilter.category`` meets ``mask`` (default all).
+        mask, category: the query's filter (Box2D's b2QueryFilter): a body is seen when its
+            ``CollisionFilter.category`` meets ``mask`` and its ``mask`` meets ``category``
+            (both default all: every body). Sensors are never seen.
         table: a ``ShapeTable`` of ``world`` to use (default: built from the world at the first
             cast and kept until bodies are added).
 
@@ -441,7 +445,7 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         skip = np.asarray(exclude, dtype=np.int64)
         if skip.shape != (R,):
             raise InputError(f"must be one body or one index per ray ({R}), got shape {skip.shape}", "exclude")
-    seen = _seen(world, mask)
+    seen = _seen(world, mask, category)
     if table is None:
         scene = kept_scene(world)
     else:
