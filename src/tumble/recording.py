@@ -142,11 +142,12 @@ class _Recorder:
         "total_linear_momentum": "3", "total_angular_momentum": "3", "orthonormality_error": None,
     }
 
-    def __init__(self, world: World, capacity: int, contacts_of=None, joints_of=None):
+    def __init__(self, world: World, capacity: int, contacts_of=None, joints_of=None, sensors_of=None):
         self.world = world
         self.contacts_of = contacts_of  # a Simulator whose contacts() are recorded each frame, or None
         self.contact_frames = []
         self.joints_of = joints_of  # a Simulator whose joint_frame() is recorded each frame, or None
+        self.sensors_of = sensors_of  # a Simulator whose sensor_frame() is recorded each frame, or None
         n = world.body_count
         self.count = 0
         self.arrays = {}
@@ -160,6 +161,8 @@ class _Recorder:
         if joints_of is not None:
             for key, shape in joint_frame_shapes(len(world.joints)).items():
                 self.arrays[key] = np.zeros((capacity,) + shape)
+        if sensors_of is not None:
+            self.arrays["sensor_visitors"] = np.zeros((capacity, int(world.sensor.sum())))
 
     def record(self):
         for key, value in frame_values(self.world).items():
@@ -169,6 +172,8 @@ class _Recorder:
         if self.joints_of is not None:
             for key, value in self.joints_of.joint_frame().items():
                 self.arrays[key][self.count] = value
+        if self.sensors_of is not None:
+            self.arrays["sensor_visitors"][self.count] = self.sensors_of.sensor_frame()
         self.count += 1
 
     def trajectory(self) -> Trajectory:

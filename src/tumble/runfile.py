@@ -56,8 +56,10 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
         raise InputError(f"the run has already reached t = {w.t:g} s, past its requested duration ({float(duration):g} s)", "--duration")
     _check_disk(out, (total + 1) * frame_bytes(w.body_count))
 
+    sensing = sim._sensing()
     writer = TrajectoryWriter(out / TRAJECTORY, static_values(w), w.body_count, keep_frames=recorded if resume else None,
-                              contacts=sim.record_contacts, joints=len(w.joints) if sim.record_joints else None)
+                              contacts=sim.record_contacts, joints=len(w.joints) if sim.record_joints else None,
+                              sensors=int(w.sensor.sum()) if sensing else None)
     state = {"stop": None, "wall0": fig["wall_time_s"], "started": _time.perf_counter()}
     state["last_flush"] = state["started"]
 
@@ -68,6 +70,8 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
             values["contact_count"] = len(values["contacts"])
         if sim.record_joints:
             values.update(sim.joint_frame())
+        if sensing:
+            values["sensor_visitors"] = sim.sensor_frame()
         writer.append(values)
         e = float(values["kinetic_energy"] + values["potential_energy"])
         if fig["energy_initial"] is None:
@@ -104,6 +108,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
     if not resume:
         w.update_derived()
         sim._reset_energy_reference()
+        sim._sense_now()
         record()
     elif sim.energy_reference is None:
         sim._reset_energy_reference()

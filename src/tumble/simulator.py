@@ -331,6 +331,27 @@ class Simulator:
             self._sensor_log = SensorLog()
         return self._sensor_log
 
+    def _sensing(self) -> bool:
+        """Whether the sensors are detected: the world has one and collisions are on."""
+        return bool(self.world.sensor.any()) and self._contact_on()
+
+    def _sense_now(self):
+        """The sensors' overlaps at the world's current state (the start of a run: a body that
+        starts inside a sensor begins there, at that time); nothing without sensors."""
+        if self._sensing():
+            soft = self.soft_step
+            self._sensors().update(self.world, soft.pipeline, self.world.pack(), self.world.t,
+                                   *soft.pipeline.user_filters())
+
+    def sensor_frame(self) -> np.ndarray:
+        """(K,) float: how many bodies overlap each of the K sensors (body order) now: the
+        trajectory's per-frame ``sensor_visitors``."""
+        sensors = np.flatnonzero(self.world.sensor)
+        log = self._sensor_log
+        if log is None or not len(log.pairs):
+            return np.zeros(len(sensors))
+        return np.array([np.count_nonzero(log.pairs[:, 0] == s) for s in sensors], dtype=float)
+
     def sensor_events(self):
         """The sensor begin and end events since the last call (``collision.sensor.SensorEvents``:
         (sensor, visitor) body pairs that began or stopped overlapping, at the end of which step)."""
@@ -606,8 +627,10 @@ class Simulator:
         # the recorder's arrays, then the trajectory's copy of them
         checks.check_memory(2 * (frames + 1) * (n * checks.FRAME_BYTES_PER_BODY + 80), f"keeping {frames + 1} frames of {n} bodies in memory",
                             "simulation.duration")
-        rec = _Recorder(self.world, frames + 1, self if self.record_contacts else None, self if self.record_joints else None)
+        rec = _Recorder(self.world, frames + 1, self if self.record_contacts else None, self if self.record_joints else None,
+                        self if self._sensing() else None)
         self.world.update_derived()
+        self._sense_now()
         rec.record()
         self._reset_energy_reference()
         started = _time.perf_counter()

@@ -61,6 +61,10 @@ class Trajectory:
         joint_position: (F, J) rad or m, the joint coordinate.  joint_rate: (F, J) its rate.
         joint_force: (F, J, 3) N and joint_torque: (F, J, 3) N m, reaction on body b, world.
         joint_enabled: (F, J) 1.0 while the joint acts, 0.0 once broken.
+
+    Sensors, when the world has any (else None), K sensors in body order (``sensor`` flags):
+        sensor_visitors: (F, K) how many bodies overlap each sensor at the frame
+            (``Simulator.sensor_overlaps``; frame 0 at the run's start).
     """
 
     time: np.ndarray
@@ -95,8 +99,9 @@ class Trajectory:
     joint_force: np.ndarray | None = None
     joint_torque: np.ndarray | None = None
     joint_enabled: np.ndarray | None = None
+    sensor_visitors: np.ndarray | None = None
 
-    OPTIONAL = ("joint_names", "joint_position", "joint_rate", "joint_force", "joint_torque", "joint_enabled",
+    OPTIONAL = ("sensor_visitors", "joint_names", "joint_position", "joint_rate", "joint_force", "joint_torque", "joint_enabled",
                 "shapes", "fixed", "sensor", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
                 "contact_normal", "contact_separation", "contact_normal_impulse", "contact_friction_impulse",
                 "contact_force")
@@ -280,13 +285,15 @@ class TrajectoryWriter:
     """
 
     def __init__(self, path, static: dict, body_count: int, keep_frames: int | None = None, contacts: bool = False,
-                 joints: int | None = None):
+                 joints: int | None = None, sensors: int | None = None):
         self.path = Path(path)
         self.parts = self.path.parent / f".{self.path.stem}.parts"
         self.static = static
         self.shapes = frame_shapes(body_count)
         if joints is not None:  # joint readings: fixed-size rows, like the bodies' keys
             self.shapes.update(joint_frame_shapes(joints))
+        if sensors is not None:  # each sensor's visitor count
+            self.shapes["sensor_visitors"] = (sensors,)
         if contacts:  # contact_count, one number a frame; the contact rows in their own files (ragged)
             self.shapes["contact_count"] = ()
         self.contacts = contacts

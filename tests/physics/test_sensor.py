@@ -166,3 +166,28 @@ def test_sensor_bad_input_is_one_line():
     sim = tb.Simulator(w)
     with pytest.raises(InputError, match="no sensor"):
         sim.sensor_events()
+
+
+def test_the_trajectory_counts_each_sensors_visitors_per_frame(tmp_path):
+    # a ball starting inside a sensor (counted from frame 0: the run's start is sensed), a second
+    # ball falling into it, then both falling out of its bottom; the same counts in run() and in
+    # the streamed file of run_to_file
+    def world():
+        w = tb.World(gravity=(0, 0, -G))
+        w.add_body(tb.Box((1, 1, 1)), fixed=True, sensor=True, position=(0, 0, 2), name="zone")
+        w.add_body(tb.Sphere(0.1), mass=1, position=(0, 0, 2.2), name="inside")
+        w.add_body(tb.Sphere(0.1), mass=1, position=(0.2, 0, 3.0), name="above")
+        return w
+
+    traj = tb.Simulator(world(), dt=DT).run(1.0, frame_rate=24)
+    counts = traj.sensor_visitors[:, 0]
+    assert traj.sensor_visitors.shape == (25, 1) and counts[0] == 1
+    t = traj.time
+    # the closed form of each ball's overlap: "inside" until its top leaves z = 1.5 (centre 1.4),
+    # "above" from its bottom at z = 2.5 (centre 2.6) until its centre reaches 1.4
+    inside = t < math.sqrt(2 * 0.8 / G)
+    above = (t >= math.sqrt(2 * 0.4 / G)) & (t < math.sqrt(2 * 1.6 / G))
+    np.testing.assert_array_equal(counts, inside.astype(float) + above.astype(float))
+    result = tb.Simulator(world(), dt=DT).run_to_file(tmp_path / "run", 1.0, frame_rate=24)
+    streamed = tb.load_trajectory(result.out_dir / "trajectory.npz")
+    np.testing.assert_array_equal(streamed.sensor_visitors, traj.sensor_visitors)
