@@ -164,3 +164,39 @@ def drive_paths(world, Y: np.ndarray, t: float, dt: float):
             q1 = q0
         x1 = p + quat_to_matrix(q1) @ world.com_offset[i]
         world.kinematic_v[i], world.kinematic_omega[i] = velocities_to(x0, q0, x1, q1, dt)
+
+
+def touched_by_kinematic(world, soft, movers: np.ndarray, awake: np.ndarray, dynamic: np.ndarray) -> np.ndarray:
+    """(N,) bool: the bodies the moving kinematic bodies (``movers`` (N,) bool) keep awake this
+    step: those in contact with one or jointed to one, and the sleeping dynamic bodies
+    (``dynamic`` (N,) bool, asleep or not; ``awake`` the sleep state's (N,) bool) whose shapes'
+    bounds (grown by the step's margins) overlap one's shapes: their pairs are not in the
+    broadphase (neither body counts as moving there), and their islands must wake before the
+    kinematic body reaches them. ``soft``: the SoftStep after ``collide``.
+    NOTE: Box2D wakes a sleeping body when a kinematic body's proxy begins to overlap it; the
+    bounds here are the same test, made each step the kinematic body moves."""
+    touched = np.zeros(world.body_count, dtype=bool)
+    c = soft.contacts
+    a, b = c.contact_body_a, c.contact_body_b
+    hit = movers[a] | movers[b]
+    touched[a[hit]] = True
+    touched[b[hit]] = True
+    for joint in world.joints:
+        bound = joint.bound
+        if joint.broken or bound is None:
+            continue
+        ja, jb = bound.body_a, bound.body_b
+        if (ja >= 0 and movers[ja]) or (jb >= 0 and movers[jb]):
+            touched[[i for i in (ja, jb) if i >= 0]] = True
+    asleep = dynamic & ~awake[: world.body_count]
+    if asleep.any():
+        from .collision.broadphase import find_pairs
+
+        pipe = soft.pipeline
+        table = pipe.table
+        pa, pb = find_pairs(pipe.shape_aabb, table.shape_type, table.shape_body, movers)
+        for i, j in zip(table.shape_body[pa].tolist(), table.shape_body[pb].tolist()):
+            other = j if movers[i] else i
+            if asleep[other] and world.should_collide(i, j):
+                touched[other] = True
+    return touched

@@ -26,7 +26,7 @@ from . import integrators as K
 from .errors import InputError, SimulationError
 from .collision.sensor import SensorLog
 from .forces import Impulse
-from .kinematic import drive_paths
+from .kinematic import drive_paths, touched_by_kinematic
 from .recording import RunResult, _first_frame_notice, _progress_bar, _Recorder
 from .solver.contact import SoftStepSettings
 from .solver.contact_events import ContactEventLog
@@ -261,7 +261,7 @@ class Simulator:
                 active = soft.collide(Y, t, self.dt)
                 if sleep is not None:
                     c = soft.contacts
-                    touched = None if movers is None else self._touched_by_kinematic(soft, movers, sleep, all_moving)
+                    touched = None if movers is None else touched_by_kinematic(w, soft, movers, sleep.awake, all_moving)
                     sleep.update(w, Y, c.contact_body_a, c.contact_body_b, self.dt, moving=all_moving,
                                  also_awake=touched)
                     if sleep.woke.any() or sleep.fell_asleep.any():
@@ -291,40 +291,6 @@ class Simulator:
             self.step_index = first
         return Y
 
-    def _touched_by_kinematic(self, soft, movers, sleep, dynamic) -> np.ndarray:
-        """(N,) bool: the bodies a moving kinematic body (``movers`` (N,) bool) keeps awake this
-        step (``dynamic`` (N,) bool: the dynamic bodies, asleep or not): those in contact with it or jointed to it, and the sleeping bodies whose shapes'
-        bounds (grown by the step's margins) overlap its shapes, whose pairs the broadphase
-        culls (both count as not moving) and whose islands must wake before it reaches them.
-        NOTE: Box2D wakes a sleeping body when a kinematic body's proxy begins to overlap it; the
-        bounds here are the same test, made each step the kinematic body moves."""
-        w = self.world
-        touched = np.zeros(w.body_count, dtype=bool)
-        c = soft.contacts
-        a, b = c.contact_body_a, c.contact_body_b
-        hit = movers[a] | movers[b]
-        touched[a[hit]] = True
-        touched[b[hit]] = True
-        for joint in w.joints:
-            bound = joint.bound
-            if joint.broken or bound is None:
-                continue
-            ja, jb = bound.body_a, bound.body_b
-            if (ja >= 0 and movers[ja]) or (jb >= 0 and movers[jb]):
-                touched[[i for i in (ja, jb) if i >= 0]] = True
-        asleep = dynamic & ~sleep.awake[: w.body_count]
-        if asleep.any():
-            from .collision.broadphase import find_pairs
-
-            pipe = soft.pipeline
-            table = pipe.table
-            pa, pb = find_pairs(pipe.shape_aabb, table.shape_type, table.shape_body, movers)
-            for i, j in zip(table.shape_body[pa].tolist(), table.shape_body[pb].tolist()):
-                other = j if movers[i] else i
-                if asleep[other] and w.should_collide(i, j):
-                    touched[other] = True
-        return touched
-
     def _sensors(self):
         """The ``SensorLog`` when the world has a sensor (made on first use), else None."""
         if self._sensor_log is None and self.world.sensor.any():
@@ -346,11 +312,8 @@ class Simulator:
     def sensor_frame(self) -> np.ndarray:
         """(K,) float: how many bodies overlap each of the K sensors (body order) now: the
         trajectory's per-frame ``sensor_visitors``."""
-        sensors = np.flatnonzero(self.world.sensor)
         log = self._sensor_log
-        if log is None or not len(log.pairs):
-            return np.zeros(len(sensors))
-        return np.array([np.count_nonzero(log.pairs[:, 0] == s) for s in sensors], dtype=float)
+        return np.zeros(int(self.world.sensor.sum())) if log is None else log.counts(self.world)
 
     def sensor_events(self):
         """The sensor begin and end events since the last call (``collision.sensor.SensorEvents``:

@@ -163,6 +163,13 @@ class SensorLog:
         return SensorEvents(col(begin, 0, np.int64), col(begin, 1, np.int64), col(begin, 2, float),
                             col(end, 0, np.int64), col(end, 1, np.int64), col(end, 2, float))
 
+    def counts(self, world) -> np.ndarray:
+        """(K,) float: how many bodies overlap each of the world's K sensors (body order)."""
+        sensors = np.flatnonzero(world.sensor)
+        if not len(self.pairs):
+            return np.zeros(len(sensors))
+        return np.array([np.count_nonzero(self.pairs[:, 0] == s) for s in sensors], dtype=float)
+
     def set_pairs(self, pairs):
         """The overlapping pairs of a saved run (checkpoints), so a resumed run's events continue."""
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
