@@ -61,3 +61,20 @@ def assert_dragged_to_belt_speed(traj, index, mu, u, g, slide_atol, ride_atol, r
     riding = t > ride_from
     np.testing.assert_allclose(traj.velocity[riding, index], np.broadcast_to((u, 0.0, 0.0), (riding.sum(), 3)),
                                rtol=0, atol=ride_atol)
+
+
+def resumed_run(make_world, tmp_path, duration, dt, **simulator):
+    """Run ``make_world()`` for ``duration`` s in one go, and another ``make_world()`` for half
+    of it, saved to a checkpoint, loaded and run for the other half. Returns (whole, resumed):
+    the two Simulators, for the caller to compare (``checks.state_hash`` of their worlds: bit for
+    bit) and to look into what the checkpoint carried."""
+    import tumble as tb
+
+    whole = tb.Simulator(make_world(), dt=dt, **simulator)
+    whole.run(duration, frame_rate=24)
+    first = tb.Simulator(make_world(), dt=dt, **simulator)
+    first.run(duration / 2, frame_rate=24)
+    first.save_checkpoint(tmp_path / "c.npz")
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    resumed.run(duration / 2, frame_rate=24)
+    return whole, resumed

@@ -14,6 +14,8 @@ import pytest
 import tumble as tb
 from tumble.checks import state_hash
 
+from .solutions import resumed_run
+
 DT = 1.0 / 240.0
 G = 9.81
 F = tb.CollisionFilter
@@ -136,13 +138,7 @@ def _filtered_scene():
 def test_filtered_run_resumes_bit_for_bit(tmp_path):
     """The checkpoint carries the filters and the exclusions: without them the resumed lid
     would meet d0 (or the debris each other) and the hashes would differ."""
-    whole = tb.Simulator(_filtered_scene(), dt=DT)
-    whole.run(1.0)
-    first = tb.Simulator(_filtered_scene(), dt=DT)
-    first.run(0.5)
-    first.save_checkpoint(tmp_path / "c.npz")
-    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
-    assert resumed.world.collision_filters == first.world.collision_filters
+    whole, resumed = resumed_run(_filtered_scene, tmp_path, 1.0, DT)
+    assert resumed.world.collision_filters == whole.world.collision_filters
     assert resumed.world.excluded_collisions == {(1, 5)}
-    resumed.run(0.5)
     assert state_hash(resumed.world) == state_hash(whole.world)

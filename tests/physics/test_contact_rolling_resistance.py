@@ -19,6 +19,8 @@ import pytest
 import tumble as tb
 from tumble.checks import state_hash
 
+from .solutions import resumed_run
+
 G = 9.81
 DT = 1.0 / 240.0
 R = 0.1
@@ -147,15 +149,9 @@ def test_rolling_run_resumes_bit_for_bit(tmp_path):
                          gravity=(G * np.sin(th), 0, -G * np.cos(th)), velocity=(1, 0.5, 0),
                          angular_velocity=(-5, 10, 3))
         return w
-    whole = tb.Simulator(scene(), dt=DT)
-    whole.run(1.0)
-    first = tb.Simulator(scene(), dt=DT)
-    first.run(0.5)
-    first.save_checkpoint(tmp_path / "c.npz")
-    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    whole, resumed = resumed_run(scene, tmp_path, 1.0, DT)
     assert resumed.world.materials[1].rolling_resistance == 0.3
     assert np.any(resumed.soft_step.solver.warm_start_state()["rolling_impulse"] != 0.0)
-    resumed.run(0.5)
     assert state_hash(resumed.world) == state_hash(whole.world)
 
 

@@ -22,7 +22,7 @@ import tumble as tb
 from tumble.checks import state_hash
 from tumble.errors import InputError
 
-from .solutions import assert_dragged_to_belt_speed
+from .solutions import assert_dragged_to_belt_speed, resumed_run
 
 DT = 1.0 / 240.0
 G = 9.81
@@ -279,17 +279,9 @@ def test_set_target_reaches_the_pose_in_the_time_given():
 
 
 def test_a_run_with_kinematic_bodies_resumes_bit_for_bit(tmp_path):
-    w, belt, box = _conveyor()
-    whole = tb.Simulator(w, dt=DT)
-    whole.run(1.0, frame_rate=24)
-    w2, _, _ = _conveyor()
-    first = tb.Simulator(w2, dt=DT)
-    first.run(0.5, frame_rate=24)
-    first.save_checkpoint(tmp_path / "c.npz")
-    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    whole, resumed = resumed_run(lambda: _conveyor()[0], tmp_path, 1.0, DT)
     assert resumed.world.body("belt").kinematic
-    resumed.run(0.5, frame_rate=24)
-    assert state_hash(resumed.world) == state_hash(w)
+    assert state_hash(resumed.world) == state_hash(whole.world)
 
 
 def test_kinematic_bad_input_is_one_line():
@@ -403,15 +395,9 @@ def test_a_run_with_a_path_resumes_bit_for_bit(tmp_path):
             w.add_body(tb.Sphere(0.1), mass=0.5, position=(-0.6 + 0.4 * k, 0.1 * k, 0.1), name=f"ball{k}")
         return w
 
-    w = world()
-    tb.Simulator(w, dt=DT).run(2.5, frame_rate=24)
-    first = tb.Simulator(world(), dt=DT)
-    first.run(1.25, frame_rate=24)
-    first.save_checkpoint(tmp_path / "c.npz")
-    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    whole, resumed = resumed_run(world, tmp_path, 2.5, DT)
     assert len(resumed.world.paths) == 1
-    resumed.run(1.25, frame_rate=24)
-    assert state_hash(resumed.world) == state_hash(w)
+    assert state_hash(resumed.world) == state_hash(whole.world)
 
 
 def test_path_bad_input_is_one_line():

@@ -18,7 +18,7 @@ import tumble as tb
 from tumble.checks import state_hash
 from tumble.errors import InputError
 
-from .solutions import assert_dragged_to_belt_speed
+from .solutions import assert_dragged_to_belt_speed, resumed_run
 
 DT = 1.0 / 240.0
 G = 9.81
@@ -105,15 +105,9 @@ def test_a_belt_run_resumes_bit_for_bit(tmp_path):
             w.add_body(tb.Box((0.3, 0.3, 0.3)), mass=1, position=(0.5 * k, 0.1 * k, 0.5 + 0.4 * k), name=f"box{k}")
         return w
 
-    w = world()
-    tb.Simulator(w, dt=DT).run(1.0, frame_rate=24)
-    first = tb.Simulator(world(), dt=DT)
-    first.run(0.5, frame_rate=24)
-    first.save_checkpoint(tmp_path / "c.npz")
-    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    whole, resumed = resumed_run(world, tmp_path, 1.0, DT)
     np.testing.assert_array_equal(resumed.world.body("belt").surface_velocity, (1, 0, 0))
-    resumed.run(0.5, frame_rate=24)
-    assert state_hash(resumed.world) == state_hash(w)
+    assert state_hash(resumed.world) == state_hash(whole.world)
 
 
 def test_surface_velocity_bad_input_is_one_line():
