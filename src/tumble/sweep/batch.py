@@ -134,7 +134,8 @@ def body_info(world: World) -> M.BodyInfo:
         if isinstance(f, Spring):
             b = -1 if f.body_b is None else world.index_of(f.body_b)
             springs.append((world.index_of(f.body_a), b, tuple(f.anchor_a), tuple(f.anchor_b), f.stiffness, f.rest_length))
-    return M.BodyInfo(tuple(world.names), tuple(bool(m) for m in world.moving), tuple(springs))
+    sensors = tuple(world.names[i] for i in np.flatnonzero(world.sensor))
+    return M.BodyInfo(tuple(world.names), tuple(bool(m) for m in world.moving), tuple(springs), sensors)
 
 
 @dataclasses.dataclass

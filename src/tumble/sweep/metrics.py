@@ -14,6 +14,9 @@ A metric is named on the command line (``--metric``) or in the scene's
 ``flip_time:BODY:AXIS``            first time the body-frame angular velocity component about
                                    AXIS (x, y, z or 0, 1, 2) changes sign, s, linearly
                                    interpolated between frames; NaN if it never does
+``final_sensor_visitors:SENSOR``   bodies overlapping the sensor body at the last frame
+``max_sensor_visitors:SENSOR``     the most at any frame (the trajectory's ``sensor_visitors``;
+                                   NaN when nothing was sensed: collisions off)
 =================================  ==========================================================
 
 Every row also has ``status`` (ok / failed), ``error``, ``error_kind`` (input /
@@ -42,8 +45,9 @@ VECTOR_METRICS = {
     "final_angular_velocity_body": 3,
 }
 SCALAR_METRICS = ("energy_initial", "energy_final", "energy_drift")
+SENSOR_METRICS = ("final_sensor_visitors", "max_sensor_visitors")
 AXES = {"x": 0, "y": 1, "z": 2, "0": 0, "1": 1, "2": 2}
-KNOWN = tuple(VECTOR_METRICS) + SCALAR_METRICS + ("flip_time",)
+KNOWN = tuple(VECTOR_METRICS) + SCALAR_METRICS + ("flip_time",) + SENSOR_METRICS
 
 
 @dataclass(frozen=True)
@@ -62,8 +66,9 @@ class Metric:
         return [self.text]
 
 
-def parse_metric(text, body_names: list[str]) -> Metric:
-    """``"flip_time:box:y"`` -> Metric; body names are checked against the scene."""
+def parse_metric(text, body_names: list[str], sensor_names=None) -> Metric:
+    """``"flip_time:box:y"`` -> Metric; body names are checked against the scene (and, for the
+    sensor metrics, against ``sensor_names`` when given)."""
     where = "--metric"
     if not isinstance(text, str) or not text.strip():
         raise InputError(f"expected a metric name, got {text!r} (known: {', '.join(KNOWN)})", where)
@@ -87,6 +92,9 @@ def parse_metric(text, body_names: list[str]) -> Metric:
             raise InputError(f"metric {text!r}: axis must be x, y, z (or 0, 1, 2), got {parts[2]!r}", where)
         canon = f"flip_time:{body}:{'xyz'[AXES[parts[2]]]}"
         return Metric(canon, kind, body, AXES[parts[2]])
+    if kind in SENSOR_METRICS and sensor_names is not None and body not in sensor_names:
+        raise InputError(f"metric {text!r}: body {body!r} is not a sensor (sensors: "
+                         f"{', '.join(map(repr, sensor_names)) or 'none'})", where)
     return Metric(f"{kind}:{body}", kind, body)
 
 
@@ -114,6 +122,7 @@ class Frames:
     angular_velocity: np.ndarray
     linear_momentum: np.ndarray
     angular_momentum: np.ndarray
+    sensor_visitors: np.ndarray | None = None  # (F, V, K) or None (nothing sensed)
 
     @classmethod
     def from_trajectory(cls, traj, variants: int) -> Frames:
@@ -122,8 +131,9 @@ class Frames:
         def r(a):
             return a.reshape((F, variants, a.shape[1] // variants) + a.shape[2:])
 
+        sensed = getattr(traj, "sensor_visitors", None)
         return cls(traj.time, r(traj.position), r(traj.orientation), r(traj.velocity), r(traj.angular_velocity),
-                   r(traj.linear_momentum), r(traj.angular_momentum))
+                   r(traj.linear_momentum), r(traj.angular_momentum), None if sensed is None else r(sensed))
 
 
 def _dot3(a, b):
@@ -155,6 +165,7 @@ class BodyInfo:
     names: tuple
     moving: tuple  # bool per body
     springs: tuple = ()  # (a, b or -1, anchor_a, anchor_b, stiffness, rest_length)
+    sensors: tuple = ()  # the sensors' names, in body order (the trajectory's sensor_visitors columns)
 
 
 def energies(fr: Frames, mass: np.ndarray, gravity: np.ndarray, info: BodyInfo) -> np.ndarray:
@@ -217,6 +228,13 @@ def compute(metrics: list[Metric], fr: Frames, mass: np.ndarray, gravity, info: 
             out[m.text] = e1
         elif m.kind == "energy_drift":
             out[m.text] = drift
+        elif m.kind in SENSOR_METRICS:
+            V = fr.position.shape[1]
+            if fr.sensor_visitors is None or m.body not in info.sensors:
+                out[m.text] = np.full(V, np.nan)
+            else:
+                counts = fr.sensor_visitors[:, :, info.sensors.index(m.body)]
+                out[m.text] = np.array(counts[-1] if m.kind == "final_sensor_visitors" else counts.max(axis=0), dtype=float)
         elif m.kind == "flip_time":
             j = index[m.body]
             w_body = _rotate(fr.orientation[:, :, j], fr.angular_velocity[:, :, j], transpose=True)

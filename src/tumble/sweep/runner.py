@@ -118,6 +118,7 @@ class SweepDefinition:
         base_scene = parse_scene(copy.deepcopy(data), file, base_dir)
         names = list(base_scene.world.names)
         moving = [bool(m) for m in base_scene.world.moving]
+        sensors = [n for n, s in zip(names, base_scene.world.sensor) if s]
 
         items = _vary_items(section.get("vary"), "sweep.vary", file)
         given = _vary_items(vary, "--vary")
@@ -161,7 +162,7 @@ class SweepDefinition:
                 raise InputError(f"expected a list of metric names, got {texts!r}", "--metric")
             self.metrics = []
             for t in texts:
-                m = M.parse_metric(t, names)
+                m = M.parse_metric(t, names, sensors)
                 if m.text not in [x.text for x in self.metrics]:
                     self.metrics.append(m)
 
