@@ -33,8 +33,9 @@ class KeyframePath:
             ``World.add_body``).
         orientations: (K, 4) unit quaternions (w, x, y, z), or ``euler_deg`` (K, 3); neither:
             the body keeps its orientation at the time the path is added.
-        repeat: after the last key, start again from the first (period times[-1] - times[0]);
-            make the last pose the first for a closed loop. Default: hold the last pose.
+        repeat: after the last key, start again from the first (period times[-1] - times[0]):
+            each period ends on the last key, the next begins at the first (a jump unless the
+            last pose is the first: make it so for a closed loop). Default: hold the last pose.
     """
 
     body: Any
@@ -71,9 +72,12 @@ class KeyframePath:
     def pose(self, t: float):
         """(position (3,) m of the shape origin, quaternion (4,) or None) on the path at time t (s)."""
         times = self.times
-        if self.repeat and t > times[0]:
+        if self.repeat and t > times[-1]:
+            # each period ends on the last key (reached, as without repeat) and the next starts
+            # from the first: t in (t0 + n P, t0 + (n + 1) P] maps to (t0, t_last]
             period = times[-1] - times[0]
-            t = times[0] + math.fmod(t - times[0], period)
+            u = math.fmod(t - times[0], period)
+            t = times[0] + (u if u > 0.0 else period)
         if t <= times[0]:
             k, s = 0, 0.0
         elif t >= times[-1]:
