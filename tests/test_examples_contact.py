@@ -316,10 +316,12 @@ def test_conveyor_fills_the_bin_and_its_sensor_counts_six():
     np.testing.assert_allclose(traj.velocity[k, parcels[0]], (0.8, 0, 0), atol=1e-4)
 
 
-def test_conveyor_run_from_the_command_line_counts_the_parcels(tmp_path):
-    """``tumble run examples/conveyor.toml``: the trajectory file's ``sensor_visitors`` counts 0
-    parcels in the bin at first and 6 at the end, one more at a time (never down)."""
+def test_conveyor_run_from_the_command_line_counts_the_parcels(tmp_path, capsys):
+    """``tumble run examples/conveyor.toml``: it says the bin holds 6 at the end, and the
+    trajectory file's ``sensor_visitors`` counts 0 parcels in the bin at first and 6 at the end,
+    one more at a time (never down)."""
     assert cli_main(["run", str(EXAMPLES / "conveyor.toml"), "--out", str(tmp_path / "run")]) == 0
+    assert "sensors (bodies inside at the end): bin_sensor 6" in capsys.readouterr().out
     traj = tb.load_trajectory(tmp_path / "run" / "trajectory.npz")
     counts = traj.sensor_visitors[:, 0]
     assert counts[0] == 0 and counts[-1] == 6

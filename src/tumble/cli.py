@@ -334,6 +334,11 @@ def _stream(sim, out: Path, duration, frame_rate, args, info, resume: bool) -> i
     else:
         print(f"energy: {r['energy_initial']:.6g} J -> {r['energy_final']:.6g} J (relative change {drift_text}; "
               f"{worker} in this scene do work, so it is not an error)")
+    if sim._sensor_log is not None:  # sensors: what each holds at the end (per frame: sensor_visitors)
+        w = sim.world
+        sensors = [i for i in range(w.body_count) if w.sensor[i]]
+        held = ", ".join(f"{w.names[i]} {int(c)}" for i, c in zip(sensors, sim.sensor_frame()))
+        print(f"sensors (bodies inside at the end): {held}")
     print(f"wrote {traj_path}, {summary_path}, {out / info['copy']}, {ckpt_path}")
     return EXIT_OK
 
