@@ -377,7 +377,7 @@ BAD_SCENES = [
     ("compound-part-no-shape", body(shape='{ type = "compound", parts = [{ position = [0, 0, 0] }] }'), "bodies[0].shape.parts[0]",
      "missing key 'shape'"),
     ("compound-part-unknown-key", body(shape='{ type = "compound", parts = [{ shape = { type = "sphere", radius = 1 }, offset = 1 }] }'),
-     "bodies[0].shape.parts[0].offset", "unknown key (expected one of shape, position, orientation, euler_deg)"),
+     "bodies[0].shape.parts[0].offset", "unknown key (expected one of shape, position, orientation, euler_deg, material)"),
     ("compound-part-negative-radius",
      body(shape='{ type = "compound", parts = [{ shape = { type = "sphere", radius = 1 } }, { shape = { type = "sphere", radius = -1 } }] }'),
      "bodies[0].shape.parts[1].shape.radius", "must be positive, got -1"),

@@ -56,7 +56,7 @@ SHAPE_KEYS = {
     "compound": (("parts",), ()),
 }
 # A compound's parts: solid convex shapes only (no plane, mesh, particles, nor another compound).
-PART_KEYS = ("shape", "position", "orientation", "euler_deg")
+PART_KEYS = ("shape", "position", "orientation", "euler_deg", "material")
 PART_TYPES = ("sphere", "box", "capsule", "cylinder", "cone", "convex")
 # Per force type: (required keys, optional keys), besides "type".
 FORCE_KEYS = {
@@ -219,7 +219,8 @@ class BodyReader(ValueReader):
         return self.library(key, Convex, points=self.rows(s["points"], g("points"), 3))
 
     def compound(self, value, key: str, shape_key: str):
-        """``parts = [{shape = {...}, position = [...], orientation = [w, x, y, z] or euler_deg = [...]}, ...]``."""
+        """``parts = [{shape = {...}, position = [...], orientation = [w, x, y, z] or euler_deg = [...],
+        material = {...}}, ...]`` (a part's material: its contacts' friction and restitution)."""
         self.where = key
         if not isinstance(value, list):
             raise self.error(f"expected a list of part tables, got {_describe(value)}", key)
@@ -244,7 +245,12 @@ class BodyReader(ValueReader):
                 q = [float(c) for c in quat_from_euler_deg(self.vector(t["euler_deg"], f"{pk}.euler_deg"))]
             else:
                 q = [1.0, 0.0, 0.0, 0.0]
-            parts.append((shape, position, q))
+            material = None
+            if "material" in t:
+                m = self.table(t["material"], f"{pk}.material", MATERIAL_KEYS)
+                values = {k: self.number(v, f"{pk}.material.{k}") for k, v in m.items()}
+                material = self.library(f"{pk}.material", Material, **values)
+            parts.append((shape, position, q, material))
         return self.library(shape_key, Compound, parts)
 
     def mesh_path(self, value, key: str) -> str:

@@ -234,14 +234,20 @@ class Compound:
         parts: sequence of ``(shape, position, orientation)``: a shape record
             (not a Plane or Particles; a Compound is flattened), its origin (3,) m
             and its orientation (4,) unit quaternion (w, x, y, z), both in the
-            compound's frame. A part may also be a mapping with keys ``shape``
-            (a record or its ``shape_to_dict`` form), ``position`` (default 0)
-            and ``orientation`` (default identity), as scene files give it.
+            compound's frame; or ``(shape, position, orientation, material)``. A part
+            may also be a mapping with keys ``shape`` (a record or its ``shape_to_dict``
+            form), ``position`` (default 0), ``orientation`` (default identity) and
+            ``material``, as scene files give it.
+        A part's ``material`` (a ``tumble.Material`` or a mapping of its keys; friction and
+        restitution) is the one its contacts use (MuJoCo's per-geom friction, Box2D's per-shape
+        material); a part without one takes the body's. Kept in ``materials`` (a tuple with one
+        Material or None per part; None when no part has one).
 
     The mass is spread by volume (uniform density): overlapping parts count twice.
     """
 
     parts: tuple
+    materials: tuple | None = None
     type_id = SHAPE_COMPOUND
 
     def __post_init__(self):
@@ -252,18 +258,28 @@ class Compound:
         if not raw:
             raise InputError("a compound needs at least one part", "parts")
         parts = []
+        given = list(self.materials) if self.materials is not None else [None] * len(raw)
+        if len(given) != len(raw):
+            raise InputError(f"expected one material (or None) per part, got {len(given)} for {len(raw)} parts", "materials")
         for k, part in enumerate(raw):
             key = f"parts[{k}]"
             if isinstance(part, dict):
-                unknown = set(part) - {"shape", "position", "orientation"}
+                unknown = set(part) - {"shape", "position", "orientation", "material"}
                 if unknown or "shape" not in part:
-                    raise InputError("a part has keys shape, position, orientation", key)
+                    raise InputError("a part has keys shape, position, orientation, material", key)
                 shape = part["shape"]
                 position = part.get("position", (0.0, 0.0, 0.0))
                 orientation = part.get("orientation", (1.0, 0.0, 0.0, 0.0))
+                if part.get("material") is not None:
+                    given[k] = part["material"]
             else:
                 try:
-                    shape, position, orientation = part
+                    if len(part) == 4:
+                        shape, position, orientation, material = part
+                        if material is not None:
+                            given[k] = material
+                    else:
+                        shape, position, orientation = part
                 except (TypeError, ValueError):
                     raise InputError("expected (shape, position, orientation)", key) from None
             if isinstance(shape, dict):
@@ -278,6 +294,15 @@ class Compound:
             pos.setflags(write=False)
             parts.append((shape, pos, tuple(float(c) for c in q / length)))
         object.__setattr__(self, "parts", tuple(parts))
+        from .material import Material  # here: material.py is below shapes.py in the imports
+
+        materials = []
+        for k, m in enumerate(given):
+            try:
+                materials.append(None if m is None else Material.coerce(m))
+            except InputError as err:
+                raise err.within(f"parts[{k}].material") from None
+        object.__setattr__(self, "materials", tuple(materials) if any(m is not None for m in materials) else None)
 
 
 SHAPE_TYPES = {
@@ -311,8 +336,10 @@ def shape_to_dict(shape) -> dict:
     if kind == "particles":
         return {"type": kind, "points": shape.points.tolist(), "masses": shape.masses.tolist()}
     if kind == "compound":
-        return {"type": kind, "parts": [{"shape": shape_to_dict(part), "position": pos.tolist(), "orientation": list(q)}
-                                        for part, pos, q in shape.parts]}
+        materials = shape.materials or (None,) * len(shape.parts)
+        return {"type": kind, "parts": [{"shape": shape_to_dict(part), "position": pos.tolist(), "orientation": list(q),
+                                         **({} if m is None else {"material": m.to_dict()})}
+                                        for (part, pos, q), m in zip(shape.parts, materials)]}
     out = {"type": kind}
     for key in shape.__dataclass_fields__:
         if not key.startswith("_"):

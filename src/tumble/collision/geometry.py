@@ -131,6 +131,8 @@ class ShapeTable:
     mesh_node_first: np.ndarray = field(default_factory=_empty(0, np.int64))
     mesh_node_count: np.ndarray = field(default_factory=_empty(0, np.int64))
     mesh_node_skip: np.ndarray = field(default_factory=_empty(0, np.int64))
+    #: (S,) a compound part's own Material (``Compound.materials``), or None: its body's
+    shape_material: tuple = ()
 
     def __post_init__(self):
         if self.shape_data is None:
@@ -145,6 +147,16 @@ class ShapeTable:
         #: points of ``solver.contact_anchor`` (else every anchor is fixed in its body)
         self.has_round = bool(np.any(np.isin(self.shape_type, (SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER,
                                                                SHAPE_CONE))))
+        #: some compound part has its own material: the contact solver then mixes per shape
+        self.has_part_materials = any(m is not None for m in self.shape_material)
+
+    def shape_materials(self, body_materials) -> tuple[np.ndarray, np.ndarray]:
+        """(S,) friction and (S,) restitution of each shape row: its part's own material, else
+        its body's (``body_materials``: the World's per-body list)."""
+        mats = [own if own is not None else body_materials[b]
+                for own, b in zip(self.shape_material or (None,) * self.shape_count, self.shape_body.tolist())]
+        return (np.array([m.friction for m in mats], dtype=float).reshape(-1),
+                np.array([m.restitution for m in mats], dtype=float).reshape(-1))
 
     @property
     def shape_count(self) -> int:
@@ -200,6 +212,18 @@ def _quat_rotate(q, v):
     w, x, y, z = q
     u = np.array([x, y, z])
     return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
+
+
+def flatten_materials(shape, material):
+    """The material of each of ``flatten_parts(shape)``'s parts: a compound part's own, else
+    the nearest enclosing compound part's, else ``material`` (the body's)."""
+    if not isinstance(shape, Compound):
+        return [material]
+    own = shape.materials or (None,) * len(shape.parts)
+    out = []
+    for (part, _, _), m in zip(shape.parts, own):
+        out += flatten_materials(part, material if m is None else m)
+    return out
 
 
 def flatten_parts(shape, pos=None, q=None):
@@ -374,7 +398,7 @@ class _Builder:
             self.seen[id(shape)] = (shape, data)  # the record is kept alive with its id
         self.rows.append((type_id, body, p, local_pos, local_q, data))
 
-    def table(self, moving) -> ShapeTable:
+    def table(self, moving, materials=()) -> ShapeTable:
         s = len(self.rows)
 
         def cat(parts, shape, dtype=float):
@@ -399,6 +423,7 @@ class _Builder:
             mesh_node_first=cat(self.nf, (0,), np.int64),
             mesh_node_count=cat(self.nc, (0,), np.int64),
             mesh_node_skip=cat(self.ns, (0,), np.int64),
+            shape_material=tuple(materials),
         )
 
 
@@ -417,6 +442,7 @@ def build_shape_table(world, skip_unsupported: bool = False) -> ShapeTable:
     builder = _Builder()
     com_offset = np.asarray(world.com_offset)
     moving = np.asarray(world.moving, dtype=bool)
+    materials = []  # per row: a compound part's own material, or None
     for i, shape in enumerate(world.shapes):
         parts = flatten_parts(shape)
         mark = len(builder.rows), (builder.n_hv, builder.n_hf, builder.n_hfv, builder.n_t, builder.n_n)
@@ -428,6 +454,7 @@ def build_shape_table(world, skip_unsupported: bool = False) -> ShapeTable:
             for part, pos, q in parts:
                 builder.add(part, i, np.asarray(pos, dtype=float) - com_offset[i], np.asarray(q, dtype=float),
                             bool(moving[i]), world.names[i])
+            materials += flatten_materials(shape, None)
         except NotImplementedError as err:
             if not skip_unsupported:
                 msg = str(err)
@@ -438,4 +465,5 @@ def build_shape_table(world, skip_unsupported: bool = False) -> ShapeTable:
                 del x[n:]
             builder.n_hv, builder.n_hf, builder.n_hfv, builder.n_t, builder.n_n = mark[1]
             builder.seen = seen
-    return builder.table(world.moving)
+    assert len(materials) == len(builder.rows)  # one row per part
+    return builder.table(world.moving, materials)

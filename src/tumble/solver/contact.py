@@ -164,6 +164,7 @@ class ContactSolver:
         self._material_bodies = -1
         self.rolling_rows = _NO_ROWS  # contacts with rolling and spinning rows this step
         self._surface_written = False  # whether surface_target holds anything but zeros
+        self._part_material_key = None  # (table, body count) of the per-shape materials below
         self._rolling_stored = False  # whether old_rolling_impulse holds the last step's
         self.sweep = SweepOrder()  # the order of this step's sweeps (slabs for a large step)
 
@@ -247,10 +248,25 @@ class ContactSolver:
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
+        if table.has_part_materials:
+            self._mix_part_materials(world, contacts, table)
         self._prepare_surface(world, contacts)
         self._prepare_rolling(contacts, match)
         self.sweep.update(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, int(st.partitions),
                           st.partition_min_contacts)
+
+    def _mix_part_materials(self, world, contacts, table):
+        """Friction sqrt(f_a f_b) and restitution max(e_a, e_b) of each contact from its two
+        shapes' materials (a compound part's own, else its body's), in place of the bodies'
+        that ``prepare_contacts_kernel`` mixed: the same formulas, so a part without its own
+        material gives the same numbers."""
+        if self._part_material_key != (id(table), world.body_count):
+            self._shape_friction, self._shape_restitution = table.shape_materials(world.materials)
+            self._part_material_key = (id(table), world.body_count)
+        m = contacts.contact_manifold
+        sa, sb = contacts.manifold_shape_a[m], contacts.manifold_shape_b[m]
+        self.friction[:] = np.sqrt(self._shape_friction[sa] * self._shape_friction[sb])
+        self.restitution[:] = np.maximum(self._shape_restitution[sa], self._shape_restitution[sb])
 
     def _prepare_surface(self, world, contacts):
         """``surface_target`` (C, 2) m/s: t . (R_a s_a - R_b s_b) along the two tangents, s the
