@@ -381,7 +381,7 @@ def kept_scene(world) -> _RayScene:
 def _seen(world, mask, category=ALL_CATEGORIES) -> np.ndarray:
     """(N,) bool: the bodies a query sees: their collision category meets the query's ``mask``
     and their mask meets its ``category`` (Box2D's b2ShouldQueryShape), and they are not sensors
-    (sensors are not solid: rays and area queries pass through them, as in Box2D v3). The
+    (sensors are not solid: rays and area queries pass through them). The
     filters are read once per change (``World.filter_version``): a list comprehension per call
     cost ~0.1 ms at 1000 bodies, more than a single ray's cast."""
     query = CollisionFilter(category=category, mask=mask)  # the same checks and messages as a filter's

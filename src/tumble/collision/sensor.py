@@ -5,7 +5,7 @@ A sensor body (``World.add_body(..., sensor=True)``) has no contact with anythin
 collision pipeline gives it a filter row that meets no other (``sensor_filter_table``). After
 each step the Simulator finds the bodies that overlap each sensor at the step's end
 (``SensorLog.update``): the shapes of the dynamic and kinematic bodies (not fixed ones, nor other
-sensors; Box2D's sensors see no static shapes either) whose bounding boxes meet a sensor shape's
+sensors; Box3D's sensor events, too, apply to kinematic and dynamic bodies only) whose bounding boxes meet a sensor shape's
 are passed to the narrowphase with no speculative distance, and a pair overlaps when one of its
 points has a separation below zero. The user's collision filters and exclusions apply between
 a sensor and its visitors as between any two bodies. A sensor may itself be fixed, kinematic or
