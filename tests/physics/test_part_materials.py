@@ -109,3 +109,25 @@ def test_part_materials_survive_a_checkpoint_and_a_scene_file(tmp_path):
     path.write_text(path.read_text().replace("friction = 0.8", "friction = -1"))
     with pytest.raises(InputError, match=r"bodies\[0\]\.shape\.parts\[0\]\.material"):
         tb.load_scene(path)
+
+
+def test_a_parts_rolling_resistance_slows_it_as_a_body_material_would():
+    # a ball rolling at 2 m/s whose only part carries rolling resistance 0.05 (its body none)
+    # slows at c g / (1 + k), k = 2/5, exactly as a ball whose body material has it
+    # (tests/physics/test_contact_rolling_resistance.py): the two runs agree to 1e-9 m/s
+    r, c, v0 = 0.1, 0.05, 2.0
+
+    def roll(as_part):
+        w = tb.World(gravity=(0, 0, -G))
+        w.add_body(tb.Plane(), fixed=True, material=tb.Material(friction=0.8), name="ground")
+        m = tb.Material(friction=0.8, rolling_resistance=c)
+        shape = tb.Compound([(tb.Sphere(r), (0, 0, 0), (1, 0, 0, 0), m)]) if as_part else tb.Sphere(r)
+        ball = w.add_body(shape, mass=1.0, position=(0, 0, r), velocity=(v0, 0, 0), angular_velocity=(0, v0 / r, 0),
+                          material=tb.Material(friction=0.8) if as_part else m, name="ball")
+        traj = tb.Simulator(w, dt=DT).run(1.0, frame_rate=24)
+        return traj.velocity[:, ball.index, 0], traj.time
+
+    part, t = roll(True)
+    body, _ = roll(False)
+    np.testing.assert_allclose(part, body, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(part, v0 - c * G / 1.4 * t, rtol=0, atol=1e-6)

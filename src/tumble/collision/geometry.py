@@ -150,13 +150,14 @@ class ShapeTable:
         #: some compound part has its own material: the contact solver then mixes per shape
         self.has_part_materials = any(m is not None for m in self.shape_material)
 
-    def shape_materials(self, body_materials) -> tuple[np.ndarray, np.ndarray]:
-        """(S,) friction and (S,) restitution of each shape row: its part's own material, else
-        its body's (``body_materials``: the World's per-body list)."""
+    def shape_materials(self, body_materials) -> dict[str, np.ndarray]:
+        """{field: (S,) values} of each shape row's material (friction, restitution,
+        rolling_resistance, spinning_friction): its part's own, else its body's
+        (``body_materials``: the World's per-body list)."""
         mats = [own if own is not None else body_materials[b]
                 for own, b in zip(self.shape_material or (None,) * self.shape_count, self.shape_body.tolist())]
-        return (np.array([m.friction for m in mats], dtype=float).reshape(-1),
-                np.array([m.restitution for m in mats], dtype=float).reshape(-1))
+        return {f: np.array([getattr(m, f) for m in mats], dtype=float).reshape(-1)
+                for f in ("friction", "restitution", "rolling_resistance", "spinning_friction")}
 
     @property
     def shape_count(self) -> int:

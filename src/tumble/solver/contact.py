@@ -248,6 +248,7 @@ class ContactSolver:
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
+        self._contact_shapes = None
         if table.has_part_materials:
             self._mix_part_materials(world, contacts, table)
         self._prepare_surface(world, contacts)
@@ -259,14 +260,16 @@ class ContactSolver:
         """Friction sqrt(f_a f_b) and restitution max(e_a, e_b) of each contact from its two
         shapes' materials (a compound part's own, else its body's), in place of the bodies'
         that ``prepare_contacts_kernel`` mixed: the same formulas, so a part without its own
-        material gives the same numbers."""
+        material gives the same numbers. Keeps the contacts' shapes for ``_prepare_rolling``."""
         if self._part_material_key != (id(table), world.body_count):
-            self._shape_friction, self._shape_restitution = table.shape_materials(world.materials)
+            self._shape_material = table.shape_materials(world.materials)
             self._part_material_key = (id(table), world.body_count)
         m = contacts.contact_manifold
         sa, sb = contacts.manifold_shape_a[m], contacts.manifold_shape_b[m]
-        self.friction[:] = np.sqrt(self._shape_friction[sa] * self._shape_friction[sb])
-        self.restitution[:] = np.maximum(self._shape_restitution[sa], self._shape_restitution[sb])
+        f, e = self._shape_material["friction"], self._shape_material["restitution"]
+        self.friction[:] = np.sqrt(f[sa] * f[sb])
+        self.restitution[:] = np.maximum(e[sa], e[sb])
+        self._contact_shapes = (sa, sb)
 
     def _prepare_surface(self, world, contacts):
         """``surface_target`` (C, 2) m/s: t . (R_a s_a - R_b s_b) along the two tangents, s the
@@ -285,11 +288,21 @@ class ContactSolver:
         """The rolling and spinning rows (``contact_rolling``) of the contacts that touch a body
         whose material resists rolling; none (and nothing run) in a world without one."""
         n = self.count
-        if not self.any_resists_rolling:
+        parts = self._contact_shapes is not None  # per compound part (_mix_part_materials)
+        if parts:
+            sa, sb = self._contact_shapes
+            roll, spin = self._shape_material["rolling_resistance"], self._shape_material["spinning_friction"]
+            shape_resists = (roll > 0.0) | (spin > 0.0)
+            if not shape_resists.any():
+                self.rolling_rows = _NO_ROWS
+                return
+            self.rolling_rows = np.flatnonzero(shape_resists[sa] | shape_resists[sb])
+        elif not self.any_resists_rolling:
             self.rolling_rows = _NO_ROWS
             return
-        resists = self.body_resists_rolling
-        self.rolling_rows = np.flatnonzero(resists[contacts.contact_body_a] | resists[contacts.contact_body_b])
+        else:
+            resists = self.body_resists_rolling
+            self.rolling_rows = np.flatnonzero(resists[contacts.contact_body_a] | resists[contacts.contact_body_b])
         self._buf["rolling_impulse"][:n] = 0.0  # the rows' impulses are stored for every contact
         if not self._rolling_stored:  # the last step kept none: start from zero
             match = np.full(n, -1, dtype=np.int64)
@@ -297,6 +310,12 @@ class ContactSolver:
                                contacts.contact_normal, self.tangent1, self.tangent2, self.anchor_offset, match,
                                self._buf["old_rolling_impulse"][: self.old_count], self.I_inv, self.body_rolling,
                                self.body_spinning, self.rolling_mass, self.rolling_limit, self.rolling_impulse)
+        if parts:  # the limits of the shapes that touch: c r N and s N as the kernel's, per shape
+            rows = self.rolling_rows
+            off = self.anchor_offset[rows]
+            r = np.maximum(np.linalg.norm(off[:, 0:3], axis=1), np.linalg.norm(off[:, 3:6], axis=1))
+            self.rolling_limit[rows, 0] = np.maximum(roll[sa[rows]], roll[sb[rows]]) * r
+            self.rolling_limit[rows, 1] = np.maximum(spin[sa[rows]], spin[sb[rows]])
 
     def warm_start(self, fresh: bool = True):
         """Apply the accumulated impulses; ``fresh=False`` when the poses are those of the last
