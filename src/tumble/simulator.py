@@ -254,6 +254,7 @@ class Simulator:
                 self.step_index = first + k
                 t = self.step_index * self.dt
                 self._drive_paths(Y)
+                Y_start = Y.copy() if sensors is not None else None  # for the sensors' passes
                 if sleep is not None:
                     sleep.resize(w.body_count)
                     moving[:] = all_moving & sleep.awake
@@ -284,7 +285,8 @@ class Simulator:
                     stepped = all_moving & sleep.awake if sleep is not None else all_moving
                     self._event_log.after_step(soft, stepped, (self.step_index + 1) * self.dt)
                 if sensors is not None:
-                    sensors.update(w, soft.pipeline, Y, (self.step_index + 1) * self.dt, *soft.pipeline.user_filters())
+                    sensors.update(w, soft.pipeline, Y, (self.step_index + 1) * self.dt, *soft.pipeline.user_filters(),
+                                   Y0=Y_start)
         finally:
             moving[:] = all_moving
             table.body_moving[:] = all_moving

@@ -191,3 +191,25 @@ def test_the_trajectory_counts_each_sensors_visitors_per_frame(tmp_path):
     result = tb.Simulator(world(), dt=DT).run_to_file(tmp_path / "run", 1.0, frame_rate=24)
     streamed = tb.load_trajectory(result.out_dir / "trajectory.npz")
     np.testing.assert_array_equal(streamed.sensor_visitors, traj.sensor_visitors)
+
+
+@pytest.mark.parametrize("speed", [100.0, 400.0])
+def test_a_bullet_through_a_thin_sensor_is_seen_in_the_step_it_crosses(speed):
+    # a 1 cm ball at 100 and 400 m/s (0.42 and 1.7 m a step) through a 1 cm sensor plate at
+    # x = 1: no step ends with them overlapping, yet the pass is reported, begin and end in the
+    # step that carries the ball across (the first step ending after 1 / speed s); a ball
+    # passing 5 cm beside the plate's edge is not. The ball is not touched (free flight, no
+    # gravity: x = v t to round-off).
+    w = tb.World(gravity=(0, 0, 0))
+    plate = w.add_body(tb.Box((0.01, 0.5, 0.5)), fixed=True, sensor=True, position=(1.0, 0, 0), name="plate")
+    bullet = w.add_body(tb.Sphere(0.005), mass=0.01, position=(0, 0, 0), velocity=(speed, 0, 0), name="bullet")
+    w.add_body(tb.Sphere(0.005), mass=0.01, position=(0, 0.3, 0), velocity=(speed, 0, 0), name="beside")
+    sim = tb.Simulator(w, dt=DT)
+    traj = sim.run(0.025, frame_rate=240)
+    assert np.all(traj.sensor_visitors == 0)  # never overlapping at a step's end
+    ev = sim.sensor_events()
+    t_cross = _first_step_end_after(1.0 / speed)
+    assert ev.begin_sensor.tolist() == [plate.index] and ev.begin_visitor.tolist() == [bullet.index]
+    assert ev.end_visitor.tolist() == [bullet.index]
+    assert ev.begin_time[0] == pytest.approx(t_cross, abs=1e-12) and ev.end_time[0] == pytest.approx(t_cross, abs=1e-12)
+    np.testing.assert_allclose(traj.position[:, bullet.index, 0], speed * traj.time, rtol=1e-12, atol=1e-12)

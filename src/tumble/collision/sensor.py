@@ -34,6 +34,9 @@ from .manifold import ContactManifolds
 from .narrowphase import collide_pairs
 
 _EMPTY = np.zeros(0, dtype=np.int64)
+# the most sub-step samples ``SensorLog.passes`` takes for one step (a body moving more than this
+# many times its own size in a step is sampled more coarsely)
+MAX_PASS_SAMPLES = 256
 
 
 def sensor_filter_table(filters, sensor: np.ndarray) -> np.ndarray:
@@ -92,30 +95,74 @@ class SensorLog:
         self._buffers = None
 
     # -- the step --------------------------------------------------------------------
-    def update(self, world, pipeline, Y: np.ndarray, t: float, excluded=None, body_filter=None):
+    def update(self, world, pipeline, Y: np.ndarray, t: float, excluded=None, body_filter=None, Y0=None):
         """The overlaps at the poses of Y (N, W) (the step's end, time t s); records the events.
         ``excluded``, ``body_filter``: the user's exclusion keys and filter table (the
-        pipeline's ``_filters``, before the sensors' own rows)."""
+        pipeline's ``_filters``, before the sensors' own rows). ``Y0``: the poses at the step's
+        start, for the bodies that pass through a sensor within the step (``passes``): each such
+        pair begins and ends at t."""
         pairs = self.overlaps(world, pipeline, Y, excluded, body_filter)
         old = {tuple(p) for p in self.pairs.tolist()}
         new = {tuple(p) for p in pairs.tolist()}
+        crossed = set() if Y0 is None else self.passes(world, pipeline, Y0, Y, excluded, body_filter) - old - new
         for s, v in sorted(new - old):
             self._begin.append((s, v, t))
-        for s, v in sorted(old - new):
+        for s, v in sorted(crossed):
+            self._begin.append((s, v, t))
+        for s, v in sorted(crossed | (old - new)):
             self._end.append((s, v, t))
         self.pairs = pairs
+
+    def passes(self, world, pipeline, Y0, Y1, excluded=None, body_filter=None) -> set:
+        """(sensor, visitor) pairs that overlap somewhere between the poses Y0 and Y1 (N, W) of
+        one step (call after ``overlaps(..., Y1, ...)``, whose boxes it reads), for visitors that move farther in it than their own size (a bullet through a
+        thin sensor, which neither end sees). NOTE: sampled, not swept: the centres of mass move
+        on straight lines from Y0 to Y1 (orientations as at Y1) in K steps no longer than the
+        smallest half-width of the body's boxes (at most ``MAX_PASS_SAMPLES``), so a sample
+        overlaps any sensor the path crosses, as Box2D's newer sensor hits find by time of impact."""
+        table = pipeline.refresh()
+        n = world.body_count
+        body = table.shape_body
+        solid = table.shape_type != SHAPE_PLANE
+        sens = world.sensor
+        visitor_body = ~sens & ~world.fixed
+        d = np.linalg.norm(Y1[:n, :3] - Y0[:n, :3], axis=1)
+        if not np.any(d[visitor_body] > 0.0) or not sens.any():
+            return set()
+        # the shapes' boxes at Y1, as ``overlaps(Y1)`` (called first by ``update``) left them
+        aabb = self._buffers[2].copy()
+        half = 0.5 * (aabb[:, 1] - aabb[:, 0]).min(axis=1)
+        size = np.full(n, np.inf)
+        np.minimum.at(size, body[solid], half[solid])
+        fast = visitor_body & (d > size)
+        if not fast.any():
+            return set()
+        # the swept boxes of the fast bodies (end boxes moved back along their step) against the sensors'
+        shift = (Y0[:n, :3] - Y1[:n, :3])[body]
+        lo = np.minimum(aabb[:, 0], aabb[:, 0] + shift)
+        hi = np.maximum(aabb[:, 1], aabb[:, 1] + shift)
+        ss = np.flatnonzero(sens[body] & solid)
+        vs = np.flatnonzero(fast[body] & solid)
+        near = np.all((lo[vs][None, :, :] <= hi[ss][:, None, :]) & (hi[vs][None, :, :] >= lo[ss][:, None, :]), axis=2)
+        movers = np.zeros(n, dtype=bool)
+        movers[body[vs[near.any(axis=0)]]] = True
+        if not movers.any():
+            return set()
+        K = int(min(MAX_PASS_SAMPLES, np.ceil(np.max(d[movers] / size[movers]))))
+        found = set()
+        Yk = Y1.copy()
+        for k in range(1, K):
+            Yk[movers, :3] = Y0[movers, :3] + (Y1[movers, :3] - Y0[movers, :3]) * (k / K)
+            for s, v in self.overlaps(world, pipeline, Yk, excluded, body_filter).tolist():
+                if movers[v]:
+                    found.add((s, v))
+        return found
 
     def overlaps(self, world, pipeline, Y, excluded=None, body_filter=None) -> np.ndarray:
         """(K, 2) int64 (sensor, visitor) body pairs overlapping at the poses of Y, sorted."""
         table = pipeline.refresh()
-        n = world.body_count
         S = table.shape_count
-        if self._buffers is None or self._buffers[0].shape[0] != S or self._buffers[4].shape[0] != n:
-            self._buffers = (np.empty((S, 3)), np.empty((S, 3, 3)), np.empty((S, 2, 3)), np.empty(S),
-                             np.empty((n, 3, 3)))
-        pos, rot, aabb, margin, R = self._buffers
-        _rotations_kernel(world.layout_id, Y, R)
-        update_bounds(Y, R, table, 0.0, pos, rot, aabb, shape_margin=margin)
+        pos, rot, aabb, margin, R = self._bounds(world, table, Y)
         body = table.shape_body
         sensor_shape = world.sensor[body] & (table.shape_type != SHAPE_PLANE)
         visitor_shape = ~world.sensor[body] & ~world.fixed[body] & (table.shape_type != SHAPE_PLANE)
@@ -150,6 +197,19 @@ class SensorLog:
         if len(s) == 0:
             return np.zeros((0, 2), dtype=np.int64)
         return np.unique(np.stack([s, v], axis=1), axis=0)
+
+    def _bounds(self, world, table, Y):
+        """(shape_pos, shape_rot, shape_aabb, shape_margin, R) of the shapes at the poses of Y,
+        without margins (the buffers are kept)."""
+        n = world.body_count
+        S = table.shape_count
+        if self._buffers is None or self._buffers[0].shape[0] != S or self._buffers[4].shape[0] != n:
+            self._buffers = (np.empty((S, 3)), np.empty((S, 3, 3)), np.empty((S, 2, 3)), np.empty(S),
+                             np.empty((n, 3, 3)))
+        pos, rot, aabb, margin, R = self._buffers
+        _rotations_kernel(world.layout_id, Y, R)
+        update_bounds(Y, R, table, 0.0, pos, rot, aabb, shape_margin=margin)
+        return self._buffers
 
     # -- reading -----------------------------------------------------------------------
     def drain(self) -> SensorEvents:
