@@ -118,7 +118,8 @@ class SensorLog:
         one step (call after ``overlaps(..., Y1, ...)``, whose boxes it reads), for visitors that move farther in it than their own size (a bullet through a
         thin sensor, which neither end sees). NOTE: sampled, not swept: the centres of mass move
         on straight lines from Y0 to Y1 (orientations as at Y1) in K steps no longer than the
-        smallest half-width of the body's boxes (at most ``MAX_PASS_SAMPLES``), so a sample
+        smallest half-width of the body's boxes (at most ``MAX_PASS_SAMPLES``; only the movers'
+        shapes are moved, from their poses at Y1), so a sample
         overlaps any sensor the path crosses, as Box2D's newer sensor hits find by time of impact."""
         table = pipeline.refresh()
         n = world.body_count
@@ -149,23 +150,37 @@ class SensorLog:
         if not movers.any():
             return set()
         K = int(min(MAX_PASS_SAMPLES, np.ceil(np.max(d[movers] / size[movers]))))
+        # PERF: a sample moves only the movers' shapes, by their body's step (orientations as at
+        # Y1), from the poses and boxes at Y1: no bounds of the whole world per sample (which
+        # cost 0.6 ms a sample among the large pyramid's 5050 boxes, 100 ms a bullet's step)
+        pos1, rot1 = self._buffers[0].copy(), self._buffers[1].copy()
+        rows = np.flatnonzero(movers[body])
+        back = (Y0[:n, :3] - Y1[:n, :3])[body[rows]]
+        pos, box = pos1.copy(), aabb.copy()
         found = set()
-        Yk = Y1.copy()
         for k in range(1, K):
-            Yk[movers, :3] = Y0[movers, :3] + (Y1[movers, :3] - Y0[movers, :3]) * (k / K)
-            for s, v in self.overlaps(world, pipeline, Yk, excluded, body_filter).tolist():
-                if movers[v]:
-                    found.add((s, v))
+            shift = back * (1.0 - k / K)
+            pos[rows] = pos1[rows] + shift
+            box[rows] = aabb[rows] + shift[:, None, :]
+            for s, v in self._overlaps_at(world, table, pos, rot1, box, excluded, body_filter, visitors=movers).tolist():
+                found.add((s, v))
         return found
 
-    def overlaps(self, world, pipeline, Y, excluded=None, body_filter=None) -> np.ndarray:
-        """(K, 2) int64 (sensor, visitor) body pairs overlapping at the poses of Y, sorted."""
+    def overlaps(self, world, pipeline, Y, excluded=None, body_filter=None, visitors=None) -> np.ndarray:
+        """(K, 2) int64 (sensor, visitor) body pairs overlapping at the poses of Y, sorted;
+        ``visitors`` (N,) bool: look only at these bodies (default all)."""
         table = pipeline.refresh()
-        S = table.shape_count
         pos, rot, aabb, margin, R = self._bounds(world, table, Y)
+        return self._overlaps_at(world, table, pos, rot, aabb, excluded, body_filter, visitors)
+
+    def _overlaps_at(self, world, table, pos, rot, aabb, excluded=None, body_filter=None, visitors=None) -> np.ndarray:
+        """``overlaps`` for the shapes' poses ``pos`` (S, 3), ``rot`` (S, 3, 3) and boxes ``aabb`` (S, 2, 3)."""
+        S = table.shape_count
         body = table.shape_body
         sensor_shape = world.sensor[body] & (table.shape_type != SHAPE_PLANE)
         visitor_shape = ~world.sensor[body] & ~world.fixed[body] & (table.shape_type != SHAPE_PLANE)
+        if visitors is not None:
+            visitor_shape &= visitors[body]
         ss = np.flatnonzero(sensor_shape)
         vs = np.flatnonzero(visitor_shape)
         if len(ss) == 0 or len(vs) == 0:
