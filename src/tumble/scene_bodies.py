@@ -86,9 +86,7 @@ class BodyReader(ValueReader):
         kw["fixed"] = fixed
         kinematic = self.boolean(b["kinematic"], f"{key}.kinematic") if "kinematic" in b else False
         if "sensor" in b:
-            kw["sensor"] = self.boolean(b["sensor"], f"{key}.sensor")
-            if kw["sensor"] and isinstance(shape, Plane):
-                raise self.error("a plane cannot be a sensor (it has no inside to enter)", f"{key}.sensor")
+            kw["sensor"] = self.boolean(b["sensor"], f"{key}.sensor")  # a sensor plane: add_body's error
         if kinematic:
             if fixed:
                 raise self.error("a body is fixed or kinematic, not both", f"{key}.kinematic")
@@ -127,10 +125,7 @@ class BodyReader(ValueReader):
         if "angular_velocity_frame" in b:
             kw["angular_velocity_frame"] = self.string(b["angular_velocity_frame"], f"{key}.angular_velocity_frame", ("world", "body"))
         if "material" in b:
-            m = self.table(b["material"], f"{key}.material", MATERIAL_KEYS)
-            values = {k: self.number(v, f"{key}.material.{k}") for k, v in m.items()}
-            # built here, not in add_body: its errors are keyed "friction", not "material.friction"
-            kw["material"] = self.library(f"{key}.material", Material, **values)
+            kw["material"] = self.material(b["material"], f"{key}.material")
         if "collision_filter" in b:
             f = self.table(b["collision_filter"], f"{key}.collision_filter", FILTER_KEYS)
             kw["collision_filter"] = self.library(f"{key}.collision_filter", CollisionFilter, **f)
@@ -245,13 +240,15 @@ class BodyReader(ValueReader):
                 q = [float(c) for c in quat_from_euler_deg(self.vector(t["euler_deg"], f"{pk}.euler_deg"))]
             else:
                 q = [1.0, 0.0, 0.0, 0.0]
-            material = None
-            if "material" in t:
-                m = self.table(t["material"], f"{pk}.material", MATERIAL_KEYS)
-                values = {k: self.number(v, f"{pk}.material.{k}") for k, v in m.items()}
-                material = self.library(f"{pk}.material", Material, **values)
+            material = self.material(t["material"], f"{pk}.material") if "material" in t else None
             parts.append((shape, position, q, material))
         return self.library(shape_key, Compound, parts)
+
+    def material(self, value, key: str) -> Material:
+        """A ``Material`` from a table of its keys (a body's or a compound part's ``material``);
+        built here, not in add_body or Compound, so that its errors are keyed ``KEY.friction``."""
+        m = self.table(value, key, MATERIAL_KEYS)
+        return self.library(key, Material, **{k: self.number(v, f"{key}.{k}") for k, v in m.items()})
 
     def mesh_path(self, value, key: str) -> str:
         rel = self.string(value, key)

@@ -317,7 +317,6 @@ class _Stage:
         # All bodies in one mesh whose points and normals are moved in place each frame:
         # one actor however many bodies there are (and one more, translucent, for sensors).
         drawn = [i for i, m in enumerate(self.meshes) if m is not None]
-        self.bodies = np.array(drawn, dtype=np.int64)
         sensor = sensor_flags(self.traj)
         self.layers = []
         for members, opacity in (([i for i in drawn if not sensor[i]], 1.0), ([i for i in drawn if sensor[i]], SENSOR_OPACITY)):
