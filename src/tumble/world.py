@@ -47,7 +47,7 @@ from .forces import (
     Spring,
     build_force_tables,
 )
-from .mass import mass_properties
+from .mass import MassProperties, mass_properties
 from .material import Material
 from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
 from .shapes import Plane, finite_vector
@@ -152,6 +152,7 @@ class World:
         mass: float | None = None,
         density: float | None = None,
         inertia=None,
+        center_of_mass=None,
         position=(0.0, 0.0, 0.0),
         orientation=None,
         euler_deg=None,
@@ -183,6 +184,10 @@ class World:
             inertia: optional override of Ibody, kg m^2, body frame about the
                 centre of mass: (3, 3) symmetric positive definite, or (3,) the
                 diagonal. The shape still gives the mass and centre of mass.
+            center_of_mass: (3,) m, shape frame, optional: the centre of mass, given with
+                ``mass`` and ``inertia`` (about it, along the shape axes); then the shape's
+                own mass properties are not computed at all (Box2D's ``b2MassData``, a URDF
+                link's ``<inertial>``, MuJoCo's ``<inertial>``): the shape only collides.
             material: ``Material`` or a mapping with its keys.
             collision_filter: ``CollisionFilter`` (category, mask, group: which bodies this
                 one touches, Box2D's rule; collision/filter.py) or a mapping with its keys;
@@ -238,7 +243,13 @@ class World:
         if kinematic and isinstance(shape, Plane):
             raise InputError("a plane can only be a fixed body (set fixed = true)", "kinematic")
 
-        if fixed or kinematic:
+        if center_of_mass is not None:
+            if isinstance(shape, Plane):
+                raise InputError("a plane has no centre of mass (it can only be a fixed body)", "center_of_mass")
+            props = _given_mass_properties(mass, density, inertia, center_of_mass)
+            if not (fixed or kinematic):
+                _check_inertia(props.inertia)
+        elif fixed or kinematic:
             if isinstance(shape, Plane) or (mass is None and density is None):
                 props = None
             else:
@@ -563,6 +574,19 @@ class World:
             return float(np.max(np.abs(np.linalg.norm(self.q, axis=1) ** 2 - 1.0)))
         RtR = np.einsum("nji,njk->nik", self.R, self.R)
         return float(np.max(np.abs(RtR - np.eye(3))))
+
+
+def _given_mass_properties(mass, density, inertia, center_of_mass):
+    """The mass properties given whole (``add_body``'s ``center_of_mass`` with ``mass`` and
+    ``inertia``): nothing is computed from the shape."""
+    if mass is None or inertia is None or density is not None:
+        raise InputError("give center_of_mass with mass and inertia (not density): the shape's own are then not used",
+                         "center_of_mass")
+    if isinstance(mass, bool) or not isinstance(mass, (int, float, np.floating, np.integer)) \
+            or not math.isfinite(mass) or mass <= 0:
+        raise InputError(f"must be a positive number, got {mass!r}", "mass")
+    center = finite_vector(center_of_mass, "center_of_mass")
+    return _override_inertia(MassProperties(float(mass), center, np.eye(3)), inertia)
 
 
 def _override_inertia(props, inertia):

@@ -1,0 +1,646 @@
+"""URDF robots: each link a body, each joint a joint (PyBullet's ``loadURDF``, MuJoCo's URDF import).
+
+``load_urdf(world, path, ...)`` reads a URDF file (the ROS Unified Robot Description Format,
+http://wiki.ros.org/urdf/XML) and adds its links and joints to ``world`` with the ordinary
+records (``World.add_body``, ``HingeJoint``, ``SliderJoint``, ``FixedJoint``): a robot in tumble is
+nothing but bodies and joints, so everything else (contacts, sleeping, checkpoints, export,
+joint readings, the tree solver) applies unchanged.
+
+What maps to what (the link and joint frames as the URDF gives them, at joint positions 0):
+
+- ``<link>``: a body whose shape frame is the link frame. Its ``<inertial>`` (mass, the centre
+  of mass at ``origin xyz``, the inertia tensor about it in the axes turned by ``origin rpy``)
+  is the body's mass, centre of mass and Ibody, given whole (``add_body(center_of_mass=)``:
+  nothing is computed from the collision shapes, as in every URDF consumer). Its
+  ``<collision>`` elements are the shape (one part, or a ``Compound`` of them): ``box`` (size:
+  full side lengths, as tumble's ``Box``), ``cylinder`` and ``capsule`` (along z), ``sphere``,
+  ``mesh`` (its vertices' convex hull, scaled by ``scale``: PyBullet's default for a moving body;
+  OBJ, STL, PLY through trimesh). ``<visual>`` is not read: tumble draws the collision shapes.
+  A link with no collision element touches nothing (a small sphere in category 0, for drawing).
+  Bullet's ``<contact>`` extension (``lateral_friction``, ``restitution``) gives the link's
+  parts their material (tumble mixes frictions with sqrt, as Box2D, where Bullet multiplies).
+- ``<joint>``: ``revolute`` a ``HingeJoint`` with ``<limit lower upper>``; ``continuous`` a hinge
+  without limits; ``prismatic`` a ``SliderJoint``; ``fixed`` merges the child link into its
+  parent's body (``merge_fixed=True``, MuJoCo's fusing and PyBullet's
+  ``URDF_MERGE_FIXED_LINKS``: exact and cheaper; the masses, centres and inertias are combined
+  by the parallel-axis theorem) or a ``FixedJoint`` (``merge_fixed=False``); ``floating``: no
+  joint (the child is free); ``planar`` is refused. The anchor is the child link's origin,
+  the axis ``<axis xyz>`` in the child link's frame (default x). The joint coordinate's zero
+  is the URDF's zero, its sign the URDF's. ``<dynamics damping>`` becomes the joint's damping
+  (N m s/rad or N s/m, stiffness 0) and ``<dynamics friction>`` a motor of speed 0 limited to
+  that torque or force (Box2D's joint friction). ``<limit effort>`` is kept as the default
+  limit of the motors ``Robot.set_motor`` and ``set_position_target`` switch on. A side of a
+  ``<limit>`` that is left out is no limit on that side, and lower > upper is no limit at all
+  (Bullet's convention; the URDF specification says 0, which would lock the joint).
+  ``<mimic>``, ``<calibration>``, ``<safety_controller>`` are not read (PyBullet reads none of
+  them either): a mimic joint moves on its own.
+- The root link: its body is fixed with ``fixed_base=True`` (PyBullet's ``useFixedBase``) or
+  when it has no mass (PyBullet's rule for a base of mass 0; a ROS ``world`` link).
+- Self-collision: off by default (PyBullet's default): no two bodies of one robot touch. With
+  ``self_collision=True`` bodies touch unless a joint links them (MuJoCo's parent-child rule).
+
+Names: body ``"{robot}/{link}"``, joint ``"{robot}/{joint}"``; ``robot`` is ``name`` or the
+URDF's ``<robot name>``. A file's problems are ``InputError`` lines keyed by the element, e.g.
+``arm.urdf: joint[elbow].limit.lower: expected a number, got 'abc'``.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import checks
+from .collision.filter import CollisionFilter
+from .errors import InputError
+from .joints import FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P_MAX_DRIVE, P_MAX_MOTOR, P_MOTOR_ON, \
+    P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
+from .material import Material
+from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
+from .shapes import Box, Capsule, Compound, Convex, Cylinder, Sphere, finite_vector
+
+JOINT_KINDS = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+# a link without collision shapes is drawn as a sphere of this radius (m) that touches nothing
+MARKER_RADIUS = 0.02
+NO_CONTACT = CollisionFilter(category=0, mask=0)
+
+
+# ---------------------------------------------------------------------- the file, as read
+
+
+@dataclass
+class UrdfLink:
+    """One ``<link>``: ``mass`` kg (0 without ``<inertial>``), ``center`` (3,) m and ``inertia``
+    (3, 3) kg m^2 about it, both in the link frame; ``parts``: [(shape, position (3,) m,
+    rotation (3, 3))] in the link frame; ``material``: from Bullet's ``<contact>``, or None."""
+
+    name: str
+    mass: float = 0.0
+    center: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    parts: list = field(default_factory=list)
+    material: Material | None = None
+
+
+@dataclass
+class UrdfJoint:
+    """One ``<joint>``: ``origin`` (position (3,) m, rotation (3, 3)) of the child link frame in the
+    parent's; ``axis`` (3,) unit, child frame; ``lower``, ``upper`` (None: no limit), ``effort``
+    N m or N (None: not given), ``velocity``, ``damping``, ``friction``."""
+
+    name: str
+    kind: str
+    parent: str
+    child: str
+    origin: tuple
+    axis: np.ndarray
+    lower: float | None = None
+    upper: float | None = None
+    effort: float | None = None
+    velocity: float | None = None
+    damping: float = 0.0
+    friction: float = 0.0
+
+
+@dataclass
+class UrdfModel:
+    """A parsed URDF: ``links`` in file order, ``joints`` in file order, ``root`` the link that is no
+    joint's child, ``source`` the file."""
+
+    name: str
+    links: dict
+    joints: list
+    root: str
+    source: str
+
+
+def _numbers(text, key, count, default=None):
+    if text is None:
+        if default is None:
+            raise InputError("missing", key)
+        return np.array(default, dtype=float)
+    try:
+        values = [float(t) for t in text.split()]
+    except ValueError:
+        raise InputError(f"expected {count} number{'s' if count > 1 else ''}, got {text!r}", key) from None
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise InputError(f"expected {count} finite number{'s' if count > 1 else ''}, got {text!r}", key)
+    return np.array(values)
+
+
+def _number(element, attribute, key, default=None, positive=False, nonnegative=False):
+    value = float(_numbers(element.get(attribute), f"{key}.{attribute}", 1,
+                           None if default is None else [default])[0])
+    if positive and value <= 0:
+        raise InputError(f"must be positive, got {value:g}", f"{key}.{attribute}")
+    if nonnegative and value < 0:
+        raise InputError(f"must be >= 0, got {value:g}", f"{key}.{attribute}")
+    return value
+
+
+def rpy_matrix(rpy) -> np.ndarray:
+    """(3, 3) rotation of a URDF ``rpy`` (roll x, pitch y, yaw z, rad, fixed axes): Rz Ry Rx."""
+    return quat_to_matrix(quat_from_euler_deg(np.degrees(rpy)))
+
+
+def _origin(element, key) -> tuple:
+    o = element.find("origin")
+    if o is None:
+        return np.zeros(3), np.eye(3)
+    return _numbers(o.get("xyz"), f"{key}.origin.xyz", 3, [0, 0, 0]), \
+        rpy_matrix(_numbers(o.get("rpy"), f"{key}.origin.rpy", 3, [0, 0, 0]))
+
+
+def _name(element, key) -> str:
+    name = element.get("name")
+    if not name:
+        raise InputError("missing name", key)
+    return name
+
+
+def read_urdf(path, package_dirs=()) -> UrdfModel:
+    """Parse and check a URDF file (module docstring). Raises InputError (file, element, problem)."""
+    path = Path(path)
+    file = str(path)
+    try:
+        return _read(path, [Path(d) for d in package_dirs])
+    except InputError as err:
+        raise err.within(None, file) from None
+
+
+def _read(path: Path, package_dirs) -> UrdfModel:
+    if not path.is_file():
+        raise InputError("URDF file not found", None)
+    checks.check_memory(path.stat().st_size * checks.FILE_EXPANSION, f"reading the URDF file {path}", None, str(path))
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise InputError(f"invalid XML: {exc}", None) from None
+    if root.tag != "robot":
+        raise InputError(f"expected a <robot> element at the top, got <{root.tag}>", None)
+    links: dict[str, UrdfLink] = {}
+    for element in root.findall("link"):
+        link = _link(element, path, package_dirs)
+        if link.name in links:
+            raise InputError("duplicate link name", f"link[{link.name}]")
+        links[link.name] = link
+    if not links:
+        raise InputError("a robot needs at least one <link>", "robot")
+    joints = []
+    parent_of: dict[str, str] = {}
+    names = set()
+    for element in root.findall("joint"):
+        joint = _joint(element)
+        key = f"joint[{joint.name}]"
+        if joint.name in names:
+            raise InputError("duplicate joint name", key)
+        names.add(joint.name)
+        for role, link in (("parent", joint.parent), ("child", joint.child)):
+            if link not in links:
+                raise InputError(f"unknown link {link!r}", f"{key}.{role}")
+        if joint.child in parent_of:
+            raise InputError(f"link {joint.child!r} is the child of two joints (a URDF is a tree)", f"{key}.child")
+        parent_of[joint.child] = joint.name
+        joints.append(joint)
+    roots = [name for name in links if name not in parent_of]
+    if len(roots) != 1:
+        what = "no link" if not roots else f"{len(roots)} links ({', '.join(roots[:4])})"
+        raise InputError(f"{what} without a parent joint: a URDF is one tree with one root link", "robot")
+    # every link reachable from the root (else a cycle hangs off somewhere)
+    children: dict[str, list] = {}
+    for joint in joints:
+        children.setdefault(joint.parent, []).append(joint.child)
+    seen, todo = set(), [roots[0]]
+    while todo:
+        name = todo.pop()
+        seen.add(name)
+        todo.extend(children.get(name, []))
+    if len(seen) != len(links):
+        lost = sorted(set(links) - seen)[0]
+        raise InputError("the joints form a cycle (this link is not reached from the root)", f"link[{lost}]")
+    return UrdfModel(root.get("name") or path.stem, links, joints, roots[0], str(path))
+
+
+def _link(element, path, package_dirs) -> UrdfLink:
+    name = _name(element, "link")
+    key = f"link[{name}]"
+    link = UrdfLink(name)
+    inertial = element.find("inertial")
+    if inertial is not None:
+        k = f"{key}.inertial"
+        mass = inertial.find("mass")
+        if mass is None:
+            raise InputError("missing <mass>", k)
+        link.mass = _number(mass, "value", f"{k}.mass", nonnegative=True)
+        position, rotation = _origin(inertial, k)
+        tensor = inertial.find("inertia")
+        if tensor is None:
+            raise InputError("missing <inertia>", k)
+        c = {a: _number(tensor, a, f"{k}.inertia", default=0.0) for a in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        I = np.array([[c["ixx"], c["ixy"], c["ixz"]], [c["ixy"], c["iyy"], c["iyz"]], [c["ixz"], c["iyz"], c["izz"]]])
+        link.center = position
+        link.inertia = rotation @ I @ rotation.T
+    for j, collision in enumerate(element.findall("collision")):
+        k = f"{key}.collision[{j}]"
+        geometry = collision.find("geometry")
+        if geometry is None or len(geometry) != 1:
+            raise InputError("expected one shape in <geometry>", f"{k}.geometry")
+        shape = _shape(geometry[0], f"{k}.geometry", path, package_dirs)
+        link.parts.append((shape, *_origin(collision, k)))
+    contact = element.find("contact")
+    if contact is not None:
+        given = {}
+        for tag, field_name in (("lateral_friction", "friction"), ("restitution", "restitution")):
+            e = contact.find(tag)
+            if e is not None:
+                given[field_name] = _number(e, "value", f"{key}.contact.{tag}", nonnegative=True)
+        if given:
+            try:
+                link.material = Material(**given)
+            except InputError as err:
+                raise err.within(f"{key}.contact") from None
+    return link
+
+
+def _shape(g, key, path: Path, package_dirs):
+    k = f"{key}.{g.tag}"
+    try:
+        if g.tag == "box":
+            return Box(size=_numbers(g.get("size"), f"{k}.size", 3))
+        if g.tag == "sphere":
+            return Sphere(radius=_number(g, "radius", k))
+        if g.tag == "cylinder":
+            return Cylinder(radius=_number(g, "radius", k), length=_number(g, "length", k))
+        if g.tag == "capsule":
+            return Capsule(radius=_number(g, "radius", k), length=_number(g, "length", k))
+        if g.tag == "mesh":
+            return _mesh(g, k, path, package_dirs)
+    except InputError as err:
+        raise err.within(k) if err.key is None or not err.key.startswith(k) else err from None
+    raise InputError(f"unknown shape <{g.tag}> (expected box, sphere, cylinder, capsule or mesh)", key)
+
+
+def resolve_mesh_path(filename: str, urdf: Path, package_dirs) -> Path:
+    """The file a ``<mesh filename>`` names: ``package://PKG/rest`` is looked up as ``PKG/rest``
+    under each of ``package_dirs`` and then the URDF's folder and its parents (a ROS package
+    tree); ``file://`` is a path; anything else is relative to the URDF's folder."""
+    if filename.startswith("package://"):
+        rest = filename[len("package://"):]
+        package, _, inner = rest.partition("/")
+        for base in [*package_dirs, urdf.parent, *urdf.parent.parents]:
+            for candidate in (base / package / inner, base / inner) if base.name != package else (base / inner,):
+                if candidate.is_file():
+                    return candidate
+        raise InputError(f"mesh file not found: {filename} (looked for {package}/{inner} under the URDF's folders"
+                         " and package_dirs)", "filename")
+    if filename.startswith("file://"):
+        filename = filename[len("file://"):]
+    p = Path(filename)
+    p = p if p.is_absolute() else urdf.parent / p
+    if not p.is_file():
+        raise InputError(f"mesh file not found: {p}", "filename")
+    return p
+
+
+def _mesh(g, key, path, package_dirs):
+    from .mass import _read_mesh_file
+
+    filename = g.get("filename")
+    if not filename:
+        raise InputError("missing filename", key)
+    file = resolve_mesh_path(filename, path, package_dirs)
+    checks.check_memory(file.stat().st_size * checks.FILE_EXPANSION, f"reading the mesh file {file}", key, str(path))
+    scale = _numbers(g.get("scale"), f"{key}.scale", 3, [1, 1, 1])
+    try:
+        points = np.asarray(_read_mesh_file(str(file)).vertices, dtype=float) * scale
+        return Convex(points=points)
+    except InputError as err:
+        raise InputError(f"{file.name}: {err.problem}", key) from None
+
+
+def _joint(element) -> UrdfJoint:
+    name = _name(element, "joint")
+    key = f"joint[{name}]"
+    kind = element.get("type")
+    if kind not in JOINT_KINDS:
+        raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(JOINT_KINDS)})", f"{key}.type")
+    if kind == "planar":
+        raise InputError("planar joints are not supported (use a slider on a slider, or a floating joint)", f"{key}.type")
+    ends = {}
+    for role in ("parent", "child"):
+        e = element.find(role)
+        if e is None or not e.get("link"):
+            raise InputError(f"missing <{role} link=...>", f"{key}.{role}")
+        ends[role] = e.get("link")
+    axis_element = element.find("axis")
+    axis = _numbers(None if axis_element is None else axis_element.get("xyz"), f"{key}.axis.xyz", 3, [1, 0, 0])
+    n = float(np.linalg.norm(axis))
+    if n < 1e-12 and kind in ("revolute", "continuous", "prismatic"):
+        raise InputError("the axis must not be the zero vector", f"{key}.axis.xyz")
+    joint = UrdfJoint(name, kind, ends["parent"], ends["child"], _origin(element, key), axis / max(n, 1e-300))
+    limit = element.find("limit")
+    if limit is not None:
+        k = f"{key}.limit"
+        lower = None if limit.get("lower") is None else _number(limit, "lower", k)
+        upper = None if limit.get("upper") is None else _number(limit, "upper", k)
+        if lower is not None and upper is not None and lower > upper:
+            lower = upper = None  # Bullet's "no limit"
+        if kind in ("revolute", "prismatic"):
+            joint.lower, joint.upper = lower, upper
+        if limit.get("effort") is not None:
+            joint.effort = _number(limit, "effort", k, nonnegative=True)
+        if limit.get("velocity") is not None:
+            joint.velocity = _number(limit, "velocity", k, nonnegative=True)
+    dynamics = element.find("dynamics")
+    if dynamics is not None:
+        joint.damping = _number(dynamics, "damping", f"{key}.dynamics", default=0.0, nonnegative=True)
+        joint.friction = _number(dynamics, "friction", f"{key}.dynamics", default=0.0, nonnegative=True)
+    return joint
+
+
+# ---------------------------------------------------------------------- into a world
+
+
+@dataclass
+class Robot:
+    """A URDF robot in a world: its bodies and joints are ordinary ones.
+
+    Attributes:
+        name: the prefix of its body and joint names.
+        model: the ``UrdfModel`` read from the file.
+        links: {link name: ``Body``}: links merged into a parent share its body.
+        joints: {URDF joint name: joint record} (the moving joints, and the fixed ones when not
+            merged), in the file's order.
+        base: the root link's body.
+        link_frames: {link name: (position (3,) m, rotation (3, 3))}: the link frame in its
+            body's shape frame (identity for a body's own link).
+    """
+
+    name: str
+    model: UrdfModel
+    world: object
+    links: dict
+    joints: dict
+    base: object
+    link_frames: dict
+
+    def link_pose(self, link) -> tuple[np.ndarray, np.ndarray]:
+        """The link frame now: origin (3,) m and rotation (3, 3), world."""
+        body = self.links[link]
+        p, R = self.link_frames[link]
+        Rb = np.asarray(body.R, dtype=float)
+        origin = np.asarray(body.x, dtype=float) - Rb @ np.asarray(body.com_offset, dtype=float)
+        return origin + Rb @ p, Rb @ R
+
+    def joint_states(self, sim) -> dict:
+        """{joint name: (position, rate)} after the last step (rad or m, rad/s or m/s): PyBullet's
+        ``getJointStates``. Zeros before the first step."""
+        r = sim.joint_readings()
+        index = {id(j): k for k, j in enumerate(self.world.joints)}
+        return {name: (float(r["position"][index[id(j)]]), float(r["rate"][index[id(j)]]))
+                for name, j in self.joints.items()}
+
+    def _urdf_joint(self, joint) -> UrdfJoint:
+        for j in self.model.joints:
+            if j.name == joint:
+                return j
+        raise InputError(f"unknown joint {joint!r} of robot {self.name!r}", "joint")
+
+    def _write(self, sim, joint, values: dict):
+        record = self.joints.get(joint)
+        if record is None or not isinstance(record, (HingeJoint, SliderJoint)):
+            raise InputError(f"not a moving joint of robot {self.name!r}: {joint!r}", "joint")
+        rows = [record.bound.param]
+        solver = None if sim is None or sim.soft_step is None else sim.soft_step.joints
+        if solver is not None and solver.count == len(self.world.joints):
+            rows.append(solver.param[solver.index(record)])
+        for row in rows:
+            for column, value in values.items():
+                row[column] = value
+
+    def set_motor(self, sim, joint: str, speed: float, max_force: float | None = None):
+        """Velocity control (PyBullet's ``VELOCITY_CONTROL``): drive ``joint`` at ``speed`` rad/s or
+        m/s with at most ``max_force`` N m or N (default: the URDF's effort, else unlimited).
+        Takes the place of the joint's friction; ``speed=None`` switches the motor off."""
+        j = self._urdf_joint(joint)
+        limit = (j.effort if j.effort is not None else math.inf) if max_force is None else float(max_force)
+        if speed is None:
+            self._write(sim, joint, {P_MOTOR_ON: 0.0})
+        else:
+            self._write(sim, joint, {P_MOTOR_ON: 1.0, P_MOTOR_SPEED: float(speed), P_MAX_MOTOR: limit})
+
+    def set_position_target(self, sim, joint: str, target: float, stiffness: float, damping: float,
+                            max_force: float | None = None):
+        """Position control (PyBullet's ``POSITION_CONTROL``, a PD drive): pull ``joint`` to ``target``
+        rad or m with ``stiffness`` N m/rad (N/m) and ``damping`` N m s/rad (N s/m), at most
+        ``max_force`` (default the URDF's effort). Takes the place of the joint's damping."""
+        j = self._urdf_joint(joint)
+        limit = (j.effort if j.effort is not None else math.inf) if max_force is None else float(max_force)
+        if stiffness < 0 or damping < 0 or not (math.isfinite(stiffness) and math.isfinite(damping)):
+            raise InputError("stiffness and damping must be finite and >= 0", "stiffness")
+        self._write(sim, joint, {P_STIFFNESS: float(stiffness), P_DAMPING: float(damping), P_TARGET: float(target),
+                                 P_MAX_DRIVE: limit})
+
+
+def _compose(a, b):
+    """Frame b given in frame a, both (position, rotation): b in a's parent."""
+    return a[0] + a[1] @ b[0], a[1] @ b[1]
+
+
+def _relative(a, b):
+    """Frame b seen from frame a (both in one parent)."""
+    return a[1].T @ (b[0] - a[0]), a[1].T @ b[1]
+
+
+def _joint_motion(joint: UrdfJoint, q: float):
+    """The child's frame moved by joint coordinate ``q`` (rad or m), in the joint's zero frame."""
+    if joint.kind in ("revolute", "continuous"):
+        half = 0.5 * q
+        quat = np.concatenate([[math.cos(half)], math.sin(half) * joint.axis])
+        return np.zeros(3), quat_to_matrix(quat)
+    if joint.kind == "prismatic":
+        return q * joint.axis, np.eye(3)
+    return np.zeros(3), np.eye(3)
+
+
+def _link_frames(model: UrdfModel, base, joint_positions: dict) -> dict:
+    """{link: (position, rotation)} world, with ``base`` the root's frame and the joints at
+    ``joint_positions`` (0 where not given)."""
+    frames = {model.root: base}
+    by_parent: dict[str, list] = {}
+    for j in model.joints:
+        by_parent.setdefault(j.parent, []).append(j)
+    todo = [model.root]
+    while todo:
+        parent = todo.pop()
+        for j in by_parent.get(parent, []):
+            zero = _compose(frames[parent], j.origin)
+            frames[j.child] = _compose(zero, _joint_motion(j, joint_positions.get(j.name, 0.0)))
+            todo.append(j.child)
+    return frames
+
+
+def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, fixed_base=False,
+              merge_fixed=True, self_collision=False, joint_positions=None, material=None, collision_filter=None,
+              name=None, package_dirs=()) -> Robot:
+    """Add the robot of a URDF file to ``world`` (module docstring) and return it.
+
+    Args:
+        world: the ``World``.
+        path: the URDF file.
+        position: (3,) m, world: where the root link's frame goes.
+        orientation: (4,) unit quaternion (w, x, y, z), or ``euler_deg`` (roll, pitch, yaw,
+            degrees, as ``add_body``): the root link frame's orientation.
+        fixed_base: the root link's body is fixed (PyBullet's ``useFixedBase``).
+        merge_fixed: fuse links joined by fixed joints into one body (default) or join them by
+            ``FixedJoint``.
+        self_collision: let the robot's bodies touch each other (not those a joint links).
+        joint_positions: {joint name: rad or m}: start there (the joints' zero stays the URDF's).
+        material: ``Material`` (or mapping) of every link without its own ``<contact>``.
+        collision_filter: ``CollisionFilter`` of every body (default: the default filter).
+        name: the robot's name (default the URDF's ``<robot name>``): prefix of the body names.
+        package_dirs: folders in which ``package://`` mesh paths are looked up.
+
+    Raises:
+        InputError: a bad file or argument, one line (file, element, problem).
+    """
+    model = read_urdf(path, package_dirs)
+    prefix = model.name if name is None else name
+    if not isinstance(prefix, str) or not prefix:
+        raise InputError(f"must be a non-empty string, got {prefix!r}", "name")
+    if orientation is not None and euler_deg is not None:
+        raise InputError("give orientation or euler_deg, not both", "orientation")
+    from .world import unit_quaternion
+
+    q0 = quat_from_euler_deg(finite_vector(euler_deg, "euler_deg")) if euler_deg is not None else \
+        unit_quaternion((1.0, 0.0, 0.0, 0.0) if orientation is None else orientation)
+    base = (finite_vector(position, "position"), quat_to_matrix(q0))
+    joint_positions = dict(joint_positions or {})
+    known = {j.name: j for j in model.joints}
+    for jname, value in joint_positions.items():
+        key = f"joint_positions.{jname}"
+        if jname not in known or known[jname].kind not in ("revolute", "continuous", "prismatic"):
+            raise InputError(f"not a revolute, continuous or prismatic joint of {model.source}", key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise InputError(f"expected a finite number, got {value!r}", key)
+    material = Material.coerce(material)
+    collision_filter = CollisionFilter.coerce(collision_filter)
+
+    # which body each link belongs to: its own, or (fixed joint, merged) its parent's
+    owner = {model.root: model.root}
+    for j in _tree_order(model):
+        owner[j.child] = owner[j.parent] if (j.kind == "fixed" and merge_fixed) else j.child
+    zero = _link_frames(model, base, {})
+    link_frames = {link: _relative(zero[owner[link]], zero[link]) for link in model.links}
+
+    bodies = {}
+    for body_link in dict.fromkeys(owner[link] for link in model.links):
+        members = [link for link in model.links if owner[link] == body_link]
+        is_root = body_link == model.root
+        fixed = is_root and (fixed_base or model.links[model.root].mass == 0.0)
+        bodies[body_link] = _add_link_body(world, model, members, link_frames, zero[body_link], fixed,
+                                           f"{prefix}/{body_link}", material, collision_filter)
+    links = {link: bodies[owner[link]] for link in model.links}
+
+    joints = {}
+    for j in model.joints:
+        if j.kind == "floating" or (j.kind == "fixed" and merge_fixed):
+            continue
+        anchor, R_child = zero[j.child]
+        common = dict(body_a=links[j.parent], body_b=links[j.child], anchor=anchor, name=f"{prefix}/{j.name}")
+        axis = R_child @ j.axis
+        if j.kind == "fixed":
+            record = FixedJoint(**common)
+        else:
+            cls = SliderJoint if j.kind == "prismatic" else HingeJoint
+            extra = {} if j.friction == 0.0 else {"motor_speed": 0.0,
+                                                  ("max_motor_force" if cls is SliderJoint else "max_motor_torque"): j.friction}
+            record = cls(**common, axis=axis, lower=j.lower, upper=j.upper, damping=j.damping, **extra)
+        try:
+            world.add_joint(record)
+        except InputError as err:
+            raise InputError(err.problem, f"joint[{j.name}].{err.key}" if err.key else f"joint[{j.name}]",
+                             model.source) from None
+        joints[j.name] = record
+
+    if not self_collision:
+        own = list(bodies.values())
+        for a in range(len(own)):
+            for b in range(a + 1, len(own)):
+                world.exclude_collision(own[a], own[b])
+    robot = Robot(prefix, model, world, links, joints, bodies[model.root], link_frames)
+    if joint_positions:
+        _place(world, robot, _link_frames(model, base, joint_positions), owner)
+    return robot
+
+
+def _tree_order(model: UrdfModel) -> list:
+    """The joints, each after the joint of its parent link (parents before children)."""
+    by_parent: dict[str, list] = {}
+    for j in model.joints:
+        by_parent.setdefault(j.parent, []).append(j)
+    order, todo = [], [model.root]
+    while todo:
+        for j in by_parent.get(todo.pop(0), []):
+            order.append(j)
+            todo.append(j.child)
+    return order
+
+
+def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, material, collision_filter):
+    """One body for the links ``members`` (the first its own link): shape parts and mass
+    properties combined in the first link's frame."""
+    parts, mass, moment, inertia_terms = [], 0.0, np.zeros(3), []
+    for link_name in members:
+        link = model.links[link_name]
+        p, R = link_frames[link_name]
+        for shape, position, rotation in link.parts:
+            parts.append((shape, p + R @ position, matrix_to_quat(np.ascontiguousarray(R @ rotation)), link.material))
+        if link.mass > 0.0:
+            c = p + R @ link.center
+            mass += link.mass
+            moment += link.mass * c
+            inertia_terms.append((link.mass, c, R @ link.inertia @ R.T))
+    key = f"link[{members[0]}]"
+    if not parts:
+        shape, filt = Sphere(radius=MARKER_RADIUS), NO_CONTACT
+    else:
+        filt = collision_filter
+        materials = [m for (*_, m) in parts]
+        identity = len(parts) == 1 and np.allclose(parts[0][1], 0.0) and abs(parts[0][2][0]) == 1.0
+        if identity and materials[0] is None:
+            shape = parts[0][0]
+        else:
+            shape = Compound(parts)
+    kwargs = {}
+    if not fixed:
+        if mass <= 0.0:
+            raise InputError("a link that moves needs an <inertial> with a mass > 0", key, model.source)
+        center = moment / mass
+        inertia = np.zeros((3, 3))
+        for m, c, I in inertia_terms:  # parallel-axis theorem about the combined centre
+            d = c - center
+            inertia += I + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+        kwargs = dict(mass=mass, center_of_mass=center, inertia=inertia)
+    try:
+        return world.add_body(shape, position=frame[0], orientation=matrix_to_quat(np.ascontiguousarray(frame[1])),
+                              fixed=fixed, material=material, collision_filter=filt, name=body_name, **kwargs)
+    except InputError as err:
+        raise InputError(err.problem, f"{key}.{err.key}" if err.key else key, model.source) from None
+
+
+def _place(world, robot: Robot, frames: dict, owner: dict):
+    """Move every body to its links' frames at the start joint positions (bodies at rest)."""
+    for link, body in robot.links.items():
+        if owner[link] != link:
+            continue
+        p, R = frames[link]
+        i = body.index
+        q = matrix_to_quat(np.ascontiguousarray(R))
+        world.q[i] = q
+        world.R[i] = quat_to_matrix(q)
+        world.x[i] = p + world.R[i] @ world.com_offset[i]
+    world.update_derived()
