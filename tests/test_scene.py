@@ -265,7 +265,7 @@ OPEN_BOX_FACES = CUBE_FACES[:10]  # two triangles short of closed
 
 BAD_SCENES = [
     # unknown keys, everywhere
-    ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver, collision_exclusions)"),
+    ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, robots, forces, contact, joints, joint_solver, collision_exclusions)"),
     ("unknown-simulation", "[simulation]\nspeed = 2\n" + BODY, "simulation.speed",
      "unknown key (expected one of duration, frame_rate, dt, integrator, substeps, gravity, layout, rtol, atol, max_energy_growth, "
      "collisions, record_contacts, record_joints, sleeping)"),
@@ -313,7 +313,7 @@ BAD_SCENES = [
     ("missing-size", body(shape='{ type = "box" }'), "bodies[0].shape", "missing key 'size'"),
     ("missing-radius", body(shape='{ type = "sphere" }'), "bodies[0].shape", "missing key 'radius'"),
     ("missing-mass", body(mass=None), "bodies[0]", "missing key 'mass' (or 'density')"),
-    ("missing-bodies", "[simulation]\nduration = 1\n", None, "missing key 'bodies' (a scene needs at least one [[bodies]] entry)"),
+    ("missing-bodies", "[simulation]\nduration = 1\n", None, "missing key 'bodies' (a scene needs at least one [[bodies]] or [[robots]] entry)"),
     # zero or negative amounts
     ("negative-mass", body(mass="-1"), "bodies[0].mass", "must be positive, got -1"),
     ("zero-mass", body(mass="0"), "bodies[0].mass", "must be positive, got 0"),
@@ -561,7 +561,7 @@ def test_a_key_with_control_characters_still_gives_one_line():
 
     with pytest.raises(InputError) as err:
         parse_scene({"\n": None}, "f.toml")
-    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, forces, contact, joints, joint_solver, collision_exclusions)"
+    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, robots, forces, contact, joints, joint_solver, collision_exclusions)"
 
 
 # ---------------------------------------------------------------------- compounds

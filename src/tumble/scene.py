@@ -18,6 +18,8 @@ The format is DESIGN.md's "Scene file" contract::
                             material = {friction, restitution, rolling_resistance,
                             spinning_friction},
                             collision_filter = {category, mask, group} (tumble.scene_bodies)
+    [[robots]]              file = "robot.urdf", name, position, euler_deg, fixed_base,
+                            joint_positions ...: a URDF's links and joints (tumble.scene_robots)
     [[collision_exclusions]] bodies = [NAME, NAME]: a pair that never touches
     [[forces]]              type = drag | wind | constant | point | spring | impulse,
                             with that type's keys; bodies are referred to by name
@@ -49,6 +51,7 @@ from typing import Any
 from . import checks
 from . import integrators as K
 from .errors import InputError
+from .scene_robots import RobotReader
 from .scene_bodies import BODY_KEYS, FORCE_KEYS, BodyReader  # noqa: F401 (the keys: sweep.spec reads them here)
 from .scene_values import _describe, _fmt, _one_line
 from .simulator import Simulator, steps_between
@@ -74,7 +77,7 @@ DEFAULTS = {
     "sleeping": True,
 }
 
-TOP_KEYS = ("simulation", "bodies", "forces", "contact", "joints", "joint_solver", "collision_exclusions")
+TOP_KEYS = ("simulation", "bodies", "robots", "forces", "contact", "joints", "joint_solver", "collision_exclusions")
 # [contact]: the soft step's settings (tumble.solver.contact.SoftStepSettings), all optional.
 CONTACT_KEYS = tuple(f.name for f in dataclasses.fields(SoftStepSettings))
 SIMULATION_KEYS = tuple(DEFAULTS)
@@ -274,30 +277,35 @@ def _check_settings(duration, frame_rate, dt, integrator, substeps, rtol, atol):
         raise InputError(f"must be a whole number of frames at {_fmt(frame_rate)} per second, got {_fmt(duration)} s ({_fmt(frames)} frames)", "simulation.duration")
 
 
-class _Parser(BodyReader):
+class _Parser(BodyReader, RobotReader):
     """One parse of one document: its [simulation], [contact], bodies, forces and joints.
     ``where`` is the key being read (for unexpected errors)."""
 
     # ----------------------------------------------------------------- the document
     def scene(self, data) -> Scene:
         doc = self.table(data, "", TOP_KEYS, what="a table of [simulation], [[bodies]] and [[forces]]")
-        if "bodies" not in doc:
-            raise self.error("missing key 'bodies' (a scene needs at least one [[bodies]] entry)", None)
+        if "bodies" not in doc and "robots" not in doc:
+            raise self.error("missing key 'bodies' (a scene needs at least one [[bodies]] or [[robots]] entry)", None)
         sim = self.simulation(doc.get("simulation", {}))
         contact = self.contact(doc.get("contact", {}))
         world = self.library("simulation", World, gravity=sim["gravity"], layout=sim["layout"])
         world.collisions = sim["collisions"]
         world.sleeping = sim["sleeping"]
 
-        bodies = doc["bodies"]
+        bodies = doc.get("bodies", [])
         if not isinstance(bodies, list) or not all(isinstance(b, dict) for b in bodies):
             raise self.error(f"expected a list of tables ([[bodies]]), got {_describe(bodies)}", "bodies")
-        if not bodies:
+        robots = doc.get("robots", [])
+        if not isinstance(robots, list) or not all(isinstance(r, dict) for r in robots):
+            raise self.error(f"expected a list of tables ([[robots]]), got {_describe(robots)}", "robots")
+        if not bodies and not robots:
             raise self.error("a scene needs at least one body", "bodies")
         self.check_sizes(bodies)
         names: dict[str, int] = {}
         for i, body in enumerate(bodies):
             self.body(world, body, f"bodies[{i}]", names)
+        for i, robot in enumerate(robots):
+            self.robot(world, robot, f"robots[{i}]", names)
 
         forces = doc.get("forces", [])
         if not isinstance(forces, list) or not all(isinstance(f, dict) for f in forces):

@@ -56,13 +56,14 @@ import numpy as np
 from . import checks
 from .collision.filter import CollisionFilter
 from .errors import InputError
-from .joints import FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P_MAX_DRIVE, P_MAX_MOTOR, P_MOTOR_ON, \
+from .joints import BallJoint, FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P_MAX_DRIVE, P_MAX_MOTOR, P_MOTOR_ON, \
     P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
 from .material import Material
 from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
-from .shapes import Box, Capsule, Compound, Convex, Cylinder, Sphere, finite_vector
+from .shapes import Box, Capsule, Compound, Convex, Cylinder, Plane, Sphere, finite_vector
 
-JOINT_KINDS = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+JOINT_KINDS = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar", "spherical")
+INERTIA_SOURCES = ("file", "balance", "shapes")
 # a link without collision shapes is drawn as a sphere of this radius (m) that touches nothing
 MARKER_RADIUS = 0.02
 NO_CONTACT = CollisionFilter(category=0, mask=0)
@@ -123,7 +124,7 @@ def _numbers(text, key, count, default=None):
             raise InputError("missing", key)
         return np.array(default, dtype=float)
     try:
-        values = [float(t) for t in text.split()]
+        values = [float(t) for t in text.replace(",", " ").split()]  # commas: Bullet reads them too
     except ValueError:
         raise InputError(f"expected {count} number{'s' if count > 1 else ''}, got {text!r}", key) from None
     if len(values) != count or not all(math.isfinite(v) for v in values):
@@ -176,7 +177,8 @@ def _read(path: Path, package_dirs) -> UrdfModel:
         raise InputError("URDF file not found", None)
     checks.check_memory(path.stat().st_size * checks.FILE_EXPANSION, f"reading the URDF file {path}", None, str(path))
     try:
-        root = ET.parse(path).getroot()
+        # leading blank lines before <?xml ...?> are an XML error that Bullet's parser forgives
+        root = ET.fromstring(path.read_bytes().lstrip())
     except ET.ParseError as exc:
         raise InputError(f"invalid XML: {exc}", None) from None
     if root.tag != "robot":
@@ -278,9 +280,11 @@ def _shape(g, key, path: Path, package_dirs):
             return Capsule(radius=_number(g, "radius", k), length=_number(g, "length", k))
         if g.tag == "mesh":
             return _mesh(g, k, path, package_dirs)
+        if g.tag == "plane":  # Bullet's extension: a static half-space
+            return Plane(normal=_numbers(g.get("normal"), f"{k}.normal", 3, [0, 0, 1]))
     except InputError as err:
         raise err.within(k) if err.key is None or not err.key.startswith(k) else err from None
-    raise InputError(f"unknown shape <{g.tag}> (expected box, sphere, cylinder, capsule or mesh)", key)
+    raise InputError(f"unknown shape <{g.tag}> (expected box, sphere, cylinder, capsule, mesh or plane)", key)
 
 
 def resolve_mesh_path(filename: str, urdf: Path, package_dirs) -> Path:
@@ -485,7 +489,7 @@ def _link_frames(model: UrdfModel, base, joint_positions: dict) -> dict:
 
 def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, fixed_base=False,
               merge_fixed=True, self_collision=False, joint_positions=None, material=None, collision_filter=None,
-              name=None, package_dirs=()) -> Robot:
+              name=None, package_dirs=(), inertia="file") -> Robot:
     """Add the robot of a URDF file to ``world`` (module docstring) and return it.
 
     Args:
@@ -503,11 +507,24 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         collision_filter: ``CollisionFilter`` of every body (default: the default filter).
         name: the robot's name (default the URDF's ``<robot name>``): prefix of the body names.
         package_dirs: folders in which ``package://`` mesh paths are looked up.
+        inertia: where each link's centre of mass and inertia come from: ``"file"`` (its
+            ``<inertial>``, which must be physical: positive moments with A + B >= C), ``"balance"``
+            (the file's, its principal moments raised where they break that: MuJoCo's
+            ``balanceinertia``) or ``"shapes"`` (the collision shapes', uniform density at the
+            file's mass: PyBullet's default without ``URDF_USE_INERTIA_FROM_FILE``). Many
+            published URDFs need one of the last two.
 
     Raises:
         InputError: a bad file or argument, one line (file, element, problem).
     """
     model = read_urdf(path, package_dirs)
+    if inertia not in INERTIA_SOURCES:
+        raise InputError(f"must be one of {', '.join(INERTIA_SOURCES)}, got {inertia!r}", "inertia")
+    for link in model.links.values():
+        if link.mass > 0.0 and inertia == "balance":
+            link.inertia = balanced_inertia(link.inertia)
+        elif link.mass > 0.0 and inertia == "shapes" and link.parts:
+            link.center, link.inertia = _shape_inertia(link, model.source)
     prefix = model.name if name is None else name
     if not isinstance(prefix, str) or not prefix:
         raise InputError(f"must be a non-empty string, got {prefix!r}", "name")
@@ -554,6 +571,8 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         axis = R_child @ j.axis
         if j.kind == "fixed":
             record = FixedJoint(**common)
+        elif j.kind == "spherical":  # Bullet's extension; its limit attributes are not read
+            record = BallJoint(**common)
         else:
             cls = SliderJoint if j.kind == "prismatic" else HingeJoint
             extra = {} if j.friction == 0.0 else {"motor_speed": 0.0,
@@ -575,6 +594,34 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     if joint_positions:
         _place(world, robot, _link_frames(model, base, joint_positions), owner)
     return robot
+
+
+def balanced_inertia(I: np.ndarray) -> np.ndarray:
+    """``I`` (3, 3) with its principal moments made physical (``inertia="balance"``): a moment below
+    1e-6 of the largest is raised to that, then if the two smaller sum to less than the largest
+    (A + B < C: no mass distribution has it) each is raised by half the shortfall; the principal
+    axes are kept."""
+    moments, axes = np.linalg.eigh(0.5 * (I + I.T))
+    largest = max(float(moments[2]), 1e-12)
+    moments = np.maximum(moments, 1e-6 * largest)
+    shortfall = moments[2] - moments[0] - moments[1]
+    if shortfall > 0:
+        moments[:2] += 0.5 * shortfall
+    return axes @ np.diag(moments) @ axes.T
+
+
+def _shape_inertia(link: UrdfLink, source: str):
+    """Centre of mass and inertia (link frame) of the link's collision shapes at its mass."""
+    from .mass import mass_properties
+
+    if any(isinstance(shape, Plane) for shape, *_ in link.parts):
+        return link.center, link.inertia
+    parts = [(shape, p, matrix_to_quat(np.ascontiguousarray(R))) for shape, p, R in link.parts]
+    try:
+        props = mass_properties(Compound(parts), mass=link.mass)
+    except InputError as err:
+        raise InputError(err.problem, f"link[{link.name}].collision", source) from None
+    return np.array(props.center), np.array(props.inertia)
 
 
 def _tree_order(model: UrdfModel) -> list:
@@ -605,16 +652,23 @@ def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, 
             moment += link.mass * c
             inertia_terms.append((link.mass, c, R @ link.inertia @ R.T))
     key = f"link[{members[0]}]"
+    filt = collision_filter
+    materials = [m for (*_, m) in parts]
+    if materials and all(m is materials[0] for m in materials):  # one material (or none) for all: the body's
+        material = material if materials[0] is None else materials[0]
+        parts = [(shape, p, q, None) for shape, p, q, _ in parts]
     if not parts:
         shape, filt = Sphere(radius=MARKER_RADIUS), NO_CONTACT
+    elif any(isinstance(part[0], Plane) for part in parts):
+        if len(parts) != 1 or not fixed:
+            raise InputError("a plane must be the only collision shape of a fixed link", key, model.source)
+        plane, p, q, _ = parts[0]
+        n = quat_to_matrix(q) @ np.array(plane.normal)
+        shape = Plane(normal=n, offset=float(n @ p) + plane.offset)
+    elif len(parts) == 1 and np.allclose(parts[0][1], 0.0) and abs(parts[0][2][0]) == 1.0 and parts[0][3] is None:
+        shape = parts[0][0]
     else:
-        filt = collision_filter
-        materials = [m for (*_, m) in parts]
-        identity = len(parts) == 1 and np.allclose(parts[0][1], 0.0) and abs(parts[0][2][0]) == 1.0
-        if identity and materials[0] is None:
-            shape = parts[0][0]
-        else:
-            shape = Compound(parts)
+        shape = Compound(parts)
     kwargs = {}
     if not fixed:
         if mass <= 0.0:
@@ -629,7 +683,11 @@ def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, 
         return world.add_body(shape, position=frame[0], orientation=matrix_to_quat(np.ascontiguousarray(frame[1])),
                               fixed=fixed, material=material, collision_filter=filt, name=body_name, **kwargs)
     except InputError as err:
-        raise InputError(err.problem, f"{key}.{err.key}" if err.key else key, model.source) from None
+        problem = err.problem
+        if err.key == "inertia":
+            problem += ('; load it with inertia="balance" (raise the small moments, MuJoCo\'s balanceinertia)'
+                        ' or inertia="shapes" (from the collision shapes, PyBullet\'s default)')
+        raise InputError(problem, f"{key}.{err.key}" if err.key else key, model.source) from None
 
 
 def _place(world, robot: Robot, frames: dict, owner: dict):

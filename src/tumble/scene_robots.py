@@ -1,0 +1,92 @@
+"""Scene files: the ``[[robots]]`` entries, URDF files loaded into the scene (``tumble.urdf``).
+
+::
+
+    [[robots]]
+    file = "arm.urdf"              # required; relative to the scene file's folder
+    name = "arm"                   # default: the URDF's <robot name>; bodies are "arm/<link>"
+    position = [0, 0, 0]           # the root link's frame
+    euler_deg = [0, 0, 90]         # or orientation = [w, x, y, z]
+    fixed_base = true              # default false (a root link without mass is fixed anyway)
+    merge_fixed = true             # fuse links joined by fixed joints (default true)
+    self_collision = false         # default false
+    inertia = "file"               # "file" (default), "balance" or "shapes"
+    joint_positions = { shoulder = 0.5, elbow = -1.0 }   # rad or m, by URDF joint name
+    package_dirs = ["ros/src"]     # where package:// meshes are looked up (scene-relative)
+    material = { friction = 0.8 }  # links without Bullet's <contact>
+    collision_filter = { category = 2 }
+
+A problem inside the URDF file is one line naming both files:
+``scene.toml: robots[0].file: arm.urdf: joint[elbow].limit.lower: expected 1 number, got 'x'``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .collision.filter import FILTER_KEYS, CollisionFilter
+from .errors import InputError
+from .urdf import INERTIA_SOURCES, load_urdf
+
+ROBOT_KEYS = ("file", "name", "position", "orientation", "euler_deg", "fixed_base", "merge_fixed", "self_collision",
+              "inertia", "joint_positions", "package_dirs", "material", "collision_filter")
+
+
+class RobotReader:
+    """Mixed into the scene parser (a ``BodyReader``): one ``[[robots]]`` entry."""
+
+    def robot(self, world, entry: dict, key: str, names: dict):
+        self.table(entry, key, ROBOT_KEYS, required=("file",))
+        path = self.file_path(entry["file"], f"{key}.file")
+        kw = {}
+        if "name" in entry:
+            kw["name"] = self.string(entry["name"], f"{key}.name")
+            if not kw["name"]:
+                raise self.error("must not be empty", f"{key}.name")
+        for k in ("position", "euler_deg"):
+            if k in entry:
+                kw[k] = self.vector(entry[k], f"{key}.{k}")
+        if "orientation" in entry:
+            if "euler_deg" in entry:
+                raise self.error("give orientation or euler_deg, not both", f"{key}.euler_deg")
+            kw["orientation"] = self.vector(entry["orientation"], f"{key}.orientation", 4)
+        for k in ("fixed_base", "merge_fixed", "self_collision"):
+            if k in entry:
+                kw[k] = self.boolean(entry[k], f"{key}.{k}")
+        if "inertia" in entry:
+            kw["inertia"] = self.string(entry["inertia"], f"{key}.inertia", INERTIA_SOURCES)
+        if "joint_positions" in entry:
+            table = self.table(entry["joint_positions"], f"{key}.joint_positions", entry["joint_positions"].keys()
+                               if isinstance(entry["joint_positions"], dict) else ())
+            kw["joint_positions"] = {j: self.number(v, f"{key}.joint_positions.{j}") for j, v in table.items()}
+        if "package_dirs" in entry:
+            dirs = entry["package_dirs"]
+            if not isinstance(dirs, list):
+                raise self.error(f"expected a list of folders, got {dirs!r}", f"{key}.package_dirs")
+            kw["package_dirs"] = [self.base_dir / self.string(d, f"{key}.package_dirs[{i}]") for i, d in enumerate(dirs)]
+        if "material" in entry:
+            kw["material"] = self.material(entry["material"], f"{key}.material")
+        if "collision_filter" in entry:
+            f = self.table(entry["collision_filter"], f"{key}.collision_filter", FILTER_KEYS)
+            kw["collision_filter"] = self.library(f"{key}.collision_filter", CollisionFilter, **f)
+        self.where = key
+        before = world.body_count
+        try:
+            load_urdf(world, path, **kw)
+        except InputError as err:
+            if err.file:  # the URDF's own problem: both files on the line
+                inner = ": ".join(str(p) for p in (Path(err.file).name, err.key) if p)
+                raise self.error(f"{inner}: {err.problem}", f"{key}.file") from None
+            raise err.within(key, self.file) from None
+        for i in range(before, world.body_count):
+            names[world.names[i]] = len(names)
+
+    def file_path(self, value, key: str) -> Path:
+        rel = self.string(value, key)
+        if not rel:
+            raise self.error("must not be empty", key)
+        p = Path(rel).expanduser()
+        p = p if p.is_absolute() else self.base_dir / p
+        if not p.is_file():
+            raise self.error(f"file not found: {p}", key)
+        return p
