@@ -12,6 +12,8 @@
     self_collision = false         # default false
     inertia = "file"               # "file" (default), "balance" or "shapes"
     joint_positions = { shoulder = 0.5, elbow = -1.0 }   # rad or m, by URDF joint name
+    joint_motors = { yaw = { speed = 1.5, max_force = 20 } }             # velocity motors
+    joint_targets = { elbow = { position = 0.9, stiffness = 200, damping = 20 } }   # PD drives
     package_dirs = ["ros/src"]     # where package:// meshes are looked up (scene-relative)
     material = { friction = 0.8 }  # links without Bullet's <contact>
     collision_filter = { category = 2 }
@@ -29,7 +31,8 @@ from .errors import InputError
 from .urdf import INERTIA_SOURCES, load_urdf
 
 ROBOT_KEYS = ("file", "name", "position", "orientation", "euler_deg", "fixed_base", "merge_fixed", "self_collision",
-              "inertia", "joint_positions", "package_dirs", "material", "collision_filter")
+              "inertia", "joint_positions", "joint_motors", "joint_targets", "package_dirs", "material",
+              "collision_filter")
 
 
 class RobotReader:
@@ -59,6 +62,10 @@ class RobotReader:
             table = self.table(entry["joint_positions"], f"{key}.joint_positions", entry["joint_positions"].keys()
                                if isinstance(entry["joint_positions"], dict) else ())
             kw["joint_positions"] = {j: self.number(v, f"{key}.joint_positions.{j}") for j, v in table.items()}
+        for k in ("joint_motors", "joint_targets"):
+            if k in entry:  # tables of tables; their keys and numbers are checked by load_urdf
+                kw[k] = self.table(entry[k], f"{key}.{k}", entry[k].keys() if isinstance(entry[k], dict) else (),
+                                   what="a table of joint names")
         if "package_dirs" in entry:
             dirs = entry["package_dirs"]
             if not isinstance(dirs, list):

@@ -489,7 +489,7 @@ def _link_frames(model: UrdfModel, base, joint_positions: dict) -> dict:
 
 def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, fixed_base=False,
               merge_fixed=True, self_collision=False, joint_positions=None, material=None, collision_filter=None,
-              name=None, package_dirs=(), inertia="file") -> Robot:
+              name=None, package_dirs=(), inertia="file", joint_motors=None, joint_targets=None) -> Robot:
     """Add the robot of a URDF file to ``world`` (module docstring) and return it.
 
     Args:
@@ -503,6 +503,11 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
             ``FixedJoint``.
         self_collision: let the robot's bodies touch each other (not those a joint links).
         joint_positions: {joint name: rad or m}: start there (the joints' zero stays the URDF's).
+        joint_motors: {joint name: {"speed": rad/s or m/s, "max_force": N m or N}}: velocity
+            motors on from the start (``max_force`` default: the URDF's effort, else unlimited);
+            as ``Robot.set_motor``.
+        joint_targets: {joint name: {"position", "stiffness", "damping", "max_force"}}: PD drives
+            from the start, as ``Robot.set_position_target``.
         material: ``Material`` (or mapping) of every link without its own ``<contact>``.
         collision_filter: ``CollisionFilter`` of every body (default: the default filter).
         name: the robot's name (default the URDF's ``<robot name>``): prefix of the body names.
@@ -543,6 +548,7 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
             raise InputError(f"not a revolute, continuous or prismatic joint of {model.source}", key)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise InputError(f"expected a finite number, got {value!r}", key)
+    controls = _controls(known, joint_motors, joint_targets)
     material = Material.coerce(material)
     collision_filter = CollisionFilter.coerce(collision_filter)
 
@@ -578,6 +584,11 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
             extra = {} if j.friction == 0.0 else {"motor_speed": 0.0,
                                                   ("max_motor_force" if cls is SliderJoint else "max_motor_torque"): j.friction}
             record = cls(**common, axis=axis, lower=j.lower, upper=j.upper, damping=j.damping, **extra)
+            torque_or_force = "force" if cls is SliderJoint else "torque"
+            for field_name, value in controls.get(j.name, {}).items():
+                if field_name in ("max_motor", "max_drive"):  # max_motor_torque, max_drive_force, ...
+                    field_name = f"{field_name}_{torque_or_force}"
+                setattr(record, field_name, value)
         try:
             world.add_joint(record)
         except InputError as err:
@@ -594,6 +605,40 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     if joint_positions:
         _place(world, robot, _link_frames(model, base, joint_positions), owner)
     return robot
+
+
+MOTOR_KEYS = ("speed", "max_force")
+TARGET_KEYS = ("position", "stiffness", "damping", "max_force")
+
+
+def _controls(known: dict, motors, targets) -> dict:
+    """{joint: {record field: value}} of ``joint_motors`` and ``joint_targets`` (checked)."""
+    out: dict[str, dict] = {}
+    for option, given, keys, required in (("joint_motors", motors, MOTOR_KEYS, ("speed",)),
+                                          ("joint_targets", targets, TARGET_KEYS, ("position", "stiffness"))):
+        for jname, spec in (given or {}).items():
+            key = f"{option}.{jname}"
+            if jname not in known or known[jname].kind not in ("revolute", "continuous", "prismatic"):
+                raise InputError("not a revolute, continuous or prismatic joint of the robot", key)
+            if not isinstance(spec, dict) or set(spec) - set(keys) or set(required) - set(spec):
+                raise InputError(f"expected a table with {', '.join(required)} (and optionally "
+                                 f"{', '.join(k for k in keys if k not in required)}), got {spec!r}", key)
+            values = {}
+            for k, v in spec.items():
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                        or (k in ("stiffness", "damping", "max_force") and v < 0):
+                    raise InputError(f"expected a finite number{' >= 0' if k != 'speed' and k != 'position' else ''},"
+                                     f" got {v!r}", f"{key}.{k}")
+                values[k] = float(v)
+            effort = known[jname].effort
+            limit = values.get("max_force", math.inf if effort is None else effort)
+            entry = out.setdefault(jname, {})
+            if option == "joint_motors":
+                entry.update(motor_speed=values["speed"], max_motor=limit)
+            else:
+                entry.update(target=values["position"], stiffness=values["stiffness"],
+                             damping=values.get("damping", 0.0), max_drive=limit)
+    return out
 
 
 def balanced_inertia(I: np.ndarray) -> np.ndarray:

@@ -243,3 +243,63 @@ def test_floating_robot_keeps_its_momentum_and_its_centre_falls_freely(tmp_path)
     h = sim.dt / SoftStepSettings().substeps
     np.testing.assert_allclose(c1, c0 + P0 / m.sum() * t - 0.5 * np.array([0, 0, G]) * t * (t + h), atol=1e-9)
     assert np.linalg.norm(L1 - L0) < 1e-3 * np.linalg.norm(L0)
+
+
+PENDULUM = """<robot name="pendulum">
+  <link name="world"/>
+  <link name="arm">
+    <inertial><origin xyz="0 0 -0.5"/><mass value="2"/><inertia ixx="0.2" iyy="0.2" izz="0.01"/></inertial>
+    <collision><origin xyz="0 0 -0.5"/><geometry><cylinder radius="0.05" length="1"/></geometry></collision>
+  </link>
+  <joint name="swing" type="continuous"><parent link="world"/><child link="arm"/>
+    <origin xyz="0 0 2"/><axis xyz="0 1 0"/></joint>
+</robot>
+"""
+
+
+def test_position_target_holds_where_the_drive_balances_gravity(tmp_path):
+    # joint_targets: a PD drive k (0.5 - theta) on a pendulum of m g d = 2 x 9.81 x 0.5 N m rests
+    # where k (0.5 - theta) = m g d sin(theta) (k = 30: theta = 0.37901, by brentq). Sleeping off:
+    # the arm creeps its last 2.4e-4 rad slower than the sleep tolerance (2 deg/s for 0.5 s,
+    # Box2D's) and would fall asleep that far short (measured).
+    from scipy.optimize import brentq
+
+    k, mgd = 30.0, 2 * G * 0.5
+    expected = brentq(lambda th: k * (0.5 - th) - mgd * np.sin(th), 0.0, 0.5)
+    world = tb.World(gravity=(0, 0, -G))
+    world.sleeping = False
+    robot = load_urdf(world, write(tmp_path, PENDULUM),
+                      joint_targets={"swing": {"position": 0.5, "stiffness": k, "damping": 6.0}})
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(240 * 8)
+    theta, rate = robot.joint_states(sim)["swing"]
+    assert theta == pytest.approx(expected, abs=1e-6) and abs(rate) < 1e-6
+
+
+def test_capped_drive_swings_the_arm_under_its_constant_limit(tmp_path):
+    # the same drive capped at max_force = 3 N m: the cap holds the whole drive torque, spring and
+    # damper, so I theta'' = clamp(k (0.5 - theta) - c theta', -3, 3) - m g d sin(theta), with
+    # I = 0.2 + 2 x 0.5^2 = 0.7 (DOP853; the clamp's kinks are passed by its step control). The
+    # arm rises at the capped 3 N m, overshoots the balance point asin(3 / 9.81) = 0.311 where the
+    # damper takes over, and settles at 0.379 where the uncapped drive would.
+    # Measured 1.0e-3 rad at dt 1/240 s over 2 s (first order).
+    from scipy.integrate import solve_ivp
+
+    world = tb.World(gravity=(0, 0, -G))
+    robot = load_urdf(world, write(tmp_path, PENDULUM), joint_targets={
+        "swing": {"position": 0.5, "stiffness": 30.0, "damping": 6.0, "max_force": 3.0}})
+    sim = tb.Simulator(world, dt=1 / 240)
+    t, theta = [], []
+    for _ in range(40):
+        sim.step(12)
+        t.append(world.t)
+        theta.append(robot.joint_states(sim)["swing"][0])
+    def f(_, y):
+        drive = np.clip(30.0 * (0.5 - y[0]) - 6.0 * y[1], -3.0, 3.0)
+        return [y[1], (drive - G * np.sin(y[0])) / 0.7]
+
+    ref = solve_ivp(f, (0, t[-1]), [0.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-12, t_eval=t).y[0]
+    assert np.max(np.abs(np.array(theta) - ref)) < 3e-3  # measured 1.0e-3 at dt 1/240 s
+    uncapped = solve_ivp(lambda _, y: [y[1], (30.0 * (0.5 - y[0]) - 6.0 * y[1] - G * np.sin(y[0])) / 0.7],
+                         (0, t[-1]), [0.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-12, t_eval=t).y[0]
+    assert np.max(np.abs(uncapped - ref)) > 0.05  # the cap matters here
