@@ -212,6 +212,12 @@ class ContactSolver:
         n = contacts.contact_count
         self._reserve(max(n, self.old_count))
         self.count = n
+        if n == 0:  # PERF: nothing touches (a robot in the air): no rows to set up; the sweep as always
+            self.rolling_rows = _NO_ROWS
+            self._contact_shapes = None
+            self.sweep.update(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x,
+                              int(st.partitions), st.partition_min_contacts)
+            return
         cap = st.hertz_cap_per_substep / h
         hertz = cap if st.contact_hertz is None else min(st.contact_hertz, cap)
         self.soft_dynamic = np.array(soft_coefficients(hertz, st.contact_damping_ratio, h))
@@ -320,6 +326,8 @@ class ContactSolver:
     def warm_start(self, fresh: bool = True):
         """Apply the accumulated impulses; ``fresh=False`` when the poses are those of the last
         relax (the substeps after the first), whose cached arms are then used."""
+        if not self.count:  # PERF: a world of joints without contacts (a robot) skips the call
+            return
         c = self.contacts
         warm_start_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
                           c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
@@ -330,6 +338,8 @@ class ContactSolver:
                                       self.tangent1, self.tangent2, self.rolling_impulse, self.I_inv, self.omega)
 
     def solve_contacts(self, use_bias: bool):
+        if not self.count:
+            return
         c = self.contacts
         w = self.world
         solve_contacts_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
@@ -346,6 +356,8 @@ class ContactSolver:
                                  self.rolling_limit, self.I_inv, self.omega, self.rolling_impulse)
 
     def apply_restitution(self):
+        if not self.count:
+            return
         c = self.contacts
         # the restitution pass adds to the accumulated impulse: count the increment in the step's total
         self.step_normal_impulse[:] -= self.normal_impulse
@@ -359,6 +371,8 @@ class ContactSolver:
     def accumulate_step_impulses(self):
         """After a substep's relax: the accumulated impulses are what this substep applied
         (its warm start applied the last value, its solves the increments); add them to the step's total."""
+        if not self.count:
+            return
         self.step_normal_impulse[:] += self.normal_impulse
         self.step_tangent_impulse[:] += self.tangent_impulse
 

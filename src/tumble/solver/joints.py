@@ -52,6 +52,8 @@ from ..joints import (
     JOINT_HINGE,
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
+    P_LIMIT2_ON,
+    P_LIMIT_ON,
     P_LOWER,
     P_MAX_FORCE,
     P_MAX_TORQUE,
@@ -330,6 +332,12 @@ def soft_coefficients(hertz: float, zeta: float, h: float):
     return omega / a1, a2 * a3, a3
 
 
+# the tree method's extra sweeps while a limit row's impulse still changes (``JointSolver.solve``):
+# at most this many sweeps, until no limit impulse changes by more than LIMIT_TOLERANCE of the largest
+TREE_LIMIT_SWEEPS = 32
+LIMIT_TOLERANCE = 1e-3
+
+
 class JointSolver:
     """The joints of one World as arrays, and the accumulated impulses between steps.
 
@@ -541,13 +549,38 @@ class JointSolver:
                 solve_joints_kernel(*args, int(iterations), *out)
                 return
             sc = self._scratch
-            for _ in range(iterations):
+            # Limit rows are Gauss-Seidel rows around the exact solve, which undoes part of each
+            # limit impulse as it re-solves the chain: two sweeps leave a limit that a fast chain
+            # strikes unconverged, and the unconverged impulse comes back as a bounce (a 7-joint arm
+            # striking a shoulder limit at 7.8 rad/s left it at -7 rad/s, restitution 0.9, with
+            # ACCURATE; 30 sweeps: 0.0). So while a limit's impulse still changes, sweep on, up to
+            # TREE_LIMIT_SWEEPS (Baraff 1996 solves the active limits in the block; this is the
+            # cheaper fixed point of the same equations). Worlds without limits keep their bits.
+            limits = self._limit_columns()
+            before = None
+            for sweep in range(max(iterations, TREE_LIMIT_SWEEPS if len(limits) and iterations else 0)):
+                if sweep >= iterations:
+                    change = np.abs(self.axial_impulse[:, limits] - before).max()
+                    if change <= LIMIT_TOLERANCE * max(np.abs(before).max(), 1e-9):
+                        break
+                if len(limits) and sweep >= iterations - 1:
+                    before = self.axial_impulse[:, limits].copy()
                 solve_joints_kernel(*args, 1, *out)
                 tree_solve_kernel(self.node_order, self.node_joint, self.node_body, self.node_parent, self.joint_type,
                                   self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a, self.frame_b,
                                   self.param, x, R, self.inv_mass, self.I_inv, float(soft[0]), sc["Ja"], sc["Jb"],
                                   sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"], sc["y"], sc["sol"], sc["work"],
                                   *out)
+
+    def _limit_columns(self) -> np.ndarray:
+        """The ``axial_impulse`` columns of the limit rows some joint has (empty: none)."""
+        p = self.param
+        columns = []
+        if p.shape[0] and np.any(p[:, P_LIMIT_ON] != 0.0):
+            columns += [A_LOWER, A_UPPER]
+        if p.shape[0] and np.any(p[:, P_LIMIT2_ON] != 0.0):
+            columns += [A_LOWER2, A_UPPER2]
+        return np.array(columns, dtype=np.int64)
 
     def project(self, x: np.ndarray, q: np.ndarray, R: np.ndarray) -> float:
         """NGS position projection after the substeps (``position_iterations`` > 0): moves
