@@ -28,8 +28,17 @@ def load_scene(path):
     return _load(path)
 
 
+def load_urdf(world, path, **options):
+    """Add a URDF file's robot to ``world``: its links as bodies, its joints as joints; returns a
+    ``tumble.urdf.Robot``. Options (pose, fixed_base, joint_positions, ...): see tumble.urdf."""
+    from .urdf import load_urdf as _load
+
+    return _load(world, path, **options)
+
+
 __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "Trajectory", "load_trajectory", "load_scene",
+    "load_urdf",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "KeyframePath",
