@@ -327,3 +327,30 @@ def test_cli_runs_a_robot_scene_and_refuses_a_bad_one(tmp_path, capsys):
     assert main(["run", str(tmp_path / "s.toml"), "--out", str(tmp_path / "out2"), "--no-progress"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "robots[0].file: chain.urdf: joint[j1].limit.upper: expected 1 number" in err[0]
+
+
+def test_sweep_over_a_robot_key(tmp_path):
+    # a parameter sweep over a [[robots]] entry (tumble.sweep): the PD target of a pendulum's joint;
+    # each variant rests where k (target - theta) = m g d sin(theta) (brentq), its centre of mass
+    # 0.5 m from the pivot at -0.5 (sin theta, 0, cos theta). Sleeping off: the last creep is
+    # slower than the sleep tolerance (tests/physics/test_urdf.py).
+    pytest.importorskip("pyarrow")
+    from scipy.optimize import brentq
+
+    from tumble.sweep import run_sweep
+
+    from .physics.test_urdf import PENDULUM
+
+    write(tmp_path, PENDULUM, "pendulum.urdf")
+    scene = tmp_path / "s.toml"
+    scene.write_text('[simulation]\nduration = 8.0\nsleeping = false\n[[robots]]\nfile = "pendulum.urdf"\nname = "pend"\n'
+                     'joint_targets = { swing = { position = 0.5, stiffness = 30.0, damping = 6.0 } }\n')
+    table = run_sweep(scene, vary=["robots.pend.joint_targets.swing.position=[0.2, 0.6]"],
+                      metrics=["final_position:pend/arm"], workers=0, progress=False)
+    assert table["status"].to_pylist() == ["ok", "ok"]
+    for target, x in zip((0.2, 0.6), table["final_position:pend/arm[0]"].to_pylist()):
+        theta = brentq(lambda th: 30.0 * (target - th) - 2 * 9.81 * 0.5 * np.sin(th), 0.0, target)
+        # to 2e-5 m: the soft hinge anchor gives a little under the load (5.6e-6 m measured at 0.6)
+        assert x == pytest.approx(-0.5 * np.sin(theta), abs=2e-5)
+    with pytest.raises(tb.InputError, match="no robot named 'nope'"):
+        run_sweep(scene, vary=["robots.nope.fixed_base=[true]"], workers=0, progress=False)

@@ -5,6 +5,7 @@ Key paths name one value of the scene file::
     bodies.box.mass                    body "box" (by name), key mass
     bodies.box.angular_velocity[1]     one component of a vector
     bodies[0].mass                     a body by position
+    robots.arm.joint_positions.elbow   a [[robots]] entry (by its name key, or robots[0]), one joint
     simulation.dt
     forces[0].linear
 
@@ -89,8 +90,8 @@ def resolve_key(data: dict, key: str) -> list:
     parts = parse_key(key)
     where = f"--vary {key}"
     top = parts[0]
-    if top not in ("simulation", "bodies", "forces"):
-        raise InputError(f"unknown key path {key!r} (must start with simulation, bodies or forces)", where)
+    if top not in ("simulation", "bodies", "forces", "robots"):
+        raise InputError(f"unknown key path {key!r} (must start with simulation, bodies, robots or forces)", where)
     path: list = [top]
     node = data.get(top)
     i = 1
@@ -109,9 +110,11 @@ def resolve_key(data: dict, key: str) -> list:
             index = sel
         else:
             names = [b.get("name") if isinstance(b, dict) else None for b in node]
-            if top != "bodies" or sel not in names:
-                known = ", ".join(repr(n) for n in names if isinstance(n, str)) if top == "bodies" else "(forces are referred to by index)"
-                raise InputError(f"unknown key path {key!r}: no {'body' if top == 'bodies' else 'force'} named {sel!r} (known: {known})", where)
+            if top == "forces" or sel not in names:
+                known = "(forces are referred to by index)" if top == "forces" else \
+                    ", ".join(repr(n) for n in names if isinstance(n, str)) or "(none has a name key: use an index)"
+                what = {"bodies": "body", "forces": "force", "robots": "robot"}[top]
+                raise InputError(f"unknown key path {key!r}: no {what} named {sel!r} (known: {known})", where)
             index = names.index(sel)
         path.append(index)
         node = node[index]
@@ -120,6 +123,10 @@ def resolve_key(data: dict, key: str) -> list:
             raise InputError(f"unknown key path {key!r}: {format_key(path)} is not a table", where)
         if top == "bodies":
             allowed = BODY_KEYS
+        elif top == "robots":
+            from ..scene_robots import ROBOT_KEYS
+
+            allowed = ROBOT_KEYS
         else:
             kind = node.get("type")
             req, opt = FORCE_KEYS.get(kind, ((), ()))
