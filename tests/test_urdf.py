@@ -354,3 +354,22 @@ def test_sweep_over_a_robot_key(tmp_path):
         assert x == pytest.approx(-0.5 * np.sin(theta), abs=2e-5)
     with pytest.raises(tb.InputError, match="no robot named 'nope'"):
         run_sweep(scene, vary=["robots.nope.fixed_base=[true]"], workers=0, progress=False)
+
+
+def test_reset_joint_positions_mid_run(tmp_path):
+    # PyBullet's resetJointState: the robot jumps to the given joint positions, base kept, at rest
+    world = tb.World()
+    robot = load_urdf(world, write(tmp_path, CHAIN), position=(0, 0, 1))
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(120)  # it swings under gravity
+    assert abs(robot.joint_states(sim)["j1"][0]) > 0.1
+    robot.reset_joint_positions(sim, {"j1": -0.7, "j2": 0.25})
+    p, R = robot.link_pose("c")
+    Ry = np.array([[np.cos(-0.7), 0, np.sin(-0.7)], [0, 1, 0], [-np.sin(-0.7), 0, np.cos(-0.7)]])
+    np.testing.assert_allclose(p, (0, 0, 2) + Ry @ (0.5 + 0.25 + 0.3, 0, 0), atol=1e-12)
+    np.testing.assert_allclose(world.v[1:], 0.0, atol=0) and np.testing.assert_allclose(world.omega[1:], 0.0, atol=0)
+    sim.step(1)  # one step from rest: the joints move by about g dt^2 / L at most
+    states = robot.joint_states(sim)
+    assert states["j1"][0] == pytest.approx(-0.7, abs=1e-3) and states["j2"][0] == pytest.approx(0.25, abs=1e-3)
+    with pytest.raises(tb.InputError, match="positions.j3: not a revolute"):
+        robot.reset_joint_positions(sim, {"j3": 1.0})

@@ -381,6 +381,8 @@ class Robot:
         base: the root link's body.
         link_frames: {link name: (position (3,) m, rotation (3, 3))}: the link frame in its
             body's shape frame (identity for a body's own link).
+        owners: {link name: the link whose body it is part of} (itself, or the parent it was
+            merged into).
     """
 
     name: str
@@ -390,6 +392,7 @@ class Robot:
     joints: dict
     base: object
     link_frames: dict
+    owners: dict
 
     def link_pose(self, link) -> tuple[np.ndarray, np.ndarray]:
         """The link frame now: origin (3,) m and rotation (3, 3), world."""
@@ -406,6 +409,39 @@ class Robot:
         index = {id(j): k for k, j in enumerate(self.world.joints)}
         return {name: (float(r["position"][index[id(j)]]), float(r["rate"][index[id(j)]]))
                 for name, j in self.joints.items()}
+
+    def reset_joint_positions(self, sim, positions: dict):
+        """Put the robot at joint ``positions`` ({joint: rad or m}; the joints not named keep
+        their last reading) with its base where it is, every body of the robot at rest: PyBullet's
+        ``resetJointState``, for all the joints at once. Takes effect now; the joint solver's
+        warm-start impulses of the robot's joints are cleared (they belonged to the old pose)."""
+        known = {j.name: j for j in self.model.joints}
+        for name, value in positions.items():
+            if name not in known or known[name].kind not in ("revolute", "continuous", "prismatic"):
+                raise InputError(f"not a revolute, continuous or prismatic joint of robot {self.name!r}",
+                                 f"positions.{name}")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise InputError(f"expected a finite number, got {value!r}", f"positions.{name}")
+        current = {name: state[0] for name, state in self.joint_states(sim).items()} if sim is not None else {}
+        current.update({k: float(v) for k, v in positions.items()})
+        base = self.link_pose(self.model.root)
+        _place(self.world, self, _link_frames(self.model, base, current), self.owners)
+        world = self.world
+        for body in set(self.links.values()):
+            if world.moving[body.index]:
+                world.P[body.index] = 0.0
+                world.L[body.index] = 0.0
+            world.wake_requests.add(body.index)
+        world.update_derived()
+        solver = None if sim is None or sim.soft_step is None else sim.soft_step.joints
+        if solver is not None and solver.count == len(world.joints):
+            for name, record in self.joints.items():
+                j = solver.index(record)
+                solver.linear_impulse[j] = 0.0
+                solver.angular_impulse[j] = 0.0
+                solver.axial_impulse[j] = 0.0
+                if name in current:
+                    solver.position[j] = current[name]  # the hinge angle is unwrapped around it
 
     def _urdf_joint(self, joint) -> UrdfJoint:
         for j in self.model.joints:
@@ -601,7 +637,7 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         for a in range(len(own)):
             for b in range(a + 1, len(own)):
                 world.exclude_collision(own[a], own[b])
-    robot = Robot(prefix, model, world, links, joints, bodies[model.root], link_frames)
+    robot = Robot(prefix, model, world, links, joints, bodies[model.root], link_frames, owner)
     if joint_positions:
         _place(world, robot, _link_frames(model, base, joint_positions), owner)
     return robot
