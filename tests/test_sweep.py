@@ -477,9 +477,12 @@ def test_sweep_table_accepted_and_stripped(tmp_path):
     assert t.num_rows == 2 and "flip_time:box:y" in t.column_names
 
 
-def test_scenes_with_contact_or_joints_are_not_batched():
-    """Variants merged into one World must not touch each other and must keep their joints: a scene
-    that can collide, or has joints, runs alone (batch_key None); one without either batches."""
+def test_scenes_with_contact_or_coupled_joints_are_not_batched():
+    """Variants merged into one World must not touch each other and must keep their joints' bits:
+    a scene that can collide runs alone (batch_key None); joints batch (each variant's swept in its
+    own order) unless the tree method has a limit (its extra sweeps stop on a test over every
+    joint: it would couple the variants). Batched joints are checked bit for bit against single
+    runs in tests/test_urdf.py."""
     from tumble.scene import parse_scene
     from tumble.sweep.batch import batch_key
 
@@ -489,8 +492,11 @@ def test_scenes_with_contact_or_joints_are_not_batched():
     assert batch_key(parse_scene({"bodies": [ground, ball]})) is None
     assert batch_key(parse_scene({"simulation": {"collisions": False}, "bodies": [ground, ball]})) is not None
     jointed = {"simulation": {"collisions": False}, "bodies": [ball],
-               "joints": [{"type": "ball", "body_a": "b", "anchor": [0, 0, 1]}]}
-    assert batch_key(parse_scene(jointed)) is None
+               "joints": [{"type": "hinge", "body_a": "b", "anchor": [0, 0, 1], "axis": [0, 1, 0], "lower": -1.0}]}
+    assert batch_key(parse_scene(jointed)) is not None
+    assert batch_key(parse_scene({**jointed, "joint_solver": {"method": "tree"}})) is None
+    del jointed["joints"][0]["lower"]
+    assert batch_key(parse_scene({**jointed, "joint_solver": {"method": "tree"}})) is not None
 
 
 def test_sensor_metrics_count_the_parcels_the_belt_brings():

@@ -373,3 +373,34 @@ def test_reset_joint_positions_mid_run(tmp_path):
     assert states["j1"][0] == pytest.approx(-0.7, abs=1e-3) and states["j2"][0] == pytest.approx(0.25, abs=1e-3)
     with pytest.raises(tb.InputError, match="positions.j3: not a revolute"):
         robot.reset_joint_positions(sim, {"j3": 1.0})
+
+
+@pytest.mark.parametrize("solver", ["", '[joint_solver]\nmethod = "tree"\nhertz = 0.0\nvelocity_iterations = 2\n'
+                                        'relax_iterations = 2\n'])
+def test_robot_variants_batch_bit_for_bit(tmp_path, solver):
+    # a sweep of a URDF arm's start pose: its links never touch each other (self-collision off),
+    # so the variants are stepped as one World (tumble.sweep.batch) and each gives the bits of its
+    # single run (state hashes equal), with both joint methods; with a limit the tree method's
+    # extra sweeps would couple them: those run one by one
+    pytest.importorskip("pyarrow")
+    from tumble.sweep import run_sweep, tables_equal
+
+    from .physics.test_urdf import ARM
+
+    write(tmp_path, ARM.replace("DAMPING", "0.1"), "arm.urdf")
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'[simulation]\nduration = 1.0\n{solver}[[robots]]\nfile = "arm.urdf"\n'
+                     'joint_positions = { shoulder = 0.5, elbow = 0.0 }\n')
+    vary = ["robots[0].joint_positions.shoulder=linspace(-1.0, 1.0, 6)"]
+    batched = run_sweep(scene, vary=vary, workers=0, progress=False)
+    single = run_sweep(scene, vary=vary, workers=0, progress=False, batch=False)
+    expected_batch = 1 if solver else 6  # the ARM's shoulder has a limit (-3, 3): the tree cannot batch it
+    assert batched["batch_size"].to_pylist() == [expected_batch] * 6
+    assert tables_equal(batched, single, ignore=("wall_time_s", "batch_size"))
+    assert len(set(batched["state_hash"].to_pylist())) == 6
+    if solver:  # without the limit the tree method batches too
+        write(tmp_path, ARM.replace("DAMPING", "0.1").replace('<limit lower="-3" upper="3" effort="50" velocity="5"/>', ''),
+              "arm.urdf")
+        batched = run_sweep(scene, vary=vary, workers=0, progress=False)
+        single = run_sweep(scene, vary=vary, workers=0, progress=False, batch=False)
+        assert batched["batch_size"].to_pylist() == [6] * 6 and tables_equal(batched, single, ignore=("wall_time_s", "batch_size"))

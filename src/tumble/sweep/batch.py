@@ -5,9 +5,14 @@ simulator applies to the world as a whole (``batch_key``): dt, integrator,
 substeps, layout, duration, frame rate, gravity, the energy bound, the body
 names and which bodies are fixed, and the steps at which impulses act; and no
 force couples two bodies or calls Python (no springs, no custom forces) and the
-integrator is not adaptive, and the scene has no contact (collisions off, or fewer than two
-shapes that can collide: variants merged into one World must not touch each other, and the
-merged World has collisions off), no joints and no kinematic bodies. Their bodies may differ in anything else (shape,
+integrator is not adaptive, and the scene has no contact (collisions off, or no two shapes
+that can collide: variants merged into one World must not touch each other, and the
+merged World has collisions off) and no kinematic bodies. Joints batch when each variant's
+joint sweep is one sweep in its own order (fewer joints than ``partition_min_joints``; the
+merged World sweeps with ``partitions = 1``: each variant's joints in their order, its bodies
+touched by nobody else's) and, with the tree method, no joint has a limit (its extra sweeps stop
+on a test over every joint: that would couple the variants); a URDF robot in free space
+batches. Their bodies may differ in anything else (shape,
 mass, inertia, state, material) and so may their per-body forces (drag, wind,
 constant, point forces, impulses).
 
@@ -54,7 +59,8 @@ def batch_key(scene):
         return None
     if w.collisions and _can_collide(w):
         return None
-    if getattr(w, "joints", None):  # merge_worlds copies bodies and forces, not joints
+    joint_key = _joint_key(scene)
+    if joint_key is None:
         return None
     if w.kinematic.any():  # kinematic bodies are stepped one step at a time, paths by body row
         return None
@@ -62,15 +68,43 @@ def batch_key(scene):
     return (
         scene.integrator, scene.layout, float(scene.dt), int(scene.substeps), float(scene.duration), float(scene.frame_rate),
         tuple(float(g) for g in w.gravity), float(scene.max_energy_growth), tuple(w.names), tuple(bool(m) for m in w.moving),
-        impulse_steps,
+        impulse_steps, bool(w.sleeping), joint_key,
     )
+
+
+def _joint_key(scene):
+    """() without joints; the joint settings as a tuple when the joints can be batched (module
+    docstring); None when they cannot."""
+    from ..joints import P_LIMIT2_ON, P_LIMIT_ON
+    from ..solver.joints import JointSettings
+
+    joints = getattr(scene.world, "joints", None) or []
+    if not joints:
+        return ()
+    st = scene.joint_settings or JointSettings()
+    if (st.partitions > 1 and len(joints) >= st.partition_min_joints) or any(j.broken for j in joints):
+        return None
+    if st.method == "tree" and any(j.bound.param[P_LIMIT_ON] or j.bound.param[P_LIMIT2_ON] for j in joints):
+        return None
+    return dataclasses.astuple(st)
+
+
+# worlds up to this many bodies are checked pair by pair for a pair that may touch (a robot whose
+# links never touch each other batches); larger ones by the soft step's coarser test
+PAIR_CHECK_BODIES = 64
 
 
 def _can_collide(world: World) -> bool:
     """True when two shapes of the world can touch (contact would act in a single run)."""
     from ..solver.soft_step import SoftStep
 
-    return SoftStep(world).has_collisions()
+    if not SoftStep(world).has_collisions():
+        return False
+    n = world.body_count
+    if n > PAIR_CHECK_BODIES:
+        return True
+    return any((world.moving[a] or world.moving[b]) and world.should_collide(a, b)
+               for a in range(n) for b in range(a + 1, n))
 
 
 def merge_worlds(worlds: list[World]) -> World:
@@ -84,6 +118,7 @@ def merge_worlds(worlds: list[World]) -> World:
     w0 = worlds[0]
     merged = World(gravity=w0.gravity, layout=w0.layout)
     merged.collisions = False  # the variants share space but never touch (batch_key)
+    merged.sleeping = w0.sleeping
     total = sum(w.body_count for w in worlds)
     merged._allocate(max(total, 1))
     for name, arr in merged._arrays.items():
@@ -100,6 +135,8 @@ def merge_worlds(worlds: list[World]) -> World:
         merged.excluded_collisions.update((offset + a, offset + b) for a, b in w.excluded_collisions)
         for rec in w.forces:
             merged.add_force(_moved(rec, w, offset))
+        for rec in getattr(w, "joints", ()):
+            merged.joints.append(_moved_joint(rec, k, offset))
         offset += w.body_count
     merged._tables = None
     return merged
@@ -113,6 +150,21 @@ def _moved(rec, w: World, offset: int):
     if isinstance(rec, (ConstantForce, PointForce, Impulse)):
         return dataclasses.replace(rec, body=row(rec.body))
     raise InputError(f"cannot batch a force record {type(rec).__name__}", "forces")
+
+
+def _moved_joint(rec, k: int, offset: int):
+    """A copy of a bound joint record with its bodies at the merged rows (the bound frames, anchors
+    and parameters copied as they are: binding again would read the poses, which a URDF's start
+    joint positions moved after binding)."""
+    b = rec.bound
+    row = lambda i: -1 if i < 0 else offset + i
+    new = dataclasses.replace(rec, body_a=row(b.body_a), body_b=row(b.body_b),
+                              name=None if rec.name is None else f"{k}/{rec.name}")
+    new.bound = dataclasses.replace(b, body_a=row(b.body_a), body_b=row(b.body_b), local_a=np.copy(b.local_a),
+                                    local_b=np.copy(b.local_b), frame_a=np.copy(b.frame_a), frame_b=np.copy(b.frame_b),
+                                    param=np.copy(b.param))
+    new.broken = rec.broken
+    return new
 
 
 class _VariantState:
@@ -168,8 +220,13 @@ def run_group(scenes: list, metrics: list[M.Metric], keep_trajectory: bool = Fal
     V = len(scenes)
     n = s0.world.body_count
     merged = merge_worlds([s.world for s in scenes])
+    joint_settings = None
+    if merged.joints:  # each variant's joints in their own order (batch_key): one sweep, not slabs
+        from ..solver.joints import JointSettings
+
+        joint_settings = dataclasses.replace(s0.joint_settings or JointSettings(), partitions=1)
     sim = Simulator(merged, dt=s0.dt, integrator=s0.integrator, substeps=s0.substeps, rtol=s0.rtol, atol=s0.atol,
-                    max_energy_growth=s0.max_energy_growth)
+                    max_energy_growth=s0.max_energy_growth, joint_settings=joint_settings)
     traj = sim.run(s0.duration, s0.frame_rate, progress=False)
     fr = M.Frames.from_trajectory(traj, V)
     mass = np.stack([s.world.mass for s in scenes])
