@@ -47,7 +47,9 @@ def main():
     batched = run_sweep(scene, vary=vary, workers=0, progress=False, chunk_size=n)
     t_batched = time.perf_counter() - t0
     m = args.separate
-    sub = [f"robots[0].joint_positions.shoulder=linspace(-1.0, {-1.0 + 2.0 * (m - 1) / (n - 1)!r}, {m})"]
+    # the first m variants' exact values (a shorter linspace would round differently)
+    values = batched["robots[0].joint_positions.shoulder"].to_pylist()[:m]
+    sub = ["robots[0].joint_positions.shoulder=[" + ", ".join(repr(v) for v in values) + "]"]
     t0 = time.perf_counter()
     single = run_sweep(scene, vary=sub, workers=0, progress=False, batch=False)
     t_single = (time.perf_counter() - t0) / m
