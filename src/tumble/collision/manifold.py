@@ -97,6 +97,33 @@ class ContactManifolds:
         """The full buffers in the kernel's argument order (manifold arrays, then contact arrays)."""
         return tuple(self._buffers[name] for name in (*_MANIFOLD_ARRAYS, *_CONTACT_ARRAYS))
 
+    # PERF: the arrays are read as attributes (the first ``manifold_count`` or ``contact_count`` rows);
+    # views kept in the instance and renewed when a count is set (``reserve`` sets both after it
+    # grows the buffers), rather than built on each read by ``__getattr__`` (50 reads a step).
+    @property
+    def manifold_count(self) -> int:
+        return self._manifold_count
+
+    @manifold_count.setter
+    def manifold_count(self, n: int):
+        self._manifold_count = n
+        d = self.__dict__
+        for name in _MANIFOLD_ARRAYS:
+            if name in d.get("_buffers", {}):
+                d[name] = d["_buffers"][name][:n]
+
+    @property
+    def contact_count(self) -> int:
+        return self._contact_count
+
+    @contact_count.setter
+    def contact_count(self, n: int):
+        self._contact_count = n
+        d = self.__dict__
+        for name in _CONTACT_ARRAYS:
+            if name in d.get("_buffers", {}):
+                d[name] = d["_buffers"][name][:n]
+
     def __getattr__(self, name):
         buffers = self.__dict__.get("_buffers", {})
         if name in _MANIFOLD_ARRAYS:

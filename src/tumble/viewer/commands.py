@@ -52,17 +52,19 @@ def cmd_view(args, wait=None) -> int:
     traj, extras = load_input(args.target, progress=sys.stderr.isatty())  # InputError on bad input
     viewer = Viewer(traj, host=args.host, port=args.port, play=True, extras=extras)
     try:
-        print(f"tumble view: {args.target}: {len(traj.names)} bodies, {len(traj.time)} frames at {viewer.url} "
-              "(Ctrl-C to stop)", flush=True)
-        if not args.no_browser:
-            import webbrowser
-
-            try:
-                webbrowser.open(viewer.url)
-            except (webbrowser.Error, OSError):  # no browser here: the URL is printed above
-                pass
+        # NOTE: Ctrl-C is caught from before the ready line on: a SIGINT sent as soon as the line
+        # was read once came before the wait and ended the viewer with status 130 (seen in CI)
         try:
             with _terminate_as_interrupt():
+                print(f"tumble view: {args.target}: {len(traj.names)} bodies, {len(traj.time)} frames at "
+                      f"{viewer.url} (Ctrl-C to stop)", flush=True)
+                if not args.no_browser:
+                    import webbrowser
+
+                    try:
+                        webbrowser.open(viewer.url)
+                    except (webbrowser.Error, OSError):  # no browser here: the URL is printed above
+                        pass
                 (wait or _wait_forever)()
         except KeyboardInterrupt:
             pass
