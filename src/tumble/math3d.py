@@ -9,6 +9,7 @@ kernels and Python code (tests, scene building) can call them.
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 from numba import njit
@@ -21,6 +22,20 @@ from numba import njit
 # non-finite state is caught by the run's checks. PERF: Python's error model puts a
 # test before every division; measured 25-35 % slower per step.
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
+
+
+def serial_twin(kernel, name: str):
+    """The Python function of the parallel Numba ``kernel`` compiled again without ``parallel`` under
+    ``name`` (its ``prange`` loops run as ``range`` on the calling thread): for small inputs, where
+    starting the threads costs more than the work. The same source, so the same arithmetic and
+    bits. A function object of its own, so that Numba's on-disk cache keeps the two apart (the
+    cache is keyed by the function's qualified name, not by its ``parallel`` flag)."""
+    f = kernel.py_func
+    twin = types.FunctionType(f.__code__, f.__globals__, name, f.__defaults__, f.__closure__)
+    twin.__qualname__ = name
+    twin.__doc__ = f"``{f.__name__}`` on the calling thread (``math3d.serial_twin``)."
+    twin.__module__ = f.__module__
+    return njit(**JIT)(twin)
 
 
 @njit(**JIT)

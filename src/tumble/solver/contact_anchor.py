@@ -43,11 +43,10 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit, prange
 
 from ..collision.constants import DEEP_OVERLAP
-from ..math3d import JIT
+from ..math3d import JIT, serial_twin
 from ..shapes import SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CYLINDER, SHAPE_SPHERE
 
 # A contact on a cylinder or a cone counts as on its round side or rim when its surface point
@@ -144,36 +143,6 @@ def round_offset(shape_type, radius, half_length, centre, rot, s, p0, p1, p2, u0
     return k * r0, k * r1, k * r2, True
 
 
-@njit(**JIT)
-def _anchor_offset(c, contact_manifold, manifold_shape_a, manifold_shape_b, point, normal, separation,
-                    shape_type, shape_params, shape_pos, shape_rot, anchor_offset):
-    """One contact ``c`` of ``anchor_offsets_kernel``."""
-    mf = contact_manifold[c]
-    sa = manifold_shape_a[mf]
-    sb = manifold_shape_b[mf]
-    n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
-    half = 0.5 * separation[c]
-    ta = shape_type[sa]
-    tb = shape_type[sb]
-    oa0, oa1, oa2, round_a = round_offset(ta, shape_params[sa, 0], shape_params[sa, 1], shape_pos, shape_rot, sa,
-                                          point[c, 0] - half * n0, point[c, 1] - half * n1,
-                                          point[c, 2] - half * n2, n0, n1, n2)
-    ob0, ob1, ob2, round_b = round_offset(tb, shape_params[sb, 0], shape_params[sb, 1], shape_pos, shape_rot, sb,
-                                          point[c, 0] + half * n0, point[c, 1] + half * n1,
-                                          point[c, 2] + half * n2, -n0, -n1, -n2)
-    if separation[c] < -DEEP_OVERLAP:
-        w = 0.5  # the midpoint, far from both (see the module docstring)
-    elif round_b and not round_a:
-        w = 1.0
-    elif round_a and not round_b:
-        w = 0.0
-    else:
-        w = 0.5
-    anchor_offset[c, 0], anchor_offset[c, 1], anchor_offset[c, 2] = oa0, oa1, oa2
-    anchor_offset[c, 3], anchor_offset[c, 4], anchor_offset[c, 5] = ob0, ob1, ob2
-    anchor_offset[c, OFFSET_SHIFT] = w - 0.5
-
-
 @njit(**JIT, parallel=True)
 def anchor_offsets_kernel(contact_manifold, manifold_shape_a, manifold_shape_b, point, normal, separation,
                           shape_type, shape_params, shape_pos, shape_rot,
@@ -186,15 +155,31 @@ def anchor_offsets_kernel(contact_manifold, manifold_shape_a, manifold_shape_b, 
     a's surface point is point - s/2 n (touching b along +n), b's point + s/2 n (along -n).
     """
     for c in prange(point.shape[0]):
-        _anchor_offset(np.int64(c), contact_manifold, manifold_shape_a, manifold_shape_b, point, normal, separation, shape_type,
-                        shape_params, shape_pos, shape_rot, anchor_offset)
+        mf = contact_manifold[c]
+        sa = manifold_shape_a[mf]
+        sb = manifold_shape_b[mf]
+        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+        half = 0.5 * separation[c]
+        ta = shape_type[sa]
+        tb = shape_type[sb]
+        oa0, oa1, oa2, round_a = round_offset(ta, shape_params[sa, 0], shape_params[sa, 1], shape_pos, shape_rot, sa,
+                                              point[c, 0] - half * n0, point[c, 1] - half * n1,
+                                              point[c, 2] - half * n2, n0, n1, n2)
+        ob0, ob1, ob2, round_b = round_offset(tb, shape_params[sb, 0], shape_params[sb, 1], shape_pos, shape_rot, sb,
+                                              point[c, 0] + half * n0, point[c, 1] + half * n1,
+                                              point[c, 2] + half * n2, -n0, -n1, -n2)
+        if separation[c] < -DEEP_OVERLAP:
+            w = 0.5  # the midpoint, far from both (see the module docstring)
+        elif round_b and not round_a:
+            w = 1.0
+        elif round_a and not round_b:
+            w = 0.0
+        else:
+            w = 0.5
+        anchor_offset[c, 0], anchor_offset[c, 1], anchor_offset[c, 2] = oa0, oa1, oa2
+        anchor_offset[c, 3], anchor_offset[c, 4], anchor_offset[c, 5] = ob0, ob1, ob2
+        anchor_offset[c, OFFSET_SHIFT] = w - 0.5
 
 
-@njit(**JIT)
-def anchor_offsets_serial_kernel(contact_manifold, manifold_shape_a, manifold_shape_b, point, normal, separation,
-                                 shape_type, shape_params, shape_pos, shape_rot, anchor_offset):
-    """``anchor_offsets_kernel`` on this thread, for a few contacts (the threads' start costs
-    more: ``contact_solve.prepare_contacts_serial_kernel``); the same bits."""
-    for c in range(point.shape[0]):
-        _anchor_offset(c, contact_manifold, manifold_shape_a, manifold_shape_b, point, normal, separation, shape_type,
-                        shape_params, shape_pos, shape_rot, anchor_offset)
+# a few contacts on the calling thread (``contact_solve.prepare_contacts_serial_kernel``): the same bits
+anchor_offsets_serial_kernel = serial_twin(anchor_offsets_kernel, "anchor_offsets_serial_kernel")

@@ -11,9 +11,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..collision.constants import DEEP_OVERLAP
-from ..math3d import (
-    JIT,
-)
+from ..math3d import JIT, serial_twin
 from .contact_anchor import _arms
 
 # An impact is solved a manifold at a time (``_solve_contact_range``): a first pass over a
@@ -99,94 +97,6 @@ def _effective_mass(inv_mass, I_inv, a, b, ra, rb, d0, d1, d2):
 
 
 # ---------------------------------------------------------------------- kernels
-@njit(**JIT)
-def _prepare_contact(c, body_a, body_b, point, normal, separation, match, old_normal_impulse,
-                            old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
-                            body_friction, body_restitution, soft_dynamic, soft_static, anchor_offset,
-                            # outputs
-                            anchor_a, anchor_b, local_a, local_b, separation_base, tangent1, tangent2, normal_mass,
-                            tangent_mass, soft, friction, restitution, relative_velocity,
-                            normal_impulse, tangent_impulse, max_normal_impulse):
-    """One contact ``c`` of ``prepare_contacts_kernel``."""
-    a = body_a[c]
-    b = body_b[c]
-    n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
-    # tangent basis from the normal alone, so that the same normal gives the same
-    # tangents next step (friction impulses are also carried as world vectors)
-    if abs(n0) >= 0.57735:
-        t0, t1, t2 = n1, -n0, 0.0
-    else:
-        t0, t1, t2 = 0.0, n2, -n1
-    inv = 1.0 / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-    t0 *= inv
-    t1 *= inv
-    t2 *= inv
-    s0, s1, s2 = _cross(n0, n1, n2, t0, t1, t2)
-    tangent1[c, 0], tangent1[c, 1], tangent1[c, 2] = t0, t1, t2
-    tangent2[c, 0], tangent2[c, 1], tangent2[c, 2] = s0, s1, s2
-    for k in range(3):
-        anchor_a[c, k] = point[c, k] - x[a, k]
-        anchor_b[c, k] = point[c, k] - x[b, k]
-    # the anchors in each body's frame, to follow the separation as the bodies move: at p,
-    # but for a deep overlap, where each moves towards its own surface (see the docstring),
-    # and for a round side, whose anchor is its own surface point p -/+ s/2 n (its core point
-    # fixed in the body, less its round offset: ``contact_anchor``). NOTE: why: at p, a ball
-    # 12.5 mm above the floor at the step's start hit it with an arm 6.25 mm too long; its
-    # friction then stopped the slip of a point below the ball: a ball landing at 3 m/s while
-    # sliding at 2 m/s left at 1.477 m/s instead of 5/7 of 2, still slipping.
-    half = 0.5 * min(separation[c] + DEEP_OVERLAP, 0.0)
-    shift_a = half
-    shift_b = half
-    round_a = anchor_offset[c, 0] != 0.0 or anchor_offset[c, 1] != 0.0 or anchor_offset[c, 2] != 0.0
-    round_b = anchor_offset[c, 3] != 0.0 or anchor_offset[c, 4] != 0.0 or anchor_offset[c, 5] != 0.0
-    if round_a:
-        shift_a = 0.5 * separation[c]
-    if round_b:
-        shift_b = 0.5 * separation[c]
-    sa0 = anchor_a[c, 0] - shift_a * n0 - anchor_offset[c, 0]
-    sa1 = anchor_a[c, 1] - shift_a * n1 - anchor_offset[c, 1]
-    sa2 = anchor_a[c, 2] - shift_a * n2 - anchor_offset[c, 2]
-    sb0 = anchor_b[c, 0] + shift_b * n0 - anchor_offset[c, 3]
-    sb1 = anchor_b[c, 1] + shift_b * n1 - anchor_offset[c, 4]
-    sb2 = anchor_b[c, 2] + shift_b * n2 - anchor_offset[c, 5]
-    for k in range(3):
-        local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
-        local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
-    separation_base[c] = separation[c]
-    if half < 0.0 or round_a or round_b:  # the anchors no longer coincide: d0 = pb - pa at these poses
-        # prange's c is unsigned: np.int64 for one compile of _arms
-        ra, rb, d = _arms(x, R, a, b, local_a, local_b, anchor_offset, np.int64(c))
-        separation_base[c] -= n0 * d[0] + n1 * d[1] + n2 * d[2]
-        if round_a or round_b:  # the impulses' shared point is no longer p
-            for k in range(3):
-                anchor_a[c, k] = ra[k]
-                anchor_b[c, k] = rb[k]
-    # tuples, not the rows: a row is a view, whose reference count costs per contact
-    ra = (anchor_a[c, 0], anchor_a[c, 1], anchor_a[c, 2])
-    rb = (anchor_b[c, 0], anchor_b[c, 1], anchor_b[c, 2])
-    normal_mass[c] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, n0, n1, n2)
-    tangent_mass[c, 0] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, t0, t1, t2)
-    tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
-    src = soft_static if not (moving[a] and moving[b]) else soft_dynamic
-    soft[c, 0], soft[c, 1], soft[c, 2] = src[0], src[1], src[2]
-    friction[c] = math.sqrt(body_friction[a] * body_friction[b])
-    restitution[c] = max(body_restitution[a], body_restitution[b])
-    va0, va1, va2 = _point_velocity(v, omega, a, ra)
-    vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
-    relative_velocity[c] = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
-    max_normal_impulse[c] = 0.0
-    m = match[c]
-    if m >= 0:
-        normal_impulse[c] = old_normal_impulse[m]
-        f0, f1, f2 = old_friction_impulse[m, 0], old_friction_impulse[m, 1], old_friction_impulse[m, 2]
-        tangent_impulse[c, 0] = f0 * t0 + f1 * t1 + f2 * t2
-        tangent_impulse[c, 1] = f0 * s0 + f1 * s1 + f2 * s2
-    else:
-        normal_impulse[c] = 0.0
-        tangent_impulse[c, 0] = 0.0
-        tangent_impulse[c, 1] = 0.0
-
-
 @njit(**JIT, parallel=True)
 def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
                             old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
@@ -213,30 +123,89 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
     (v 7e3 m/s). Surface anchors for shallow contacts too fixed that, but the pile of 1000 boxes then
     gained energy between two frames (3-26 mJ of 22 563 J), which the single point never does."""
     for c in prange(body_a.shape[0]):
-        _prepare_contact(np.int64(c), body_a, body_b, point, normal, separation, match, old_normal_impulse,
-                         old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving, body_friction,
-                         body_restitution, soft_dynamic, soft_static, anchor_offset, anchor_a, anchor_b, local_a,
-                         local_b, separation_base, tangent1, tangent2, normal_mass, tangent_mass, soft, friction,
-                         restitution, relative_velocity, normal_impulse, tangent_impulse, max_normal_impulse)
+        a = body_a[c]
+        b = body_b[c]
+        n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+        # tangent basis from the normal alone, so that the same normal gives the same
+        # tangents next step (friction impulses are also carried as world vectors)
+        if abs(n0) >= 0.57735:
+            t0, t1, t2 = n1, -n0, 0.0
+        else:
+            t0, t1, t2 = 0.0, n2, -n1
+        inv = 1.0 / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        t0 *= inv
+        t1 *= inv
+        t2 *= inv
+        s0, s1, s2 = _cross(n0, n1, n2, t0, t1, t2)
+        tangent1[c, 0], tangent1[c, 1], tangent1[c, 2] = t0, t1, t2
+        tangent2[c, 0], tangent2[c, 1], tangent2[c, 2] = s0, s1, s2
+        for k in range(3):
+            anchor_a[c, k] = point[c, k] - x[a, k]
+            anchor_b[c, k] = point[c, k] - x[b, k]
+        # the anchors in each body's frame, to follow the separation as the bodies move: at p,
+        # but for a deep overlap, where each moves towards its own surface (see the docstring),
+        # and for a round side, whose anchor is its own surface point p -/+ s/2 n (its core point
+        # fixed in the body, less its round offset: ``contact_anchor``). NOTE: why: at p, a ball
+        # 12.5 mm above the floor at the step's start hit it with an arm 6.25 mm too long; its
+        # friction then stopped the slip of a point below the ball: a ball landing at 3 m/s while
+        # sliding at 2 m/s left at 1.477 m/s instead of 5/7 of 2, still slipping.
+        half = 0.5 * min(separation[c] + DEEP_OVERLAP, 0.0)
+        shift_a = half
+        shift_b = half
+        round_a = anchor_offset[c, 0] != 0.0 or anchor_offset[c, 1] != 0.0 or anchor_offset[c, 2] != 0.0
+        round_b = anchor_offset[c, 3] != 0.0 or anchor_offset[c, 4] != 0.0 or anchor_offset[c, 5] != 0.0
+        if round_a:
+            shift_a = 0.5 * separation[c]
+        if round_b:
+            shift_b = 0.5 * separation[c]
+        sa0 = anchor_a[c, 0] - shift_a * n0 - anchor_offset[c, 0]
+        sa1 = anchor_a[c, 1] - shift_a * n1 - anchor_offset[c, 1]
+        sa2 = anchor_a[c, 2] - shift_a * n2 - anchor_offset[c, 2]
+        sb0 = anchor_b[c, 0] + shift_b * n0 - anchor_offset[c, 3]
+        sb1 = anchor_b[c, 1] + shift_b * n1 - anchor_offset[c, 4]
+        sb2 = anchor_b[c, 2] + shift_b * n2 - anchor_offset[c, 5]
+        for k in range(3):
+            local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
+            local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
+        separation_base[c] = separation[c]
+        if half < 0.0 or round_a or round_b:  # the anchors no longer coincide: d0 = pb - pa at these poses
+            # prange's c is unsigned: np.int64 for one compile of _arms
+            ra, rb, d = _arms(x, R, a, b, local_a, local_b, anchor_offset, np.int64(c))
+            separation_base[c] -= n0 * d[0] + n1 * d[1] + n2 * d[2]
+            if round_a or round_b:  # the impulses' shared point is no longer p
+                for k in range(3):
+                    anchor_a[c, k] = ra[k]
+                    anchor_b[c, k] = rb[k]
+        # tuples, not the rows: a row is a view, whose reference count costs per contact
+        ra = (anchor_a[c, 0], anchor_a[c, 1], anchor_a[c, 2])
+        rb = (anchor_b[c, 0], anchor_b[c, 1], anchor_b[c, 2])
+        normal_mass[c] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, n0, n1, n2)
+        tangent_mass[c, 0] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, t0, t1, t2)
+        tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
+        src = soft_static if not (moving[a] and moving[b]) else soft_dynamic
+        soft[c, 0], soft[c, 1], soft[c, 2] = src[0], src[1], src[2]
+        friction[c] = math.sqrt(body_friction[a] * body_friction[b])
+        restitution[c] = max(body_restitution[a], body_restitution[b])
+        va0, va1, va2 = _point_velocity(v, omega, a, ra)
+        vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
+        relative_velocity[c] = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)
+        max_normal_impulse[c] = 0.0
+        m = match[c]
+        if m >= 0:
+            normal_impulse[c] = old_normal_impulse[m]
+            f0, f1, f2 = old_friction_impulse[m, 0], old_friction_impulse[m, 1], old_friction_impulse[m, 2]
+            tangent_impulse[c, 0] = f0 * t0 + f1 * t1 + f2 * t2
+            tangent_impulse[c, 1] = f0 * s0 + f1 * s1 + f2 * s2
+        else:
+            normal_impulse[c] = 0.0
+            tangent_impulse[c, 0] = 0.0
+            tangent_impulse[c, 1] = 0.0
 
 
-@njit(**JIT)
-def prepare_contacts_serial_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
-                            old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
-                            body_friction, body_restitution, soft_dynamic, soft_static, anchor_offset,
-                            # outputs
-                            anchor_a, anchor_b, local_a, local_b, separation_base, tangent1, tangent2, normal_mass,
-                            tangent_mass, soft, friction, restitution, relative_velocity,
-                            normal_impulse, tangent_impulse, max_normal_impulse):
-    """``prepare_contacts_kernel`` on this thread, for a few contacts: the threads' start cost up
-    to 1.5 ms a step on this 2-core machine (10 boxes on the ground: 1.35 ms a step, 1.1 ms of it
-    that start). Each contact writes only its own rows: the same bits."""
-    for c in range(body_a.shape[0]):
-        _prepare_contact(c, body_a, body_b, point, normal, separation, match, old_normal_impulse,
-                         old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving, body_friction,
-                         body_restitution, soft_dynamic, soft_static, anchor_offset, anchor_a, anchor_b, local_a,
-                         local_b, separation_base, tangent1, tangent2, normal_mass, tangent_mass, soft, friction,
-                         restitution, relative_velocity, normal_impulse, tangent_impulse, max_normal_impulse)
+# PERF: a few contacts are prepared on the calling thread (``ContactSolver.prepare_contacts``): a
+# parallel start cost up to 1.5 ms a step on this 2-core machine (10 boxes on the ground: 1.35 ms a
+# step, 1.1 ms of it that start); each contact writes only its own rows, so the bits are the same.
+prepare_contacts_serial_kernel = serial_twin(prepare_contacts_kernel, "prepare_contacts_serial_kernel")
 
 
 @njit(**JIT)
