@@ -410,6 +410,15 @@ class Robot:
         return {name: (float(r["position"][index[id(j)]]), float(r["rate"][index[id(j)]]))
                 for name, j in self.joints.items()}
 
+    def joint_reactions(self, sim) -> dict:
+        """{joint name: (force (3,) N, torque (3,) N m)}: what the joint did on its child link's body
+        over the last step (world; the torque without the force's moment about the child's centre
+        of mass; motors, drives and limits included): PyBullet's ``jointReactionForces``."""
+        r = sim.joint_readings()
+        index = {id(j): k for k, j in enumerate(self.world.joints)}
+        return {name: (np.array(r["force"][index[id(j)]]), np.array(r["torque"][index[id(j)]]))
+                for name, j in self.joints.items()}
+
     def reset_joint_positions(self, sim, positions: dict):
         """Put the robot at joint ``positions`` ({joint: rad or m}; the joints not named keep
         their last reading) with its base where it is, every body of the robot at rest: PyBullet's

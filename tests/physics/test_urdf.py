@@ -325,3 +325,19 @@ def test_a_struck_limit_stops_the_joint_dead_with_the_tree_solve(tmp_path):
     assert rate[strike - 1] > 2.5  # it arrives fast
     # measured: at most 1.3e-3 rad/s after the strike (the sweeps stop at 1 % change), 5e-7 rad in
     assert np.all(np.abs(rate[strike:]) < 5e-3) and np.all(np.abs(position[strike:]) < 1e-4)
+
+
+def test_joint_reaction_holds_the_arm_up(tmp_path):
+    # the PD-held pendulum at rest (as above): the joint's force on the arm carries its weight,
+    # (0, 0, m g) = (0, 0, 19.62) N, and its torque about the arm's centre balances the moment of that
+    # force about the centre: tau = -(pivot - c) x F (statics of the arm, to the solver's rest)
+    world = tb.World(gravity=(0, 0, -G))
+    world.sleeping = False
+    robot = load_urdf(world, write(tmp_path, PENDULUM),
+                      joint_targets={"swing": {"position": 0.5, "stiffness": 30.0, "damping": 6.0}})
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(240 * 8)
+    force, torque = robot.joint_reactions(sim)["swing"]
+    np.testing.assert_allclose(force, (0, 0, 2 * G), atol=1e-6)
+    arm = robot.links["arm"]
+    np.testing.assert_allclose(torque, -np.cross(np.array([0, 0, 2.0]) - arm.x, force), atol=1e-4)
