@@ -412,6 +412,71 @@ material = {{ friction = 0.3, restitution = 0.5, rolling_resistance = 0.05, spin
 SCENES = {"dominoes": dominoes, "pyramid": pyramid, "pile": pile, "bowling": bowling, "marbles": marbles}
 
 
+# ---------------------------------------------------------------------- terrain
+TERRAIN_GRID = 25  # heights per side
+TERRAIN_SIZE = 6.0  # m, the grid's side
+TERRAIN_BALLS = 12
+
+
+def terrain_heights():
+    """(TERRAIN_GRID, TERRAIN_GRID) heights, m: a basin (a paraboloid rising 0.6 m to the corners'
+    radius) with ripples (0.03 m, wavelength 1.5 m) across it."""
+    c = (np.arange(TERRAIN_GRID) / (TERRAIN_GRID - 1) - 0.5) * TERRAIN_SIZE
+    x, y = np.meshgrid(c, c)
+    r2 = x * x + y * y
+    return 0.6 * r2 / (2 * (TERRAIN_SIZE / 2) ** 2) + 0.03 * np.sin(2 * np.pi * x / 1.5) * np.cos(2 * np.pi * y / 1.5)
+
+
+def terrain():
+    H = terrain_heights()
+    rows = ",\n  ".join(vec(row) for row in H)
+    text = header(f"""
+A heightfield (tumble.heightfield: MuJoCo's hfield, PyBullet's heightfield): a rippled basin
+{TERRAIN_SIZE:g} m across from a {TERRAIN_GRID} x {TERRAIN_GRID} grid of heights (written by
+examples/tools/make_examples.py: edit it, not this file). {TERRAIN_BALLS} balls and two capsules are
+dropped round its rim, roll over the ripples and gather towards the bottom, braked by their
+rolling resistance. See docs/contact.md, "Heightfields".
+
+What to watch: the balls run down, over and between the ripples and settle in the ripples' pits,
+most within 1 m of the middle (one may still rock in a pit further out at 12 s); none sinks into
+the surface.""")
+    text += f"""[simulation]
+duration = 12.0
+gravity = [0, 0, -9.81]
+
+[[bodies]]
+name = "basin"
+fixed = true
+material = {{ friction = 0.8, rolling_resistance = 0.02 }}
+shape = {{ type = "heightfield", size = [{num(TERRAIN_SIZE)}, {num(TERRAIN_SIZE)}], base = 0.5, heights = [
+  {rows}] }}
+"""
+    for k in range(TERRAIN_BALLS):
+        a = 2 * np.pi * k / TERRAIN_BALLS
+        text += f"""
+[[bodies]]
+name = "ball{k}"
+shape = {{ type = "sphere", radius = 0.1 }}
+mass = 0.5
+position = {vec((2.2 * np.cos(a), 2.2 * np.sin(a), 1.2))}
+material = {{ friction = 0.8, rolling_resistance = 0.02 }}
+"""
+    for k, a in enumerate((np.pi / 4, 5 * np.pi / 4)):
+        text += f"""
+[[bodies]]
+name = "capsule{k}"
+shape = {{ type = "capsule", radius = 0.08, length = 0.3 }}
+mass = 0.8
+position = {vec((1.6 * np.cos(a), 1.6 * np.sin(a), 1.0))}
+euler_deg = [90, 0, {num(np.degrees(a))}]
+material = {{ friction = 0.8, rolling_resistance = 0.02 }}
+"""
+    write("terrain.toml", text)
+
+
+SCENES["terrain"] = terrain
+
+
 def main(argv):
     names = argv or list(SCENES)
     for name in names:

@@ -15,7 +15,7 @@ from .errors import InputError, SimulationError, TumbleError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
 from .kinematic import KeyframePath
 from .joints import BallJoint, DistanceJoint, FixedJoint, HingeJoint, SliderJoint, UniversalJoint
-from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
+from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere, heightfield
 from .simulator import Simulator
 from .trajectory import Trajectory, load_trajectory
 from .world import Body, Material, World
@@ -39,7 +39,7 @@ def load_urdf(world, path, **options):
 __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "Trajectory", "load_trajectory", "load_scene",
     "load_urdf",
-    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound",
+    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "KeyframePath",
     "TumbleError", "InputError", "SimulationError",

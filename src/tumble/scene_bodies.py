@@ -29,6 +29,7 @@ from .shapes import (
     Particles,
     Plane,
     Sphere,
+    heightfield,
 )
 from .collision.filter import FILTER_KEYS, CollisionFilter
 from .material import MATERIAL_KEYS, Material
@@ -54,6 +55,7 @@ SHAPE_KEYS = {
     "convex": ((), ("path", "points")),
     "particles": (("points", "masses"), ()),
     "compound": (("parts",), ()),
+    "heightfield": (("size",), ("heights", "path", "base")),
 }
 # A compound's parts: solid convex shapes only (no plane, mesh, particles, nor another compound).
 PART_KEYS = ("shape", "position", "orientation", "euler_deg", "material")
@@ -204,6 +206,8 @@ class BodyReader(ValueReader):
             return self.library(key, Mesh, vertices=vertices, faces=faces)
         if kind == "compound":
             return self.compound(s["parts"], g("parts"), key)
+        if kind == "heightfield":
+            return self.heightfield(s, key)
         # convex
         if "path" in s:
             if "points" in s:
@@ -212,6 +216,32 @@ class BodyReader(ValueReader):
         if "points" not in s:
             raise self.error("missing key 'points' (or a mesh file 'path')", key)
         return self.library(key, Convex, points=self.rows(s["points"], g("points"), 3))
+
+    def heightfield(self, s: dict, key: str):
+        """``heights`` = [[...], ...] (rows along y) or ``path`` = a .npy file of them, ``size`` = [sx, sy],
+        ``base`` (tumble.shapes.heightfield)."""
+        g = lambda k: f"{key}.{k}"  # noqa: E731
+        if ("heights" in s) == ("path" in s):
+            raise self.error("give either heights (rows of numbers) or a .npy file path, not both" if "path" in s
+                             else "missing key 'heights' (rows of heights, or a .npy file 'path')", key)
+        if "path" in s:
+            path = self.mesh_path(s["path"], g("path"))
+            try:
+                import numpy as np
+
+                heights = np.load(path, allow_pickle=False)
+            except (OSError, ValueError) as exc:
+                raise self.error(f"cannot read heights from {Path(path).name}: {exc}", g("path")) from None
+        else:
+            rows = s["heights"]
+            if not isinstance(rows, list) or not rows or not all(isinstance(r, list) for r in rows):
+                raise self.error(f"expected rows of heights, got {_describe(rows)}", g("heights"))
+            heights = [[self.number(v, f"{g('heights')}[{i}][{j}]") for j, v in enumerate(r)] for i, r in enumerate(rows)]
+            if len({len(r) for r in heights}) != 1:
+                raise self.error("every row needs the same number of heights", g("heights"))
+        size = self.vector(s["size"], g("size"), 2, self.positive)
+        base = self.positive(s["base"], g("base")) if "base" in s else 0.5
+        return self.library(key, heightfield, heights, size, base)
 
     def compound(self, value, key: str, shape_key: str):
         """``parts = [{shape = {...}, position = [...], orientation = [w, x, y, z] or euler_deg = [...],

@@ -355,3 +355,55 @@ def shape_from_dict(data: dict):
     if kind == "convex":
         return Convex(points=np.asarray(data["vertices"], dtype=float))
     return SHAPE_TYPES[kind](**data)
+
+
+def heightfield(heights, size, base: float = 0.5) -> Mesh:
+    """A terrain from a grid of heights (MuJoCo's ``hfield``, PyBullet's and Box3D's heightfields), as
+    a closed triangle ``Mesh`` for a fixed (or kinematic) body.
+
+    Args:
+        heights: (ny, nx) m, ny, nx >= 2: the surface's height over the grid point (x_j, y_i) of
+            the shape frame, x_j = (j / (nx - 1) - 1/2) size[0], y_i = (i / (ny - 1) - 1/2) size[1]
+            (row i along y, column j along x; the grid centred on the origin).
+        size: (2,) m, the grid's full extent along x and y.
+        base: m > 0, the solid's thickness below its lowest height (its sides and flat bottom close
+            the surface into a solid, as MuJoCo's ``base_z``).
+
+    Each grid cell is two triangles split along its diagonal from (i, j) to (i + 1, j + 1): the
+    surface is exact at the grid points and linear on each triangle between them.
+    """
+    try:
+        H = np.asarray(heights, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("expected a grid of numbers (rows along y)", "heights") from None
+    if H.ndim != 2 or H.shape[0] < 2 or H.shape[1] < 2:
+        raise InputError(f"expected at least 2 rows of at least 2 heights, got shape {H.shape}", "heights")
+    if not np.all(np.isfinite(H)):
+        raise InputError("heights must be finite numbers", "heights")
+    sx, sy = (positive(v, "size") for v in finite_vector(size, "size", 2))
+    base = positive(base, "base")
+    ny, nx = H.shape
+    xs = (np.arange(nx) / (nx - 1) - 0.5) * sx
+    ys = (np.arange(ny) / (ny - 1) - 0.5) * sy
+    X, Y = np.meshgrid(xs, ys)
+    top = np.column_stack([X.ravel(), Y.ravel(), H.ravel()])  # vertex i * nx + j
+    index = np.arange(ny * nx).reshape(ny, nx)
+    a, b, c, d = index[:-1, :-1].ravel(), index[:-1, 1:].ravel(), index[1:, 1:].ravel(), index[1:, :-1].ravel()
+    faces = [np.column_stack([a, b, c]), np.column_stack([a, c, d])]  # counter-clockwise seen from above
+    # the perimeter, counter-clockwise seen from above, and the same points at the bottom
+    ring = np.concatenate([index[0, :-1], index[:-1, -1], index[-1, :0:-1], index[:0:-1, 0]])
+    z0 = float(H.min()) - base
+    bottom = top[ring].copy()
+    bottom[:, 2] = z0
+    nb = len(ring)
+    first = ny * nx
+    centre = first + nb
+    below = first + np.arange(nb)
+    after = np.roll(np.arange(nb), -1)
+    # the sides: each perimeter edge (p, q) down to its bottom edge, facing outwards
+    faces.append(np.column_stack([ring, below, ring[after]]))
+    faces.append(np.column_stack([ring[after], below, below[after]]))
+    # the bottom: a fan about its centre, facing down
+    faces.append(np.column_stack([np.full(nb, centre), below[after], below]))
+    vertices = np.vstack([top, bottom, [[0.0, 0.0, z0]]])
+    return Mesh(vertices=vertices, faces=np.vstack(faces))
