@@ -1,9 +1,10 @@
 """Property-based tests of the URDF reader (hypothesis): a URDF file with any attribute given any
 value, any element dropped or repeated, never ends in a traceback: it loads, or it is refused with
-one ``InputError`` line naming the file (and, through a scene file and the CLI, status 2 with
+one ``InputError`` line naming the file, with each of the three inertia sources, and no warning (and, through a scene file and the CLI, status 2 with
 one line). The base file has every element tumble reads (tests/physics/test_urdf.py's arm, a
 slider, a mesh, a contact material, damping and friction)."""
 
+import warnings
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -104,15 +105,18 @@ def test_any_mutation_loads_or_is_one_line(folder, data):
     text = mutated(data)
     path = folder / "r.urdf"
     path.write_text(text, encoding="utf-8", errors="surrogatepass")
-    world = tb.World()
-    try:
-        load_urdf(world, path)
-    except InputError as err:
-        line = str(err)
-        assert "\n" not in line and line.startswith(str(path)), line
-        return
-    # loaded: every link has a body and the joints are bound
-    assert world.body_count >= 1 and all(j.bound is not None for j in world.joints)
+    for inertia in ("file", "balance", "shapes"):
+        world = tb.World()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a warning would be a second line on the terminal
+            try:
+                load_urdf(world, path, inertia=inertia)
+            except InputError as err:
+                line = str(err)
+                assert "\n" not in line and line.startswith(str(path)), line
+                continue
+        # loaded: every link has a body and the joints are bound
+        assert world.body_count >= 1 and all(j.bound is not None for j in world.joints)
 
 
 @settings(max_examples=60, **SETTINGS)

@@ -37,7 +37,8 @@ class MassProperties:
     def __post_init__(self):
         center = np.array(self.center, dtype=float).reshape(3)
         inertia = np.array(self.inertia, dtype=float).reshape(3, 3)
-        inertia = 0.5 * (inertia + inertia.T)  # exact symmetry; round-off only
+        with np.errstate(over="ignore", invalid="ignore"):  # huge input overflows to inf: the checks name it
+            inertia = 0.5 * (inertia + inertia.T)  # exact symmetry; round-off only
         center.setflags(write=False)
         inertia.setflags(write=False)
         object.__setattr__(self, "mass", float(self.mass))

@@ -691,13 +691,17 @@ def balanced_inertia(I: np.ndarray) -> np.ndarray:
     1e-6 of the largest is raised to that, then if the two smaller sum to less than the largest
     (A + B < C: no mass distribution has it) each is raised by half the shortfall; the principal
     axes are kept."""
-    moments, axes = np.linalg.eigh(0.5 * (I + I.T))
-    largest = max(float(moments[2]), 1e-12)
-    moments = np.maximum(moments, 1e-6 * largest)
-    shortfall = moments[2] - moments[0] - moments[1]
-    if shortfall > 0:
-        moments[:2] += 0.5 * shortfall
-    return axes @ np.diag(moments) @ axes.T
+    with np.errstate(all="ignore"):  # a huge or non-finite tensor is left as it is: the checks name it
+        S = 0.5 * (I + I.T)
+        if not np.all(np.isfinite(S)):
+            return I
+        moments, axes = np.linalg.eigh(S)
+        largest = max(float(moments[2]), 1e-12)
+        moments = np.maximum(moments, 1e-6 * largest)
+        shortfall = moments[2] - moments[0] - moments[1]
+        if shortfall > 0:
+            moments[:2] += 0.5 * shortfall
+        return axes @ np.diag(moments) @ axes.T
 
 
 def _shape_inertia(link: UrdfLink, source: str):
