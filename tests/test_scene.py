@@ -248,7 +248,7 @@ def test_parse_scene_from_a_dict(tmp_path):
 
 BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 1\n'
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
-SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound"
+SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound, heightfield"
 BODY_KEYS = ("name, shape, mass, density, inertia, fixed, kinematic, position, orientation, euler_deg, velocity, "
              "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity, sensor")
 PATH = "{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]] }"
