@@ -107,10 +107,7 @@ class ContactManifolds:
     @manifold_count.setter
     def manifold_count(self, n: int):
         self._manifold_count = n
-        d = self.__dict__
-        for name in _MANIFOLD_ARRAYS:
-            if name in d.get("_buffers", {}):
-                d[name] = d["_buffers"][name][:n]
+        self._refresh_views(_MANIFOLD_ARRAYS, n)
 
     @property
     def contact_count(self) -> int:
@@ -119,10 +116,14 @@ class ContactManifolds:
     @contact_count.setter
     def contact_count(self, n: int):
         self._contact_count = n
+        self._refresh_views(_CONTACT_ARRAYS, n)
+
+    def _refresh_views(self, names, n: int):
         d = self.__dict__
-        for name in _CONTACT_ARRAYS:
-            if name in d.get("_buffers", {}):
-                d[name] = d["_buffers"][name][:n]
+        buffers = d.get("_buffers", {})
+        for name in names:
+            if name in buffers:
+                d[name] = buffers[name][:n]
 
     def __getattr__(self, name):
         buffers = self.__dict__.get("_buffers", {})

@@ -200,7 +200,7 @@ class ContactSolver:
     @count.setter
     def count(self, n: int):
         self._count = n
-        self._refresh_views(_NEW_ROWS)
+        self._refresh_views(old=False)
 
     @property
     def old_count(self) -> int:
@@ -209,18 +209,21 @@ class ContactSolver:
     @old_count.setter
     def old_count(self, n: int):
         self._old_count = n
-        self._refresh_views(_OLD_ROWS)
+        self._refresh_views(new=False)
 
-    def _refresh_views(self, names=None):
+    def _refresh_views(self, new: bool = True, old: bool = True):
         d = self.__dict__
         buf = d.get("_buf")
         if buf is None:
             return
-        n, k = d.get("_count", 0), d.get("_old_count", 0)
-        for name in _NEW_ROWS if names is None or names is _NEW_ROWS else ():
-            d[name] = buf[name][:n]
-        for name in _OLD_ROWS if names is None or names is _OLD_ROWS else ():
-            d[name] = buf[name][:k]
+        if new:
+            n = d.get("_count", 0)
+            for name in _NEW_ROWS:
+                d[name] = buf[name][:n]
+        if old:
+            k = d.get("_old_count", 0)
+            for name in _OLD_ROWS:
+                d[name] = buf[name][:k]
 
     def __getattr__(self, name):
         buf = self.__dict__.get("_buf", {})
@@ -284,10 +287,11 @@ class ContactSolver:
         # PERF: a few contacts on this thread: a parallel start cost up to 1.5 ms (same bits)
         parallel = n >= PARALLEL_MIN_CONTACTS
         if table.has_round:
-            (anchor_offsets_kernel if parallel else anchor_offsets_serial_kernel)(contacts.contact_manifold, contacts.manifold_shape_a, contacts.manifold_shape_b,
-                                  contacts.contact_point, contacts.contact_normal, contacts.contact_separation,
-                                  table.shape_type, table.shape_params, shapes.shape_pos, shapes.shape_rot,
-                                  self.anchor_offset)
+            anchor_offsets = anchor_offsets_kernel if parallel else anchor_offsets_serial_kernel
+            anchor_offsets(contacts.contact_manifold, contacts.manifold_shape_a, contacts.manifold_shape_b,
+                           contacts.contact_point, contacts.contact_normal, contacts.contact_separation,
+                           table.shape_type, table.shape_params, shapes.shape_pos, shapes.shape_rot,
+                           self.anchor_offset)
         (prepare_contacts_kernel if parallel else prepare_contacts_serial_kernel)(
             contacts.contact_body_a, contacts.contact_body_b, contacts.contact_point, contacts.contact_normal,
             contacts.contact_separation, match, b["old_normal_impulse"][: self.old_count],
