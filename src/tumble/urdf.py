@@ -108,37 +108,38 @@ class Robot:
         origin = np.asarray(body.x, dtype=float) - Rb @ np.asarray(body.com_offset, dtype=float)
         return origin + Rb @ p, Rb @ R
 
+    def _readings(self, sim):
+        """``sim.joint_readings()`` and {URDF joint name: its row in them}."""
+        index = {id(j): k for k, j in enumerate(self.world.joints)}
+        return sim.joint_readings(), {name: index[id(j)] for name, j in self.joints.items()}
+
+    def _solver(self, sim):
+        """The simulator's JointSolver once it holds every joint of the world, else None (before the
+        first step: the records are read when it is built)."""
+        solver = None if sim is None or sim.soft_step is None else sim.soft_step.joints
+        return solver if solver is not None and solver.count == len(self.world.joints) else None
+
     def joint_states(self, sim) -> dict:
         """{joint name: (position, rate)} after the last step (rad or m, rad/s or m/s): PyBullet's
         ``getJointStates``. Zeros before the first step."""
-        r = sim.joint_readings()
-        index = {id(j): k for k, j in enumerate(self.world.joints)}
-        return {name: (float(r["position"][index[id(j)]]), float(r["rate"][index[id(j)]]))
-                for name, j in self.joints.items()}
+        r, row = self._readings(sim)
+        return {name: (float(r["position"][k]), float(r["rate"][k])) for name, k in row.items()}
 
     def joint_reactions(self, sim) -> dict:
         """{joint name: (force (3,) N, torque (3,) N m)}: what the joint did on its child link's body
         over the last step (world; the torque without the force's moment about the child's centre
         of mass; motors, drives and limits included): PyBullet's ``jointReactionForces``."""
-        r = sim.joint_readings()
-        index = {id(j): k for k, j in enumerate(self.world.joints)}
-        return {name: (np.array(r["force"][index[id(j)]]), np.array(r["torque"][index[id(j)]]))
-                for name, j in self.joints.items()}
+        r, row = self._readings(sim)
+        return {name: (np.array(r["force"][k]), np.array(r["torque"][k])) for name, k in row.items()}
 
     def reset_joint_positions(self, sim, positions: dict):
         """Put the robot at joint ``positions`` ({joint: rad or m}; the joints not named keep
         their last reading) with its base where it is, every body of the robot at rest: PyBullet's
         ``resetJointState``, for all the joints at once. Takes effect now; the joint solver's
         warm-start impulses of the robot's joints are cleared (they belonged to the old pose)."""
-        known = {j.name: j for j in self.model.joints}
-        for name, value in positions.items():
-            if name not in known or known[name].kind not in ("revolute", "continuous", "prismatic"):
-                raise InputError(f"not a revolute, continuous or prismatic joint of robot {self.name!r}",
-                                 f"positions.{name}")
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise InputError(f"expected a finite number, got {value!r}", f"positions.{name}")
+        given = _joint_values(self.model, positions, "positions", f"robot {self.name!r}")
         current = {name: state[0] for name, state in self.joint_states(sim).items()} if sim is not None else {}
-        current.update({k: float(v) for k, v in positions.items()})
+        current.update(given)
         base = self.link_pose(self.model.root)
         _place(self.world, self, _link_frames(self.model, base, current), self.owners)
         world = self.world
@@ -148,8 +149,8 @@ class Robot:
                 world.L[body.index] = 0.0
             world.wake_requests.add(body.index)
         world.update_derived()
-        solver = None if sim is None or sim.soft_step is None else sim.soft_step.joints
-        if solver is not None and solver.count == len(world.joints):
+        solver = self._solver(sim)
+        if solver is not None:
             for name, record in self.joints.items():
                 j = solver.index(record)
                 solver.linear_impulse[j] = 0.0
@@ -169,8 +170,8 @@ class Robot:
         if record is None or not isinstance(record, (HingeJoint, SliderJoint)):
             raise InputError(f"not a moving joint of robot {self.name!r}: {joint!r}", "joint")
         rows = [record.bound.param]
-        solver = None if sim is None or sim.soft_step is None else sim.soft_step.joints
-        if solver is not None and solver.count == len(self.world.joints):
+        solver = self._solver(sim)
+        if solver is not None:
             rows.append(solver.param[solver.index(record)])
         for row in rows:
             for column, value in values.items():
@@ -180,8 +181,7 @@ class Robot:
         """Velocity control (PyBullet's ``VELOCITY_CONTROL``): drive ``joint`` at ``speed`` rad/s or
         m/s with at most ``max_force`` N m or N (default: the URDF's effort, else unlimited).
         Takes the place of the joint's friction; ``speed=None`` switches the motor off."""
-        j = self._urdf_joint(joint)
-        limit = (j.effort if j.effort is not None else math.inf) if max_force is None else float(max_force)
+        limit = _force_limit(self._urdf_joint(joint), max_force)
         if speed is None:
             self._write(sim, joint, {P_MOTOR_ON: 0.0})
         else:
@@ -192,8 +192,7 @@ class Robot:
         """Position control (PyBullet's ``POSITION_CONTROL``, a PD drive): pull ``joint`` to ``target``
         rad or m with ``stiffness`` N m/rad (N/m) and ``damping`` N m s/rad (N s/m), at most
         ``max_force`` (default the URDF's effort). Takes the place of the joint's damping."""
-        j = self._urdf_joint(joint)
-        limit = (j.effort if j.effort is not None else math.inf) if max_force is None else float(max_force)
+        limit = _force_limit(self._urdf_joint(joint), max_force)
         if stiffness < 0 or damping < 0 or not (math.isfinite(stiffness) and math.isfinite(damping)):
             raise InputError("stiffness and damping must be finite and >= 0", "stiffness")
         self._write(sim, joint, {P_STIFFNESS: float(stiffness), P_DAMPING: float(damping), P_TARGET: float(target),
@@ -291,14 +290,8 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     q0 = quat_from_euler_deg(finite_vector(euler_deg, "euler_deg")) if euler_deg is not None else \
         unit_quaternion((1.0, 0.0, 0.0, 0.0) if orientation is None else orientation)
     base = (finite_vector(position, "position"), quat_to_matrix(q0))
-    joint_positions = dict(joint_positions or {})
+    joint_positions = _joint_values(model, joint_positions or {}, "joint_positions", model.source)
     known = {j.name: j for j in model.joints}
-    for jname, value in joint_positions.items():
-        key = f"joint_positions.{jname}"
-        if jname not in known or known[jname].kind not in ("revolute", "continuous", "prismatic"):
-            raise InputError(f"not a revolute, continuous or prismatic joint of {model.source}", key)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise InputError(f"expected a finite number, got {value!r}", key)
     controls = _controls(known, joint_motors, joint_targets)
     material = Material.coerce(material)
     collision_filter = CollisionFilter.coerce(collision_filter)
@@ -358,6 +351,39 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     return robot
 
 
+MOVING_KINDS = ("revolute", "continuous", "prismatic")
+
+
+def _moving_joint(known: dict, name, key: str, whose: str) -> UrdfJoint:
+    """The URDF joint ``name`` of ``known`` if it moves (revolute, continuous, prismatic), else an
+    InputError keyed ``key``."""
+    if name not in known or known[name].kind not in MOVING_KINDS:
+        raise InputError(f"not a revolute, continuous or prismatic joint of {whose}", key)
+    return known[name]
+
+
+def _finite(value, key: str, nonnegative: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or (nonnegative and value < 0):
+        raise InputError(f"expected a finite number{' >= 0' if nonnegative else ''}, got {value!r}", key)
+    return float(value)
+
+
+def _joint_values(model: UrdfModel, values: dict, option: str, whose: str) -> dict:
+    """{joint: rad or m} checked: moving joints of ``model``, finite numbers (keys ``option.joint``)."""
+    known = {j.name: j for j in model.joints}
+    for name, value in values.items():
+        _moving_joint(known, name, f"{option}.{name}", whose)
+    return {name: _finite(value, f"{option}.{name}") for name, value in values.items()}
+
+
+def _force_limit(joint: UrdfJoint, max_force=None) -> float:
+    """A motor's or drive's limit, N m or N: ``max_force``, else the URDF's effort, else unlimited."""
+    if max_force is not None:
+        return float(max_force)
+    return math.inf if joint.effort is None else joint.effort
+
+
 MOTOR_KEYS = ("speed", "max_force")
 TARGET_KEYS = ("position", "stiffness", "damping", "max_force")
 
@@ -369,20 +395,13 @@ def _controls(known: dict, motors, targets) -> dict:
                                           ("joint_targets", targets, TARGET_KEYS, ("position", "stiffness"))):
         for jname, spec in (given or {}).items():
             key = f"{option}.{jname}"
-            if jname not in known or known[jname].kind not in ("revolute", "continuous", "prismatic"):
-                raise InputError("not a revolute, continuous or prismatic joint of the robot", key)
+            _moving_joint(known, jname, key, "the robot")
             if not isinstance(spec, dict) or set(spec) - set(keys) or set(required) - set(spec):
                 raise InputError(f"expected a table with {', '.join(required)} (and optionally "
                                  f"{', '.join(k for k in keys if k not in required)}), got {spec!r}", key)
-            values = {}
-            for k, v in spec.items():
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-                        or (k in ("stiffness", "damping", "max_force") and v < 0):
-                    raise InputError(f"expected a finite number{' >= 0' if k != 'speed' and k != 'position' else ''},"
-                                     f" got {v!r}", f"{key}.{k}")
-                values[k] = float(v)
-            effort = known[jname].effort
-            limit = values.get("max_force", math.inf if effort is None else effort)
+            values = {k: _finite(v, f"{key}.{k}", nonnegative=k in ("stiffness", "damping", "max_force"))
+                      for k, v in spec.items()}
+            limit = _force_limit(known[jname], values.get("max_force"))
             entry = out.setdefault(jname, {})
             if option == "joint_motors":
                 entry.update(motor_speed=values["speed"], max_motor=limit)
