@@ -225,7 +225,7 @@ class BodyReader(ValueReader):
             raise self.error("give either heights (rows of numbers) or a .npy file path, not both" if "path" in s
                              else "missing key 'heights' (rows of heights, or a .npy file 'path')", key)
         if "path" in s:
-            path = self.mesh_path(s["path"], g("path"))
+            path = self.data_path(s["path"], g("path"), "heights")
             try:
                 import numpy as np
 
@@ -281,6 +281,11 @@ class BodyReader(ValueReader):
         return self.library(key, Material, **{k: self.number(v, f"{key}.{k}") for k, v in m.items()})
 
     def mesh_path(self, value, key: str) -> str:
+        return self.data_path(value, key, "mesh")
+
+    def data_path(self, value, key: str, what: str) -> str:
+        """A file the scene names (a mesh, a heights array, a URDF), relative to the scene's folder:
+        it must exist, not be empty and fit in ``checks.memory_limit()``."""
         rel = self.string(value, key)
         if not rel:
             raise self.error("must not be empty", key)
@@ -288,12 +293,12 @@ class BodyReader(ValueReader):
         if not p.is_absolute():
             p = self.base_dir / p
         if not p.is_file():
-            raise self.error(f"mesh file not found: {p}", key)
+            raise self.error(f"{what} file not found: {p}", key)
         size = p.stat().st_size
         if size == 0:
-            raise self.error(f"mesh file is empty: {p}", key)
+            raise self.error(f"{what} file is empty: {p}", key)
         try:
-            checks.check_memory(size * checks.FILE_EXPANSION, f"reading the {checks.fmt_bytes(size)} mesh file {p}", key, self.file)
+            checks.check_memory(size * checks.FILE_EXPANSION, f"reading the {checks.fmt_bytes(size)} {what} file {p}", key, self.file)
         except InputError as err:
             raise self.error(err.problem, key) from None
         return str(p)

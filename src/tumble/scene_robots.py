@@ -36,11 +36,11 @@ ROBOT_KEYS = ("file", "name", "position", "orientation", "euler_deg", "fixed_bas
 
 
 class RobotReader:
-    """Mixed into the scene parser (a ``BodyReader``): one ``[[robots]]`` entry."""
+    """Mixed into the scene parser (a ``BodyReader``: ``data_path``, ``material``...): one ``[[robots]]`` entry."""
 
     def robot(self, world, entry: dict, key: str, names: dict):
         self.table(entry, key, ROBOT_KEYS, required=("file",))
-        path = self.file_path(entry["file"], f"{key}.file")
+        path = Path(self.data_path(entry["file"], f"{key}.file", "URDF"))
         kw = {}
         if "name" in entry:
             kw["name"] = self.string(entry["name"], f"{key}.name")
@@ -87,13 +87,3 @@ class RobotReader:
             raise err.within(key, self.file) from None
         for i in range(before, world.body_count):
             names[world.names[i]] = len(names)
-
-    def file_path(self, value, key: str) -> Path:
-        rel = self.string(value, key)
-        if not rel:
-            raise self.error("must not be empty", key)
-        p = Path(rel).expanduser()
-        p = p if p.is_absolute() else self.base_dir / p
-        if not p.is_file():
-            raise self.error(f"file not found: {p}", key)
-        return p
