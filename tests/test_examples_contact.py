@@ -344,10 +344,11 @@ def test_conveyor_run_from_the_command_line_counts_the_parcels(tmp_path, capsys)
 
 def test_terrain_balls_gather_in_the_basin_and_never_sink():
     """examples/terrain.toml: 12 balls and 2 capsules dropped round the rim of a rippled heightfield
-    basin. At 12 s: every body within 1.5 m of the middle (they start 1.6 and 2.2 m out), at least
-    13 of the 14 settled (under 1 cm/s); at every frame none is more than 1 mm into the
-    surface beneath it (a ray cast down from its centre: the surface is at least its radius below
-    the centre, less 1 mm; the capsules lie on their sides, so their radius too)."""
+    basin. At 16 s: every body within 1 m of the middle (they start 1.6 and 2.2 m out) and at rest
+    (issue 3's 1 cm/s; measured: all asleep from 15 s); at every frame none is more than 1 mm into
+    the surface beneath it (a ray cast down from its centre: the surface is at least its radius
+    below the centre, less 1 mm; the capsules lie on their sides, so their radius too). Before
+    session 14 (one normal per mesh manifold) one ball still rocked in a pit 1.4 m out at 12 s."""
     scene, traj = run("terrain")
     world = scene.world
     bodies = range(1, len(traj.names))
@@ -359,6 +360,5 @@ def test_terrain_balls_gather_in_the_basin_and_never_sink():
             if hit.body == 0:  # the basin beneath (not a ball that rolled under it)
                 assert hit.distance > radius[i] - 1e-3, (traj.time[f], traj.names[i])
     end = traj.position[-1, 1:, :2]
-    assert np.all(np.linalg.norm(end, axis=1) < 1.5)
-    # settled (issue 3's 1 cm/s): all but the one still rocking in a pit (measured 0.08 m/s, 1.4 m out)
-    assert np.sum(np.linalg.norm(traj.velocity[-1, 1:], axis=1) < 1e-2) >= 13
+    assert np.all(np.linalg.norm(end, axis=1) < 1.0)
+    assert np.all(np.linalg.norm(traj.velocity[-1, 1:], axis=1) < 1e-2)

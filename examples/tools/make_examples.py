@@ -437,11 +437,11 @@ examples/tools/make_examples.py: edit it, not this file). {TERRAIN_BALLS} balls 
 dropped round its rim, roll over the ripples and gather towards the bottom, braked by their
 rolling resistance. See docs/contact.md, "Heightfields".
 
-What to watch: the balls run down, over and between the ripples and settle in the ripples' pits,
-most within 1 m of the middle (one may still rock in a pit further out at 12 s); none sinks into
+What to watch: the balls run down, over and between the ripples, knock into each other and settle
+in the ripples' pits within 1 m of the middle; all are at rest (asleep) by 15 s; none sinks into
 the surface.""")
     text += f"""[simulation]
-duration = 12.0
+duration = 16.0
 gravity = [0, 0, -9.81]
 
 [[bodies]]

@@ -37,7 +37,8 @@ class ContactManifolds:
         manifold_shape_a, manifold_shape_b: (M,) int64 shape indices; a's type <= b's type
             in SHAPE_* order (equal types: a < b), so a pair keeps its order from step to step.
         manifold_body_a, manifold_body_b: (M,) int64 their bodies.
-        manifold_normal: (M, 3) unit, world, from a to b.
+        manifold_normal: (M, 3) unit, world, from a to b (against a mesh: its points'
+            normals' weighted mean).
         manifold_first, manifold_point_count: (M,) int64, its contacts are rows
             ``first : first + point_count`` (1 to 4).
 
@@ -45,7 +46,8 @@ class ContactManifolds:
         contact_manifold: (C,) int64 manifold row.
         contact_body_a, contact_body_b: (C,) int64.
         contact_point: (C, 3) m, world, midway between the two surfaces.
-        contact_normal: (C, 3) unit, world, from a to b (the manifold's normal).
+        contact_normal: (C, 3) unit, world, from a to b: the manifold's normal, or, against
+            a triangle mesh, the point's own triangle's (a manifold across a crease has two).
         contact_separation: (C,) m, signed gap along the normal; < 0 is penetration.
             Contacts exist while it is below the speculative distance.
         contact_feature: (C,) int64, the touching features, local to the shape pair.
@@ -80,7 +82,8 @@ class ContactManifolds:
 
     def candidates(self, total: int):
         """Per-candidate-pair scratch rows for the parallel narrowphase (grown by doubling, kept):
-        (a, b, count, normal, points, separations, features), the first ``total`` rows of each."""
+        (a, b, count, normal, points, separations, features, point normals), the first ``total``
+        rows of each."""
         cap = self.__dict__.get("_cand_capacity", 0)
         if cap < total or cap == 0:
             cap = max(cap, 64)
@@ -89,7 +92,7 @@ class ContactManifolds:
             P = MAX_MANIFOLD_POINTS
             self._cand = (np.zeros(cap, dtype=np.int64), np.zeros(cap, dtype=np.int64), np.zeros(cap, dtype=np.int64),
                           np.zeros((cap, 3)), np.zeros((cap, P, 3)), np.zeros((cap, P)),
-                          np.zeros((cap, P), dtype=np.int64))
+                          np.zeros((cap, P), dtype=np.int64), np.zeros((cap, P, 3)))
             self._cand_capacity = cap
         return tuple(a[:total] for a in self._cand)
 

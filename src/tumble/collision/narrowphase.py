@@ -125,11 +125,13 @@ def _family_pair_overload(family, ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, 
 
 @njit(**JIT)
 def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                   normal, point, separation, feature, work):
+                   normal, point, separation, feature, work, point_normal):
     """Dispatch one pair with ``ta <= tb`` in SHAPE_* order to its ``collide_<a>_<b>``; 0 for pairs without a routine.
 
     ``geometry`` is ``ShapeTable.geometry`` (hull and mesh arrays) and a, b the shape rows
-    (only the convex and mesh routines read them); ``work`` a (PAIR_WORK_ROWS, 3) scratch.
+    (only the convex and mesh routines read them); ``work`` a (PAIR_WORK_ROWS, 3) scratch;
+    ``point_normal`` (4, 3): each point's own normal, written by the mesh routine only (the
+    other pairs' points share ``normal``).
     """
     if is_analytic_shape(ta) and is_analytic_shape(tb):
         return collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
@@ -138,7 +140,7 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
         if ta == SHAPE_PLANE or ta == SHAPE_MESH:
             return 0  # both fixed
         return collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                                   normal, point, separation, feature)
+                                   normal, point, separation, feature, point_normal)
     if ta == SHAPE_PLANE:
         if tb == SHAPE_CYLINDER or tb == SHAPE_CONE or tb == SHAPE_CONVEX:
             # collide_plane_cylinder, collide_plane_cone, collide_plane_convex
@@ -220,7 +222,7 @@ def _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_par
 def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                        shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                        # outputs
-                       out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work):
+                       out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work):
     """Candidate k with every shape routine (``collide_shapes``): row k gets the pair, its point
     count (0: no contact) and its points."""
     a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
@@ -229,14 +231,15 @@ def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_
     if a >= 0:
         out_count[k] = collide_shapes(shape_type[a], shape_type[b], shape_pos[a], shape_rot[a], shape_params[a],
                                       shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry,
-                                      a, b, out_normal[k], out_point[k], out_separation[k], out_feature[k], work)
+                                      a, b, out_normal[k], out_point[k], out_separation[k], out_feature[k], work,
+                                      out_point_normal[k])
 
 
 @njit(**JIT, inline="always")
 def _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos,
                                 shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                                 # outputs
-                                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work):
+                                out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work):
     """``_collide_candidate`` for worlds of plane, sphere, capsule and box shapes only
     (``collide_analytic_pair``, or the routines of one ``family``: the same routines, so the
     same bits)."""
@@ -257,7 +260,7 @@ def _collide_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shap
                                         shape_rot, shape_aabb, body_moving, speculative, shape_margin, geometry,
                                         excluded, body_filter,
                                         # outputs
-                                        out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+                                        out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal):
     """Every candidate, in parallel chunks: each task writes only its own rows, so the result
     does not depend on the threads (STYLE 5.6 rule 6)."""
     total = out_count.shape[0]
@@ -267,21 +270,21 @@ def _collide_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shap
         for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
             _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                                shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
-                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work)
+                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work)
 
 
 @njit(**JIT)
 def _collide_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                                shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                                # outputs
-                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal):
     """Every candidate, on this thread (small worlds: the threads' start-up cost more than the
     pairs; measured 15 ms a step for 5 balls on a busy machine)."""
     work = np.empty((PAIR_WORK_ROWS, 3))
     for k in range(out_count.shape[0]):
         _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                            shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
-                           out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, work)
+                           out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work)
 
 
 def _analytic_kernels(family: int):
@@ -292,7 +295,7 @@ def _analytic_kernels(family: int):
     def parallel(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
                  body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                  # outputs
-                 out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+                 out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal):
         """``_collide_candidates_parallel_kernel`` with the analytic routines only."""
         total = out_count.shape[0]
         n_chunks = (total + CHUNK - 1) // CHUNK
@@ -302,20 +305,20 @@ def _analytic_kernels(family: int):
                 _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
                                             shape_pos, shape_rot, shape_aabb, body_moving, speculative, shape_margin,
                                             geometry, excluded, body_filter, out_a, out_b, out_count, out_normal, out_point,
-                                            out_separation, out_feature, work)
+                                            out_separation, out_feature, out_point_normal, work)
 
     @njit(**JIT)
     def serial(pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
                body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                # outputs
-               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature):
+               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal):
         """``_collide_candidates_kernel`` with the analytic routines only."""
         work = np.empty((PAIR_WORK_ROWS, 3))
         for k in range(out_count.shape[0]):
             _collide_analytic_candidate(family, k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
                                         shape_pos, shape_rot, shape_aabb, body_moving, speculative, shape_margin,
                                         geometry, excluded, body_filter, out_a, out_b, out_count, out_normal, out_point,
-                                        out_separation, out_feature, work)
+                                        out_separation, out_feature, out_point_normal, work)
 
     return parallel, serial
 
@@ -325,12 +328,13 @@ _ANALYTIC_KERNELS = {family: _analytic_kernels(family) for family in (FAMILY_ALL
 
 @njit(**JIT)
 def _compact_manifolds_kernel(cand_a, cand_b, cand_count, cand_normal, cand_point, cand_separation, cand_feature,
-                              shape_body,
+                              cand_point_normal, shape_type, shape_body,
                               # outputs
                               m_shape_a, m_shape_b, m_body_a, m_body_b, m_normal, m_first, m_count,
                               c_manifold, c_body_a, c_body_b, c_point, c_normal, c_separation, c_feature, c_key):
     """Stage two, serial: the candidates with contact points, in candidate order, into the flat
-    manifold and contact arrays; returns (manifolds, contacts)."""
+    manifold and contact arrays; returns (manifolds, contacts). A contact's normal is its
+    manifold's, or, against a triangle mesh, its own triangle's (pairs/mesh.py)."""
     m = 0
     c = 0
     for k in range(cand_count.shape[0]):
@@ -350,13 +354,14 @@ def _compact_manifolds_kernel(cand_a, cand_b, cand_count, cand_normal, cand_poin
         for i in range(3):
             m_normal[m, i] = cand_normal[k, i]
         key = (a << (2 * KEY_BITS)) | (b << KEY_BITS)
+        own_normals = shape_type[b] == SHAPE_MESH
         for j in range(n):
             c_manifold[c] = m
             c_body_a[c] = body_a
             c_body_b[c] = body_b
             for i in range(3):
                 c_point[c, i] = cand_point[k, j, i]
-                c_normal[c, i] = cand_normal[k, i]
+                c_normal[c, i] = cand_point_normal[k, j, i] if own_normals else cand_normal[k, i]
             c_separation[c] = cand_separation[k, j]
             c_feature[c] = cand_feature[k, j]
             c_key[c] = key | cand_feature[k, j]
@@ -410,7 +415,7 @@ def collide_pairs(pair_a, pair_b, table, shape_pos, shape_rot, shape_aabb, specu
                                shape_aabb, table.body_moving, float(speculative), shape_margin, table.geometry,
                                _NO_PAIRS if excluded_pairs is None else excluded_pairs,
                                NO_FILTER if body_filter is None else body_filter, *cand)
-    m, c = _compact_manifolds_kernel(*cand, table.shape_body, *out.buffers())
+    m, c = _compact_manifolds_kernel(*cand, table.shape_type, table.shape_body, *out.buffers())
     out.manifold_count = m
     out.contact_count = c
     return out

@@ -16,7 +16,8 @@ Routines that read hull or mesh data (``convex.py``, ``plane.py``, ``mesh.py``) 
 outputs, ``geometry`` (``ShapeTable.geometry``: the flat hull / mesh arrays) and the
 shape rows a, b. ``narrowphase.collide_shapes`` passes them to every routine that needs them.
 
-``normal`` is unit, from a to b, shared by the manifold's points; ``point[k]`` is
+``normal`` is unit, from a to b, shared by the manifold's points (except against a triangle mesh:
+``collide_convex_mesh`` also writes each point's own normal, ``point_normal`` (4, 3)); ``point[k]`` is
 midway between the two surfaces; ``separation[k]`` < 0 is penetration; points are
 produced only while separation < ``speculative``; ``feature[k]`` is a key local to
 the pair that stays the same while the same features touch (warm starting).
