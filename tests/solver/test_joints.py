@@ -423,3 +423,51 @@ def test_ragdoll_tree_keeps_its_joints_while_tumbling(method):
     assert knees.min() > -0.05 and knees.max() < math.radians(150) + 0.05
     if method == "tree":
         assert not solver.gauss_seidel.any()  # a tree: every joint solved exactly
+
+
+# ---------------------------------------------------------------------- the fused substeps
+@pytest.mark.parametrize("settings", [None, ACCURATE], ids=["soft", "tree"])
+def test_joint_substeps_in_one_kernel_give_the_same_bits_as_the_stage_loop(monkeypatch, settings):
+    # A step with joints and no contacts runs its substeps in one compiled call
+    # (soft_step.joint_substeps_kernel: the same kernels in the same order as SoftStep.step's loop).
+    # Compared with that loop (JointSolver.fusable forced off) on a chain that uses every kind of
+    # row: a hinge with limits (struck) and a motor, a slider with a PD drive, a ball joint with a
+    # cone limit, a spring and drag (compiled forces), with either joint method (the tree's extra
+    # limit sweeps included): the states and readings must be equal bit for bit.
+    from tumble.solver import soft_step
+
+    def build():
+        w = tb.World(gravity=(0.0, 0.0, -9.81))
+        w.collisions = False
+        a = w.add_body(tb.Box(size=(0.4, 0.1, 0.1)), mass=1.0, position=(0.2, 0, 1), name="a")
+        b = w.add_body(tb.Box(size=(0.4, 0.1, 0.1)), mass=2.0, position=(0.6, 0, 1), name="b")
+        c = w.add_body(tb.Sphere(0.1), mass=0.5, position=(0.9, 0, 1), name="c")
+        d = w.add_body(tb.Sphere(0.1), mass=0.5, position=(0.9, 0, 0.6), name="d")
+        w.add_joint(HingeJoint("world", a, anchor=(0, 0, 1), axis=(0, 1, 0), lower=-0.6, upper=0.4,
+                               motor_speed=1.5, max_motor_torque=3.0))
+        w.add_joint(HingeJoint(a, b, anchor=(0.4, 0, 1), axis=(0, 1, 0), stiffness=20.0, damping=0.5, target=0.3))
+        w.add_joint(SliderJoint(b, c, axis=(1, 0, 0), lower=-0.05, upper=0.1, stiffness=50.0, damping=1.0))
+        w.add_joint(BallJoint(c, d, anchor=(0.9, 0, 0.8), cone_limit=0.5))
+        w.add_force(tb.Spring(body_a=d, anchor_a=(0, 0, 0), body_b=None, anchor_b=(1.5, 0.5, 0.2), stiffness=30.0, damping=0.5))
+        w.add_force(tb.Drag(linear=0.1, angular_linear=0.01))
+        return w
+
+    fused_calls = []
+    original = soft_step.SoftStep._joint_substeps
+
+    def counted(self, *args):
+        fused_calls.append(1)
+        return original(self, *args)
+
+    monkeypatch.setattr(soft_step.SoftStep, "_joint_substeps", counted)
+    runs = []
+    for fusable in (True, False):
+        if not fusable:
+            monkeypatch.setattr(JointSolver, "fusable", lambda self: False)
+        w = build()
+        sim = tb.Simulator(w, dt=DT, joint_settings=settings)
+        sim.step(240)
+        runs.append((w.pack().tobytes(), {k: v.tobytes() for k, v in sim.joint_readings().items()}))
+        if fusable:
+            assert len(fused_calls) == 240  # every step took the fused substeps
+    assert runs[0] == runs[1]

@@ -35,6 +35,7 @@ from ..joints import (
 )
 from ..math3d import (
     JIT,
+    serial_twin,
 )
 from .joint_math import (
     _add,
@@ -488,6 +489,11 @@ def solve_joints_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, lo
         _sweep_joints(bounds[parts], bounds[parts + 1], backward, order, joint_type, joint_a, joint_b, local_a,
                       local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h,
                       inv_h, soft, v, omega, linear_impulse, angular_impulse, axial_impulse)
+
+
+# the same sweeps on the calling thread, for callers that are kernels themselves (the tree
+# sweeps, the fused substeps): the same source, so the same bits (partitions run one after another)
+solve_joints_serial_kernel = serial_twin(solve_joints_kernel, "solve_joints_serial_kernel")
 
 
 @njit(**JIT)

@@ -34,6 +34,7 @@ from .joint_math import (
 )
 from .joint_solve import (
     A_EQUAL,
+    solve_joints_serial_kernel,
 )
 
 
@@ -336,3 +337,53 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
             else:
                 for c in range(3):
                     angular_impulse[j, c] += lam * Jb[j, r, 3 + c]
+
+
+@njit(**JIT)
+def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
+                       local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, x, R, inv_mass,
+                       I_inv, h, soft, node_order, node_joint, node_body, node_parent,
+                       # scratch
+                       Ja, Jb, C, nrow, D, Dinv, H_up, y, sol, work, before,
+                       # outputs
+                       v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """One solve of the tree method: ``iterations`` sweeps, each the Gauss-Seidel rows (the
+    coordinate rows; the rigid rows of joints outside the tree) then the exact tree solve
+    (``tree_solve_kernel``), and while a limit row's impulse still changes, more sweeps.
+
+    Limit rows are Gauss-Seidel rows around the exact solve, which undoes part of each limit
+    impulse as it re-solves the chain: two sweeps leave a limit that a fast chain strikes
+    unconverged, and the unconverged impulse comes back as a bounce (a 7-joint arm striking a
+    shoulder limit at 7.8 rad/s left it at -7 rad/s, restitution 0.9, with ACCURATE; 30 sweeps:
+    0.0). So while an impulse of the ``limits`` columns (L,) of ``axial_impulse`` changes by more
+    than ``tolerance`` of the largest, sweep on, up to ``max_sweeps`` (Baraff 1996 solves the
+    active limits in the block; this is the fixed point of the same equations, reached slowly:
+    that arm pressing on its limit costs 1.3 ms a step against 0.5 ms with two sweeps and
+    rebounds at -0.004 rad/s; a 0.1 % tolerance costs 3.0 ms for 0.003 rad/s). Worlds whose
+    limits are idle keep their bits. ``before`` (J, L) scratch; soft (3,) as
+    ``solve_joints_kernel``'s, its bias rate the tree solve's.
+    """
+    L = limits.shape[0]
+    sweeps = iterations
+    if L > 0 and iterations > 0:
+        sweeps = max(iterations, max_sweeps)
+    for sweep in range(sweeps):
+        if sweep >= iterations:
+            change = 0.0
+            largest = 0.0
+            for j in range(before.shape[0]):
+                for c in range(L):
+                    change = max(change, abs(axial_impulse[j, limits[c]] - before[j, c]))
+                    largest = max(largest, abs(before[j, c]))
+            if change <= tolerance * max(largest, 1e-9):
+                break
+        if L > 0 and sweep >= iterations - 1:
+            for j in range(before.shape[0]):
+                for c in range(L):
+                    before[j, c] = axial_impulse[j, limits[c]]
+        solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
+                                   param, enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h, soft, 1,
+                                   v, omega, linear_impulse, angular_impulse, axial_impulse)
+        tree_solve_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
+                          local_b, frame_a, frame_b, param, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow, D, Dinv,
+                          H_up, y, sol, work, v, omega, linear_impulse, angular_impulse, axial_impulse)

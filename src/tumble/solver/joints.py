@@ -110,7 +110,7 @@ from .joint_stepper import (  # noqa: F401  (public here, as before the split: t
     step_with_joints,
 )
 from .joint_tree import (
-    tree_solve_kernel,
+    tree_sweeps_kernel,
 )
 from .partition import SweepOrder
 
@@ -524,6 +524,11 @@ class JointSolver:
         self.sweep.update(self.joint_a, self.joint_b, np.asarray(world.moving), world.x if x is None else x,
                           int(st.partitions), st.partition_min_joints)
 
+    def fusable(self) -> bool:
+        """Whether ``soft_step.joint_substeps_kernel`` can run this step's substeps (after
+        ``prepare``): joints in one partition (on the calling thread)."""
+        return self.count > 0 and self.sweep.bounds.shape[0] == 2
+
     def warm_start(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray):
         """Apply the accumulated impulses once to v, omega (N, 3) (each substep, before solve)."""
         if self.count:
@@ -548,32 +553,30 @@ class JointSolver:
             if st.method != "tree":
                 solve_joints_kernel(*args, int(iterations), *out)
                 return
-            sc = self._scratch
-            # Limit rows are Gauss-Seidel rows around the exact solve, which undoes part of each
-            # limit impulse as it re-solves the chain: two sweeps leave a limit that a fast chain
-            # strikes unconverged, and the unconverged impulse comes back as a bounce (a 7-joint arm
-            # striking a shoulder limit at 7.8 rad/s left it at -7 rad/s, restitution 0.9, with
-            # ACCURATE; 30 sweeps: 0.0). So while a limit's impulse still changes by more than
-            # LIMIT_TOLERANCE, sweep on, up to TREE_LIMIT_SWEEPS (Baraff 1996 solves the active
-            # limits in the block; this is the fixed point of the same equations, reached slowly:
-            # that arm pressing on its limit costs 1.3 ms a step against 0.5 ms with two sweeps and
-            # rebounds at -0.004 rad/s; a 0.1 % tolerance costs 3.0 ms for 0.003 rad/s). Worlds
-            # whose limits are idle keep their bits.
-            limits = self._limit_columns()
-            before = None
-            for sweep in range(max(iterations, TREE_LIMIT_SWEEPS if len(limits) and iterations else 0)):
-                if sweep >= iterations:
-                    change = np.abs(self.axial_impulse[:, limits] - before).max()
-                    if change <= LIMIT_TOLERANCE * max(np.abs(before).max(), 1e-9):
-                        break
-                if len(limits) and sweep >= iterations - 1:
-                    before = self.axial_impulse[:, limits].copy()
-                solve_joints_kernel(*args, 1, *out)
-                tree_solve_kernel(self.node_order, self.node_joint, self.node_body, self.node_parent, self.joint_type,
-                                  self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a, self.frame_b,
-                                  self.param, x, R, self.inv_mass, self.I_inv, float(soft[0]), sc["Ja"], sc["Jb"],
-                                  sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"], sc["y"], sc["sol"], sc["work"],
-                                  *out)
+            limits, max_sweeps, tolerance, *tree = self.tree_parts()
+            tree_sweeps_kernel(int(iterations), limits, max_sweeps, tolerance, *args, *tree, *out)
+
+    def tree_parts(self) -> tuple:
+        """The tree method's arrays for ``tree_sweeps_kernel``: (limit columns, TREE_LIMIT_SWEEPS,
+        LIMIT_TOLERANCE, node_order, node_joint, node_body, node_parent, then its scratch: Ja, Jb,
+        C, nrow, D, Dinv, H_up, y, sol, work, before). Empty arrays of the same types when the
+        method is not the tree's (``soft_step.joint_substeps_kernel`` takes them either way)."""
+        if self.settings.method != "tree":
+            if self.__dict__.get("_no_tree") is None:
+                z = np.zeros
+                i64 = np.int64
+                self._no_tree = (z(0, i64), TREE_LIMIT_SWEEPS, LIMIT_TOLERANCE, z(0, i64), z(0, i64), z(0, i64),
+                                 z(0, i64), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z(0, i64), z((0, 6, 6)),
+                                 z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z((0, 6)), z((6, 6)), z((0, 0)))
+            return self._no_tree
+        limits = self._limit_columns()
+        sc = self._scratch
+        before = sc.get("before")
+        if before is None or before.shape != (self.count, len(limits)):
+            before = sc["before"] = np.zeros((self.count, len(limits)))
+        return (limits, TREE_LIMIT_SWEEPS, LIMIT_TOLERANCE, self.node_order, self.node_joint, self.node_body,
+                self.node_parent, sc["Ja"], sc["Jb"], sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"], sc["y"],
+                sc["sol"], sc["work"], before)
 
     def _limit_columns(self) -> np.ndarray:
         """The ``axial_impulse`` columns of the limit rows some joint has (empty: none)."""

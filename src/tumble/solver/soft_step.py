@@ -19,6 +19,9 @@ per step of dt made of ``substeps`` substeps h (``Simulator.substeps * SoftStepS
     apply_restitution
     store_momenta, store_impulses
 
+A step with joints and no contacts (a robot in the air) runs the substep loop in one compiled
+call, ``joint_substeps_kernel``: the same stages, their contact parts empty, in the same order.
+
 The velocity update is semi-implicit Euler (Box2D's); L is the state, so a body spinning
 while it slides keeps its angular momentum, and omega = I^-1 L follows the rotating inertia
 (the gyroscopic effect, which Box2D leaves out). Bodies without contacts in a step move by the
@@ -35,9 +38,12 @@ from numba import njit
 
 from ..collision.pipeline import CollisionPipeline
 from ..body_motion import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
+from ..integrators import accumulate_forces_kernel
 from ..math3d import JIT
 from ..world import Scratch
 from . import contact as C
+from .joint_solve import solve_joints_serial_kernel, warm_start_joints_kernel
+from .joint_tree import tree_sweeps_kernel
 
 
 # ---------------------------------------------------------------------- kernels over Y
@@ -142,6 +148,64 @@ def store_momenta_kernel(layout, Y, active, mass, v, omega, I_world):
              I_world[i, 1, 0] * omega[i, 0] + I_world[i, 1, 1] * omega[i, 1] + I_world[i, 1, 2] * omega[i, 2],
              I_world[i, 2, 0] * omega[i, 0] + I_world[i, 2, 1] * omega[i, 1] + I_world[i, 2, 2] * omega[i, 2])
         _store(layout, Y, i, x, o, P, L)
+
+
+@njit(**JIT)
+def _solve_joints(tree, iterations, soft, x, R, inv_mass, I_inv, h, joints, tree_parts, v, omega, impulses):
+    """One joint solve of the fused substeps: ``JointSolver.solve``'s Gauss-Seidel sweeps, or its tree sweeps."""
+    (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
+     position) = joints
+    linear_impulse, angular_impulse, axial_impulse = impulses
+    if not tree:
+        solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
+                                   param, enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h, soft,
+                                   iterations, v, omega, linear_impulse, angular_impulse, axial_impulse)
+        return
+    (limits, max_sweeps, tolerance, node_order, node_joint, node_body, node_parent, Ja, Jb, C, nrow, D, Dinv, H_up,
+     y, sol, work, before) = tree_parts
+    tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
+                       local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, x, R, inv_mass,
+                       I_inv, h, soft, node_order, node_joint, node_body, node_parent, Ja, Jb, C, nrow, D, Dinv,
+                       H_up, y, sol, work, before, v, omega, linear_impulse, angular_impulse, axial_impulse)
+
+
+@njit(**JIT)
+def joint_substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_body, inertia_body_inv, moving,
+                          gravity, forces, kinematic_v, kinematic_omega, h, substeps,
+                          joints, tree, tree_parts, soft_bias, soft_relax, velocity_iterations, relax_iterations,
+                          # outputs and scratch
+                          R, v, omega, F, T, I_inv, I_world, impulses):
+    """The substeps of a step with joints and no contacts, in one call: ``SoftStep.step``'s loop
+    with its contact stages empty, the same kernels in the same order (so the same bits).
+
+    PERF: a robot arm alone spent most of its step in Python between a dozen kernel calls per
+    substep (the two-link arm: 111 us a step against PyBullet's 3 us; 80 us fused). The world's
+    forces are the compiled ones (``forces``: ``accumulate_forces_kernel``'s tables, gravity,
+    built-in forces, springs; the caller takes the Python loop when there are custom forces);
+    F, T (N, 3) hold the first substep's forces on entry. ``joints``: ``JointSolver``'s tables
+    (a tuple, as ``_solve_joints`` unpacks it), ``tree``: its method is the tree's, whose
+    arrays are ``tree_parts``; ``impulses``: its accumulated impulses (linear, angular, axial).
+    """
+    uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param = forces
+    (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
+     position) = joints
+    linear_impulse, angular_impulse, axial_impulse = impulses
+    for k in range(substeps):
+        if k > 0:
+            accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind,
+                                     uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
+                                     R, v, omega, F, T)
+        integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inertia_body_inv, F, T, h,
+                                    kinematic_v, kinematic_omega, R, v, omega, I_inv, I_world)
+        warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, enabled,
+                                 position, Y, R, inv_mass, I_inv, linear_impulse, angular_impulse, axial_impulse,
+                                 v, omega)
+        _solve_joints(tree, velocity_iterations, soft_bias, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
+                      impulses)
+        integrate_positions_kernel(layout, Y, active, kinematic, v, omega, h, R)
+        _solve_joints(tree, relax_iterations, soft_relax, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
+                      impulses)
+        store_momenta_kernel(layout, Y, active, mass, v, omega, I_world)
 
 
 @njit(**JIT)
@@ -327,6 +391,9 @@ class SoftStep:
         joints = self.joints if self.has_joints() else None
         if joints is not None:
             joints.prepare(w, h, w.inv_mass, self.I_inv, x=Y)
+        if joints is not None and not solver.count and check is None and not w.tables.custom and joints.fusable():
+            self._joint_substeps(Y, h, substeps, kinematic, joints)
+            substeps = 0  # done: the same stages as the loop below, compiled together
         for k in range(substeps):
             if k > 0:
                 w.evaluate_forces(t + k * h, Y, s)
@@ -353,6 +420,25 @@ class SoftStep:
         solver.store_impulses()
         if joints is not None:
             joints.store(s.v, s.omega, Y, s.R)
+
+    def _joint_substeps(self, Y, h: float, substeps: int, kinematic, joints):
+        """The substep loop of ``step`` for joints without contacts, in one kernel (``joint_substeps_kernel``)."""
+        w = self.world
+        s = self.scratch
+        tb = w.tables
+        st = joints.settings
+        tree = st.method == "tree"
+        n = joints.count
+        tables = (joints.sweep.order[:n], joints.sweep.bounds, joints.joint_type, joints.joint_a, joints.joint_b,
+                  joints.local_a, joints.local_b, joints.frame_a, joints.frame_b, joints.param, joints.enabled,
+                  joints.gauss_seidel, joints.position)
+        joint_substeps_kernel(
+            w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
+            w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
+                                  tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
+            tables, tree, joints.tree_parts(), joints.soft_bias, joints.soft_relax, int(st.velocity_iterations),
+            int(st.relax_iterations), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
+            (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
 
     def _inverse_inertia(self, Y):
         """I^-1 (N, 3, 3) of the active bodies at the start of the step (0 elsewhere), for prepare_contacts."""
