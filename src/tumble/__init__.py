@@ -36,9 +36,17 @@ def load_urdf(world, path, **options):
     return _load(world, path, **options)
 
 
+def load_mjcf(world, path, **options):
+    """Add a MuJoCo model file (MJCF XML) to ``world``: its bodies as bodies, its joints as joints;
+    returns a ``tumble.urdf.Robot``. Options (pose, joint_positions, ...): see tumble.mjcf."""
+    from .mjcf import load_mjcf as _load
+
+    return _load(world, path, **options)
+
+
 __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "Trajectory", "load_trajectory", "load_scene",
-    "load_urdf",
+    "load_urdf", "load_mjcf",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "KeyframePath",

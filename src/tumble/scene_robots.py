@@ -1,4 +1,5 @@
-"""Scene files: the ``[[robots]]`` entries, URDF files loaded into the scene (``tumble.urdf``).
+"""Scene files: the ``[[robots]]`` entries, URDF files (``tumble.urdf``) and MuJoCo MJCF files
+(``.xml``, ``tumble.mjcf``) loaded into the scene.
 
 ::
 
@@ -18,6 +19,9 @@
     material = { friction = 0.8 }  # links without Bullet's <contact>
     collision_filter = { category = 2 }
 
+An ``.xml`` file is read as MJCF (``load_mjcf``): ``fixed_base``, ``merge_fixed`` and ``package_dirs``
+do not apply to it, and ``self_collision`` defaults to true (MuJoCo's rule).
+
 A problem inside the URDF file is one line naming both files:
 ``scene.toml: robots[0].file: arm.urdf: joint[elbow].limit.lower: expected 1 number, got 'x'``.
 """
@@ -28,7 +32,10 @@ from pathlib import Path
 
 from .collision.filter import FILTER_KEYS, CollisionFilter
 from .errors import InputError
+from .mjcf import load_mjcf
 from .urdf import INERTIA_SOURCES, load_urdf
+
+URDF_ONLY = ("fixed_base", "merge_fixed", "package_dirs")
 
 ROBOT_KEYS = ("file", "name", "position", "orientation", "euler_deg", "fixed_base", "merge_fixed", "self_collision",
               "inertia", "joint_positions", "joint_motors", "joint_targets", "package_dirs", "material",
@@ -40,7 +47,12 @@ class RobotReader:
 
     def robot(self, world, entry: dict, key: str, names: dict):
         self.table(entry, key, ROBOT_KEYS, required=("file",))
-        path = Path(self.data_path(entry["file"], f"{key}.file", "URDF"))
+        mjcf = str(entry["file"]).lower().endswith(".xml")
+        path = Path(self.data_path(entry["file"], f"{key}.file", "MJCF" if mjcf else "URDF"))
+        if mjcf:
+            for k in URDF_ONLY:
+                if k in entry:
+                    raise self.error("a URDF option: an MJCF (.xml) model does not take it", f"{key}.{k}")
         kw = {}
         if "name" in entry:
             kw["name"] = self.string(entry["name"], f"{key}.name")
@@ -79,7 +91,7 @@ class RobotReader:
         self.where = key
         before = world.body_count
         try:
-            load_urdf(world, path, **kw)
+            (load_mjcf if mjcf else load_urdf)(world, path, **kw)
         except InputError as err:
             if err.file:  # the URDF's own problem: both files on the line
                 inner = ": ".join(str(p) for p in (Path(err.file).name, err.key) if p)

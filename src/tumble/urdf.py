@@ -273,6 +273,17 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         InputError: a bad file or argument, one line (file, element, problem).
     """
     model = read_urdf(path, package_dirs)
+    return build_robot(world, model, position=position, orientation=orientation, euler_deg=euler_deg,
+                       fixed_base=fixed_base, merge_fixed=merge_fixed, self_collision=self_collision,
+                       joint_positions=joint_positions, material=material, collision_filter=collision_filter,
+                       name=name, inertia=inertia, joint_motors=joint_motors, joint_targets=joint_targets)
+
+
+def build_robot(world, model: UrdfModel, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None,
+                fixed_base=False, merge_fixed=True, self_collision=False, joint_positions=None, material=None,
+                collision_filter=None, name=None, inertia="file", joint_motors=None, joint_targets=None) -> Robot:
+    """Add the robot of a parsed model (a URDF's, or an MJCF file's: ``tumble.mjcf``) to ``world``;
+    the options as ``load_urdf``'s."""
     if inertia not in INERTIA_SOURCES:
         raise InputError(f"must be one of {', '.join(INERTIA_SOURCES)}, got {inertia!r}", "inertia")
     for link in model.links.values():
@@ -321,13 +332,14 @@ def load_urdf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         axis = R_child @ j.axis
         if j.kind == "fixed":
             record = FixedJoint(**common)
-        elif j.kind == "spherical":  # Bullet's extension; its limit attributes are not read
-            record = BallJoint(**common)
+        elif j.kind == "spherical":  # Bullet's extension (its limit attributes are not read); MJCF's ball
+            record = BallJoint(**common, cone_limit=j.cone_limit)
         else:
             cls = SliderJoint if j.kind == "prismatic" else HingeJoint
             extra = {} if j.friction == 0.0 else {"motor_speed": 0.0,
                                                   ("max_motor_force" if cls is SliderJoint else "max_motor_torque"): j.friction}
-            record = cls(**common, axis=axis, lower=j.lower, upper=j.upper, damping=j.damping, **extra)
+            record = cls(**common, axis=axis, lower=j.lower, upper=j.upper, damping=j.damping, stiffness=j.stiffness,
+                         target=j.target, **extra)
             torque_or_force = "force" if cls is SliderJoint else "torque"
             for field_name, value in controls.get(j.name, {}).items():
                 if field_name in ("max_motor", "max_drive"):  # max_motor_torque, max_drive_force, ...

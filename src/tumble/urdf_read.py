@@ -58,6 +58,9 @@ class UrdfJoint:
     velocity: float | None = None
     damping: float = 0.0
     friction: float = 0.0
+    stiffness: float = 0.0  # a spring towards ``target`` (MJCF's joint stiffness and springref; URDF has none)
+    target: float = 0.0
+    cone_limit: float | None = None  # a spherical joint's swing limit, rad (MJCF's ball range; URDF has none)
 
 
 @dataclass

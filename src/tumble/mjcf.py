@@ -1,0 +1,566 @@
+"""MJCF models: MuJoCo's XML (``MjModel.from_xml_path``) read into tumble's bodies and joints.
+
+``load_mjcf(world, path, ...)`` reads a MuJoCo model file (https://mujoco.readthedocs.io,
+"XML Reference") into the same parsed form as a URDF (``urdf_read.UrdfModel``: a tree of links and
+joints) and builds it with the URDF loader's builder (``urdf.build_robot``), so a model from MJCF
+is ordinary bodies and joints and gets everything else (contacts, sleeping, checkpoints, export,
+readings, the tree solver) unchanged; it returns the same ``urdf.Robot``.
+
+What maps to what:
+
+- ``<body>``: a link whose frame is the body's (``pos`` and one of ``quat`` (w x y z), ``axisangle``,
+  ``euler`` (``<compiler eulerseq>``, lowercase axes turning with the frame), ``xyaxes``, ``zaxis``),
+  nested bodies their children. Its mass, centre and inertia: its ``<inertial>`` (``mass``, ``pos``,
+  orientation, ``diaginertia`` or ``fullinertia``), else its geoms' (each of uniform ``density``,
+  default 1000 kg/m^3, or of the given ``mass``; visual-only geoms included, as MuJoCo's
+  ``inertiafromgeom``), combined by the parallel-axis theorem.
+- ``<geom>``: ``sphere``, ``capsule``, ``cylinder`` (``size`` radius and half-length, or ``fromto``),
+  ``box`` (half-sizes), ``mesh`` (an ``<asset><mesh file scale>``: its convex hull, as MuJoCo
+  collides meshes), ``plane`` (in ``<worldbody>``). ``friction``'s first number is the body's
+  friction (default 1, MuJoCo's; the first colliding geom's when several differ). A geom with
+  ``contype = conaffinity = 0`` (a visual geom) has mass but no collision shape. The
+  ``<worldbody>``'s own geoms become fixed bodies of their own (the floor).
+- ``<joint>`` (one per body, or none): ``hinge`` a ``HingeJoint`` and ``slide`` a ``SliderJoint`` about
+  ``axis`` (default z) through ``pos`` (body frame), with ``range`` limits (``limited`` "true", or
+  "auto" with ``<compiler autolimits>`` on, MuJoCo's default: a given range is a limit), ``damping``,
+  ``stiffness`` towards ``springref`` (a spring drive) and ``frictionloss`` (a speed-0 motor limited
+  to that torque or force); ``ball`` a ``BallJoint`` whose ``range`` upper value is its swing cone;
+  ``free`` (or ``<freejoint>``) no joint: the body is free. A body with no joint is welded to
+  its parent (merged into its body; a top-level one is fixed). Joint angles and ``euler`` and
+  ``axisangle`` angles are degrees unless ``<compiler angle="radian">`` (MuJoCo's default).
+  The joint's coordinate is MuJoCo's qpos: zero at the model's pose.
+- ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
+  their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair.
+- ``<actuator><position joint kp kv forcerange>``: a PD drive to 0 (ctrl 0) on that joint
+  (``Robot.set_position_target`` moves it); ``motor``, ``velocity``, ``general`` and the
+  other actuators are read and left off (nothing drives those joints until
+  ``Robot.set_motor`` or ``set_position_target`` is called).
+
+Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
+rule, ``self_collision=True`` by default here, unlike ``load_urdf``); ``contype``/``conaffinity`` bit
+masks other than 0/0 are not mapped. Not read, on purpose and documented (docs/robots.md):
+``<option>`` (set the World's gravity and the Simulator's dt yourself), ``condim``, ``solref``,
+``solimp``, ``margin``, joint ``armature`` (MuJoCo adds it to the joint's inertia: a model that
+relies on it moves differently), sites, cameras, lights, sensors, keyframes, visual settings.
+Refused with one line: ``<include>``, ``<equality>``, ``<tendon>``, ``<contact><pair>``, ellipsoid,
+hfield and sdf geoms, two or more joints in one body, and unknown joint or geom types.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import checks
+from .errors import InputError
+from .math3d import matrix_to_quat, quat_to_matrix
+from .shapes import Box, Capsule, Convex, Cylinder, Plane, Sphere
+from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
+
+DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
+DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
+GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "mesh")
+JOINT_TYPES = ("hinge", "slide", "ball", "free")
+REFUSED = {"include": "<include> is not supported: merge the included file into this one",
+           "equality": "<equality> constraints are not supported",
+           "tendon": "<tendon> is not supported"}
+# elements of <worldbody>/<body> that carry nothing tumble simulates
+IGNORED_IN_BODY = ("site", "camera", "light", "plugin", "composite", "flexcomp", "attach", "frame")
+
+
+@dataclass
+class MjcfStatic:
+    """A ``<worldbody>`` geom: a fixed body of its own. position (3,), R (3, 3) world."""
+
+    name: str
+    shape: object
+    position: np.ndarray
+    R: np.ndarray
+    friction: float
+
+
+@dataclass
+class MjcfModel:
+    """A parsed MJCF file: the tree (``model``, links and joints as a URDF's), the worldbody's
+    geoms, the position actuators' drives {joint: (kp, kv, force limit)}, excluded body pairs."""
+
+    model: UrdfModel
+    statics: list = field(default_factory=list)
+    drives: dict = field(default_factory=dict)
+    excluded: list = field(default_factory=list)
+    frictions: dict = field(default_factory=dict)  # link name: friction of its colliding geoms
+
+
+# ---------------------------------------------------------------------- numbers and frames
+def _floats(text, key, counts) -> np.ndarray:
+    """The numbers of an attribute; ``counts``: the allowed counts."""
+    try:
+        values = [float(t) for t in str(text).split()]
+    except ValueError:
+        raise InputError(f"expected numbers, got {text!r}", key) from None
+    if len(values) not in counts:
+        want = " or ".join(str(c) for c in counts)
+        raise InputError(f"expected {want} number{'s' if max(counts) > 1 else ''}, got {text!r}", key)
+    if not all(math.isfinite(v) for v in values):
+        raise InputError(f"expected finite numbers, got {text!r}", key)
+    return np.array(values)
+
+
+def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """(3, 3) rotation by ``angle`` rad about unit ``axis`` (Rodrigues)."""
+    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * (K @ K)
+
+
+def _unit(v, key) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    if n < 1e-12:
+        raise InputError("must not be the zero vector", key)
+    return np.asarray(v, dtype=float) / n
+
+
+def _z_to(z) -> np.ndarray:
+    """The smallest rotation taking (0, 0, 1) to unit z (MuJoCo's ``zaxis`` and ``fromto`` frames)."""
+    c = float(z[2])
+    if c < -1.0 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])  # a half turn about x
+    axis = np.array([-z[1], z[0], 0.0])
+    s = float(np.linalg.norm(axis))
+    if s < 1e-12:
+        return np.eye(3)
+    return _axis_rotation(axis / s, math.atan2(s, c))
+
+
+class _Reader:
+    """One file's compiler settings and default classes."""
+
+    def __init__(self, root, path: Path):
+        self.path = path
+        compiler = root.find("compiler")
+        c = {} if compiler is None else compiler.attrib
+        angle = c.get("angle", "degree")
+        if angle not in ("degree", "radian"):
+            raise InputError(f"expected 'degree' or 'radian', got {angle!r}", "compiler.angle")
+        self.angle = math.pi / 180.0 if angle == "degree" else 1.0
+        self.eulerseq = c.get("eulerseq", "xyz")
+        if len(self.eulerseq) != 3 or any(ch not in "xyzXYZ" for ch in self.eulerseq):
+            raise InputError(f"expected three of x, y, z (X, Y, Z), got {self.eulerseq!r}", "compiler.eulerseq")
+        self.autolimits = c.get("autolimits", "true") == "true"
+        self.meshdir = path.parent / c.get("meshdir", c.get("assetdir", ""))
+        self.classes: dict[str, tuple] = {}  # name: (parent name or None, {tag: attributes})
+        for d in root.findall("default"):
+            self._read_defaults(d, None)
+        if "main" not in self.classes:
+            self.classes["main"] = (None, {})
+
+    def _read_defaults(self, element, parent):
+        name = element.get("class", "main" if parent is None else None)
+        if name is None:
+            raise InputError("a nested <default> needs a class", "default")
+        if name in self.classes:
+            raise InputError(f"duplicate default class {name!r}", f"default[{name}]")
+        self.classes[name] = (parent, {child.tag: dict(child.attrib) for child in element if child.tag != "default"})
+        for child in element.findall("default"):
+            self._read_defaults(child, name)
+
+    def attributes(self, element, cls: str) -> dict:
+        """The element's attributes over its class's defaults (``class`` or the inherited ``cls``)."""
+        name = element.get("class", cls)
+        if name not in self.classes:
+            raise InputError(f"unknown default class {name!r}", f"{element.tag}.class")
+        chain = []
+        while name is not None:
+            chain.append(name)
+            name = self.classes[name][0]
+        merged: dict = {}
+        for name in reversed(chain):
+            merged.update(self.classes[name][1].get(element.tag, {}))
+        merged.update({k: v for k, v in element.attrib.items() if k != "class"})
+        return merged
+
+    def orientation(self, a: dict, key: str) -> np.ndarray:
+        """(3, 3) of the element's quat, axisangle, euler, xyaxes or zaxis (identity without one)."""
+        given = [k for k in ("quat", "axisangle", "euler", "xyaxes", "zaxis") if k in a]
+        if len(given) > 1:
+            raise InputError(f"give one orientation, got {', '.join(given)}", key)
+        if not given:
+            return np.eye(3)
+        k = given[0]
+        kk = f"{key}.{k}"
+        if k == "quat":
+            q = _unit(_floats(a[k], kk, (4,)), kk)
+            return quat_to_matrix(q)
+        if k == "axisangle":
+            v = _floats(a[k], kk, (4,))
+            return _axis_rotation(_unit(v[:3], kk), v[3] * self.angle)
+        if k == "euler":
+            v = _floats(a[k], kk, (3,)) * self.angle
+            R = np.eye(3)
+            for ch, angle in zip(self.eulerseq, v):
+                Ra = _axis_rotation(np.eye(3)["xyz".index(ch.lower())], angle)
+                R = R @ Ra if ch.islower() else Ra @ R  # lowercase: about the turned axes
+            return R
+        if k == "xyaxes":
+            v = _floats(a[k], kk, (6,))
+            x = _unit(v[:3], kk)
+            y = _unit(v[3:] - (v[3:] @ x) * x, kk)
+            return np.column_stack([x, y, np.cross(x, y)])
+        return _z_to(_unit(_floats(a[k], kk, (3,)), kk))
+
+    def pose(self, a: dict, key: str) -> tuple:
+        """(position (3,), R (3, 3)) of the element in its parent frame."""
+        return _floats(a.get("pos", "0 0 0"), f"{key}.pos", (3,)), self.orientation(a, key)
+
+
+# ---------------------------------------------------------------------- geoms
+def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
+    """(shape, position (3,), R (3, 3), collides, friction) of a geom's attributes."""
+    kind = a.get("type", "sphere")
+    if kind not in GEOM_TYPES:
+        raise InputError(f"unsupported geom type {kind!r} (expected one of {', '.join(GEOM_TYPES)})", f"{key}.type")
+    size = _floats(a["size"], f"{key}.size", (1, 2, 3)) if "size" in a else None
+    if "fromto" in a and kind in ("capsule", "cylinder"):
+        ends = _floats(a["fromto"], f"{key}.fromto", (6,))
+        d = ends[3:] - ends[:3]
+        half = 0.5 * float(np.linalg.norm(d))
+        if half < 1e-12:
+            raise InputError("its two ends are the same point", f"{key}.fromto")
+        position, R = 0.5 * (ends[:3] + ends[3:]), _z_to(d / (2 * half))
+        if size is None:
+            raise InputError("missing (the radius)", f"{key}.size")
+        size = np.array([size[0], half])
+    else:
+        position, R = reader.pose(a, key)
+
+    def need(n):
+        if size is None or len(size) < n:
+            raise InputError(f"a {kind} needs {n} size number{'s' if n > 1 else ''}", f"{key}.size")
+        return size
+
+    try:
+        if kind == "sphere":
+            shape = Sphere(radius=need(1)[0])
+        elif kind == "capsule":
+            shape = Capsule(radius=need(2)[0], length=2.0 * need(2)[1])
+        elif kind == "cylinder":
+            shape = Cylinder(radius=need(2)[0], length=2.0 * need(2)[1])
+        elif kind == "box":
+            shape = Box(size=2.0 * need(3)[:3])
+        elif kind == "plane":
+            shape = Plane(normal=(0.0, 0.0, 1.0))
+        else:
+            name = a.get("mesh")
+            if name not in meshes:
+                raise InputError(f"unknown mesh {name!r} (not in <asset>)", f"{key}.mesh")
+            shape = meshes[name]
+    except InputError as err:
+        raise err.within(key) from None
+    collides = not (a.get("contype", "1") == "0" and a.get("conaffinity", "1") == "0")
+    friction = float(_floats(a["friction"], f"{key}.friction", (1, 2, 3))[0]) if "friction" in a else DEFAULT_FRICTION
+    return shape, position, R, collides, friction
+
+
+def _meshes(reader: _Reader, root) -> dict:
+    """{name: Convex} of ``<asset><mesh>`` (the hull of the file's vertices, scaled)."""
+    from .mass import _read_mesh_file
+
+    out = {}
+    for asset in root.findall("asset"):
+        for m in asset.findall("mesh"):
+            a = reader.attributes(m, "main")
+            file = a.get("file")
+            name = a.get("name") or (Path(file).stem if file else None)
+            key = f"asset.mesh[{name}]"
+            if not file:
+                raise InputError("missing file (inline vertices are not supported)", key)
+            p = reader.meshdir / file
+            if not p.is_file():
+                raise InputError(f"mesh file not found: {p}", f"{key}.file")
+            checks.check_memory(p.stat().st_size * checks.FILE_EXPANSION, f"reading the mesh file {p}", key,
+                                str(reader.path))
+            scale = _floats(a.get("scale", "1 1 1"), f"{key}.scale", (3,))
+            try:
+                out[name] = Convex(points=np.asarray(_read_mesh_file(str(p)).vertices, dtype=float) * scale)
+            except InputError as err:
+                raise InputError(f"{p.name}: {err.problem}", key) from None
+    return out
+
+
+# ---------------------------------------------------------------------- the tree
+def read_mjcf(path) -> MjcfModel:
+    """Parse and check an MJCF file (module docstring). Raises InputError (file, element, problem)."""
+    path = Path(path)
+    try:
+        return _read(path)
+    except InputError as err:
+        raise err.within(None, str(path)) from None
+
+
+def _read(path: Path) -> MjcfModel:
+    if not path.is_file():
+        raise InputError("MJCF file not found", None)
+    checks.check_memory(path.stat().st_size * checks.FILE_EXPANSION, f"reading the MJCF file {path}", None, str(path))
+    try:
+        root = ET.fromstring(path.read_bytes().lstrip())
+    except ET.ParseError as exc:
+        raise InputError(f"invalid XML: {exc}", None) from None
+    if root.tag != "mujoco":
+        raise InputError(f"expected a <mujoco> element at the top, got <{root.tag}>", None)
+    for tag, problem in REFUSED.items():
+        if root.find(tag) is not None or root.find(f".//{tag}") is not None:
+            raise InputError(problem, tag)
+    reader = _Reader(root, path)
+    meshes = _meshes(reader, root)
+    out = MjcfModel(UrdfModel(root.get("model") or path.stem, {"world": UrdfLink("world")}, [], "world", str(path)))
+    worldbody = root.find("worldbody")
+    if worldbody is None:
+        raise InputError("missing <worldbody>", "mujoco")
+    names: set = {"world"}
+    joint_names: set = set()
+    for k, g in enumerate(worldbody.findall("geom")):
+        a = reader.attributes(g, "main")
+        name = a.get("name", f"geom{k}")
+        shape, position, R, collides, friction = _geom(reader, a, f"worldbody.geom[{name}]", meshes)
+        if collides:
+            out.statics.append(MjcfStatic(name, shape, position, R, friction))
+    for child in worldbody:
+        _check_tag(child, "worldbody")
+    counter = [0]
+    for b in worldbody.findall("body"):
+        _body(reader, b, "world", "main", np.zeros(3), out, meshes, names, joint_names, counter)
+    _actuators(reader, root, out, joint_names)
+    for contact in root.findall("contact"):
+        if contact.find("pair") is not None:
+            raise InputError("<contact><pair> is not supported (only <exclude>)", "contact.pair")
+        for e in contact.findall("exclude"):
+            pair = (e.get("body1"), e.get("body2"))
+            for role, body in zip(("body1", "body2"), pair):
+                if body not in names:
+                    raise InputError(f"unknown body {body!r}", f"contact.exclude.{role}")
+            out.excluded.append(pair)
+    return out
+
+
+def _check_tag(child, where: str):
+    if child.tag in REFUSED:
+        raise InputError(REFUSED[child.tag], f"{where}.{child.tag}")
+
+
+def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfModel, meshes, names, joint_names,
+          counter):
+    """Add one ``<body>`` (and its subtree) as a link; ``shift`` (3,): the parent link frame's
+    origin in the parent body's frame (its joint's ``pos``)."""
+    counter[0] += 1
+    name = element.get("name") or f"body{counter[0]}"
+    key = f"body[{name}]"
+    if name in names:
+        raise InputError("duplicate body name", key)
+    names.add(name)
+    cls = element.get("childclass", cls)
+    if cls not in reader.classes:
+        raise InputError(f"unknown default class {cls!r}", f"{key}.childclass")
+    position, R = reader.pose(element.attrib, key)
+    position = position - shift
+    for child in element:
+        _check_tag(child, key)
+    joints = [j for j in element if j.tag in ("joint", "freejoint")]
+    if len(joints) > 1:
+        raise InputError(f"{len(joints)} joints in one body are not supported (one hinge, slide, ball or free joint)",
+                         key)
+    link = UrdfLink(name)
+    anchor = np.zeros(3)
+    joint = None
+    if joints:
+        je = joints[0]
+        a = reader.attributes(je, cls) if je.tag == "joint" else {"type": "free", **je.attrib}
+        jname = a.get("name") or f"{name}_joint"
+        jkey = f"joint[{jname}]"
+        if jname in joint_names:
+            raise InputError("duplicate joint name", jkey)
+        joint_names.add(jname)
+        kind = a.get("type", "hinge")
+        if kind not in JOINT_TYPES:
+            raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(JOINT_TYPES)})", f"{jkey}.type")
+        if kind != "free":
+            anchor = _floats(a.get("pos", "0 0 0"), f"{jkey}.pos", (3,))
+        joint = _joint(reader, a, jname, jkey, kind, parent, name)
+    # the link frame: the body frame moved to the joint's anchor (a URDF joint turns about its child's origin)
+    joint_origin = (position + R @ anchor, R)
+    if joint is None:
+        joint = UrdfJoint(f"{name}_weld", "fixed", parent, name, joint_origin, np.array([1.0, 0.0, 0.0]))
+    else:
+        joint.origin = joint_origin
+    out.model.joints.append(joint)
+    _mass_and_shapes(reader, element, cls, key, anchor, link, out, meshes)
+    out.model.links[name] = link
+    for b in element.findall("body"):
+        _body(reader, b, name, cls, anchor, out, meshes, names, joint_names, counter)
+
+
+def _joint(reader, a, jname, jkey, kind, parent, child) -> UrdfJoint:
+    kinds = {"hinge": "revolute", "slide": "prismatic", "ball": "spherical", "free": "floating"}
+    axis = _unit(_floats(a.get("axis", "0 0 1"), f"{jkey}.axis", (3,)), f"{jkey}.axis")
+    j = UrdfJoint(jname, kinds[kind], parent, child, (np.zeros(3), np.eye(3)), axis)
+    if kind == "free":
+        return j
+    limited = a.get("limited", "auto")
+    if limited not in ("true", "false", "auto"):
+        raise InputError(f"expected true, false or auto, got {limited!r}", f"{jkey}.limited")
+    has_range = "range" in a
+    on = limited == "true" or (limited == "auto" and reader.autolimits and has_range)
+    if on:
+        if not has_range:
+            raise InputError("limited without a range", f"{jkey}.range")
+        lo, hi = _floats(a["range"], f"{jkey}.range", (2,))
+        if lo > hi:
+            raise InputError(f"the range is the wrong way round: {lo:g} > {hi:g}", f"{jkey}.range")
+        scale = reader.angle if kind in ("hinge", "ball") else 1.0
+        if kind == "ball":
+            j.cone_limit = hi * scale
+        else:
+            j.lower, j.upper = lo * scale, hi * scale
+    elif kind == "hinge":
+        j.kind = "continuous"
+    for attr, field_name in (("damping", "damping"), ("stiffness", "stiffness"), ("frictionloss", "friction")):
+        if attr in a:
+            value = float(_floats(a[attr], f"{jkey}.{attr}", (1,))[0])
+            if value < 0:
+                raise InputError(f"must be >= 0, got {value:g}", f"{jkey}.{attr}")
+            if kind == "ball" and value > 0:
+                raise InputError(f"a ball joint's {attr} is not supported", f"{jkey}.{attr}")
+            setattr(j, field_name, value)
+    if "springref" in a:
+        j.target = float(_floats(a["springref"], f"{jkey}.springref", (1,))[0]) * (
+            reader.angle if kind == "hinge" else 1.0)
+    return j
+
+
+def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: MjcfModel, meshes):
+    """The link's collision parts and mass properties (link frame: the body frame less ``anchor``)."""
+    from .mass import mass_properties
+
+    terms = []  # (mass, centre, inertia about the centre) in the link frame
+    frictions = []
+    for k, g in enumerate(element.findall("geom")):
+        a = reader.attributes(g, cls)
+        gkey = f"{key}.geom[{a.get('name', k)}]"
+        shape, position, R, collides, friction = _geom(reader, a, gkey, meshes)
+        if isinstance(shape, Plane):
+            raise InputError("a plane must be a <worldbody> geom", gkey)
+        position = position - anchor
+        if collides:
+            link.parts.append((shape, position, R))
+            frictions.append(friction)
+        try:
+            if "mass" in a:
+                props = mass_properties(shape, mass=float(_floats(a["mass"], f"{gkey}.mass", (1,))[0]))
+            else:
+                density = float(_floats(a.get("density", str(DEFAULT_DENSITY)), f"{gkey}.density", (1,))[0])
+                props = mass_properties(shape, density=density)
+        except InputError as err:
+            raise err.within(gkey) from None
+        terms.append((props.mass, position + R @ np.asarray(props.center), R @ np.asarray(props.inertia) @ R.T))
+    if frictions:
+        out.frictions[link.name] = frictions[0]
+    inertial = element.find("inertial")
+    if inertial is not None:
+        ikey = f"{key}.inertial"
+        a = inertial.attrib
+        if "mass" not in a:
+            raise InputError("missing mass", ikey)
+        position, R = reader.pose(a, ikey)
+        link.mass = float(_floats(a["mass"], f"{ikey}.mass", (1,))[0])
+        if "diaginertia" in a:
+            I = np.diag(_floats(a["diaginertia"], f"{ikey}.diaginertia", (3,)))
+        elif "fullinertia" in a:
+            xx, yy, zz, xy, xz, yz = _floats(a["fullinertia"], f"{ikey}.fullinertia", (6,))
+            I = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        else:
+            raise InputError("missing diaginertia or fullinertia", ikey)
+        link.center = position - anchor
+        link.inertia = R @ I @ R.T
+        return
+    mass = sum(m for m, _, _ in terms)
+    if mass <= 0.0:
+        return  # massless: welded into its parent, or an error if it moves (the builder's)
+    center = sum(m * c for m, c, _ in terms) / mass
+    inertia = np.zeros((3, 3))
+    for m, c, I in terms:  # parallel-axis theorem about the combined centre
+        d = c - center
+        inertia += I + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    link.mass, link.center, link.inertia = float(mass), center, inertia
+
+
+def _actuators(reader, root, out: MjcfModel, joint_names):
+    for act in root.findall("actuator"):
+        for e in act:
+            if e.tag != "position":
+                continue  # motor, velocity, general...: read and left off (module docstring)
+            a = reader.attributes(e, "main")
+            key = f"actuator.position[{a.get('name', a.get('joint'))}]"
+            joint = a.get("joint")
+            if joint not in joint_names:
+                raise InputError(f"unknown joint {joint!r} (position actuators drive joints)", f"{key}.joint")
+            if "gear" in a and float(_floats(a["gear"], f"{key}.gear", (1, 6))[0]) != 1.0:
+                raise InputError("a gear other than 1 is not supported", f"{key}.gear")
+            kp = float(_floats(a.get("kp", "1"), f"{key}.kp", (1,))[0])
+            kv = float(_floats(a.get("kv", "0"), f"{key}.kv", (1,))[0])
+            limit = math.inf
+            if "forcerange" in a and a.get("forcelimited", "auto") != "false":
+                lo, hi = _floats(a["forcerange"], f"{key}.forcerange", (2,))
+                limit = max(abs(lo), abs(hi))
+            out.drives[joint] = (kp, kv, limit)
+
+
+# ---------------------------------------------------------------------- loading
+def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, self_collision=True,
+              joint_positions=None, material=None, collision_filter=None, name=None, inertia="file",
+              joint_motors=None, joint_targets=None):
+    """Add the model of an MJCF file to ``world`` (module docstring) and return it as a ``urdf.Robot``
+    (links by body name, joints by joint name; bodies named "MODEL/BODY", the worldbody's geoms
+    "MODEL/world/GEOM").
+
+    Args:
+        world: the ``World``. path: the MJCF file.
+        position, orientation | euler_deg: where the model's world frame goes.
+        self_collision: the model's bodies touch each other except jointed ones (default, MuJoCo's
+            rule); False: none of them touch each other.
+        joint_positions: {joint: rad or m}, the start (MuJoCo's qpos; 0 is the model's pose).
+        joint_motors, joint_targets: as ``load_urdf``'s (``joint_targets`` add to and override the
+            file's position actuators).
+        material: the bodies' material (default: friction from the geoms, MuJoCo's 1 where unset).
+        collision_filter, name, inertia: as ``load_urdf``'s.
+
+    Raises:
+        InputError: a bad file or argument, one line (file, element, problem).
+    """
+    from .material import Material
+    from .urdf import build_robot
+
+    parsed = read_mjcf(path)
+    model = parsed.model
+    if material is None:
+        for link_name, friction in parsed.frictions.items():
+            model.links[link_name].material = Material(friction=friction)
+    targets = {j: {"position": 0.0, "stiffness": kp, "damping": kv, **({} if math.isinf(limit) else {"max_force": limit})}
+               for j, (kp, kv, limit) in parsed.drives.items()}
+    targets.update(joint_targets or {})
+    robot = build_robot(world, model, position=position, orientation=orientation, euler_deg=euler_deg,
+                        fixed_base=True, merge_fixed=True, self_collision=self_collision,
+                        joint_positions=joint_positions, material=material, collision_filter=collision_filter,
+                        name=name, inertia=inertia, joint_motors=joint_motors, joint_targets=targets or None)
+    base_p, base_R = robot.link_pose("world")
+    for s in parsed.statics:
+        body_material = material if material is not None else Material(friction=s.friction)
+        body = world.add_body(s.shape, fixed=True, position=base_p + base_R @ s.position,
+                              orientation=matrix_to_quat(np.ascontiguousarray(base_R @ s.R)), material=body_material,
+                              name=f"{robot.name}/world/{s.name}",
+                              **({} if collision_filter is None else {"collision_filter": collision_filter}))
+        robot.links[f"world/{s.name}"] = body
+    for a, b in parsed.excluded:
+        world.exclude_collision(robot.links[a], robot.links[b])
+    return robot

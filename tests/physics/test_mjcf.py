@@ -1,0 +1,262 @@
+"""MJCF models (``tumble.load_mjcf``) against MuJoCo itself: the same file compiled by MuJoCo is the
+reference for what the file means (masses, centres, inertias, joint anchors and axes, after its
+defaults, classes, angle units, orientation forms and fromto geoms), and MuJoCo's RK4 at a small
+step is the reference for the motion. The engines' contact and joint models differ, so the motion
+is compared on a chain without contacts or struck limits, where both integrate the same equations.
+"""
+
+import numpy as np
+import pytest
+
+import tumble as tb
+from tumble.solver.joints import ACCURATE
+
+mujoco = pytest.importorskip("mujoco")
+
+G = 9.81
+
+# Every orientation form, nested default classes (class and childclass), fromto capsules and
+# cylinders, densities and masses, an inertial with a quat and one with fullinertia, a joint pos off
+# the body origin, a slide and a ball joint, a visual geom (mass, no collision), a welded body
+# (merged into its parent in tumble), angles in degrees (MuJoCo's default compiler).
+MODEL = """
+<mujoco model="parts">
+  <default>
+    <joint damping="0.05"/>
+    <geom density="800"/>
+    <default class="heavy">
+      <geom density="2500" type="box" size="0.05 0.04 0.03"/>
+      <default class="heavier"><geom density="4000"/></default>
+    </default>
+  </default>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="a" pos="0.1 0.2 2" euler="10 20 30">
+      <joint name="j1" type="hinge" axis="0 1 0.2" pos="0.02 0 0.05" range="-90 90"/>
+      <geom type="capsule" fromto="0 0 0 0.1 0.05 -0.5" size="0.04"/>
+      <geom class="heavy" pos="0.1 0 -0.2" quat="0.9 0.1 0.3 0.2"/>
+      <body name="b" pos="0.1 0.05 -0.5" axisangle="1 1 0 25" childclass="heavy">
+        <joint name="j2" type="slide" axis="1 0 0" range="-0.1 0.2"/>
+        <geom pos="0 0 -0.1"/>
+        <geom class="heavier" pos="0.05 0.02 -0.2" xyaxes="0 1 0 -1 0 0.3"/>
+        <geom type="cylinder" fromto="0 0 -0.3 0 0.1 -0.5" size="0.03" mass="0.7"/>
+        <body name="c" pos="0 0 -0.6" zaxis="0.2 0.3 1">
+          <joint name="j3" type="ball" damping="0"/>
+          <inertial pos="0.01 0.02 -0.1" quat="0.8 0.2 0.4 0.1" mass="1.3" diaginertia="0.02 0.03 0.04"/>
+          <geom type="sphere" size="0.06" contype="0" conaffinity="0"/>
+        </body>
+        <body name="d" pos="0.2 0 -0.1">
+          <joint name="j4" axis="0 0 1" pos="0 0.01 0"/>
+          <inertial pos="0 0 0" mass="0.5" fullinertia="0.01 0.012 0.014 0.001 -0.002 0.0005"/>
+          <body name="welded" pos="0.1 0 0" euler="0 90 0">
+            <geom type="sphere" size="0.05" pos="0 0 0.02" density="3000"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def write(tmp_path, text, name="model.xml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def mujoco_bodies(path):
+    """{body name: (mass, centre (3,) world, inertia (3, 3) world about the centre)} and
+    {joint name: (anchor (3,), axis (3,))} of MuJoCo's compiled model at qpos0."""
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    bodies = {}
+    for i in range(1, m.nbody):
+        R = d.ximat[i].reshape(3, 3)
+        bodies[m.body(i).name] = (float(m.body_mass[i]), d.xipos[i].copy(), R @ np.diag(m.body_inertia[i]) @ R.T)
+    joints = {m.joint(j).name: (d.xanchor[j].copy(), d.xaxis[j].copy()) for j in range(m.njnt)}
+    return bodies, joints
+
+
+def combined(parts):
+    """Mass, centre and inertia about it of (mass, centre, inertia) parts (parallel-axis theorem)."""
+    mass = sum(p[0] for p in parts)
+    centre = sum(p[0] * p[1] for p in parts) / mass
+    inertia = sum(I + m * (np.dot(c - centre, c - centre) * np.eye(3) - np.outer(c - centre, c - centre))
+                  for m, c, I in parts)
+    return mass, centre, inertia
+
+
+def test_mass_properties_and_joint_frames_match_mujocos_compiled_model(tmp_path):
+    # Tolerances: both sides compute the same closed forms in double precision (1e-12 relative for
+    # masses and positions; 1e-10 for inertias, summed from several parts). A misread default, class,
+    # angle unit (degrees here), orientation form or fromto frame is off by percents.
+    path = write(tmp_path, MODEL)
+    ref, ref_joints = mujoco_bodies(path)
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    ref["d"] = combined([ref["d"], ref["welded"]])  # tumble merges a welded body into its parent
+    assert robot.links["welded"] is robot.links["d"]
+    for name in ("a", "b", "c", "d"):
+        body = robot.links[name]
+        mass, centre, inertia = ref[name]
+        assert body.mass == pytest.approx(mass, rel=1e-12), name
+        np.testing.assert_allclose(body.x, centre, atol=1e-12, err_msg=name)
+        R = np.asarray(body.R)
+        np.testing.assert_allclose(R @ np.asarray(body.inertia_body) @ R.T, inertia, atol=1e-10 * np.abs(inertia).max(),
+                                   err_msg=name)
+    for name in ("j1", "j2", "j3", "j4"):
+        joint = robot.joints[name]
+        anchor, axis = ref_joints[name]
+        np.testing.assert_allclose(joint.anchor, anchor, atol=1e-12, err_msg=name)
+        if name != "j3":
+            np.testing.assert_allclose(np.asarray(joint.axis) / np.linalg.norm(joint.axis), axis, atol=1e-12,
+                                       err_msg=name)
+    # the ranges in degrees, the slide's in metres; the ball has no limit; the visual sphere has no shape
+    assert robot.joints["j1"].lower == pytest.approx(-np.pi / 2) and robot.joints["j1"].upper == pytest.approx(np.pi / 2)
+    assert (robot.joints["j2"].lower, robot.joints["j2"].upper) == (-0.1, 0.2)
+    assert robot.joints["j3"].cone_limit is None
+    assert world.names[robot.links["world/floor"].index] == "parts/world/floor"
+
+
+CHAIN = """
+<mujoco model="chain">
+  <compiler angle="radian"/>
+  <option timestep="0.00025" integrator="RK4" gravity="0 0 -9.81"/>
+  <default><joint type="hinge" axis="0 1 0" damping="0.3"/><geom type="capsule" size="0.04"/></default>
+  <worldbody>
+    <body name="upper" pos="0 0 2">
+      <joint name="shoulder"/>
+      <geom fromto="0 0 0 0.1 0 -0.8"/>
+      <geom type="box" size="0.05 0.05 0.05" pos="0.1 0 -0.8" density="3000"/>
+      <body name="lower" pos="0.1 0 -0.8">
+        <joint name="elbow" pos="0 0 0"/>
+        <geom fromto="0 0 0 0.05 0 -0.6"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_chain_swings_as_mujoco_rk4_says(tmp_path):
+    # The same file in both engines, released at (0.6, -0.4) rad, 1 s, no contact: MuJoCo's RK4 at
+    # dt 1/4000 s (its <option>) is exact to ~1e-8 here; tumble's tree solve is first order: measured
+    # 1.16e-3 rad at dt 1/240 and 2.9e-4 at 1/960 (4.0x); the default soft joints 1.0e-3 at 1/240.
+    # Tolerance about twice the measured error. A wrong mass property or joint frame moves the elbow
+    # by more than 1e-2 rad within the second.
+    path = write(tmp_path, CHAIN)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.qpos[:] = (0.6, -0.4)
+    sample = 0.05
+    ref = []
+    for _ in range(20):
+        mujoco.mj_step(m, d, nstep=int(round(sample / m.opt.timestep)))
+        ref.append(d.qpos.copy())
+    ref = np.array(ref)
+    errors = []
+    for dt, settings in ((1 / 240, ACCURATE), (1 / 960, ACCURATE), (1 / 240, None)):
+        world = tb.World(gravity=(0, 0, -G))
+        robot = tb.load_mjcf(world, path, joint_positions={"shoulder": 0.6, "elbow": -0.4})
+        sim = tb.Simulator(world, dt=dt, joint_settings=settings)
+        q = []
+        for _ in range(20):
+            sim.step(int(round(sample / dt)))
+            s = robot.joint_states(sim)
+            q.append([s["shoulder"][0], s["elbow"][0]])
+        errors.append(np.max(np.abs(np.array(q) - ref)))
+    assert errors[0] < 2.5e-3 and errors[2] < 2.5e-3, errors
+    assert errors[0] / errors[1] > 3.5, errors
+
+
+def test_a_free_body_lands_on_the_worldbody_floor_and_a_position_actuator_holds_its_joint(tmp_path):
+    # A free ball dropped on the worldbody's plane comes to rest on it (its centre r above, within
+    # the soft contact's resting overlap); a position actuator (kp 200, kv 5) holds a horizontal
+    # arm up at its static equilibrium k theta = m g d cos theta (brentq; the drive is a PD drive to
+    # ctrl 0), its velocity motor left off.
+    from scipy.optimize import brentq
+
+    path = write(tmp_path, """
+<mujoco model="m">
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1" friction="0.8"/>
+    <body name="ball" pos="0 0 1"><freejoint/><geom type="sphere" size="0.1" mass="2"/></body>
+    <body name="arm" pos="2 0 1">
+      <joint name="hinge" type="hinge" axis="0 1 0"/>
+      <geom type="sphere" size="0.05" pos="0.5 0 0" mass="1"/>
+    </body>
+  </worldbody>
+  <actuator><position joint="hinge" kp="200" kv="5"/><motor joint="hinge" gear="1"/></actuator>
+</mujoco>""")
+    world = tb.World(gravity=(0, 0, -G))
+    world.sleeping = False
+    robot = tb.load_mjcf(world, path)
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(480)
+    ball = robot.links["ball"]
+    assert ball.x[2] == pytest.approx(0.1, abs=1e-4) and np.linalg.norm(ball.v) < 1e-3
+    assert world.materials[robot.links["world/floor"].index].friction == 0.8  # the geom's friction
+    assert world.materials[ball.index].friction == 1.0  # MuJoCo's default
+    theta = robot.joint_states(sim)["hinge"][0]
+    # MuJoCo's hinge about +y: a positive angle turns x towards -z, so gravity pushes theta up (positive)
+    expected = brentq(lambda t: 200 * t - 1.0 * G * 0.5 * np.cos(t), 0, 1)
+    assert theta == pytest.approx(expected, abs=1e-4)
+
+
+@pytest.mark.parametrize("body, key, problem", [
+    ('<body><geom type="ellipsoid" size="0.1 0.2 0.3"/></body>', "body[body1].geom[0].type", "unsupported geom type"),
+    ('<body><joint/><joint/><geom size="0.1"/></body>', "body[body1]", "2 joints in one body"),
+    ('<body><joint type="screw"/><geom size="0.1"/></body>', "joint[body1_joint].type", "unknown joint type"),
+    ('<body><joint range="2 1"/><geom size="0.1"/></body>', "joint[body1_joint].range", "wrong way round"),
+    ('<body><joint range="1"/><geom size="0.1"/></body>', "joint[body1_joint].range", "expected 2 numbers"),
+    ('<body><geom type="capsule" size="0.1"/></body>', "body[body1].geom[0].size", "needs 2 size numbers"),
+    ('<body><geom type="mesh" mesh="nope"/></body>', "body[body1].geom[0].mesh", "unknown mesh"),
+    ('<body childclass="nope"><geom size="0.1"/></body>', "body[body1].childclass", "unknown default class"),
+    ('<body><geom class="nope" size="0.1"/></body>', "geom.class", "unknown default class"),
+    ('<body pos="0 0 x"><geom size="0.1"/></body>', "body[body1].pos", "expected numbers"),
+    ('<body quat="0 0 0 0"><geom size="0.1"/></body>', "body[body1].quat", "zero vector"),
+    ('<body euler="0 0 0" quat="1 0 0 0"><geom size="0.1"/></body>', "body[body1]", "one orientation"),
+    ('<body><joint/><geom type="plane" size="1 1 1"/></body>', "body[body1].geom[0]", "<worldbody> geom"),
+    ('<body><joint damping="-1"/><geom size="0.1"/></body>', "joint[body1_joint].damping", ">= 0"),
+    ('<body><joint/></body>', "link[body1]", "mass > 0"),
+])
+def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path, body, key, problem):
+    path = write(tmp_path, f'<mujoco><worldbody>{body}</worldbody></mujoco>')
+    with pytest.raises(tb.InputError) as info:
+        tb.load_mjcf(tb.World(), path)
+    line = str(info.value)
+    assert "\n" not in line and str(path) in line and key in line and problem in line, line
+
+
+@pytest.mark.parametrize("text, problem", [
+    ("<mujoco><worldbody/><equality/></mujoco>", "<equality> constraints are not supported"),
+    ("<mujoco><include file='x.xml'/><worldbody/></mujoco>", "<include> is not supported"),
+    ("<mujoco><worldbody/><tendon/></mujoco>", "<tendon> is not supported"),
+    ("<robot/>", "expected a <mujoco> element"),
+    ("<mujoco><worldbody>", "invalid XML"),
+    ("<mujoco/>", "missing <worldbody>"),
+    ("<mujoco><worldbody><body><joint name='h'/><geom size='0.1'/></body></worldbody>"
+     "<actuator><position joint='x'/></actuator></mujoco>", "unknown joint 'x'"),
+])
+def test_unsupported_or_broken_files_stop_with_one_line(tmp_path, text, problem):
+    path = write(tmp_path, text)
+    with pytest.raises(tb.InputError) as info:
+        tb.load_mjcf(tb.World(), path)
+    line = str(info.value)
+    assert "\n" not in line and problem in line, line
+
+
+def test_a_scene_file_loads_an_mjcf_robot_and_refuses_urdf_options(tmp_path):
+    from tumble.scene import load_scene
+
+    write(tmp_path, CHAIN, "chain.xml")
+    scene = tmp_path / "s.toml"
+    scene.write_text('[[robots]]\nfile = "chain.xml"\njoint_positions = { shoulder = 0.3 }\n')
+    world = load_scene(scene).world
+    assert "chain/upper" in world.names and "chain/lower" in world.names and len(world.joints) == 2
+    scene.write_text('[[robots]]\nfile = "chain.xml"\nfixed_base = true\n')
+    with pytest.raises(tb.InputError) as info:
+        load_scene(scene)
+    assert "robots[0].fixed_base" in str(info.value) and "MJCF" in str(info.value)
