@@ -20,13 +20,18 @@ What maps to what:
   friction (default 1, MuJoCo's; the first colliding geom's when several differ). A geom with
   ``contype = conaffinity = 0`` (a visual geom) has mass but no collision shape. The
   ``<worldbody>``'s own geoms become fixed bodies of their own (the floor).
-- ``<joint>`` (one per body, or none): ``hinge`` a ``HingeJoint`` and ``slide`` a ``SliderJoint`` about
+- ``<joint>``: ``hinge`` a ``HingeJoint`` and ``slide`` a ``SliderJoint`` about
   ``axis`` (default z) through ``pos`` (body frame), with ``range`` limits (``limited`` "true", or
   "auto" with ``<compiler autolimits>`` on, MuJoCo's default: a given range is a limit), ``damping``,
   ``stiffness`` towards ``springref`` (a spring drive) and ``frictionloss`` (a speed-0 motor limited
   to that torque or force); ``ball`` a ``BallJoint`` whose ``range`` upper value is its swing cone;
   ``free`` (or ``<freejoint>``) no joint: the body is free. A body with no joint is welded to
-  its parent (merged into its body; a top-level one is fixed). Joint angles and ``euler`` and
+  its parent (merged into its body; a top-level one is fixed). A body with several joints
+  (MuJoCo composes them, the first nearest the parent): a chain through virtual links of
+  ``VIRTUAL_FRACTION`` of the body's mass and inertia (bodies "MODEL/BODY/JOINT", touching
+  nothing; the parent and the body still do not touch), and ``world.exact_joints`` is set so
+  that the Simulator solves joints exactly by default (the tree method: Gauss-Seidel's soft
+  rows go wrong by tenths of a radian on such light links, measured against MuJoCo). Joint angles and ``euler`` and
   ``axisangle`` angles are degrees unless ``<compiler angle="radian">`` (MuJoCo's default).
   The joint's coordinate is MuJoCo's qpos: zero at the model's pose.
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
@@ -43,7 +48,7 @@ masks other than 0/0 are not mapped. Not read, on purpose and documented (docs/r
 ``solimp``, ``margin``, joint ``armature`` (MuJoCo adds it to the joint's inertia: a model that
 relies on it moves differently), sites, cameras, lights, sensors, keyframes, visual settings.
 Refused with one line: ``<include>``, ``<equality>``, ``<tendon>``, ``<contact><pair>``, ellipsoid,
-hfield and sdf geoms, two or more joints in one body, and unknown joint or geom types.
+hfield and sdf geoms, a free joint beside another joint, and unknown joint or geom types.
 """
 
 from __future__ import annotations
@@ -59,10 +64,14 @@ from . import checks
 from .errors import InputError
 from .math3d import matrix_to_quat, quat_to_matrix
 from .shapes import Box, Capsule, Convex, Cylinder, Plane, Sphere
+from .urdf import balanced_inertia
 from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
 DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
+# the mass and inertia of the virtual link between two joints of one body, as a fraction of the
+# body's (MuJoCo has nothing there; a moving body needs a mass in maximal coordinates)
+VIRTUAL_FRACTION = 1e-3
 GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "mesh")
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
 REFUSED = {"include": "<include> is not supported: merge the included file into this one",
@@ -93,6 +102,7 @@ class MjcfModel:
     drives: dict = field(default_factory=dict)
     excluded: list = field(default_factory=list)
     frictions: dict = field(default_factory=dict)  # link name: friction of its colliding geoms
+    virtual: list = field(default_factory=list)  # the links between two joints of one body
 
 
 # ---------------------------------------------------------------------- numbers and frames
@@ -310,9 +320,11 @@ def _read(path: Path) -> MjcfModel:
         raise InputError(f"invalid XML: {exc}", None) from None
     if root.tag != "mujoco":
         raise InputError(f"expected a <mujoco> element at the top, got <{root.tag}>", None)
-    for tag, problem in REFUSED.items():
-        if root.find(tag) is not None or root.find(f".//{tag}") is not None:
-            raise InputError(problem, tag)
+    if root.find(".//include") is not None:
+        raise InputError(REFUSED["include"], "include")
+    for tag in ("equality", "tendon"):  # an empty one (a <default>'s <tendon/>) constrains nothing
+        if any(len(e) for e in root.findall(tag)):
+            raise InputError(REFUSED[tag], tag)
     reader = _Reader(root, path)
     meshes = _meshes(reader, root)
     out = MjcfModel(UrdfModel(root.get("model") or path.stem, {"world": UrdfLink("world")}, [], "world", str(path)))
@@ -346,7 +358,7 @@ def _read(path: Path) -> MjcfModel:
 
 
 def _check_tag(child, where: str):
-    if child.tag in REFUSED:
+    if child.tag == "include":
         raise InputError(REFUSED[child.tag], f"{where}.{child.tag}")
 
 
@@ -367,17 +379,11 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
     position = position - shift
     for child in element:
         _check_tag(child, key)
-    joints = [j for j in element if j.tag in ("joint", "freejoint")]
-    if len(joints) > 1:
-        raise InputError(f"{len(joints)} joints in one body are not supported (one hinge, slide, ball or free joint)",
-                         key)
     link = UrdfLink(name)
-    anchor = np.zeros(3)
-    joint = None
-    if joints:
-        je = joints[0]
+    specs = []  # (joint name, key, kind, attributes, anchor (3,) body frame)
+    for je in (j for j in element if j.tag in ("joint", "freejoint")):
         a = reader.attributes(je, cls) if je.tag == "joint" else {"type": "free", **je.attrib}
-        jname = a.get("name") or f"{name}_joint"
+        jname = a.get("name") or f"{name}_joint{len(specs) if specs else ''}"
         jkey = f"joint[{jname}]"
         if jname in joint_names:
             raise InputError("duplicate joint name", jkey)
@@ -385,17 +391,35 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
         kind = a.get("type", "hinge")
         if kind not in JOINT_TYPES:
             raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(JOINT_TYPES)})", f"{jkey}.type")
-        if kind != "free":
-            anchor = _floats(a.get("pos", "0 0 0"), f"{jkey}.pos", (3,))
-        joint = _joint(reader, a, jname, jkey, kind, parent, name)
-    # the link frame: the body frame moved to the joint's anchor (a URDF joint turns about its child's origin)
-    joint_origin = (position + R @ anchor, R)
-    if joint is None:
-        joint = UrdfJoint(f"{name}_weld", "fixed", parent, name, joint_origin, np.array([1.0, 0.0, 0.0]))
-    else:
-        joint.origin = joint_origin
-    out.model.joints.append(joint)
+        anchor = np.zeros(3) if kind == "free" else _floats(a.get("pos", "0 0 0"), f"{jkey}.pos", (3,))
+        specs.append((jname, jkey, kind, a, anchor))
+    if len(specs) > 1 and any(kind == "free" for _, _, kind, _, _ in specs):
+        raise InputError("a free joint must be its body's only joint", key)
+    anchor = specs[-1][4] if specs else np.zeros(3)
     _mass_and_shapes(reader, element, cls, key, anchor, link, out, meshes)
+    # several joints in one body (MuJoCo composes them, the first nearest the parent, with nothing
+    # between): a chain of links, each joint's child a virtual link of VIRTUAL_FRACTION of the body's
+    # mass and inertia, the last joint's child the body. Its frame: the body frame moved to the
+    # joint's anchor (a URDF joint turns about its child's origin).
+    previous, previous_anchor = parent, None
+    if not specs:
+        out.model.joints.append(UrdfJoint(f"{name}_weld", "fixed", parent, name, (position, R),
+                                          np.array([1.0, 0.0, 0.0])))
+    for k, (jname, jkey, kind, a, at) in enumerate(specs):
+        child = name if k == len(specs) - 1 else f"{name}/{jname}"
+        joint = _joint(reader, a, jname, jkey, kind, previous, child)
+        joint.origin = (position + R @ at, R) if previous_anchor is None else (at - previous_anchor, np.eye(3))
+        out.model.joints.append(joint)
+        if child != name:
+            if link.mass <= 0.0:
+                raise InputError("a body with several joints needs a mass", key)
+            virtual = UrdfLink(child, mass=VIRTUAL_FRACTION * link.mass,
+                               inertia=VIRTUAL_FRACTION * balanced_inertia(link.inertia))
+            out.model.links[child] = virtual
+            out.virtual.append(child)
+        previous, previous_anchor = child, at
+    if len(specs) > 1:  # MuJoCo's parent-child rule, across the virtual links
+        out.excluded.append((parent, name))
     out.model.links[name] = link
     for b in element.findall("body"):
         _body(reader, b, name, cls, anchor, out, meshes, names, joint_names, counter)
@@ -553,6 +577,8 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
                         fixed_base=True, merge_fixed=True, self_collision=self_collision,
                         joint_positions=joint_positions, material=material, collision_filter=collision_filter,
                         name=name, inertia=inertia, joint_motors=joint_motors, joint_targets=targets or None)
+    if parsed.virtual:  # light links between the joints of one body: the Simulator solves joints exactly
+        world.exact_joints = True
     base_p, base_R = robot.link_pose("world")
     for s in parsed.statics:
         body_material = material if material is not None else Material(friction=s.friction)

@@ -115,6 +115,12 @@ class Simulator:
         self.soft_step = None  # SoftStep: collision pipeline + contact solver, made on first use
         self.sleep = None  # solver.island.SleepState, made on the first step with contacts
         self.record_contacts = bool(record_contacts)
+        if joint_settings is None and getattr(world, "exact_joints", False):
+            # light virtual links between joints (tumble.mjcf): Gauss-Seidel's soft rows leave errors of
+            # tenths of a radian there (measured against MuJoCo), the exact tree solve converges
+            from .solver.joints import ACCURATE
+
+            joint_settings = ACCURATE
         self.joint_settings = joint_settings  # tumble.solver.joints.JointSettings, or None for its defaults
         self.record_joints = bool(record_joints)
         # begin and end touch events, step by step, when asked for (solver.contact_events)

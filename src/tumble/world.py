@@ -101,6 +101,9 @@ class World:
         self.materials: list[Material] = []
         self.collision_filters: list[CollisionFilter] = []  # per body (collision/filter.py)
         self.excluded_collisions: set[tuple[int, int]] = set()  # (lo, hi) body rows that never touch
+        # True when a body hangs between two joints with next to no mass (an MJCF body with several
+        # joints, tumble.mjcf): the Simulator then solves joints exactly by default (the tree method)
+        self.exact_joints = False
         self.filter_version = 0  # bumped when either changes: the collision pipeline rereads them
         self.forces: list[Any] = []
         self.joints: list[Any] = []  # joint records of tumble.joints, bound (add_joint)
