@@ -271,6 +271,8 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
         raise err.within(key) from None
     collides = not (a.get("contype", "1") == "0" and a.get("conaffinity", "1") == "0")
     friction = float(_floats(a["friction"], f"{key}.friction", (1, 2, 3))[0]) if "friction" in a else DEFAULT_FRICTION
+    if friction < 0:
+        raise InputError(f"must be >= 0, got {friction:g}", f"{key}.friction")
     return shape, position, R, collides, friction
 
 
@@ -336,6 +338,8 @@ def _read(path: Path) -> MjcfModel:
     for k, g in enumerate(worldbody.findall("geom")):
         a = reader.attributes(g, "main")
         name = a.get("name", f"geom{k}")
+        if any(s.name == name for s in out.statics):
+            raise InputError("duplicate geom name", f"worldbody.geom[{name}]")
         shape, position, R, collides, friction = _geom(reader, a, f"worldbody.geom[{name}]", meshes)
         if collides:
             out.statics.append(MjcfStatic(name, shape, position, R, friction))
@@ -533,6 +537,9 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
                 raise InputError("a gear other than 1 is not supported", f"{key}.gear")
             kp = float(_floats(a.get("kp", "1"), f"{key}.kp", (1,))[0])
             kv = float(_floats(a.get("kv", "0"), f"{key}.kv", (1,))[0])
+            for k, value in (("kp", kp), ("kv", kv)):
+                if value < 0:
+                    raise InputError(f"must be >= 0, got {value:g}", f"{key}.{k}")
             limit = math.inf
             if "forcerange" in a and a.get("forcelimited", "auto") != "false":
                 lo, hi = _floats(a["forcerange"], f"{key}.forcerange", (2,))
@@ -563,7 +570,6 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         InputError: a bad file or argument, one line (file, element, problem).
     """
     from .material import Material
-    from .urdf import build_robot
 
     parsed = read_mjcf(path)
     model = parsed.model
@@ -573,6 +579,20 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     targets = {j: {"position": 0.0, "stiffness": kp, "damping": kv, **({} if math.isinf(limit) else {"max_force": limit})}
                for j, (kp, kv, limit) in parsed.drives.items()}
     targets.update(joint_targets or {})
+    try:
+        return _build(world, parsed, material, targets, position=position, orientation=orientation,
+                      euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
+                      collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors)
+    except InputError as err:
+        raise err if err.file else err.within(None, str(path)) from None
+
+
+def _build(world, parsed: MjcfModel, material, targets, *, position, orientation, euler_deg, self_collision,
+           joint_positions, collision_filter, name, inertia, joint_motors):
+    from .material import Material
+    from .urdf import build_robot
+
+    model = parsed.model
     robot = build_robot(world, model, position=position, orientation=orientation, euler_deg=euler_deg,
                         fixed_base=True, merge_fixed=True, self_collision=self_collision,
                         joint_positions=joint_positions, material=material, collision_filter=collision_filter,
