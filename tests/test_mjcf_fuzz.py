@@ -5,7 +5,6 @@ The base file has every element tumble reads (default classes, every orientation
 mesh asset, each joint type, several joints in one body, an inertial, actuators, an exclude)."""
 
 import warnings
-import xml.etree.ElementTree as ET
 
 import pytest
 from hypothesis import given, settings
@@ -14,7 +13,7 @@ from hypothesis import strategies as st
 import tumble as tb
 from tumble.errors import InputError
 
-from .test_urdf_fuzz import SETTINGS, values
+from .test_urdf_fuzz import SETTINGS, mutate
 
 BASE = """<mujoco model="fuzz">
   <compiler angle="degree" eulerseq="xyz" autolimits="true"/>
@@ -51,31 +50,8 @@ BASE = """<mujoco model="fuzz">
 
 
 def mutated(data) -> str:
-    root = ET.fromstring(BASE)
-    elements = list(root.iter())
-    attributes = [(e.tag, a) for e in elements for a in e.attrib]
-    for _ in range(data.draw(st.integers(1, 4))):
-        kind = data.draw(st.sampled_from(["attribute", "drop", "repeat", "new attribute"]))
-        if kind == "attribute":
-            tag, attr = attributes[data.draw(st.integers(0, len(attributes) - 1))]
-            candidates = [e for e in elements if e.tag == tag and attr in e.attrib]
-            if candidates:
-                candidates[data.draw(st.integers(0, len(candidates) - 1))].set(attr, data.draw(values))
-        elif kind == "new attribute":
-            e = elements[data.draw(st.integers(0, len(elements) - 1))]
-            e.set(data.draw(st.sampled_from(["name", "pos", "quat", "euler", "size", "type", "class", "range",
-                                             "fromto", "mass", "axis", "joint", "limited", "zaxis"])),
-                  data.draw(values))
-        else:
-            parent = elements[data.draw(st.integers(0, len(elements) - 1))]
-            if len(parent):
-                child = parent[data.draw(st.integers(0, len(parent) - 1))]
-                if kind == "drop":
-                    parent.remove(child)
-                else:
-                    parent.append(child)
-        elements = list(root.iter())
-    return ET.tostring(root, encoding="unicode")
+    return mutate(data, BASE, ["name", "pos", "quat", "euler", "size", "type", "class", "range", "fromto", "mass",
+                               "axis", "joint", "limited", "zaxis"])
 
 
 @pytest.fixture(scope="module")

@@ -50,9 +50,6 @@ BASE = """<?xml version="1.0"?>
 </robot>
 """
 
-ATTRIBUTES = [(e, a) for e in ET.fromstring(BASE).iter() for a in e.attrib]
-ELEMENTS = [e for e in ET.fromstring(BASE).iter()]
-
 values = st.one_of(
     st.sampled_from(["", " ", "0", "-1", "1e300", "-1e-300", "nan", "inf", "-inf", "1 2", "1 2 3", "1 2 3 4", "1, 2, 3",
                      "a b c", "world", "upper", "lower", "tip", "cart", "revolute", "continuous", "prismatic", "fixed",
@@ -63,21 +60,22 @@ values = st.one_of(
 )
 
 
-def mutated(data) -> str:
-    root = ET.fromstring(BASE)
+def mutate(data, base: str, new_attributes) -> str:
+    """``base`` XML with 1 to 4 random changes: an attribute given a value, a new attribute (one of
+    ``new_attributes``), an element dropped or repeated (also the MJCF fuzz's)."""
+    root = ET.fromstring(base)
     elements = list(root.iter())
+    attributes = [(e.tag, a) for e in elements for a in e.attrib]
     for _ in range(data.draw(st.integers(1, 4))):
         kind = data.draw(st.sampled_from(["attribute", "drop", "repeat", "new attribute"]))
         if kind == "attribute":
-            index = data.draw(st.integers(0, len(ATTRIBUTES) - 1))
-            tag, attr = ATTRIBUTES[index]
-            candidates = [e for e in elements if e.tag == tag.tag and attr in e.attrib]
+            tag, attr = attributes[data.draw(st.integers(0, len(attributes) - 1))]
+            candidates = [e for e in elements if e.tag == tag and attr in e.attrib]
             if candidates:
                 candidates[data.draw(st.integers(0, len(candidates) - 1))].set(attr, data.draw(values))
         elif kind == "new attribute":
             e = elements[data.draw(st.integers(0, len(elements) - 1))]
-            e.set(data.draw(st.sampled_from(["name", "value", "xyz", "rpy", "size", "radius", "type", "link"])),
-                  data.draw(values))
+            e.set(data.draw(st.sampled_from(new_attributes)), data.draw(values))
         else:
             parent = elements[data.draw(st.integers(0, len(elements) - 1))]
             if len(parent):
@@ -88,6 +86,10 @@ def mutated(data) -> str:
                     parent.append(child)
         elements = list(root.iter())
     return ET.tostring(root, encoding="unicode")
+
+
+def mutated(data) -> str:
+    return mutate(data, BASE, ["name", "value", "xyz", "rpy", "size", "radius", "type", "link"])
 
 
 @pytest.fixture(scope="module")

@@ -139,9 +139,12 @@ def mass_properties(shape, mass=None, density=None) -> MassProperties:
     }
     if type(shape) not in volume_of:
         raise InputError(f"cannot compute mass properties of {type(shape).__name__}", "shape")
-    if mass is None:
-        mass = density * volume_of[type(shape)](shape)
-    return _primitive_mass_properties(shape, mass)
+    try:
+        if mass is None:
+            mass = density * volume_of[type(shape)](shape)
+        return _primitive_mass_properties(shape, mass)
+    except OverflowError:  # Python's float power raises where NumPy would give inf (a 1e300 m radius)
+        raise InputError("the shape is too large: its volume or inertia overflows a float", "shape") from None
 
 
 def _primitive_mass_properties(shape, m: float) -> MassProperties:

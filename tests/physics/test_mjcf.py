@@ -79,6 +79,19 @@ def mujoco_bodies(path):
     return bodies, joints
 
 
+def mujoco_motion(path, q0, samples=20, sample=0.05):
+    """(joint names, qpos (samples, n) every ``sample`` s) of MuJoCo stepping the file from qpos q0
+    (its <option>: RK4 at dt 1/4000 s in these models)."""
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.qpos[:] = q0
+    qpos = []
+    for _ in range(samples):
+        mujoco.mj_step(m, d, nstep=int(round(sample / m.opt.timestep)))
+        qpos.append(d.qpos.copy())
+    return [m.joint(j).name for j in range(m.njnt)], np.array(qpos)
+
+
 def combined(parts):
     """Mass, centre and inertia about it of (mass, centre, inertia) parts (parallel-axis theorem)."""
     mass = sum(p[0] for p in parts)
@@ -147,15 +160,8 @@ def test_a_chain_swings_as_mujoco_rk4_says(tmp_path):
     # Tolerance about twice the measured error. A wrong mass property or joint frame moves the elbow
     # by more than 1e-2 rad within the second.
     path = write(tmp_path, CHAIN)
-    m = mujoco.MjModel.from_xml_path(str(path))
-    d = mujoco.MjData(m)
-    d.qpos[:] = (0.6, -0.4)
+    _, ref = mujoco_motion(path, (0.6, -0.4))
     sample = 0.05
-    ref = []
-    for _ in range(20):
-        mujoco.mj_step(m, d, nstep=int(round(sample / m.opt.timestep)))
-        ref.append(d.qpos.copy())
-    ref = np.array(ref)
     errors = []
     for dt, settings in ((1 / 240, ACCURATE), (1 / 960, ACCURATE), (1 / 240, None)):
         world = tb.World(gravity=(0, 0, -G))
@@ -294,16 +300,8 @@ def test_bodies_with_several_joints_move_as_mujoco_says_with_the_exact_joint_sol
     # dt 1/240, the cart's joints within 0.01; tolerance 2x. First order where the motion is smooth
     # (the cart's pitch: 1.0e-2 -> 4.3e-3 rad at dt 1/960).
     path = write(tmp_path, PLANAR)
-    m = mujoco.MjModel.from_xml_path(str(path))
-    d = mujoco.MjData(m)
     q0 = np.array([0.05, -0.02, 0.3, 0.2, -0.4])
-    d.qpos[:] = q0
-    names = [m.joint(j).name for j in range(m.njnt)]
-    ref = []
-    for _ in range(20):
-        mujoco.mj_step(m, d, nstep=200)
-        ref.append(d.qpos.copy())
-    ref = np.array(ref)
+    names, ref = mujoco_motion(path, q0)
     errors = []
     for dt in (1 / 240, 1 / 960):
         world = tb.World(gravity=(0, 0, -G))
