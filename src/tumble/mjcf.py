@@ -47,7 +47,8 @@ masks other than 0/0 are not mapped. Not read, on purpose and documented (docs/r
 ``<option>`` (set the World's gravity and the Simulator's dt yourself), ``condim``, ``solref``,
 ``solimp``, ``margin``, joint ``armature`` (MuJoCo adds it to the joint's inertia: a model that
 relies on it moves differently), sites, cameras, lights, sensors, keyframes, visual settings.
-Refused with one line: ``<include>``, ``<equality>``, ``<tendon>``, ``<contact><pair>``, ellipsoid,
+Refused with one line: ``<include>``, ``<equality>``, ``<tendon>``, ``<contact><pair>``, ``<frame>``,
+``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
 hfield and sdf geoms, a free joint beside another joint, and unknown joint or geom types.
 """
 
@@ -77,8 +78,8 @@ JOINT_TYPES = ("hinge", "slide", "ball", "free")
 REFUSED = {"include": "<include> is not supported: merge the included file into this one",
            "equality": "<equality> constraints are not supported",
            "tendon": "<tendon> is not supported"}
-# elements of <worldbody>/<body> that carry nothing tumble simulates
-IGNORED_IN_BODY = ("site", "camera", "light", "plugin", "composite", "flexcomp", "attach", "frame")
+# elements of <worldbody>/<body> that make bodies or geoms of their own: refused, not dropped without a word
+GENERATORS = ("frame", "replicate", "composite", "flexcomp", "attach")
 
 
 @dataclass
@@ -362,8 +363,8 @@ def _read(path: Path) -> MjcfModel:
 
 
 def _check_tag(child, where: str):
-    if child.tag == "include":
-        raise InputError(REFUSED[child.tag], f"{where}.{child.tag}")
+    if child.tag in GENERATORS:
+        raise InputError(f"<{child.tag}> is not supported (write its bodies and geoms out)", f"{where}.{child.tag}")
 
 
 def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfModel, meshes, names, joint_names,

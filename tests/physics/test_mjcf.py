@@ -244,6 +244,8 @@ def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path,
     ("<robot/>", "expected a <mujoco> element"),
     ("<mujoco><worldbody>", "invalid XML"),
     ("<mujoco/>", "missing <worldbody>"),
+    ("<mujoco><worldbody><body><frame pos='1 0 0'><geom size='0.1'/></frame></body></worldbody></mujoco>",
+     "<frame> is not supported"),
     ("<mujoco><worldbody><body><joint name='h'/><geom size='0.1'/></body></worldbody>"
      "<actuator><position joint='x'/></actuator></mujoco>", "unknown joint 'x'"),
 ])
