@@ -179,7 +179,8 @@ def joint_substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_
     with its contact stages empty, the same kernels in the same order (so the same bits).
 
     PERF: a robot arm alone spent most of its step in Python between a dozen kernel calls per
-    substep (the two-link arm: 111 us a step against PyBullet's 3 us; 80 us fused). The world's
+    substep (the two-link arm: 111 us a step against PyBullet's 3 us; 85 us fused, benchmarks/urdf_robots.py,
+    the rest Python around the step). The world's
     forces are the compiled ones (``forces``: ``accumulate_forces_kernel``'s tables, gravity,
     built-in forces, springs; the caller takes the Python loop when there are custom forces);
     F, T (N, 3) hold the first substep's forces on entry. ``joints``: ``JointSolver``'s tables
