@@ -34,6 +34,8 @@ What maps to what:
   rows go wrong by tenths of a radian on such light links, measured against MuJoCo). Joint angles and ``euler`` and
   ``axisangle`` angles are degrees unless ``<compiler angle="radian">`` (MuJoCo's default).
   The joint's coordinate is MuJoCo's qpos: zero at the model's pose.
+- ``<compiler inertiafromgeom>``: "auto" (the default: the ``<inertial>`` where there is one),
+  "true" (the geoms' where the body has any), "false" (never).
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
   their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair.
 - ``<actuator><position joint kp kv forcerange>``: a PD drive to 0 (ctrl 0) on that joint
@@ -161,6 +163,10 @@ class _Reader:
         if len(self.eulerseq) != 3 or any(ch not in "xyzXYZ" for ch in self.eulerseq):
             raise InputError(f"expected three of x, y, z (X, Y, Z), got {self.eulerseq!r}", "compiler.eulerseq")
         self.autolimits = c.get("autolimits", "true") == "true"
+        # "auto": a body's <inertial> if it has one, else its geoms'; "true": always the geoms'; "false": never
+        self.inertiafromgeom = c.get("inertiafromgeom", "auto")
+        if self.inertiafromgeom not in ("auto", "true", "false"):
+            raise InputError(f"expected auto, true or false, got {self.inertiafromgeom!r}", "compiler.inertiafromgeom")
         self.meshdir = path.parent / c.get("meshdir", c.get("assetdir", ""))
         self.classes: dict[str, tuple] = {}  # name: (parent name or None, {tag: attributes})
         for d in root.findall("default"):
@@ -496,7 +502,7 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
     if frictions:
         out.frictions[link.name] = frictions[0]
     inertial = element.find("inertial")
-    if inertial is not None:
+    if inertial is not None and not (reader.inertiafromgeom == "true" and terms):
         ikey = f"{key}.inertial"
         a = inertial.attrib
         if "mass" not in a:
@@ -513,7 +519,7 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
         link.center = position - anchor
         link.inertia = R @ I @ R.T
         return
-    mass = sum(m for m, _, _ in terms)
+    mass = sum(m for m, _, _ in terms) if reader.inertiafromgeom != "false" else 0.0
     if mass <= 0.0:
         return  # massless: welded into its parent, or an error if it moves (the builder's)
     center = sum(m * c for m, c, _ in terms) / mass

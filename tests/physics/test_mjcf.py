@@ -101,11 +101,16 @@ def combined(parts):
     return mass, centre, inertia
 
 
-def test_mass_properties_and_joint_frames_match_mujocos_compiled_model(tmp_path):
+@pytest.mark.parametrize("eulerseq, inertiafromgeom", [("xyz", "auto"), ("ZYX", "auto"), ("zxz", "auto"), ("XzY", "auto"),
+                                                      ("xyz", "true")])
+def test_mass_properties_and_joint_frames_match_mujocos_compiled_model(tmp_path, eulerseq, inertiafromgeom):
     # Tolerances: both sides compute the same closed forms in double precision (1e-12 relative for
     # masses and positions; 1e-10 for inertias, summed from several parts). A misread default, class,
     # angle unit (degrees here), orientation form or fromto frame is off by percents.
-    path = write(tmp_path, MODEL)
+    # (each Euler sequence: lowercase axes turn with the frame, uppercase stay fixed, as MuJoCo's)
+    path = write(tmp_path, MODEL.replace('<mujoco model="parts">',
+                                         f'<mujoco model="parts"><compiler eulerseq="{eulerseq}" '
+                                         f'inertiafromgeom="{inertiafromgeom}"/>'))
     ref, ref_joints = mujoco_bodies(path)
     world = tb.World(gravity=(0, 0, -G))
     robot = tb.load_mjcf(world, path)
