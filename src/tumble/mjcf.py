@@ -57,7 +57,6 @@ hfield and sdf geoms, a free joint beside another joint, and unknown joint or ge
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -68,7 +67,7 @@ from .errors import InputError
 from .math3d import matrix_to_quat, quat_to_matrix
 from .shapes import Box, Capsule, Convex, Cylinder, Plane, Sphere
 from .urdf import balanced_inertia
-from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
+from .urdf_read import UrdfJoint, UrdfLink, UrdfModel, read_xml
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
 DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
@@ -320,15 +319,7 @@ def read_mjcf(path) -> MjcfModel:
 
 
 def _read(path: Path) -> MjcfModel:
-    if not path.is_file():
-        raise InputError("MJCF file not found", None)
-    checks.check_memory(path.stat().st_size * checks.FILE_EXPANSION, f"reading the MJCF file {path}", None, str(path))
-    try:
-        root = ET.fromstring(path.read_bytes().lstrip())
-    except ET.ParseError as exc:
-        raise InputError(f"invalid XML: {exc}", None) from None
-    if root.tag != "mujoco":
-        raise InputError(f"expected a <mujoco> element at the top, got <{root.tag}>", None)
+    root = read_xml(path, "MJCF", "mujoco")
     if root.find(".//include") is not None:
         raise InputError(REFUSED["include"], "include")
     for tag in ("equality", "tendon"):  # an empty one (a <default>'s <tendon/>) constrains nothing

@@ -129,17 +129,24 @@ def read_urdf(path, package_dirs=()) -> UrdfModel:
         raise err.within(None, file) from None
 
 
-def _read(path: Path, package_dirs) -> UrdfModel:
+def read_xml(path: Path, kind: str, top: str):
+    """The root element of the XML file ``path`` (a ``kind`` file: "URDF", "MJCF"), checked: the file
+    exists, fits in memory, parses, and its top element is ``<top>``. Raises InputError (no key)."""
     if not path.is_file():
-        raise InputError("URDF file not found", None)
-    checks.check_memory(path.stat().st_size * checks.FILE_EXPANSION, f"reading the URDF file {path}", None, str(path))
+        raise InputError(f"{kind} file not found", None)
+    checks.check_memory(path.stat().st_size * checks.FILE_EXPANSION, f"reading the {kind} file {path}", None, str(path))
     try:
         # leading blank lines before <?xml ...?> are an XML error that Bullet's parser forgives
         root = ET.fromstring(path.read_bytes().lstrip())
     except ET.ParseError as exc:
         raise InputError(f"invalid XML: {exc}", None) from None
-    if root.tag != "robot":
-        raise InputError(f"expected a <robot> element at the top, got <{root.tag}>", None)
+    if root.tag != top:
+        raise InputError(f"expected a <{top}> element at the top, got <{root.tag}>", None)
+    return root
+
+
+def _read(path: Path, package_dirs) -> UrdfModel:
+    root = read_xml(path, "URDF", "robot")
     links: dict[str, UrdfLink] = {}
     for element in root.findall("link"):
         link = _link(element, path, package_dirs)
