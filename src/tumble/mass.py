@@ -179,6 +179,25 @@ def _quat_matrix(q) -> np.ndarray:
     ])
 
 
+def combine_mass_properties(terms) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass kg, centre (3,), inertia (3, 3) about that centre) of parts given as (mass, centre (3,),
+    inertia (3, 3) about its own centre), all in one frame: the parallel-axis theorem. No parts (or
+    no mass): (0.0, zeros, zeros). For robot links merged into one body (URDF fixed joints, MJCF
+    geoms and welded bodies)."""
+    mass, moment = 0.0, np.zeros(3)
+    for m, c, _ in terms:
+        mass += m
+        moment += m * c
+    if mass <= 0.0:
+        return 0.0, np.zeros(3), np.zeros((3, 3))
+    center = moment / mass
+    inertia = np.zeros((3, 3))
+    for m, c, I in terms:
+        d = c - center
+        inertia += I + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return mass, center, inertia
+
+
 def _compound_mass_properties(shape, mass: float | None, density: float | None) -> MassProperties:
     """Sum of the parts at one uniform density (``mass`` given: spread by volume).
 

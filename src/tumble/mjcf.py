@@ -467,7 +467,7 @@ def _joint(reader, a, jname, jkey, kind, parent, child) -> UrdfJoint:
 
 def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: MjcfModel, meshes):
     """The link's collision parts and mass properties (link frame: the body frame less ``anchor``)."""
-    from .mass import mass_properties
+    from .mass import combine_mass_properties, mass_properties
 
     terms = []  # (mass, centre, inertia about the centre) in the link frame
     frictions = []
@@ -510,15 +510,11 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
         link.center = position - anchor
         link.inertia = R @ I @ R.T
         return
-    mass = sum(m for m, _, _ in terms) if reader.inertiafromgeom != "false" else 0.0
-    if mass <= 0.0:
+    if reader.inertiafromgeom == "false":
         return  # massless: welded into its parent, or an error if it moves (the builder's)
-    center = sum(m * c for m, c, _ in terms) / mass
-    inertia = np.zeros((3, 3))
-    for m, c, I in terms:  # parallel-axis theorem about the combined centre
-        d = c - center
-        inertia += I + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
-    link.mass, link.center, link.inertia = float(mass), center, inertia
+    mass, center, inertia = combine_mass_properties(terms)
+    if mass > 0.0:
+        link.mass, link.center, link.inertia = float(mass), center, inertia
 
 
 def _actuators(reader, root, out: MjcfModel, joint_names):

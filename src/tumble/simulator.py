@@ -115,7 +115,7 @@ class Simulator:
         self.soft_step = None  # SoftStep: collision pipeline + contact solver, made on first use
         self.sleep = None  # solver.island.SleepState, made on the first step with contacts
         self.record_contacts = bool(record_contacts)
-        if joint_settings is None and getattr(world, "exact_joints", False):
+        if joint_settings is None and world.exact_joints:
             # light virtual links between joints (tumble.mjcf): Gauss-Seidel's soft rows leave errors of
             # tenths of a radian there (measured against MuJoCo), the exact tree solve converges
             from .solver.joints import ACCURATE

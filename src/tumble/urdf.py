@@ -56,6 +56,7 @@ from .errors import InputError
 from .joints import BallJoint, FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P_MAX_DRIVE, P_MAX_MOTOR, P_MOTOR_ON, \
     P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
 from .material import Material
+from .mass import combine_mass_properties
 from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
 from .shapes import Compound, Plane, Sphere, finite_vector
 from .urdf_read import (  # noqa: F401  (the reader's names, public here too)
@@ -471,7 +472,7 @@ def _tree_order(model: UrdfModel) -> list:
 def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, material, collision_filter):
     """One body for the links ``members`` (the first its own link): shape parts and mass
     properties combined in the first link's frame."""
-    parts, mass, moment, inertia_terms = [], 0.0, np.zeros(3), []
+    parts, inertia_terms = [], []
     for link_name in members:
         link = model.links[link_name]
         p, R = link_frames[link_name]
@@ -479,8 +480,6 @@ def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, 
             parts.append((shape, p + R @ position, matrix_to_quat(np.ascontiguousarray(R @ rotation)), link.material))
         if link.mass > 0.0:
             c = p + R @ link.center
-            mass += link.mass
-            moment += link.mass * c
             inertia_terms.append((link.mass, c, R @ link.inertia @ R.T))
     key = f"link[{members[0]}]"
     filt = collision_filter
@@ -502,13 +501,9 @@ def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, 
         shape = Compound(parts)
     kwargs = {}
     if not fixed:
+        mass, center, inertia = combine_mass_properties(inertia_terms)
         if mass <= 0.0:
             raise InputError("a link that moves needs an <inertial> with a mass > 0", key, model.source)
-        center = moment / mass
-        inertia = np.zeros((3, 3))
-        for m, c, I in inertia_terms:  # parallel-axis theorem about the combined centre
-            d = c - center
-            inertia += I + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
         kwargs = dict(mass=mass, center_of_mass=center, inertia=inertia)
     try:
         return world.add_body(shape, position=frame[0], orientation=matrix_to_quat(np.ascontiguousarray(frame[1])),

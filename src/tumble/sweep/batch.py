@@ -64,7 +64,7 @@ def batch_key(scene):
         return None
     if w.kinematic.any():  # kinematic bodies are stepped one step at a time, paths by body row
         return None
-    if getattr(w, "exact_joints", False):  # MJCF virtual links: its own Simulator picks the tree solve
+    if w.exact_joints:  # MJCF virtual links: its own Simulator picks the tree solve
         return None
     impulse_steps = tuple(sorted({int(np.ceil(f.time / scene.dt - 1e-9)) for f in w.forces if isinstance(f, Impulse)}))
     return (
