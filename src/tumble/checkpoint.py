@@ -34,8 +34,9 @@ import numpy as np
 from . import __version__, checks
 from .errors import InputError, SimulationError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring
-from .joints import JOINT_CLASSES, JOINT_TYPES, PARAM_COUNT, BoundJoint
+from .joints import JOINT_CLASSES, JOINT_TYPES, PARAM_COUNT, PARAM_COUNT_V1, BoundJoint
 from .solver.contact import SoftStepSettings
+from .solver.joint_solve import AXIAL_COUNT_V1
 from .solver.joints import JointSettings
 from .shapes import shape_from_dict, shape_to_dict
 from .trajectory import write_atomic
@@ -71,7 +72,7 @@ JOINT_SOLVER_STATE = ("enabled", "linear_impulse", "angular_impulse", "axial_imp
 # array must go in one of the two lists (tests/test_reliability_joints.py checks).
 JOINT_SOLVER_REBUILT = ("joint_type", "joint_a", "joint_b", "local_a", "local_b", "frame_a", "frame_b",
                         "gauss_seidel", "node_joint", "node_body", "node_parent", "node_order",
-                        "inv_mass", "I_inv", "soft_bias", "soft_relax")
+                        "inv_mass", "I_inv", "soft_bias", "soft_relax", "rate0")
 # fields of a joint record that are not constructor arguments: kept apart in the meta
 JOINT_STATE_FIELDS = ("bound", "broken")
 
@@ -157,6 +158,8 @@ def _joint_from_dict(world, record, key: str):
             a = np.array(bound.get(name), dtype=float)
         except (TypeError, ValueError):
             a = None
+        if name == "param" and a is not None and a.shape == (PARAM_COUNT_V1,):
+            a = np.concatenate([a, np.zeros(PARAM_COUNT - PARAM_COUNT_V1)])  # older: no effort, no armature
         # param may hold inf (no limit, no force cap); anchors and frames may not
         if a is None or a.shape != shape or np.isnan(a).any() or (name != "param" and not np.isfinite(a).all()):
             raise InputError(f"expected {'x'.join(map(str, shape))} finite numbers", f"{key}.bound.{name}")
@@ -320,6 +323,10 @@ def _restore_joint_solver(sim, state: dict):
     for name in JOINT_SOLVER_STATE:
         target = getattr(solver, name)
         saved = state[name]
+        old_columns = {"param": PARAM_COUNT_V1, "axial_impulse": AXIAL_COUNT_V1}.get(name)
+        if old_columns is not None and saved.ndim == 2 and saved.shape == (target.shape[0], old_columns):
+            # a checkpoint of an older version: its joints had no effort, armature or armature impulse
+            saved = np.concatenate([saved, np.zeros((saved.shape[0], target.shape[1] - old_columns))], axis=1)
         if saved.shape != target.shape or saved.dtype.kind != target.dtype.kind:
             raise InputError(f"joint solver array {name!r} is {saved.dtype}{list(saved.shape)}, "
                              f"expected {target.dtype}{list(target.shape)}")

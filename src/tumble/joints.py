@@ -40,7 +40,14 @@ P_STIFFNESS, P_DAMPING, P_TARGET, P_MAX_DRIVE, P_MAX_FORCE, P_MAX_TORQUE, P_RIGI
 # the second angular coordinate of a joint: a ball joint's twist, a universal joint's angle
 # about axis_b (limits, and a motor on the universal joint)
 P_LOWER2, P_UPPER2, P_LIMIT2_ON, P_MOTOR2_ON, P_MOTOR2_SPEED, P_MAX_MOTOR2 = 13, 14, 15, 16, 17, 18
-PARAM_COUNT = 19
+# the 1-D coordinate's applied effort (a hinge's torque N m, a slider's force N: PyBullet's
+# TORQUE_CONTROL, MuJoCo's motor actuator) and its armature (kg m^2 or kg: MuJoCo's joint
+# armature, a rotor's inertia added to the coordinate's own)
+P_EFFORT, P_ARMATURE = 19, 20
+PARAM_COUNT = 21
+# the columns a parameter row had before the effort and armature (checkpoints of older
+# versions: their joints get no effort and no armature)
+PARAM_COUNT_V1 = 19
 
 
 def _number(value, key, *, minimum=None, allow_inf=False) -> float:
@@ -124,8 +131,9 @@ def _limits(lower, upper, lkey="lower", ukey="upper"):
     return lo, hi
 
 
-def _drive_params(p, j, motor_key, drive_key):
-    """Limits, motor and spring/PD drive of a 1-D joint coordinate into the parameter row p."""
+def _drive_params(p, j, motor_key, drive_key, effort_key):
+    """Limits, motor, spring/PD drive, applied effort and armature of a 1-D joint coordinate
+    into the parameter row p."""
     lo, hi = _limits(j.lower, j.upper)
     p[P_LOWER], p[P_UPPER] = lo, hi
     p[P_LIMIT_ON] = float(lower_or_upper(j.lower, j.upper))
@@ -137,6 +145,8 @@ def _drive_params(p, j, motor_key, drive_key):
     p[P_DAMPING] = _number(j.damping, "damping", minimum=0.0)
     p[P_TARGET] = _number(j.target, "target")
     p[P_MAX_DRIVE] = _number(getattr(j, drive_key), drive_key, minimum=0.0, allow_inf=True)
+    p[P_EFFORT] = _number(getattr(j, effort_key), effort_key)
+    p[P_ARMATURE] = _number(j.armature, "armature", minimum=0.0)
 
 
 def lower_or_upper(lower, upper) -> bool:
@@ -225,6 +235,12 @@ class HingeJoint(Joint):
             ``max_motor_torque`` N m (default inf).
         stiffness: N m/rad, damping: N m s/rad: a spring-damper (PD drive) pulling the
             angle to ``target`` (rad, default 0), at most ``max_drive_torque`` N m.
+        torque: N m, a torque applied about the axis, on body_b and its opposite on body_a
+            (PyBullet's ``TORQUE_CONTROL``, MuJoCo's ``motor`` actuator), every substep
+            until changed (``JointSolver.set_effort``). Default 0.
+        armature: kg m^2, >= 0: an inertia added to the angle's own (MuJoCo's joint
+            ``armature``: a geared motor's rotor), so that the angle obeys
+            (I_angle + armature) angle'' = torques. Default 0.
     """
 
     axis: Any = (0.0, 0.0, 1.0)
@@ -236,13 +252,15 @@ class HingeJoint(Joint):
     damping: float = 0.0
     target: float = 0.0
     max_drive_torque: float = math.inf
+    torque: float = 0.0
+    armature: float = 0.0
     kind: ClassVar[str] = "hinge"
 
     def _frame_world(self, axis_to_world):
         return _frame_from_z(axis_to_world(_unit(self.axis, "axis")))
 
     def _params(self, p, length):
-        _drive_params(p, self, "max_motor_torque", "max_drive_torque")
+        _drive_params(p, self, "max_motor_torque", "max_drive_torque", "torque")
 
 
 @dataclass(eq=False)
@@ -258,6 +276,9 @@ class SliderJoint(Joint):
         motor_speed: m/s, optional target rate, with at most ``max_motor_force`` N.
         stiffness: N/m, damping: N s/m: spring-damper / PD drive to ``target`` (m), at
             most ``max_drive_force`` N.
+        force: N, a force applied along the axis at the anchor, on body_b and its opposite
+            on body_a, every substep until changed (``JointSolver.set_effort``). Default 0.
+        armature: kg, >= 0: a mass added to the displacement's own (MuJoCo's armature).
     """
 
     axis: Any = (0.0, 0.0, 1.0)
@@ -269,13 +290,15 @@ class SliderJoint(Joint):
     damping: float = 0.0
     target: float = 0.0
     max_drive_force: float = math.inf
+    force: float = 0.0
+    armature: float = 0.0
     kind: ClassVar[str] = "slider"
 
     def _frame_world(self, axis_to_world):
         return _frame_from_z(axis_to_world(_unit(self.axis, "axis")))
 
     def _params(self, p, length):
-        _drive_params(p, self, "max_motor_force", "max_drive_force")
+        _drive_params(p, self, "max_motor_force", "max_drive_force", "force")
 
 
 @dataclass(eq=False)

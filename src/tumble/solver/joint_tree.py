@@ -14,6 +14,7 @@ from ..joints import (
     JOINT_HINGE,
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
+    P_ARMATURE,
     P_LOWER,
     P_RIGID,
 )
@@ -33,7 +34,9 @@ from .joint_math import (
     _sub,
 )
 from .joint_solve import (
+    A_ARMATURE,
     A_EQUAL,
+    _coordinate_row,
     solve_joints_serial_kernel,
 )
 
@@ -193,8 +196,14 @@ def _project_accumulated(j, t, a, b, x, R, local_a, local_b, m, Jb, inv_mass, I_
 
 
 @njit(**JIT)
+def _has_armature_row(j, t, param):
+    """Whether joint j's tree block has an armature row (a hinge or slider with armature)."""
+    return param[j, P_ARMATURE] > 0.0 and (t == JOINT_HINGE or t == JOINT_SLIDER)
+
+
+@njit(**JIT)
 def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
-                      frame_a, frame_b, param, x, R, inv_mass, I_inv, bias_rate,
+                      frame_a, frame_b, param, position, rate0, x, R, inv_mass, I_inv, bias_rate,
                       # scratch
                       Ja, Jb, C, nrow, D, Dinv, H_up, y, sol, work,
                       # outputs
@@ -204,6 +213,13 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
 
     Nodes: ``node_joint[k]`` >= 0 for a joint node, else ``node_body[k]`` is a body node;
     ``node_parent[k]`` (-1 for a root). Adds lambda to the joints' accumulated impulses.
+
+    A hinge or slider with armature a (``param[:, P_ARMATURE]``) gets one more row in its
+    block, its coordinate's rate, soft: J (u + du) + lambda_total / a = rate0 (the rate
+    before this substep's forces, ``joint_solve.joint_rates_kernel``), i.e. the impulse
+    -a (q' - q'_0) of the inertia a added to the coordinate (MuJoCo's armature), solved
+    exactly with the chain: a compliance 1/a on the KKT matrix's diagonal (the soft
+    constraint's form, Catto GDC 2011). Its rigid rows are at most 5, so the 6x6 block has room.
     """
     n_nodes = order.shape[0]
     # the rows at the current pose, and the accumulated impulses put back in their span
@@ -215,6 +231,18 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
                                   param, Ja, Jb, C)
             _project_accumulated(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, nrow[j], Jb,
                                  inv_mass, I_inv, v, omega, linear_impulse, angular_impulse)
+            if _has_armature_row(j, joint_type[j], param):
+                m = nrow[j]
+                has, lin, u, ra, rb, _pos = _coordinate_row(joint_type[j], j, joint_a[j], joint_b[j], x, R, local_a,
+                                                            local_b, frame_a, frame_b, position)
+                if has:
+                    ca = _cross(ra, u)
+                    cb = _cross(rb, u)
+                    for c in range(3):
+                        Ja[j, m, c] = -u[c] if lin else 0.0
+                        Jb[j, m, c] = u[c] if lin else 0.0
+                        Ja[j, m, 3 + c] = -ca[c] if lin else -u[c]
+                        Jb[j, m, 3 + c] = cb[c] if lin else u[c]
     # diagonal blocks and right-hand sides
     for k in range(n_nodes):
         j = node_joint[k]
@@ -226,16 +254,21 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
             a = joint_a[j]
             b = joint_b[j]
             m = nrow[j]
+            armature = _has_armature_row(j, joint_type[j], param)
             for r in range(m, 6):
                 D[k, r, r] = 1.0
-            for r in range(m):
-                s = bias_rate * C[j, r]
+            for r in range(m + 1 if armature else m):
+                s = bias_rate * C[j, r] if r < m else 0.0
                 for c in range(3):
                     if a >= 0:
                         s += Ja[j, r, c] * v[a, c] + Ja[j, r, 3 + c] * omega[a, c]
                     if b >= 0:
                         s += Jb[j, r, c] * v[b, c] + Jb[j, r, 3 + c] * omega[b, c]
                 y[k, r] = -s
+            if armature:
+                inv_arm = 1.0 / param[j, P_ARMATURE]
+                D[k, m, m] = -inv_arm
+                y[k, m] += rate0[j] - inv_arm * axial_impulse[j, A_ARMATURE]
         else:
             i = node_body[k]
             # M = diag(m 1, I_world), I_world = I_inv^-1
@@ -324,6 +357,8 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
             continue
         t = joint_type[j]
         m = nrow[j]
+        if _has_armature_row(j, t, param):
+            axial_impulse[j, A_ARMATURE] -= sol[k, m]
         for r in range(m):
             lam = -sol[k, r]
             # a row's world direction is body b's Jacobian: linear part for linear rows,
@@ -341,8 +376,8 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
 
 @njit(**JIT)
 def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
-                       local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, x, R, inv_mass,
-                       I_inv, h, soft, node_order, node_joint, node_body, node_parent,
+                       local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
+                       inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent,
                        # scratch
                        Ja, Jb, C, nrow, D, Dinv, H_up, y, sol, work, before,
                        # outputs
@@ -382,8 +417,9 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
                 for c in range(L):
                     before[j, c] = axial_impulse[j, limits[c]]
         solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
-                                   param, enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h, soft, 1,
+                                   param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft, 1,
                                    v, omega, linear_impulse, angular_impulse, axial_impulse)
         tree_solve_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
-                          local_b, frame_a, frame_b, param, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow, D, Dinv,
+                          local_b, frame_a, frame_b, param, position, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb,
+                          C, nrow, D, Dinv,
                           H_up, y, sol, work, v, omega, linear_impulse, angular_impulse, axial_impulse)

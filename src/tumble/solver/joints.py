@@ -46,12 +46,15 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..errors import InputError
 from ..joints import (
     JOINT_BALL,
     JOINT_DISTANCE,
     JOINT_HINGE,
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
+    P_ARMATURE,
+    P_EFFORT,
     P_LIMIT2_ON,
     P_LIMIT_ON,
     P_LOWER,
@@ -100,6 +103,7 @@ from .joint_solve import (
     _coordinate_row,
     _second_row,
     _sym_mat_vec,
+    joint_rates_kernel,
     solve_joints_kernel,
     twist_angle,  # noqa: F401  (public here, as before the split)
     warm_start_joints_kernel,
@@ -400,6 +404,7 @@ class JointSolver:
             for name, arr in old.items():
                 getattr(self, name)[:k] = arr[:k]
         self.rate = np.zeros(J)
+        self.rate0 = np.zeros(J)  # the armature rows' target, taken each substep (capture_rates)
         self.reaction_force = np.zeros((J, 3))
         self.reaction_torque = np.zeros((J, 3))
         self.broke = np.zeros(J, dtype=bool)
@@ -533,9 +538,20 @@ class JointSolver:
         """Apply the accumulated impulses once to v, omega (N, 3) (each substep, before solve)."""
         if self.count:
             warm_start_joints_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,
-                                     self.frame_a, self.frame_b, self.enabled, self.position, x, R, self.inv_mass,
-                                     self.I_inv, self.linear_impulse, self.angular_impulse, self.axial_impulse,
-                                     v, omega)
+                                     self.frame_a, self.frame_b, self.param, self.enabled, self.position, x, R,
+                                     self.inv_mass, self.I_inv, self.h, self.linear_impulse, self.angular_impulse,
+                                     self.axial_impulse, v, omega)
+
+    def has_armature(self) -> bool:
+        """Whether a joint has armature (then ``capture_rates`` must run before each substep's forces)."""
+        return bool(self.count) and bool(np.any(self.param[:, P_ARMATURE] > 0.0))
+
+    def capture_rates(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray):
+        """``rate0`` (J,) = the coordinates' rates of the joints with armature from v, omega (N, 3)
+        at poses x, R: each substep, before its forces (the armature rows' target)."""
+        if self.count:
+            joint_rates_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a,
+                               self.frame_b, self.param, self.enabled, self.position, x, R, v, omega, self.rate0)
 
     def solve(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray, use_bias: bool):
         """Sweeps over the joints on v, omega (N, 3) at poses x (N, 3), R (N, 3, 3):
@@ -547,8 +563,8 @@ class JointSolver:
             soft = self.soft_bias if use_bias else self.soft_relax
             args = (self.sweep.order[:self.count], self.sweep.bounds, self.joint_type, self.joint_a, self.joint_b,
                     self.local_a, self.local_b, self.frame_a, self.frame_b,
-                    self.param, self.enabled, self.gauss_seidel, self.position, x, R, self.inv_mass, self.I_inv, self.h,
-                    soft)
+                    self.param, self.enabled, self.gauss_seidel, self.position, self.rate0, x, R, self.inv_mass,
+                    self.I_inv, self.h, soft)
             out = (v, omega, self.linear_impulse, self.angular_impulse, self.axial_impulse)
             if st.method != "tree":
                 solve_joints_kernel(*args, int(iterations), *out)
@@ -638,3 +654,16 @@ class JointSolver:
         """Change a motor's target rate (rad/s or m/s) between steps; ``axis_b=True``: a
         universal joint's motor about axis_b (``motor_speed_b``)."""
         self.param[self.index(joint), P_MOTOR2_SPEED if axis_b else P_MOTOR_SPEED] = float(speed)
+
+    def set_effort(self, joint, effort: float):
+        """Set the torque (N m, a hinge) or force (N, a slider) a joint applies along its
+        coordinate from the next step on (PyBullet's ``TORQUE_CONTROL``; MuJoCo's ``ctrl`` of a
+        motor actuator); kept in the joint's record too, so a checkpoint carries it."""
+        j = self.index(joint)
+        value = float(effort)
+        if not math.isfinite(value):
+            raise InputError(f"must be a finite number, got {effort!r}", "torque")
+        if self.joint_type[j] not in (JOINT_HINGE, JOINT_SLIDER):
+            raise InputError(f"only hinge and slider joints take a torque or force, not joint {j}", "torque")
+        self.param[j, P_EFFORT] = value
+        self._joints[j].bound.param[P_EFFORT] = value

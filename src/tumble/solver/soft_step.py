@@ -42,7 +42,7 @@ from ..integrators import accumulate_forces_kernel
 from ..math3d import JIT
 from ..world import Scratch
 from . import contact as C
-from .joint_solve import solve_joints_serial_kernel, warm_start_joints_kernel
+from .joint_solve import joint_rates_kernel, solve_joints_serial_kernel, warm_start_joints_kernel
 from .joint_tree import tree_sweeps_kernel
 
 
@@ -154,18 +154,18 @@ def store_momenta_kernel(layout, Y, active, mass, v, omega, I_world):
 def _solve_joints(tree, iterations, soft, x, R, inv_mass, I_inv, h, joints, tree_parts, v, omega, impulses):
     """One joint solve of the fused substeps: ``JointSolver.solve``'s Gauss-Seidel sweeps, or its tree sweeps."""
     (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
-     position) = joints
+     position, rate0) = joints
     linear_impulse, angular_impulse, axial_impulse = impulses
     if not tree:
         solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
-                                   param, enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h, soft,
+                                   param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft,
                                    iterations, v, omega, linear_impulse, angular_impulse, axial_impulse)
         return
     (limits, max_sweeps, tolerance, node_order, node_joint, node_body, node_parent, Ja, Jb, C, nrow, D, Dinv, H_up,
      y, sol, work, before) = tree_parts
     tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
-                       local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, x, R, inv_mass,
-                       I_inv, h, soft, node_order, node_joint, node_body, node_parent, Ja, Jb, C, nrow, D, Dinv,
+                       local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
+                       inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, Ja, Jb, C, nrow, D, Dinv,
                        H_up, y, sol, work, before, v, omega, linear_impulse, angular_impulse, axial_impulse)
 
 
@@ -173,6 +173,7 @@ def _solve_joints(tree, iterations, soft, x, R, inv_mass, I_inv, h, joints, tree
 def joint_substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_body, inertia_body_inv, moving,
                           gravity, forces, kinematic_v, kinematic_omega, h, substeps,
                           joints, tree, tree_parts, soft_bias, soft_relax, velocity_iterations, relax_iterations,
+                          armature,
                           # outputs and scratch
                           R, v, omega, F, T, I_inv, I_world, impulses):
     """The substeps of a step with joints and no contacts, in one call: ``SoftStep.step``'s loop
@@ -185,21 +186,25 @@ def joint_substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_
     built-in forces, springs; the caller takes the Python loop when there are custom forces);
     F, T (N, 3) hold the first substep's forces on entry. ``joints``: ``JointSolver``'s tables
     (a tuple, as ``_solve_joints`` unpacks it), ``tree``: its method is the tree's, whose
-    arrays are ``tree_parts``; ``impulses``: its accumulated impulses (linear, angular, axial).
+    arrays are ``tree_parts``; ``impulses``: its accumulated impulses (linear, angular, axial);
+    ``armature``: some joint has armature (take the rates before each substep's forces).
     """
     uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param = forces
     (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
-     position) = joints
+     position, rate0) = joints
     linear_impulse, angular_impulse, axial_impulse = impulses
     for k in range(substeps):
         if k > 0:
             accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind,
                                      uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
                                      R, v, omega, F, T)
+        if armature:
+            joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                               position, Y, R, v, omega, rate0)
         integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inertia_body_inv, F, T, h,
                                     kinematic_v, kinematic_omega, R, v, omega, I_inv, I_world)
-        warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, enabled,
-                                 position, Y, R, inv_mass, I_inv, linear_impulse, angular_impulse, axial_impulse,
+        warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                                 position, Y, R, inv_mass, I_inv, h, linear_impulse, angular_impulse, axial_impulse,
                                  v, omega)
         _solve_joints(tree, velocity_iterations, soft_bias, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
                       impulses)
@@ -392,6 +397,7 @@ class SoftStep:
         joints = self.joints if self.has_joints() else None
         if joints is not None:
             joints.prepare(w, h, w.inv_mass, self.I_inv, x=Y)
+        armature = joints is not None and joints.has_armature()
         if joints is not None and not solver.count and check is None and not w.tables.custom and joints.fusable():
             self._joint_substeps(Y, h, substeps, kinematic, joints)
             substeps = 0  # done: the same stages as the loop below, compiled together
@@ -400,6 +406,8 @@ class SoftStep:
                 w.evaluate_forces(t + k * h, Y, s)
             if check is not None:
                 check("accumulate_forces", t + k * h, F=s.F, T=s.T)
+            if armature:
+                joints.capture_rates(s.v, s.omega, Y, s.R)  # before the forces: the armature rows' target
             integrate_velocities_kernel(layout, Y, active, w.inv_mass, w.inertia_body, w.inertia_body_inv, s.F, s.T, h,
                                         w.kinematic_v, w.kinematic_omega, s.R, s.v, s.omega, self.I_inv, self.I_world)
             if joints is not None:
@@ -432,13 +440,13 @@ class SoftStep:
         n = joints.count
         tables = (joints.sweep.order[:n], joints.sweep.bounds, joints.joint_type, joints.joint_a, joints.joint_b,
                   joints.local_a, joints.local_b, joints.frame_a, joints.frame_b, joints.param, joints.enabled,
-                  joints.gauss_seidel, joints.position)
+                  joints.gauss_seidel, joints.position, joints.rate0)
         joint_substeps_kernel(
             w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
             w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
                                   tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
             tables, tree, joints.tree_parts(), joints.soft_bias, joints.soft_relax, int(st.velocity_iterations),
-            int(st.relax_iterations), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
+            int(st.relax_iterations), joints.has_armature(), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
             (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
 
     def _inverse_inertia(self, Y):
