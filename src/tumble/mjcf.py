@@ -23,8 +23,9 @@ What maps to what:
 - ``<joint>``: ``hinge`` a ``HingeJoint`` and ``slide`` a ``SliderJoint`` about
   ``axis`` (default z) through ``pos`` (body frame), with ``range`` limits (``limited`` "true", or
   "auto" with ``<compiler autolimits>`` on, MuJoCo's default: a given range is a limit), ``damping``,
-  ``stiffness`` towards ``springref`` (a spring drive) and ``frictionloss`` (a speed-0 motor limited
-  to that torque or force); ``ball`` a ``BallJoint`` whose ``range`` upper value is its swing cone;
+  ``stiffness`` towards ``springref`` (a spring drive), ``frictionloss`` (a speed-0 motor limited
+  to that torque or force) and ``armature`` (the joint's ``armature``: an inertia added to its
+  coordinate's, as MuJoCo adds it to the joint's diagonal of the mass matrix); ``ball`` a ``BallJoint`` whose ``range`` upper value is its swing cone;
   ``free`` (or ``<freejoint>``) no joint: the body is free. A body with no joint is welded to
   its parent (merged into its body; a top-level one is fixed). A body with several joints
   (MuJoCo composes them, the first nearest the parent): a chain through virtual links of
@@ -38,17 +39,20 @@ What maps to what:
   "true" (the geoms' where the body has any), "false" (never).
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
   their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair.
-- ``<actuator><position joint kp kv forcerange>``: a PD drive to 0 (ctrl 0) on that joint
-  (``Robot.set_position_target`` moves it); ``motor``, ``velocity``, ``general`` and the
-  other actuators are read and left off (nothing drives those joints until
-  ``Robot.set_motor`` or ``set_position_target`` is called).
+- ``<actuator>``, in ``Robot.actuators`` by name, driven by ``Robot.set_controls(sim, {name: ctrl})``
+  (MuJoCo's ``data.ctrl``; ctrl starts at 0): ``<motor joint gear ctrlrange forcerange>`` applies
+  the torque or force gear x ctrl (ctrl clipped to ``ctrlrange``, the force to ``forcerange``, when
+  limited: ``ctrllimited``/``forcelimited`` true, or auto with the range given);
+  ``<position joint kp kv ctrlrange forcerange>`` a PD drive to ctrl (0 at the start).
+  ``velocity``, ``general`` and the other actuators are read and left off (nothing drives those
+  joints until ``Robot.set_motor``, ``set_joint_torque`` or ``set_position_target`` is called).
 
 Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
 rule, ``self_collision=True`` by default here, unlike ``load_urdf``); ``contype``/``conaffinity`` bit
 masks other than 0/0 are not mapped. Not read, on purpose and documented (docs/robots.md):
 ``<option>`` (set the World's gravity and the Simulator's dt yourself), ``condim``, ``solref``,
-``solimp``, ``margin``, joint ``armature`` (MuJoCo adds it to the joint's inertia: a model that
-relies on it moves differently), sites, cameras, lights, sensors, keyframes, visual settings.
+``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
+sites, cameras, lights, sensors, keyframes, visual settings.
 Refused with one line: ``<include>``, ``<equality>``, ``<tendon>``, ``<contact><pair>``, ``<frame>``,
 ``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
 hfield and sdf geoms, a free joint beside another joint, and unknown joint or geom types.
@@ -95,6 +99,43 @@ class MjcfStatic:
 
 
 @dataclass
+class MjcfActuator:
+    """An ``<actuator>`` of a joint: ``kind`` "motor" (a torque or force gear x ctrl) or "position"
+    (a PD drive to ctrl, gains kp, kv); ``ctrlrange``, ``forcerange``: (lo, hi) when limited, else
+    None. ``Robot.set_controls`` applies a value (MuJoCo's ``data.ctrl``)."""
+
+    name: str
+    kind: str
+    joint: str
+    gear: float = 1.0
+    ctrlrange: tuple | None = None
+    forcerange: tuple | None = None
+    kp: float = 0.0
+    kv: float = 0.0
+
+    def apply(self, robot, sim, value):
+        """Set this actuator's control to ``value`` on ``robot`` (from the next step on)."""
+        from .joints import P_EFFORT, P_TARGET
+
+        key = f"controls.{self.name}"
+        try:
+            u = float(value)
+        except (TypeError, ValueError):
+            u = math.nan
+        if not math.isfinite(u):
+            raise InputError(f"must be a finite number, got {value!r}", key)
+        if self.ctrlrange is not None:
+            u = min(max(u, self.ctrlrange[0]), self.ctrlrange[1])
+        if self.kind == "position":
+            robot._write(sim, self.joint, {P_TARGET: u})
+            return
+        force = u  # MuJoCo's motor: gain 1, no bias; the force clipped, then geared onto the joint
+        if self.forcerange is not None:
+            force = min(max(force, self.forcerange[0]), self.forcerange[1])
+        robot._write(sim, self.joint, {P_EFFORT: self.gear * force})
+
+
+@dataclass
 class MjcfModel:
     """A parsed MJCF file: the tree (``model``, links and joints as a URDF's), the worldbody's
     geoms, the position actuators' drives {joint: (kp, kv, force limit)}, excluded body pairs."""
@@ -105,6 +146,7 @@ class MjcfModel:
     excluded: list = field(default_factory=list)
     frictions: dict = field(default_factory=dict)  # link name: friction of its colliding geoms
     virtual: list = field(default_factory=list)  # the links between two joints of one body
+    actuators: dict = field(default_factory=dict)  # name: MjcfActuator, the file's order
 
 
 # ---------------------------------------------------------------------- numbers and frames
@@ -451,12 +493,15 @@ def _joint(reader, a, jname, jkey, kind, parent, child) -> UrdfJoint:
             j.lower, j.upper = lo * scale, hi * scale
     elif kind == "hinge":
         j.kind = "continuous"
-    for attr, field_name in (("damping", "damping"), ("stiffness", "stiffness"), ("frictionloss", "friction")):
+    for attr, field_name in (("damping", "damping"), ("stiffness", "stiffness"), ("frictionloss", "friction"),
+                             ("armature", "armature")):
         if attr in a:
             value = float(_floats(a[attr], f"{jkey}.{attr}", (1,))[0])
             if value < 0:
                 raise InputError(f"must be >= 0, got {value:g}", f"{jkey}.{attr}")
             if kind == "ball" and value > 0:
+                if attr == "armature":
+                    continue  # not read on a ball joint (module docstring)
                 raise InputError(f"a ball joint's {attr} is not supported", f"{jkey}.{attr}")
             setattr(j, field_name, value)
     if "springref" in a:
@@ -517,28 +562,51 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
         link.mass, link.center, link.inertia = float(mass), center, inertia
 
 
+def _limited(a: dict, flag: str, attr: str, key: str, reader):
+    """An actuator's (lo, hi) range ``attr`` when ``flag`` ("ctrllimited", "forcelimited": true,
+    false, or auto: limited when the range is given, under ``<compiler autolimits>``), else None."""
+    value = a.get(flag, "auto")
+    if value not in ("true", "false", "auto"):
+        raise InputError(f"expected true, false or auto, got {value!r}", f"{key}.{flag}")
+    if value == "false" or (value == "auto" and not (reader.autolimits and attr in a)):
+        return None
+    if attr not in a:
+        raise InputError(f"{flag} without a {attr}", f"{key}.{attr}")
+    lo, hi = _floats(a[attr], f"{key}.{attr}", (2,))
+    if lo > hi:
+        raise InputError(f"the range is the wrong way round: {lo:g} > {hi:g}", f"{key}.{attr}")
+    return float(lo), float(hi)
+
+
 def _actuators(reader, root, out: MjcfModel, joint_names):
     for act in root.findall("actuator"):
         for e in act:
-            if e.tag != "position":
-                continue  # motor, velocity, general...: read and left off (module docstring)
+            if e.tag not in ("position", "motor"):
+                continue  # velocity, general...: read and left off (module docstring)
             a = reader.attributes(e, "main")
-            key = f"actuator.position[{a.get('name', a.get('joint'))}]"
+            name = a.get("name") or f"actuator{len(out.actuators)}"
+            key = f"actuator.{e.tag}[{a.get('name', a.get('joint'))}]"
+            if name in out.actuators:
+                raise InputError("duplicate actuator name", key)
             joint = a.get("joint")
             if joint not in joint_names:
-                raise InputError(f"unknown joint {joint!r} (position actuators drive joints)", f"{key}.joint")
-            if "gear" in a and float(_floats(a["gear"], f"{key}.gear", (1, 6))[0]) != 1.0:
+                raise InputError(f"unknown joint {joint!r} ({e.tag} actuators drive joints)", f"{key}.joint")
+            gear = float(_floats(a["gear"], f"{key}.gear", (1, 6))[0]) if "gear" in a else 1.0
+            ctrlrange = _limited(a, "ctrllimited", "ctrlrange", key, reader)
+            forcerange = _limited(a, "forcelimited", "forcerange", key, reader)
+            if e.tag == "motor":
+                out.actuators[name] = MjcfActuator(name, "motor", joint, gear, ctrlrange, forcerange)
+                continue
+            if gear != 1.0:
                 raise InputError("a gear other than 1 is not supported", f"{key}.gear")
             kp = float(_floats(a.get("kp", "1"), f"{key}.kp", (1,))[0])
             kv = float(_floats(a.get("kv", "0"), f"{key}.kv", (1,))[0])
             for k, value in (("kp", kp), ("kv", kv)):
                 if value < 0:
                     raise InputError(f"must be >= 0, got {value:g}", f"{key}.{k}")
-            limit = math.inf
-            if "forcerange" in a and a.get("forcelimited", "auto") != "false":
-                lo, hi = _floats(a["forcerange"], f"{key}.forcerange", (2,))
-                limit = max(abs(lo), abs(hi))
+            limit = math.inf if forcerange is None else max(abs(forcerange[0]), abs(forcerange[1]))
             out.drives[joint] = (kp, kv, limit)
+            out.actuators[name] = MjcfActuator(name, "position", joint, gear, ctrlrange, forcerange, kp, kv)
 
 
 # ---------------------------------------------------------------------- loading
@@ -603,4 +671,5 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
         robot.links[f"world/{s.name}"] = body
     for a, b in parsed.excluded:
         world.exclude_collision(robot.links[a], robot.links[b])
+    robot.actuators = dict(parsed.actuators)
     return robot

@@ -47,14 +47,14 @@ URDF's ``<robot name>``. A file's problems are ``InputError`` lines keyed by the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .collision.filter import CollisionFilter
 from .errors import InputError
-from .joints import BallJoint, FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P_MAX_DRIVE, P_MAX_MOTOR, P_MOTOR_ON, \
-    P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
+from .joints import BallJoint, FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P_EFFORT, P_MAX_DRIVE, P_MAX_MOTOR, \
+    P_MOTOR_ON, P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
 from .material import Material
 from .mass import combine_mass_properties
 from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
@@ -90,6 +90,8 @@ class Robot:
             body's shape frame (identity for a body's own link).
         owners: {link name: the link whose body it is part of} (itself, or the parent it was
             merged into).
+        actuators: {name: actuator} of an MJCF model (``mjcf.MjcfActuator``, in the file's order:
+            MuJoCo's ``ctrl`` order), driven by ``set_controls``; empty for a URDF.
     """
 
     name: str
@@ -100,6 +102,7 @@ class Robot:
     base: object
     link_frames: dict
     owners: dict
+    actuators: dict = field(default_factory=dict)
 
     def link_pose(self, link) -> tuple[np.ndarray, np.ndarray]:
         """The link frame now: origin (3,) m and rotation (3, 3), world."""
@@ -187,6 +190,32 @@ class Robot:
             self._write(sim, joint, {P_MOTOR_ON: 0.0})
         else:
             self._write(sim, joint, {P_MOTOR_ON: 1.0, P_MOTOR_SPEED: float(speed), P_MAX_MOTOR: limit})
+
+    def set_joint_torque(self, sim, joint: str, torque: float):
+        """Torque control (PyBullet's ``TORQUE_CONTROL``): apply ``torque`` N m (a revolute joint) or
+        force N (a prismatic one) along ``joint`` from the next step on, on its child link and the
+        opposite on its parent, until changed. Not clipped (as PyBullet; the URDF's effort is the
+        motors' and drives' limit); any motor, drive or friction of the joint acts as well."""
+        self._urdf_joint(joint)
+        try:
+            value = float(torque)
+        except (TypeError, ValueError):
+            value = math.nan
+        if not math.isfinite(value):
+            raise InputError(f"must be a finite number, got {torque!r}", "torque")
+        self._write(sim, joint, {P_EFFORT: value})
+
+    def set_controls(self, sim, controls: dict):
+        """MuJoCo's ``data.ctrl`` by actuator name ({name: value}; MJCF models): a motor applies
+        gear x ctrl (ctrl clipped to its ``ctrlrange``, the force to its ``forcerange``), a
+        position actuator pulls its joint to ctrl (clipped to ``ctrlrange``). From the next step on."""
+        if not isinstance(controls, dict):
+            raise InputError(f"expected a table {{actuator: value}}, got {controls!r}", "controls")
+        for name, value in controls.items():
+            actuator = self.actuators.get(name)
+            if actuator is None:
+                raise InputError(f"unknown actuator {name!r} of robot {self.name!r}", "controls")
+            actuator.apply(self, sim, value)
 
     def set_position_target(self, sim, joint: str, target: float, stiffness: float, damping: float,
                             max_force: float | None = None):
@@ -340,7 +369,7 @@ def build_robot(world, model: UrdfModel, *, position=(0.0, 0.0, 0.0), orientatio
             extra = {} if j.friction == 0.0 else {"motor_speed": 0.0,
                                                   ("max_motor_force" if cls is SliderJoint else "max_motor_torque"): j.friction}
             record = cls(**common, axis=axis, lower=j.lower, upper=j.upper, damping=j.damping, stiffness=j.stiffness,
-                         target=j.target, **extra)
+                         target=j.target, armature=j.armature, **extra)
             torque_or_force = "force" if cls is SliderJoint else "torque"
             for field_name, value in controls.get(j.name, {}).items():
                 if field_name in ("max_motor", "max_drive"):  # max_motor_torque, max_drive_force, ...

@@ -61,6 +61,7 @@ class UrdfJoint:
     stiffness: float = 0.0  # a spring towards ``target`` (MJCF's joint stiffness and springref; URDF has none)
     target: float = 0.0
     cone_limit: float | None = None  # a spherical joint's swing limit, rad (MJCF's ball range; URDF has none)
+    armature: float = 0.0  # kg m^2 or kg added to the coordinate's inertia (MJCF's joint armature; URDF has none)
 
 
 @dataclass

@@ -80,7 +80,7 @@ def resumed_run(make_world, tmp_path, duration, dt, **simulator):
     return whole, resumed
 
 
-def planar_chain_dop853(pieces, joint_origins, theta0, duration, t_eval, g=9.81, damping=None):
+def planar_chain_dop853(pieces, joint_origins, theta0, duration, t_eval, g=9.81, damping=None, armature=None):
     """A chain of hinges about the world y axis, written independently of tumble: Lagrange's
     equations M(q) q'' = tau - C(q, q'), integrated by SciPy's DOP853 at rtol 1e-12.
 
@@ -89,7 +89,8 @@ def planar_chain_dop853(pieces, joint_origins, theta0, duration, t_eval, g=9.81,
     -x sin + z cos). ``pieces``: (link k, mass kg, centre (x, z) m in link k's frame, I_yy kg m^2
     about the centre). A piece's centre velocity is J q' with column i <= k the geometric
     Jacobian e_y x (p - joint_i) = (dz, -dx); its spin is the sum of q'_i, i <= k. So M =
-    sum m J^T J + I_yy a a^T; gravity tau_i = -m g dz/dq_i; viscous joint damping -c_i q'_i.
+    sum m J^T J + I_yy a a^T (+ diag(``armature``): MuJoCo's joint armature, a constant inertia
+    on each coordinate); gravity tau_i = -m g dz/dq_i; viscous joint damping -c_i q'_i.
     The Coriolis terms C_k = sum_ij (dM_kj/dq_i - dM_ij/dq_k / 2) q'_i q'_j take dM/dq by
     central differences (step 1e-6: error ~1e-12 relative, far below what the tests compare).
 
@@ -118,8 +119,10 @@ def planar_chain_dop853(pieces, joint_origins, theta0, duration, t_eval, g=9.81,
             rows.append((m, J, a, Iyy))
         return rows
 
+    extra = np.zeros((n, n)) if armature is None else np.diag(np.asarray(armature, dtype=float))
+
     def mass_matrix(q):
-        return sum(m * J.T @ J + Iyy * np.outer(a, a) for m, J, a, Iyy in kinematics(q))
+        return extra + sum(m * J.T @ J + Iyy * np.outer(a, a) for m, J, a, Iyy in kinematics(q))
 
     def f(t, y):
         q, qd = y[:n], y[n:]
