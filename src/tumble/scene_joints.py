@@ -13,6 +13,8 @@ Each entry is one joint of ``tumble.joints``; bodies are named as in ``[[bodies]
     lower_deg = -120               # or lower = -2.09 (rad)
     upper_deg = 0
     motor_speed = 2.0              # rad/s, with max_motor_torque (N m)
+    torque = 0.5                   # N m applied about the axis (a slider: force, N)
+    armature = 0.01                # kg m^2 added to the angle's inertia (a slider: kg; MuJoCo's)
 
 A ball joint takes ``twist_lower``, ``twist_upper`` (rad, in [-pi, pi]) besides its
 ``cone_limit``; a universal joint ``lower``, ``upper`` (its angle about ``axis``) and
@@ -44,8 +46,8 @@ TYPE_KEYS = {
     "ball": ("axis", "cone_limit", "cone_limit_deg", "twist_lower", "twist_upper", "twist_lower_deg",
              "twist_upper_deg"),
     "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "motor_speed_deg", "max_motor_torque",
-              "max_drive_torque"),
-    "slider": ("axis", *DRIVE_KEYS, "max_motor_force", "max_drive_force"),
+              "max_drive_torque", "torque", "armature"),
+    "slider": ("axis", *DRIVE_KEYS, "max_motor_force", "max_drive_force", "force", "armature"),
     "fixed": (),
     "distance": ("min_length", "max_length", "stiffness", "damping", "target", "max_drive_force"),
     "universal": ("axis", "axis_b", "lower", "upper", "lower_b", "upper_b", "lower_deg", "upper_deg", "lower_b_deg",

@@ -270,6 +270,9 @@ class Simulator:
                 if sleep is not None:
                     c = soft.contacts
                     touched = None if movers is None else touched_by_kinematic(w, soft, movers, sleep.awake, all_moving)
+                    driven = None if soft.joints is None else soft.joints.effort_bodies(w.body_count)
+                    if driven is not None:  # joints applying a torque or force keep their bodies awake
+                        touched = driven if touched is None else touched | driven
                     sleep.update(w, Y, c.contact_body_a, c.contact_body_b, self.dt, moving=all_moving,
                                  also_awake=touched)
                     if sleep.woke.any() or sleep.fell_asleep.any():

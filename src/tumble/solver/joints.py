@@ -546,6 +546,20 @@ class JointSolver:
         """Whether a joint has armature (then ``capture_rates`` must run before each substep's forces)."""
         return bool(self.count) and bool(np.any(self.param[:, P_ARMATURE] > 0.0))
 
+    def effort_bodies(self, body_count: int):
+        """(N,) bool: the bodies of the enabled joints applying a torque or force (``P_EFFORT``), or
+        None when there are none. Box2D wakes a body each time a force is applied to it: these may not
+        sleep (a damped arm held by a joint torque fell asleep 5e-3 rad short of its rest, measured)."""
+        if not self.count:
+            return None
+        on = (self.param[:, P_EFFORT] != 0.0) & self.enabled
+        if not on.any():
+            return None
+        mask = np.zeros(body_count, dtype=bool)
+        for ends in (self.joint_a[on], self.joint_b[on]):
+            mask[ends[ends >= 0]] = True
+        return mask
+
     def capture_rates(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray):
         """``rate0`` (J,) = the coordinates' rates of the joints with armature from v, omega (N, 3)
         at poses x, R: each substep, before its forces (the armature rows' target)."""
