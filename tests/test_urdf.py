@@ -195,6 +195,24 @@ def test_motor_and_position_control(tmp_path):
         robot.set_motor(sim, "nope", 1.0)
 
 
+def test_torque_control(tmp_path):
+    # PyBullet's TORQUE_CONTROL: the same cube (I = 0.00667 kg m^2) under a joint torque of 0.01 N m
+    # spins up at 0.01 / I = 1.5 rad/s^2 (exactly: no gyroscopic term about a principal axis), not
+    # clipped by the URDF's effort (0.005 N m, the motors' and drives' limit), set before the first
+    # step and changed between steps.
+    text = urdf(link("base", mass=None) + link("wheel", inertia=0.08 / 12)
+                + joint("spin", "continuous", "base", "wheel", axis="0 0 1", extra='<limit effort="0.005"/>'))
+    world = tb.World(gravity=(0, 0, 0))
+    robot = load_urdf(world, write(tmp_path, text))
+    sim = tb.Simulator(world, dt=1 / 240)
+    robot.set_joint_torque(sim, "spin", 0.01)
+    sim.step(240)
+    assert robot.joint_states(sim)["spin"][1] == pytest.approx(1.5, rel=1e-9)
+    robot.set_joint_torque(sim, "spin", -0.02)  # brakes at 3 rad/s^2: at rest 0.5 s later
+    sim.step(120)
+    assert abs(robot.joint_states(sim)["spin"][1]) < 1e-9
+
+
 def test_robot_runs_resume_bit_for_bit(tmp_path):
     path = write(tmp_path, CHAIN)
 

@@ -326,3 +326,122 @@ def test_bodies_with_several_joints_move_as_mujoco_says_with_the_exact_joint_sol
     # the virtual links touch nothing; the cart and the pole are kept apart as parent and child
     assert "planar/cart/x" in world.names and "planar/pole/a1" in world.names
     assert not world.should_collide(robot.links["cart"], robot.links["pole"])
+
+
+ACTUATED = """
+<mujoco model="actuated">
+  <compiler angle="radian"/>
+  <option timestep="0.00025" integrator="RK4" gravity="0 0 -9.81"/>
+  <default><joint type="hinge" axis="0 1 0" damping="0.1"/><geom type="capsule" size="0.04"/></default>
+  <worldbody>
+    <body name="upper" pos="0 0 2">
+      <joint name="shoulder" armature="ARM0"/>
+      <geom fromto="0 0 0 0.1 0 -0.8"/>
+      <body name="lower" pos="0.1 0 -0.8">
+        <joint name="elbow" armature="ARM1"/>
+        <geom fromto="0 0 0 0.05 0 -0.6"/>
+      </body>
+    </body>
+    <body name="cart" pos="3 0 1">
+      <joint name="rail" type="slide" axis="1 0 0" armature="ARM2" damping="0"/>
+      <geom type="box" size="0.1 0.1 0.1" mass="1"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <motor name="m_shoulder" joint="shoulder" gear="2" ctrlrange="-1 1"/>
+    <motor name="m_elbow" joint="elbow" forcerange="-0.3 0.3"/>
+    <motor name="m_rail" joint="rail" gear="3" ctrllimited="false"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def actuated(tmp_path, armature=(0.2, 0.05, 2.0)):
+    text = ACTUATED
+    for k, a in enumerate(armature):
+        text = text.replace(f"ARM{k}", repr(a))
+    return write(tmp_path, text)
+
+
+def test_armature_and_motor_actuators_move_as_mujoco_rk4_says(tmp_path):
+    # The same file in both engines: joints with armature (MuJoCo adds it to the mass matrix's
+    # diagonal) driven by <motor> actuators at ctrl (5, 0.8, 0.5): the shoulder's ctrl is clipped to
+    # its ctrlrange (1, times gear 2: 2 N m), the elbow's force to its forcerange (0.3 N m), the
+    # rail's gear 3 makes 1.5 N on a 1 kg cart with armature 2 (1.5 / 3 m/s^2). MuJoCo's RK4 at
+    # dt 1/4000 s is the reference (~1e-8 here); tumble's step is first order: measured 3.1e-4 rad
+    # at dt 1/240 (the tree solve, the default with armature; 7.8e-5 at 1/960), the cart 2.6e-4 m
+    # (semi-implicit Euler's a h t / 2 over the substeps h). Tolerances about 3x and 2x. With the
+    # file's armatures set to 0 the arm is off by 0.081 rad and the cart by 0.5 m.
+    path = actuated(tmp_path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.ctrl[:] = (5.0, 0.8, 0.5)
+    names = [m.joint(j).name for j in range(m.njnt)]
+    ref = []
+    for _ in range(20):
+        mujoco.mj_step(m, d, nstep=200)
+        ref.append(d.qpos.copy())
+    ref = np.array(ref)
+
+    def run(path):
+        world = tb.World(gravity=(0, 0, -G))
+        robot = tb.load_mjcf(world, path)
+        sim = tb.Simulator(world, dt=1 / 240)
+        robot.set_controls(sim, {"m_shoulder": 5.0, "m_elbow": 0.8, "m_rail": 0.5})
+        q = []
+        for _ in range(20):
+            sim.step(12)
+            s = robot.joint_states(sim)
+            q.append([s[n][0] for n in names])
+        return np.array(q), sim
+
+    q, sim = run(path)
+    assert sim.joint_settings is ACCURATE
+    assert list(robot_actuators(path)) == ["m_shoulder", "m_elbow", "m_rail"]
+    assert np.abs(q[:, :2] - ref[:, :2]).max() < 1e-3
+    assert np.abs(q[:, 2] - ref[:, 2]).max() < 5e-4
+    assert ref[-1, 2] == pytest.approx(0.5 * 1.5 / 3.0 * 1.0**2, rel=1e-3)  # the reference itself: F t^2 / 2 (m + a)
+    q0, _ = run(actuated_zero(tmp_path))
+    assert np.abs(q0[:, :2] - ref[:, :2]).max() > 0.05
+
+
+def robot_actuators(path):
+    return tb.load_mjcf(tb.World(), path).actuators
+
+
+def actuated_zero(tmp_path):
+    sub = tmp_path / "zero"
+    sub.mkdir(exist_ok=True)
+    return actuated(sub, armature=(0.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("actuator, key, problem", [
+    ('<motor joint="h" ctrllimited="true"/>', "actuator.motor[h].ctrlrange", "ctrllimited without a ctrlrange"),
+    ('<motor joint="h" ctrlrange="1 -1"/>', "actuator.motor[h].ctrlrange", "wrong way round"),
+    ('<motor joint="h" forcelimited="maybe" forcerange="0 1"/>', "actuator.motor[h].forcelimited",
+     "expected true, false or auto"),
+    ('<motor name="a" joint="h"/><motor name="a" joint="h"/>', "actuator.motor[a]", "duplicate actuator name"),
+    ('<motor joint="h" gear="x"/>', "actuator.motor[h].gear", "expected numbers"),
+    ('<motor joint="nope"/>', "actuator.motor[nope].joint", "unknown joint 'nope'"),
+])
+def test_bad_actuators_stop_with_one_line(tmp_path, actuator, key, problem):
+    path = write(tmp_path, '<mujoco><worldbody><body><joint name="h"/><geom size="0.1"/></body></worldbody>'
+                           f'<actuator>{actuator}</actuator></mujoco>')
+    with pytest.raises(tb.InputError) as info:
+        tb.load_mjcf(tb.World(), path)
+    line = str(info.value)
+    assert "\n" not in line and str(path) in line and key in line and problem in line, line
+
+
+def test_bad_controls_stop_with_one_line(tmp_path):
+    world = tb.World()
+    robot = tb.load_mjcf(world, actuated(tmp_path))
+    sim = tb.Simulator(world, dt=1 / 240)
+    for controls, problem in (({"nope": 1.0}, "unknown actuator 'nope'"), ({"m_rail": float("nan")}, "finite"),
+                              ({"m_rail": "fast"}, "finite"), ([1.0], "expected a table")):
+        with pytest.raises(tb.InputError, match=problem):
+            robot.set_controls(sim, controls)
+    with pytest.raises(tb.InputError, match="finite"):
+        robot.set_joint_torque(sim, "elbow", float("inf"))
+    with pytest.raises(tb.InputError, match="unknown joint"):
+        robot.set_joint_torque(sim, "knee", 1.0)

@@ -297,9 +297,10 @@ def test_parse_joints_builds_each_type():
     w = scene_world()
     entries = [
         {"type": "hinge", "name": "h", "body_a": "bob", "anchor": [0, 0, 0], "axis": [0, 1, 0], "lower_deg": -45,
-         "upper_deg": 45, "motor_speed": 1.0, "max_motor_torque": 2.0},
+         "upper_deg": 45, "motor_speed": 1.0, "max_motor_torque": 2.0, "torque": 0.5, "armature": 0.01},
         {"type": "ball", "body_a": "bob", "body_b": "bob2", "anchor": [0.5, 0, -1], "cone_limit_deg": 30},
-        {"type": "slider", "body_a": "bob2", "body_b": "world", "axis": [1, 0, 0], "lower": -0.1, "upper": 0.1},
+        {"type": "slider", "body_a": "bob2", "body_b": "world", "axis": [1, 0, 0], "lower": -0.1, "upper": 0.1,
+         "force": -2.0, "armature": 3.0},
         {"type": "fixed", "body_a": "bob", "body_b": "bob2", "collide_connected": True},
         {"type": "distance", "body_a": "bob", "body_b": "bob2", "anchor": [0, 0, -1], "anchor_b": [1, 0, -1],
          "min_length": 0.0, "max_length": 1.5, "max_force": float("inf")},
@@ -310,7 +311,8 @@ def test_parse_joints_builds_each_type():
     assert [type(r).__name__ for r in records] == ["HingeJoint", "BallJoint", "SliderJoint", "FixedJoint",
                                                     "DistanceJoint", "UniversalJoint"]
     assert records[0].lower == pytest.approx(-math.pi / 4) and records[1].cone_limit == pytest.approx(math.pi / 6)
-    assert len(w.joints) == 6
+    assert (records[0].torque, records[0].armature, records[2].force, records[2].armature) == (0.5, 0.01, -2.0, 3.0)
+    assert len(w.joints) == 6 and w.exact_joints  # armature: the Simulator's default is the exact tree solve
 
 
 @pytest.mark.parametrize("entry, line", [
@@ -362,6 +364,13 @@ def test_parse_joints_builds_each_type():
      "s.toml: joints[0].max_motor_torque_b: must be >= 0, got -1"),
     ({"type": "universal", "body_a": "bob", "stiffness": 1.0},
      "s.toml: joints[0].stiffness: unknown key for a universal joint"),
+    ({"type": "hinge", "body_a": "bob", "armature": -0.1}, "s.toml: joints[0].armature: must be >= 0, got -0.1"),
+    ({"type": "hinge", "body_a": "bob", "torque": float("nan")},
+     "s.toml: joints[0].torque: must be a finite number, got nan"),
+    ({"type": "slider", "body_a": "bob", "force": "hard"},
+     "s.toml: joints[0].force: expected a number, got 'hard' (a string)"),
+    ({"type": "hinge", "body_a": "bob", "force": 1.0}, "s.toml: joints[0].force: unknown key for a hinge"),
+    ({"type": "ball", "body_a": "bob", "armature": 1.0}, "s.toml: joints[0].armature: unknown key for a ball"),
 ])
 def test_parse_joints_errors(entry, line):
     w = scene_world()
