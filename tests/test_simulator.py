@@ -86,6 +86,26 @@ def test_non_finite_state_stops_the_run_naming_the_body():
         tb.Simulator(w, integrator="explicit-euler").run(1.0)
 
 
+@pytest.mark.parametrize("controller", [None, lambda sim: None])
+def test_a_step_loop_stops_at_a_non_finite_state_naming_the_body_and_stage(controller):
+    # ``Simulator.step`` checks the state at the end of each call, as ``run`` does per frame (a
+    # loop of step(1), MuJoCo's and PyBullet's way, went on with NaN before): the same one-line
+    # SimulationError naming body, time and stage, and the World back where the call started.
+    w = tb.World(gravity=(0, 0, 0))
+    w.add_body(tb.Sphere(radius=0.1), mass=1.0, name="rocket", velocity=(1e150, 0, 0))
+    w.add_force(tb.Drag(quadratic=10.0))
+    sim = tb.Simulator(w, integrator="explicit-euler", controller=controller)
+    with pytest.raises(tb.SimulationError) as info:
+        for _ in range(240):
+            before = (w.t, w.pack())
+            sim.step(1)
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith("body 'rocket': non-finite state at t = ")
+    assert info.value.stage in ("accumulate_forces", "integrate_free_motion")
+    assert np.all(np.isfinite(w.pack())) and sim.step_index * sim.dt == pytest.approx(w.t)
+    assert w.t == before[0] and np.array_equal(w.pack(), before[1])  # nothing kept of the call that blew up
+
+
 def test_a_slow_first_frame_says_why_once_and_a_fast_one_says_nothing(monkeypatch, capsys):
     """With a progress bar, a first frame slower than FIRST_FRAME_NOTICE_S (a first run compiling
     the kernels) prints FIRST_FRAME_NOTICE on stderr, once; a fast first frame prints nothing.
