@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import tumble as tb
+from tumble.joints import P_EFFORT
 from tumble import checks
 from tumble.cli import main
 from tumble.urdf import NO_CONTACT, balanced_inertia, load_urdf
@@ -311,6 +312,10 @@ bodies = ["ground", "arm/a"]
     # a robot-only scene is a scene
     (tmp_path / "r.toml").write_text('[[robots]]\nfile = "chain.urdf"\n')
     assert tb.load_scene(tmp_path / "r.toml").world.body_count == 3
+    # a constant joint torque from the scene: the joint's record carries it into the run
+    (tmp_path / "t.toml").write_text('[[robots]]\nfile = "chain.urdf"\njoint_torques = { j1 = 0.25 }\n')
+    joints = tb.load_scene(tmp_path / "t.toml").world.joints
+    assert [j.bound.param[P_EFFORT] for j in joints] == [0.25, 0.0]
 
 
 @pytest.mark.parametrize("table, key, problem", [
@@ -321,6 +326,10 @@ bodies = ["ground", "arm/a"]
     ('file = "chain.urdf"\njoint_positions = { j3 = 1.0 }', "robots[0].joint_positions.j3", "not a revolute"),
     ('file = "chain.urdf"\ncolour = 1', "robots[0].colour", "unknown key"),
     ('file = "bad.urdf"', "robots[0].file", r"bad.urdf: joint\[j\].type: unknown joint type 'screw'"),
+    ('file = "chain.urdf"\njoint_torques = { j9 = 1.0 }', "robots[0].joint_torques.j9", "unknown joint 'j9'"),
+    ('file = "chain.urdf"\njoint_torques = { j1 = "hard" }', "robots[0].joint_torques.j1", "expected a number"),
+    ('file = "chain.urdf"\njoint_torques = 3', "robots[0].joint_torques", "expected a table"),
+    ('file = "chain.urdf"\ncontrols = { m = 1.0 }', "robots[0].controls", "a URDF has no actuators"),
 ])
 def test_scene_robot_errors_are_one_line(tmp_path, table, key, problem):
     write(tmp_path, CHAIN, "chain.urdf")

@@ -15,12 +15,14 @@
     joint_positions = { shoulder = 0.5, elbow = -1.0 }   # rad or m, by URDF joint name
     joint_motors = { yaw = { speed = 1.5, max_force = 20 } }             # velocity motors
     joint_targets = { elbow = { position = 0.9, stiffness = 200, damping = 20 } }   # PD drives
+    joint_torques = { wrist = 0.5 }                                     # N m (N: prismatic), applied
     package_dirs = ["ros/src"]     # where package:// meshes are looked up (scene-relative)
     material = { friction = 0.8 }  # links without Bullet's <contact>
     collision_filter = { category = 2 }
 
 An ``.xml`` file is read as MJCF (``load_mjcf``): ``fixed_base``, ``merge_fixed`` and ``package_dirs``
-do not apply to it, and ``self_collision`` defaults to true (MuJoCo's rule).
+do not apply to it, and ``self_collision`` defaults to true (MuJoCo's rule); ``controls = { name =
+ctrl }`` sets its actuators' controls (MuJoCo's ``data.ctrl``, ``Robot.set_controls``) for the run.
 
 A problem inside the URDF file is one line naming both files:
 ``scene.toml: robots[0].file: arm.urdf: joint[elbow].limit.lower: expected 1 number, got 'x'``.
@@ -38,8 +40,8 @@ from .urdf import INERTIA_SOURCES, load_urdf
 URDF_ONLY = ("fixed_base", "merge_fixed", "package_dirs")
 
 ROBOT_KEYS = ("file", "name", "position", "orientation", "euler_deg", "fixed_base", "merge_fixed", "self_collision",
-              "inertia", "joint_positions", "joint_motors", "joint_targets", "package_dirs", "material",
-              "collision_filter")
+              "inertia", "joint_positions", "joint_motors", "joint_targets", "joint_torques", "controls",
+              "package_dirs", "material", "collision_filter")
 
 
 class RobotReader:
@@ -53,6 +55,13 @@ class RobotReader:
             for k in URDF_ONLY:
                 if k in entry:
                     raise self.error("a URDF option: an MJCF (.xml) model does not take it", f"{key}.{k}")
+        elif "controls" in entry:
+            raise self.error("an MJCF option (actuator controls): a URDF has no actuators", f"{key}.controls")
+        settings = {}  # applied to the loaded robot: {option: {name: number}}
+        for k in ("joint_torques", "controls"):
+            if k in entry:
+                table = self.table(entry[k], f"{key}.{k}", entry[k].keys() if isinstance(entry[k], dict) else ())
+                settings[k] = {n: self.number(v, f"{key}.{k}.{n}") for n, v in table.items()}
         kw = {}
         if "name" in entry:
             kw["name"] = self.string(entry["name"], f"{key}.name")
@@ -91,11 +100,20 @@ class RobotReader:
         self.where = key
         before = world.body_count
         try:
-            (load_mjcf if mjcf else load_urdf)(world, path, **kw)
+            robot = (load_mjcf if mjcf else load_urdf)(world, path, **kw)
         except InputError as err:
             if err.file:  # the URDF's own problem: both files on the line
                 inner = ": ".join(str(p) for p in (Path(err.file).name, err.key) if p)
                 raise self.error(f"{inner}: {err.problem}", f"{key}.file") from None
             raise err.within(key, self.file) from None
+        for option, values in settings.items():
+            for name, value in values.items():
+                try:
+                    if option == "joint_torques":
+                        robot.set_joint_torque(None, name, value)
+                    else:
+                        robot.set_controls(None, {name: value})
+                except InputError as err:
+                    raise self.error(err.problem, f"{key}.{option}.{name}") from None
         for i in range(before, world.body_count):
             names[world.names[i]] = len(names)

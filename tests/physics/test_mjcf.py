@@ -276,6 +276,29 @@ def test_a_scene_file_loads_an_mjcf_robot_and_refuses_urdf_options(tmp_path):
     assert "robots[0].fixed_base" in str(info.value) and "MJCF" in str(info.value)
 
 
+def test_a_scene_sets_mjcf_controls_and_the_run_follows_them(tmp_path):
+    # [[robots]] controls = {...}: MuJoCo's ctrl for the run, clipped as set_controls clips it; the
+    # cart's 1.5 N (ctrl 0.5, gear 3) on 1 kg + armature 2 moves it by F t^2 / 2 (m + a) in 1 s
+    # (semi-implicit Euler's a h t / 2 = 2.6e-4 m over the substeps; tolerance 5e-4 m).
+    from tumble.scene import load_scene
+
+    actuated(tmp_path)
+    scene = tmp_path / "s.toml"
+    scene.write_text('[simulation]\ngravity = [0, 0, -9.81]\n[[robots]]\nfile = "model.xml"\n'
+                     'controls = { m_rail = 0.5, m_shoulder = 5.0 }\n')
+    loaded = load_scene(scene)
+    sim = tb.Simulator(loaded.world, dt=1 / 240)
+    sim.step(240)
+    rail = [j for j in loaded.world.joints if j.name == "actuated/rail"][0]
+    assert sim.soft_step.joints.readings(rail)["position"] == pytest.approx(0.5 * 1.5 / 3.0, abs=5e-4)
+    shoulder = [j for j in loaded.world.joints if j.name == "actuated/shoulder"][0]
+    assert shoulder.bound.param[19] == 2.0  # ctrl 5 clipped to 1, times gear 2
+    scene.write_text('[[robots]]\nfile = "model.xml"\ncontrols = { nope = 1.0 }\n')
+    with pytest.raises(tb.InputError) as info:
+        load_scene(scene)
+    assert str(info.value) == f"{scene}: robots[0].controls.nope: unknown actuator 'nope' of robot 'actuated'"
+
+
 PLANAR = """
 <mujoco model="planar">
   <compiler angle="radian"/>
