@@ -39,13 +39,17 @@ What maps to what:
   "true" (the geoms' where the body has any), "false" (never).
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
   their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair.
-- ``<actuator>``, in ``Robot.actuators`` by name, driven by ``Robot.set_controls(sim, {name: ctrl})``
-  (MuJoCo's ``data.ctrl``; ctrl starts at 0): ``<motor joint gear ctrlrange forcerange>`` applies
-  the torque or force gear x ctrl (ctrl clipped to ``ctrlrange``, the force to ``forcerange``, when
-  limited: ``ctrllimited``/``forcelimited`` true, or auto with the range given);
-  ``<position joint kp kv ctrlrange forcerange>`` a PD drive to ctrl (0 at the start).
-  ``velocity``, ``general`` and the other actuators are read and left off (nothing drives those
-  joints until ``Robot.set_motor``, ``set_joint_torque`` or ``set_position_target`` is called).
+- ``<actuator>`` on joints, in ``Robot.actuators`` by name, driven by ``Robot.set_controls(sim,
+  {name: ctrl})`` (MuJoCo's ``data.ctrl``; ctrl starts at 0), in MuJoCo's general form (``MjcfActuator``:
+  force = gain ctrl + b0 + b1 l + b2 l' on l = gear q, the joint's torque gear x force):
+  ``<motor>`` (gain 1), ``<position kp kv>``, ``<velocity kv>``, ``<general gainprm biasprm>``
+  (``gaintype`` fixed, ``biastype`` none or affine, ``dyntype`` none), with ``gear``, ``ctrlrange`` and
+  ``forcerange`` (when limited: ``ctrllimited``/``forcelimited`` true, or auto with the range
+  given). The bias's stiffness and damping are a PD drive on the joint (implicit, capped by the
+  forcerange), the rest its target or, without stiffness, an applied torque or force. Refused:
+  other gain, bias or activation types, a negative stiffness or damping, a forcerange on a damper
+  without stiffness (a velocity actuator's: MuJoCo clips the sum). Other actuators (``intvelocity``,
+  ``damper``, ``cylinder``, ``muscle``, ``adhesion``...) and those on tendons or sites are left off.
 
 Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
 rule, ``self_collision=True`` by default here, unlike ``load_urdf``); ``contype``/``conaffinity`` bit
@@ -85,6 +89,8 @@ REFUSED = {"include": "<include> is not supported: merge the included file into 
            "tendon": "<tendon> is not supported"}
 # elements of <worldbody>/<body> that make bodies or geoms of their own: refused, not dropped without a word
 GENERATORS = ("frame", "replicate", "composite", "flexcomp", "attach")
+# the joint actuators read (MuJoCo's shortcuts of <general>, and <general> itself)
+ACTUATORS = ("motor", "position", "velocity", "general")
 
 
 @dataclass
@@ -100,9 +106,14 @@ class MjcfStatic:
 
 @dataclass
 class MjcfActuator:
-    """An ``<actuator>`` of a joint: ``kind`` "motor" (a torque or force gear x ctrl) or "position"
-    (a PD drive to ctrl, gains kp, kv); ``ctrlrange``, ``forcerange``: (lo, hi) when limited, else
-    None. ``Robot.set_controls`` applies a value (MuJoCo's ``data.ctrl``)."""
+    """An ``<actuator>`` on a joint in MuJoCo's general form: the actuator force f = gain ctrl + b0 +
+    b1 l + b2 l' on the length l = gear q (ctrl clipped to ``ctrlrange``, f to ``forcerange``, when
+    given), the joint's generalized force gear f. ``motor``: gain 1, no bias; ``position``: gain
+    kp, bias (0, -kp, -kv); ``velocity``: gain kv, bias (0, 0, -kv); ``general``: gainprm[0],
+    biasprm[:3] (affine) or none. On the joint: a stiffness k = -gear^2 b1 and damping c = -gear^2
+    b2 (a PD drive, implicit), the rest gear (gain ctrl + b0) as the drive's target times k when
+    k > 0, else as an applied torque or force. ``ctrl``: the control now (MuJoCo's ``data.ctrl``,
+    0 at the start; ``Robot.set_controls``)."""
 
     name: str
     kind: str
@@ -110,35 +121,62 @@ class MjcfActuator:
     gear: float = 1.0
     ctrlrange: tuple | None = None
     forcerange: tuple | None = None
-    kp: float = 0.0
-    kv: float = 0.0
+    gain: float = 1.0
+    bias: tuple = (0.0, 0.0, 0.0)
+    ctrl: float = 0.0
 
-    def apply(self, robot, sim, value):
-        """Set this actuator's control to ``value`` on ``robot`` (from the next step on)."""
-        from .joints import P_EFFORT, P_TARGET
+    @property
+    def stiffness(self) -> float:
+        return -self.gear * self.gear * self.bias[1]
 
-        key = f"controls.{self.name}"
+    @property
+    def damping(self) -> float:
+        return -self.gear * self.gear * self.bias[2]
+
+    def drive(self) -> float:
+        """gear (gain ctrl + b0): N m or N, the part of the force that is not spring or damper."""
+        force = self.gain * self.ctrl + self.bias[0]
+        if self.forcerange is not None and self.stiffness == 0.0:  # a motor's force, clipped whole
+            force = min(max(force, self.forcerange[0]), self.forcerange[1])
+        return self.gear * force
+
+
+def apply_controls(robot, sim, controls: dict):
+    """``Robot.set_controls``: set the actuators' ``ctrl`` and write each joint they drive (its
+    drive target, its applied effort) from all its actuators."""
+    from .joints import P_EFFORT, P_TARGET
+
+    given = []
+    for name, value in controls.items():
+        actuator = robot.actuators.get(name)
+        if actuator is None:
+            raise InputError(f"unknown actuator {name!r} of robot {robot.name!r}", "controls")
         try:
             u = float(value)
         except (TypeError, ValueError):
             u = math.nan
         if not math.isfinite(u):
-            raise InputError(f"must be a finite number, got {value!r}", key)
-        if self.ctrlrange is not None:
-            u = min(max(u, self.ctrlrange[0]), self.ctrlrange[1])
-        if self.kind == "position":
-            robot._write(sim, self.joint, {P_TARGET: u})
-            return
-        force = u  # MuJoCo's motor: gain 1, no bias; the force clipped, then geared onto the joint
-        if self.forcerange is not None:
-            force = min(max(force, self.forcerange[0]), self.forcerange[1])
-        robot._write(sim, self.joint, {P_EFFORT: self.gear * force})
+            raise InputError(f"must be a finite number, got {value!r}", f"controls.{name}")
+        if actuator.ctrlrange is not None:
+            u = min(max(u, actuator.ctrlrange[0]), actuator.ctrlrange[1])
+        given.append((actuator, u))
+    for actuator, u in given:
+        actuator.ctrl = u
+    for joint in dict.fromkeys(actuator.joint for actuator, _ in given):
+        on = [a for a in robot.actuators.values() if a.joint == joint]
+        stiffness = sum(a.stiffness for a in on)
+        servo = sum(a.drive() for a in on if a.stiffness > 0.0)
+        effort = sum(a.drive() for a in on if a.stiffness == 0.0)
+        values = {P_EFFORT: effort}
+        if stiffness > 0.0:
+            values[P_TARGET] = servo / stiffness
+        robot._write(sim, joint, values)
 
 
 @dataclass
 class MjcfModel:
     """A parsed MJCF file: the tree (``model``, links and joints as a URDF's), the worldbody's
-    geoms, the position actuators' drives {joint: (kp, kv, force limit)}, excluded body pairs."""
+    geoms, the actuators' drives {joint: (stiffness, damping, force limit)}, excluded body pairs."""
 
     model: UrdfModel
     statics: list = field(default_factory=list)
@@ -579,11 +617,15 @@ def _limited(a: dict, flag: str, attr: str, key: str, reader):
 
 
 def _actuators(reader, root, out: MjcfModel, joint_names):
+    """The joint actuators (``MjcfActuator``) and, per joint, their drive (stiffness, damping, force
+    limit) into ``out.drives``."""
     for act in root.findall("actuator"):
         for e in act:
-            if e.tag not in ("position", "motor"):
-                continue  # velocity, general...: read and left off (module docstring)
+            if e.tag not in ACTUATORS:
+                continue  # read and left off (module docstring)
             a = reader.attributes(e, "main")
+            if "joint" not in a:
+                continue  # on a site (tendons are refused): left off
             name = a.get("name") or f"actuator{len(out.actuators)}"
             key = f"actuator.{e.tag}[{a.get('name', a.get('joint'))}]"
             if name in out.actuators:
@@ -594,19 +636,40 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
             gear = float(_floats(a["gear"], f"{key}.gear", (1, 6))[0]) if "gear" in a else 1.0
             ctrlrange = _limited(a, "ctrllimited", "ctrlrange", key, reader)
             forcerange = _limited(a, "forcelimited", "forcerange", key, reader)
+
+            def number(attr, default):
+                return float(_floats(a.get(attr, default), f"{key}.{attr}", (1,))[0])
+
             if e.tag == "motor":
-                out.actuators[name] = MjcfActuator(name, "motor", joint, gear, ctrlrange, forcerange)
-                continue
-            if gear != 1.0:
-                raise InputError("a gear other than 1 is not supported", f"{key}.gear")
-            kp = float(_floats(a.get("kp", "1"), f"{key}.kp", (1,))[0])
-            kv = float(_floats(a.get("kv", "0"), f"{key}.kv", (1,))[0])
-            for k, value in (("kp", kp), ("kv", kv)):
-                if value < 0:
-                    raise InputError(f"must be >= 0, got {value:g}", f"{key}.{k}")
-            limit = math.inf if forcerange is None else max(abs(forcerange[0]), abs(forcerange[1]))
-            out.drives[joint] = (kp, kv, limit)
-            out.actuators[name] = MjcfActuator(name, "position", joint, gear, ctrlrange, forcerange, kp, kv)
+                gain, bias = 1.0, (0.0, 0.0, 0.0)
+            elif e.tag == "position":
+                kp, kv = number("kp", "1"), number("kv", "0")
+                gain, bias = kp, (0.0, -kp, -kv)
+            elif e.tag == "velocity":
+                kv = number("kv", "1")
+                gain, bias = kv, (0.0, 0.0, -kv)
+            else:  # general
+                for attr, allowed in (("dyntype", ("none",)), ("gaintype", ("fixed",)),
+                                      ("biastype", ("none", "affine"))):
+                    if a.get(attr, allowed[0]) not in allowed:
+                        raise InputError(f"{attr} {a[attr]!r} is not supported (only {' or '.join(allowed)})",
+                                         f"{key}.{attr}")
+                gain = float(_floats(a.get("gainprm", "1"), f"{key}.gainprm", range(1, 11))[0])
+                bias = (0.0, 0.0, 0.0)
+                if a.get("biastype", "none") == "affine":
+                    b = _floats(a.get("biasprm", "0 0 0"), f"{key}.biasprm", range(1, 11))
+                    bias = tuple(float(v) for v in (list(b) + [0.0, 0.0])[:3])
+            actuator = MjcfActuator(name, e.tag, joint, gear, ctrlrange, forcerange, gain, bias)
+            if actuator.stiffness < 0.0 or actuator.damping < 0.0:
+                raise InputError("a negative stiffness or damping (bias) is not supported", key)
+            if forcerange is not None and actuator.damping > 0.0 and actuator.stiffness == 0.0:
+                # f = kv (ctrl - l') clipped whole: here an effort and a damper, each of its own
+                raise InputError("a forcerange on a damping actuator without stiffness is not supported", key)
+            k, c, limit = out.drives.get(joint, (0.0, 0.0, 0.0))
+            if actuator.stiffness > 0.0:
+                limit += math.inf if forcerange is None else abs(gear) * max(abs(forcerange[0]), abs(forcerange[1]))
+            out.drives[joint] = (k + actuator.stiffness, c + actuator.damping, limit)
+            out.actuators[name] = actuator
 
 
 # ---------------------------------------------------------------------- loading
@@ -624,7 +687,7 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
             rule); False: none of them touch each other.
         joint_positions: {joint: rad or m}, the start (MuJoCo's qpos; 0 is the model's pose).
         joint_motors, joint_targets: as ``load_urdf``'s (``joint_targets`` add to and override the
-            file's position actuators).
+            file's actuators' drives; the actuators on those joints are left at the caller's drive).
         material: the bodies' material (default: friction from the geoms, MuJoCo's 1 where unset).
         collision_filter, name, inertia: as ``load_urdf``'s.
 
@@ -638,15 +701,22 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     if material is None:
         for link_name, friction in parsed.frictions.items():
             model.links[link_name].material = Material(friction=friction)
-    targets = {j: {"position": 0.0, "stiffness": kp, "damping": kv, **({} if math.isinf(limit) else {"max_force": limit})}
-               for j, (kp, kv, limit) in parsed.drives.items()}
+    # the actuators' springs and dampers, per joint: a PD drive (its target and the applied efforts are
+    # the controls': set for ctrl = 0 once the robot is built)
+    targets = {j: {"position": 0.0, "stiffness": kp, "damping": kv,
+                   **({} if math.isinf(limit) or kp == 0.0 else {"max_force": limit})}
+               for j, (kp, kv, limit) in parsed.drives.items() if kp > 0.0 or kv > 0.0}
     targets.update(joint_targets or {})
     try:
-        return _build(world, parsed, material, targets, position=position, orientation=orientation,
-                      euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
-                      collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors)
+        robot = _build(world, parsed, material, targets, position=position, orientation=orientation,
+                       euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
+                       collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors)
     except InputError as err:
         raise err if err.file else err.within(None, str(path)) from None
+    # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
+    # joints given ``joint_targets`` keep the caller's drive
+    apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in (joint_targets or {})})
+    return robot
 
 
 def _build(world, parsed: MjcfModel, material, targets, *, position, orientation, euler_deg, self_collision,

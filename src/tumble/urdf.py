@@ -206,16 +206,16 @@ class Robot:
         self._write(sim, joint, {P_EFFORT: value})
 
     def set_controls(self, sim, controls: dict):
-        """MuJoCo's ``data.ctrl`` by actuator name ({name: value}; MJCF models): a motor applies
-        gear x ctrl (ctrl clipped to its ``ctrlrange``, the force to its ``forcerange``), a
-        position actuator pulls its joint to ctrl (clipped to ``ctrlrange``). From the next step on."""
+        """MuJoCo's ``data.ctrl`` by actuator name ({name: value}; MJCF models), from the next step on:
+        a motor applies gear x ctrl (ctrl clipped to its ``ctrlrange``, the force to its
+        ``forcerange``), a position actuator pulls its joint to ctrl, a velocity actuator drives its
+        rate to ctrl, a general one applies gain ctrl + its affine bias (``mjcf.MjcfActuator``).
+        Checked whole before any is set."""
+        from .mjcf import apply_controls
+
         if not isinstance(controls, dict):
             raise InputError(f"expected a table {{actuator: value}}, got {controls!r}", "controls")
-        for name, value in controls.items():
-            actuator = self.actuators.get(name)
-            if actuator is None:
-                raise InputError(f"unknown actuator {name!r} of robot {self.name!r}", "controls")
-            actuator.apply(self, sim, value)
+        apply_controls(self, sim, controls)
 
     def set_position_target(self, sim, joint: str, target: float, stiffness: float, damping: float,
                             max_force: float | None = None):

@@ -446,6 +446,11 @@ def actuated_zero(tmp_path):
     ('<motor name="a" joint="h"/><motor name="a" joint="h"/>', "actuator.motor[a]", "duplicate actuator name"),
     ('<motor joint="h" gear="x"/>', "actuator.motor[h].gear", "expected numbers"),
     ('<motor joint="nope"/>', "actuator.motor[nope].joint", "unknown joint 'nope'"),
+    ('<general joint="h" dyntype="filter"/>', "actuator.general[h].dyntype", "'filter' is not supported"),
+    ('<general joint="h" gaintype="user"/>', "actuator.general[h].gaintype", "'user' is not supported"),
+    ('<general joint="h" biastype="affine" biasprm="0 5 0"/>', "actuator.general[h]", "negative stiffness"),
+    ('<velocity joint="h" kv="2" forcerange="-1 1"/>', "actuator.velocity[h]", "forcerange on a damping"),
+    ('<position joint="h" kp="x"/>', "actuator.position[h].kp", "expected numbers"),
 ])
 def test_bad_actuators_stop_with_one_line(tmp_path, actuator, key, problem):
     path = write(tmp_path, '<mujoco><worldbody><body><joint name="h"/><geom size="0.1"/></body></worldbody>'
@@ -468,3 +473,69 @@ def test_bad_controls_stop_with_one_line(tmp_path):
         robot.set_joint_torque(sim, "elbow", float("inf"))
     with pytest.raises(tb.InputError, match="unknown joint"):
         robot.set_joint_torque(sim, "knee", 1.0)
+
+
+SERVOS = """
+<mujoco model="servos">
+  <compiler angle="radian"/>
+  <option timestep="0.00025" integrator="RK4" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="arm" pos="0 0 2">
+      <joint name="hinge" type="hinge" axis="0 1 0" armature="0.02"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.03" mass="1"/>
+    </body>
+    <body name="cart" pos="3 0 1">
+      <joint name="rail" type="slide" axis="1 0 0"/>
+      <geom type="box" size="0.1 0.1 0.1" mass="2"/>
+    </body>
+    <body name="wheel" pos="6 0 1">
+      <joint name="spin" type="hinge" axis="0 0 1"/>
+      <geom type="cylinder" size="0.2 0.05" mass="1"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <general name="servo" joint="hinge" gear="2" gainprm="40" biastype="affine" biasprm="1 -40 -4" ctrlrange="-0.5 0.5"/>
+    <velocity name="rail_speed" joint="rail" kv="3" gear="1.5"/>
+    <general name="push" joint="spin" gainprm="0.5"/>
+    <motor name="spin_motor" joint="spin" forcerange="-0.01 0.01"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_general_velocity_and_stacked_actuators_move_as_mujoco_rk4_says(tmp_path):
+    # MuJoCo's general form on each joint: a geared servo with an affine bias (gear 2: stiffness
+    # 4 x 40, damping 4 x 4, its target 2 (40 ctrl + 1) / 160; ctrl 0.9 clipped to 0.5) holding a
+    # 1 kg arm against gravity (both rest at 0.2772 rad); a velocity actuator (kv 3, gear 1.5: the
+    # cart's rate goes to ctrl / 1.5 through a damper of 6.75 N s/m, implicit); two actuators on
+    # one joint (a general of gain 0.5, biastype none, and a motor clipped to 0.01 N m) adding their
+    # torques. Against MuJoCo's RK4 at dt 1/4000 s over 1 s, tumble at dt 1/240 (first order):
+    # measured 1.6e-3 rad (the servo's swing up), 1e-4 m, 2.9e-3 rad (the spin: semi-implicit
+    # Euler's alpha h t / 2 over the substeps); tolerances about 2x.
+    path = write(tmp_path, SERVOS)
+    controls = {"servo": 0.9, "rail_speed": 0.4, "push": 0.2, "spin_motor": 1.0}
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    for k in range(m.nu):
+        d.ctrl[k] = controls[m.actuator(k).name]
+    names = [m.joint(j).name for j in range(m.njnt)]
+    ref = []
+    for _ in range(20):
+        mujoco.mj_step(m, d, nstep=200)
+        ref.append(d.qpos.copy())
+    ref = np.array(ref)
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    sim = tb.Simulator(world, dt=1 / 240)
+    robot.set_controls(sim, controls)
+    q = []
+    for _ in range(20):
+        sim.step(12)
+        s = robot.joint_states(sim)
+        q.append([s[n][0] for n in names])
+    err = np.abs(np.array(q) - ref).max(axis=0)
+    assert err[0] < 3e-3 and err[1] < 5e-4 and err[2] < 5e-3, err
+    assert q[-1][0] == pytest.approx(0.2772, abs=1e-3) and ref[-1, 0] == pytest.approx(0.2772, abs=1e-3)
+    # the reference itself: the cart's rate r = ctrl / gear reached with tau = m / (gear^2 kv)
+    r, tau = 0.4 / 1.5, 2.0 / (1.5**2 * 3.0)
+    assert ref[-1, 1] == pytest.approx(r * (1.0 - tau * (1.0 - np.exp(-1.0 / tau))), rel=1e-6)
