@@ -136,3 +136,19 @@ def test_a_slow_first_frame_says_why_once_and_a_fast_one_says_nothing(monkeypatc
     tb.Simulator(w2, dt=0.01).run(0.1, frame_rate=20, progress=True)
     time.sleep(0.1)
     assert recording_module.FIRST_FRAME_NOTICE not in capsys.readouterr().err
+
+
+def test_a_blow_up_inside_the_soft_step_is_reported_by_its_span_of_steps():
+    # A rocket on a slider joint: its blow-up happens inside the soft step, whose solver warm starts
+    # a replay would not rewind (it named the first substep whatever the step): the message gives
+    # the call's span of steps and stage soft_step; the World is back where the call started.
+    w = tb.World(gravity=(0, 0, 0))
+    w.add_body(tb.Sphere(radius=0.1), mass=1.0, name="rocket", velocity=(1e150, 0, 0))
+    w.add_joint(tb.SliderJoint("rocket", None, axis=(1, 0, 0)))
+    w.add_force(tb.Drag(quadratic=10.0))
+    sim = tb.Simulator(w)
+    start = w.pack()
+    with pytest.raises(tb.SimulationError) as info:
+        sim.step(24)
+    assert info.value.stage == "soft_step" and "between steps 0 and 24" in str(info.value)
+    assert np.array_equal(w.pack(), start) and sim.step_index == 0
