@@ -99,6 +99,20 @@ def test_a_slider_force_accelerates_a_block_at_force_over_mass_plus_armature(met
         assert np.abs(w.x[0, 1:] - (0.0, 1.0)).max() < 1e-9
 
 
+def level_chain(w, count, mass, length, z=0.0, **hinge):
+    """``count`` bars (0.05 x 0.05 x ``length`` m, ``mass`` kg) laid level along +x from (0, 0, z),
+    each on a hinge about y to the one before (the first to the world) with the ``hinge`` fields
+    (a value, or a function of the bar's index)."""
+    prev = None
+    for k in range(count):
+        bar = w.add_body(tb.Box(size=(0.05, 0.05, length)), mass=mass, position=((k + 0.5) * length, 0.0, z),
+                         euler_deg=(0.0, 90.0, 0.0))
+        fields = {name: value(k) if callable(value) else value for name, value in hinge.items()}
+        w.add_joint(HingeJoint(bar, prev, anchor=(k * length, 0.0, z), axis=(0.0, 1.0, 0.0), **fields))
+        prev = bar
+    return w
+
+
 def pendulum(armature, method, dt=DT, seconds=1.0, theta0=1.0):
     """A 2 kg bar (0.1 x 0.1 x 1 m) hanging from a hinge (world y axis) at its end, started at
     theta0 rad from the vertical, at rest; returns the hinge angles (rad, from the start) per step."""
@@ -147,13 +161,7 @@ def test_a_two_link_chain_with_armature_follows_lagrange():
     # why the tree solve is the default. Measured worst over 1 s at dt 1/240 s: 1.7e-3 rad
     # (a = 0.1), 3.8e-4 (a = 1); bound 3e-3 (the step's first-order error, as the pendulum's).
     for armature in (0.1, 1.0):
-        w = tb.World(gravity=(0.0, 0.0, -9.81))
-        prev = None
-        for k in range(2):
-            bar = w.add_body(tb.Box(size=(0.05, 0.05, 0.4)), mass=0.1, position=(0.2 + 0.4 * k, 0.0, 0.0),
-                             euler_deg=(0.0, 90.0, 0.0))
-            w.add_joint(HingeJoint(bar, prev, anchor=(0.4 * k, 0.0, 0.0), axis=(0.0, 1.0, 0.0), armature=armature))
-            prev = bar
+        w = level_chain(tb.World(gravity=(0.0, 0.0, -9.81)), 2, 0.1, 0.4, armature=armature)
         assert w.exact_joints
         sim = tb.Simulator(w, dt=DT)
         assert sim.joint_settings is ACCURATE
@@ -175,14 +183,7 @@ def test_a_light_link_with_armature_is_brought_to_its_limit_without_bouncing():
     # onto its lower limit and held there (measured: 0.5 to 1e-5 rad from the first step on). With
     # limit rows that saw the link's own inertia alone, not the armature's, the tree method
     # bounced the joints from stop to stop (12.8 rad after 0.5 s) and Gauss-Seidel went to NaN.
-    w = tb.World(gravity=(0.0, 0.0, -9.81))
-    prev = None
-    for k in range(2):
-        bar = w.add_body(tb.Box(size=(0.05, 0.05, 0.3)), mass=0.04, position=(0.15 + 0.3 * k, 0.0, 0.0),
-                         euler_deg=(0.0, 90.0, 0.0))
-        w.add_joint(HingeJoint(bar, prev, anchor=(0.3 * k, 0.0, 0.0), axis=(0.0, 1.0, 0.0), armature=1.0,
-                               lower=0.5, upper=1.5))
-        prev = bar
+    w = level_chain(tb.World(gravity=(0.0, 0.0, -9.81)), 2, 0.04, 0.3, armature=1.0, lower=0.5, upper=1.5)
     sim = tb.Simulator(w, dt=DT)
     q = []
     for _ in range(120):
@@ -224,15 +225,8 @@ def test_a_run_with_torques_and_armature_resumes_bit_for_bit(tmp_path):
     # The checkpoint carries the joints' efforts and armatures (their parameter rows) and the
     # armature rows' impulses (axial_impulse): the resumed run equals the uninterrupted one.
     def make_world():
-        w = tb.World(gravity=(0.0, 0.0, -9.81))
-        prev = None
-        for k in range(3):
-            bar = w.add_body(tb.Box(size=(0.05, 0.05, 0.4)), mass=0.5, position=(0.2 + 0.4 * k, 0.0, 1.0),
-                             euler_deg=(0.0, 90.0, 0.0))
-            w.add_joint(HingeJoint(bar, prev, anchor=(0.4 * k, 0.0, 1.0), axis=(0.0, 1.0, 0.0), armature=0.05 * k,
-                                   torque=0.3 - 0.2 * k, lower=-2.0, upper=2.0))
-            prev = bar
-        return w
+        return level_chain(tb.World(gravity=(0.0, 0.0, -9.81)), 3, 0.5, 0.4, z=1.0, armature=lambda k: 0.05 * k,
+                           torque=lambda k: 0.3 - 0.2 * k, lower=-2.0, upper=2.0)
 
     whole, resumed = resumed_run(make_world, tmp_path, duration=1.0, dt=DT)
     assert checks.state_hash(resumed.world) == checks.state_hash(whole.world)
