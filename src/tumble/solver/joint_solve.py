@@ -253,15 +253,21 @@ def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp
 def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
                  h, inv_h, soft, v, omega, linear_impulse, axial_impulse):
     """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate."""
-    p = param[j]
-    if (p[P_STIFFNESS] == 0.0 and p[P_DAMPING] == 0.0 and p[P_MOTOR_ON] == 0.0 and p[P_RIGID] == 0.0
-            and p[P_LIMIT_ON] == 0.0):
+    if (param[j, P_STIFFNESS] == 0.0 and param[j, P_DAMPING] == 0.0 and param[j, P_MOTOR_ON] == 0.0
+            and param[j, P_RIGID] == 0.0 and param[j, P_LIMIT_ON] == 0.0):
         return  # PERF: most joints (a net, a chain) have no 1-D rows; skip their geometry
+    p = param[j]
     has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
     if not has:
         return
     if t == JOINT_UNIVERSAL and p[P_LIMIT_ON] != 0.0:
         pos = _centred_angle(pos, p[P_LOWER], p[P_UPPER])
+    if (p[P_STIFFNESS] == 0.0 and p[P_DAMPING] == 0.0 and p[P_MOTOR_ON] == 0.0 and p[P_RIGID] == 0.0
+            and _limits_idle(j, p, pos, _row_velocity(v, omega, a, b, linear, n, ra, rb), inv_h, axial_impulse)):
+        # PERF: only limits, both apart and not closing within the substep, with no impulse: their
+        # rows would add nothing; skip the row's mass (a 3x3 solve with the anchor block). An ant's
+        # eight limited hinges swinging freely cost 1.2 us a joint a sweep with it.
+        return
     # An angular row of a joint that also pins its anchor (hinge angle, ball cone) moves
     # the bodies about the anchor, not about their centres: solve it with the anchor block
     # (``_coupled_row_mass``). Alone, the row sees only the bodies' own inertias: a 1 m
@@ -316,6 +322,22 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     elif p[P_LIMIT_ON] != 0.0:
         _solve_limit_rows(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos, a, b, linear, n, ra, rb, comp, keep, m_eff, soft,
                           inv_h, inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
+
+
+@njit(**JIT)
+def _limits_idle(j, p, pos, cdot, inv_h, axial_impulse):
+    """Whether both limit rows of the 1-D coordinate at ``pos`` moving at ``cdot`` would apply
+    nothing this sweep (``_solve_limit_rows``): each bound infinite, or apart (C > 0) with no
+    accumulated impulse and C / h + its rate >= 0, so that max(0 - m (rate + C / h), 0) = 0."""
+    for side in range(2):
+        sign = 1.0 if side == 0 else -1.0
+        bound = p[P_LOWER] if side == 0 else p[P_UPPER]
+        if math.isinf(bound):
+            continue
+        C = sign * (pos - bound)
+        if C <= 0.0 or axial_impulse[j, A_LOWER + side] != 0.0 or sign * cdot + C * inv_h < 0.0:
+            return False
+    return True
 
 
 @njit(**JIT)
@@ -521,7 +543,7 @@ def solve_joints_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, lo
     soft: (3,) (bias rate 1/s, mass scale, impulse scale) of the rigid rows in this pass
     (Box2D ``b2Softness``; (0, 1, 0) in relax). Joints between two immovable bodies are skipped.
     ``gauss_seidel`` (J,) bool: whose rigid rows this sweep solves (the others are left to
-    ``tree_solve_kernel``, with their armature rows); the other 1-D coordinate rows of every
+    ``joint_tree.tree_substitute_kernel``, with their armature rows); the other 1-D coordinate rows of every
     joint are solved here. rate0 (J,) rad/s or m/s: the coordinates' rates before this
     substep's forces (``joint_rates_kernel``; read by the armature rows only).
 
@@ -603,7 +625,7 @@ def joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
                        rate0):
     """rate0[j] = the 1-D coordinate's rate (rad/s or m/s) of each joint with armature, from
     v, omega (N, 3) at poses x, R: taken before a substep's forces, the target of its
-    armature row (``_solve_axial``, ``joint_tree.tree_solve_kernel``).
+    armature row (``_solve_axial``, ``joint_tree.tree_factor_kernel``).
 
     NOTE: v, omega are those the last substep solved (or the step's start): the next
     substep derives omega again from L at the new orientation, which turns it by the

@@ -202,35 +202,33 @@ def _has_armature_row(j, t, param):
 
 
 @njit(**JIT)
-def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
-                      frame_a, frame_b, param, position, rate0, x, R, inv_mass, I_inv, bias_rate,
-                      # scratch
-                      Ja, Jb, C, nrow, D, Dinv, H_up, y, sol, work,
-                      # outputs
-                      v, omega, linear_impulse, angular_impulse, axial_impulse):
-    """One exact solve of the rigid rows of the tree joints: J (u + du) = -bias_rate C,
-    M du = J^T lambda, by block L D L^T of the KKT matrix in ``order`` (leaves first).
+def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
+                       frame_a, frame_b, param, position, x, R, inv_mass, I_inv,
+                       # outputs (scratch)
+                       Ja, Jb, C, nrow, D, Dinv, H_up, W, work):
+    """The rigid rows of the tree joints at the current pose (``Ja``, ``Jb`` (J, 6, 6), ``C`` (J, 6),
+    ``nrow`` (J,)) and the block L D L^T factors of their KKT matrix H = [[M, J^T], [J, -compliance]]
+    in ``order`` (leaves first): ``Dinv`` (n, 6, 6) the pivots' inverses, ``H_up`` (n, 6, 6) each
+    node's block with its parent, ``W`` = Dinv H_up (n, 6, 6) (Baraff 1996's elimination).
 
     Nodes: ``node_joint[k]`` >= 0 for a joint node, else ``node_body[k]`` is a body node;
-    ``node_parent[k]`` (-1 for a root). Adds lambda to the joints' accumulated impulses.
+    ``node_parent[k]`` (-1 for a root). They depend on the poses, masses and inertias only, so one
+    factorization serves every sweep of a solve (``tree_sweeps_kernel``): only the right-hand side
+    changes (``tree_substitute_kernel``).
 
-    A hinge or slider with armature a (``param[:, P_ARMATURE]``) gets one more row in its
-    block, its coordinate's rate, soft: J (u + du) + lambda_total / a = rate0 (the rate
-    before this substep's forces, ``joint_solve.joint_rates_kernel``), i.e. the impulse
-    -a (q' - q'_0) of the inertia a added to the coordinate (MuJoCo's armature), solved
-    exactly with the chain: a compliance 1/a on the KKT matrix's diagonal (the soft
-    constraint's form, Catto GDC 2011). Its rigid rows are at most 5, so the 6x6 block has room.
+    A hinge or slider with armature a (``param[:, P_ARMATURE]``) gets one more row in its block,
+    its coordinate's rate, soft: J (u + du) + lambda_total / a = rate0 (the rate before this
+    substep's forces, ``joint_solve.joint_rates_kernel``), i.e. the impulse -a (q' - q'_0) of the
+    inertia a added to the coordinate (MuJoCo's armature), solved exactly with the chain: a
+    compliance 1/a on the KKT matrix's diagonal (the soft constraint's form, Catto GDC 2011). Its
+    rigid rows are at most 5, so the 6x6 block has room.
     """
     n_nodes = order.shape[0]
-    # the rows at the current pose, and the accumulated impulses put back in their span
-    # (all joints first: the undo changes velocities the right-hand sides read)
     for k in range(n_nodes):
         j = node_joint[k]
         if j >= 0:
             nrow[j] = _joint_rows(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, frame_a, frame_b,
                                   param, Ja, Jb, C)
-            _project_accumulated(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, nrow[j], Jb,
-                                 inv_mass, I_inv, v, omega, linear_impulse, angular_impulse)
             if _has_armature_row(j, joint_type[j], param):
                 m = nrow[j]
                 has, lin, u, ra, rb, _pos = _coordinate_row(joint_type[j], j, joint_a[j], joint_b[j], x, R, local_a,
@@ -243,32 +241,18 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
                         Jb[j, m, c] = u[c] if lin else 0.0
                         Ja[j, m, 3 + c] = -ca[c] if lin else -u[c]
                         Jb[j, m, 3 + c] = cb[c] if lin else u[c]
-    # diagonal blocks and right-hand sides
+    # diagonal blocks
     for k in range(n_nodes):
         j = node_joint[k]
         for r in range(6):
-            y[k, r] = 0.0
             for c in range(6):
                 D[k, r, c] = 0.0
         if j >= 0:
-            a = joint_a[j]
-            b = joint_b[j]
             m = nrow[j]
-            armature = _has_armature_row(j, joint_type[j], param)
             for r in range(m, 6):
                 D[k, r, r] = 1.0
-            for r in range(m + 1 if armature else m):
-                s = bias_rate * C[j, r] if r < m else 0.0
-                for c in range(3):
-                    if a >= 0:
-                        s += Ja[j, r, c] * v[a, c] + Ja[j, r, 3 + c] * omega[a, c]
-                    if b >= 0:
-                        s += Jb[j, r, c] * v[b, c] + Jb[j, r, 3 + c] * omega[b, c]
-                y[k, r] = -s
-            if armature:
-                inv_arm = 1.0 / param[j, P_ARMATURE]
-                D[k, m, m] = -inv_arm
-                y[k, m] += rate0[j] - inv_arm * axial_impulse[j, A_ARMATURE]
+            if _has_armature_row(j, joint_type[j], param):
+                D[k, m, m] = -1.0 / param[j, P_ARMATURE]
         else:
             i = node_body[k]
             # M = diag(m 1, I_world), I_world = I_inv^-1
@@ -301,7 +285,7 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
             for r in range(6):
                 for c in range(6):
                     H_up[k, r, c] = J[jp, c, r]
-    # factor and forward substitution, leaves first: D_p -= H_pk D_k^-1 H_kp, y_p -= H_pk D_k^-1 y_k
+    # factor, leaves first: W_k = D_k^-1 H_kp, D_p -= H_kp^T W_k
     for kk in range(n_nodes):
         k = order[kk]
         for r in range(6):
@@ -314,22 +298,70 @@ def tree_solve_kernel(order, node_joint, node_body, node_parent, joint_type, joi
         p = node_parent[k]
         if p < 0:
             continue
-        # work = D_k^-1 H_kp (6x6), then D_p -= H_kp^T work, y_p -= work^T y_k
         for r in range(6):
             for c in range(6):
                 s = 0.0
                 for m in range(6):
                     s += Dinv[k, r, m] * H_up[k, m, c]
-                work[r, c] = s
+                W[k, r, c] = s
         for r in range(6):
             for c in range(6):
                 s = 0.0
                 for m in range(6):
-                    s += H_up[k, m, r] * work[m, c]
+                    s += H_up[k, m, r] * W[k, m, c]
                 D[p, r, c] -= s
+
+
+@njit(**JIT)
+def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
+                           param, rate0, x, R, inv_mass, I_inv, bias_rate, Ja, Jb, C, nrow, Dinv, H_up, W,
+                           # scratch
+                           y, sol, work,
+                           # outputs
+                           v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """One exact solve of the rigid rows of the tree joints on the factors of ``tree_factor_kernel``:
+    J (u + du) = -bias_rate C, M du = J^T lambda (and the armature rows), by forward and back
+    substitution in ``order``. Adds lambda to the joints' accumulated impulses."""
+    n_nodes = order.shape[0]
+    # the accumulated impulses put back in the span of the current rows (all joints first: the
+    # undo changes velocities the right-hand sides read)
+    for k in range(n_nodes):
+        j = node_joint[k]
+        if j >= 0:
+            _project_accumulated(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, nrow[j], Jb,
+                                 inv_mass, I_inv, v, omega, linear_impulse, angular_impulse)
+    # right-hand sides
+    for k in range(n_nodes):
+        j = node_joint[k]
+        for r in range(6):
+            y[k, r] = 0.0
+        if j < 0:
+            continue
+        a = joint_a[j]
+        b = joint_b[j]
+        m = nrow[j]
+        armature = _has_armature_row(j, joint_type[j], param)
+        for r in range(m + 1 if armature else m):
+            s = bias_rate * C[j, r] if r < m else 0.0
+            for c in range(3):
+                if a >= 0:
+                    s += Ja[j, r, c] * v[a, c] + Ja[j, r, 3 + c] * omega[a, c]
+                if b >= 0:
+                    s += Jb[j, r, c] * v[b, c] + Jb[j, r, 3 + c] * omega[b, c]
+            y[k, r] = -s
+        if armature:
+            inv_arm = 1.0 / param[j, P_ARMATURE]
+            y[k, m] += rate0[j] - inv_arm * axial_impulse[j, A_ARMATURE]
+    # forward substitution, leaves first: y_p -= W_k^T y_k
+    for kk in range(n_nodes):
+        k = order[kk]
+        p = node_parent[k]
+        if p < 0:
+            continue
+        for r in range(6):
             s = 0.0
             for m in range(6):
-                s += work[m, r] * y[k, m]
+                s += W[k, m, r] * y[k, m]
             y[p, r] -= s
     # back substitution, roots first: sol_k = D_k^-1 (y_k - H_kp sol_p)
     for kk in range(n_nodes - 1, -1, -1):
@@ -379,12 +411,12 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
                        local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
                        inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent,
                        # scratch
-                       Ja, Jb, C, nrow, D, Dinv, H_up, y, sol, work, before,
+                       Ja, Jb, C, nrow, D, Dinv, H_up, W, y, sol, work, before,
                        # outputs
                        v, omega, linear_impulse, angular_impulse, axial_impulse):
     """One solve of the tree method: ``iterations`` sweeps, each the Gauss-Seidel rows (the
     coordinate rows; the rigid rows of joints outside the tree) then the exact tree solve
-    (``tree_solve_kernel``), and while a limit row's impulse still changes, more sweeps.
+    (``tree_substitute_kernel`` on the factors ``tree_factor_kernel`` makes once), and while a limit row's impulse still changes, more sweeps.
 
     Limit rows are Gauss-Seidel rows around the exact solve, which undoes part of each limit
     impulse as it re-solves the chain: two sweeps leave a limit that a fast chain strikes
@@ -416,10 +448,15 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             for j in range(before.shape[0]):
                 for c in range(L):
                     before[j, c] = axial_impulse[j, limits[c]]
+        if sweep == 0:
+            # PERF: the factors depend on the poses, masses and inertias, fixed over the sweeps: once
+            # per solve (it was once per sweep: the same numbers, so the same bits)
+            tree_factor_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
+                               local_b, frame_a, frame_b, param, position, x, R, inv_mass, I_inv, Ja, Jb, C, nrow, D,
+                               Dinv, H_up, W, work)
         solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
                                    param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft, 1,
                                    v, omega, linear_impulse, angular_impulse, axial_impulse)
-        tree_solve_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
-                          local_b, frame_a, frame_b, param, position, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb,
-                          C, nrow, D, Dinv,
-                          H_up, y, sol, work, v, omega, linear_impulse, angular_impulse, axial_impulse)
+        tree_substitute_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
+                               local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow, Dinv, H_up, W,
+                               y, sol, work, v, omega, linear_impulse, angular_impulse, axial_impulse)

@@ -24,7 +24,7 @@ rigid blocks, each solved exactly as a block (angular 3x3 / 2x2 / 1x1, then the 
 (Box2D ``b2SolveRevoluteJoint``). Rows read the current poses (x, R), so arms and errors
 follow the bodies through the substeps; the inverse world inertia is the caller's
 ``I_inv`` (N, 3, 3) at call time. With ``method="tree"`` the rigid rows of a spanning
-forest are instead solved exactly in linear time (Baraff 1996; ``tree_solve_kernel``).
+forest are instead solved exactly in linear time (Baraff 1996; ``tree_factor_kernel``, ``tree_substitute_kernel``).
 
 ``step_with_joints`` is a standalone stepper (the World's built-in forces and joints; no
 contacts, no user callables) in the stage order of the Simulator's soft step
@@ -484,7 +484,8 @@ class JointSolver:
         self._scratch = {
             "Ja": np.zeros((J, 6, 6)), "Jb": np.zeros((J, 6, 6)), "C": np.zeros((J, 6)),
             "nrow": np.zeros(J, dtype=np.int64), "D": np.zeros((n, 6, 6)), "Dinv": np.zeros((n, 6, 6)),
-            "H_up": np.zeros((n, 6, 6)), "y": np.zeros((n, 6)), "sol": np.zeros((n, 6)), "work": np.zeros((6, 6)),
+            "H_up": np.zeros((n, 6, 6)), "W": np.zeros((n, 6, 6)), "y": np.zeros((n, 6)), "sol": np.zeros((n, 6)),
+            "work": np.zeros((6, 6)),
         }
 
     # -- stages --------------------------------------------------------------------------
@@ -589,7 +590,7 @@ class JointSolver:
     def tree_parts(self) -> tuple:
         """The tree method's arrays for ``tree_sweeps_kernel``: (limit columns, TREE_LIMIT_SWEEPS,
         LIMIT_TOLERANCE, node_order, node_joint, node_body, node_parent, then its scratch: Ja, Jb,
-        C, nrow, D, Dinv, H_up, y, sol, work, before). Empty arrays of the same types when the
+        C, nrow, D, Dinv, H_up, W, y, sol, work, before). Empty arrays of the same types when the
         method is not the tree's (``soft_step.joint_substeps_kernel`` takes them either way)."""
         if self.settings.method != "tree":
             if self.__dict__.get("_no_tree") is None:
@@ -597,7 +598,7 @@ class JointSolver:
                 i64 = np.int64
                 self._no_tree = (z(0, i64), TREE_LIMIT_SWEEPS, LIMIT_TOLERANCE, z(0, i64), z(0, i64), z(0, i64),
                                  z(0, i64), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z(0, i64), z((0, 6, 6)),
-                                 z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z((0, 6)), z((6, 6)), z((0, 0)))
+                                 z((0, 6, 6)), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z((0, 6)), z((6, 6)), z((0, 0)))
             return self._no_tree
         limits = self._limit_columns()
         sc = self._scratch
@@ -605,7 +606,8 @@ class JointSolver:
         if before is None or before.shape != (self.count, len(limits)):
             before = sc["before"] = np.zeros((self.count, len(limits)))
         return (limits, TREE_LIMIT_SWEEPS, LIMIT_TOLERANCE, self.node_order, self.node_joint, self.node_body,
-                self.node_parent, sc["Ja"], sc["Jb"], sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"], sc["y"],
+                self.node_parent, sc["Ja"], sc["Jb"], sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"], sc["W"],
+                sc["y"],
                 sc["sol"], sc["work"], before)
 
     def _limit_columns(self) -> np.ndarray:
