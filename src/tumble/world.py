@@ -143,6 +143,8 @@ class World:
     def kinematic_moving(self) -> np.ndarray:
         """(N,) bool: the kinematic bodies that move: a velocity not zero, or a path."""
         k = self.kinematic
+        if not self.paths and not k.any():
+            return k.copy()  # PERF: no kinematic body (most worlds): 5.8 -> 1 us, asked once or twice a step
         moving = k & (np.any(self.kinematic_v != 0.0, axis=1) | np.any(self.kinematic_omega != 0.0, axis=1))
         for path in self.paths:
             moving[self.index_of(path.body)] = True
