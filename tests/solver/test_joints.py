@@ -440,9 +440,10 @@ def test_joint_substeps_in_one_kernel_give_the_same_bits_as_the_stage_loop(monke
     # A step with joints and no contacts runs its substeps in one compiled call
     # (soft_step.joint_substeps_kernel: the same kernels in the same order as SoftStep.step's loop).
     # Compared with that loop (JointSolver.fusable forced off) on a chain that uses every kind of
-    # row: a hinge with limits (struck) and a motor, a slider with a PD drive, a ball joint with a
-    # cone limit, a spring and drag (compiled forces), with either joint method (the tree's extra
-    # limit sweeps included): the states and readings must be equal bit for bit.
+    # row: a hinge with limits (struck) and a motor, a hinge and a slider with PD drives, armature
+    # and applied efforts, a ball joint with a cone limit, a spring and drag (compiled forces), with
+    # either joint method (the tree's extra limit sweeps included): the states and readings must be
+    # equal bit for bit.
     from tumble.solver import soft_step
 
     def build():
@@ -454,8 +455,10 @@ def test_joint_substeps_in_one_kernel_give_the_same_bits_as_the_stage_loop(monke
         d = w.add_body(tb.Sphere(0.1), mass=0.5, position=(0.9, 0, 0.6), name="d")
         w.add_joint(HingeJoint("world", a, anchor=(0, 0, 1), axis=(0, 1, 0), lower=-0.6, upper=0.4,
                                motor_speed=1.5, max_motor_torque=3.0))
-        w.add_joint(HingeJoint(a, b, anchor=(0.4, 0, 1), axis=(0, 1, 0), stiffness=20.0, damping=0.5, target=0.3))
-        w.add_joint(SliderJoint(b, c, axis=(1, 0, 0), lower=-0.05, upper=0.1, stiffness=50.0, damping=1.0))
+        w.add_joint(HingeJoint(a, b, anchor=(0.4, 0, 1), axis=(0, 1, 0), stiffness=20.0, damping=0.5, target=0.3,
+                               armature=0.05, torque=0.4))
+        w.add_joint(SliderJoint(b, c, axis=(1, 0, 0), lower=-0.05, upper=0.1, stiffness=50.0, damping=1.0,
+                                armature=0.2, force=-0.5))
         w.add_joint(BallJoint(c, d, anchor=(0.9, 0, 0.8), cone_limit=0.5))
         w.add_force(tb.Spring(body_a=d, anchor_a=(0, 0, 0), body_b=None, anchor_b=(1.5, 0.5, 0.2), stiffness=30.0, damping=0.5))
         w.add_force(tb.Drag(linear=0.1, angular_linear=0.01))
