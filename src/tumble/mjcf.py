@@ -74,7 +74,7 @@ from . import checks
 from .errors import InputError
 from .math3d import matrix_to_quat, quat_to_matrix
 from .shapes import Box, Capsule, Convex, Cylinder, Plane, Sphere
-from .urdf import balanced_inertia
+from .urdf import _finite, balanced_inertia
 from .urdf_read import UrdfJoint, UrdfLink, UrdfModel, read_xml
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
@@ -151,12 +151,7 @@ def apply_controls(robot, sim, controls: dict):
         actuator = robot.actuators.get(name)
         if actuator is None:
             raise InputError(f"unknown actuator {name!r} of robot {robot.name!r}", "controls")
-        try:
-            u = float(value)
-        except (TypeError, ValueError):
-            u = math.nan
-        if not math.isfinite(u):
-            raise InputError(f"must be a finite number, got {value!r}", f"controls.{name}")
+        u = _finite(value, f"controls.{name}")
         if actuator.ctrlrange is not None:
             u = min(max(u, actuator.ctrlrange[0]), actuator.ctrlrange[1])
         given.append((actuator, u))

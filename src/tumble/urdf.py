@@ -197,13 +197,7 @@ class Robot:
         opposite on its parent, until changed. Not clipped (as PyBullet; the URDF's effort is the
         motors' and drives' limit); any motor, drive or friction of the joint acts as well."""
         self._urdf_joint(joint)
-        try:
-            value = float(torque)
-        except (TypeError, ValueError):
-            value = math.nan
-        if not math.isfinite(value):
-            raise InputError(f"must be a finite number, got {torque!r}", "torque")
-        self._write(sim, joint, {P_EFFORT: value})
+        self._write(sim, joint, {P_EFFORT: _finite(torque, "torque")})
 
     def set_controls(self, sim, controls: dict):
         """MuJoCo's ``data.ctrl`` by actuator name ({name: value}; MJCF models), from the next step on:

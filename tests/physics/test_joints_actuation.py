@@ -219,6 +219,9 @@ def test_a_torque_holds_a_damped_pendulum_where_gravity_balances_it():
     theta = brentq(lambda th: 3.0 - 2.0 * 9.81 * 0.5 * math.sin(th), 0.0, 1.5)
     assert sim.joint_readings()["position"][0] == pytest.approx(theta, abs=1e-4)
     assert w.joints[0].bound.param[19] == 3.0  # kept in the record (checkpoints carry it)
+    for bad, problem in (("x", "expected a number"), (math.inf, "finite")):
+        with pytest.raises(tb.InputError, match=problem):
+            sim.soft_step.joints.set_effort("pivot", bad)
 
 
 def test_a_run_with_torques_and_armature_resumes_bit_for_bit(tmp_path):

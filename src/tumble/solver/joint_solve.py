@@ -265,8 +265,8 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     if (p[P_STIFFNESS] == 0.0 and p[P_DAMPING] == 0.0 and p[P_MOTOR_ON] == 0.0 and p[P_RIGID] == 0.0
             and _limits_idle(j, p, pos, _row_velocity(v, omega, a, b, linear, n, ra, rb), inv_h, axial_impulse)):
         # PERF: only limits, both apart and not closing within the substep, with no impulse: their
-        # rows would add nothing; skip the row's mass (a 3x3 solve with the anchor block). An ant's
-        # eight limited hinges swinging freely cost 1.2 us a joint a sweep with it.
+        # rows would add nothing; skip the row's mass (a 3x3 solve with the anchor block): a sweep of
+        # an ant's eight hinges with limits alone, swinging freely, 7.7 -> 3.6 us (the same bits).
         return
     # An angular row of a joint that also pins its anchor (hinge angle, ball cone) moves
     # the bodies about the anchor, not about their centres: solve it with the anchor block
@@ -288,8 +288,8 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
         # each row here sees the coordinate's inertia 1/k + a and moves the bodies by
         # ``keep`` = 1 / (1 + a k) of its impulse. Without it a limit row saw the link's own
         # inertia alone: an ant's light legs (link inertia 1e-4, armature 1) started 30 deg
-        # past their ankle limits oscillated from stop to stop and blew up in 20 steps, with
-        # either joint method (measured).
+        # past their ankle limits blew up within 20 steps, and two light links with armature 1
+        # pushed onto a limit bounced from stop to stop (measured).
         keep = 1.0 / (1.0 + p[P_ARMATURE] * k)
         k = k * keep
     m_eff = 1.0 / k
@@ -543,8 +543,8 @@ def solve_joints_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, lo
     soft: (3,) (bias rate 1/s, mass scale, impulse scale) of the rigid rows in this pass
     (Box2D ``b2Softness``; (0, 1, 0) in relax). Joints between two immovable bodies are skipped.
     ``gauss_seidel`` (J,) bool: whose rigid rows this sweep solves (the others are left to
-    ``joint_tree.tree_substitute_kernel``, with their armature rows); the other 1-D coordinate rows of every
-    joint are solved here. rate0 (J,) rad/s or m/s: the coordinates' rates before this
+    ``joint_tree.tree_substitute_kernel``, with their armature rows); the other 1-D coordinate
+    rows of every joint are solved here. rate0 (J,) rad/s or m/s: the coordinates' rates before this
     substep's forces (``joint_rates_kernel``; read by the armature rows only).
 
     The joints are taken in the order ``order`` (J,), cut by ``bounds`` (P + 2,) into P

@@ -48,6 +48,7 @@ from numba import njit
 
 from ..errors import InputError
 from ..joints import (
+    _number,
     JOINT_BALL,
     JOINT_DISTANCE,
     JOINT_HINGE,
@@ -676,9 +677,7 @@ class JointSolver:
         coordinate from the next step on (PyBullet's ``TORQUE_CONTROL``; MuJoCo's ``ctrl`` of a
         motor actuator); kept in the joint's record too, so a checkpoint carries it."""
         j = self.index(joint)
-        value = float(effort)
-        if not math.isfinite(value):
-            raise InputError(f"must be a finite number, got {effort!r}", "torque")
+        value = _number(effort, "torque")
         if self.joint_type[j] not in (JOINT_HINGE, JOINT_SLIDER):
             raise InputError(f"only hinge and slider joints take a torque or force, not joint {j}", "torque")
         self.param[j, P_EFFORT] = value
