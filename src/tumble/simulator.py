@@ -392,6 +392,30 @@ class Simulator:
                     "enabled": np.array([not j.broken for j in self.world.joints], dtype=bool)}
         return solver.readings()
 
+    def set_joint_torque(self, joint, torque: float):
+        """Apply ``torque`` (N m along a hinge; a force in N along a slider) from the next step on,
+        on body b and the opposite on body a, until changed (PyBullet's ``TORQUE_CONTROL``; the
+        joint record's ``torque`` / ``force`` field; ``Robot.set_joint_torque`` for robots).
+        ``joint``: its record, name or index in ``world.joints``. Before the first step too."""
+        from .joints import JOINT_HINGE, JOINT_SLIDER, P_EFFORT, _number
+
+        joints = self.world.joints
+        record = None
+        for k, rec in enumerate(joints):
+            if rec is joint or (isinstance(joint, str) and rec.name == joint) or (
+                    isinstance(joint, (int, np.integer)) and not isinstance(joint, bool) and k == joint):
+                record = rec
+                break
+        if record is None:
+            raise InputError(f"unknown joint {joint!r}", "joint")
+        value = _number(torque, "torque")
+        if record.bound.type_id not in (JOINT_HINGE, JOINT_SLIDER):
+            raise InputError(f"only hinge and slider joints take a torque or force, not a {record.kind} joint", "joint")
+        record.bound.param[P_EFFORT] = value
+        solver = None if self.soft_step is None else self.soft_step.joints
+        if solver is not None and solver.count == len(joints):
+            solver.param[solver.index(record), P_EFFORT] = value
+
     def joint_frame(self) -> dict:
         """``joint_readings`` under the trajectory's per-frame keys (``trajectory.joint_frame_shapes``)."""
         r = self.joint_readings()

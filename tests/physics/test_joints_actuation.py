@@ -208,13 +208,13 @@ def test_a_torque_limited_motor_spins_up_the_armature_too(method):
 
 def test_a_torque_holds_a_damped_pendulum_where_gravity_balances_it():
     # A hinge torque of 3 N m on the bar of ``pendulum`` (m g d = 9.81 N m), joint damping to let
-    # it settle: at rest tau = m g d sin theta (brentq); set between steps with set_effort.
+    # it settle: at rest tau = m g d sin theta (brentq); set between steps (Simulator.set_joint_torque).
     w = tb.World(gravity=(0.0, 0.0, -9.81))
     bar = w.add_body(tb.Box(size=(0.1, 0.1, 1.0)), mass=2.0, position=(0.0, 0.0, -0.5))
     w.add_joint(HingeJoint(bar, None, anchor=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0), damping=2.0, name="pivot"))
     sim = tb.Simulator(w, dt=DT)
     sim.step(1)
-    sim.soft_step.joints.set_effort("pivot", 3.0)
+    sim.set_joint_torque("pivot", 3.0)
     sim.step(240 * 8)
     theta = brentq(lambda th: 3.0 - 2.0 * 9.81 * 0.5 * math.sin(th), 0.0, 1.5)
     assert sim.joint_readings()["position"][0] == pytest.approx(theta, abs=1e-4)
@@ -222,6 +222,18 @@ def test_a_torque_holds_a_damped_pendulum_where_gravity_balances_it():
     for bad, problem in (("x", "expected a number"), (math.inf, "finite")):
         with pytest.raises(tb.InputError, match=problem):
             sim.soft_step.joints.set_effort("pivot", bad)
+        with pytest.raises(tb.InputError, match=problem):
+            sim.set_joint_torque("pivot", bad)
+    with pytest.raises(tb.InputError, match="unknown joint 'knee'"):
+        sim.set_joint_torque("knee", 1.0)
+    # before the first step: into the record, which the solver reads when it is built
+    w2 = tb.World(gravity=(0.0, 0.0, 0.0))
+    wheel = w2.add_body(tb.Cylinder(0.1, 0.05), mass=2.0, position=(0.0, 0.0, 1.0))
+    w2.add_joint(HingeJoint("world", wheel, anchor=(0.0, 0.0, 1.0), axis=(0.0, 0.0, 1.0)))
+    sim2 = tb.Simulator(w2, dt=DT)
+    sim2.set_joint_torque(0, 0.5)
+    sim2.step(240)
+    assert w2.omega[0, 2] == pytest.approx(0.5 / 0.01, rel=1e-9)
 
 
 def test_a_run_with_torques_and_armature_resumes_bit_for_bit(tmp_path):
