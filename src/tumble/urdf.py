@@ -92,6 +92,8 @@ class Robot:
             merged into).
         actuators: {name: actuator} of an MJCF model (``mjcf.MjcfActuator``, in the file's order:
             MuJoCo's ``ctrl`` order), driven by ``set_controls``; empty for a URDF.
+        equalities: {name: joint record} of an MJCF model's ``<equality>`` constraints (``connect``:
+            a ``BallJoint``, ``weld``: a ``FixedJoint``); empty for a URDF.
     """
 
     name: str
@@ -103,6 +105,7 @@ class Robot:
     link_frames: dict
     owners: dict
     actuators: dict = field(default_factory=dict)
+    equalities: dict = field(default_factory=dict)
 
     def link_pose(self, link) -> tuple[np.ndarray, np.ndarray]:
         """The link frame now: origin (3,) m and rotation (3, 3), world."""
