@@ -37,6 +37,11 @@ What maps to what:
   The joint's coordinate is MuJoCo's qpos: zero at the model's pose.
 - ``<compiler inertiafromgeom>``: "auto" (the default: the ``<inertial>`` where there is one),
   "true" (the geoms' where the body has any), "false" (never).
+- ``<equality>``: ``connect`` (``body1``, ``body2`` or the world, ``anchor`` in body1's frame) a
+  ``BallJoint`` closing a loop, ``weld`` a ``FixedJoint`` keeping the model's relative pose, both
+  taken at the model's pose (MuJoCo's qpos0) before ``joint_positions`` places the bodies; in
+  ``Robot.equalities``; rigid (MuJoCo's are soft: ``solref``/``solimp`` are not read); a model
+  with one gets the tree solve by default. ``active="false"`` ones are left off.
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
   their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair.
 - ``<actuator>`` on joints, in ``Robot.actuators`` by name, driven by ``Robot.set_controls(sim,
@@ -57,7 +62,8 @@ masks other than 0/0 are not mapped. Not read, on purpose and documented (docs/r
 ``<option>`` (set the World's gravity and the Simulator's dt yourself), ``condim``, ``solref``,
 ``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
 sites, cameras, lights, sensors, keyframes, visual settings.
-Refused with one line: ``<include>``, ``<equality>``, ``<tendon>``, ``<contact><pair>``, ``<frame>``,
+Refused with one line: ``<include>``, ``<equality>`` other than connect and weld (joint, tendon,
+flex; between sites; a weld's ``relpose``), ``<tendon>``, ``<contact><pair>``, ``<frame>``,
 ``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
 hfield and sdf geoms, a free joint beside another joint, and unknown joint or geom types.
 """

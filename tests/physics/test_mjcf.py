@@ -604,3 +604,43 @@ def test_a_four_bar_closed_by_an_equality_connect_swings_as_mujoco_says(tmp_path
                               - np.array([1.1, 0.0, 0.9])) < 1e-4
     assert errors[0] < 1e-2 and errors[0] / errors[1] > 3.0, errors
     assert np.abs(ref[:, 2]).max() > 3.0  # it swings: the loop is exercised
+
+
+def test_a_weld_equality_keeps_two_bodies_together_and_joint_positions_come_after_it(tmp_path):
+    # <weld body1 body2>: a free body b welded to the tip of arm a (a hinge about y): b
+    # goes round with a, their relative pose kept (to 1e-4 m and rad, the loop's Gauss-Seidel
+    # gap); joint_positions are applied after the weld took the model's pose (MuJoCo's qpos0).
+    path = write(tmp_path, """
+<mujoco model="welded">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="ha" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.03"/>
+    </body>
+    <body name="b" pos="0.5 0 1">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.05"/>
+    </body>
+  </worldbody>
+  <equality><weld body1="b" body2="a"/></equality>
+</mujoco>""")
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    a, b = robot.links["a"], robot.links["b"]
+    rel0 = (a.R.T @ (b.x - a.x), a.R.T @ b.R)
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(240)
+    assert robot.joint_states(sim)["ha"][0] > 0.5  # it swung down
+    np.testing.assert_allclose(a.R.T @ (b.x - a.x), rel0[0], atol=1e-4)
+    np.testing.assert_allclose(a.R.T @ b.R, rel0[1], atol=1e-4)
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path, joint_positions={"ha": 0.3})
+    a, b = robot.links["a"], robot.links["b"]
+    # as MuJoCo's qpos: a turned by 0.3 rad, the free b left at its own (the model's) pose, so the
+    # weld starts stretched; it pulls the two back to their model-pose relation
+    np.testing.assert_allclose(b.x, (0.5, 0.0, 1.0), atol=1e-12)
+    assert np.linalg.norm(a.R.T @ (b.x - a.x) - rel0[0]) > 0.1
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(240)
+    np.testing.assert_allclose(a.R.T @ (b.x - a.x), rel0[0], atol=1e-3)
