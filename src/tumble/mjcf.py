@@ -59,7 +59,8 @@ What maps to what:
 Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
 rule, ``self_collision=True`` by default here, unlike ``load_urdf``); ``contype``/``conaffinity`` bit
 masks other than 0/0 are not mapped. Not read, on purpose and documented (docs/robots.md):
-``<option>`` (set the World's gravity and the Simulator's dt yourself), ``condim``, ``solref``,
+``<option>`` (set the World's gravity and the Simulator's dt yourself; ``tumble run model.xml``
+takes its ``gravity``), ``condim``, ``solref``,
 ``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
 sites, cameras, lights, sensors, keyframes, visual settings.
 Refused with one line: ``<include>``, ``<equality>`` other than connect and weld (joint, tendon,
@@ -395,6 +396,20 @@ def read_mjcf(path) -> MjcfModel:
     path = Path(path)
     try:
         return _read(path)
+    except InputError as err:
+        raise err.within(None, str(path)) from None
+
+
+def read_option_gravity(path) -> np.ndarray:
+    """The ``<option gravity>`` of an MJCF file (3,) m/s^2 (MuJoCo's default 0 0 -9.81). InputError on a bad file."""
+    path = Path(path)
+    try:
+        root = read_xml(path, "MJCF", "mujoco")
+        gravity = np.array([0.0, 0.0, -9.81])
+        for option in root.findall("option"):
+            if "gravity" in option.attrib:
+                gravity = _floats(option.get("gravity"), "option.gravity", (3,))
+        return gravity
     except InputError as err:
         raise err.within(None, str(path)) from None
 

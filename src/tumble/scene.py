@@ -162,7 +162,8 @@ class Scene:
 
 
 def load_scene(path) -> Scene:
-    """Read a scene file: ``.toml`` (tomllib) or ``.json``.
+    """Read a scene file: ``.toml`` (tomllib) or ``.json``; or a MuJoCo model (``.xml``, MJCF) run
+    as a scene of its own (``_model_scene``).
 
     Mesh paths inside it are relative to the file's folder.
 
@@ -172,8 +173,11 @@ def load_scene(path) -> Scene:
     path = Path(path)
     file = str(path)
     suffix = path.suffix.lower()
+    if suffix == ".xml":
+        return _model_scene(path)
     if suffix not in (".toml", ".json"):
-        raise InputError(f"unknown scene file type {path.suffix or '(none)'!r} (expected .toml or .json)", None, file)
+        raise InputError(f"unknown scene file type {path.suffix or '(none)'!r} (expected .toml, .json or an MJCF .xml)",
+                         None, file)
     try:
         size = path.stat().st_size
     except OSError:
@@ -208,6 +212,19 @@ def load_scene(path) -> Scene:
         except RecursionError:
             raise InputError("invalid JSON: nested too deeply", None, file) from None
     return parse_scene(data, file, path.parent, source=path)
+
+
+def _model_scene(path: Path) -> Scene:
+    """A MuJoCo model file as a scene (``tumble run model.xml``, as MuJoCo's ``simulate`` opens one):
+    one ``[[robots]]`` entry loading it, its ``<option gravity>`` (MuJoCo's default 0 0 -9.81) as
+    the scene's gravity, the other ``[simulation]`` keys at their defaults (dt 1/240 s: the model's
+    ``timestep`` is not taken, the frames must be a whole number of steps)."""
+    from .mjcf import read_mjcf, read_option_gravity
+
+    read_mjcf(path)  # the model's own problems as its own line (FILE: element: problem), not as the entry's
+    data = {"simulation": {"gravity": [float(g) for g in read_option_gravity(path)]},
+            "robots": [{"file": path.name}]}
+    return parse_scene(data, str(path), path.parent, source=path)
 
 
 class _DuplicateKey(Exception):

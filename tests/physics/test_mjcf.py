@@ -644,3 +644,24 @@ def test_a_weld_equality_keeps_two_bodies_together_and_joint_positions_come_afte
     sim = tb.Simulator(world, dt=1 / 240)
     sim.step(240)
     np.testing.assert_allclose(a.R.T @ (b.x - a.x), rel0[0], atol=1e-3)
+
+
+def test_the_cli_runs_and_validates_an_mjcf_file_as_a_scene(tmp_path, capsys):
+    # ``tumble run model.xml`` (as MuJoCo's simulate opens a model): one [[robots]] entry, the file's
+    # <option gravity>; its outputs as a scene's, the model copied as scene.xml. A bad model is one
+    # line naming the file and the element, status 2.
+    from tumble.cli import main
+
+    path = write(tmp_path, SERVOS.replace('gravity="0 0 -9.81"', 'gravity="0 0 -3"'), "servos.xml")
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--duration", "0.5", "--no-progress"]) == 0
+    traj = tb.load_trajectory(out / "trajectory.npz")
+    assert "servos/cart" in list(traj.names) and (out / "scene.xml").read_bytes() == path.read_bytes()
+    assert tb.load_scene(path).world.gravity.tolist() == [0.0, 0.0, -3.0]
+    assert main(["validate", str(path)]) == 0
+    bad = write(tmp_path, '<mujoco><worldbody><body><joint range="2 1"/><geom size="0.1"/></body></worldbody></mujoco>',
+                "bad.xml")
+    capsys.readouterr()
+    assert main(["run", str(bad), "--out", str(tmp_path / "out2")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"tumble: error: {bad}: joint[body1_joint].range: the range is the wrong way round: 2 > 1", err
