@@ -79,17 +79,37 @@ def mujoco_bodies(path):
     return bodies, joints
 
 
-def mujoco_motion(path, q0, samples=20, sample=0.05):
+def mujoco_motion(path, q0=None, samples=20, sample=0.05, controls=None):
     """(joint names, qpos (samples, n) every ``sample`` s) of MuJoCo stepping the file from qpos q0
-    (its <option>: RK4 at dt 1/4000 s in these models)."""
+    (default the model's) with ``controls`` ({actuator: ctrl}) (its <option>: RK4 at dt 1/4000 s
+    in these models)."""
     m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
-    d.qpos[:] = q0
+    if q0 is not None:
+        d.qpos[:] = q0
+    for name, value in (controls or {}).items():
+        d.ctrl[m.actuator(name).id] = value
     qpos = []
     for _ in range(samples):
         mujoco.mj_step(m, d, nstep=int(round(sample / m.opt.timestep)))
         qpos.append(d.qpos.copy())
     return [m.joint(j).name for j in range(m.njnt)], np.array(qpos)
+
+
+def tumble_motion(path, names, dt=1 / 240, controls=None, samples=20, sample=0.05, **load):
+    """(joint positions (samples, n) of ``names`` every ``sample`` s, the Simulator, the Robot) of
+    tumble running the file at ``dt`` (its default joint solver) with ``controls``."""
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path, **load)
+    sim = tb.Simulator(world, dt=dt)
+    if controls:
+        robot.set_controls(sim, controls)
+    q = []
+    for _ in range(samples):
+        sim.step(int(round(sample / dt)))
+        s = robot.joint_states(sim)
+        q.append([s[n][0] for n in names])
+    return np.array(q), sim, robot
 
 
 def combined(parts):
@@ -403,27 +423,12 @@ def test_armature_and_motor_actuators_move_as_mujoco_rk4_says(tmp_path):
     # (semi-implicit Euler's a h t / 2 over the substeps h). Tolerances about 3x and 2x. With the
     # file's armatures set to 0 the arm is off by 0.081 rad and the cart by 0.5 m.
     path = actuated(tmp_path)
-    m = mujoco.MjModel.from_xml_path(str(path))
-    d = mujoco.MjData(m)
-    d.ctrl[:] = (5.0, 0.8, 0.5)
-    names = [m.joint(j).name for j in range(m.njnt)]
-    ref = []
-    for _ in range(20):
-        mujoco.mj_step(m, d, nstep=200)
-        ref.append(d.qpos.copy())
-    ref = np.array(ref)
+    controls = {"m_shoulder": 5.0, "m_elbow": 0.8, "m_rail": 0.5}
+    names, ref = mujoco_motion(path, controls=controls)
 
     def run(path):
-        world = tb.World(gravity=(0, 0, -G))
-        robot = tb.load_mjcf(world, path)
-        sim = tb.Simulator(world, dt=1 / 240)
-        robot.set_controls(sim, {"m_shoulder": 5.0, "m_elbow": 0.8, "m_rail": 0.5})
-        q = []
-        for _ in range(20):
-            sim.step(12)
-            s = robot.joint_states(sim)
-            q.append([s[n][0] for n in names])
-        return np.array(q), sim
+        q, sim, _ = tumble_motion(path, names, controls=controls)
+        return q, sim
 
     q, sim = run(path)
     assert sim.joint_settings is ACCURATE
@@ -521,25 +526,8 @@ def test_general_velocity_and_stacked_actuators_move_as_mujoco_rk4_says(tmp_path
     # Euler's alpha h t / 2 over the substeps); tolerances about 2x.
     path = write(tmp_path, SERVOS)
     controls = {"servo": 0.9, "rail_speed": 0.4, "push": 0.2, "spin_motor": 1.0}
-    m = mujoco.MjModel.from_xml_path(str(path))
-    d = mujoco.MjData(m)
-    for k in range(m.nu):
-        d.ctrl[k] = controls[m.actuator(k).name]
-    names = [m.joint(j).name for j in range(m.njnt)]
-    ref = []
-    for _ in range(20):
-        mujoco.mj_step(m, d, nstep=200)
-        ref.append(d.qpos.copy())
-    ref = np.array(ref)
-    world = tb.World(gravity=(0, 0, -G))
-    robot = tb.load_mjcf(world, path)
-    sim = tb.Simulator(world, dt=1 / 240)
-    robot.set_controls(sim, controls)
-    q = []
-    for _ in range(20):
-        sim.step(12)
-        s = robot.joint_states(sim)
-        q.append([s[n][0] for n in names])
+    names, ref = mujoco_motion(path, controls=controls)
+    q, _, _ = tumble_motion(path, names, controls=controls)
     err = np.abs(np.array(q) - ref).max(axis=0)
     assert err[0] < 3e-3 and err[1] < 5e-4 and err[2] < 5e-3, err
     assert q[-1][0] == pytest.approx(0.2772, abs=1e-3) and ref[-1, 0] == pytest.approx(0.2772, abs=1e-3)
@@ -586,18 +574,11 @@ def test_a_four_bar_closed_by_an_equality_connect_swings_as_mujoco_says(tmp_path
     # default soft Gauss-Seidel joints were 0.047 rad off. Tolerance about 1.5x; the loop's gap
     # in tumble under 1e-4 m.
     path = write(tmp_path, FOURBAR)
-    names, ref = mujoco_motion(path, (0.0, 0.0, 0.0))
+    names, ref = mujoco_motion(path)
     errors = []
     for dt in (1 / 240, 1 / 960):
-        world = tb.World(gravity=(0, 0, -G))
-        robot = tb.load_mjcf(world, path)
-        sim = tb.Simulator(world, dt=dt)
+        q, sim, robot = tumble_motion(path, names, dt=dt)
         assert sim.joint_settings is ACCURATE and list(robot.equalities) == ["close"]
-        q = []
-        for _ in range(20):
-            sim.step(int(round(0.05 / dt)))
-            s = robot.joint_states(sim)
-            q.append([s[n][0] for n in names])
         errors.append(np.abs(np.array(q) - ref).max())
         origin, R = robot.link_pose("rocker")
         assert np.linalg.norm(origin + R @ np.array([0.3, 0.0, -0.5]) - robot.link_pose("world")[0]
