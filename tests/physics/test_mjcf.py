@@ -425,23 +425,14 @@ def test_armature_and_motor_actuators_move_as_mujoco_rk4_says(tmp_path):
     path = actuated(tmp_path)
     controls = {"m_shoulder": 5.0, "m_elbow": 0.8, "m_rail": 0.5}
     names, ref = mujoco_motion(path, controls=controls)
-
-    def run(path):
-        q, sim, _ = tumble_motion(path, names, controls=controls)
-        return q, sim
-
-    q, sim = run(path)
+    q, sim, robot = tumble_motion(path, names, controls=controls)
     assert sim.joint_settings is ACCURATE
-    assert list(robot_actuators(path)) == ["m_shoulder", "m_elbow", "m_rail"]
+    assert list(robot.actuators) == ["m_shoulder", "m_elbow", "m_rail"]
     assert np.abs(q[:, :2] - ref[:, :2]).max() < 1e-3
     assert np.abs(q[:, 2] - ref[:, 2]).max() < 5e-4
     assert ref[-1, 2] == pytest.approx(0.5 * 1.5 / 3.0 * 1.0**2, rel=1e-3)  # the reference itself: F t^2 / 2 (m + a)
-    q0, _ = run(actuated_zero(tmp_path))
+    q0, _, _ = tumble_motion(actuated_zero(tmp_path), names, controls=controls)
     assert np.abs(q0[:, :2] - ref[:, :2]).max() > 0.05
-
-
-def robot_actuators(path):
-    return tb.load_mjcf(tb.World(), path).actuators
 
 
 def actuated_zero(tmp_path):
