@@ -649,6 +649,10 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
             joint = a.get("joint")
             if joint not in joint_names:
                 raise InputError(f"unknown joint {joint!r} ({e.tag} actuators drive joints)", f"{key}.joint")
+            kind = next((j.kind for j in out.model.joints if j.name == joint), "free")
+            if kind not in ("revolute", "continuous", "prismatic"):
+                raise InputError(f"an actuator on a {kind} joint is not supported (only hinge and slide)",
+                                 f"{key}.joint")
             gear = float(_floats(a["gear"], f"{key}.gear", (1, 6))[0]) if "gear" in a else 1.0
             ctrlrange = _limited(a, "ctrllimited", "ctrlrange", key, reader)
             forcerange = _limited(a, "forcelimited", "forcerange", key, reader)
@@ -757,11 +761,11 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         robot = _build(world, parsed, material, targets, position=position, orientation=orientation,
                        euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
                        collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors)
+        # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
+        # joints given ``joint_targets`` keep the caller's drive
+        apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in (joint_targets or {})})
     except InputError as err:
         raise err if err.file else err.within(None, str(path)) from None
-    # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
-    # joints given ``joint_targets`` keep the caller's drive
-    apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in (joint_targets or {})})
     return robot
 
 

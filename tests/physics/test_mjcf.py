@@ -454,9 +454,11 @@ def actuated_zero(tmp_path):
     ('<general joint="h" biastype="affine" biasprm="0 5 0"/>', "actuator.general[h]", "negative stiffness"),
     ('<velocity joint="h" kv="2" forcerange="-1 1"/>', "actuator.velocity[h]", "forcerange on a damping"),
     ('<position joint="h" kp="x"/>', "actuator.position[h].kp", "expected numbers"),
+    ('<motor joint="b"/>', "actuator.motor[b].joint", "an actuator on a spherical joint is not supported"),
 ])
 def test_bad_actuators_stop_with_one_line(tmp_path, actuator, key, problem):
-    path = write(tmp_path, '<mujoco><worldbody><body><joint name="h"/><geom size="0.1"/></body></worldbody>'
+    path = write(tmp_path, '<mujoco><worldbody><body><joint name="h"/><geom size="0.1"/></body>'
+                           '<body pos="1 0 0"><joint name="b" type="ball"/><geom size="0.1"/></body></worldbody>'
                            f'<actuator>{actuator}</actuator></mujoco>')
     with pytest.raises(tb.InputError) as info:
         tb.load_mjcf(tb.World(), path)
