@@ -56,7 +56,7 @@ BODY_FIELDS = ("body", "body_a", "body_b")
 # The JointSolver (``sim.soft_step.joints``) arrays saved as ``joint_<name>``, by attribute
 # name and whatever their shape: those a step reads from the step before. ``enabled`` (J,)
 # bool; ``linear_impulse``, ``angular_impulse`` (J, 3) N s or N m s and ``axial_impulse``
-# (J, AXIAL_COUNT) (the warm start: motor, limit and drive rows and the motors' anchor parts); ``position`` (J,) rad or m (a hinge angle is unwrapped around
+# (J, AXIAL_COUNT) (the warm start: motor, limit, drive and armature rows and the motors' anchor parts); ``position`` (J,) rad or m (a hinge angle is unwrapped around
 # it); ``param`` (J, PARAM_COUNT) (writable between steps, e.g. ``set_motor_speed``); and
 # the readings of the last step, ``rate`` (J,), ``reaction_force`` (J, 3) N,
 # ``reaction_torque`` (J, 3) N m, ``broke`` (J,) bool, so ``joint_readings()`` after a

@@ -353,11 +353,13 @@ class JointSolver:
     writable between steps, e.g. ``param[j, P_MOTOR_SPEED]``).
 
     State: ``enabled`` (J,) bool (False once broken), ``linear_impulse``, ``angular_impulse``
-    (J, 3) N s and ``axial_impulse`` (J, AXIAL_COUNT = 11) N s or N m s (the coordinate's
+    (J, 3) N s and ``axial_impulse`` (J, AXIAL_COUNT = 12) N s or N m s (the coordinate's
     spring, motor, lower, upper, equal rows; then the second angular coordinate's lower,
     upper, motor rows: ball twist, universal angle_b; then the motor and drive rows' anchor
-    impulse, (3,) N s world, ``A_MOTOR_ANCHOR``), world, accumulated over the last
-    substep, carried to the next for warm starting.
+    impulse, (3,) N s world, ``A_MOTOR_ANCHOR``; then the armature row's, ``A_ARMATURE``),
+    world, accumulated over the last substep, carried to the next for warm starting.
+    ``rate0`` (J,): the coordinates' rates before the current substep's forces (the armature
+    rows' target, ``capture_rates``).
 
     Read after each step (``store``): ``position`` (J,) joint coordinate (hinge angle rad,
     slider displacement m, distance m, ball swing angle rad, universal angle about ``axis``
