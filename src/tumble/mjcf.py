@@ -57,8 +57,9 @@ What maps to what:
   ``damper``, ``cylinder``, ``muscle``, ``adhesion``...) and those on tendons or sites are left off.
 
 Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
-rule, ``self_collision=True`` by default here, unlike ``load_urdf``); ``contype``/``conaffinity`` bit
-masks other than 0/0 are not mapped. Not read, on purpose and documented (docs/robots.md):
+rule, ``self_collision=True`` by default here, unlike ``load_urdf``) and those none of whose geoms
+may touch by MuJoCo's ``contype``/``conaffinity`` rule (``_exclude_by_masks``: per body pair; the
+masks are not read against the scene's own bodies). Not read, on purpose and documented (docs/robots.md):
 ``<option>`` (set the World's gravity and the Simulator's dt yourself; ``tumble run model.xml``
 takes its ``gravity``), ``condim``, ``solref``,
 ``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
@@ -187,6 +188,7 @@ class MjcfModel:
     virtual: list = field(default_factory=list)  # the links between two joints of one body
     actuators: dict = field(default_factory=dict)  # name: MjcfActuator, the file's order
     equalities: list = field(default_factory=list)  # (kind "connect" | "weld", name, body1, body2, anchor (3,))
+    masks: dict = field(default_factory=dict)  # link name: [(contype, conaffinity)] of its colliding geoms
 
 
 # ---------------------------------------------------------------------- numbers and frames
@@ -357,11 +359,27 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
             shape = meshes[name]
     except InputError as err:
         raise err.within(key) from None
-    collides = not (a.get("contype", "1") == "0" and a.get("conaffinity", "1") == "0")
+    contype, conaffinity = _masks(a, key)
+    collides = not (contype == 0 and conaffinity == 0)
     friction = float(_floats(a["friction"], f"{key}.friction", (1, 2, 3))[0]) if "friction" in a else DEFAULT_FRICTION
     if friction < 0:
         raise InputError(f"must be >= 0, got {friction:g}", f"{key}.friction")
     return shape, position, R, collides, friction
+
+
+def _masks(a: dict, key: str) -> tuple:
+    """A geom's (``contype``, ``conaffinity``) bit masks, MuJoCo's default 1 and 1."""
+    out = []
+    for attr in ("contype", "conaffinity"):
+        text = a.get(attr, "1")
+        try:
+            value = int(text)
+        except ValueError:
+            raise InputError(f"expected an integer >= 0, got {text!r}", f"{key}.{attr}") from None
+        if value < 0:
+            raise InputError(f"expected an integer >= 0, got {text!r}", f"{key}.{attr}")
+        out.append(value)
+    return tuple(out)
 
 
 def _meshes(reader: _Reader, root) -> dict:
@@ -436,6 +454,7 @@ def _read(path: Path) -> MjcfModel:
         shape, position, R, collides, friction = _geom(reader, a, f"worldbody.geom[{name}]", meshes)
         if collides:
             out.statics.append(MjcfStatic(name, shape, position, R, friction))
+            out.masks[f"world/{name}"] = [_masks(a, f"worldbody.geom[{name}]")]
     for child in worldbody:
         _check_tag(child, "worldbody")
     counter = [0]
@@ -580,6 +599,7 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
         if collides:
             link.parts.append((shape, position, R))
             frictions.append(friction)
+            out.masks.setdefault(link.name, []).append(_masks(a, gkey))
         try:
             if "mass" in a:
                 props = mass_properties(shape, mass=float(_floats(a["mass"], f"{gkey}.mass", (1,))[0]))
@@ -795,6 +815,23 @@ def _add_equalities(world, robot, equalities):
         robot.equalities[name] = record
 
 
+def _exclude_by_masks(world, robot, masks: dict):
+    """MuJoCo's contype/conaffinity rule between the model's own bodies: two geoms may touch when
+    (contype1 & conaffinity2) or (contype2 & conaffinity1); a pair of bodies none of whose geoms
+    may touch is excluded (``world.exclude_collision``). Per body pair, not per geom: two bodies
+    of which some geoms may touch collide with all their geoms (a compound collides whole). The
+    model's bodies against the scene's: left to the bodies' filters (MuJoCo's default masks 1
+    and 1 meet any nonzero mask)."""
+    per_body: dict = {}
+    for link, pairs in masks.items():
+        per_body.setdefault(robot.links[link].index, []).extend(pairs)
+    bodies = sorted(per_body)
+    for i, a in enumerate(bodies):
+        for b in bodies[i + 1:]:
+            if not any((ta & cb) or (tb & ca) for ta, ca in per_body[a] for tb, cb in per_body[b]):
+                world.exclude_collision(a, b)
+
+
 def _build(world, parsed: MjcfModel, material, targets, *, position, orientation, euler_deg, self_collision,
            joint_positions, collision_filter, name, inertia, joint_motors):
     from .material import Material
@@ -825,5 +862,6 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
         robot.links[f"world/{s.name}"] = body
     for a, b in parsed.excluded:
         world.exclude_collision(robot.links[a], robot.links[b])
+    _exclude_by_masks(world, robot, parsed.masks)
     robot.actuators = dict(parsed.actuators)
     return robot

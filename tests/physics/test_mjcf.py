@@ -639,3 +639,42 @@ def test_the_cli_runs_and_validates_an_mjcf_file_as_a_scene(tmp_path, capsys):
     assert main(["run", str(bad), "--out", str(tmp_path / "out2")]) == 2
     err = capsys.readouterr().err.strip()
     assert err == f"tumble: error: {bad}: joint[body1_joint].range: the range is the wrong way round: 2 > 1", err
+
+
+def test_contype_and_conaffinity_keep_apart_the_bodies_mujoco_keeps_apart(tmp_path):
+    # MuJoCo's rule, geom by geom: (contype1 & conaffinity2) or (contype2 & conaffinity1). Gym's
+    # models give their limbs contype 1, conaffinity 0: limbs never touch each other but touch the
+    # floor (1, 1). Here a box (1, 0) falls onto another (1, 0) standing on the floor and passes
+    # through it to the floor, as in MuJoCo; a third box (2, 0) lands on a fourth (1, 2), which
+    # carries it (2 & 2) while the floor does not (2 & 1 = 0, 1 & 0 = 0). Checked against MuJoCo
+    # stepping the same file for 1 s: the same resting heights to 2 mm (soft contacts).
+    path = write(tmp_path, """
+<mujoco model="masks">
+  <worldbody>
+    <geom name="floor" type="plane" size="3 3 0.1"/>
+    <body name="low" pos="0 0 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1" contype="1" conaffinity="0"/></body>
+    <body name="high" pos="0 0 0.5"><freejoint/><geom type="box" size="0.1 0.1 0.1" contype="1" conaffinity="0"/></body>
+    <body name="base" pos="1 0 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1" contype="1" conaffinity="2"/></body>
+    <body name="top" pos="1 0 0.5"><freejoint/><geom type="box" size="0.1 0.1 0.1" contype="2" conaffinity="0"/></body>
+  </worldbody>
+</mujoco>""")
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    links = robot.links
+    assert not world.should_collide(links["low"], links["high"])
+    assert world.should_collide(links["base"], links["top"])
+    assert world.should_collide(links["world/floor"], links["high"]) and world.should_collide(links["world/floor"], links["low"])
+    assert world.should_collide(links["world/floor"], links["base"])
+    assert not world.should_collide(links["world/floor"], links["top"])
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(240)
+    z = {n: float(links[n].x[2]) for n in ("low", "high", "base", "top")}
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_step(m, d, nstep=int(round(1.0 / m.opt.timestep)))
+    zm = {n: float(d.xpos[m.body(n).id][2]) for n in ("low", "high", "base", "top")}
+    # low and high both rest on the floor (0.1 m), one inside the other; base and top fall together
+    for n in ("low", "high"):
+        assert z[n] == pytest.approx(0.1, abs=2e-3) and zm[n] == pytest.approx(0.1, abs=2e-3)
+    for n, h in (("base", 0.1), ("top", 0.3)):
+        assert z[n] == pytest.approx(h, abs=2e-3) and zm[n] == pytest.approx(h, abs=2e-3)
