@@ -45,7 +45,7 @@ What maps to what:
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
   their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair.
 - ``<actuator>`` on joints, in ``Robot.actuators`` by name, driven by ``Robot.set_controls(sim,
-  {name: ctrl})`` (MuJoCo's ``data.ctrl``; ctrl starts at 0), in MuJoCo's general form (``MjcfActuator``:
+  {name: ctrl})`` (MuJoCo's ``data.ctrl``; ctrl starts at 0), in MuJoCo's general form (``mjcf_control.MjcfActuator``:
   force = gain ctrl + b0 + b1 l + b2 l' on l = gear q, the joint's torque gear x force):
   ``<motor>`` (gain 1), ``<position kp kv>``, ``<velocity kv>``, ``<general gainprm biasprm>``
   (``gaintype`` fixed, ``biastype`` none or affine, ``dyntype`` none), with ``gear``, ``ctrlrange`` and
@@ -58,7 +58,7 @@ What maps to what:
 
 Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
 rule, ``self_collision=True`` by default here, unlike ``load_urdf``) and those none of whose geoms
-may touch by MuJoCo's ``contype``/``conaffinity`` rule (``_exclude_by_masks``: per body pair; the
+may touch by MuJoCo's ``contype``/``conaffinity`` rule (``mjcf_control._exclude_by_masks``: per body pair; the
 masks are not read against the scene's own bodies). Not read, on purpose and documented (docs/robots.md):
 ``<option>`` (set the World's gravity and the Simulator's dt yourself; ``tumble run model.xml``
 takes its ``gravity``), ``condim``, ``solref``,
@@ -82,7 +82,16 @@ from . import checks
 from .errors import InputError
 from .math3d import matrix_to_quat, quat_to_matrix
 from .shapes import Box, Capsule, Convex, Cylinder, Plane, Sphere
-from .urdf import _finite, balanced_inertia
+from .urdf import balanced_inertia
+from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public here too)
+    MjcfActuator,
+    _actuators,
+    _add_equalities,
+    _equalities,
+    _exclude_by_masks,
+    apply_controls,
+)
+from .mjcf_control import floats as _floats
 from .urdf_read import UrdfJoint, UrdfLink, UrdfModel, read_xml
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
@@ -96,8 +105,6 @@ REFUSED = {"include": "<include> is not supported: merge the included file into 
            "tendon": "<tendon> is not supported"}
 # elements of <worldbody>/<body> that make bodies or geoms of their own: refused, not dropped without a word
 GENERATORS = ("frame", "replicate", "composite", "flexcomp", "attach")
-# the joint actuators read (MuJoCo's shortcuts of <general>, and <general> itself)
-ACTUATORS = ("motor", "position", "velocity", "general")
 
 
 @dataclass
@@ -109,70 +116,6 @@ class MjcfStatic:
     position: np.ndarray
     R: np.ndarray
     friction: float
-
-
-@dataclass
-class MjcfActuator:
-    """An ``<actuator>`` on a joint in MuJoCo's general form: the actuator force f = gain ctrl + b0 +
-    b1 l + b2 l' on the length l = gear q (ctrl clipped to ``ctrlrange``, f to ``forcerange``, when
-    given), the joint's generalized force gear f. ``motor``: gain 1, no bias; ``position``: gain
-    kp, bias (0, -kp, -kv); ``velocity``: gain kv, bias (0, 0, -kv); ``general``: gainprm[0],
-    biasprm[:3] (affine) or none. On the joint: a stiffness k = -gear^2 b1 and damping c = -gear^2
-    b2 (a PD drive, implicit), the rest gear (gain ctrl + b0) as the drive's target times k when
-    k > 0, else as an applied torque or force. ``ctrl``: the control now (MuJoCo's ``data.ctrl``,
-    0 at the start; ``Robot.set_controls``)."""
-
-    name: str
-    kind: str
-    joint: str
-    gear: float = 1.0
-    ctrlrange: tuple | None = None
-    forcerange: tuple | None = None
-    gain: float = 1.0
-    bias: tuple = (0.0, 0.0, 0.0)
-    ctrl: float = 0.0
-
-    @property
-    def stiffness(self) -> float:
-        return -self.gear * self.gear * self.bias[1]
-
-    @property
-    def damping(self) -> float:
-        return -self.gear * self.gear * self.bias[2]
-
-    def drive(self) -> float:
-        """gear (gain ctrl + b0): N m or N, the part of the force that is not spring or damper."""
-        force = self.gain * self.ctrl + self.bias[0]
-        if self.forcerange is not None and self.stiffness == 0.0:  # a motor's force, clipped whole
-            force = min(max(force, self.forcerange[0]), self.forcerange[1])
-        return self.gear * force
-
-
-def apply_controls(robot, sim, controls: dict):
-    """``Robot.set_controls``: set the actuators' ``ctrl`` and write each joint they drive (its
-    drive target, its applied effort) from all its actuators."""
-    from .joints import P_EFFORT, P_TARGET
-
-    given = []
-    for name, value in controls.items():
-        actuator = robot.actuators.get(name)
-        if actuator is None:
-            raise InputError(f"unknown actuator {name!r} of robot {robot.name!r}", "controls")
-        u = _finite(value, f"controls.{name}")
-        if actuator.ctrlrange is not None:
-            u = min(max(u, actuator.ctrlrange[0]), actuator.ctrlrange[1])
-        given.append((actuator, u))
-    for actuator, u in given:
-        actuator.ctrl = u
-    for joint in dict.fromkeys(actuator.joint for actuator, _ in given):
-        on = [a for a in robot.actuators.values() if a.joint == joint]
-        stiffness = sum(a.stiffness for a in on)
-        servo = sum(a.drive() for a in on if a.stiffness > 0.0)
-        effort = sum(a.drive() for a in on if a.stiffness == 0.0)
-        values = {P_EFFORT: effort}
-        if stiffness > 0.0:
-            values[P_TARGET] = servo / stiffness
-        robot._write(sim, joint, values)
 
 
 @dataclass
@@ -192,20 +135,6 @@ class MjcfModel:
 
 
 # ---------------------------------------------------------------------- numbers and frames
-def _floats(text, key, counts) -> np.ndarray:
-    """The numbers of an attribute; ``counts``: the allowed counts."""
-    try:
-        values = [float(t) for t in str(text).split()]
-    except ValueError:
-        raise InputError(f"expected numbers, got {text!r}", key) from None
-    if len(values) not in counts:
-        want = " or ".join(str(c) for c in counts)
-        raise InputError(f"expected {want} number{'s' if max(counts) > 1 else ''}, got {text!r}", key)
-    if not all(math.isfinite(v) for v in values):
-        raise InputError(f"expected finite numbers, got {text!r}", key)
-    return np.array(values)
-
-
 def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     """(3, 3) rotation by ``angle`` rad about unit ``axis`` (Rodrigues)."""
     K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
@@ -636,112 +565,6 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
         link.mass, link.center, link.inertia = float(mass), center, inertia
 
 
-def _limited(a: dict, flag: str, attr: str, key: str, reader):
-    """An actuator's (lo, hi) range ``attr`` when ``flag`` ("ctrllimited", "forcelimited": true,
-    false, or auto: limited when the range is given, under ``<compiler autolimits>``), else None."""
-    value = a.get(flag, "auto")
-    if value not in ("true", "false", "auto"):
-        raise InputError(f"expected true, false or auto, got {value!r}", f"{key}.{flag}")
-    if value == "false" or (value == "auto" and not (reader.autolimits and attr in a)):
-        return None
-    if attr not in a:
-        raise InputError(f"{flag} without a {attr}", f"{key}.{attr}")
-    lo, hi = _floats(a[attr], f"{key}.{attr}", (2,))
-    if lo > hi:
-        raise InputError(f"the range is the wrong way round: {lo:g} > {hi:g}", f"{key}.{attr}")
-    return float(lo), float(hi)
-
-
-def _actuators(reader, root, out: MjcfModel, joint_names):
-    """The joint actuators (``MjcfActuator``) and, per joint, their drive (stiffness, damping, force
-    limit) into ``out.drives``."""
-    for act in root.findall("actuator"):
-        for e in act:
-            if e.tag not in ACTUATORS:
-                continue  # read and left off (module docstring)
-            a = reader.attributes(e, "main")
-            if "joint" not in a:
-                continue  # on a site (tendons are refused): left off
-            name = a.get("name") or f"actuator{len(out.actuators)}"
-            key = f"actuator.{e.tag}[{a.get('name', a.get('joint'))}]"
-            if name in out.actuators:
-                raise InputError("duplicate actuator name", key)
-            joint = a.get("joint")
-            if joint not in joint_names:
-                raise InputError(f"unknown joint {joint!r} ({e.tag} actuators drive joints)", f"{key}.joint")
-            kind = next((j.kind for j in out.model.joints if j.name == joint), "free")
-            if kind not in ("revolute", "continuous", "prismatic"):
-                raise InputError(f"an actuator on a {kind} joint is not supported (only hinge and slide)",
-                                 f"{key}.joint")
-            gear = float(_floats(a["gear"], f"{key}.gear", (1, 6))[0]) if "gear" in a else 1.0
-            ctrlrange = _limited(a, "ctrllimited", "ctrlrange", key, reader)
-            forcerange = _limited(a, "forcelimited", "forcerange", key, reader)
-
-            def number(attr, default):
-                return float(_floats(a.get(attr, default), f"{key}.{attr}", (1,))[0])
-
-            if e.tag == "motor":
-                gain, bias = 1.0, (0.0, 0.0, 0.0)
-            elif e.tag == "position":
-                kp, kv = number("kp", "1"), number("kv", "0")
-                gain, bias = kp, (0.0, -kp, -kv)
-            elif e.tag == "velocity":
-                kv = number("kv", "1")
-                gain, bias = kv, (0.0, 0.0, -kv)
-            else:  # general
-                for attr, allowed in (("dyntype", ("none",)), ("gaintype", ("fixed",)),
-                                      ("biastype", ("none", "affine"))):
-                    if a.get(attr, allowed[0]) not in allowed:
-                        raise InputError(f"{attr} {a[attr]!r} is not supported (only {' or '.join(allowed)})",
-                                         f"{key}.{attr}")
-                gain = float(_floats(a.get("gainprm", "1"), f"{key}.gainprm", range(1, 11))[0])
-                bias = (0.0, 0.0, 0.0)
-                if a.get("biastype", "none") == "affine":
-                    b = _floats(a.get("biasprm", "0 0 0"), f"{key}.biasprm", range(1, 11))
-                    bias = tuple(float(v) for v in (list(b) + [0.0, 0.0])[:3])
-            actuator = MjcfActuator(name, e.tag, joint, gear, ctrlrange, forcerange, gain, bias)
-            if actuator.stiffness < 0.0 or actuator.damping < 0.0:
-                raise InputError("a negative stiffness or damping (bias) is not supported", key)
-            if forcerange is not None and actuator.damping > 0.0 and actuator.stiffness == 0.0:
-                # f = kv (ctrl - l') clipped whole: here an effort and a damper, each of its own
-                raise InputError("a forcerange on a damping actuator without stiffness is not supported", key)
-            k, c, limit = out.drives.get(joint, (0.0, 0.0, 0.0))
-            if actuator.stiffness > 0.0:
-                limit += math.inf if forcerange is None else abs(gear) * max(abs(forcerange[0]), abs(forcerange[1]))
-            out.drives[joint] = (k + actuator.stiffness, c + actuator.damping, limit)
-            out.actuators[name] = actuator
-
-
-def _equalities(reader, root, out: MjcfModel, names):
-    """``<equality>``: ``connect`` (body1, body2 or the world, ``anchor`` in body1's frame: a ball
-    joint there, closing a loop) and ``weld`` (the two bodies' relative pose at the model's pose: a
-    fixed joint); ``active="false"`` ones are left off. Into ``out.equalities``."""
-    for group in root.findall("equality"):
-        for k, e in enumerate(group):
-            a = reader.attributes(e, "main")
-            name = a.get("name") or f"equality{len(out.equalities)}"
-            key = f"equality.{e.tag}[{a.get('name', k)}]"
-            if e.tag not in ("connect", "weld"):
-                raise InputError(f"<equality><{e.tag}> is not supported (only connect and weld)", key)
-            if a.get("active", "true") not in ("true", "false"):
-                raise InputError(f"expected true or false, got {a['active']!r}", f"{key}.active")
-            if "site1" in a or "site2" in a:
-                raise InputError("an equality between sites is not supported (give body1, body2)", key)
-            bodies = (a.get("body1"), a.get("body2", "world"))
-            for role, body in zip(("body1", "body2"), bodies):
-                if body not in names:
-                    raise InputError(f"unknown body {body!r}", f"{key}.{role}")
-            if bodies[0] == bodies[1]:
-                raise InputError("body1 and body2 are the same body", key)
-            if e.tag == "weld" and "relpose" in a and list(_floats(a["relpose"], f"{key}.relpose", (7,))) != \
-                    [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]:
-                raise InputError("a weld's relpose is not supported (its pose at the model's pose is kept)",
-                                 f"{key}.relpose")
-            anchor = _floats(a.get("anchor", "0 0 0"), f"{key}.anchor", (3,))
-            if a.get("active", "true") == "true":
-                out.equalities.append((e.tag, name, bodies[0], bodies[1], anchor))
-
-
 # ---------------------------------------------------------------------- loading
 def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, self_collision=True,
               joint_positions=None, material=None, collision_filter=None, name=None, inertia="file",
@@ -787,49 +610,6 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     except InputError as err:
         raise err if err.file else err.within(None, str(path)) from None
     return robot
-
-
-def _add_equalities(world, robot, equalities):
-    """The equality constraints as joints at the model's pose: ``connect`` a ``BallJoint`` at its anchor
-    (body1's frame), ``weld`` a ``FixedJoint``; named "MODEL/NAME", in ``robot.equalities``. Their two
-    bodies do not touch (``collide_connected`` False: a loop's links overlap where they meet)."""
-    from .joints import BallJoint, FixedJoint
-
-    def body(link):
-        return "world" if link == "world" else robot.links[link]
-
-    for kind, name, body1, body2, anchor in equalities:
-        key = f"equality.{kind}[{name}]"
-        if body1 != "world" and body2 != "world" and robot.links[body1] is robot.links[body2]:
-            continue  # both welded into one body: nothing left to hold
-        if kind == "connect":
-            origin, R = robot.link_pose(body1)  # the worldbody's frame too: where the model was put
-            record = BallJoint(body(body1), body(body2), anchor=origin + R @ anchor, name=f"{robot.name}/{name}")
-        else:
-            at = robot.link_pose(body2 if body2 != "world" else body1)[0]
-            record = FixedJoint(body(body1), body(body2), anchor=at, name=f"{robot.name}/{name}")
-        try:
-            world.add_joint(record)
-        except InputError as err:
-            raise InputError(err.problem, f"{key}.{err.key}" if err.key else key) from None
-        robot.equalities[name] = record
-
-
-def _exclude_by_masks(world, robot, masks: dict):
-    """MuJoCo's contype/conaffinity rule between the model's own bodies: two geoms may touch when
-    (contype1 & conaffinity2) or (contype2 & conaffinity1); a pair of bodies none of whose geoms
-    may touch is excluded (``world.exclude_collision``). Per body pair, not per geom: two bodies
-    of which some geoms may touch collide with all their geoms (a compound collides whole). The
-    model's bodies against the scene's: left to the bodies' filters (MuJoCo's default masks 1
-    and 1 meet any nonzero mask)."""
-    per_body: dict = {}
-    for link, pairs in masks.items():
-        per_body.setdefault(robot.links[link].index, []).extend(pairs)
-    bodies = sorted(per_body)
-    for i, a in enumerate(bodies):
-        for b in bodies[i + 1:]:
-            if not any((ta & cb) or (tb & ca) for ta, ca in per_body[a] for tb, cb in per_body[b]):
-                world.exclude_collision(a, b)
 
 
 def _build(world, parsed: MjcfModel, material, targets, *, position, orientation, euler_deg, self_collision,
