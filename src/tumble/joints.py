@@ -491,6 +491,17 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
     return bound
 
 
+def set_record_effort(joint: Joint, value) -> float:
+    """Check ``value`` as the torque (N m, a hinge) or force (N, a slider) a bound joint applies
+    along its coordinate and write it into the record's parameter row (``P_EFFORT``; a checkpoint
+    carries it). Returns it. InputError: not a number, not finite, or not a hinge or slider."""
+    effort = _number(value, "torque")
+    if joint.bound.type_id not in (JOINT_HINGE, JOINT_SLIDER):
+        raise InputError(f"only hinge and slider joints take a torque or force, not a {joint.kind} joint", "joint")
+    joint.bound.param[P_EFFORT] = effort
+    return effort
+
+
 def jointed_body_pairs(world) -> np.ndarray:
     """(K, 2) int64 body index pairs (low, high) that must not collide: both ends of every
     joint with ``collide_connected=False`` that is not broken and not attached to the world,

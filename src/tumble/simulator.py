@@ -397,7 +397,7 @@ class Simulator:
         on body b and the opposite on body a, until changed (PyBullet's ``TORQUE_CONTROL``; the
         joint record's ``torque`` / ``force`` field; ``Robot.set_joint_torque`` for robots).
         ``joint``: its record, name or index in ``world.joints``. Before the first step too."""
-        from .joints import JOINT_HINGE, JOINT_SLIDER, P_EFFORT, _number
+        from .joints import P_EFFORT, set_record_effort
 
         joints = self.world.joints
         record = None
@@ -408,10 +408,7 @@ class Simulator:
                 break
         if record is None:
             raise InputError(f"unknown joint {joint!r}", "joint")
-        value = _number(torque, "torque")
-        if record.bound.type_id not in (JOINT_HINGE, JOINT_SLIDER):
-            raise InputError(f"only hinge and slider joints take a torque or force, not a {record.kind} joint", "joint")
-        record.bound.param[P_EFFORT] = value
+        value = set_record_effort(record, torque)
         solver = None if self.soft_step is None else self.soft_step.joints
         if solver is not None and solver.count == len(joints):
             solver.param[solver.index(record), P_EFFORT] = value

@@ -46,9 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..errors import InputError
 from ..joints import (
-    _number,
     JOINT_BALL,
     JOINT_DISTANCE,
     JOINT_HINGE,
@@ -65,6 +63,7 @@ from ..joints import (
     P_MOTOR_SPEED,
     P_UPPER,
     PARAM_COUNT,
+    set_record_effort,
 )
 from ..math3d import (
     JIT,
@@ -683,8 +682,4 @@ class JointSolver:
         coordinate from the next step on (PyBullet's ``TORQUE_CONTROL``; MuJoCo's ``ctrl`` of a
         motor actuator); kept in the joint's record too, so a checkpoint carries it."""
         j = self.index(joint)
-        value = _number(effort, "torque")
-        if self.joint_type[j] not in (JOINT_HINGE, JOINT_SLIDER):
-            raise InputError(f"only hinge and slider joints take a torque or force, not joint {j}", "torque")
-        self.param[j, P_EFFORT] = value
-        self._joints[j].bound.param[P_EFFORT] = value
+        self.param[j, P_EFFORT] = set_record_effort(self._joints[j], effort)

@@ -399,7 +399,7 @@ class SoftStep:
             joints.prepare(w, h, w.inv_mass, self.I_inv, x=Y)
         armature = joints is not None and joints.has_armature()
         if joints is not None and not solver.count and check is None and not w.tables.custom and joints.fusable():
-            self._joint_substeps(Y, h, substeps, kinematic, joints)
+            self._joint_substeps(Y, h, substeps, kinematic, joints, armature)
             substeps = 0  # done: the same stages as the loop below, compiled together
         for k in range(substeps):
             if k > 0:
@@ -430,7 +430,7 @@ class SoftStep:
         if joints is not None:
             joints.store(s.v, s.omega, Y, s.R)
 
-    def _joint_substeps(self, Y, h: float, substeps: int, kinematic, joints):
+    def _joint_substeps(self, Y, h: float, substeps: int, kinematic, joints, armature: bool):
         """The substep loop of ``step`` for joints without contacts, in one kernel (``joint_substeps_kernel``)."""
         w = self.world
         s = self.scratch
@@ -446,7 +446,7 @@ class SoftStep:
             w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
                                   tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
             tables, tree, joints.tree_parts(), joints.soft_bias, joints.soft_relax, int(st.velocity_iterations),
-            int(st.relax_iterations), joints.has_armature(), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
+            int(st.relax_iterations), armature, s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
             (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
 
     def _inverse_inertia(self, Y):
