@@ -107,6 +107,17 @@ class Robot:
     actuators: dict = field(default_factory=dict)
     equalities: dict = field(default_factory=dict)
 
+    @property
+    def kinematics(self):
+        """The robot's ``kinematics.Kinematics``: joint coordinates (MuJoCo's qpos, qvel), Jacobians,
+        the mass matrix, inverse dynamics and inverse kinematics (made on first use)."""
+        k = self.__dict__.get("_kinematics")
+        if k is None:
+            from .kinematics import Kinematics
+
+            k = self.__dict__["_kinematics"] = Kinematics(self)
+        return k
+
     def link_pose(self, link) -> tuple[np.ndarray, np.ndarray]:
         """The link frame now: origin (3,) m and rotation (3, 3), world."""
         body = self.links[link]

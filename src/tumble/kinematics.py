@@ -1,0 +1,593 @@
+"""A robot's kinematics and dynamics in joint coordinates: MuJoCo's ``qpos``/``qvel``, ``mj_jac``,
+``mj_fullM``, ``mj_rne``, PyBullet's ``calculateJacobian``, ``calculateMassMatrix``,
+``calculateInverseDynamics`` and ``calculateInverseKinematics``.
+
+tumble simulates a robot in maximal coordinates (each link a body with x, R, P, L; the joints
+constraints between them). A controller, a planner or a student checking Lagrange's equations
+wants the reduced description: the joint coordinates q, their rates, the Jacobian of a link
+point, the joint-space inertia M(q), the torques that give an acceleration. ``Kinematics``
+(``robot.kinematics``) computes them from the robot's model (``urdf.UrdfModel``: the link
+frames, joint origins and axes) and the masses and inertias of its bodies as the world holds
+them (links merged by fixed joints and MJCF's virtual links included), at a given q or at the
+world's present state.
+
+Coordinates, in MuJoCo's layout and order (the file's joint order, parents before children in
+every file tumble reads):
+
+- a hinge (URDF revolute, continuous; MJCF hinge): 1 position (rad), 1 rate (rad/s);
+- a slider (URDF prismatic; MJCF slide): 1 (m), 1 (m/s);
+- a ball (URDF spherical; MJCF ball): 4 positions, the unit quaternion (w, x, y, z) of the child
+  link frame in the joint's zero frame, and 3 rates, the child's angular velocity relative to the
+  parent in the child link's frame (MuJoCo's convention);
+- a free joint (MJCF free, URDF floating, and a robot's moving base): 7 positions, the link
+  frame's origin (m, world) and its orientation quaternion (world), and 6 rates, the origin's
+  velocity (m/s, world) then the angular velocity in the link's frame (MuJoCo's; PyBullet gives a
+  floating base's angular rates in the world frame and its position at the centre of mass).
+
+Fixed joints that were not merged add no coordinate. The base of a robot that is not fixed
+counts as a free joint named after its root link, first.
+
+Jacobians have 6 rows (linear velocity of the point, m/s; angular velocity, rad/s; world frame)
+and one column per rate. Inverse dynamics is the rigid-body part: M(q) qdd + c(q, qd) with
+gravity, plus each coordinate's armature (MuJoCo adds armature to M's diagonal); joint damping,
+springs, friction, limits, contacts and applied efforts are not in it (as PyBullet's
+``calculateInverseDynamics`` and MuJoCo's ``mj_rne``).
+
+The recursion is Featherstone's recursive Newton-Euler algorithm (Featherstone, Rigid Body
+Dynamics Algorithms, 2008, ch. 5; Craig, Introduction to Robotics, 3rd ed., sec. 6.5), written
+with world-frame vectors at the link origins rather than spatial vectors: per link, the angular
+velocity and acceleration and the origin's velocity and acceleration going out from the base,
+then each body's Newton-Euler force and moment coming back. The mass matrix is summed from the
+bodies' Jacobians, M = sum m Jv^T Jv + Jw^T I Jw (an independent route: the tests compare
+the two).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+from .math3d import matrix_to_quat, quat_to_matrix
+
+ONE_DOF = ("revolute", "continuous", "prismatic")
+POSITION_SIZE = {"revolute": 1, "continuous": 1, "prismatic": 1, "spherical": 4, "floating": 7, "fixed": 0}
+RATE_SIZE = {"revolute": 1, "continuous": 1, "prismatic": 1, "spherical": 3, "floating": 6, "fixed": 0}
+
+
+def _cross(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _unit_quat(q, key):
+    q = np.asarray(q, dtype=float)
+    n = float(np.linalg.norm(q))
+    if not math.isfinite(n) or n < 1e-12:
+        raise InputError(f"a quaternion must be finite and non-zero, got {q.tolist()}", key)
+    return q / n
+
+
+def _rotation_angle(R, axis) -> float:
+    """The angle (rad, in (-pi, pi]) of a rotation R (3, 3) about a unit axis (3,)."""
+    vee = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    return math.atan2(float(axis @ vee), 0.5 * (float(np.trace(R)) - 1.0))
+
+
+def _quat_exp(w, h):
+    """The unit quaternion (4,) of the rotation by the vector w (3,) rad/s over h s."""
+    theta = float(np.linalg.norm(w)) * h
+    if theta < 1e-300:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    axis = w / np.linalg.norm(w)
+    return np.concatenate([[math.cos(0.5 * theta)], math.sin(0.5 * theta) * axis])
+
+
+def _quat_mul(a, b):
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
+@dataclass
+class Coordinate:
+    """One joint's coordinates: ``name`` (the model's joint name, or the root link's for a moving
+    base), ``kind`` (``revolute``, ``continuous``, ``prismatic``, ``spherical``, ``floating``),
+    ``link`` the child link it moves, ``qpos`` and ``qvel`` the slices of its positions and rates,
+    ``armature`` kg m^2 or kg, ``lower``/``upper`` the limits (None: none)."""
+
+    name: str
+    kind: str
+    link: str
+    qpos: slice
+    qvel: slice
+    armature: float = 0.0
+    lower: float | None = None
+    upper: float | None = None
+
+
+@dataclass
+class IkSolution:
+    """``Kinematics.inverse_kinematics``'s answer: ``qpos`` (nq,) the joint positions found,
+    ``position_error`` m and ``angle_error`` rad left at the target, ``iterations``, and
+    ``converged`` (both errors under the tolerances)."""
+
+    qpos: np.ndarray
+    position_error: float
+    angle_error: float
+    iterations: int
+    converged: bool
+
+
+class Kinematics:
+    """Joint-space kinematics and dynamics of one ``urdf.Robot`` (module docstring).
+
+    Attributes:
+        coordinates: [``Coordinate``] in qpos order.
+        nq, nv: the numbers of positions and rates.
+        dof_names: (nv,) a name per rate: the joint's, with ``[k]`` for a ball's or free joint's.
+    """
+
+    def __init__(self, robot):
+        from .urdf import _tree_order
+
+        self.robot = robot
+        model = robot.model
+        world = robot.world
+        self.world = world
+        self.order = _tree_order(model)  # the joints, parents first
+        self.parent_joint = {j.child: j for j in self.order}
+        self.coordinates: list[Coordinate] = []
+        nq = nv = 0
+        base = robot.links[model.root]
+        self.free_base = bool(world.moving[base.index])
+        if self.free_base:
+            self.coordinates.append(Coordinate(model.root, "floating", model.root, slice(0, 7), slice(0, 6)))
+            nq, nv = 7, 6
+        for j in model.joints:  # the file's order (MuJoCo's: depth first through the bodies)
+            if j.kind not in RATE_SIZE or RATE_SIZE[j.kind] == 0:
+                continue
+            a, b = POSITION_SIZE[j.kind], RATE_SIZE[j.kind]
+            limited = j.kind in ("revolute", "prismatic")
+            self.coordinates.append(Coordinate(j.name, j.kind, j.child, slice(nq, nq + a), slice(nv, nv + b),
+                                               float(getattr(j, "armature", 0.0)) if b == 1 else 0.0,
+                                               j.lower if limited else None, j.upper if limited else None))
+            nq, nv = nq + a, nv + b
+        self.nq, self.nv = nq, nv
+        self.by_link = {c.link: c for c in self.coordinates}
+        self.by_name = {c.name: c for c in self.coordinates}
+        self.dof_names = []
+        for c in self.coordinates:
+            size = c.qvel.stop - c.qvel.start
+            self.dof_names += [c.name] if size == 1 else [f"{c.name}[{k}]" for k in range(size)]
+        # the links above each link (itself first), and the rates that move it
+        self.links = [model.root] + [j.child for j in self.order]
+        self.chain = {}
+        for link in self.links:
+            chain, at = [], link
+            while True:
+                chain.append(at)
+                if at not in self.parent_joint or self.parent_joint[at].kind == "floating":
+                    break  # a free link moves by its own rates only
+                at = self.parent_joint[at].parent
+            self.chain[link] = chain
+        # the bodies: each owner link's mass properties (a body of merged links once)
+        self.bodies = {}
+        for link in self.links:
+            if robot.owners[link] == link:
+                body = robot.links[link]
+                i = body.index
+                self.bodies[link] = (i, float(world.mass[i]), robot.link_frames[link])
+
+    # ------------------------------------------------------------------ positions
+    def _check(self, values, size, key):
+        v = np.asarray(values, dtype=float)
+        if v.shape != (size,) or not np.all(np.isfinite(v)):
+            raise InputError(f"expected {size} finite numbers, got shape {v.shape}", key)
+        return v
+
+    def qpos(self, sim=None) -> np.ndarray:
+        """(nq,) the joint positions of the world's present state (module docstring), read from the
+        bodies' poses. A hinge's angle is taken in (-pi, pi], or, given the ``sim`` that stepped
+        the robot, nearest its joint reading (which counts whole turns)."""
+        robot = self.robot
+        q = np.zeros(self.nq)
+        readings = {}
+        if sim is not None:
+            readings = {name: s[0] for name, s in robot.joint_states(sim).items()}
+        frames = {link: robot.link_pose(link) for link in self.links}
+        for c in self.coordinates:
+            o, R = frames[c.link]
+            if c.kind == "floating":
+                q[c.qpos] = np.concatenate([o, matrix_to_quat(np.ascontiguousarray(R))])
+                continue
+            j = self.parent_joint[c.link]
+            po, pR = frames[j.parent]
+            zo, zR = po + pR @ j.origin[0], pR @ j.origin[1]
+            rel_R = zR.T @ R
+            if c.kind == "prismatic":
+                q[c.qpos] = float(j.axis @ (zR.T @ (o - zo)))
+            elif c.kind == "spherical":
+                q[c.qpos] = matrix_to_quat(np.ascontiguousarray(rel_R))
+            else:
+                angle = _rotation_angle(rel_R, j.axis)
+                if c.name in readings:
+                    angle += 2.0 * math.pi * round((readings[c.name] - angle) / (2.0 * math.pi))
+                q[c.qpos] = angle
+        return q
+
+    def qvel(self) -> np.ndarray:
+        """(nv,) the joint rates of the world's present state, from the bodies' velocities."""
+        w = self.world
+        robot = self.robot
+        frames = {link: robot.link_pose(link) for link in self.links}
+
+        def point_velocity(link, p):
+            i = robot.links[link].index
+            return w.v[i] + _cross(w.omega[i], p - w.x[i]), w.omega[i]
+
+        qd = np.zeros(self.nv)
+        for c in self.coordinates:
+            o, R = frames[c.link]
+            vC, wC = point_velocity(c.link, o)
+            if c.kind == "floating":
+                qd[c.qvel] = np.concatenate([vC, R.T @ wC])
+                continue
+            j = self.parent_joint[c.link]
+            vP, wP = point_velocity(j.parent, o)
+            axis = R @ j.axis
+            if c.kind == "prismatic":
+                qd[c.qvel] = float(axis @ (vC - vP))
+            elif c.kind == "spherical":
+                qd[c.qvel] = R.T @ (wC - wP)
+            else:
+                qd[c.qvel] = float(axis @ (wC - wP))
+        return qd
+
+    def neutral(self) -> np.ndarray:
+        """(nq,) the zero configuration: hinges and sliders at 0, balls at the identity, a free
+        joint at the link's present pose."""
+        q = np.zeros(self.nq)
+        now = None
+        for c in self.coordinates:
+            if c.kind == "spherical":
+                q[c.qpos] = (1.0, 0.0, 0.0, 0.0)
+            elif c.kind == "floating":
+                now = self.qpos() if now is None else now
+                q[c.qpos] = now[c.qpos]
+        return q
+
+    def positions(self, qpos) -> dict:
+        """{joint: value} of the hinges and sliders of ``qpos`` (nq,): ``Robot.reset_joint_positions``'s
+        argument."""
+        q = self._check(qpos, self.nq, "qpos")
+        return {c.name: float(q[c.qpos][0]) for c in self.coordinates if c.kind in ONE_DOF}
+
+    def integrate(self, qpos, qvel, h: float = 1.0) -> np.ndarray:
+        """(nq,) the positions reached from ``qpos`` moving at ``qvel`` (nv,) for ``h`` s (MuJoCo's
+        ``mj_integratePos``): balls and free rotations by the exponential map, the rest linearly."""
+        q = self._check(qpos, self.nq, "qpos").copy()
+        qd = self._check(qvel, self.nv, "qvel")
+        for c in self.coordinates:
+            qs, vs = q[c.qpos], qd[c.qvel]
+            if c.kind in ONE_DOF:
+                qs[0] += h * vs[0]
+            elif c.kind == "spherical":  # the rate is in the child's frame: q <- q exp(w h)
+                qs[:] = _quat_mul(qs, _quat_exp(vs, h))
+                qs /= np.linalg.norm(qs)
+            else:  # free: the origin in the world, the rotation by the body-frame rate
+                qs[0:3] += h * vs[0:3]
+                qs[3:7] = _quat_mul(qs[3:7], _quat_exp(vs[3:6], h))
+                qs[3:7] /= np.linalg.norm(qs[3:7])
+        return q
+
+    # ------------------------------------------------------------------ frames
+    def forward_kinematics(self, qpos=None) -> dict:
+        """{link: (origin (3,) m, rotation (3, 3))}, world, of every link at ``qpos`` (nq,;
+        default: the present state). A fixed base stays where it is."""
+        if qpos is None:
+            robot = self.robot
+            return {link: robot.link_pose(link) for link in self.links}
+        q = self._check(qpos, self.nq, "qpos")
+        root = self.robot.model.root
+        if self.free_base:
+            c = self.coordinates[0]
+            s = q[c.qpos]
+            frames = {root: (s[0:3].copy(), quat_to_matrix(_unit_quat(s[3:7], "qpos")))}
+        else:
+            frames = {root: self.robot.link_pose(root)}
+        for j in self.order:
+            po, pR = frames[j.parent]
+            zo, zR = po + pR @ j.origin[0], pR @ j.origin[1]
+            c = self.by_link.get(j.child)
+            if c is None:  # fixed
+                frames[j.child] = (zo, zR)
+                continue
+            s = q[c.qpos]
+            if c.kind == "floating":
+                frames[j.child] = (s[0:3].copy(), quat_to_matrix(_unit_quat(s[3:7], "qpos")))
+            elif c.kind == "spherical":
+                frames[j.child] = (zo, zR @ quat_to_matrix(_unit_quat(s, "qpos")))
+            elif c.kind == "prismatic":
+                frames[j.child] = (zo + zR @ (s[0] * j.axis), zR)
+            else:
+                half = 0.5 * s[0]
+                turn = quat_to_matrix(np.concatenate([[math.cos(half)], math.sin(half) * j.axis]))
+                frames[j.child] = (zo, zR @ turn)
+        return frames
+
+    def _body_frames(self, frames: dict) -> dict:
+        """{owner link: (body index, mass, centre of mass (3,) m, I_world (3, 3))} of the moving bodies
+        for the frames (a fixed base has no rate: its infinite inertia is left out)."""
+        w = self.world
+        out = {}
+        for link, (i, m, (p, Rl)) in self.bodies.items():
+            if not w.moving[i]:
+                continue
+            o, R = frames[link]
+            Rb = R @ Rl.T
+            origin = o - Rb @ p
+            out[link] = (i, m, origin + Rb @ w.com_offset[i], Rb @ w.inertia_body[i] @ Rb.T)
+        return out
+
+    def _columns(self, frames: dict):
+        """Per rate k: (rotational, origin (3,), direction (3,)): a rotation about the line through
+        ``origin`` along ``direction`` (rotational) or a translation along it; world."""
+        cols = [None] * self.nv
+        for c in self.coordinates:
+            o, R = frames[c.link]
+            k0 = c.qvel.start
+            if c.kind == "floating":
+                for k in range(3):
+                    cols[k0 + k] = (False, o, np.eye(3)[k])
+                    cols[k0 + 3 + k] = (True, o, R[:, k].copy())
+            elif c.kind == "spherical":
+                for k in range(3):
+                    cols[k0 + k] = (True, o, R[:, k].copy())
+            else:
+                axis = R @ self.parent_joint[c.link].axis
+                cols[k0] = (c.kind != "prismatic", o, axis)
+        return cols
+
+    def _rates_of(self, link) -> list:
+        """The rate indices that move ``link``."""
+        out = []
+        for at in self.chain[link]:
+            c = self.by_link.get(at)
+            if c is not None:
+                out.extend(range(c.qvel.start, c.qvel.stop))
+        return out
+
+    def _jacobian_at(self, cols, link, p) -> np.ndarray:
+        J = np.zeros((6, self.nv))
+        for k in self._rates_of(link):
+            rotational, o, d = cols[k]
+            if rotational:
+                J[0:3, k] = _cross(d, p - o)
+                J[3:6, k] = d
+            else:
+                J[0:3, k] = d
+        return J
+
+    def jacobian(self, link: str, point=(0.0, 0.0, 0.0), qpos=None) -> np.ndarray:
+        """(6, nv) the Jacobian of a point fixed in ``link``: rows 0-2 its velocity (m/s), rows 3-5
+        the link's angular velocity (rad/s), world frame, per joint rate (MuJoCo's ``mj_jac``
+        jacp over jacr; PyBullet's ``calculateJacobian``). ``point`` (3,) m in the link frame;
+        ``qpos`` (nq,) default the present state."""
+        if link not in self.chain:
+            raise InputError(f"unknown link {link!r} of robot {self.robot.name!r}", "link")
+        frames = self.forward_kinematics(qpos)
+        o, R = frames[link]
+        p = o + R @ self._check(point, 3, "point")
+        return self._jacobian_at(self._columns(frames), link, p)
+
+    def mass_matrix(self, qpos=None) -> np.ndarray:
+        """(nv, nv) the joint-space inertia M(q) (kg m^2, kg m, kg), armature on the diagonal
+        (MuJoCo's ``mj_fullM``; PyBullet's ``calculateMassMatrix``, which has no armature):
+        sum over the bodies of m Jv^T Jv + Jw^T I_world Jw at their centres of mass."""
+        frames = self.forward_kinematics(qpos)
+        cols = self._columns(frames)
+        M = np.zeros((self.nv, self.nv))
+        for link, (i, m, com, I) in self._body_frames(frames).items():
+            J = self._jacobian_at(cols, link, com)
+            M += m * J[0:3].T @ J[0:3] + J[3:6].T @ I @ J[3:6]
+        for c in self.coordinates:
+            if c.armature:
+                M[c.qvel.start, c.qvel.start] += c.armature
+        return M
+
+    def inverse_dynamics(self, qacc, qpos=None, qvel=None, gravity=None) -> np.ndarray:
+        """(nv,) the joint forces (N m, N; a free joint's force world, its torque in its link
+        frame) that give the accelerations ``qacc`` (nv,) at ``qpos`` (nq,) and ``qvel`` (nv,)
+        (default: the present state), with ``gravity`` (3,) m/s^2 (default the world's):
+        M(q) qdd + c(q, qd), armature included (module docstring). The recursive Newton-Euler
+        algorithm: out from the base, each link's angular velocity w and acceleration a, its
+        origin's velocity and acceleration; back to the base, each body's m (a_c - g) and
+        I alpha + w x I w, summed over the subtree below each joint and projected on its axes."""
+        qdd = self._check(qacc, self.nv, "qacc")
+        frames = self.forward_kinematics(qpos)
+        qd = self.qvel() if qvel is None else self._check(qvel, self.nv, "qvel")
+        g = np.asarray(self.world.gravity if gravity is None else self._check(gravity, 3, "gravity"), dtype=float)
+        zero = np.zeros(3)
+        omega, alpha, vel, acc = {}, {}, {}, {}
+        root = self.robot.model.root
+        for link in self.links:
+            c = self.by_link.get(link)
+            o, R = frames[link]
+            if c is not None and c.kind == "floating":
+                s, a = qd[c.qvel], qdd[c.qvel]
+                omega[link] = R @ s[3:6]
+                alpha[link] = R @ a[3:6]  # d/dt (R w_local) = R dw_local: w x (R w_local) = 0
+                vel[link], acc[link] = s[0:3].copy(), a[0:3].copy()
+                continue
+            if link == root:
+                omega[link] = alpha[link] = vel[link] = acc[link] = zero
+                continue
+            j = self.parent_joint[link]
+            P = j.parent
+            r = o - frames[P][0]
+            wP, aP = omega[P], alpha[P]
+            v = vel[P] + _cross(wP, r)  # the parent's point at this origin
+            a = acc[P] + _cross(aP, r) + _cross(wP, _cross(wP, r))
+            w, al = wP, aP
+            if c is not None:
+                s, sd = qd[c.qvel], qdd[c.qvel]
+                if c.kind == "prismatic":
+                    axis = R @ j.axis
+                    v = v + axis * s[0]
+                    a = a + axis * sd[0] + 2.0 * _cross(wP, axis * s[0])  # Coriolis: the axis turns with P
+                else:
+                    rel = R @ s if c.kind == "spherical" else (R @ j.axis) * s[0]
+                    rel_acc = R @ sd if c.kind == "spherical" else (R @ j.axis) * sd[0]
+                    w = wP + rel
+                    al = aP + rel_acc + _cross(wP, rel)
+            omega[link], alpha[link], vel[link], acc[link] = w, al, v, a
+        # back to the base: force and moment (about each link's origin) of the subtree
+        force = {link: np.zeros(3) for link in self.links}
+        moment = {link: np.zeros(3) for link in self.links}
+        for link, (i, m, com, I) in self._body_frames(frames).items():
+            o = frames[link][0]
+            r = com - o
+            w, al = omega[link], alpha[link]
+            a_com = acc[link] + _cross(al, r) + _cross(w, _cross(w, r))
+            f = m * (a_com - g)
+            force[link] = f
+            moment[link] = I @ al + _cross(w, I @ w) + _cross(r, f)
+        tau = np.zeros(self.nv)
+        for link in reversed(self.links):
+            c = self.by_link.get(link)
+            o, R = frames[link]
+            if c is not None:
+                F, N = force[link], moment[link]
+                if c.kind == "floating":
+                    tau[c.qvel] = np.concatenate([F, R.T @ N])
+                elif c.kind == "spherical":
+                    tau[c.qvel] = R.T @ N
+                else:
+                    axis = R @ self.parent_joint[link].axis
+                    tau[c.qvel] = float(axis @ (F if c.kind == "prismatic" else N))
+                if c.armature:
+                    tau[c.qvel] += c.armature * qdd[c.qvel]
+            if link in self.parent_joint and self.parent_joint[link].kind != "floating":
+                P = self.parent_joint[link].parent
+                force[P] = force[P] + force[link]
+                moment[P] = moment[P] + moment[link] + _cross(o - frames[P][0], force[link])
+        return tau
+
+    def bias_forces(self, qpos=None, qvel=None, gravity=None) -> np.ndarray:
+        """(nv,) c(q, qd): Coriolis, centrifugal and gravity forces (MuJoCo's ``qfrc_bias``): the
+        inverse dynamics of zero acceleration."""
+        return self.inverse_dynamics(np.zeros(self.nv), qpos, qvel, gravity)
+
+    def forward_dynamics(self, tau, qpos=None, qvel=None, gravity=None) -> np.ndarray:
+        """(nv,) the accelerations qdd = M^-1 (tau - c(q, qd)) of the joint forces ``tau`` (nv,)
+        with nothing else acting (no contacts, limits, damping): the Lagrangian reference the
+        maximal-coordinate step is tested against."""
+        t = self._check(tau, self.nv, "tau")
+        return np.linalg.solve(self.mass_matrix(qpos), t - self.bias_forces(qpos, qvel, gravity))
+
+    # ------------------------------------------------------------------ inverse kinematics
+    def inverse_kinematics(self, link: str, position, orientation=None, point=(0.0, 0.0, 0.0), qpos=None,
+                           max_iterations: int = 200, tolerance: float = 1e-6, angle_tolerance: float = 1e-6,
+                           damping: float = 1e-3, restarts: int = 0, seed: int = 0) -> IkSolution:
+        """Joint positions that put a point of ``link`` at ``position`` (3,) m, world, and (if given)
+        the link frame at ``orientation`` (a quaternion (4,) w, x, y, z, or a rotation (3, 3)):
+        PyBullet's ``calculateInverseKinematics``. Damped least squares (Levenberg-Marquardt;
+        Buss, "Introduction to inverse kinematics with Jacobian transpose, pseudoinverse and damped
+        least squares methods", 2004): dq = J^T (J J^T + lambda^2 I)^-1 e, from ``qpos``
+        (default: the present state), each limited hinge and slider clamped to its range after
+        every step. ``point`` (3,) m in the link frame. Stops when the position error is under
+        ``tolerance`` m and the orientation error under ``angle_tolerance`` rad, or after
+        ``max_iterations``; the answer says which. A limit or a singular pose can hold the
+        search in a local minimum: ``restarts`` more tries then start from joint positions drawn
+        uniformly within the limits (hinges without limits in [-pi, pi]; the generator seeded by
+        ``seed``, so the answer is reproducible), and the best try is returned."""
+        target = self._check(position, 3, "position")
+        R_target = None
+        if orientation is not None:
+            o = np.asarray(orientation, dtype=float)
+            if o.shape == (3, 3) and np.all(np.isfinite(o)):
+                R_target = o
+            else:
+                R_target = quat_to_matrix(_unit_quat(self._check(o, 4, "orientation"), "orientation"))
+        if link not in self.chain:
+            raise InputError(f"unknown link {link!r} of robot {self.robot.name!r}", "link")
+        p_local = self._check(point, 3, "point")
+        if not (damping >= 0.0 and math.isfinite(damping)):
+            raise InputError(f"must be finite and >= 0, got {damping!r}", "damping")
+        q = self.qpos() if qpos is None else self._check(qpos, self.nq, "qpos").copy()
+        rows = 6 if R_target is not None else 3
+
+        def error(q):
+            frames = self.forward_kinematics(q)
+            o, R = frames[link]
+            p = o + R @ p_local
+            e = np.zeros(rows)
+            e[0:3] = target - p
+            if R_target is not None:  # the rotation vector taking R to R_target (world)
+                E = R_target @ R.T
+                angle = math.acos(max(-1.0, min(1.0, 0.5 * (float(np.trace(E)) - 1.0))))
+                vee = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
+                s = float(np.linalg.norm(vee))
+                e[3:6] = vee * (angle / s) if s > 1e-12 else (np.zeros(3) if angle < 1.0 else _flip_axis(E) * angle)
+            return e, frames, p
+
+        def clamp(q):
+            for c in self.coordinates:
+                if c.kind in ONE_DOF and (c.lower is not None or c.upper is not None):
+                    q[c.qpos] = np.clip(q[c.qpos], -np.inf if c.lower is None else c.lower,
+                                        np.inf if c.upper is None else c.upper)
+            return q
+
+        def descend(q, it):
+            q = clamp(q)
+            e, frames, p = error(q)
+            lam = damping
+            while True:
+                pos_err = float(np.linalg.norm(e[0:3]))
+                ang_err = float(np.linalg.norm(e[3:6])) if R_target is not None else 0.0
+                done = pos_err <= tolerance and ang_err <= angle_tolerance
+                if done or it >= max_iterations:
+                    return IkSolution(q, pos_err, ang_err, it, done)
+                it += 1
+                J = self._jacobian_at(self._columns(frames), link, p)[0:rows]
+                # Levenberg-Marquardt's rule for lambda: a step that lowers the error is taken and
+                # lambda halved; one that does not (a limit in the way, too long a step) is refused
+                # and lambda quadrupled. A fixed lambda stalled on 8 of 20 random 6-D targets of the
+                # Kuka arm from q = 0 (200 iterations); measured in tests/physics/test_kinematics.py.
+                dq = J.T @ np.linalg.solve(J @ J.T + lam * lam * np.eye(rows), e)
+                q_new = clamp(self.integrate(q, dq))
+                e_new, frames_new, p_new = error(q_new)
+                if e_new @ e_new < e @ e:
+                    q, e, frames, p = q_new, e_new, frames_new, p_new
+                    lam = max(0.5 * lam, 1e-12)
+                else:
+                    lam *= 4.0
+
+        rng = np.random.default_rng(seed)
+        best, used = None, 0
+        for attempt in range(int(restarts) + 1):
+            if attempt:
+                q = self.neutral() if qpos is None else q.copy()
+                for c in self.coordinates:
+                    if c.kind in ONE_DOF:
+                        lo = -math.pi if c.lower is None else c.lower
+                        hi = math.pi if c.upper is None else c.upper
+                        q[c.qpos] = rng.uniform(lo, hi)
+            sol = descend(q, 0)
+            used += sol.iterations
+            if best is None or sol.position_error + sol.angle_error < best.position_error + best.angle_error:
+                best = sol
+            if sol.converged:
+                break
+        best.iterations = used
+        return best
+
+
+def _flip_axis(E):
+    """The axis (3,) of a half turn E (3, 3): the column of E + I of largest norm, normalised."""
+    B = E + np.eye(3)
+    k = int(np.argmax(np.linalg.norm(B, axis=0)))
+    return B[:, k] / np.linalg.norm(B[:, k])
