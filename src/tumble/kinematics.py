@@ -77,10 +77,11 @@ def _rotation_angle(R, axis) -> float:
 
 def _quat_exp(w, h):
     """The unit quaternion (4,) of the rotation by the vector w (3,) rad/s over h s."""
-    theta = float(np.linalg.norm(w)) * h
-    if theta < 1e-300:
+    speed = float(np.linalg.norm(w))
+    if speed * abs(h) < 1e-300:
         return np.array([1.0, 0.0, 0.0, 0.0])
-    axis = w / np.linalg.norm(w)
+    theta = speed * h  # negative h: the rotation back
+    axis = w / speed
     return np.concatenate([[math.cos(0.5 * theta)], math.sin(0.5 * theta) * axis])
 
 
