@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
+from . import kinematics_kernels as KK
 from .math3d import matrix_to_quat, quat_to_matrix
 
 ONE_DOF = ("revolute", "continuous", "prismatic")
@@ -123,12 +124,14 @@ class IkSolution:
 
 
 class Kinematics:
-    """Joint-space kinematics and dynamics of one ``urdf.Robot`` (module docstring).
+    """Joint-space kinematics and dynamics of one ``urdf.Robot`` (module docstring); the
+    arithmetic in ``kinematics_kernels`` (compiled, on the links as arrays in tree order).
 
     Attributes:
         coordinates: [``Coordinate``] in qpos order.
         nq, nv: the numbers of positions and rates.
         dof_names: (nv,) a name per rate: the joint's, with ``[k]`` for a ball's or free joint's.
+        links: the link names in tree order (the root first, every link after its parent).
     """
 
     def __init__(self, robot):
@@ -163,53 +166,139 @@ class Kinematics:
         for c in self.coordinates:
             size = c.qvel.stop - c.qvel.start
             self.dof_names += [c.name] if size == 1 else [f"{c.name}[{k}]" for k in range(size)]
-        # the links above each link (itself first), and the rates that move it
-        self.links = [model.root] + [j.child for j in self.order]
-        self.chain = {}
-        for link in self.links:
-            chain, at = [], link
-            while True:
-                chain.append(at)
-                if at not in self.parent_joint or self.parent_joint[at].kind == "floating":
-                    break  # a free link moves by its own rates only
-                at = self.parent_joint[at].parent
-            self.chain[link] = chain
-        # the bodies: each owner link's mass properties (a body of merged links once)
-        self.bodies = {}
-        for link in self.links:
-            if robot.owners[link] == link:
-                body = robot.links[link]
-                i = body.index
-                self.bodies[link] = (i, float(world.mass[i]), robot.link_frames[link])
+        self.armature = np.zeros(nv)
+        for c in self.coordinates:
+            self.armature[c.qvel] = c.armature
 
-    # ------------------------------------------------------------------ positions
+        # the links as arrays in tree order (kinematics_kernels' docstring)
+        self.links = [model.root] + [j.child for j in self.order]
+        index = {link: k for k, link in enumerate(self.links)}
+        self.index = index
+        L = len(self.links)
+        kinds = {"revolute": KK.HINGE, "continuous": KK.HINGE, "prismatic": KK.SLIDE, "spherical": KK.BALL,
+                 "floating": KK.FREE, "fixed": KK.FIXED}
+        self.parent = np.full(L, -1, dtype=np.int64)
+        self.kind = np.zeros(L, dtype=np.int64)
+        self.origin_p = np.zeros((L, 3))
+        self.origin_R = np.tile(np.eye(3), (L, 1, 1))
+        self.axis = np.zeros((L, 3))
+        self.qadr = np.full(L, -1, dtype=np.int64)
+        self.vadr = np.full(L, -1, dtype=np.int64)
+        for k, link in enumerate(self.links):
+            c = self.by_link.get(link)
+            if c is not None:
+                self.qadr[k], self.vadr[k] = c.qpos.start, c.qvel.start
+                self.kind[k] = kinds[c.kind]
+            j = self.parent_joint.get(link)
+            if j is not None:
+                self.parent[k] = index[j.parent]
+                self.origin_p[k], self.origin_R[k] = j.origin[0], j.origin[1]
+                self.axis[k] = j.axis
+        # ancestor[l, a]: link a's joint moves link l (a free joint cuts the chain: its link moves
+        # by its own rates only)
+        self.ancestor = np.zeros((L, L), dtype=np.bool_)
+        for k in range(L):
+            at = k
+            while at >= 0:
+                self.ancestor[k, at] = True
+                if self.kind[at] == KK.FREE:
+                    break
+                at = self.parent[at]
+        self.dof_link = np.zeros(nv, dtype=np.int64)
+        for c in self.coordinates:
+            self.dof_link[c.qvel] = index[c.link]
+        # each link's body and the link's frame in it; the moving bodies, by their owner link
+        self.link_body = np.array([robot.links[link].index for link in self.links], dtype=np.int64)
+        self.link_p = np.array([robot.link_frames[link][0] for link in self.links], dtype=float).reshape(L, 3)
+        self.link_Rl = np.array([robot.link_frames[link][1] for link in self.links], dtype=float).reshape(L, 3, 3)
+        owners = [k for k, link in enumerate(self.links)
+                  if robot.owners[link] == link and world.moving[self.link_body[k]]]
+        self.body_link = np.array(owners, dtype=np.int64)
+        self.body_index = self.link_body[self.body_link]
+        # scratch
+        self._col_rot = np.zeros(nv, dtype=np.bool_)
+        self._col_o = np.zeros((nv, 3))
+        self._col_d = np.zeros((nv, 3))
+
+    # ------------------------------------------------------------------ frames
     def _check(self, values, size, key):
         v = np.asarray(values, dtype=float)
         if v.shape != (size,) or not np.all(np.isfinite(v)):
             raise InputError(f"expected {size} finite numbers, got shape {v.shape}", key)
         return v
 
+    def _check_qpos(self, qpos):
+        q = np.ascontiguousarray(self._check(qpos, self.nq, "qpos"))
+        for c in self.coordinates:
+            if c.kind in ("spherical", "floating"):
+                quat = q[c.qpos][-4:]
+                if float(quat @ quat) < 1e-24:
+                    raise InputError(f"joint {c.name!r}: a quaternion must be non-zero", "qpos")
+        return q
+
+    def _present(self):
+        """(o (L, 3), R (L, 3, 3)): the link frames of the world's present state (each link's frame
+        in its body, ``Robot.link_pose``, for all links at once)."""
+        w = self.world
+        b = self.link_body
+        Rb = w.R[b]
+        origin = w.x[b] - np.einsum("lij,lj->li", Rb, w.com_offset[b])
+        return origin + np.einsum("lij,lj->li", Rb, self.link_p), np.einsum("lij,ljk->lik", Rb, self.link_Rl)
+
+    def _frames(self, qpos):
+        """(o, R) of every link at ``qpos`` (nq,), or of the present state (None)."""
+        if qpos is None:
+            return self._present()
+        q = self._check_qpos(qpos)
+        L = len(self.links)
+        o, R = np.empty((L, 3)), np.empty((L, 3, 3))
+        if self.free_base:
+            root_o, root_R = np.zeros(3), np.eye(3)  # unused: the free joint places the root
+        else:
+            root_o, root_R = self.robot.link_pose(self.robot.model.root)
+        KK.forward_kinematics_kernel(q, np.ascontiguousarray(root_o, dtype=float),
+                                     np.ascontiguousarray(root_R, dtype=float), self.parent, self.kind, self.origin_p,
+                                     self.origin_R, self.axis, self.qadr, o, R)
+        return o, R
+
+    def forward_kinematics(self, qpos=None) -> dict:
+        """{link: (origin (3,) m, rotation (3, 3))}, world, of every link at ``qpos`` (nq,;
+        default: the present state). A fixed base stays where it is."""
+        o, R = self._frames(qpos)
+        return {link: (o[k], R[k]) for k, link in enumerate(self.links)}
+
+    def _columns(self, o, R):
+        KK.columns_kernel(o, R, self.kind, self.axis, self.vadr, self._col_rot, self._col_o, self._col_d)
+        return self._col_rot, self._col_o, self._col_d
+
+    def _bodies(self, o, R):
+        """(mass (B,), com (B, 3), I_world (B, 3, 3)) of the moving bodies at the frames."""
+        w = self.world
+        i = self.body_index
+        com, I_world = np.empty((len(i), 3)), np.empty((len(i), 3, 3))
+        KK.body_frames_kernel(o, R, self.body_link, self.link_p[self.body_link], self.link_Rl[self.body_link],
+                              w.com_offset[i], w.inertia_body[i], com, I_world)
+        return np.ascontiguousarray(w.mass[i]), com, I_world
+
+    # ------------------------------------------------------------------ the present state
     def qpos(self, sim=None) -> np.ndarray:
         """(nq,) the joint positions of the world's present state (module docstring), read from the
         bodies' poses. A hinge's angle is taken in (-pi, pi], or, given the ``sim`` that stepped
         the robot, nearest its joint reading (which counts whole turns)."""
-        robot = self.robot
         q = np.zeros(self.nq)
-        readings = {}
-        if sim is not None:
-            readings = {name: s[0] for name, s in robot.joint_states(sim).items()}
-        frames = {link: robot.link_pose(link) for link in self.links}
+        readings = {} if sim is None else {name: s[0] for name, s in self.robot.joint_states(sim).items()}
+        o, R = self._present()
         for c in self.coordinates:
-            o, R = frames[c.link]
+            k = self.index[c.link]
             if c.kind == "floating":
-                q[c.qpos] = np.concatenate([o, matrix_to_quat(np.ascontiguousarray(R))])
+                q[c.qpos] = np.concatenate([o[k], matrix_to_quat(np.ascontiguousarray(R[k]))])
                 continue
             j = self.parent_joint[c.link]
-            po, pR = frames[j.parent]
-            zo, zR = po + pR @ j.origin[0], pR @ j.origin[1]
-            rel_R = zR.T @ R
+            P = self.index[j.parent]
+            zo, zR = o[P] + R[P] @ j.origin[0], R[P] @ j.origin[1]
+            rel_R = zR.T @ R[k]
             if c.kind == "prismatic":
-                q[c.qpos] = float(j.axis @ (zR.T @ (o - zo)))
+                q[c.qpos] = float(j.axis @ (zR.T @ (o[k] - zo)))
             elif c.kind == "spherical":
                 q[c.qpos] = matrix_to_quat(np.ascontiguousarray(rel_R))
             else:
@@ -222,27 +311,27 @@ class Kinematics:
     def qvel(self) -> np.ndarray:
         """(nv,) the joint rates of the world's present state, from the bodies' velocities."""
         w = self.world
-        robot = self.robot
-        frames = {link: robot.link_pose(link) for link in self.links}
+        o, R = self._present()
+        b = self.link_body
 
-        def point_velocity(link, p):
-            i = robot.links[link].index
+        def point_velocity(k, p):
+            i = b[k]
             return w.v[i] + _cross(w.omega[i], p - w.x[i]), w.omega[i]
 
         qd = np.zeros(self.nv)
         for c in self.coordinates:
-            o, R = frames[c.link]
-            vC, wC = point_velocity(c.link, o)
+            k = self.index[c.link]
+            vC, wC = point_velocity(k, o[k])
             if c.kind == "floating":
-                qd[c.qvel] = np.concatenate([vC, R.T @ wC])
+                qd[c.qvel] = np.concatenate([vC, R[k].T @ wC])
                 continue
             j = self.parent_joint[c.link]
-            vP, wP = point_velocity(j.parent, o)
-            axis = R @ j.axis
+            vP, wP = point_velocity(self.index[j.parent], o[k])
+            axis = R[k] @ j.axis
             if c.kind == "prismatic":
                 qd[c.qvel] = float(axis @ (vC - vP))
             elif c.kind == "spherical":
-                qd[c.qvel] = R.T @ (wC - wP)
+                qd[c.qvel] = R[k].T @ (wC - wP)
             else:
                 qd[c.qvel] = float(axis @ (wC - wP))
         return qd
@@ -284,92 +373,16 @@ class Kinematics:
                 qs[3:7] /= np.linalg.norm(qs[3:7])
         return q
 
-    # ------------------------------------------------------------------ frames
-    def forward_kinematics(self, qpos=None) -> dict:
-        """{link: (origin (3,) m, rotation (3, 3))}, world, of every link at ``qpos`` (nq,;
-        default: the present state). A fixed base stays where it is."""
-        if qpos is None:
-            robot = self.robot
-            return {link: robot.link_pose(link) for link in self.links}
-        q = self._check(qpos, self.nq, "qpos")
-        root = self.robot.model.root
-        if self.free_base:
-            c = self.coordinates[0]
-            s = q[c.qpos]
-            frames = {root: (s[0:3].copy(), quat_to_matrix(_unit_quat(s[3:7], "qpos")))}
-        else:
-            frames = {root: self.robot.link_pose(root)}
-        for j in self.order:
-            po, pR = frames[j.parent]
-            zo, zR = po + pR @ j.origin[0], pR @ j.origin[1]
-            c = self.by_link.get(j.child)
-            if c is None:  # fixed
-                frames[j.child] = (zo, zR)
-                continue
-            s = q[c.qpos]
-            if c.kind == "floating":
-                frames[j.child] = (s[0:3].copy(), quat_to_matrix(_unit_quat(s[3:7], "qpos")))
-            elif c.kind == "spherical":
-                frames[j.child] = (zo, zR @ quat_to_matrix(_unit_quat(s, "qpos")))
-            elif c.kind == "prismatic":
-                frames[j.child] = (zo + zR @ (s[0] * j.axis), zR)
-            else:
-                half = 0.5 * s[0]
-                turn = quat_to_matrix(np.concatenate([[math.cos(half)], math.sin(half) * j.axis]))
-                frames[j.child] = (zo, zR @ turn)
-        return frames
+    # ------------------------------------------------------------------ Jacobians and dynamics
+    def _link(self, link) -> int:
+        k = self.index.get(link) if isinstance(link, str) else None
+        if k is None:
+            raise InputError(f"unknown link {link!r} of robot {self.robot.name!r}", "link")
+        return k
 
-    def _body_frames(self, frames: dict) -> dict:
-        """{owner link: (body index, mass, centre of mass (3,) m, I_world (3, 3))} of the moving bodies
-        for the frames (a fixed base has no rate: its infinite inertia is left out)."""
-        w = self.world
-        out = {}
-        for link, (i, m, (p, Rl)) in self.bodies.items():
-            if not w.moving[i]:
-                continue
-            o, R = frames[link]
-            Rb = R @ Rl.T
-            origin = o - Rb @ p
-            out[link] = (i, m, origin + Rb @ w.com_offset[i], Rb @ w.inertia_body[i] @ Rb.T)
-        return out
-
-    def _columns(self, frames: dict):
-        """Per rate k: (rotational, origin (3,), direction (3,)): a rotation about the line through
-        ``origin`` along ``direction`` (rotational) or a translation along it; world."""
-        cols = [None] * self.nv
-        for c in self.coordinates:
-            o, R = frames[c.link]
-            k0 = c.qvel.start
-            if c.kind == "floating":
-                for k in range(3):
-                    cols[k0 + k] = (False, o, np.eye(3)[k])
-                    cols[k0 + 3 + k] = (True, o, R[:, k].copy())
-            elif c.kind == "spherical":
-                for k in range(3):
-                    cols[k0 + k] = (True, o, R[:, k].copy())
-            else:
-                axis = R @ self.parent_joint[c.link].axis
-                cols[k0] = (c.kind != "prismatic", o, axis)
-        return cols
-
-    def _rates_of(self, link) -> list:
-        """The rate indices that move ``link``."""
-        out = []
-        for at in self.chain[link]:
-            c = self.by_link.get(at)
-            if c is not None:
-                out.extend(range(c.qvel.start, c.qvel.stop))
-        return out
-
-    def _jacobian_at(self, cols, link, p) -> np.ndarray:
-        J = np.zeros((6, self.nv))
-        for k in self._rates_of(link):
-            rotational, o, d = cols[k]
-            if rotational:
-                J[0:3, k] = _cross(d, p - o)
-                J[3:6, k] = d
-            else:
-                J[0:3, k] = d
+    def _jacobian_at(self, cols, k, p) -> np.ndarray:
+        J = np.empty((6, self.nv))
+        KK.jacobian_kernel(k, np.ascontiguousarray(p, dtype=float), self.ancestor, self.dof_link, *cols, J)
         return J
 
     def jacobian(self, link: str, point=(0.0, 0.0, 0.0), qpos=None) -> np.ndarray:
@@ -377,104 +390,37 @@ class Kinematics:
         the link's angular velocity (rad/s), world frame, per joint rate (MuJoCo's ``mj_jac``
         jacp over jacr; PyBullet's ``calculateJacobian``). ``point`` (3,) m in the link frame;
         ``qpos`` (nq,) default the present state."""
-        if link not in self.chain:
-            raise InputError(f"unknown link {link!r} of robot {self.robot.name!r}", "link")
-        frames = self.forward_kinematics(qpos)
-        o, R = frames[link]
-        p = o + R @ self._check(point, 3, "point")
-        return self._jacobian_at(self._columns(frames), link, p)
+        k = self._link(link)
+        local = self._check(point, 3, "point")
+        o, R = self._frames(qpos)
+        return self._jacobian_at(self._columns(o, R), k, o[k] + R[k] @ local)
 
     def mass_matrix(self, qpos=None) -> np.ndarray:
         """(nv, nv) the joint-space inertia M(q) (kg m^2, kg m, kg), armature on the diagonal
         (MuJoCo's ``mj_fullM``; PyBullet's ``calculateMassMatrix``, which has no armature):
         sum over the bodies of m Jv^T Jv + Jw^T I_world Jw at their centres of mass."""
-        frames = self.forward_kinematics(qpos)
-        cols = self._columns(frames)
-        M = np.zeros((self.nv, self.nv))
-        for link, (i, m, com, I) in self._body_frames(frames).items():
-            J = self._jacobian_at(cols, link, com)
-            M += m * J[0:3].T @ J[0:3] + J[3:6].T @ I @ J[3:6]
-        for c in self.coordinates:
-            if c.armature:
-                M[c.qvel.start, c.qvel.start] += c.armature
+        o, R = self._frames(qpos)
+        cols = self._columns(o, R)
+        mass, com, I_world = self._bodies(o, R)
+        M = np.empty((self.nv, self.nv))
+        KK.mass_matrix_kernel(self.body_link, mass, com, I_world, self.ancestor, self.dof_link, *cols, self.armature, M)
         return M
 
     def inverse_dynamics(self, qacc, qpos=None, qvel=None, gravity=None) -> np.ndarray:
         """(nv,) the joint forces (N m, N; a free joint's force world, its torque in its link
         frame) that give the accelerations ``qacc`` (nv,) at ``qpos`` (nq,) and ``qvel`` (nv,)
         (default: the present state), with ``gravity`` (3,) m/s^2 (default the world's):
-        M(q) qdd + c(q, qd), armature included (module docstring). The recursive Newton-Euler
-        algorithm: out from the base, each link's angular velocity w and acceleration a, its
-        origin's velocity and acceleration; back to the base, each body's m (a_c - g) and
-        I alpha + w x I w, summed over the subtree below each joint and projected on its axes."""
-        qdd = self._check(qacc, self.nv, "qacc")
-        frames = self.forward_kinematics(qpos)
-        qd = self.qvel() if qvel is None else self._check(qvel, self.nv, "qvel")
-        g = np.asarray(self.world.gravity if gravity is None else self._check(gravity, 3, "gravity"), dtype=float)
-        zero = np.zeros(3)
-        omega, alpha, vel, acc = {}, {}, {}, {}
-        root = self.robot.model.root
-        for link in self.links:
-            c = self.by_link.get(link)
-            o, R = frames[link]
-            if c is not None and c.kind == "floating":
-                s, a = qd[c.qvel], qdd[c.qvel]
-                omega[link] = R @ s[3:6]
-                alpha[link] = R @ a[3:6]  # d/dt (R w_local) = R dw_local: w x (R w_local) = 0
-                vel[link], acc[link] = s[0:3].copy(), a[0:3].copy()
-                continue
-            if link == root:
-                omega[link] = alpha[link] = vel[link] = acc[link] = zero
-                continue
-            j = self.parent_joint[link]
-            P = j.parent
-            r = o - frames[P][0]
-            wP, aP = omega[P], alpha[P]
-            v = vel[P] + _cross(wP, r)  # the parent's point at this origin
-            a = acc[P] + _cross(aP, r) + _cross(wP, _cross(wP, r))
-            w, al = wP, aP
-            if c is not None:
-                s, sd = qd[c.qvel], qdd[c.qvel]
-                if c.kind == "prismatic":
-                    axis = R @ j.axis
-                    v = v + axis * s[0]
-                    a = a + axis * sd[0] + 2.0 * _cross(wP, axis * s[0])  # Coriolis: the axis turns with P
-                else:
-                    rel = R @ s if c.kind == "spherical" else (R @ j.axis) * s[0]
-                    rel_acc = R @ sd if c.kind == "spherical" else (R @ j.axis) * sd[0]
-                    w = wP + rel
-                    al = aP + rel_acc + _cross(wP, rel)
-            omega[link], alpha[link], vel[link], acc[link] = w, al, v, a
-        # back to the base: force and moment (about each link's origin) of the subtree
-        force = {link: np.zeros(3) for link in self.links}
-        moment = {link: np.zeros(3) for link in self.links}
-        for link, (i, m, com, I) in self._body_frames(frames).items():
-            o = frames[link][0]
-            r = com - o
-            w, al = omega[link], alpha[link]
-            a_com = acc[link] + _cross(al, r) + _cross(w, _cross(w, r))
-            f = m * (a_com - g)
-            force[link] = f
-            moment[link] = I @ al + _cross(w, I @ w) + _cross(r, f)
-        tau = np.zeros(self.nv)
-        for link in reversed(self.links):
-            c = self.by_link.get(link)
-            o, R = frames[link]
-            if c is not None:
-                F, N = force[link], moment[link]
-                if c.kind == "floating":
-                    tau[c.qvel] = np.concatenate([F, R.T @ N])
-                elif c.kind == "spherical":
-                    tau[c.qvel] = R.T @ N
-                else:
-                    axis = R @ self.parent_joint[link].axis
-                    tau[c.qvel] = float(axis @ (F if c.kind == "prismatic" else N))
-                if c.armature:
-                    tau[c.qvel] += c.armature * qdd[c.qvel]
-            if link in self.parent_joint and self.parent_joint[link].kind != "floating":
-                P = self.parent_joint[link].parent
-                force[P] = force[P] + force[link]
-                moment[P] = moment[P] + moment[link] + _cross(o - frames[P][0], force[link])
+        M(q) qdd + c(q, qd), armature included (module docstring;
+        ``kinematics_kernels.inverse_dynamics_kernel``)."""
+        qdd = np.ascontiguousarray(self._check(qacc, self.nv, "qacc"))
+        o, R = self._frames(qpos)
+        qd = self.qvel() if qvel is None else np.ascontiguousarray(self._check(qvel, self.nv, "qvel"))
+        g = np.ascontiguousarray(self.world.gravity if gravity is None else self._check(gravity, 3, "gravity"),
+                                 dtype=float)
+        mass, com, I_world = self._bodies(o, R)
+        tau = np.empty(self.nv)
+        KK.inverse_dynamics_kernel(qd, qdd, g, o, R, self.parent, self.kind, self.axis, self.vadr, self.body_link,
+                                   mass, com, I_world, self.armature, tau)
         return tau
 
     def bias_forces(self, qpos=None, qvel=None, gravity=None) -> np.ndarray:
@@ -513,8 +459,7 @@ class Kinematics:
                 R_target = o
             else:
                 R_target = quat_to_matrix(_unit_quat(self._check(o, 4, "orientation"), "orientation"))
-        if link not in self.chain:
-            raise InputError(f"unknown link {link!r} of robot {self.robot.name!r}", "link")
+        k = self._link(link)
         p_local = self._check(point, 3, "point")
         if not (damping >= 0.0 and math.isfinite(damping)):
             raise InputError(f"must be finite and >= 0, got {damping!r}", "damping")
@@ -522,8 +467,8 @@ class Kinematics:
         rows = 6 if R_target is not None else 3
 
         def error(q):
-            frames = self.forward_kinematics(q)
-            o, R = frames[link]
+            o_all, R_all = self._frames(q)
+            o, R = o_all[k], R_all[k]
             p = o + R @ p_local
             e = np.zeros(rows)
             e[0:3] = target - p
@@ -533,7 +478,7 @@ class Kinematics:
                 vee = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
                 s = float(np.linalg.norm(vee))
                 e[3:6] = vee * (angle / s) if s > 1e-12 else (np.zeros(3) if angle < 1.0 else _flip_axis(E) * angle)
-            return e, frames, p
+            return e, (o_all, R_all), p
 
         def clamp(q):
             for c in self.coordinates:
@@ -553,7 +498,7 @@ class Kinematics:
                 if done or it >= max_iterations:
                     return IkSolution(q, pos_err, ang_err, it, done)
                 it += 1
-                J = self._jacobian_at(self._columns(frames), link, p)[0:rows]
+                J = self._jacobian_at(self._columns(*frames), k, p)[0:rows]
                 # Levenberg-Marquardt's rule for lambda: a step that lowers the error is taken and
                 # lambda halved; one that does not (a limit in the way, too long a step) is refused
                 # and lambda quadrupled. A fixed lambda stalled on 8 of 20 random 6-D targets of the

@@ -244,15 +244,15 @@ def _set_state(robot, q, qd):
     """Bodies at the frames of q, each moving as the Jacobian at its centre of mass says."""
     kin = robot.kinematics
     world = robot.world
-    frames = kin.forward_kinematics(q)
-    for link, (i, _m, com, _I) in kin._body_frames(frames).items():
-        o, R = frames[link]
-        p, Rl = robot.link_frames[link]
-        Rb = R @ np.asarray(Rl).T
+    o, R = kin._frames(q)
+    _mass, com, _I = kin._bodies(o, R)
+    for b, k in enumerate(kin.body_link):
+        i = kin.link_body[k]
+        Rb = R[k] @ kin.link_Rl[k].T
         world.q[i] = matrix_to_quat(np.ascontiguousarray(Rb))
         world.R[i] = quat_to_matrix(world.q[i])
-        world.x[i] = com
-        J = kin.jacobian(link, R.T @ (com - o), q)
+        world.x[i] = com[b]
+        J = kin.jacobian(kin.links[k], R[k].T @ (com[b] - o[k]), q)
         world.P[i] = world.mass[i] * (J[0:3] @ qd)
         world.L[i] = (world.R[i] @ world.inertia_body[i] @ world.R[i].T) @ (J[3:6] @ qd)
     world.update_derived()
