@@ -10,6 +10,7 @@ Quick start::
 
 __version__ = "0.1.0"
 
+from .camera import Camera, CameraImage
 from .collision.filter import CollisionFilter
 from .errors import InputError, SimulationError, TumbleError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
@@ -46,7 +47,7 @@ def load_mjcf(world, path, **options):
 
 __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "Trajectory", "load_trajectory", "load_scene",
-    "load_urdf", "load_mjcf",
+    "load_urdf", "load_mjcf", "Camera", "CameraImage",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "KeyframePath",

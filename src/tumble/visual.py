@@ -36,6 +36,17 @@ def body_color(index: int, fixed: bool = False) -> tuple[int, int, int]:
     return FIXED_COLOR if fixed else PALETTE[index % len(PALETTE)]
 
 
+def palette_colors(fixed) -> np.ndarray:
+    """(N, 3) uint8 sRGB colour of each body from ``fixed`` (N,) bool: the palette in turn over
+    the moving bodies only, fixed bodies grey (the video's and the camera's rule)."""
+    fixed = np.asarray(fixed, dtype=bool)
+    order = np.cumsum(~fixed) - 1
+    palette = np.array(PALETTE, dtype=np.uint8)
+    out = palette[order % len(PALETTE)] if len(fixed) else np.zeros((0, 3), dtype=np.uint8)
+    out[fixed] = FIXED_COLOR
+    return out.reshape(len(fixed), 3)
+
+
 def shape_dict(shape) -> dict | None:
     """A shape as its ``shapes.shape_to_dict`` mapping (accepts a record, a mapping, JSON text or None)."""
     if shape is None or isinstance(shape, dict):

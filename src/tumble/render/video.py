@@ -133,8 +133,7 @@ def body_colors(traj, colors=None) -> np.ndarray:
 
     n = len(traj.names)
     fixed = np.zeros(n, bool) if traj.fixed is None else np.asarray(traj.fixed, bool)
-    order = np.cumsum(~fixed) - 1  # the palette goes round the moving bodies only
-    out = np.array([FIXED_COLOR if fixed[i] else PALETTE[order[i] % len(PALETTE)] for i in range(n)], dtype=np.uint8).reshape(n, 3)
+    out = visual.palette_colors(fixed)  # the palette goes round the moving bodies only
     if colors is None:
         return out
     items = colors.items() if hasattr(colors, "items") else zip(traj.names, colors)
