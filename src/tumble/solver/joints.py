@@ -535,7 +535,7 @@ class JointSolver:
                           int(st.partitions), st.partition_min_joints)
 
     def fusable(self) -> bool:
-        """Whether ``soft_step.joint_substeps_kernel`` can run this step's substeps (after
+        """Whether ``soft_step.substeps_kernel`` can run this step's substeps (after
         ``prepare``): joints in one partition (on the calling thread)."""
         return self.count > 0 and self.sweep.bounds.shape[0] == 2
 
@@ -595,7 +595,7 @@ class JointSolver:
         """The tree method's arrays for ``tree_sweeps_kernel``: (limit columns, TREE_LIMIT_SWEEPS,
         LIMIT_TOLERANCE, node_order, node_joint, node_body, node_parent, then its scratch: Ja, Jb,
         C, nrow, D, Dinv, H_up, W, y, sol, work, before). Empty arrays of the same types when the
-        method is not the tree's (``soft_step.joint_substeps_kernel`` takes them either way)."""
+        method is not the tree's (``soft_step.substeps_kernel`` takes them either way)."""
         if self.settings.method != "tree":
             if self.__dict__.get("_no_tree") is None:
                 z = np.zeros

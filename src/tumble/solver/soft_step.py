@@ -19,8 +19,9 @@ per step of dt made of ``substeps`` substeps h (``Simulator.substeps * SoftStepS
     apply_restitution
     store_momenta, store_impulses
 
-A step with joints and no contacts (a robot in the air) runs the substep loop in one compiled
-call, ``joint_substeps_kernel``: the same stages, their contact parts empty, in the same order.
+The substep loop runs in one compiled call, ``substeps_kernel`` (the same stages in the same
+order, so the same bits), unless a stage check watches it (``TUMBLE_VALIDATE``, the blow-up
+diagnosis), a force is a Python callable, or the joints are solved in slabs on both cores.
 
 The velocity update is semi-implicit Euler (Box2D's); L is the state, so a body spinning
 while it slides keeps its angular momentum, and omega = I^-1 L follows the rotating inertia
@@ -44,6 +45,8 @@ from ..world import Scratch
 from . import contact as C
 from .joint_solve import joint_rates_kernel, solve_joints_serial_kernel, warm_start_joints_kernel
 from .joint_tree import tree_sweeps_kernel
+from .contact_rolling import solve_rolling_kernel, warm_start_rolling_kernel
+from .contact_solve import solve_contacts_kernel, warm_start_kernel
 
 
 # ---------------------------------------------------------------------- kernels over Y
@@ -170,29 +173,57 @@ def _solve_joints(tree, iterations, soft, x, R, inv_mass, I_inv, h, joints, tree
 
 
 @njit(**JIT)
-def joint_substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_body, inertia_body_inv, moving,
-                          gravity, forces, kinematic_v, kinematic_omega, h, substeps,
-                          joints, tree, tree_parts, soft_bias, soft_relax, velocity_iterations, relax_iterations,
-                          armature,
-                          # outputs and scratch
-                          R, v, omega, F, T, I_inv, I_world, impulses):
-    """The substeps of a step with joints and no contacts, in one call: ``SoftStep.step``'s loop
-    with its contact stages empty, the same kernels in the same order (so the same bits).
+def _solve_contacts(use_bias, contacts, rolling, x, R, inv_mass, I_inv, inv_h, contact_speed, v, omega):
+    """One contact sweep of the fused substeps: ``ContactSolver.solve_contacts``."""
+    (order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset, separation,
+     normal_mass, tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
+     relative_velocity, last_normal_speed, arm_a, arm_b, gap, _step_normal, _step_tangent) = contacts
+    solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
+                          separation, normal_mass, tangent_mass, soft, friction, surface_target, x, R, inv_mass,
+                          I_inv, inv_h, contact_speed, use_bias, v, omega, normal_impulse, tangent_impulse,
+                          max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
+    rows, rolling_impulse, rolling_mass, rolling_limit = rolling
+    if rows.shape[0]:  # after the contacts, whose normal impulses bound them
+        solve_rolling_kernel(rows, body_a, body_b, normal, tangent1, tangent2, normal_impulse, rolling_mass,
+                             rolling_limit, I_inv, omega, rolling_impulse)
 
-    PERF: a robot arm alone spent most of its step in Python between a dozen kernel calls per
-    substep (the two-link arm: 111 us a step against PyBullet's 3 us; 85 us fused, benchmarks/urdf_robots.py,
-    the rest Python around the step). The world's
-    forces are the compiled ones (``forces``: ``accumulate_forces_kernel``'s tables, gravity,
-    built-in forces, springs; the caller takes the Python loop when there are custom forces);
-    F, T (N, 3) hold the first substep's forces on entry. ``joints``: ``JointSolver``'s tables
-    (a tuple, as ``_solve_joints`` unpacks it), ``tree``: its method is the tree's, whose
-    arrays are ``tree_parts``; ``impulses``: its accumulated impulses (linear, angular, axial);
-    ``armature``: some joint has armature (take the rates before each substep's forces).
+
+@njit(**JIT)
+def substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_body, inertia_body_inv, moving,
+                    gravity, forces, kinematic_v, kinematic_omega, h, substeps,
+                    joints, tree, tree_parts, soft_bias, soft_relax, velocity_iterations, relax_iterations, armature,
+                    contacts, rolling, contact_speed,
+                    # outputs and scratch
+                    R, v, omega, F, T, I_inv, I_world, impulses):
+    """The substeps of a step, in one call: ``SoftStep.step``'s loop, the same kernels in the
+    same order (so the same bits), for the steps whose joints and contacts each sit in one
+    partition (on the calling thread) and whose forces are all compiled.
+
+    PERF: a small scene spends most of its step in Python between a dozen kernel calls per
+    substep (about 4 us each): a robot arm alone 111 us a step against PyBullet's 3 us (85 us
+    with its joint substeps fused, session 14); the free ant standing on its feet 510 us against
+    MuJoCo's 29 (docs/benchmarks.md, "small scenes"). ``forces``: ``accumulate_forces_kernel``'s
+    tables (the caller takes the Python loop when there are custom forces); F, T (N, 3) hold the
+    first substep's forces on entry. ``joints``: ``JointSolver``'s tables (a tuple, as
+    ``_solve_joints`` unpacks it; empty arrays for a world without joints), ``tree``: its method
+    is the tree's, whose arrays are ``tree_parts``; ``impulses``: its accumulated impulses
+    (linear, angular, axial); ``armature``: some joint has armature (take the rates before each
+    substep's forces). ``contacts``: ``ContactSolver``'s per-contact arrays as
+    ``contact_solve.solve_contacts_kernel`` takes them, then the step's impulse totals (C rows;
+    C = 0: none), ``rolling``: its rolling-resistance rows.
     """
     uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param = forces
     (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
      position, rate0) = joints
     linear_impulse, angular_impulse, axial_impulse = impulses
+    (c_order, c_bounds, body_a, body_b, normal, tangent1, tangent2, c_local_a, c_local_b, anchor_offset, separation,
+     normal_mass, tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
+     relative_velocity, last_normal_speed, arm_a, arm_b, gap, step_normal_impulse, step_tangent_impulse) = contacts
+    rolling_rows, rolling_impulse, rolling_mass, rolling_limit = rolling
+    n_joints = joint_type.shape[0]
+    n_contacts = c_order.shape[0]
+    n_rolling = rolling_rows.shape[0]
+    inv_h = 1.0 / h
     for k in range(substeps):
         if k > 0:
             accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind,
@@ -203,15 +234,33 @@ def joint_substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_
                                position, Y, R, v, omega, rate0)
         integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inertia_body_inv, F, T, h,
                                     kinematic_v, kinematic_omega, R, v, omega, I_inv, I_world)
-        warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
-                                 position, Y, R, inv_mass, I_inv, h, linear_impulse, angular_impulse, axial_impulse,
-                                 v, omega)
-        _solve_joints(tree, velocity_iterations, soft_bias, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
-                      impulses)
+        if n_joints:
+            warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                                     position, Y, R, inv_mass, I_inv, h, linear_impulse, angular_impulse,
+                                     axial_impulse, v, omega)
+        if n_contacts:
+            warm_start_kernel(c_order, c_bounds, body_a, body_b, normal, tangent1, tangent2, c_local_a, c_local_b,
+                              anchor_offset, normal_impulse, tangent_impulse, Y, R, inv_mass, I_inv, k == 0, v, omega,
+                              arm_a, arm_b, gap)
+            if n_rolling:
+                warm_start_rolling_kernel(rolling_rows, body_a, body_b, normal, tangent1, tangent2, rolling_impulse,
+                                          I_inv, omega)
+        if n_joints:
+            _solve_joints(tree, velocity_iterations, soft_bias, Y, R, inv_mass, I_inv, h, joints, tree_parts, v,
+                          omega, impulses)
+        if n_contacts:
+            _solve_contacts(True, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
         integrate_positions_kernel(layout, Y, active, kinematic, v, omega, h, R)
-        _solve_joints(tree, relax_iterations, soft_relax, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
-                      impulses)
+        if n_joints:
+            _solve_joints(tree, relax_iterations, soft_relax, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
+                          impulses)
+        if n_contacts:
+            _solve_contacts(False, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
         store_momenta_kernel(layout, Y, active, mass, v, omega, I_world)
+        for c in range(n_contacts):  # ``ContactSolver.accumulate_step_impulses``
+            step_normal_impulse[c] += normal_impulse[c]
+            for i in range(tangent_impulse.shape[1]):
+                step_tangent_impulse[c, i] += tangent_impulse[c, i]
 
 
 @njit(**JIT)
@@ -291,6 +340,8 @@ class SoftStep:
     Args:
         world: the World. settings: ``contact.SoftStepSettings`` (defaults: Box3D's).
     """
+
+    fuse = True  # run the substeps in one kernel when they can (``substeps_kernel``); False: the stage loop
 
     def __init__(self, world, settings: C.SoftStepSettings | None = None, joint_settings=None):
         self.world = world
@@ -398,8 +449,8 @@ class SoftStep:
         if joints is not None:
             joints.prepare(w, h, w.inv_mass, self.I_inv, x=Y)
         armature = joints is not None and joints.has_armature()
-        if joints is not None and not solver.count and check is None and not w.tables.custom and joints.fusable():
-            self._joint_substeps(Y, h, substeps, kinematic, joints, armature)
+        if self.fuse and check is None and not w.tables.custom and (joints is None or joints.fusable()):
+            self._fused_substeps(Y, h, substeps, kinematic, joints, armature)
             substeps = 0  # done: the same stages as the loop below, compiled together
         for k in range(substeps):
             if k > 0:
@@ -430,24 +481,63 @@ class SoftStep:
         if joints is not None:
             joints.store(s.v, s.omega, Y, s.R)
 
-    def _joint_substeps(self, Y, h: float, substeps: int, kinematic, joints, armature: bool):
-        """The substep loop of ``step`` for joints without contacts, in one kernel (``joint_substeps_kernel``)."""
+    def _fused_substeps(self, Y, h: float, substeps: int, kinematic, joints, armature: bool):
+        """The substep loop of ``step`` in one kernel (``substeps_kernel``): the same stages."""
         w = self.world
         s = self.scratch
         tb = w.tables
+        if joints is None:
+            joints = self._no_joints()
         st = joints.settings
-        tree = st.method == "tree"
         n = joints.count
         tables = (joints.sweep.order[:n], joints.sweep.bounds, joints.joint_type, joints.joint_a, joints.joint_b,
                   joints.local_a, joints.local_b, joints.frame_a, joints.frame_b, joints.param, joints.enabled,
                   joints.gauss_seidel, joints.position, joints.rate0)
-        joint_substeps_kernel(
+        sol = self.solver
+        m = sol.count
+        if m:
+            c = sol.contacts
+            contacts = (sol.sweep.order[:m], sol.sweep.bounds, c.contact_body_a, c.contact_body_b, c.contact_normal,
+                        sol.tangent1, sol.tangent2, sol.local_a, sol.local_b, sol.anchor_offset, sol.separation_base,
+                        sol.normal_mass, sol.tangent_mass, sol.soft, sol.friction, sol.surface_target,
+                        sol.normal_impulse, sol.tangent_impulse, sol.max_normal_impulse, sol.relative_velocity,
+                        sol.last_normal_speed, sol.arm_a, sol.arm_b, sol.gap, sol.step_normal_impulse,
+                        sol.step_tangent_impulse)
+            rolling = (sol.rolling_rows, sol.rolling_impulse, sol.rolling_mass, sol.rolling_limit)
+        else:
+            contacts, rolling = self._no_contacts()
+        substeps_kernel(
             w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
             w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
                                   tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
-            tables, tree, joints.tree_parts(), joints.soft_bias, joints.soft_relax, int(st.velocity_iterations),
-            int(st.relax_iterations), armature, s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
+            tables, st.method == "tree", joints.tree_parts(), joints.soft_bias, joints.soft_relax,
+            int(st.velocity_iterations), int(st.relax_iterations), armature, contacts, rolling,
+            float(self.settings.contact_speed), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
             (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
+
+    def _no_joints(self):
+        """A JointSolver of no joints: the joint tables of ``substeps_kernel`` for a world without
+        joints (empty arrays of the same types)."""
+        from .joints import JointSolver
+
+        if self.__dict__.get("_empty_joints") is None:
+            empty = JointSolver()
+            empty._build([])
+            empty.gauss_seidel = np.zeros(0, dtype=bool)
+            empty.soft_bias = empty.soft_relax = np.zeros(3)
+            self._empty_joints = empty
+        return self._empty_joints
+
+    def _no_contacts(self):
+        """``substeps_kernel``'s contact tables with no rows (the types of ``ContactSolver``'s)."""
+        if self.__dict__.get("_empty_contacts") is None:
+            z = np.zeros
+            i64 = np.int64
+            contacts = (z(0, i64), z(2, i64), z(0, i64), z(0, i64), z((0, 3)), z((0, 3)), z((0, 3)), z((0, 3)),
+                        z((0, 3)), z((0, 7)), z(0), z(0), z((0, 2)), z((0, 3)), z(0), z((0, 2)), z(0), z((0, 2)),
+                        z(0), z(0), z(0), z((0, 3)), z((0, 3)), z(0), z(0), z((0, 2)))
+            self._empty_contacts = (contacts, (z(0, i64), z((0, 3)), z((0, 3)), z((0, 2))))
+        return self._empty_contacts
 
     def _inverse_inertia(self, Y):
         """I^-1 (N, 3, 3) of the active bodies at the start of the step (0 elsewhere), for prepare_contacts."""
