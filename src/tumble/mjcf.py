@@ -56,6 +56,12 @@ What maps to what:
   without stiffness (a velocity actuator's: MuJoCo clips the sum). Other actuators (``intvelocity``,
   ``damper``, ``cylinder``, ``muscle``, ``adhesion``...) and those on tendons or sites are left off.
 
+Sites and cameras: ``<site>`` frames become ``Robot.sites`` ({name: (link, position, rotation)} in
+the link frame; ``Robot.site_pose(name)`` in the world: MuJoCo's ``site_xpos``, ``site_xmat``, and
+a site's Jacobian is ``robot.kinematics.jacobian(link, position)``), fixed ``<camera>``s become
+``Robot.cameras`` ({name: ``tb.Camera``} mounted on their body: MuJoCo's camera frame looks along
+-z with y up; ``fovy``; ``resolution``, default 160 x 120).
+
 Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
 rule, ``self_collision=True`` by default here, unlike ``load_urdf``) and those none of whose geoms
 may touch by MuJoCo's ``contype``/``conaffinity`` rule (``mjcf_control._exclude_by_masks``: per body pair; the
@@ -63,7 +69,7 @@ masks are not read against the scene's own bodies). Not read, on purpose and doc
 ``<option>`` (set the World's gravity and the Simulator's dt yourself; ``tumble run model.xml``
 takes its ``gravity``), ``condim``, ``solref``,
 ``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
-sites, cameras, lights, sensors, keyframes, visual settings.
+cameras whose ``mode`` is not ``fixed``, lights, sensors, keyframes, visual settings.
 Refused with one line: ``<include>``, ``<equality>`` other than connect and weld (joint, tendon,
 flex; between sites; a weld's ``relpose``), ``<tendon>``, ``<contact><pair>``, ``<frame>``,
 ``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
@@ -132,6 +138,8 @@ class MjcfModel:
     actuators: dict = field(default_factory=dict)  # name: MjcfActuator, the file's order
     equalities: list = field(default_factory=list)  # (kind "connect" | "weld", name, body1, body2, anchor (3,))
     masks: dict = field(default_factory=dict)  # link name: [(contype, conaffinity)] of its colliding geoms
+    sites: dict = field(default_factory=dict)  # name: (link, position (3,), rotation (3, 3)) in the link frame
+    cameras: dict = field(default_factory=dict)  # name: (link, position, rotation, fovy deg, (width, height))
 
 
 # ---------------------------------------------------------------------- numbers and frames
@@ -386,6 +394,7 @@ def _read(path: Path) -> MjcfModel:
             out.masks[f"world/{name}"] = [_masks(a, f"worldbody.geom[{name}]")]
     for child in worldbody:
         _check_tag(child, "worldbody")
+    _sites_and_cameras(reader, worldbody, "main", "worldbody", "world", np.zeros(3), out)
     counter = [0]
     for b in worldbody.findall("body"):
         _body(reader, b, "world", "main", np.zeros(3), out, meshes, names, joint_names, counter)
@@ -467,8 +476,41 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
     if len(specs) > 1:  # MuJoCo's parent-child rule, across the virtual links
         out.excluded.append((parent, name))
     out.model.links[name] = link
+    _sites_and_cameras(reader, element, cls, key, name, anchor, out)
     for b in element.findall("body"):
         _body(reader, b, name, cls, anchor, out, meshes, names, joint_names, counter)
+
+
+def _sites_and_cameras(reader, element, cls: str, key: str, link: str, anchor: np.ndarray, out: MjcfModel):
+    """The element's ``<site>``s and ``<camera>``s, in ``link``'s frame (the body frame less
+    ``anchor``). A camera looks along its frame's -z with y up (MuJoCo's); ``fovy`` in degrees
+    whatever the compiler's angle; ``resolution`` its image size (default 160 x 120). Cameras
+    whose ``mode`` is not ``fixed`` (tracking ones) are not read (module docstring)."""
+    for tag, table in (("site", out.sites), ("camera", out.cameras)):
+        for k, e in enumerate(element.findall(tag)):
+            a = reader.attributes(e, cls)
+            name = a.get("name") or f"{link}_{tag}{k}"
+            ekey = f"{key}.{tag}[{name}]"
+            if name in table:
+                raise InputError(f"duplicate {tag} name", ekey)
+            position, R = reader.pose(a, ekey)
+            if tag == "site":
+                table[name] = (link, position - anchor, R)
+                continue
+            if a.get("mode", "fixed") != "fixed":
+                continue
+            fovy = float(_floats(a.get("fovy", "45"), f"{ekey}.fovy", (1,))[0])
+            if not 0.0 < fovy < 180.0:
+                raise InputError(f"must be between 0 and 180 degrees, got {fovy:g}", f"{ekey}.fovy")
+            size = (160, 120)
+            if "resolution" in a:
+                w, h = _floats(a["resolution"], f"{ekey}.resolution", (2,))
+                if not (w == int(w) and h == int(h) and 1 <= w <= 8192 and 1 <= h <= 8192):
+                    raise InputError(f"expected two whole numbers of pixels, got {a['resolution']!r}",
+                                     f"{ekey}.resolution")
+                if (w, h) != (1, 1):  # MuJoCo's default, "the window's size": tumble's default instead
+                    size = (int(w), int(h))
+            table[name] = (link, position - anchor, R, fovy, size)
 
 
 def _joint(reader, a, jname, jkey, kind, parent, child) -> UrdfJoint:
@@ -644,4 +686,16 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
         world.exclude_collision(robot.links[a], robot.links[b])
     _exclude_by_masks(world, robot, parsed.masks)
     robot.actuators = dict(parsed.actuators)
+    robot.sites = dict(parsed.sites)
+    robot.cameras = {name: _camera(robot, *spec) for name, spec in parsed.cameras.items()}
     return robot
+
+
+def _camera(robot, link, position, R, fovy, size):
+    """A ``tb.Camera`` mounted on ``link``'s body from an MJCF camera (its frame in the link's)."""
+    from .camera import Camera
+
+    p, Rl = robot.link_frames[link]  # the link in its body's frame
+    eye = p + Rl @ position
+    return Camera(body=robot.links[link], position=eye, target=eye - Rl @ R[:, 2], up=Rl @ R[:, 1], fov_deg=fovy,
+                  width=size[0], height=size[1])

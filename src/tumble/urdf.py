@@ -94,6 +94,10 @@ class Robot:
             MuJoCo's ``ctrl`` order), driven by ``set_controls``; empty for a URDF.
         equalities: {name: joint record} of an MJCF model's ``<equality>`` constraints (``connect``:
             a ``BallJoint``, ``weld``: a ``FixedJoint``); empty for a URDF.
+        sites: {name: (link, position (3,) m, rotation (3, 3))} in the link frame: an MJCF model's
+            ``<site>`` frames (``site_pose``); empty for a URDF.
+        cameras: {name: ``tb.Camera``} mounted on their links' bodies: an MJCF model's fixed
+            ``<camera>``s; empty for a URDF.
     """
 
     name: str
@@ -106,6 +110,8 @@ class Robot:
     owners: dict
     actuators: dict = field(default_factory=dict)
     equalities: dict = field(default_factory=dict)
+    sites: dict = field(default_factory=dict)
+    cameras: dict = field(default_factory=dict)
 
     @property
     def kinematics(self):
@@ -117,6 +123,15 @@ class Robot:
 
             k = self.__dict__["_kinematics"] = Kinematics(self)
         return k
+
+    def site_pose(self, site) -> tuple[np.ndarray, np.ndarray]:
+        """A site's frame now: origin (3,) m and rotation (3, 3), world (MuJoCo's ``site_xpos``,
+        ``site_xmat``)."""
+        if site not in self.sites:
+            raise InputError(f"unknown site {site!r} of robot {self.name!r}", "site")
+        link, p, R = self.sites[site]
+        o, Rl = self.link_pose(link)
+        return o + Rl @ p, Rl @ R
 
     def link_pose(self, link) -> tuple[np.ndarray, np.ndarray]:
         """The link frame now: origin (3,) m and rotation (3, 3), world."""

@@ -459,3 +459,74 @@ def test_computed_torque_control_tracks_a_trajectory():
     assert tracked < 1e-2
     assert run(True, 1 / 960) < 0.35 * tracked
     assert run(False, 1 / 240) > 10 * tracked
+
+
+SITES = """
+<mujoco model="sites">
+  <compiler angle="radian"/>
+  <default><site size="0.01"/><default class="tip"><site pos="0 0 -0.3"/></default></default>
+  <worldbody>
+    <site name="origin" pos="0.2 0.1 0" euler="0.3 0.1 0"/>
+    <camera name="overview" pos="2 -1 1.5" xyaxes="0.447 0.894 0 -0.3 0.15 0.94" fovy="50"/>
+    <body name="arm" pos="0 0 1.2" euler="0.1 0.2 0.3">
+      <joint name="shoulder" type="hinge" axis="0 1 0.2" pos="0.02 0 0.03"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.04"/>
+      <site name="elbow_mark" class="tip" quat="0.9 0.1 0.3 0.2"/>
+      <body name="fore" pos="0 0 -0.4">
+        <joint name="slide" type="slide" axis="0.3 0 1" pos="0 0.01 0"/>
+        <geom type="box" size="0.03 0.03 0.15" pos="0 0 -0.15"/>
+        <body name="hand" pos="0 0 -0.3" euler="0 0.4 0">
+          <geom type="sphere" size="0.05"/>
+          <site name="grip" pos="0.05 0 -0.02" zaxis="1 0 0.2"/>
+          <camera name="wrist" pos="0 0.03 -0.05" euler="0.2 -0.1 0.3" fovy="70" resolution="64 48"/>
+          <camera name="follow" mode="trackcom" pos="0 -1 0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mjcf_sites_and_cameras_sit_where_mujoco_puts_them(tmp_path):
+    """Sites (on a body with a joint off its origin, on a welded body merged into its parent, on the
+    worldbody; a default class's pos) and fixed cameras (orientation forms, fovy, resolution) at
+    random joint positions: their frames equal MuJoCo's site_xpos/xmat and cam_xpos/xmat (MuJoCo's
+    camera looks along its -z with y up: tumble's axes are x, -y, -z of it) to 1e-12, and a site's
+    Jacobian ``jacobian(link, position)`` equals ``mj_jacSite``. The tracking camera is not read."""
+    path = tmp_path / "sites.xml"
+    path.write_text(SITES)
+    world = tb.World()
+    robot = tb.load_mjcf(world, path)
+    assert set(robot.sites) == {"origin", "elbow_mark", "grip"} and set(robot.cameras) == {"overview", "wrist"}
+    assert (robot.cameras["wrist"].width, robot.cameras["wrist"].height) == (64, 48)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    kin = robot.kinematics
+    rng = np.random.default_rng(8)
+    for _ in range(3):
+        q = rng.uniform(-0.8, 0.8, 2)
+        robot.reset_joint_positions(None, {"shoulder": q[0], "slide": q[1] * 0.2})
+        d.qpos[:] = (q[0], q[1] * 0.2)
+        mujoco.mj_forward(m, d)
+        for name in robot.sites:
+            o, R = robot.site_pose(name)
+            np.testing.assert_allclose(o, d.site(name).xpos, atol=1e-12, err_msg=name)
+            np.testing.assert_allclose(R, d.site(name).xmat.reshape(3, 3), atol=1e-12, err_msg=name)
+            link, p, _R = robot.sites[name]
+            if link in kin.index:
+                jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+                mujoco.mj_jacSite(m, d, jacp, jacr, m.site(name).id)
+                J = kin.jacobian(link, p)
+                np.testing.assert_allclose(J[0:3], jacp, atol=1e-12, err_msg=name)
+                np.testing.assert_allclose(J[3:6], jacr, atol=1e-12, err_msg=name)
+        for name, cam in robot.cameras.items():
+            centre, axes = cam.pose(world)
+            np.testing.assert_allclose(centre, d.cam(name).xpos, atol=1e-12, err_msg=name)
+            np.testing.assert_allclose(axes, d.cam(name).xmat.reshape(3, 3) @ np.diag([1.0, -1.0, -1.0]), atol=1e-12,
+                                       err_msg=name)
+            assert cam.fov_deg == pytest.approx(m.cam(name).fovy[0])
+    img = robot.cameras["overview"].capture(world)
+    assert (img.body >= 0).any()
+    with pytest.raises(tb.InputError):
+        robot.site_pose("nope")
