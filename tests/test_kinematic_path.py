@@ -9,7 +9,7 @@ the target pose (checked with the rotation's closed form)."""
 import math
 
 import numpy as np
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 import tumble as tb
 from tumble.kinematic import velocities_to
@@ -58,6 +58,13 @@ def test_keys_are_hit_and_the_motion_between_them_is_linear_and_slerp(path, s):
 
 @SETTINGS
 @given(paths(), st.floats(0.001, 3))
+# found by hypothesis in CI (2026-12-03): t_last + P in floating point lands a rounding unit past the
+# period's end, which jumped to the first key
+@example(tb.KeyframePath(0, times=np.array([float.fromhex(h) for h in ("0x1.0fc1ca6299d64p-1", "0x1.95f5601294993p+0",
+                                                                          "0x1.736f8b05bc2d0p+1")]),
+                         positions=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+                         orientations=np.array([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 0.0]]),
+                         repeat=True), 1.0)
 def test_held_outside_the_keys_or_repeated(path, extra):
     # a period ends on the last key (t0 + n P maps to t_last) and the next starts after it: so the
     # last key is reached at every period's end, repeating or not

@@ -77,7 +77,11 @@ class KeyframePath:
             # from the first: t in (t0 + n P, t0 + (n + 1) P] maps to (t0, t_last]
             period = times[-1] - times[0]
             u = math.fmod(t - times[0], period)
-            t = times[0] + (u if u > 0.0 else period)
+            # a time on a period's end computed in floating point (t_last + P) leaves u a few
+            # rounding units above 0 and jumped to the first key (hypothesis found it, CI
+            # 2026-12-03): within the rounding of t - t0 it is the end, so the last key
+            rounding = 8.0 * np.finfo(float).eps * max(abs(t - times[0]), period)
+            t = times[0] + (u if u > rounding else period)
         if t <= times[0]:
             k, s = 0, 0.0
         elif t >= times[-1]:
