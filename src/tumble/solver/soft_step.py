@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -483,6 +484,14 @@ class SoftStep:
 
     def _fused_substeps(self, Y, h: float, substeps: int, kinematic, joints, armature: bool):
         """The substep loop of ``step`` in one kernel (``substeps_kernel``): the same stages."""
+        # The contact kernels it calls are compiled with ``parallel`` (slabs on both cores), and
+        # Numba starts its thread pool only when a parallel function is compiled or loaded through
+        # its own dispatcher: called from this kernel before any parallel kernel had run in the
+        # process (a small scene prepares its contacts on the calling thread), they crashed
+        # (a segmentation fault; found by tests/physics/test_kinematic.py, reproduced by a script
+        # stepping a box on a kinematic platform, and gone when the pool is started first).
+        # get_num_threads starts it (once; then a few hundred ns).
+        numba.get_num_threads()
         w = self.world
         s = self.scratch
         tb = w.tables
