@@ -336,6 +336,42 @@ class Kinematics:
                 qd[c.qvel] = float(axis @ (wC - wP))
         return qd
 
+    def set_state(self, qpos, qvel=None, sim=None):
+        """Put the robot's bodies at ``qpos`` (nq,) moving at ``qvel`` (nv,; default at rest):
+        MuJoCo's ``data.qpos[:] = ...; data.qvel[:] = ...``, PyBullet's ``resetBasePositionAndOrientation``,
+        ``resetBaseVelocity`` and ``resetJointState`` for every joint at once. Each moving body
+        goes to its link's frame and takes the velocity J qvel at its centre of mass (a fixed base
+        stays). Takes effect now; with the ``sim`` that steps the world, the joint solver's warm
+        start of the robot's joints is cleared (it belonged to the old state) and its hinge
+        readings count turns from these angles."""
+        o, R = self._frames(qpos)
+        q = self._check_qpos(qpos)
+        qd = np.zeros(self.nv) if qvel is None else np.ascontiguousarray(self._check(qvel, self.nv, "qvel"))
+        w = self.world
+        _mass, com, _I = self._bodies(o, R)
+        cols = self._columns(o, R)
+        for b, k in enumerate(self.body_link):
+            i = self.link_body[k]
+            Rb = R[k] @ self.link_Rl[k].T
+            w.q[i] = matrix_to_quat(np.ascontiguousarray(Rb))
+            w.R[i] = quat_to_matrix(w.q[i])
+            w.x[i] = com[b]
+            J = self._jacobian_at(cols, k, com[b])
+            w.P[i] = w.mass[i] * (J[0:3] @ qd)
+            w.L[i] = (w.R[i] @ w.inertia_body[i] @ w.R[i].T) @ (J[3:6] @ qd)
+            w.wake_requests.add(int(i))
+        w.update_derived()
+        solver = self.robot._solver(sim)
+        if solver is not None:
+            for name, record in self.robot.joints.items():
+                j = solver.index(record)
+                solver.linear_impulse[j] = 0.0
+                solver.angular_impulse[j] = 0.0
+                solver.axial_impulse[j] = 0.0
+                c = self.by_name.get(name)
+                if c is not None and c.kind in ONE_DOF:
+                    solver.position[j] = q[c.qpos][0]
+
     def neutral(self) -> np.ndarray:
         """(nq,) the zero configuration: hinges and sliders at 0, balls at the identity, a free
         joint at the link's present pose."""

@@ -24,7 +24,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import tumble as tb
-from tumble.math3d import matrix_to_quat, quat_to_matrix
+from tumble.math3d import matrix_to_quat
 from tumble.solver.joints import ACCURATE
 
 mujoco = pytest.importorskip("mujoco")
@@ -242,20 +242,7 @@ def _assert_same_qpos(kin, got, expected):
 
 def _set_state(robot, q, qd):
     """Bodies at the frames of q, each moving as the Jacobian at its centre of mass says."""
-    kin = robot.kinematics
-    world = robot.world
-    o, R = kin._frames(q)
-    _mass, com, _I = kin._bodies(o, R)
-    for b, k in enumerate(kin.body_link):
-        i = kin.link_body[k]
-        Rb = R[k] @ kin.link_Rl[k].T
-        world.q[i] = matrix_to_quat(np.ascontiguousarray(Rb))
-        world.R[i] = quat_to_matrix(world.q[i])
-        world.x[i] = com[b]
-        J = kin.jacobian(kin.links[k], R[k].T @ (com[b] - o[k]), q)
-        world.P[i] = world.mass[i] * (J[0:3] @ qd)
-        world.L[i] = (world.R[i] @ world.inertia_body[i] @ world.R[i].T) @ (J[3:6] @ qd)
-    world.update_derived()
+    robot.kinematics.set_state(q, qd)
 
 
 @pytest.mark.parametrize("free_base", [False, True])
