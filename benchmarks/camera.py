@@ -14,14 +14,16 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import statistics
-import subprocess
+import sys
 import time
 
 import numpy as np
 
-import tumble as tb
+sys.path.insert(0, os.path.dirname(__file__))
+
+import tumble as tb  # noqa: E402
+from report import emit, machine_line  # noqa: E402
 from tumble.scenes.contact import pile
 
 NEAR, FAR = 0.01, 30.0
@@ -109,17 +111,11 @@ def main():
     rows = rows_for("ball", ball_world(), (3.0, 0.0, 1.5), (0.0, 0.0, 0.5))
     boxes, _settings = pile(1000, seed=0)
     rows += rows_for("pile of 1000 boxes", boxes, (8.0, -6.0, 6.0), (0.0, 0.0, 2.0))
-    git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    lines = [f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-             f"tumble git {git}; median of 5", "",
+    lines = [machine_line('median of 5'), "",
              "| scene | pixels | tumble ms | PyBullet TinyRenderer ms | note |", "|---|---|---|---|---|"]
     for name, size, ours, theirs, note in rows:
         lines.append(f"| {name} | {size} | {ours * 1e3:.1f} | {theirs * 1e3:.1f} | {note} |")
-    text = "\n".join(lines)
-    print(text)
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text + "\n")
+    emit(lines, args.out)
 
 
 if __name__ == "__main__":

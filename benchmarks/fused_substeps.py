@@ -16,15 +16,14 @@ from __future__ import annotations
 import argparse
 import hashlib
 import os
-import platform
 import statistics
-import subprocess
 import sys
 import time
 
 sys.path.insert(0, os.path.dirname(__file__))
 
 import tumble as tb  # noqa: E402
+from report import emit, machine_line  # noqa: E402
 from tumble.solver import soft_step  # noqa: E402
 
 EXAMPLES = ("dice", "dominoes", "bowling", "marbles", "platforms", "robot_arm", "joints/ragdoll_stairs",
@@ -89,9 +88,7 @@ def main():
     ap.add_argument("--out", default=None)
     ap.add_argument("--no-pyramid", action="store_true")
     args = ap.parse_args()
-    git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    lines = [f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-             f"tumble git {git}", "",
+    lines = [machine_line(), "",
              "| scene | steps | stage loop | one call | faster | same bits |", "|---|---|---|---|---|---|"]
     for name in EXAMPLES:
         loop, steps, h0 = example_row(name, False)
@@ -111,11 +108,7 @@ def main():
                      f"{loop / fused:.2f}x | {'yes' if h0 == h1 else 'NO'} ({h1}) |")
         print(lines[-1], flush=True)
     soft_step.SoftStep.fuse = True
-    text = "\n".join(lines)
-    print(text)
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text + "\n")
+    emit(lines, args.out)
 
 
 if __name__ == "__main__":

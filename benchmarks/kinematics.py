@@ -19,9 +19,7 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import statistics
-import subprocess
 import sys
 import time
 
@@ -30,6 +28,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(__file__))
 
 import tumble as tb  # noqa: E402
+from report import emit, machine_line  # noqa: E402
 
 
 def timed(fn, batch=200, repeats=5) -> float:
@@ -176,20 +175,14 @@ def main():
     rows = kuka_rows()
     rows += mujoco_rows(free_ant_file(), "ant, free (14)")
     rows += mujoco_rows(path_of("humanoid.xml"), "humanoid (21)")
-    git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    lines = [f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-             f"tumble git {git}; median of 5 batches", "",
+    lines = [machine_line('median of 5 batches'), "",
              "| model (rates) | query | tumble us | peer us | peer | largest difference |",
              "|---|---|---|---|---|---|"]
     for model, query, ours, theirs, diff in rows:
         peer = "PyBullet" if model.startswith("kuka") else "MuJoCo"
         d = diff if isinstance(diff, str) else f"{diff:.1e}"
         lines.append(f"| {model} | {query} | {ours * 1e6:.1f} | {theirs * 1e6:.1f} | {peer} | {d} |")
-    text = "\n".join(lines)
-    print(text)
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text + "\n")
+    emit(lines, args.out)
 
 
 if __name__ == "__main__":
