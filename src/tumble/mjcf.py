@@ -70,7 +70,9 @@ masks are not read against the scene's own bodies). Not read, on purpose and doc
 takes its ``gravity``), ``condim``, ``solref``,
 ``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
 cameras whose ``mode`` is not ``fixed``, lights, sensors, keyframes, visual settings.
-Refused with one line: ``<include>``, ``<equality>`` other than connect and weld (joint, tendon,
+``<include>``: expanded as MuJoCo does (``mjcf_xml``: the included file's top-level children in
+its place, paths from the main file's directory; repeated worldbody and compiler sections merged).
+Refused with one line: ``<equality>`` other than connect and weld (joint, tendon,
 flex; between sites; a weld's ``relpose``), ``<tendon>``, ``<contact><pair>``, ``<frame>``,
 ``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
 hfield and sdf geoms, a free joint beside another joint, and unknown joint or geom types.
@@ -98,7 +100,8 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
     apply_controls,
 )
 from .mjcf_control import floats as _floats
-from .urdf_read import UrdfJoint, UrdfLink, UrdfModel, read_xml
+from .mjcf_xml import read_model_xml
+from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
 DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
@@ -107,8 +110,7 @@ DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
 VIRTUAL_FRACTION = 1e-3
 GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "mesh")
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
-REFUSED = {"include": "<include> is not supported: merge the included file into this one",
-           "tendon": "<tendon> is not supported"}
+REFUSED = {"tendon": "<tendon> is not supported"}
 # elements of <worldbody>/<body> that make bodies or geoms of their own: refused, not dropped without a word
 GENERATORS = ("frame", "replicate", "composite", "flexcomp", "attach")
 
@@ -359,7 +361,7 @@ def read_option_gravity(path) -> np.ndarray:
     """The ``<option gravity>`` of an MJCF file (3,) m/s^2 (MuJoCo's default 0 0 -9.81). InputError on a bad file."""
     path = Path(path)
     try:
-        root = read_xml(path, "MJCF", "mujoco")
+        root = read_model_xml(path)
         gravity = np.array([0.0, 0.0, -9.81])
         for option in root.findall("option"):
             if "gravity" in option.attrib:
@@ -370,9 +372,7 @@ def read_option_gravity(path) -> np.ndarray:
 
 
 def _read(path: Path) -> MjcfModel:
-    root = read_xml(path, "MJCF", "mujoco")
-    if root.find(".//include") is not None:
-        raise InputError(REFUSED["include"], "include")
+    root = read_model_xml(path)  # includes expanded (MuJoCo Menagerie's scene.xml + robot.xml)
     if any(len(e) for e in root.findall("tendon")):  # an empty one (a <default>'s <tendon/>) constrains nothing
         raise InputError(REFUSED["tendon"], "tendon")
     reader = _Reader(root, path)

@@ -271,7 +271,8 @@ def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path,
      "<connect site1='s' site2='t'/></equality></mujoco>", "between sites is not supported"),
     ("<mujoco><worldbody><body name='b'><joint/><geom size='0.1'/></body></worldbody><equality>"
      "<connect body1='b' body2='b'/></equality></mujoco>", "the same body"),
-    ("<mujoco><include file='x.xml'/><worldbody/></mujoco>", "<include> is not supported"),
+    ("<mujoco><include file='x.xml'/><worldbody/></mujoco>", "MJCF file not found"),
+    ("<mujoco><include/><worldbody/></mujoco>", "an <include> needs a file attribute"),
     ("<mujoco><worldbody/><tendon><fixed name='t'/></tendon></mujoco>", "<tendon> is not supported"),
     ("<robot/>", "expected a <mujoco> element"),
     ("<mujoco><worldbody>", "invalid XML"),
@@ -678,3 +679,85 @@ def test_contype_and_conaffinity_keep_apart_the_bodies_mujoco_keeps_apart(tmp_pa
         assert z[n] == pytest.approx(0.1, abs=2e-3) and zm[n] == pytest.approx(0.1, abs=2e-3)
     for n, h in (("base", 0.1), ("top", 0.3)):
         assert z[n] == pytest.approx(h, abs=2e-3) and zm[n] == pytest.approx(h, abs=2e-3)
+
+
+ROBOT_PART = """
+<mujoco model="arm">
+  <compiler angle="radian"/>
+  <default><joint damping="0.1"/><geom density="700"/></default>
+  <worldbody>
+    <body name="upper" pos="0 0 1" euler="0.2 0 0.1">
+      <joint name="shoulder" axis="0 1 0" pos="0 0 0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 -0.2" size="0.04"/>
+      <include file="parts/hand.xml"/>
+    </body>
+  </worldbody>
+  <actuator><motor name="m" joint="shoulder" gear="2"/></actuator>
+</mujoco>
+"""
+
+HAND_PART = """
+<mujoco>
+  <body name="hand" pos="0.3 0 -0.2">
+    <joint name="wrist" type="slide" axis="1 0 0.3"/>
+    <geom type="box" size="0.05 0.03 0.02" density="2000"/>
+  </body>
+</mujoco>
+"""
+
+SCENE = """
+<mujoco model="scene">
+  <include file="arm.xml"/>
+  <option gravity="0 0 -9.8"/>
+  <compiler angle="radian"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="ball" pos="1 0 0.5"><freejoint name="ball_free"/><geom type="sphere" size="0.1"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_include_is_expanded_as_mujoco_does(tmp_path):
+    """MuJoCo Menagerie's layout: a scene file that includes the robot's file, which includes a part
+    from a subfolder (paths from the main file's folder) inside a body, with a second worldbody and
+    compiler after the expansion: the same bodies, joints, actuators and, at random joint positions,
+    the same mass matrix and Jacobians as MuJoCo's compiled model of the same files (1e-12)."""
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "arm.xml").write_text(ROBOT_PART)
+    (tmp_path / "parts" / "hand.xml").write_text(HAND_PART)
+    scene = tmp_path / "scene.xml"
+    scene.write_text(SCENE)
+    world = tb.World(gravity=(0, 0, -9.8))
+    robot = tb.load_mjcf(world, scene)
+    m = mujoco.MjModel.from_xml_path(str(scene))
+    d = mujoco.MjData(m)
+    kin = robot.kinematics
+    assert [c.name for c in kin.coordinates] == [m.joint(i).name for i in range(m.njnt)]
+    assert list(robot.actuators) == ["m"] and "world/floor" in robot.links
+    rng = np.random.default_rng(9)
+    for _ in range(2):
+        q = d.qpos.copy()
+        q[0:2] = rng.uniform(-0.5, 0.5, 2)  # shoulder, wrist (the included arm comes first, as in the file)
+        quat = rng.normal(size=4)
+        q[2:9] = np.concatenate([rng.uniform(-1, 1, 3), quat / np.linalg.norm(quat)])  # the ball's free joint
+        d.qpos[:] = q
+        mujoco.mj_forward(m, d)
+        M = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, M)
+        np.testing.assert_allclose(kin.mass_matrix(q), M, atol=1e-12)
+        jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        b = m.body("hand").id
+        mujoco.mj_jac(m, d, jacp, jacr, d.xipos[b], b)
+        o, R = kin.forward_kinematics(q)["hand"]
+        np.testing.assert_allclose(kin.jacobian("hand", R.T @ (d.xipos[b] - o), q), np.vstack([jacp, jacr]), atol=1e-12)
+    np.testing.assert_allclose(tb.mjcf.read_option_gravity(scene), (0, 0, -9.8))
+
+
+def test_a_file_included_twice_is_one_line(tmp_path):
+    (tmp_path / "part.xml").write_text("<mujoco><worldbody/></mujoco>")
+    path = tmp_path / "twice.xml"
+    path.write_text("<mujoco><include file='part.xml'/><include file='part.xml'/><worldbody/></mujoco>")
+    with pytest.raises(tb.InputError) as err:
+        tb.load_mjcf(tb.World(), path)
+    assert "included twice" in str(err.value) and "include[part.xml]" in str(err.value) and "\n" not in str(err.value)
