@@ -69,7 +69,9 @@ masks are not read against the scene's own bodies). Not read, on purpose and doc
 ``<option>`` (set the World's gravity and the Simulator's dt yourself; ``tumble run model.xml``
 takes its ``gravity``), ``condim``, ``solref``,
 ``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
-cameras whose ``mode`` is not ``fixed``, lights, sensors, keyframes, visual settings.
+cameras whose ``mode`` is not ``fixed``, lights, sensors, visual settings. ``<keyframe>`` keys become
+``Robot.keyframes`` (``Robot.reset_to_keyframe``, ``load_mjcf(keyframe=)``: MuJoCo's
+``mj_resetDataKeyframe``).
 ``<include>``: expanded as MuJoCo does (``mjcf_xml``: the included file's top-level children in
 its place, paths from the main file's directory; repeated worldbody and compiler sections merged).
 Refused with one line: ``<equality>`` other than connect and weld (joint, tendon,
@@ -94,7 +96,9 @@ from .urdf import balanced_inertia
 from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public here too)
     MjcfActuator,
     _actuators,
+    _keyframes,
     _add_equalities,
+    check_keyframes,
     _equalities,
     _exclude_by_masks,
     apply_controls,
@@ -142,6 +146,8 @@ class MjcfModel:
     masks: dict = field(default_factory=dict)  # link name: [(contype, conaffinity)] of its colliding geoms
     sites: dict = field(default_factory=dict)  # name: (link, position (3,), rotation (3, 3)) in the link frame
     cameras: dict = field(default_factory=dict)  # name: (link, position, rotation, fovy deg, (width, height))
+    keyframes: dict = field(default_factory=dict)  # name: (qpos | None, qvel | None, ctrl | None)
+    ctrl_names: list = field(default_factory=list)  # per actuator element (MuJoCo's ctrl order): its name, None if left off
 
 
 # ---------------------------------------------------------------------- numbers and frames
@@ -400,6 +406,7 @@ def _read(path: Path) -> MjcfModel:
         _body(reader, b, "world", "main", np.zeros(3), out, meshes, names, joint_names, counter)
     _actuators(reader, root, out, joint_names)
     _equalities(reader, root, out, names)
+    _keyframes(root, out)
     for contact in root.findall("contact"):
         if contact.find("pair") is not None:
             raise InputError("<contact><pair> is not supported (only <exclude>)", "contact.pair")
@@ -610,7 +617,7 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
 # ---------------------------------------------------------------------- loading
 def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, self_collision=True,
               joint_positions=None, material=None, collision_filter=None, name=None, inertia="file",
-              joint_motors=None, joint_targets=None):
+              joint_motors=None, joint_targets=None, keyframe=None):
     """Add the model of an MJCF file to ``world`` (module docstring) and return it as a ``urdf.Robot``
     (links by body name, joints by joint name; bodies named "MODEL/BODY", the worldbody's geoms
     "MODEL/world/GEOM").
@@ -625,6 +632,8 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
             file's actuators' drives; the actuators on those joints are left at the caller's drive).
         material: the bodies' material (default: friction from the geoms, MuJoCo's 1 where unset).
         collision_filter, name, inertia: as ``load_urdf``'s.
+        keyframe: the name of a ``<keyframe>`` key to start in (``Robot.reset_to_keyframe``), after
+            ``joint_positions``.
 
     Raises:
         InputError: a bad file or argument, one line (file, element, problem).
@@ -649,6 +658,8 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
         apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in (joint_targets or {})})
+        if keyframe is not None:
+            robot.reset_to_keyframe(keyframe)
     except InputError as err:
         raise err if err.file else err.within(None, str(path)) from None
     return robot
@@ -688,6 +699,18 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     robot.actuators = dict(parsed.actuators)
     robot.sites = dict(parsed.sites)
     robot.cameras = {name: _camera(robot, *spec) for name, spec in parsed.cameras.items()}
+    robot.keyframes = dict(parsed.keyframes)
+    robot.ctrl_names = list(parsed.ctrl_names)
+    check_keyframes(robot, parsed.keyframes, parsed.ctrl_names)
+    # MuJoCo's qpos0: the model's pose (hinges and slides at 0, balls at the identity, free joints
+    # where the file puts them), the default of a key without qpos
+    qpos0 = robot.kinematics.qpos()
+    for c in robot.kinematics.coordinates:
+        if c.kind in ("revolute", "continuous", "prismatic"):
+            qpos0[c.qpos] = 0.0
+        elif c.kind == "spherical":
+            qpos0[c.qpos] = (1.0, 0.0, 0.0, 0.0)
+    robot.qpos0 = qpos0
     return robot
 
 

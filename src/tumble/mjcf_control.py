@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import InputError
+from .math3d import matrix_to_quat, quat_to_matrix
 from .urdf import _finite
 
 if TYPE_CHECKING:
@@ -121,12 +122,16 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
     limit) into ``out.drives``."""
     for act in root.findall("actuator"):
         for e in act:
+            if not isinstance(e.tag, str):
+                continue  # an XML comment
+            out.ctrl_names.append(None)  # MuJoCo's ctrl order counts every actuator (keyframes' ctrl)
             if e.tag not in ACTUATORS:
                 continue  # read and left off (module docstring)
             a = reader.attributes(e, "main")
             if "joint" not in a:
                 continue  # on a site (tendons are refused): left off
             name = a.get("name") or f"actuator{len(out.actuators)}"
+            out.ctrl_names[-1] = name
             key = f"actuator.{e.tag}[{a.get('name', a.get('joint'))}]"
             if name in out.actuators:
                 raise InputError("duplicate actuator name", key)
@@ -247,3 +252,51 @@ def _exclude_by_masks(world, robot, masks: dict):
         for b in bodies[i + 1:]:
             if not any((ta & cb) or (tb & ca) for ta, ca in per_body[a] for tb, cb in per_body[b]):
                 world.exclude_collision(a, b)
+
+
+def _keyframes(root, out: MjcfModel):
+    """``<keyframe><key name qpos qvel ctrl/>``: raw numbers, checked against the model's sizes once
+    the robot is built (``check_keyframes``)."""
+    for group in root.findall("keyframe"):
+        for k, e in enumerate(group.findall("key")):
+            name = e.get("name") or f"key{len(out.keyframes)}"
+            key = f"keyframe.key[{name}]"
+            if name in out.keyframes:
+                raise InputError("duplicate keyframe name", key)
+            out.keyframes[name] = tuple(
+                None if e.get(attr) is None else np.asarray(floats(e.get(attr), f"{key}.{attr}", range(1, 100000)), dtype=float)
+                for attr in ("qpos", "qvel", "ctrl"))
+
+
+def check_keyframes(robot, keyframes: dict, ctrl_names: list):
+    """Each key's qpos, qvel and ctrl the model's sizes (MuJoCo's nq, nv, nu), or an InputError."""
+    kin = robot.kinematics
+    for name, values in keyframes.items():
+        for attr, v, size in zip(("qpos", "qvel", "ctrl"), values, (kin.nq, kin.nv, len(ctrl_names))):
+            if v is not None and v.shape != (size,):
+                raise InputError(f"expected {size} numbers, got {v.size}", f"keyframe.key[{name}].{attr}")
+
+
+def apply_keyframe(robot, name, sim):
+    """``Robot.reset_to_keyframe``: the key's qpos (default the model's pose), qvel (default rest) and
+    ctrl (default: the controls are left as they are), its free joints taken from the model's frame
+    into the world's (where ``load_mjcf`` put the model)."""
+    if name not in robot.keyframes:
+        raise InputError(f"unknown keyframe {name!r} of robot {robot.name!r}", "keyframe")
+    qpos, qvel, ctrl = robot.keyframes[name]
+    kin = robot.kinematics
+    base_p, base_R = robot.link_pose("world")
+    q = robot.qpos0.copy() if qpos is None else qpos.copy()
+    qd = np.zeros(kin.nv) if qvel is None else qvel.copy()
+    for c in kin.coordinates:
+        if c.kind != "floating":
+            continue
+        a, v = c.qpos.start, c.qvel.start
+        if qpos is not None:
+            q[a:a + 3] = base_p + base_R @ q[a:a + 3]
+            q[a + 3:a + 7] = matrix_to_quat(np.ascontiguousarray(base_R @ quat_to_matrix(q[a + 3:a + 7] / np.linalg.norm(q[a + 3:a + 7]))))
+        qd[v:v + 3] = base_R @ qd[v:v + 3]
+    kin.set_state(q, qd, sim)
+    if ctrl is not None:
+        names = robot.__dict__.get("ctrl_names", [])
+        apply_controls(robot, sim, {n: float(u) for n, u in zip(names, ctrl) if n is not None})

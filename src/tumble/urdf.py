@@ -98,6 +98,8 @@ class Robot:
             ``<site>`` frames (``site_pose``); empty for a URDF.
         cameras: {name: ``tb.Camera``} mounted on their links' bodies: an MJCF model's fixed
             ``<camera>``s; empty for a URDF.
+        keyframes: {name: (qpos, qvel, ctrl)} of an MJCF model's ``<keyframe>`` keys (each None where
+            the key leaves it out), for ``reset_to_keyframe``; empty for a URDF.
     """
 
     name: str
@@ -112,6 +114,7 @@ class Robot:
     equalities: dict = field(default_factory=dict)
     sites: dict = field(default_factory=dict)
     cameras: dict = field(default_factory=dict)
+    keyframes: dict = field(default_factory=dict)
 
     @property
     def kinematics(self):
@@ -123,6 +126,15 @@ class Robot:
 
             k = self.__dict__["_kinematics"] = Kinematics(self)
         return k
+
+    def reset_to_keyframe(self, key: str, sim=None):
+        """Put an MJCF model in its ``<keyframe>`` key (MuJoCo's ``mj_resetDataKeyframe``): the key's
+        qpos (default the model's pose), qvel (default at rest) and ctrl (default: the controls
+        unchanged), a free joint's pose and velocity from the model's frame into the world's.
+        Takes effect now (``Kinematics.set_state``)."""
+        from .mjcf_control import apply_keyframe
+
+        apply_keyframe(self, key, sim)
 
     def site_pose(self, site) -> tuple[np.ndarray, np.ndarray]:
         """A site's frame now: origin (3,) m and rotation (3, 3), world (MuJoCo's ``site_xpos``,

@@ -761,3 +761,73 @@ def test_a_file_included_twice_is_one_line(tmp_path):
     with pytest.raises(tb.InputError) as err:
         tb.load_mjcf(tb.World(), path)
     assert "included twice" in str(err.value) and "include[part.xml]" in str(err.value) and "\n" not in str(err.value)
+
+
+KEYED = """
+<mujoco model="keyed">
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      <body name="fore" pos="0.3 0 0">
+        <joint name="slide" type="slide" axis="1 0 0"/>
+        <geom type="box" size="0.05 0.02 0.02"/>
+        <body name="hand" pos="0.1 0 0">
+          <joint name="wrist" type="ball"/>
+          <geom type="sphere" size="0.03" pos="0.05 0 0"/>
+          <site name="tip" pos="0.08 0.01 0"/>
+        </body>
+      </body>
+    </body>
+    <body name="puck" pos="1 1 0.2"><freejoint name="puck_free"/><geom type="cylinder" size="0.1 0.02"/>
+      <site name="rim" pos="0.1 0 0"/></body>
+  </worldbody>
+  <actuator>
+    <motor name="drive" joint="hinge"/>
+    <damper name="left_off" joint="slide" kv="1" ctrlrange="0 1"/>
+    <position name="servo" joint="slide" kp="50"/>
+  </actuator>
+  <keyframe>
+    <key name="pose" qpos="0.7 0.05 0.9 0.1 0.3 -0.2 0.4 -0.3 0.25 0.6 0.2 0.3 0.4" qvel="0.5 -0.1 0.2 0.3 -0.4 1 2 3 0.4 0.5 0.6" ctrl="0.3 0 0.02"/>
+    <key name="still" qpos="-0.4 0 1 0 0 0 1 1 0.2 1 0 0 0"/>
+  </keyframe>
+</mujoco>
+"""
+
+
+def test_keyframes_put_the_model_where_mujoco_does(tmp_path):
+    """A key's qpos, qvel and ctrl (a left-off actuator counted in ctrl's order): the sites' frames,
+    the joint rates and the actuators' controls equal MuJoCo's after mj_resetDataKeyframe (1e-12);
+    the model placed elsewhere takes its free body there too; a key of the wrong size is one line."""
+    path = tmp_path / "keyed.xml"
+    path.write_text(KEYED)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("pose").id)
+    mujoco.mj_forward(m, d)
+    world = tb.World()
+    robot = tb.load_mjcf(world, path, keyframe="pose")
+    for site in ("tip", "rim"):
+        o, R = robot.site_pose(site)
+        np.testing.assert_allclose(o, d.site(site).xpos, atol=1e-12)
+        np.testing.assert_allclose(R, d.site(site).xmat.reshape(3, 3), atol=1e-12)
+    np.testing.assert_allclose(robot.kinematics.qvel(), d.qvel, atol=1e-12)
+    assert robot.actuators["drive"].ctrl == pytest.approx(0.3) and robot.actuators["servo"].ctrl == pytest.approx(0.02)
+    # placed elsewhere: the whole model, the free puck included, turned and moved with it
+    moved = tb.World()
+    other = tb.load_mjcf(moved, path, position=(1.0, 2.0, 0.5), euler_deg=(0, 0, 90), keyframe="pose")
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    for site in ("tip", "rim"):
+        np.testing.assert_allclose(other.site_pose(site)[0], (1.0, 2.0, 0.5) + turn @ d.site(site).xpos, atol=1e-12)
+    robot.reset_to_keyframe("still")
+    mujoco.mj_resetDataKeyframe(m, d, m.key("still").id)
+    mujoco.mj_forward(m, d)
+    np.testing.assert_allclose(robot.site_pose("tip")[0], d.site("tip").xpos, atol=1e-12)
+    np.testing.assert_allclose(robot.kinematics.qvel(), 0.0, atol=1e-12)
+    with pytest.raises(tb.InputError, match="unknown keyframe"):
+        robot.reset_to_keyframe("nope")
+    bad = tmp_path / "bad_key.xml"
+    bad.write_text(KEYED.replace('qpos="-0.4 0 1 0 0 0 1 1 0.2 1 0 0 0"', 'qpos="-0.4 0 1"'))
+    with pytest.raises(tb.InputError) as err:
+        tb.load_mjcf(tb.World(), bad)
+    assert "keyframe.key[still].qpos" in str(err.value) and "expected 13 numbers" in str(err.value)
