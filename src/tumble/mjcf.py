@@ -69,7 +69,8 @@ masks are not read against the scene's own bodies). Not read, on purpose and doc
 ``<option>`` (set the World's gravity and the Simulator's dt yourself; ``tumble run model.xml``
 takes its ``gravity``), ``condim``, ``solref``,
 ``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
-cameras whose ``mode`` is not ``fixed``, lights, sensors, visual settings. ``<keyframe>`` keys become
+cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` leaves off, visual settings.
+``<sensor>``: read by ``mjcf_sensors`` (``Robot.sensor_data``). ``<keyframe>`` keys become
 ``Robot.keyframes`` (``Robot.reset_to_keyframe``, ``load_mjcf(keyframe=)``: MuJoCo's
 ``mj_resetDataKeyframe``).
 ``<include>``: expanded as MuJoCo does (``mjcf_xml``: the included file's top-level children in
@@ -104,6 +105,7 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
     apply_controls,
 )
 from .mjcf_control import floats as _floats
+from .mjcf_sensors import read_sensors
 from .mjcf_xml import read_model_xml
 from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
 
@@ -147,6 +149,10 @@ class MjcfModel:
     sites: dict = field(default_factory=dict)  # name: (link, position (3,), rotation (3, 3)) in the link frame
     cameras: dict = field(default_factory=dict)  # name: (link, position, rotation, fovy deg, (width, height))
     keyframes: dict = field(default_factory=dict)  # name: (qpos | None, qvel | None, ctrl | None)
+    site_shapes: dict = field(default_factory=dict)  # site name: (type, size (3,) m) (touch sensors)
+    anchors: dict = field(default_factory=dict)  # body name: its link frame's origin in the body frame (m)
+    sensors: list = field(default_factory=list)  # mjcf_sensors.MjcfSensor, the file's order
+    sensors_left_off: list = field(default_factory=list)  # names of the sensors not read
     ctrl_names: list = field(default_factory=list)  # per actuator element (MuJoCo's ctrl order): its name, None if left off
 
 
@@ -407,6 +413,7 @@ def _read(path: Path) -> MjcfModel:
     _actuators(reader, root, out, joint_names)
     _equalities(reader, root, out, names)
     _keyframes(root, out)
+    read_sensors(root, out)
     for contact in root.findall("contact"):
         if contact.find("pair") is not None:
             raise InputError("<contact><pair> is not supported (only <exclude>)", "contact.pair")
@@ -483,6 +490,7 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
     if len(specs) > 1:  # MuJoCo's parent-child rule, across the virtual links
         out.excluded.append((parent, name))
     out.model.links[name] = link
+    out.anchors[name] = anchor
     _sites_and_cameras(reader, element, cls, key, name, anchor, out)
     for b in element.findall("body"):
         _body(reader, b, name, cls, anchor, out, meshes, names, joint_names, counter)
@@ -503,6 +511,8 @@ def _sites_and_cameras(reader, element, cls: str, key: str, link: str, anchor: n
             position, R = reader.pose(a, ekey)
             if tag == "site":
                 table[name] = (link, position - anchor, R)
+                size = _floats(a.get("size", "0.005"), f"{ekey}.size", (1, 2, 3))
+                out.site_shapes[name] = (a.get("type", "sphere"), np.resize(size, 3) if len(size) < 3 else size)
                 continue
             if a.get("mode", "fixed") != "fixed":
                 continue
@@ -699,6 +709,10 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     robot.actuators = dict(parsed.actuators)
     robot.sites = dict(parsed.sites)
     robot.cameras = {name: _camera(robot, *spec) for name, spec in parsed.cameras.items()}
+    robot.sensors = {sensor.name: sensor for sensor in parsed.sensors}
+    robot.sensors_left_off = list(parsed.sensors_left_off)
+    robot.site_shapes = dict(parsed.site_shapes)
+    robot.anchors = dict(parsed.anchors)
     robot.keyframes = dict(parsed.keyframes)
     robot.ctrl_names = list(parsed.ctrl_names)
     check_keyframes(robot, parsed.keyframes, parsed.ctrl_names)

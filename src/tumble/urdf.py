@@ -100,6 +100,8 @@ class Robot:
             ``<camera>``s; empty for a URDF.
         keyframes: {name: (qpos, qvel, ctrl)} of an MJCF model's ``<keyframe>`` keys (each None where
             the key leaves it out), for ``reset_to_keyframe``; empty for a URDF.
+        sensors: {name: ``mjcf_sensors.MjcfSensor``} of an MJCF model's ``<sensor>``s that tumble
+            reads (``sensor_data``); empty for a URDF.
     """
 
     name: str
@@ -115,6 +117,7 @@ class Robot:
     sites: dict = field(default_factory=dict)
     cameras: dict = field(default_factory=dict)
     keyframes: dict = field(default_factory=dict)
+    sensors: dict = field(default_factory=dict)
 
     @property
     def kinematics(self):
@@ -126,6 +129,14 @@ class Robot:
 
             k = self.__dict__["_kinematics"] = Kinematics(self)
         return k
+
+    def sensor_data(self, sim=None) -> dict:
+        """{sensor name: values (k,)} of an MJCF model's sensors now (MuJoCo's ``data.sensor(name).data``;
+        ``mjcf_sensors``); ``sim``: the Simulator stepping the world (the clock, whole turns of
+        hinge readings, the contacts a touch sensor sums)."""
+        from .mjcf_sensors import sensor_values
+
+        return sensor_values(self, sim)
 
     def reset_to_keyframe(self, key: str, sim=None):
         """Put an MJCF model in its ``<keyframe>`` key (MuJoCo's ``mj_resetDataKeyframe``): the key's

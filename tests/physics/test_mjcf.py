@@ -831,3 +831,93 @@ def test_keyframes_put_the_model_where_mujoco_does(tmp_path):
     with pytest.raises(tb.InputError) as err:
         tb.load_mjcf(tb.World(), bad)
     assert "keyframe.key[still].qpos" in str(err.value) and "expected 13 numbers" in str(err.value)
+
+
+SENSED = """
+<mujoco model="sensed">
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <geom name="wall" type="box" size="0.1 2 1" pos="2 0 1"/>
+    <body name="arm" pos="0 0 1" euler="0 0 20">
+      <joint name="hinge" axis="0 1 0" pos="0 0 0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      <site name="eye" pos="0.3 0 0.02" zaxis="1 0.1 -0.2"/>
+      <body name="fore" pos="0.3 0 0">
+        <joint name="slide" type="slide" axis="1 0 0"/>
+        <geom type="box" size="0.05 0.02 0.02"/>
+        <site name="imu" pos="0.02 0.01 0" euler="10 20 30"/>
+      </body>
+    </body>
+    <body name="puck" pos="0.5 0.5 0.3"><freejoint name="puck_free"/><geom type="cylinder" size="0.1 0.02"/></body>
+  </worldbody>
+  <sensor>
+    <jointpos name="q_hinge" joint="hinge"/>
+    <jointvel name="v_slide" joint="slide"/>
+    <framepos name="p_imu" objtype="site" objname="imu"/>
+    <framequat name="q_imu" objtype="site" objname="imu"/>
+    <framezaxis name="z_fore" objtype="xbody" objname="fore"/>
+    <framepos name="p_arm" objtype="xbody" objname="arm"/>
+    <framelinvel name="v_imu" objtype="site" objname="imu"/>
+    <frameangvel name="w_puck" objtype="xbody" objname="puck"/>
+    <velocimeter name="velocimeter" site="imu"/>
+    <gyro name="gyro" site="imu"/>
+    <rangefinder name="range" site="eye"/>
+    <subtreecom name="com_arm" body="arm"/>
+    <accelerometer name="acc" site="imu"/>
+    <framepos name="p_rel" objtype="site" objname="imu" reftype="xbody" refname="arm"/>
+  </sensor>
+</mujoco>
+"""
+
+
+def test_sensors_read_what_mujoco_reads(tmp_path):
+    """At a random state (joint positions, rates, the free puck's pose and twist, set through
+    ``Kinematics.set_state``), every sensor tumble reads equals MuJoCo's sensordata after mj_forward
+    on the same file (1e-12): joint, frame (site and body frames), velocimeter, gyro, the
+    rangefinder's ray to the wall and the subtree's centre of mass; the accelerometer and the
+    relative frame sensor are left off and named."""
+    path = tmp_path / "sensed.xml"
+    path.write_text(SENSED)
+    world = tb.World()
+    robot = tb.load_mjcf(world, path)
+    assert robot.sensors_left_off == ["acc", "p_rel"]
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    kin = robot.kinematics
+    rng = np.random.default_rng(10)
+    for _ in range(3):
+        q = np.zeros(kin.nq)
+        q[0:2] = rng.uniform(-0.4, 0.4, 2)
+        quat = rng.normal(size=4)
+        q[2:9] = np.concatenate([rng.uniform(-1, 1, 3) + (0, 0, 2), quat / np.linalg.norm(quat)])
+        qd = rng.normal(size=kin.nv)
+        kin.set_state(q, qd)
+        d.qpos[:], d.qvel[:] = q, qd
+        mujoco.mj_forward(m, d)
+        values = robot.sensor_data()
+        assert set(values) == set(robot.sensors)
+        for name, got in values.items():
+            expected = d.sensor(name).data
+            if name == "q_imu" and got @ expected < 0:
+                got = -got
+            np.testing.assert_allclose(got, expected, atol=1e-12, err_msg=name)
+    assert values["range"][0] > 0  # the eye sees the wall or the floor
+
+
+def test_touch_sensor_weighs_what_rests_on_it(tmp_path):
+    """A touch site over the whole underside of a 2 kg box resting on the floor reads its weight,
+    m g, the mean over a step (1 %: the soft contact's settling), before and after it falls asleep
+    (at about 0.4 s: a sleeping body keeps its last reading)."""
+    path = tmp_path / "touch.xml"
+    path.write_text("""<mujoco><worldbody><geom type="plane" size="5 5 0.1"/>
+      <body name="box" pos="0 0 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="2"/>
+        <site name="sole" type="box" size="0.11 0.11 0.02" pos="0 0 -0.1"/></body></worldbody>
+      <sensor><touch name="weight" site="sole"/></sensor></mujoco>""")
+    world = tb.World(gravity=(0, 0, -9.81))
+    robot = tb.load_mjcf(world, path)
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(60)
+    assert robot.sensor_data(sim)["weight"][0] == pytest.approx(2 * 9.81, rel=0.01)
+    sim.step(180)
+    assert not sim.sleep.awake[robot.links["box"].index]
+    assert robot.sensor_data(sim)["weight"][0] == pytest.approx(2 * 9.81, rel=0.01)

@@ -1,0 +1,175 @@
+"""An MJCF model's ``<sensor>`` elements, read from the world as MuJoCo computes them
+(``Robot.sensor_data(sim)``: {name: values}, MuJoCo's ``data.sensor(name).data``).
+
+Read (MuJoCo's definitions, XML reference "sensor"; frames in the world unless said):
+
+- ``jointpos``, ``jointvel``: a hinge's or slide's position and rate (``Kinematics.qpos``, ``qvel``;
+  a ball's quaternion and rates);
+- ``framepos``, ``framequat``, ``framexaxis``, ``frameyaxis``, ``framezaxis``, ``framelinvel``,
+  ``frameangvel`` of a ``site`` or an ``xbody`` (the body's frame), without ``reftype``;
+- ``velocimeter``, ``gyro``: a site's linear and angular velocity in the site's frame;
+- ``rangefinder``: the distance along the site's +z to the first shape not of the site's body (-1:
+  none), a ``World.ray_cast``;
+- ``touch``: the sum of the normal forces (N, the mean over the last step) of the contacts of the
+  site's body whose points lie in the site's volume (sphere, capsule, cylinder, box, ellipsoid);
+  a sleeping body (its contacts not solved) keeps the last reading taken while it was awake (it
+  rests on the same forces; read it each step, or turn sleeping off, to have one);
+- ``subtreecom``: the centre of mass of a body and the bodies below it;
+- ``clock``: the simulated time.
+
+Left off (``Robot.sensors_left_off``, names): the others (accelerometer, force, torque, actuator
+and tendon sensors...), frame sensors of geoms or of a body's inertial frame, and any with
+``reftype``: tumble does not compute what they measure the way MuJoCo does, and a sensor reads,
+never acts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+from .math3d import matrix_to_quat
+
+FRAME = ("framepos", "framequat", "framexaxis", "frameyaxis", "framezaxis", "framelinvel", "frameangvel")
+SITE = ("velocimeter", "gyro", "rangefinder", "touch")
+READ = ("jointpos", "jointvel", "subtreecom", "clock") + FRAME + SITE
+
+
+@dataclass
+class MjcfSensor:
+    """One sensor: ``name``, ``kind`` (its tag), ``objtype`` ("site", "xbody", "joint", "body" or
+    ""), ``objname`` (the site, body or joint it reads)."""
+
+    name: str
+    kind: str
+    objtype: str
+    objname: str
+
+
+def read_sensors(root, out):
+    """``out.sensors`` (the ones read) and ``out.sensors_left_off`` (names) of the ``<sensor>``
+    sections."""
+    out.sensors_left_off = []
+    seen = set()
+    for group in root.findall("sensor"):
+        for k, e in enumerate(e for e in group if isinstance(e.tag, str)):
+            name = e.get("name") or f"sensor{len(seen)}"
+            key = f"sensor.{e.tag}[{name}]"
+            if name in seen:
+                raise InputError("duplicate sensor name", key)
+            seen.add(name)
+            a = e.attrib
+            if e.tag not in READ or "reftype" in a or "refname" in a:
+                out.sensors_left_off.append(name)
+                continue
+            if e.tag in ("jointpos", "jointvel"):
+                objtype, objname = "joint", a.get("joint")
+            elif e.tag == "subtreecom":
+                objtype, objname = "body", a.get("body")
+            elif e.tag in SITE:
+                objtype, objname = "site", a.get("site")
+            elif e.tag in FRAME:
+                objtype, objname = a.get("objtype"), a.get("objname")
+                if objtype not in ("site", "xbody"):
+                    out.sensors_left_off.append(name)
+                    continue
+            else:  # clock
+                objtype, objname = "", ""
+            if objtype and not objname:
+                raise InputError(f"missing the {objtype} it reads", key)
+            known = {"site": out.sites, "xbody": out.anchors, "body": out.anchors,
+                     "joint": {j.name: j for j in out.model.joints}}.get(objtype)
+            if known is not None and objname not in known:
+                raise InputError(f"unknown {objtype} {objname!r}", key)
+            out.sensors.append(MjcfSensor(name, e.tag, objtype, objname))
+
+
+def _in_site(kind: str, size: np.ndarray, p: np.ndarray) -> bool:
+    """Whether the point p (3,) in the site's frame lies in its volume (MuJoCo's site shapes)."""
+    if kind == "sphere":
+        return float(p @ p) <= size[0] ** 2
+    if kind == "capsule":
+        z = min(max(p[2], -size[1]), size[1])
+        return p[0] ** 2 + p[1] ** 2 + (p[2] - z) ** 2 <= size[0] ** 2
+    if kind == "cylinder":
+        return p[0] ** 2 + p[1] ** 2 <= size[0] ** 2 and abs(p[2]) <= size[1]
+    if kind == "ellipsoid":
+        return float(np.sum((p / size) ** 2)) <= 1.0
+    return bool(np.all(np.abs(p) <= size))  # box
+
+
+def sensor_values(robot, sim) -> dict:
+    """{sensor name: (k,) values} of ``robot.sensors`` at the world's present state (``sim``: the
+    Simulator stepping it, for the clock, the joint readings' whole turns and the contacts)."""
+    world = robot.world
+    kin = robot.kinematics
+    qpos = qvel = None
+    out = {}
+    for s in robot.sensors.values():
+        if s.kind in ("jointpos", "jointvel"):
+            c = kin.by_name[s.objname]
+            if s.kind == "jointpos":
+                qpos = kin.qpos(sim) if qpos is None else qpos
+                out[s.name] = qpos[c.qpos].copy()
+            else:
+                qvel = kin.qvel() if qvel is None else qvel
+                out[s.name] = qvel[c.qvel].copy()
+            continue
+        if s.kind == "clock":
+            out[s.name] = np.array([float(world.t)])
+            continue
+        if s.kind == "subtreecom":
+            top = kin.index[s.objname]
+            mass, com, _I = kin._bodies(*kin._frames(None))
+            under = kin.ancestor[kin.body_link, top]
+            out[s.name] = (mass[under] @ com[under]) / max(float(mass[under].sum()), 1e-300)
+            continue
+        if s.objtype == "site":
+            link = robot.sites[s.objname][0]
+            o, R = robot.site_pose(s.objname)
+        else:  # xbody: the body's frame, its link frame moved back by the joint's anchor
+            link = s.objname
+            lo, R = robot.link_pose(link)
+            o = lo - R @ robot.anchors[link]
+        i = robot.links[link].index
+        v = world.v[i] + np.cross(world.omega[i], o - world.x[i])
+        w = np.array(world.omega[i], dtype=float)
+        if s.kind == "framepos":
+            out[s.name] = o
+        elif s.kind == "framequat":
+            out[s.name] = matrix_to_quat(np.ascontiguousarray(R))
+        elif s.kind in ("framexaxis", "frameyaxis", "framezaxis"):
+            out[s.name] = R[:, "xyz".index(s.kind[5])].copy()
+        elif s.kind == "framelinvel":
+            out[s.name] = v
+        elif s.kind == "frameangvel":
+            out[s.name] = w
+        elif s.kind == "velocimeter":
+            out[s.name] = R.T @ v
+        elif s.kind == "gyro":
+            out[s.name] = R.T @ w
+        elif s.kind == "rangefinder":
+            hit = world.ray_cast(o, R[:, 2], exclude=i)
+            d = float(hit.distance[0])
+            out[s.name] = np.array([d if np.isfinite(d) else -1.0])
+        else:  # touch
+            total = 0.0
+            last = robot.__dict__.setdefault("_touch_last", {})
+            sleep = None if sim is None else sim.sleep
+            if sleep is not None and i < len(sleep.awake) and not sleep.awake[i]:
+                # asleep: its contacts are not solved, and it rests as it did when it fell asleep,
+                # on the forces it had then (a box on the floor read 0 once asleep: measured)
+                out[s.name] = np.array([last.get(s.name, 0.0)])
+                continue
+            if sim is not None:
+                contacts = sim.contacts()
+                kind, size = robot.site_shapes[s.objname]
+                for k in np.flatnonzero((contacts.body_a == i) | (contacts.body_b == i)):
+                    if _in_site(kind, size, R.T @ (contacts.point[k] - o)):
+                        total += max(float(contacts.normal_impulse[k]), 0.0)
+                total /= sim.dt
+            last[s.name] = total
+            out[s.name] = np.array([total])
+    return out
