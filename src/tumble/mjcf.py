@@ -105,7 +105,7 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
     apply_controls,
 )
 from .mjcf_control import floats as _floats
-from .mjcf_sensors import read_sensors
+from .mjcf_sensors import _camera, _sites_and_cameras, read_sensors
 from .mjcf_xml import read_model_xml
 from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
 
@@ -496,40 +496,6 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
         _body(reader, b, name, cls, anchor, out, meshes, names, joint_names, counter)
 
 
-def _sites_and_cameras(reader, element, cls: str, key: str, link: str, anchor: np.ndarray, out: MjcfModel):
-    """The element's ``<site>``s and ``<camera>``s, in ``link``'s frame (the body frame less
-    ``anchor``). A camera looks along its frame's -z with y up (MuJoCo's); ``fovy`` in degrees
-    whatever the compiler's angle; ``resolution`` its image size (default 160 x 120). Cameras
-    whose ``mode`` is not ``fixed`` (tracking ones) are not read (module docstring)."""
-    for tag, table in (("site", out.sites), ("camera", out.cameras)):
-        for k, e in enumerate(element.findall(tag)):
-            a = reader.attributes(e, cls)
-            name = a.get("name") or f"{link}_{tag}{k}"
-            ekey = f"{key}.{tag}[{name}]"
-            if name in table:
-                raise InputError(f"duplicate {tag} name", ekey)
-            position, R = reader.pose(a, ekey)
-            if tag == "site":
-                table[name] = (link, position - anchor, R)
-                size = _floats(a.get("size", "0.005"), f"{ekey}.size", (1, 2, 3))
-                out.site_shapes[name] = (a.get("type", "sphere"), np.resize(size, 3) if len(size) < 3 else size)
-                continue
-            if a.get("mode", "fixed") != "fixed":
-                continue
-            fovy = float(_floats(a.get("fovy", "45"), f"{ekey}.fovy", (1,))[0])
-            if not 0.0 < fovy < 180.0:
-                raise InputError(f"must be between 0 and 180 degrees, got {fovy:g}", f"{ekey}.fovy")
-            size = (160, 120)
-            if "resolution" in a:
-                w, h = _floats(a["resolution"], f"{ekey}.resolution", (2,))
-                if not (w == int(w) and h == int(h) and 1 <= w <= 8192 and 1 <= h <= 8192):
-                    raise InputError(f"expected two whole numbers of pixels, got {a['resolution']!r}",
-                                     f"{ekey}.resolution")
-                if (w, h) != (1, 1):  # MuJoCo's default, "the window's size": tumble's default instead
-                    size = (int(w), int(h))
-            table[name] = (link, position - anchor, R, fovy, size)
-
-
 def _joint(reader, a, jname, jkey, kind, parent, child) -> UrdfJoint:
     kinds = {"hinge": "revolute", "slide": "prismatic", "ball": "spherical", "free": "floating"}
     axis = _unit(_floats(a.get("axis", "0 0 1"), f"{jkey}.axis", (3,)), f"{jkey}.axis")
@@ -726,13 +692,3 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
             qpos0[c.qpos] = (1.0, 0.0, 0.0, 0.0)
     robot.qpos0 = qpos0
     return robot
-
-
-def _camera(robot, link, position, R, fovy, size):
-    """A ``tb.Camera`` mounted on ``link``'s body from an MJCF camera (its frame in the link's)."""
-    from .camera import Camera
-
-    p, Rl = robot.link_frames[link]  # the link in its body's frame
-    eye = p + Rl @ position
-    return Camera(body=robot.links[link], position=eye, target=eye - Rl @ R[:, 2], up=Rl @ R[:, 1], fov_deg=fovy,
-                  width=size[0], height=size[1])

@@ -1,4 +1,5 @@
-"""An MJCF model's ``<sensor>`` elements, read from the world as MuJoCo computes them
+"""What an MJCF model observes with: its ``<site>`` frames and fixed ``<camera>``s (``Robot.sites``,
+``Robot.cameras``), and its ``<sensor>`` elements, read from the world as MuJoCo computes them
 (``Robot.sensor_data(sim)``: {name: values}, MuJoCo's ``data.sensor(name).data``).
 
 Read (MuJoCo's definitions, XML reference "sensor"; frames in the world unless said):
@@ -30,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
+from .mjcf_control import floats as _floats
 from .math3d import matrix_to_quat
 
 FRAME = ("framepos", "framequat", "framexaxis", "frameyaxis", "framezaxis", "framelinvel", "frameangvel")
@@ -173,3 +175,47 @@ def sensor_values(robot, sim) -> dict:
             last[s.name] = total
             out[s.name] = np.array([total])
     return out
+
+
+def _sites_and_cameras(reader, element, cls: str, key: str, link: str, anchor: np.ndarray, out):
+    """The element's ``<site>``s and ``<camera>``s, in ``link``'s frame (the body frame less
+    ``anchor``). A camera looks along its frame's -z with y up (MuJoCo's); ``fovy`` in degrees
+    whatever the compiler's angle; ``resolution`` its image size (default 160 x 120). Cameras
+    whose ``mode`` is not ``fixed`` (tracking ones) are not read (module docstring)."""
+    for tag, table in (("site", out.sites), ("camera", out.cameras)):
+        for k, e in enumerate(element.findall(tag)):
+            a = reader.attributes(e, cls)
+            name = a.get("name") or f"{link}_{tag}{k}"
+            ekey = f"{key}.{tag}[{name}]"
+            if name in table:
+                raise InputError(f"duplicate {tag} name", ekey)
+            position, R = reader.pose(a, ekey)
+            if tag == "site":
+                table[name] = (link, position - anchor, R)
+                size = _floats(a.get("size", "0.005"), f"{ekey}.size", (1, 2, 3))
+                out.site_shapes[name] = (a.get("type", "sphere"), np.resize(size, 3) if len(size) < 3 else size)
+                continue
+            if a.get("mode", "fixed") != "fixed":
+                continue
+            fovy = float(_floats(a.get("fovy", "45"), f"{ekey}.fovy", (1,))[0])
+            if not 0.0 < fovy < 180.0:
+                raise InputError(f"must be between 0 and 180 degrees, got {fovy:g}", f"{ekey}.fovy")
+            size = (160, 120)
+            if "resolution" in a:
+                w, h = _floats(a["resolution"], f"{ekey}.resolution", (2,))
+                if not (w == int(w) and h == int(h) and 1 <= w <= 8192 and 1 <= h <= 8192):
+                    raise InputError(f"expected two whole numbers of pixels, got {a['resolution']!r}",
+                                     f"{ekey}.resolution")
+                if (w, h) != (1, 1):  # MuJoCo's default, "the window's size": tumble's default instead
+                    size = (int(w), int(h))
+            table[name] = (link, position - anchor, R, fovy, size)
+
+
+def _camera(robot, link, position, R, fovy, size):
+    """A ``tb.Camera`` mounted on ``link``'s body from an MJCF camera (its frame in the link's)."""
+    from .camera import Camera
+
+    p, Rl = robot.link_frames[link]  # the link in its body's frame
+    eye = p + Rl @ position
+    return Camera(body=robot.links[link], position=eye, target=eye - Rl @ R[:, 2], up=Rl @ R[:, 1], fov_deg=fovy,
+                  width=size[0], height=size[1])
