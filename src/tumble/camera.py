@@ -77,7 +77,11 @@ class Camera:
     Mounted on a body (``body``: a ``Body``, name or index), ``position``, ``target`` and ``up`` are
     in that body's frame where its shape was placed (its ``com_offset`` undone, as a URDF link
     frame), and the camera moves with the body; the body itself is not seen (``exclude_body``
-    False to see it). ``mask``: the collision categories seen (``World.ray_cast``'s).
+    False to see it). ``track`` (MuJoCo's camera modes ``track`` and ``trackcom``): ``"point"``
+    follows the body's ``point`` (body frame as above, default its origin) and ``"com"`` the
+    centre of mass of ``bodies`` (indices; default the body alone), or a function ``f(world)``
+    the point (3,) it returns, without turning: ``position``, ``target`` and ``up`` are then world
+    offsets from the point followed. ``mask``: the collision categories seen (``World.ray_cast``'s).
     """
 
     position: tuple = (3.0, 0.0, 1.5)
@@ -90,6 +94,9 @@ class Camera:
     body: object = None
     exclude_body: bool = True
     mask: int = 0xFFFFFFFF
+    track: str | None = None
+    point: tuple = (0.0, 0.0, 0.0)
+    bodies: tuple = ()
 
     def __post_init__(self):
         for key in ("width", "height"):
@@ -101,6 +108,10 @@ class Camera:
             raise InputError(f"must be a number of degrees between 0 and 180, got {fov!r}", "fov_deg")
         if not (isinstance(self.max_distance, (int, float)) and self.max_distance > 0):
             raise InputError(f"must be a positive number of metres, got {self.max_distance!r}", "max_distance")
+        if not (self.track in (None, "point", "com") or callable(self.track)):
+            raise InputError(f"expected 'point', 'com', a function or None, got {self.track!r}", "track")
+        if self.track is not None and self.body is None:
+            raise InputError("a tracking camera needs the body it follows", "track")
         self.position = finite_vector(self.position, "position")
         self.target = finite_vector(self.target, "target")
         self.up = finite_vector(self.up, "up")
@@ -134,6 +145,15 @@ class Camera:
         i = world.index_of(self.body)
         Rb = np.asarray(world.R[i], dtype=float)
         origin = np.asarray(world.x[i], dtype=float) - Rb @ np.asarray(world.com_offset[i], dtype=float)
+        if self.track == "point":
+            return origin + Rb @ finite_vector(self.point, "point") + self.position, self._axes(np.eye(3))
+        if callable(self.track):
+            return finite_vector(self.track(world), "track") + self.position, self._axes(np.eye(3))
+        if self.track == "com":
+            idx = np.asarray(self.bodies if len(self.bodies) else [i], dtype=np.int64)
+            m = np.asarray(world.mass, dtype=float)[idx]
+            com = m @ np.asarray(world.x, dtype=float)[idx] / m.sum()
+            return com + self.position, self._axes(np.eye(3))
         return origin + Rb @ self.position, self._axes(Rb)
 
     def rays(self, world) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -59,8 +59,9 @@ What maps to what:
 Sites and cameras: ``<site>`` frames become ``Robot.sites`` ({name: (link, position, rotation)} in
 the link frame; ``Robot.site_pose(name)`` in the world: MuJoCo's ``site_xpos``, ``site_xmat``, and
 a site's Jacobian is ``robot.kinematics.jacobian(link, position)``), fixed ``<camera>``s become
-``Robot.cameras`` ({name: ``tb.Camera``} mounted on their body: MuJoCo's camera frame looks along
--z with y up; ``fovy``; ``resolution``, default 160 x 120).
+``Robot.cameras`` ({name: ``tb.Camera``} mounted on their body, or following it for ``track`` and
+``trackcom``: MuJoCo's camera frame looks along -z with y up; ``fovy``; ``resolution``, default
+160 x 120).
 
 Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
 rule, ``self_collision=True`` by default here, unlike ``load_urdf``) and those none of whose geoms
@@ -674,11 +675,11 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     _exclude_by_masks(world, robot, parsed.masks)
     robot.actuators = dict(parsed.actuators)
     robot.sites = dict(parsed.sites)
-    robot.cameras = {name: _camera(robot, *spec) for name, spec in parsed.cameras.items()}
     robot.sensors = {sensor.name: sensor for sensor in parsed.sensors}
     robot.sensors_left_off = list(parsed.sensors_left_off)
     robot.site_shapes = dict(parsed.site_shapes)
     robot.anchors = dict(parsed.anchors)
+    robot.virtual_links = list(parsed.virtual)
     robot.keyframes = dict(parsed.keyframes)
     robot.ctrl_names = list(parsed.ctrl_names)
     check_keyframes(robot, parsed.keyframes, parsed.ctrl_names)
@@ -691,4 +692,5 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
         elif c.kind == "spherical":
             qpos0[c.qpos] = (1.0, 0.0, 0.0, 0.0)
     robot.qpos0 = qpos0
+    robot.cameras = {name: _camera(robot, *spec) for name, spec in parsed.cameras.items()}
     return robot

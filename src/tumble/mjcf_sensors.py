@@ -88,6 +88,24 @@ def read_sensors(root, out):
             out.sensors.append(MjcfSensor(name, e.tag, objtype, objname))
 
 
+def subtree_com(robot, link: str, o: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """(3,) m, world: the centre of mass of ``link`` and the links below it (MuJoCo's
+    ``subtree_com``) at the link frames o (L, 3), R (L, 3, 3) (``Kinematics._frames``), from the
+    model's own link masses and centres: a welded body merged into its parent counts as itself,
+    and the virtual links between the joints of one body (which MuJoCo does not have) not at all."""
+    kin = robot.kinematics
+    top = kin.index[link]
+    virtual = set(getattr(robot, "virtual_links", ()))
+    mass, moment = 0.0, np.zeros(3)
+    for k, name in enumerate(kin.links):
+        if not kin.ancestor[k, top] or name in virtual:
+            continue
+        part = robot.model.links[name]
+        mass += part.mass
+        moment += part.mass * (o[k] + R[k] @ part.center)
+    return moment / mass if mass > 0.0 else o[top].copy()
+
+
 def _in_site(kind: str, size: np.ndarray, p: np.ndarray) -> bool:
     """Whether the point p (3,) in the site's frame lies in its volume (MuJoCo's site shapes)."""
     if kind == "sphere":
@@ -123,10 +141,7 @@ def sensor_values(robot, sim) -> dict:
             out[s.name] = np.array([float(world.t)])
             continue
         if s.kind == "subtreecom":
-            top = kin.index[s.objname]
-            mass, com, _I = kin._bodies(*kin._frames(None))
-            under = kin.ancestor[kin.body_link, top]
-            out[s.name] = (mass[under] @ com[under]) / max(float(mass[under].sum()), 1e-300)
+            out[s.name] = subtree_com(robot, s.objname, *kin._frames(None))
             continue
         if s.objtype == "site":
             link = robot.sites[s.objname][0]
@@ -195,8 +210,9 @@ def _sites_and_cameras(reader, element, cls: str, key: str, link: str, anchor: n
                 size = _floats(a.get("size", "0.005"), f"{ekey}.size", (1, 2, 3))
                 out.site_shapes[name] = (a.get("type", "sphere"), np.resize(size, 3) if len(size) < 3 else size)
                 continue
-            if a.get("mode", "fixed") != "fixed":
-                continue
+            mode = a.get("mode", "fixed")
+            if mode not in ("fixed", "track", "trackcom"):
+                continue  # targetbody, targetbodycom: not read
             fovy = float(_floats(a.get("fovy", "45"), f"{ekey}.fovy", (1,))[0])
             if not 0.0 < fovy < 180.0:
                 raise InputError(f"must be between 0 and 180 degrees, got {fovy:g}", f"{ekey}.fovy")
@@ -208,14 +224,37 @@ def _sites_and_cameras(reader, element, cls: str, key: str, link: str, anchor: n
                                      f"{ekey}.resolution")
                 if (w, h) != (1, 1):  # MuJoCo's default, "the window's size": tumble's default instead
                     size = (int(w), int(h))
-            table[name] = (link, position - anchor, R, fovy, size)
+            table[name] = (link, position - anchor, R, fovy, size, mode)
 
 
-def _camera(robot, link, position, R, fovy, size):
-    """A ``tb.Camera`` mounted on ``link``'s body from an MJCF camera (its frame in the link's)."""
+def _camera(robot, link, position, R, fovy, size, mode):
+    """A ``tb.Camera`` on ``link``'s body from an MJCF camera (its frame in the link's): mounted
+    (``fixed``), or following the body's frame origin (``track``) or its subtree's centre of mass
+    (``trackcom``) at the offset and world orientation it has in the model's pose (MuJoCo's, at
+    qpos0: ``robot.qpos0``)."""
     from .camera import Camera
 
     p, Rl = robot.link_frames[link]  # the link in its body's frame
     eye = p + Rl @ position
-    return Camera(body=robot.links[link], position=eye, target=eye - Rl @ R[:, 2], up=Rl @ R[:, 1], fov_deg=fovy,
-                  width=size[0], height=size[1])
+    body = robot.links[link]
+    common = dict(body=body, fov_deg=fovy, width=size[0], height=size[1])
+    if mode == "fixed":
+        return Camera(position=eye, target=eye - Rl @ R[:, 2], up=Rl @ R[:, 1], **common)
+    kin = robot.kinematics
+    o, Rf = kin._frames(robot.qpos0)  # the model's pose
+    k = kin.index[link]
+    Rb = Rf[k] @ Rl.T
+    shape_origin = o[k] - Rb @ p
+    eye_w, R_w = shape_origin + Rb @ eye, Rb @ Rl @ R  # the camera in the world at the model's pose
+    body_origin = p - Rl @ robot.anchors.get(link, np.zeros(3))  # MuJoCo's body frame origin, in the body's frame
+    if mode == "track":
+        followed, bodies, track = shape_origin + Rb @ body_origin, (), "point"
+    else:
+        bodies = ()
+        followed = subtree_com(robot, link, o, Rf)
+
+        def track(world, robot=robot, link=link):
+            return subtree_com(robot, link, *robot.kinematics._frames(None))
+    offset = eye_w - followed
+    return Camera(position=offset, target=offset - R_w[:, 2], up=R_w[:, 1], track=track, point=body_origin,
+                  bodies=bodies, **common)

@@ -461,6 +461,7 @@ SITES = """
       <site name="elbow_mark" class="tip" quat="0.9 0.1 0.3 0.2"/>
       <body name="fore" pos="0 0 -0.4">
         <joint name="slide" type="slide" axis="0.3 0 1" pos="0 0.01 0"/>
+        <camera name="chase" mode="track" pos="0.5 -1 0.2" xyaxes="1 0.5 0 0 0 1"/>
         <geom type="box" size="0.03 0.03 0.15" pos="0 0 -0.15"/>
         <body name="hand" pos="0 0 -0.3" euler="0 0.4 0">
           <geom type="sphere" size="0.05"/>
@@ -480,12 +481,15 @@ def test_mjcf_sites_and_cameras_sit_where_mujoco_puts_them(tmp_path):
     worldbody; a default class's pos) and fixed cameras (orientation forms, fovy, resolution) at
     random joint positions: their frames equal MuJoCo's site_xpos/xmat and cam_xpos/xmat (MuJoCo's
     camera looks along its -z with y up: tumble's axes are x, -y, -z of it) to 1e-12, and a site's
-    Jacobian ``jacobian(link, position)`` equals ``mj_jacSite``. The tracking camera is not read."""
+    Jacobian ``jacobian(link, position)`` equals ``mj_jacSite``; so do the tracking cameras
+    (``track`` on a body whose joint is off its origin, ``trackcom`` on the welded hand's subtree),
+    which follow without turning."""
     path = tmp_path / "sites.xml"
     path.write_text(SITES)
     world = tb.World()
     robot = tb.load_mjcf(world, path)
-    assert set(robot.sites) == {"origin", "elbow_mark", "grip"} and set(robot.cameras) == {"overview", "wrist"}
+    assert set(robot.sites) == {"origin", "elbow_mark", "grip"}
+    assert set(robot.cameras) == {"overview", "wrist", "follow", "chase"}
     assert (robot.cameras["wrist"].width, robot.cameras["wrist"].height) == (64, 48)
     m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
