@@ -15,10 +15,14 @@ Read (MuJoCo's definitions, XML reference "sensor"; frames in the world unless s
   site's body whose points lie in the site's volume (sphere, capsule, cylinder, box, ellipsoid);
   a sleeping body (its contacts not solved) keeps the last reading taken while it was awake (it
   rests on the same forces; read it each step, or turn sleeping off, to have one);
+- ``force``, ``torque``: what the joint into the site's body does on it over the last step (the
+  joint's reaction, ``Robot.joint_reactions``: force, and torque about the site), in the site's
+  frame (the parent's action on the child: MuJoCo's sign); a site on a welded body (merged into its parent: no joint to
+  measure) or on a free one is left off;
 - ``subtreecom``: the centre of mass of a body and the bodies below it;
 - ``clock``: the simulated time.
 
-Left off (``Robot.sensors_left_off``, names): the others (accelerometer, force, torque, actuator
+Left off (``Robot.sensors_left_off``, names): the others (accelerometer, actuator
 and tendon sensors...), frame sensors of geoms or of a body's inertial frame, and any with
 ``reftype``: tumble does not compute what they measure the way MuJoCo does, and a sensor reads,
 never acts.
@@ -35,7 +39,7 @@ from .mjcf_control import floats as _floats
 from .math3d import matrix_to_quat
 
 FRAME = ("framepos", "framequat", "framexaxis", "frameyaxis", "framezaxis", "framelinvel", "frameangvel")
-SITE = ("velocimeter", "gyro", "rangefinder", "touch")
+SITE = ("velocimeter", "gyro", "rangefinder", "touch", "force", "torque")
 READ = ("jointpos", "jointvel", "subtreecom", "clock") + FRAME + SITE
 
 
@@ -81,6 +85,12 @@ def read_sensors(root, out):
                 objtype, objname = "", ""
             if objtype and not objname:
                 raise InputError(f"missing the {objtype} it reads", key)
+            if e.tag in ("force", "torque") and objname in out.sites:
+                link = out.sites[objname][0]
+                joint = next((j for j in out.model.joints if j.child == link), None)
+                if joint is None or joint.kind in ("fixed", "floating"):
+                    out.sensors_left_off.append(name)  # no joint into the site's body to measure
+                    continue
             known = {"site": out.sites, "xbody": out.anchors, "body": out.anchors,
                      "joint": {j.name: j for j in out.model.joints}}.get(objtype)
             if known is not None and objname not in known:
@@ -171,6 +181,12 @@ def sensor_values(robot, sim) -> dict:
             hit = world.ray_cast(o, R[:, 2], exclude=i)
             d = float(hit.distance[0])
             out[s.name] = np.array([d if np.isfinite(d) else -1.0])
+        elif s.kind in ("force", "torque"):
+            joint = kin.parent_joint[link]
+            F, torque = robot.joint_reactions(sim)[joint.name] if sim is not None else (np.zeros(3), np.zeros(3))
+            anchor = robot.link_pose(link)[0]  # a joint turns about its child link's origin
+            # MuJoCo's sign: what the parent does on the child (checked against it)
+            out[s.name] = R.T @ (F if s.kind == "force" else torque + np.cross(anchor - o, F))
         else:  # touch
             total = 0.0
             last = robot.__dict__.setdefault("_touch_last", {})

@@ -921,3 +921,48 @@ def test_touch_sensor_weighs_what_rests_on_it(tmp_path):
     sim.step(180)
     assert not sim.sleep.awake[robot.links["box"].index]
     assert robot.sensor_data(sim)["weight"][0] == pytest.approx(2 * 9.81, rel=0.01)
+
+
+HANGING = """
+<mujoco model="hanging">
+  <worldbody>
+    <body name="upper" pos="0 0 2">
+      <joint name="shoulder" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.03" mass="1.5"/>
+      <body name="lower" pos="0 0 -0.5">
+        <joint name="elbow" axis="1 0 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.03" mass="1"/>
+        <site name="wrist_ft" pos="0.02 0.03 -0.1" euler="10 20 30"/>
+        <body name="weight" pos="0 0 -0.4"><geom type="sphere" size="0.05" mass="2"/></body>
+      </body>
+    </body>
+    <body name="free" pos="1 0 1"><freejoint/><geom type="sphere" size="0.1"/><site name="loose"/></body>
+  </worldbody>
+  <sensor>
+    <force name="f" site="wrist_ft"/>
+    <torque name="t" site="wrist_ft"/>
+    <force name="f_free" site="loose"/>
+  </sensor>
+</mujoco>
+"""
+
+
+def test_force_torque_sensor_reads_what_the_joint_carries(tmp_path):
+    """A chain hanging at rest (the exact tree solve): the force and torque sensor at the elbow's
+    body (off its axis, turned) read MuJoCo's static values (the weight below the joint and its
+    moment about the site, in the site frame, MuJoCo's sign) to 1e-9 relative; a sensor on a free
+    body (no joint) is left off."""
+    path = tmp_path / "hanging.xml"
+    path.write_text(HANGING)
+    world = tb.World(gravity=(0, 0, -9.81))
+    robot = tb.load_mjcf(world, path)
+    assert robot.sensors_left_off == ["f_free"]
+    sim = tb.Simulator(world, dt=1 / 240, joint_settings=ACCURATE)
+    sim.step(5)
+    got = robot.sensor_data(sim)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    for name in ("f", "t"):
+        np.testing.assert_allclose(got[name], d.sensor(name).data, rtol=1e-9, atol=1e-9, err_msg=name)
+    assert np.linalg.norm(got["f"]) == pytest.approx(3.0 * 9.81, rel=1e-9)  # the lower arm and the weight
