@@ -22,7 +22,8 @@
 
 An ``.xml`` file is read as MJCF (``load_mjcf``): ``fixed_base``, ``merge_fixed`` and ``package_dirs``
 do not apply to it, and ``self_collision`` defaults to true (MuJoCo's rule); ``controls = { name =
-ctrl }`` sets its actuators' controls (MuJoCo's ``data.ctrl``, ``Robot.set_controls``) for the run.
+ctrl }`` sets its actuators' controls (MuJoCo's ``data.ctrl``, ``Robot.set_controls``) for the run,
+and ``keyframe = "home"`` starts it in a ``<keyframe>`` key (``Robot.reset_to_keyframe``).
 
 A problem inside the URDF file is one line naming both files:
 ``scene.toml: robots[0].file: arm.urdf: joint[elbow].limit.lower: expected 1 number, got 'x'``.
@@ -41,7 +42,7 @@ URDF_ONLY = ("fixed_base", "merge_fixed", "package_dirs")
 
 ROBOT_KEYS = ("file", "name", "position", "orientation", "euler_deg", "fixed_base", "merge_fixed", "self_collision",
               "inertia", "joint_positions", "joint_motors", "joint_targets", "joint_torques", "controls",
-              "package_dirs", "material", "collision_filter")
+              "keyframe", "package_dirs", "material", "collision_filter")
 
 
 class RobotReader:
@@ -57,6 +58,8 @@ class RobotReader:
                     raise self.error("a URDF option: an MJCF (.xml) model does not take it", f"{key}.{k}")
         elif "controls" in entry:
             raise self.error("an MJCF option (actuator controls): a URDF has no actuators", f"{key}.controls")
+        elif "keyframe" in entry:
+            raise self.error("an MJCF option (a <keyframe> key): a URDF has no keyframes", f"{key}.keyframe")
         settings = {}  # applied to the loaded robot: {option: {name: number}}
         for k in ("joint_torques", "controls"):
             if k in entry:
@@ -79,6 +82,8 @@ class RobotReader:
                 kw[k] = self.boolean(entry[k], f"{key}.{k}")
         if "inertia" in entry:
             kw["inertia"] = self.string(entry["inertia"], f"{key}.inertia", INERTIA_SOURCES)
+        if "keyframe" in entry:
+            kw["keyframe"] = self.string(entry["keyframe"], f"{key}.keyframe")
         if "joint_positions" in entry:
             table = self.table(entry["joint_positions"], f"{key}.joint_positions", entry["joint_positions"].keys()
                                if isinstance(entry["joint_positions"], dict) else ())

@@ -5,6 +5,8 @@ step is the reference for the motion. The engines' contact and joint models diff
 is compared on a chain without contacts or struck limits, where both integrate the same equations.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -966,3 +968,26 @@ def test_force_torque_sensor_reads_what_the_joint_carries(tmp_path):
     for name in ("f", "t"):
         np.testing.assert_allclose(got[name], d.sensor(name).data, rtol=1e-9, atol=1e-9, err_msg=name)
     assert np.linalg.norm(got["f"]) == pytest.approx(3.0 * 9.81, rel=1e-9)  # the lower arm and the weight
+
+
+def test_a_scene_starts_an_mjcf_robot_in_a_keyframe(tmp_path):
+    """[[robots]] keyframe = "pose": the model starts as load_mjcf(keyframe=) puts it (the sites'
+    frames equal); an unknown key and a keyframe for a URDF are one line each."""
+    from tumble.scene import load_scene
+
+    (tmp_path / "keyed.xml").write_text(KEYED)
+    scene = tmp_path / "s.toml"
+    scene.write_text('[[robots]]\nfile = "keyed.xml"\nkeyframe = "pose"\n')
+    world = load_scene(scene).world
+    direct = tb.load_mjcf(tb.World(), tmp_path / "keyed.xml", keyframe="pose")
+    i = world.names.index("keyed/hand")
+    np.testing.assert_allclose(world.x[i], direct.world.x[direct.links["hand"].index], atol=1e-15)
+    scene.write_text('[[robots]]\nfile = "keyed.xml"\nkeyframe = "nope"\n')
+    with pytest.raises(tb.InputError) as info:
+        load_scene(scene)
+    assert "unknown keyframe 'nope'" in str(info.value) and "\n" not in str(info.value)
+    (tmp_path / "arm.urdf").write_text(Path("examples/robots/arm.urdf").read_text())
+    scene.write_text('[[robots]]\nfile = "arm.urdf"\nkeyframe = "home"\n')
+    with pytest.raises(tb.InputError) as info:
+        load_scene(scene)
+    assert "robots[0].keyframe" in str(info.value) and "URDF has no keyframes" in str(info.value)
