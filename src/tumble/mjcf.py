@@ -54,7 +54,9 @@ What maps to what:
   forcerange), the rest its target or, without stiffness, an applied torque or force. Refused:
   other gain, bias or activation types, a negative stiffness or damping, a forcerange on a damper
   without stiffness (a velocity actuator's: MuJoCo clips the sum). Other actuators (``intvelocity``,
-  ``damper``, ``cylinder``, ``muscle``, ``adhesion``...) and those on tendons or sites are left off.
+  ``damper``, ``cylinder``, ``muscle``, ``adhesion``...) and those on sites are left off. Fixed
+  tendons (``<tendon><fixed>``) are read for the motors on them (each joint gets coef gear f), and
+  need no more when they have no range, stiffness, damping or friction loss (MuJoCo's default).
 
 Sites and cameras: ``<site>`` frames become ``Robot.sites`` ({name: (link, position, rotation)} in
 the link frame; ``Robot.site_pose(name)`` in the world: MuJoCo's ``site_xpos``, ``site_xmat``, and
@@ -77,7 +79,9 @@ cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` le
 ``<include>``: expanded as MuJoCo does (``mjcf_xml``: the included file's top-level children in
 its place, paths from the main file's directory; repeated worldbody and compiler sections merged).
 Refused with one line: ``<equality>`` other than connect and weld (joint, tendon,
-flex; between sites; a weld's ``relpose``), ``<tendon>``, ``<contact><pair>``, ``<frame>``,
+flex; between sites; a weld's ``relpose``), spatial tendons and fixed ones with a range,
+stiffness, damping or friction loss, position, velocity and biased actuators on tendons,
+``<contact><pair>``, ``<frame>``,
 ``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
 hfield and sdf geoms, a free joint beside another joint, and unknown joint or geom types.
 """
@@ -99,6 +103,7 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
     MjcfActuator,
     _actuators,
     _keyframes,
+    _tendons,
     _add_equalities,
     check_keyframes,
     _equalities,
@@ -117,7 +122,6 @@ DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
 VIRTUAL_FRACTION = 1e-3
 GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "mesh")
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
-REFUSED = {"tendon": "<tendon> is not supported"}
 # elements of <worldbody>/<body> that make bodies or geoms of their own: refused, not dropped without a word
 GENERATORS = ("frame", "replicate", "composite", "flexcomp", "attach")
 
@@ -150,6 +154,7 @@ class MjcfModel:
     sites: dict = field(default_factory=dict)  # name: (link, position (3,), rotation (3, 3)) in the link frame
     cameras: dict = field(default_factory=dict)  # name: (link, position, rotation, fovy deg, (width, height))
     keyframes: dict = field(default_factory=dict)  # name: (qpos | None, qvel | None, ctrl | None)
+    tendons: dict = field(default_factory=dict)  # fixed tendon name: ((joint, coef), ...)
     site_shapes: dict = field(default_factory=dict)  # site name: (type, size (3,) m) (touch sensors)
     anchors: dict = field(default_factory=dict)  # body name: its link frame's origin in the body frame (m)
     sensors: list = field(default_factory=list)  # mjcf_sensors.MjcfSensor, the file's order
@@ -219,8 +224,9 @@ class _Reader:
         for child in element.findall("default"):
             self._read_defaults(child, name)
 
-    def attributes(self, element, cls: str) -> dict:
-        """The element's attributes over its class's defaults (``class`` or the inherited ``cls``)."""
+    def attributes(self, element, cls: str, tag: str | None = None) -> dict:
+        """The element's attributes over its class's defaults (``class`` or the inherited ``cls``) for
+        its tag (or ``tag``: a ``<fixed>`` tendon takes the defaults' ``<tendon>``)."""
         name = element.get("class", cls)
         if name not in self.classes:
             raise InputError(f"unknown default class {name!r}", f"{element.tag}.class")
@@ -230,7 +236,7 @@ class _Reader:
             name = self.classes[name][0]
         merged: dict = {}
         for name in reversed(chain):
-            merged.update(self.classes[name][1].get(element.tag, {}))
+            merged.update(self.classes[name][1].get(tag or element.tag, {}))
         merged.update({k: v for k, v in element.attrib.items() if k != "class"})
         return merged
 
@@ -386,8 +392,6 @@ def read_option_gravity(path) -> np.ndarray:
 
 def _read(path: Path) -> MjcfModel:
     root = read_model_xml(path)  # includes expanded (MuJoCo Menagerie's scene.xml + robot.xml)
-    if any(len(e) for e in root.findall("tendon")):  # an empty one (a <default>'s <tendon/>) constrains nothing
-        raise InputError(REFUSED["tendon"], "tendon")
     reader = _Reader(root, path)
     meshes = _meshes(reader, root)
     out = MjcfModel(UrdfModel(root.get("model") or path.stem, {"world": UrdfLink("world")}, [], "world", str(path)))
@@ -411,6 +415,7 @@ def _read(path: Path) -> MjcfModel:
     counter = [0]
     for b in worldbody.findall("body"):
         _body(reader, b, "world", "main", np.zeros(3), out, meshes, names, joint_names, counter)
+    _tendons(reader, root, out, joint_names)
     _actuators(reader, root, out, joint_names)
     _equalities(reader, root, out, names)
     _keyframes(root, out)

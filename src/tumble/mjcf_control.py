@@ -46,7 +46,9 @@ class MjcfActuator:
     biasprm[:3] (affine) or none. On the joint: a stiffness k = -gear^2 b1 and damping c = -gear^2
     b2 (a PD drive, implicit), the rest gear (gain ctrl + b0) as the drive's target times k when
     k > 0, else as an applied torque or force. ``ctrl``: the control now (MuJoCo's ``data.ctrl``,
-    0 at the start; ``Robot.set_controls``)."""
+    0 at the start; ``Robot.set_controls``). On a fixed tendon (length sum coef_i q_i) the force
+    acts on each of its joints with the moment arm coef_i gear (MuJoCo's transmission): an applied
+    torque or force on each (motors and bias-free general actuators only)."""
 
     name: str
     kind: str
@@ -57,6 +59,7 @@ class MjcfActuator:
     gain: float = 1.0
     bias: tuple = (0.0, 0.0, 0.0)
     ctrl: float = 0.0
+    tendon: tuple = ()  # on a fixed tendon (``joint`` None): ((joint, coef), ...), each joint's moment arm coef gear
 
     @property
     def stiffness(self) -> float:
@@ -90,11 +93,15 @@ def apply_controls(robot, sim, controls: dict):
         given.append((actuator, u))
     for actuator, u in given:
         actuator.ctrl = u
-    for joint in dict.fromkeys(actuator.joint for actuator, _ in given):
+    touched = []
+    for actuator, _ in given:
+        touched += [j for j, _c in actuator.tendon] if actuator.tendon else [actuator.joint]
+    for joint in dict.fromkeys(touched):
         on = [a for a in robot.actuators.values() if a.joint == joint]
         stiffness = sum(a.stiffness for a in on)
         servo = sum(a.drive() for a in on if a.stiffness > 0.0)
         effort = sum(a.drive() for a in on if a.stiffness == 0.0)
+        effort += sum(c * a.drive() for a in robot.actuators.values() for j, c in a.tendon if j == joint)
         values = {P_EFFORT: effort}
         if stiffness > 0.0:
             values[P_TARGET] = servo / stiffness
@@ -128,20 +135,25 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
             if e.tag not in ACTUATORS:
                 continue  # read and left off (module docstring)
             a = reader.attributes(e, "main")
-            if "joint" not in a:
-                continue  # on a site (tendons are refused): left off
+            if "joint" not in a and "tendon" not in a:
+                continue  # on a site: left off
             name = a.get("name") or f"actuator{len(out.actuators)}"
             out.ctrl_names[-1] = name
-            key = f"actuator.{e.tag}[{a.get('name', a.get('joint'))}]"
+            key = f"actuator.{e.tag}[{a.get('name', a.get('joint', a.get('tendon')))}]"
             if name in out.actuators:
                 raise InputError("duplicate actuator name", key)
-            joint = a.get("joint")
-            if joint not in joint_names:
+            joint, tendon = a.get("joint"), ()
+            if joint is None:
+                if a["tendon"] not in out.tendons:
+                    raise InputError(f"unknown tendon {a['tendon']!r}", f"{key}.tendon")
+                tendon = out.tendons[a["tendon"]]
+            elif joint not in joint_names:
                 raise InputError(f"unknown joint {joint!r} ({e.tag} actuators drive joints)", f"{key}.joint")
-            kind = next((j.kind for j in out.model.joints if j.name == joint), "free")
-            if kind not in ("revolute", "continuous", "prismatic"):
-                raise InputError(f"an actuator on a {kind} joint is not supported (only hinge and slide)",
-                                 f"{key}.joint")
+            else:
+                kind = next((j.kind for j in out.model.joints if j.name == joint), "free")
+                if kind not in ("revolute", "continuous", "prismatic"):
+                    raise InputError(f"an actuator on a {kind} joint is not supported (only hinge and slide)",
+                                     f"{key}.joint")
             gear = float(floats(a["gear"], f"{key}.gear", (1, 6))[0]) if "gear" in a else 1.0
             ctrlrange = _limited(a, "ctrllimited", "ctrlrange", key, reader)
             forcerange = _limited(a, "forcelimited", "forcerange", key, reader)
@@ -168,9 +180,15 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
                 if a.get("biastype", "none") == "affine":
                     b = floats(a.get("biasprm", "0 0 0"), f"{key}.biasprm", range(1, 11))
                     bias = tuple(float(v) for v in (list(b) + [0.0, 0.0])[:3])
-            actuator = MjcfActuator(name, e.tag, joint, gear, ctrlrange, forcerange, gain, bias)
+            actuator = MjcfActuator(name, e.tag, joint, gear, ctrlrange, forcerange, gain, bias, tendon=tendon)
             if actuator.stiffness < 0.0 or actuator.damping < 0.0:
                 raise InputError("a negative stiffness or damping (bias) is not supported", key)
+            if tendon:
+                if actuator.stiffness or actuator.damping:
+                    raise InputError("a position, velocity or biased actuator on a tendon is not supported (it "
+                                     "would couple the tendon's joints; motors are)", key)
+                out.actuators[name] = actuator
+                continue
             if forcerange is not None and actuator.damping > 0.0 and actuator.stiffness == 0.0:
                 # f = kv (ctrl - l') clipped whole: here an effort and a damper, each of its own
                 raise InputError("a forcerange on a damping actuator without stiffness is not supported", key)
@@ -300,3 +318,33 @@ def apply_keyframe(robot, name, sim):
     if ctrl is not None:
         names = robot.__dict__.get("ctrl_names", [])
         apply_controls(robot, sim, {n: float(u) for n, u in zip(names, ctrl) if n is not None})
+
+
+def _tendons(reader, root, out: MjcfModel, joint_names):
+    """``<tendon><fixed>``: the joints and coefficients of each fixed tendon (``out.tendons``), for
+    the actuators on them. A fixed tendon with no range, stiffness, damping or friction loss does
+    nothing by itself (MuJoCo's default): read. One that would couple its joints (a limited
+    range, stiffness, damping, frictionloss) and a spatial tendon are refused with one line."""
+    for group in root.findall("tendon"):
+        for e in (e for e in group if isinstance(e.tag, str)):
+            name = e.get("name") or f"tendon{len(out.tendons)}"
+            key = f"tendon.{e.tag}[{name}]"
+            if e.tag != "fixed":
+                raise InputError(f"a <{e.tag}> tendon is not supported (fixed tendons driven by motors are)", key)
+            if name in out.tendons:
+                raise InputError("duplicate tendon name", key)
+            a = reader.attributes(e, "main", tag="tendon")
+            for attr in ("stiffness", "damping", "frictionloss"):
+                if attr in a and float(floats(a[attr], f"{key}.{attr}", (1,))[0]) != 0.0:
+                    raise InputError(f"a tendon's {attr} is not supported (it would couple its joints)",
+                                     f"{key}.{attr}")
+            limited = a.get("limited", "auto")
+            if limited == "true" or (limited == "auto" and reader.autolimits and "range" in a):
+                raise InputError("a tendon's range is not supported (it would couple its joints)", f"{key}.range")
+            parts = []
+            for j in e.findall("joint"):
+                joint = j.get("joint")
+                if joint not in joint_names:
+                    raise InputError(f"unknown joint {joint!r}", f"{key}.joint")
+                parts.append((joint, float(floats(j.get("coef", "1"), f"{key}.joint[{joint}].coef", (1,))[0])))
+            out.tendons[name] = tuple(parts)

@@ -275,7 +275,16 @@ def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path,
      "<connect body1='b' body2='b'/></equality></mujoco>", "the same body"),
     ("<mujoco><include file='x.xml'/><worldbody/></mujoco>", "MJCF file not found"),
     ("<mujoco><include/><worldbody/></mujoco>", "an <include> needs a file attribute"),
-    ("<mujoco><worldbody/><tendon><fixed name='t'/></tendon></mujoco>", "<tendon> is not supported"),
+    ("<mujoco><worldbody/><tendon><spatial name='t'/></tendon></mujoco>", "a <spatial> tendon is not supported"),
+    ("<mujoco><worldbody><body name='b'><joint name='j'/><geom size='0.1'/></body></worldbody><tendon>"
+     "<fixed name='t' range='0 1' limited='true'><joint joint='j'/></fixed></tendon></mujoco>", "a tendon's range"),
+    ("<mujoco><worldbody><body name='b'><joint name='j'/><geom size='0.1'/></body></worldbody><tendon>"
+     "<fixed name='t' stiffness='3'><joint joint='j'/></fixed></tendon></mujoco>", "a tendon's stiffness"),
+    ("<mujoco><worldbody><body name='b'><joint name='j'/><geom size='0.1'/></body></worldbody><tendon>"
+     "<fixed name='t'><joint joint='nope'/></fixed></tendon></mujoco>", "unknown joint 'nope'"),
+    ("<mujoco><worldbody><body name='b'><joint name='j'/><geom size='0.1'/></body></worldbody><tendon>"
+     "<fixed name='t'><joint joint='j'/></fixed></tendon><actuator><position tendon='t' kp='5'/></actuator></mujoco>",
+     "actuator on a tendon is not supported"),
     ("<robot/>", "expected a <mujoco> element"),
     ("<mujoco><worldbody>", "invalid XML"),
     ("<mujoco/>", "missing <worldbody>"),
@@ -991,3 +1000,81 @@ def test_a_scene_starts_an_mjcf_robot_in_a_keyframe(tmp_path):
     with pytest.raises(tb.InputError) as info:
         load_scene(scene)
     assert "robots[0].keyframe" in str(info.value) and "URDF has no keyframes" in str(info.value)
+
+
+TENDON = """
+<mujoco model="tendon">
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="hip" axis="0 1 0" armature="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+      <body name="b" pos="0.4 0 0">
+        <joint name="knee" axis="0 1 0" armature="0.1"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="hipknee"><joint joint="hip" coef="-1"/><joint joint="knee" coef="2"/></fixed>
+    <fixed name="idle"><joint joint="knee" coef="1"/></fixed>
+  </tendon>
+  <actuator>
+    <motor name="pull" tendon="hipknee" gear="1.5" ctrlrange="-1 1"/>
+    <motor name="hip_motor" joint="hip" gear="2"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_fixed_tendon_motors_drive_their_joints_as_mujoco_does(tmp_path):
+    """A motor on a fixed tendon applies coef gear ctrl to each of the tendon's joints (MuJoCo's
+    qfrc_actuator, to 1e-12, with a joint motor on one of them too); the arm moves as MuJoCo's RK4
+    says in zero gravity over 0.5 s (both integrate the same equations: 2e-3 rad, the first-order
+    step at dt 1/960); a tendon with nothing on it does nothing."""
+    path = tmp_path / "tendon.xml"
+    path.write_text(TENDON)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    m.opt.gravity[:] = 0.0
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    m.opt.timestep = 1 / 4000
+    d = mujoco.MjData(m)
+    d.ctrl[:] = (0.7, -0.4)
+    mujoco.mj_forward(m, d)
+    world = tb.World(gravity=(0, 0, 0))
+    robot = tb.load_mjcf(world, path)
+    robot.set_controls(None, {"pull": 0.7, "hip_motor": -0.4})
+    from tumble.joints import P_EFFORT
+
+    efforts = [robot.joints[j].bound.param[P_EFFORT] for j in ("hip", "knee")]
+    np.testing.assert_allclose(efforts, d.qfrc_actuator, atol=1e-12)
+    sim = tb.Simulator(world, dt=1 / 960, joint_settings=ACCURATE)
+    sim.step(480)
+    while d.time < 0.5 - 1e-9:
+        mujoco.mj_step(m, d)
+    got = [robot.joint_states(sim)[j][0] for j in ("hip", "knee")]
+    np.testing.assert_allclose(got, d.qpos, atol=2e-3)
+    assert np.abs(d.qpos).max() > 0.3  # it moved
+
+
+def test_pybullet_data_humanoids_with_tendons_load():
+    """PyBullet's copies of Gym's humanoids carry two fixed tendons each that nothing drives or
+    limits (MuJoCo: no effect): the files tumble refused for them now load and run, or are refused
+    for what MuJoCo refuses them for (ground.xml's tendons name joints it does not have;
+    humanoid_fixed.xml has a joint of type "fixed")."""
+    pytest.importorskip("pybullet")
+    import os
+
+    import pybullet_data
+
+    folder = os.path.join(pybullet_data.getDataPath(), "mjcf")
+    for name in ("humanoid_symmetric.xml", "humanoid_symmetric_no_ground.xml"):
+        world = tb.World(gravity=(0, 0, -9.81))
+        robot = tb.load_mjcf(world, os.path.join(folder, name))
+        m = mujoco.MjModel.from_xml_path(os.path.join(folder, "humanoid_symmetric_no_ground.xml"))  # MuJoCo loads this one
+        assert robot.kinematics.nv == m.nv and [c.name for c in robot.kinematics.coordinates][:3] == [
+            m.joint(i).name for i in range(3)]
+        tb.Simulator(world, dt=1 / 240).step(24)
+        assert np.isfinite(world.pack()).all()
+    for name, problem in (("ground.xml", "unknown joint 'left_hip_y'"), ("humanoid_fixed.xml", "unknown joint type 'fixed'")):
+        with pytest.raises(tb.InputError, match=problem):
+            tb.load_mjcf(tb.World(), os.path.join(folder, name))
