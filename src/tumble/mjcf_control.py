@@ -316,8 +316,7 @@ def apply_keyframe(robot, name, sim):
         qd[v:v + 3] = base_R @ qd[v:v + 3]
     kin.set_state(q, qd, sim)
     if ctrl is not None:
-        names = robot.__dict__.get("ctrl_names", [])
-        apply_controls(robot, sim, {n: float(u) for n, u in zip(names, ctrl) if n is not None})
+        apply_controls(robot, sim, {n: float(u) for n, u in zip(robot.ctrl_names, ctrl) if n is not None})
 
 
 def _tendons(reader, root, out: MjcfModel, joint_names):

@@ -105,7 +105,7 @@ def subtree_com(robot, link: str, o: np.ndarray, R: np.ndarray) -> np.ndarray:
     and the virtual links between the joints of one body (which MuJoCo does not have) not at all."""
     kin = robot.kinematics
     top = kin.index[link]
-    virtual = set(getattr(robot, "virtual_links", ()))
+    virtual = set(robot.virtual_links)
     mass, moment = 0.0, np.zeros(3)
     for k, name in enumerate(kin.links):
         if not kin.ancestor[k, top] or name in virtual:

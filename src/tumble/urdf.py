@@ -101,7 +101,11 @@ class Robot:
         keyframes: {name: (qpos, qvel, ctrl)} of an MJCF model's ``<keyframe>`` keys (each None where
             the key leaves it out), for ``reset_to_keyframe``; empty for a URDF.
         sensors: {name: ``mjcf_sensors.MjcfSensor``} of an MJCF model's ``<sensor>``s that tumble
-            reads (``sensor_data``); empty for a URDF.
+            reads (``sensor_data``); empty for a URDF. ``sensors_left_off``: the names of the others.
+        site_shapes, anchors, virtual_links, ctrl_names, qpos0: an MJCF model's site volumes {name:
+            (type, size (3,))}, each body's link frame origin in its body frame {body: (3,) m}, the
+            virtual links between joints of one body, the actuators' names in MuJoCo's ctrl order
+            (None: left off), and MuJoCo's qpos0 (nq,) (the model's pose, world); empty (None) for a URDF.
     """
 
     name: str
@@ -118,6 +122,12 @@ class Robot:
     cameras: dict = field(default_factory=dict)
     keyframes: dict = field(default_factory=dict)
     sensors: dict = field(default_factory=dict)
+    sensors_left_off: list = field(default_factory=list)
+    site_shapes: dict = field(default_factory=dict)
+    anchors: dict = field(default_factory=dict)
+    virtual_links: list = field(default_factory=list)
+    ctrl_names: list = field(default_factory=list)
+    qpos0: np.ndarray | None = None
 
     @property
     def kinematics(self):
