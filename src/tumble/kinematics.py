@@ -482,7 +482,8 @@ class Kinematics:
         least squares methods", 2004): dq = J^T (J J^T + lambda^2 I)^-1 e, from ``qpos``
         (default: the present state), each limited hinge and slider clamped to its range after
         every step. ``point`` (3,) m in the link frame. Stops when the position error is under
-        ``tolerance`` m and the orientation error under ``angle_tolerance`` rad, or after
+        ``tolerance`` m and the orientation error under ``angle_tolerance`` rad, when it stalls (10
+        iterations without the error falling by 1 %, or the damping past 1e6), or after
         ``max_iterations``; the answer says which. A limit or a singular pose can hold the
         search in a local minimum: ``restarts`` more tries then start from joint positions drawn
         uniformly within the limits (hinges without limits in [-pi, pi]; the generator seeded by
@@ -527,11 +528,17 @@ class Kinematics:
             q = clamp(q)
             e, frames, p = error(q)
             lam = damping
+            best, since = float(e @ e), 0
             while True:
                 pos_err = float(np.linalg.norm(e[0:3]))
                 ang_err = float(np.linalg.norm(e[3:6])) if R_target is not None else 0.0
                 done = pos_err <= tolerance and ang_err <= angle_tolerance
-                if done or it >= max_iterations:
+                # a stall: lambda so large that no step is taken, or 10 iterations without the error
+                # falling by 1 % (a limit or a singular pose holding it; a try converging gains orders
+                # of magnitude in 10): the next restart's turn. (Each try used to run its 200
+                # iterations out, crawling along a limit: 4 of 20 Kuka targets, 3.2 ms a target.)
+                stalled = lam > 1e6 or since >= 10
+                if done or stalled or it >= max_iterations:
                     return IkSolution(q, pos_err, ang_err, it, done)
                 it += 1
                 J = self._jacobian_at(self._columns(*frames), k, p)[0:rows]
@@ -547,6 +554,10 @@ class Kinematics:
                     lam = max(0.5 * lam, 1e-12)
                 else:
                     lam *= 4.0
+                if float(e @ e) < 0.98 * best:  # the squared error down by 2 %: the error by 1 %
+                    best, since = float(e @ e), 0
+                else:
+                    since += 1
 
         rng = np.random.default_rng(seed)
         best, used = None, 0
