@@ -521,3 +521,19 @@ def test_mjcf_sites_and_cameras_sit_where_mujoco_puts_them(tmp_path):
     assert (img.body >= 0).any()
     with pytest.raises(tb.InputError):
         robot.site_pose("nope")
+
+
+def test_fixed_links_merged_or_kept_give_the_same_dynamics():
+    """The arm's hand on a fixed joint, merged into the forearm's body (the default) or kept as a
+    body of its own on a FixedJoint: the same coordinates, mass matrix and inverse dynamics (the
+    merge combines masses and inertias exactly: 1e-12), the same hand Jacobian."""
+    rng = np.random.default_rng(11)
+    merged = tb.load_urdf(tb.World(gravity=(0, 0, -9.81)), ARM).kinematics
+    kept = tb.load_urdf(tb.World(gravity=(0, 0, -9.81)), ARM, merge_fixed=False).kinematics
+    assert kept.dof_names == merged.dof_names and len(kept.body_link) == len(merged.body_link) + 1
+    for _ in range(3):
+        q, qd, qdd = rng.uniform(-1, 1, 3), rng.normal(size=3), rng.normal(size=3)
+        np.testing.assert_allclose(kept.mass_matrix(q), merged.mass_matrix(q), atol=1e-12)
+        np.testing.assert_allclose(kept.inverse_dynamics(qdd, q, qd), merged.inverse_dynamics(qdd, q, qd), atol=1e-12)
+        np.testing.assert_allclose(kept.jacobian("hand", (0.01, 0.02, 0.03), q),
+                                   merged.jacobian("hand", (0.01, 0.02, 0.03), q), atol=1e-12)
