@@ -157,6 +157,18 @@ class Robot:
 
         apply_keyframe(self, key, sim)
 
+    def link_velocity(self, link, point=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+        """The velocity (3,) m/s of a point fixed in ``link`` (``point`` (3,) m in the link frame) and
+        the link's angular velocity (3,) rad/s, world, now (PyBullet's ``getLinkState`` with
+        ``computeLinkVelocity``; the Jacobian times the joint rates, ``robot.kinematics``)."""
+        if link not in self.links:
+            raise InputError(f"unknown link {link!r} of robot {self.name!r}", "link")
+        body = self.links[link]
+        o, R = self.link_pose(link)
+        p = o + R @ finite_vector(point, "point")
+        w = np.array(body.omega, dtype=float)
+        return np.asarray(body.v, dtype=float) + np.cross(w, p - np.asarray(body.x, dtype=float)), w
+
     def site_pose(self, site) -> tuple[np.ndarray, np.ndarray]:
         """A site's frame now: origin (3,) m and rotation (3, 3), world (MuJoCo's ``site_xpos``,
         ``site_xmat``)."""

@@ -208,7 +208,8 @@ def test_jacobian_is_the_derivative_of_forward_kinematics(model, tmp_path):
 def test_mass_matrix_two_routes_and_the_kinetic_energy(model, tmp_path):
     """M from the bodies' Jacobians equals the inverse dynamics' columns without gravity and rates
     (M e_k = tau(qdd = e_k)); 1/2 qd^T M qd (less the armature, which has no body) equals the
-    world's kinetic energy of the bodies once they move as J qd says."""
+    world's kinetic energy of the bodies once they move as J qd says, and every link's point
+    velocity ``link_velocity`` reads from them is J qd."""
     for robot in (model[0], _free_arm(tmp_path)):
         kin = robot.kinematics
         rng = np.random.default_rng(5)
@@ -226,6 +227,12 @@ def test_mass_matrix_two_routes_and_the_kinetic_energy(model, tmp_path):
         armature = np.array([c.armature for c in kin.coordinates for _ in range(c.qvel.stop - c.qvel.start)])
         energy = 0.5 * qd @ (M - np.diag(armature)) @ qd
         assert energy == pytest.approx(world.kinetic_energy(), rel=1e-12)
+        # each link's point velocity read from the bodies (link_velocity) is the Jacobian times the rates
+        for link in kin.links:
+            v, w = robot.link_velocity(link, (0.05, -0.02, 0.1))
+            J = kin.jacobian(link, (0.05, -0.02, 0.1), q)
+            np.testing.assert_allclose(v, J[0:3] @ qd, atol=1e-12, err_msg=link)
+            np.testing.assert_allclose(w, J[3:6] @ qd, atol=1e-12, err_msg=link)
 
 
 def _assert_same_qpos(kin, got, expected):
