@@ -442,6 +442,25 @@ class Kinematics:
         KK.mass_matrix_kernel(self.body_link, mass, com, I_world, self.ancestor, self.dof_link, *cols, self.armature, M)
         return M
 
+    def center_of_mass(self, qpos=None, link: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The centre of mass (3,) m, world, of the robot's moving bodies (or of those at and below
+        ``link``) and its Jacobian (3, nv): its velocity per joint rate (MuJoCo's ``subtree_com``
+        and ``mj_jacSubtreeCom``; balance and walking controllers), at ``qpos`` (default the
+        present state): sum m x / sum m and sum m Jv / sum m over the bodies."""
+        o, R = self._frames(qpos)
+        cols = self._columns(o, R)
+        mass, com, _I = self._bodies(o, R)
+        chosen = np.ones(len(self.body_link), dtype=bool) if link is None else self.ancestor[self.body_link,
+                                                                                               self._link(link)]
+        total = float(mass[chosen].sum())
+        if total <= 0.0:
+            raise InputError("no moving body there: no centre of mass", "link")
+        c = mass[chosen] @ com[chosen] / total
+        J = np.zeros((3, self.nv))
+        for b in np.flatnonzero(chosen):
+            J += mass[b] * self._jacobian_at(cols, self.body_link[b], com[b])[0:3]
+        return c, J / total
+
     def inverse_dynamics(self, qacc, qpos=None, qvel=None, gravity=None) -> np.ndarray:
         """(nv,) the joint forces (N m, N; a free joint's force world, its torque in its link
         frame) that give the accelerations ``qacc`` (nv,) at ``qpos`` (nq,) and ``qvel`` (nv,)

@@ -102,7 +102,8 @@ def test_coordinates_follow_mujocos_layout(model):
 def test_jacobians_mass_matrix_and_inverse_dynamics_equal_mujocos(model, seed):
     """The free joint's conventions (linear world, angular in the body frame), the ball's (angular
     in the child frame), the hinge off its body's origin, the slide's Coriolis term and armature
-    all as MuJoCo computes them on the same file."""
+    all as MuJoCo computes them on the same file; the centres of mass of the model and of a
+    subtree with their Jacobians (subtree_com, mj_jacSubtreeCom)."""
     robot, m = model
     kin = robot.kinematics
     rng = np.random.default_rng(seed)
@@ -130,6 +131,14 @@ def test_jacobians_mass_matrix_and_inverse_dynamics_equal_mujocos(model, seed):
     M = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, M)
     np.testing.assert_allclose(kin.mass_matrix(q), M, atol=1e-10)
+    # the centre of mass of the whole model and of the hand's subtree, and their Jacobians
+    for body in ("torso", "hand"):
+        c, Jc = kin.center_of_mass(q, None if body == "torso" else body)
+        b = m.body(body).id
+        np.testing.assert_allclose(c, d.subtree_com[b], atol=1e-10, err_msg=body)
+        jac = np.zeros((3, m.nv))
+        mujoco.mj_jacSubtreeCom(m, d, jac, b)
+        np.testing.assert_allclose(Jc, jac, atol=1e-10, err_msg=body)
     rne = np.zeros(m.nv)
     mujoco.mj_rne(m, d, 1, rne)
     np.testing.assert_allclose(kin.inverse_dynamics(qdd, q, qd), rne + m.dof_armature * qdd, atol=1e-10)
