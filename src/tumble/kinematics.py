@@ -442,6 +442,24 @@ class Kinematics:
         KK.mass_matrix_kernel(self.body_link, mass, com, I_world, self.ancestor, self.dof_link, *cols, self.armature, M)
         return M
 
+    def point_acceleration(self, link: str, point=(0.0, 0.0, 0.0), qacc=None, qpos=None,
+                           qvel=None) -> tuple[np.ndarray, np.ndarray]:
+        """The acceleration (3,) m/s^2 of a point fixed in ``link`` (``point`` (3,) m, link frame)
+        and the link's angular acceleration (3,) rad/s^2, world, at joint accelerations ``qacc``
+        (nv,; default 0: then they are Jdot qd, the term an operational-space controller needs,
+        MuJoCo's ``mj_jacDot`` times qvel), ``qpos`` and ``qvel`` (default the present state):
+        J qdd + Jdot qd, from the recursive Newton-Euler forward pass (``link_motion_kernel``)."""
+        k = self._link(link)
+        local = self._check(point, 3, "point")
+        o, R = self._frames(qpos)
+        qd = self.qvel() if qvel is None else np.ascontiguousarray(self._check(qvel, self.nv, "qvel"))
+        qdd = np.zeros(self.nv) if qacc is None else np.ascontiguousarray(self._check(qacc, self.nv, "qacc"))
+        L = len(self.links)
+        w, al, v, a = (np.empty((L, 3)) for _ in range(4))
+        KK.link_motion_kernel(qd, qdd, o, R, self.parent, self.kind, self.axis, self.vadr, w, al, v, a)
+        r = R[k] @ local
+        return a[k] + np.cross(al[k], r) + np.cross(w[k], np.cross(w[k], r)), al[k].copy()
+
     def center_of_mass(self, qpos=None, link: str | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The centre of mass (3,) m, world, of the robot's moving bodies (or of those at and below
         ``link``) and its Jacobian (3, nv): its velocity per joint rate (MuJoCo's ``subtree_com``

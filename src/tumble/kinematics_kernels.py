@@ -213,23 +213,16 @@ def mass_matrix_kernel(body_link, mass, com, I_world, ancestor, dof_link, col_ro
 
 
 @njit(**JIT)
-def inverse_dynamics_kernel(qvel, qacc, gravity, o, R, parent, kind, axis, vadr, body_link, mass, com, I_world,
-                            armature,
-                            # outputs
-                            tau):
-    """tau (nv,) = M(q) qacc + c(q, qvel): the recursive Newton-Euler algorithm (Featherstone 2008,
-    ch. 5) with world-frame vectors at the link origins. Out from the base: each link's angular
-    velocity w and acceleration al, its origin's velocity v and acceleration a, from its parent's
-    through the joint. Back to the base: each body's force m (a_com - g) and moment about its
-    link's origin I al + w x I w + r x f, summed over the subtree and projected on the joint's
-    rate columns."""
+def link_motion_kernel(qvel, qacc, o, R, parent, kind, axis, vadr,
+                       # outputs
+                       w, al, v, a):
+    """The forward pass of the recursive Newton-Euler algorithm: out from the base, each link's
+    angular velocity w and acceleration al (L, 3), its origin's velocity v and acceleration a
+    (L, 3), world, from its parent's through the joint at rates qvel and accelerations qacc."""
     L = parent.shape[0]
-    w = np.zeros((L, 3))
-    al = np.zeros((L, 3))
-    v = np.zeros((L, 3))
-    a = np.zeros((L, 3))
-    force = np.zeros((L, 3))
-    moment = np.zeros((L, 3))
+    for link in range(L):
+        for i in range(3):
+            w[link, i] = al[link, i] = v[link, i] = a[link, i] = 0.0
     for link in range(L):
         k = kind[link]
         s = vadr[link]
@@ -277,6 +270,26 @@ def inverse_dynamics_kernel(qvel, qacc, gravity, o, R, parent, kind, axis, vadr,
             for i in range(3):
                 w[link, i] += rel[i]
                 al[link, i] += rel_acc[i] + c[i]
+
+
+@njit(**JIT)
+def inverse_dynamics_kernel(qvel, qacc, gravity, o, R, parent, kind, axis, vadr, body_link, mass, com, I_world,
+                            armature,
+                            # outputs
+                            tau):
+    """tau (nv,) = M(q) qacc + c(q, qvel): the recursive Newton-Euler algorithm (Featherstone 2008,
+    ch. 5) with world-frame vectors at the link origins. Out from the base (``link_motion_kernel``):
+    each link's angular velocity w and acceleration al, its origin's velocity v and acceleration a.
+    Back to the base: each body's force m (a_com - g) and moment about its link's origin
+    I al + w x I w + r x f, summed over the subtree and projected on the joint's rate columns."""
+    L = parent.shape[0]
+    w = np.empty((L, 3))
+    al = np.empty((L, 3))
+    v = np.empty((L, 3))
+    a = np.empty((L, 3))
+    link_motion_kernel(qvel, qacc, o, R, parent, kind, axis, vadr, w, al, v, a)
+    force = np.zeros((L, 3))
+    moment = np.zeros((L, 3))
     for b in range(body_link.shape[0]):
         link = body_link[b]
         m = mass[b]

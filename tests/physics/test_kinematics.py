@@ -192,7 +192,9 @@ def _free_arm(tmp_path):
 def test_jacobian_is_the_derivative_of_forward_kinematics(model, tmp_path):
     """J qd = d/dt of the point's position and of the link's orientation along q(t) = q (+) qd t
     (central differences of ``forward_kinematics`` through ``integrate``), on the MJCF model (ball,
-    free joint) and on a URDF arm with a free base and a merged link."""
+    free joint) and on a URDF arm with a free base and a merged link; and ``point_acceleration`` at
+    qdd = 0 is d/dt (J qd) = Jdot qd along that motion (the rates held: a ball's and a free joint's
+    body-frame rates are constant along ``integrate``'s exponential map)."""
     for robot in (model[0], _free_arm(tmp_path)):
         kin = robot.kinematics
         rng = np.random.default_rng(4)
@@ -212,6 +214,12 @@ def test_jacobian_is_the_derivative_of_forward_kinematics(model, tmp_path):
             omega = np.array([W[2, 1], W[0, 2], W[1, 0]])
             np.testing.assert_allclose(J[0:3] @ qd, velocity, atol=1e-8, err_msg=link)
             np.testing.assert_allclose(J[3:6] @ qd, omega, atol=1e-8, err_msg=link)
+            # and the point's acceleration at qdd = 0 is d/dt (J qd) along the same motion (Jdot qd)
+            acc, alpha = kin.point_acceleration(link, local, None, q, qd)
+            Ja = kin.jacobian(link, local, kin.integrate(q, qd, h))
+            Jb = kin.jacobian(link, local, kin.integrate(q, qd, -h))
+            np.testing.assert_allclose(acc, (Ja[0:3] - Jb[0:3]) @ qd / (2 * h), atol=1e-7, err_msg=link)
+            np.testing.assert_allclose(alpha, (Ja[3:6] - Jb[3:6]) @ qd / (2 * h), atol=1e-7, err_msg=link)
 
 
 def test_mass_matrix_two_routes_and_the_kinetic_energy(model, tmp_path):
