@@ -2,7 +2,8 @@
 file with any attribute given any value, any element dropped or repeated, never ends in a traceback:
 it loads and steps, or it is refused with one ``InputError`` line naming the file, and no warning.
 The base file has every element tumble reads (default classes, every orientation form, fromto, a
-mesh asset, each joint type, several joints in one body, an inertial, actuators, an exclude)."""
+mesh asset, each joint type, several joints in one body, an inertial, actuators, an exclude, an
+include, sites, fixed and tracking cameras, a fixed tendon with a motor, sensors, a keyframe)."""
 
 import warnings
 
@@ -30,6 +31,9 @@ BASE = """<mujoco model="fuzz">
       <joint name="j1" type="hinge" axis="0 1 0" range="-90 90" frictionloss="0.01"/>
       <geom pos="0.1 0 -0.2" quat="1 0 0 0"/>
       <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.03"/>
+      <site name="s_a" type="box" size="0.05 0.05 0.05" pos="0 0 -0.1"/>
+      <camera name="cam_a" pos="0 -1 0" xyaxes="1 0 0 0 0 1" fovy="50" resolution="32 24"/>
+      <camera name="cam_track" mode="trackcom" pos="0 -2 0.5"/>
       <body name="b" pos="0 0 -0.5" axisangle="1 0 0 30">
         <joint name="j2" type="slide" axis="1 0 0" range="-0.1 0.1"/>
         <joint name="j2b" type="hinge" axis="0 0 1" pos="0 0 0.01"/>
@@ -41,17 +45,28 @@ BASE = """<mujoco model="fuzz">
         </body>
       </body>
     </body>
-    <body name="ball" pos="1 0 1"><freejoint/><geom type="sphere" size="0.1" mass="1"/></body>
+    <body name="ball" pos="1 0 1"><freejoint/><geom type="sphere" size="0.1" mass="1"/><site name="s_ball"/></body>
+    <include file="inc.xml"/>
   </worldbody>
+  <tendon><fixed name="t"><joint joint="j1" coef="1"/><joint joint="j2" coef="-0.5"/></fixed></tendon>
+  <sensor>
+    <jointpos joint="j1"/><jointvel joint="j2"/><framepos objtype="site" objname="s_a"/>
+    <framequat objtype="xbody" objname="b"/><gyro site="s_a"/><velocimeter site="s_ball"/>
+    <rangefinder site="s_a"/><touch site="s_ball"/><force site="s_a"/><torque site="s_a"/>
+    <subtreecom body="a"/><clock/><accelerometer site="s_a"/>
+  </sensor>
+  <keyframe><key name="home" qpos="0.1 0.02 0.3 1 0 0 0 1 0 1 1 0 0 0" qvel="0 0 0 0 0 0 0 0 0 0 0 0"/></keyframe>
   <contact><exclude body1="a" body2="c"/></contact>
-  <actuator><position joint="j1" kp="10" kv="1" forcerange="-5 5"/><motor joint="j2"/></actuator>
+  <actuator><position joint="j1" kp="10" kv="1" forcerange="-5 5"/><motor joint="j2"/>
+    <motor name="pull" tendon="t" gear="2"/></actuator>
 </mujoco>
 """
 
 
 def mutated(data) -> str:
     return mutate(data, BASE, ["name", "pos", "quat", "euler", "size", "type", "class", "range", "fromto", "mass",
-                               "axis", "joint", "limited", "zaxis"])
+                               "axis", "joint", "limited", "zaxis", "site", "objtype", "objname", "coef", "qpos",
+                               "qvel", "tendon", "mode", "fovy", "resolution", "body", "file"])
 
 
 @pytest.fixture(scope="module")
@@ -60,14 +75,19 @@ def folder(tmp_path_factory):
 
     path = tmp_path_factory.mktemp("mjcf_fuzz")
     trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(path / "part.stl")
+    (path / "inc.xml").write_text('<mujoco><body name="inc" pos="0 1 0.5"><geom type="box" size="0.1 0.1 0.1"/>'
+                                  '</body></mujoco>')
     return path
 
 
 def test_the_base_file_loads(folder):
     (folder / "m.xml").write_text(BASE)
     world = tb.World()
-    robot = tb.load_mjcf(world, folder / "m.xml")
+    robot = tb.load_mjcf(world, folder / "m.xml", keyframe="home")
     assert set(robot.joints) == {"j1", "j2", "j2b", "j3"} and world.exact_joints
+    assert "inc" in robot.links and set(robot.sites) == {"s_a", "s_ball"} and set(robot.cameras) == {"cam_a", "cam_track"}
+    assert len(robot.sensors) == 12 and robot.sensors_left_off == ["sensor12"] and "pull" in robot.actuators
+    assert robot.kinematics.qpos()[0] == pytest.approx(0.1)
 
 
 @settings(max_examples=300, **SETTINGS)
