@@ -1,5 +1,5 @@
-"""What an MJCF model observes with: its ``<site>`` frames and fixed ``<camera>``s (``Robot.sites``,
-``Robot.cameras``), and its ``<sensor>`` elements, read from the world as MuJoCo computes them
+"""What an MJCF model observes with: its ``<site>`` frames and its fixed and tracking ``<camera>``s
+(``Robot.sites``, ``Robot.cameras``), and its ``<sensor>`` elements, read from the world as MuJoCo computes them
 (``Robot.sensor_data(sim)``: {name: values}, MuJoCo's ``data.sensor(name).data``).
 
 Read (MuJoCo's definitions, XML reference "sensor"; frames in the world unless said):
@@ -17,8 +17,8 @@ Read (MuJoCo's definitions, XML reference "sensor"; frames in the world unless s
   rests on the same forces; read it each step, or turn sleeping off, to have one);
 - ``force``, ``torque``: what the joint into the site's body does on it over the last step (the
   joint's reaction, ``Robot.joint_reactions``: force, and torque about the site), in the site's
-  frame (the parent's action on the child: MuJoCo's sign); a site on a welded body (merged into its parent: no joint to
-  measure) or on a free one is left off;
+  frame (the parent's action on the child: MuJoCo's sign); a site on a welded body (merged into
+  its parent: no joint to measure) or on a free one is left off;
 - ``subtreecom``: the centre of mass of a body and the bodies below it;
 - ``clock``: the simulated time.
 
@@ -60,7 +60,7 @@ def read_sensors(root, out):
     out.sensors_left_off = []
     seen = set()
     for group in root.findall("sensor"):
-        for k, e in enumerate(e for e in group if isinstance(e.tag, str)):
+        for e in (e for e in group if isinstance(e.tag, str)):
             name = e.get("name") or f"sensor{len(seen)}"
             key = f"sensor.{e.tag}[{name}]"
             if name in seen:
