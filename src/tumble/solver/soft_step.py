@@ -189,80 +189,92 @@ def _solve_contacts(use_bias, contacts, rolling, x, R, inv_mass, I_inv, inv_h, c
                              rolling_limit, I_inv, omega, rolling_impulse)
 
 
-@njit(**JIT)
-def substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_body, inertia_body_inv, moving,
-                    gravity, forces, kinematic_v, kinematic_omega, h, substeps,
-                    joints, tree, tree_parts, soft_bias, soft_relax, velocity_iterations, relax_iterations, armature,
-                    contacts, rolling, contact_speed,
-                    # outputs and scratch
-                    R, v, omega, F, T, I_inv, I_world, impulses):
-    """The substeps of a step, in one call: ``SoftStep.step``'s loop, the same kernels in the
-    same order (so the same bits), for the steps whose joints sit in one partition (on the calling
-    thread; the contacts' slabs, when there are, run in parallel inside) and whose forces are all
-    compiled.
+def _substeps_kernel(with_joints: bool):
+    """``substeps_kernel`` compiled with or without its joint stages (``with_joints``, a constant of
+    the closure: Numba prunes the branches it decides, so a world without joints does not compile the
+    joint solver into its substeps: a tower's first run 51 -> 22 s, measured)."""
 
-    PERF: a small scene spends most of its step in Python between a dozen kernel calls per
-    substep (about 4 us each): a robot arm alone 111 us a step against PyBullet's 3 us (85 us
-    with its joint substeps fused, session 14); the free ant standing on its feet 510 us against
-    MuJoCo's 29 (docs/benchmarks.md, "small scenes"). ``forces``: ``accumulate_forces_kernel``'s
-    tables (the caller takes the Python loop when there are custom forces); F, T (N, 3) hold the
-    first substep's forces on entry. ``joints``: ``JointSolver``'s tables (a tuple, as
-    ``_solve_joints`` unpacks it; empty arrays for a world without joints), ``tree``: its method
-    is the tree's, whose arrays are ``tree_parts``; ``impulses``: its accumulated impulses
-    (linear, angular, axial); ``armature``: some joint has armature (take the rates before each
-    substep's forces). ``contacts``: ``ContactSolver``'s per-contact arrays as
-    ``contact_solve.solve_contacts_kernel`` takes them, then the step's impulse totals (C rows;
-    C = 0: none), ``rolling``: its rolling-resistance rows.
-    """
-    uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param = forces
-    (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
-     position, rate0) = joints
-    linear_impulse, angular_impulse, axial_impulse = impulses
-    (c_order, c_bounds, body_a, body_b, normal, tangent1, tangent2, c_local_a, c_local_b, anchor_offset, separation,
-     normal_mass, tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
-     relative_velocity, last_normal_speed, arm_a, arm_b, gap, step_normal_impulse, step_tangent_impulse) = contacts
-    rolling_rows, rolling_impulse, rolling_mass, rolling_limit = rolling
-    n_joints = joint_type.shape[0]
-    n_contacts = c_order.shape[0]
-    n_rolling = rolling_rows.shape[0]
-    inv_h = 1.0 / h
-    for k in range(substeps):
-        if k > 0:
-            accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind,
-                                     uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
-                                     R, v, omega, F, T)
-        if armature:
-            joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
-                               position, Y, R, v, omega, rate0)
-        integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inertia_body_inv, F, T, h,
-                                    kinematic_v, kinematic_omega, R, v, omega, I_inv, I_world)
-        if n_joints:
-            warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
-                                     position, Y, R, inv_mass, I_inv, h, linear_impulse, angular_impulse,
-                                     axial_impulse, v, omega)
-        if n_contacts:
-            warm_start_kernel(c_order, c_bounds, body_a, body_b, normal, tangent1, tangent2, c_local_a, c_local_b,
-                              anchor_offset, normal_impulse, tangent_impulse, Y, R, inv_mass, I_inv, k == 0, v, omega,
-                              arm_a, arm_b, gap)
-            if n_rolling:
-                warm_start_rolling_kernel(rolling_rows, body_a, body_b, normal, tangent1, tangent2, rolling_impulse,
-                                          I_inv, omega)
-        if n_joints:
-            _solve_joints(tree, velocity_iterations, soft_bias, Y, R, inv_mass, I_inv, h, joints, tree_parts, v,
-                          omega, impulses)
-        if n_contacts:
-            _solve_contacts(True, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
-        integrate_positions_kernel(layout, Y, active, kinematic, v, omega, h, R)
-        if n_joints:
-            _solve_joints(tree, relax_iterations, soft_relax, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
-                          impulses)
-        if n_contacts:
-            _solve_contacts(False, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
-        store_momenta_kernel(layout, Y, active, mass, v, omega, I_world)
-        for c in range(n_contacts):  # ``ContactSolver.accumulate_step_impulses``
-            step_normal_impulse[c] += normal_impulse[c]
-            for i in range(tangent_impulse.shape[1]):
-                step_tangent_impulse[c, i] += tangent_impulse[c, i]
+    @njit(**JIT)
+    def substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_body, inertia_body_inv, moving,
+                        gravity, forces, kinematic_v, kinematic_omega, h, substeps,
+                        joints, tree, tree_parts, soft_bias, soft_relax, velocity_iterations, relax_iterations, armature,
+                        contacts, rolling, contact_speed,
+                        # outputs and scratch
+                        R, v, omega, F, T, I_inv, I_world, impulses):
+        """The substeps of a step, in one call: ``SoftStep.step``'s loop, the same kernels in the
+        same order (so the same bits), for the steps whose joints sit in one partition (on the calling
+        thread; the contacts' slabs, when there are, run in parallel inside) and whose forces are all
+        compiled.
+
+        PERF: a small scene spends most of its step in Python between a dozen kernel calls per
+        substep (about 4 us each): a robot arm alone 111 us a step against PyBullet's 3 us (85 us
+        with its joint substeps fused, session 14); the free ant standing on its feet 510 us against
+        MuJoCo's 29 (docs/benchmarks.md, "small scenes"). ``forces``: ``accumulate_forces_kernel``'s
+        tables (the caller takes the Python loop when there are custom forces); F, T (N, 3) hold the
+        first substep's forces on entry. ``joints``: ``JointSolver``'s tables (a tuple, as
+        ``_solve_joints`` unpacks it; empty arrays for a world without joints), ``tree``: its method
+        is the tree's, whose arrays are ``tree_parts``; ``impulses``: its accumulated impulses
+        (linear, angular, axial); ``armature``: some joint has armature (take the rates before each
+        substep's forces). ``contacts``: ``ContactSolver``'s per-contact arrays as
+        ``contact_solve.solve_contacts_kernel`` takes them, then the step's impulse totals (C rows;
+        C = 0: none), ``rolling``: its rolling-resistance rows.
+        """
+        uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param = forces
+        (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
+         position, rate0) = joints
+        linear_impulse, angular_impulse, axial_impulse = impulses
+        (c_order, c_bounds, body_a, body_b, normal, tangent1, tangent2, c_local_a, c_local_b, anchor_offset, separation,
+         normal_mass, tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
+         relative_velocity, last_normal_speed, arm_a, arm_b, gap, step_normal_impulse, step_tangent_impulse) = contacts
+        rolling_rows, rolling_impulse, rolling_mass, rolling_limit = rolling
+        n_joints = joint_type.shape[0]
+        n_contacts = c_order.shape[0]
+        n_rolling = rolling_rows.shape[0]
+        inv_h = 1.0 / h
+        for k in range(substeps):
+            if k > 0:
+                accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind,
+                                         uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
+                                         R, v, omega, F, T)
+            if with_joints and armature:
+                joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                                   position, Y, R, v, omega, rate0)
+            integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inertia_body_inv, F, T, h,
+                                        kinematic_v, kinematic_omega, R, v, omega, I_inv, I_world)
+            if with_joints and n_joints:
+                warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                                         position, Y, R, inv_mass, I_inv, h, linear_impulse, angular_impulse,
+                                         axial_impulse, v, omega)
+            if n_contacts:
+                warm_start_kernel(c_order, c_bounds, body_a, body_b, normal, tangent1, tangent2, c_local_a, c_local_b,
+                                  anchor_offset, normal_impulse, tangent_impulse, Y, R, inv_mass, I_inv, k == 0, v, omega,
+                                  arm_a, arm_b, gap)
+                if n_rolling:
+                    warm_start_rolling_kernel(rolling_rows, body_a, body_b, normal, tangent1, tangent2, rolling_impulse,
+                                              I_inv, omega)
+            if with_joints and n_joints:
+                _solve_joints(tree, velocity_iterations, soft_bias, Y, R, inv_mass, I_inv, h, joints, tree_parts, v,
+                              omega, impulses)
+            if n_contacts:
+                _solve_contacts(True, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
+            integrate_positions_kernel(layout, Y, active, kinematic, v, omega, h, R)
+            if with_joints and n_joints:
+                _solve_joints(tree, relax_iterations, soft_relax, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
+                              impulses)
+            if n_contacts:
+                _solve_contacts(False, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
+            store_momenta_kernel(layout, Y, active, mass, v, omega, I_world)
+            for c in range(n_contacts):  # ``ContactSolver.accumulate_step_impulses``
+                step_normal_impulse[c] += normal_impulse[c]
+                for i in range(tangent_impulse.shape[1]):
+                    step_tangent_impulse[c, i] += tangent_impulse[c, i]
+
+    return substeps_kernel
+
+
+# one kernel per kind of world: with joints (their stages and the contacts') and without
+SUBSTEPS_KERNELS = {True: _substeps_kernel(True), False: _substeps_kernel(False)}
+substeps_kernel = SUBSTEPS_KERNELS[True]
 
 
 @njit(**JIT)
@@ -516,7 +528,7 @@ class SoftStep:
             rolling = (sol.rolling_rows, sol.rolling_impulse, sol.rolling_mass, sol.rolling_limit)
         else:
             contacts, rolling = self._no_contacts()
-        substeps_kernel(
+        SUBSTEPS_KERNELS[self.has_joints()](
             w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
             w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
                                   tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
