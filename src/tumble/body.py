@@ -122,6 +122,13 @@ class Body:
     def omega(self):
         return self.world.omega[self.index]
 
+    def point_velocity(self, point) -> np.ndarray:
+        """The velocity (3,) m/s of the world point ``point`` (3,) m moving with the body, now:
+        v + omega x (p - x) (Box2D's b2Body_GetWorldPointVelocity)."""
+        w = self.world
+        i = self.index
+        return w.v[i] + np.cross(w.omega[i], finite_vector(point, "point") - w.x[i])
+
     def apply_impulse(self, impulse, point=None):
         """Change the body's momenta now by an impulse ``impulse`` (3,) N s, world, at ``point`` (3,)
         m, world (default the centre of mass): P += J, L += (p - x) x J (Box2D's

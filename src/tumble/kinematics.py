@@ -58,10 +58,6 @@ POSITION_SIZE = {"revolute": 1, "continuous": 1, "prismatic": 1, "spherical": 4,
 RATE_SIZE = {"revolute": 1, "continuous": 1, "prismatic": 1, "spherical": 3, "floating": 6, "fixed": 0}
 
 
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
 def _unit_quat(q, key):
     q = np.asarray(q, dtype=float)
     n = float(np.linalg.norm(q))
@@ -310,13 +306,12 @@ class Kinematics:
 
     def qvel(self) -> np.ndarray:
         """(nv,) the joint rates of the world's present state, from the bodies' velocities."""
-        w = self.world
         o, R = self._present()
-        b = self.link_body
+        bodies = self.robot.links
 
-        def point_velocity(k, p):
-            i = b[k]
-            return w.v[i] + _cross(w.omega[i], p - w.x[i]), w.omega[i]
+        def point_velocity(k, p):  # of link k's body at the world point p, and its angular velocity
+            body = bodies[self.links[k]]
+            return body.point_velocity(p), body.omega
 
         qd = np.zeros(self.nv)
         for c in self.coordinates:
@@ -361,16 +356,7 @@ class Kinematics:
             w.L[i] = (w.R[i] @ w.inertia_body[i] @ w.R[i].T) @ (J[3:6] @ qd)
             w.wake_requests.add(int(i))
         w.update_derived()
-        solver = self.robot._solver(sim)
-        if solver is not None:
-            for name, record in self.robot.joints.items():
-                j = solver.index(record)
-                solver.linear_impulse[j] = 0.0
-                solver.angular_impulse[j] = 0.0
-                solver.axial_impulse[j] = 0.0
-                c = self.by_name.get(name)
-                if c is not None and c.kind in ONE_DOF:
-                    solver.position[j] = q[c.qpos][0]
+        self.robot._restart_joints(sim, self.positions(q))
 
     def neutral(self) -> np.ndarray:
         """(nq,) the zero configuration: hinges and sliders at 0, balls at the identity, a free

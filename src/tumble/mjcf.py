@@ -689,13 +689,7 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     robot.ctrl_names = list(parsed.ctrl_names)
     check_keyframes(robot, parsed.keyframes, parsed.ctrl_names)
     # MuJoCo's qpos0: the model's pose (hinges and slides at 0, balls at the identity, free joints
-    # where the file puts them), the default of a key without qpos
-    qpos0 = robot.kinematics.qpos()
-    for c in robot.kinematics.coordinates:
-        if c.kind in ("revolute", "continuous", "prismatic"):
-            qpos0[c.qpos] = 0.0
-        elif c.kind == "spherical":
-            qpos0[c.qpos] = (1.0, 0.0, 0.0, 0.0)
-    robot.qpos0 = qpos0
+    # where the file puts them, as they are now), the default of a key without qpos
+    robot.qpos0 = robot.kinematics.neutral()
     robot.cameras = {name: _camera(robot, *spec) for name, spec in parsed.cameras.items()}
     return robot

@@ -160,9 +160,10 @@ def sensor_values(robot, sim) -> dict:
             link = s.objname
             lo, R = robot.link_pose(link)
             o = lo - R @ robot.anchors[link]
-        i = robot.links[link].index
-        v = world.v[i] + np.cross(world.omega[i], o - world.x[i])
-        w = np.array(world.omega[i], dtype=float)
+        body = robot.links[link]
+        i = body.index
+        v = body.point_velocity(o)
+        w = np.array(body.omega, dtype=float)
         if s.kind == "framepos":
             out[s.name] = o
         elif s.kind == "framequat":

@@ -165,9 +165,7 @@ class Robot:
             raise InputError(f"unknown link {link!r} of robot {self.name!r}", "link")
         body = self.links[link]
         o, R = self.link_pose(link)
-        p = o + R @ finite_vector(point, "point")
-        w = np.array(body.omega, dtype=float)
-        return np.asarray(body.v, dtype=float) + np.cross(w, p - np.asarray(body.x, dtype=float)), w
+        return body.point_velocity(o + R @ finite_vector(point, "point")), np.array(body.omega, dtype=float)
 
     def site_pose(self, site) -> tuple[np.ndarray, np.ndarray]:
         """A site's frame now: origin (3,) m and rotation (3, 3), world (MuJoCo's ``site_xpos``,
@@ -227,6 +225,12 @@ class Robot:
                 world.L[body.index] = 0.0
             world.wake_requests.add(body.index)
         world.update_derived()
+        self._restart_joints(sim, current)
+
+    def _restart_joints(self, sim, positions: dict):
+        """After the robot was put in a new state: clear the joint solver's warm-start impulses of its
+        joints (they belonged to the old state) and set the readings of those in ``positions``
+        ({joint: rad or m}: a hinge's angle is unwrapped around it). Nothing before the first step."""
         solver = self._solver(sim)
         if solver is not None:
             for name, record in self.joints.items():
@@ -234,8 +238,8 @@ class Robot:
                 solver.linear_impulse[j] = 0.0
                 solver.angular_impulse[j] = 0.0
                 solver.axial_impulse[j] = 0.0
-                if name in current:
-                    solver.position[j] = current[name]  # the hinge angle is unwrapped around it
+                if name in positions:
+                    solver.position[j] = positions[name]
 
     def _urdf_joint(self, joint) -> UrdfJoint:
         for j in self.model.joints:
