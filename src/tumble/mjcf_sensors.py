@@ -57,7 +57,6 @@ class MjcfSensor:
 def read_sensors(root, out):
     """``out.sensors`` (the ones read) and ``out.sensors_left_off`` (names) of the ``<sensor>``
     sections."""
-    out.sensors_left_off = []
     seen = set()
     for group in root.findall("sensor"):
         for e in (e for e in group if isinstance(e.tag, str)):
