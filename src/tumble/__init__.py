@@ -15,7 +15,7 @@ from .collision.filter import CollisionFilter
 from .errors import InputError, SimulationError, TumbleError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
 from .kinematic import KeyframePath
-from .joints import BallJoint, DistanceJoint, FixedJoint, HingeJoint, SliderJoint, UniversalJoint
+from .joints import BallJoint, DistanceJoint, FixedJoint, GearJoint, HingeJoint, SliderJoint, UniversalJoint
 from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere, heightfield
 from .simulator import Simulator
 from .trajectory import Trajectory, load_trajectory
@@ -50,6 +50,7 @@ __all__ = [
     "load_urdf", "load_mjcf", "Camera", "CameraImage",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
-    "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "KeyframePath",
+    "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "GearJoint",
+    "KeyframePath",
     "TumbleError", "InputError", "SimulationError",
 ]

@@ -30,9 +30,10 @@ JOINT_SLIDER = 2
 JOINT_FIXED = 3
 JOINT_DISTANCE = 4
 JOINT_UNIVERSAL = 5
+JOINT_GEAR = 6
 
 JOINT_TYPES = {"ball": JOINT_BALL, "hinge": JOINT_HINGE, "slider": JOINT_SLIDER, "fixed": JOINT_FIXED,
-               "distance": JOINT_DISTANCE, "universal": JOINT_UNIVERSAL}
+               "distance": JOINT_DISTANCE, "universal": JOINT_UNIVERSAL, "gear": JOINT_GEAR}
 
 # columns of the solver's per-joint parameter table ``joint_param`` (J, PARAM_COUNT)
 P_LOWER, P_UPPER, P_LIMIT_ON, P_MOTOR_ON, P_MOTOR_SPEED, P_MAX_MOTOR = 0, 1, 2, 3, 4, 5
@@ -48,6 +49,12 @@ PARAM_COUNT = 21
 # the columns a parameter row had before the effort and armature (checkpoints of older
 # versions: their joints get no effort and no armature)
 PARAM_COUNT_V1 = 19
+# a gear's parameter row (``GearJoint``): the indices in ``world.joints`` of the joint that follows and of
+# the joint it follows, and the coefficients a0..a4 of q_joint = a0 + a1 q + ... + a4 q^4 (q = q_follows)
+# in columns G_COEF..G_COEF+4 (P_STIFFNESS..P_MAX_FORCE). Columns no other row of a gear is read from (every kernel takes a gear's
+# own branch first); the limit, motor, effort and armature columns stay 0, so the checks that scan them
+# over all joints (the tree's limit sweeps, armature, efforts) pass a gear by.
+G_JOINT, G_FOLLOWS, G_COEF = 0, 1, 6
 
 
 def _number(value, key, *, minimum=None, allow_inf=False) -> float:
@@ -404,8 +411,57 @@ class UniversalJoint(Joint):
             p[P_MAX_MOTOR2] = _number(self.max_motor_torque_b, "max_motor_torque_b", minimum=0.0, allow_inf=True)
 
 
+@dataclass(eq=False)
+class GearJoint(Joint):
+    """Gear (coupling) between the coordinates of two hinge or slider joints: ``joint`` follows
+    ``follows`` as
+
+        q_joint = offset + ratio * q_follows
+
+    (or the quartic ``polynomial``), each coordinate 0 at its joint's creation. Two hinges make a
+    gear pair (ratio -2: turning the other way at half the teeth), a hinge and a slider a rack and
+    pinion (m/rad), two sliders a gripper's mirrored fingers (ratio -1). It is URDF's
+    ``<mimic joint multiplier offset>`` (``load_urdf``), MuJoCo's ``<equality><joint joint1 joint2
+    polycoef>`` (``load_mjcf``: joint1 follows joint2, both measured from the model's pose), Box2D
+    v2's b2GearJoint, Jolt's GearConstraint and RackAndPinionConstraint, PyBullet's ``JOINT_GEAR``.
+
+    One row of the velocity solve spanning the up to four bodies of the two joints: its rate is
+    rate_joint - p'(q_follows) rate_follows, its error q_joint - p(q_follows), soft as the other
+    rigid rows (``JointSettings.hertz``); a Gauss-Seidel row around the tree solve with
+    ``method="tree"`` (``tumble.solver.joint_gear``). The gear acts while both its joints do: a
+    broken joint stops it.
+
+    Args:
+        joint: the joint that follows: its record, name or index in ``world.joints``, a hinge or
+            a slider added before the gear.
+        follows: the joint it follows (another hinge or slider).
+        ratio: dq_joint / dq_follows (rad/rad, m/rad, rad/m or m/m). Default 1.
+        offset: q_joint when q_follows is 0 (rad or m). Default 0: the two keep their creation's
+            relation.
+        polynomial: optional (a0, ..., a4) (up to 5 numbers; the rest 0): q_joint = a0 + a1 q
+            + a2 q^2 + a3 q^3 + a4 q^4 with q = q_follows, MuJoCo's ``polycoef``; replaces
+            ``offset`` and ``ratio``.
+        collide_connected: default True: a gear joins no bodies of its own (the bodies its
+            joints join follow those joints' settings).
+        name: optional label.
+
+    ``body_a``, ``body_b`` and the anchor are set from the two joints (a body of each, for
+    islands and checkpoints); the readings' ``position`` is the gear's error q_joint - p(q)
+    (rad or m), ``rate`` its rate; ``force`` and ``torque`` are 0.
+    """
+
+    body_a: Any = None
+    joint: Any = None
+    follows: Any = None
+    ratio: float = 1.0
+    offset: float = 0.0
+    polynomial: Any = None
+    collide_connected: bool = True
+    kind: ClassVar[str] = "gear"
+
+
 JOINT_CLASSES = {"ball": BallJoint, "hinge": HingeJoint, "slider": SliderJoint, "fixed": FixedJoint,
-                 "distance": DistanceJoint, "universal": UniversalJoint}
+                 "distance": DistanceJoint, "universal": UniversalJoint, "gear": GearJoint}
 
 
 @dataclass
@@ -440,6 +496,8 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
     """Check ``joint`` against ``world`` and resolve it at the current poses (InputError on bad input)."""
     if not isinstance(joint, Joint) or not joint.kind:
         raise InputError(f"not a joint record: {joint!r}", "joints")
+    if isinstance(joint, GearJoint):
+        return _bind_gear(world, joint)
     a = _body_index(world, joint.body_a, "body_a")
     b = _body_index(world, joint.body_b, "body_b")
     if a == b:
@@ -488,6 +546,63 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
     param[P_MAX_TORQUE] = _number(joint.max_torque, "max_torque", minimum=0.0, allow_inf=True)
     bound = BoundJoint(JOINT_TYPES[joint.kind], a, b, local_a, local_b, Ra.T @ frame_world, Rb.T @ frame_world, param)
     joint.bound = bound
+    return bound
+
+
+def _joint_index(world, ref, key) -> int:
+    """The index in ``world.joints`` of a joint given as its record, its name or an index."""
+    joints = world.joints
+    if isinstance(ref, Joint):
+        for k, rec in enumerate(joints):
+            if rec is ref:
+                return k
+        raise InputError("the joint is not in this world (add it before the gear)", key)
+    if isinstance(ref, str):
+        for k, rec in enumerate(joints):
+            if rec.name == ref:
+                return k
+        raise InputError(f"unknown joint {ref!r}", key)
+    if isinstance(ref, (int, np.integer)) and not isinstance(ref, bool) and 0 <= ref < len(joints):
+        return int(ref)
+    raise InputError(f"expected a joint record, a joint name or an index below {len(joints)}, got {ref!r}", key)
+
+
+def _bind_gear(world, gear: GearJoint) -> BoundJoint:
+    """A gear's bound row: the two joints' indices and the polynomial's coefficients (``G_*``)."""
+    ends = []
+    for key in ("joint", "follows"):
+        k = _joint_index(world, getattr(gear, key), key)
+        rec = world.joints[k]
+        if rec.kind not in ("hinge", "slider"):
+            raise InputError(f"a gear couples hinge and slider joints, not a {rec.kind} joint", key)
+        ends.append(k)
+    if ends[0] == ends[1]:
+        raise InputError("a gear needs two different joints, got the same twice", "follows")
+    coef = np.zeros(5)
+    if gear.polynomial is not None:
+        if isinstance(gear.polynomial, (str, bytes)) or not hasattr(gear.polynomial, "__len__") \
+                or not 1 <= len(gear.polynomial) <= 5:
+            raise InputError(f"expected 1 to 5 numbers (a0, ..., a4), got {gear.polynomial!r}", "polynomial")
+        for i, value in enumerate(gear.polynomial):
+            coef[i] = _number(value, f"polynomial[{i}]")
+    else:
+        coef[0] = _number(gear.offset, "offset")
+        coef[1] = _number(gear.ratio, "ratio")
+    if not isinstance(gear.collide_connected, (bool, np.bool_)):
+        raise InputError(f"expected true or false, got {gear.collide_connected!r}", "collide_connected")
+    param = np.zeros(PARAM_COUNT)
+    param[G_JOINT], param[G_FOLLOWS] = ends
+    param[G_COEF:G_COEF + 5] = coef  # over P_MAX_FORCE too: a gear does not break (the store kernel's gear branch)
+    # a moving body of each joint (its body_b unless that is the world): islands join them, checkpoints name them
+    bodies = []
+    for k in ends:
+        bj = world.joints[k].bound
+        bodies.append(bj.body_b if bj.body_b >= 0 else bj.body_a)
+    if bodies[0] == bodies[1]:
+        bodies[1] = world.joints[ends[1]].bound.body_a
+    z = np.zeros(3)
+    bound = BoundJoint(JOINT_GEAR, bodies[0], bodies[1], z, z.copy(), np.eye(3), np.eye(3), param)
+    gear.bound = bound
     return bound
 
 

@@ -245,6 +245,9 @@ def coupling_pairs(world) -> np.ndarray:
     and every spring of the world's force tables (-1: the world end)."""
     rows = []
     for j in world.joints:
+        if j.bound is not None:  # (a gear's bodies are its joints', in its bound row)
+            rows.append([j.bound.body_a, j.bound.body_b])
+            continue
         ends = []
         for body in (j.body_a, j.body_b):
             ends.append(-1 if body is None or (isinstance(body, str) and body == "world") else world.index_of(body))

@@ -10,6 +10,7 @@ import math
 
 from numba import njit
 
+from ..joints import JOINT_BALL, JOINT_DISTANCE, JOINT_HINGE, JOINT_SLIDER, JOINT_UNIVERSAL
 from ..math3d import (
     JIT,
 )
@@ -242,3 +243,48 @@ def _solve2(k00, k01, k11, r0, r1):
 @njit(**JIT)
 def _wrap(angle):
     return angle - 2.0 * math.pi * math.floor((angle + math.pi) / (2.0 * math.pi))
+
+
+@njit(**JIT)
+def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_position):
+    """The joint's 1-D coordinate: (has_row, linear, n, arm_a, arm_b, position).
+
+    hinge: angle of b about the axis (rad), unwrapped around ``last_position``;
+    slider: displacement along the axis (m), arm of a is ra + d (Box2D prismatic);
+    distance: length (m) along the unit line a -> b; ball: swing angle between the cone
+    axes (rad), about their common normal; universal: the angle about ``axis`` (rad, in
+    (-pi, pi], ``tumble.joints.UniversalJoint``), rate about a's axis.
+    """
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    d = _sub(pb, pa)
+    za = _axis(R, a, frame_a, j, 2)
+    if t == JOINT_HINGE:
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        xb = _axis(R, b, frame_b, j, 0)
+        yb = _axis(R, b, frame_b, j, 1)
+        angle = math.atan2(_dot(ya, xb) - _dot(xa, yb), _dot(xa, xb) + _dot(ya, yb))
+        base = last_position[j]
+        return True, False, za, ra, rb, base + _wrap(angle - base)
+    if t == JOINT_SLIDER:
+        return True, True, za, _add(ra, d), rb, _dot(d, za)
+    if t == JOINT_DISTANCE:
+        length = math.sqrt(_dot(d, d))
+        if length < 1e-12:
+            return False, True, za, ra, rb, 0.0
+        return True, True, _scale(1.0 / length, d), ra, rb, length
+    if t == JOINT_BALL:
+        zb = _axis(R, b, frame_b, j, 2)
+        s = _cross(za, zb)
+        sn = math.sqrt(_dot(s, s))
+        if sn < 1e-12:
+            return False, False, za, ra, rb, 0.0 if _dot(za, zb) > 0 else math.pi
+        return True, False, _scale(1.0 / sn, s), ra, rb, math.atan2(sn, _dot(za, zb))
+    if t == JOINT_UNIVERSAL:
+        # Q = Fa^T Fb = Rx(angle) Ry(angle_b): b's y axis in a's joint frame is (0, cos, sin)
+        xa = _axis(R, a, frame_a, j, 0)
+        ya = _axis(R, a, frame_a, j, 1)
+        yb = _axis(R, b, frame_b, j, 1)
+        return True, False, xa, ra, rb, math.atan2(_dot(za, yb), _dot(ya, yb))
+    return False, False, za, ra, rb, 0.0

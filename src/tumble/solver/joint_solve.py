@@ -12,6 +12,7 @@ from numba import njit, prange
 from ..joints import (
     JOINT_BALL,
     JOINT_DISTANCE,
+    JOINT_GEAR,
     JOINT_HINGE,
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
@@ -39,8 +40,10 @@ from ..math3d import (
     JIT,
     serial_twin,
 )
+from .joint_gear import gear_apply, gear_on, solve_gear
 from .joint_math import (
     _add,
+    _coordinate_row,
     _anchor,
     _angular_K,
     _angular_velocity,
@@ -78,51 +81,6 @@ A_MOTOR_ANCHOR = 8
 A_ARMATURE = 11
 AXIAL_COUNT = 12
 AXIAL_COUNT_V1 = 11  # before the armature column (checkpoints of older versions)
-
-
-@njit(**JIT)
-def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_position):
-    """The joint's 1-D coordinate: (has_row, linear, n, arm_a, arm_b, position).
-
-    hinge: angle of b about the axis (rad), unwrapped around ``last_position``;
-    slider: displacement along the axis (m), arm of a is ra + d (Box2D prismatic);
-    distance: length (m) along the unit line a -> b; ball: swing angle between the cone
-    axes (rad), about their common normal; universal: the angle about ``axis`` (rad, in
-    (-pi, pi], ``tumble.joints.UniversalJoint``), rate about a's axis.
-    """
-    ra, pa = _anchor(x, R, a, local_a, j)
-    rb, pb = _anchor(x, R, b, local_b, j)
-    d = _sub(pb, pa)
-    za = _axis(R, a, frame_a, j, 2)
-    if t == JOINT_HINGE:
-        xa = _axis(R, a, frame_a, j, 0)
-        ya = _axis(R, a, frame_a, j, 1)
-        xb = _axis(R, b, frame_b, j, 0)
-        yb = _axis(R, b, frame_b, j, 1)
-        angle = math.atan2(_dot(ya, xb) - _dot(xa, yb), _dot(xa, xb) + _dot(ya, yb))
-        base = last_position[j]
-        return True, False, za, ra, rb, base + _wrap(angle - base)
-    if t == JOINT_SLIDER:
-        return True, True, za, _add(ra, d), rb, _dot(d, za)
-    if t == JOINT_DISTANCE:
-        length = math.sqrt(_dot(d, d))
-        if length < 1e-12:
-            return False, True, za, ra, rb, 0.0
-        return True, True, _scale(1.0 / length, d), ra, rb, length
-    if t == JOINT_BALL:
-        zb = _axis(R, b, frame_b, j, 2)
-        s = _cross(za, zb)
-        sn = math.sqrt(_dot(s, s))
-        if sn < 1e-12:
-            return False, False, za, ra, rb, 0.0 if _dot(za, zb) > 0 else math.pi
-        return True, False, _scale(1.0 / sn, s), ra, rb, math.atan2(sn, _dot(za, zb))
-    if t == JOINT_UNIVERSAL:
-        # Q = Fa^T Fb = Rx(angle) Ry(angle_b): b's y axis in a's joint frame is (0, cos, sin)
-        xa = _axis(R, a, frame_a, j, 0)
-        ya = _axis(R, a, frame_a, j, 1)
-        yb = _axis(R, b, frame_b, j, 1)
-        return True, False, xa, ra, rb, math.atan2(_dot(za, yb), _dot(ya, yb))
-    return False, False, za, ra, rb, 0.0
 
 
 @njit(**JIT)
@@ -512,11 +470,16 @@ def _sweep_joints(lo, hi, backward, order, joint_type, joint_a, joint_b, local_a
         j = order[lo + hi - 1 - k] if backward else order[k]
         if not enabled[j]:
             continue
+        t = joint_type[j]
+        if t == JOINT_GEAR:
+            if gear_on(j, param, enabled):
+                solve_gear(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x,
+                           R, inv_mass, I_inv, soft, v, omega, axial_impulse)
+            continue
         a = joint_a[j]
         b = joint_b[j]
         if _inv_m(inv_mass, a) + _inv_m(inv_mass, b) == 0.0:
             continue
-        t = joint_type[j]
         _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
                      h, inv_h, soft, v, omega, linear_impulse, axial_impulse)
         if param[j, P_LIMIT2_ON] != 0.0 or param[j, P_MOTOR2_ON] != 0.0:
@@ -592,6 +555,11 @@ def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, fra
         a = joint_a[j]
         b = joint_b[j]
         t = joint_type[j]
+        if t == JOINT_GEAR:
+            if gear_on(j, param, enabled) and axial_impulse[j, A_SPRING] != 0.0:
+                gear_apply(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x,
+                           R, inv_mass, I_inv, axial_impulse[j, A_SPRING], v, omega)
+            continue
         ra, pa = _anchor(x, R, a, local_a, j)
         rb, pb = _anchor(x, R, b, local_b, j)
         if t == JOINT_SLIDER:

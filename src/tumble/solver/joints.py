@@ -33,7 +33,7 @@ its velocity update (the gyroscopic term by one implicit Newton step, where the 
 keeps L as the state) and the NGS projection (``position_iterations``), which only it runs.
 
 Modules: ``joint_math`` (vectors, anchors, rows' masses), ``joint_solve`` (the rows' velocity
-solve, the sweep kernels), ``joint_tree`` (the exact solve on trees), ``joint_stepper`` (the
+solve, the sweep kernels), ``joint_gear`` (the gear row), ``joint_tree`` (the exact solve on trees), ``joint_stepper`` (the
 standalone stepper); here the settings, the position projection, the readings and
 ``JointSolver``, which holds the tables and calls them.
 """
@@ -49,6 +49,7 @@ from numba import njit
 from ..joints import (
     JOINT_BALL,
     JOINT_DISTANCE,
+    JOINT_GEAR,
     JOINT_HINGE,
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
@@ -71,6 +72,7 @@ from ..math3d import (
     quat_exp_multiply_inplace,
     quat_to_matrix_into,
 )
+from .joint_gear import GEAR_COLUMN, gear_rate
 from .joint_math import (
     _add,
     _anchor,
@@ -212,6 +214,8 @@ def project_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_
             if _inv_m(inv_mass, a) + _inv_m(inv_mass, b) == 0.0:
                 continue
             t = joint_type[j]
+            if t == JOINT_GEAR:
+                continue  # gears are left to the velocity solve
             if t != JOINT_BALL and t != JOINT_DISTANCE:
                 xa, ya, za, xb, yb, zb = _frames(R, a, b, frame_a, frame_b, j)
                 K = _angular_K(I_inv, a, b)
@@ -286,6 +290,14 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
         t = joint_type[j]
         a = joint_a[j]
         b = joint_b[j]
+        if t == JOINT_GEAR:  # its error and rate; no reaction of its own, and it does not break
+            position[j], rate[j] = gear_rate(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
+                                             param, position, x, R, v, omega)
+            for k in range(3):
+                reaction_force[j, k] = 0.0
+                reaction_torque[j, k] = 0.0
+            broke[j] = False
+            continue
         has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
         position[j] = pos
         rate[j] = _row_velocity(v, omega, a, b, linear, n, ra, rb) if has else 0.0
@@ -414,6 +426,7 @@ class JointSolver:
         self._joints = list(joints)
         self.count = J
         self._tree_key = None
+        self.has_gears = bool(np.any(self.joint_type == JOINT_GEAR))
 
     def _build_tree(self, moving: np.ndarray):
         """Spanning forest of the joint graph (moving bodies; the world and fixed bodies are
@@ -436,8 +449,8 @@ class JointSolver:
         in_tree = np.zeros(J, dtype=bool)
         adjacency: dict[int, list] = {}
         for j in range(J):
-            if not self.enabled[j]:
-                continue
+            if not self.enabled[j] or self.joint_type[j] == JOINT_GEAR:
+                continue  # a gear is a Gauss-Seidel row around the tree (it spans up to four bodies)
             u, w = node_of(self.joint_a[j]), node_of(self.joint_b[j])
             if u == w:
                 continue
@@ -531,8 +544,10 @@ class JointSolver:
             self._soft_key = key
         st = self.settings
         self._parts = None  # tree_parts: the limit columns follow param, which may change between steps
+        # a gear touches up to four bodies, the slabs see two: with gears, one sweep in the joints' order
+        parts = 1 if self.has_gears else int(st.partitions)
         self.sweep.update(self.joint_a, self.joint_b, np.asarray(world.moving), world.x if x is None else x,
-                          int(st.partitions), st.partition_min_joints)
+                          parts, st.partition_min_joints)
 
     def fusable(self) -> bool:
         """Whether ``soft_step.substeps_kernel`` can run this step's substeps (after
@@ -624,6 +639,10 @@ class JointSolver:
             columns += [A_LOWER, A_UPPER]
         if p.shape[0] and np.any(p[:, P_LIMIT2_ON] != 0.0):
             columns += [A_LOWER2, A_UPPER2]
+        if self.has_gears:
+            # a gear is a Gauss-Seidel row around the exact tree solve, as a limit is: sweep on while its
+            # impulse changes
+            columns.append(GEAR_COLUMN)
         return np.array(columns, dtype=np.int64)
 
     def project(self, x: np.ndarray, q: np.ndarray, R: np.ndarray) -> float:
