@@ -34,7 +34,7 @@ import numpy as np
 from . import __version__, checks
 from .errors import InputError, SimulationError
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring
-from .joints import JOINT_CLASSES, JOINT_TYPES, PARAM_COUNT, PARAM_COUNT_V1, BoundJoint
+from .joints import G_FOLLOWS, G_JOINT, JOINT_CLASSES, JOINT_TYPES, PARAM_COUNT, PARAM_COUNT_V1, BoundJoint
 from .solver.contact import SoftStepSettings
 from .solver.joint_solve import AXIAL_COUNT_V1
 from .solver.joints import JointSettings
@@ -111,7 +111,9 @@ def _joint_to_dict(world, joint) -> dict:
             value = _body_name(world, b.body_a)
         elif f.name == "body_b":
             value = _body_name(world, b.body_b)
-        elif isinstance(value, (tuple, np.ndarray)):
+        elif f.name in ("joint", "follows"):  # a gear's joints: by index in world.joints (its bound row's)
+            value = int(b.param[G_JOINT if f.name == "joint" else G_FOLLOWS])
+        elif isinstance(value, (tuple, list, np.ndarray)):
             value = np.asarray(value, dtype=float).tolist()
         out[f.name] = value
     out["bound"] = {"local_a": b.local_a.tolist(), "local_b": b.local_b.tolist(), "frame_a": b.frame_a.tolist(),

@@ -54,7 +54,9 @@ PARAM_COUNT_V1 = 19
 # in columns G_COEF..G_COEF+4 (P_STIFFNESS..P_MAX_FORCE). Columns no other row of a gear is read from (every kernel takes a gear's
 # own branch first); the limit, motor, effort and armature columns stay 0, so the checks that scan them
 # over all joints (the tree's limit sweeps, armature, efforts) pass a gear by.
-G_JOINT, G_FOLLOWS, G_COEF = 0, 1, 6
+# G_MASS (P_MAX_TORQUE's column): the row's J M^-1 J^T through the tree solve, which the tree method
+# writes each solve (``joint_tree.tree_gear_masses``); 0: the free bodies' (the Gauss-Seidel method).
+G_JOINT, G_FOLLOWS, G_COEF, G_MASS = 0, 1, 6, 11
 
 
 def _number(value, key, *, minimum=None, allow_inf=False) -> float:
@@ -590,6 +592,9 @@ def _bind_gear(world, gear: GearJoint) -> BoundJoint:
         coef[1] = _number(gear.ratio, "ratio")
     if not isinstance(gear.collide_connected, (bool, np.bool_)):
         raise InputError(f"expected true or false, got {gear.collide_connected!r}", "collide_connected")
+    for key in ("max_force", "max_torque"):
+        if getattr(gear, key) != math.inf:
+            raise InputError("a gear does not break (give max_force / max_torque to its joints)", key)
     param = np.zeros(PARAM_COUNT)
     param[G_JOINT], param[G_FOLLOWS] = ends
     param[G_COEF:G_COEF + 5] = coef  # over P_MAX_FORCE too: a gear does not break (the store kernel's gear branch)

@@ -4,7 +4,7 @@ Each entry is one joint of ``tumble.joints``; bodies are named as in ``[[bodies]
 ``body_b`` may be omitted or ``"world"``::
 
     [[joints]]
-    type = "hinge"                 # ball | hinge | slider | fixed | distance | universal
+    type = "hinge"                 # ball | hinge | slider | fixed | distance | universal | gear
     name = "knee"                  # optional
     body_a = "thigh"
     body_b = "shin"                # or "world", or left out
@@ -15,6 +15,15 @@ Each entry is one joint of ``tumble.joints``; bodies are named as in ``[[bodies]
     motor_speed = 2.0              # rad/s, with max_motor_torque (N m)
     torque = 0.5                   # N m applied about the axis (a slider: force, N)
     armature = 0.01                # kg m^2 added to the angle's inertia (a slider: kg; MuJoCo's)
+
+A gear couples two hinge or slider joints named before it (``q_joint = offset + ratio *
+q_follows``, or ``polynomial = [a0, a1, a2, a3, a4]``; ``tumble.joints.GearJoint``)::
+
+    [[joints]]
+    type = "gear"
+    joint = "wheel_axle"           # the joint that follows
+    follows = "motor_axle"         # the joint it follows
+    ratio = -2.0                   # rad/rad (m/rad for a rack on a pinion)
 
 A ball joint takes ``twist_lower``, ``twist_upper`` (rad, in [-pi, pi]) besides its
 ``cone_limit``; a universal joint ``lower``, ``upper`` (its angle about ``axis``) and
@@ -54,6 +63,8 @@ TYPE_KEYS = {
                   "upper_b_deg", "motor_speed", "motor_speed_b", "motor_speed_deg", "motor_speed_b_deg",
                   "max_motor_torque", "max_motor_torque_b"),
 }
+# a gear names two joints, not bodies: its keys replace COMMON_KEYS
+GEAR_KEYS = ("type", "name", "joint", "follows", "ratio", "offset", "polynomial", "collide_connected")
 VECTOR_KEYS = ("anchor", "anchor_b", "axis", "axis_b")
 # keys that may be inf (TOML "inf")
 UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_force", "max_drive_torque",
@@ -116,8 +127,11 @@ def _parse_one(entry: dict, key: str, world, file, names: set):
     if "type" not in entry:
         raise InputError("missing key 'type'", key, file)
     kind = entry["type"]
-    if not isinstance(kind, str) or kind not in TYPE_KEYS:
-        raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(TYPE_KEYS)})", f"{key}.type", file)
+    if not isinstance(kind, str) or kind not in (*TYPE_KEYS, "gear"):
+        raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(TYPE_KEYS)}, gear)", f"{key}.type",
+                         file)
+    if kind == "gear":
+        return _parse_gear(entry, key, world, file, names)
     allowed = COMMON_KEYS + TYPE_KEYS[kind]
     for k in entry:
         if k not in allowed:
@@ -133,12 +147,7 @@ def _parse_one(entry: dict, key: str, world, file, names: set):
         if k in ("type", "body_a", "body_b"):
             continue
         if k == "name":
-            if not isinstance(v, str) or not v:
-                raise InputError(f"expected a non-empty string, got {_describe(v)}", sub, file)
-            if v in names:
-                raise InputError(f"duplicate joint name {v!r}", sub, file)
-            names.add(v)
-            kw["name"] = v
+            kw["name"] = _name(v, sub, file, names)
         elif k == "frame":
             if v not in ("world", "body"):
                 raise InputError(f"must be \"world\" or \"body\", got {_describe(v)}", sub, file)
@@ -158,6 +167,52 @@ def _parse_one(entry: dict, key: str, world, file, names: set):
             kw[k] = _number(v, sub, file, unbounded=k in UNBOUNDED_KEYS)
     try:
         record = JOINT_CLASSES[kind](**kw)
+        world.add_joint(record)
+    except InputError as err:
+        raise err.within(key, file) from None
+    return record
+
+
+def _name(value, key, file, names: set):
+    if not isinstance(value, str) or not value:
+        raise InputError(f"expected a non-empty string, got {_describe(value)}", key, file)
+    if value in names:
+        raise InputError(f"duplicate joint name {value!r}", key, file)
+    names.add(value)
+    return value
+
+
+def _parse_gear(entry: dict, key: str, world, file, names: set):
+    """A ``type = "gear"`` entry: ``joint`` and ``follows`` name joints above it."""
+    for k in entry:
+        if k not in GEAR_KEYS:
+            raise InputError(f"unknown key for a gear joint (expected one of {', '.join(GEAR_KEYS)})", f"{key}.{k}",
+                             file)
+    kw: dict[str, Any] = {}
+    for k in ("joint", "follows"):
+        if k not in entry:
+            raise InputError(f"missing key {k!r}", key, file)
+        if not isinstance(entry[k], str) or not entry[k]:
+            raise InputError(f"expected the name of a joint above, got {_describe(entry[k])}", f"{key}.{k}", file)
+        kw[k] = entry[k]
+    for k, v in entry.items():
+        sub = f"{key}.{k}"
+        if k == "name":
+            kw["name"] = _name(v, sub, file, names)
+        elif k == "collide_connected":
+            if not isinstance(v, bool):
+                raise InputError(f"expected true or false, got {_describe(v)}", sub, file)
+            kw[k] = v
+        elif k in ("ratio", "offset"):
+            kw[k] = _number(v, sub, file)
+        elif k == "polynomial":
+            if not isinstance(v, list) or not 1 <= len(v) <= 5:
+                raise InputError(f"expected a list of 1 to 5 numbers (a0, ..., a4), got {_describe(v)}", sub, file)
+            kw[k] = [_number(c, f"{sub}[{i}]", file) for i, c in enumerate(v)]
+    try:
+        from .joints import GearJoint
+
+        record = GearJoint(**kw)
         world.add_joint(record)
     except InputError as err:
         raise err.within(key, file) from None

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..joints import G_COEF, G_FOLLOWS, G_JOINT
+from ..joints import G_COEF, G_FOLLOWS, G_JOINT, G_MASS
 from ..math3d import JIT
 from .joint_math import _coordinate_row, _cross, _dot, _mat_vec, _row_apply, _row_mass, _row_velocity
 
@@ -57,6 +57,29 @@ def _shared_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, 
             s2 = 1.0 if side2 == 0 else -1.0
             total += s1 * s2 * (inv_mass[i] * _dot(l1, l2) + _dot(g1, _mat_vec(I_inv, i, g2)))
     return total
+
+
+@njit(**JIT)
+def free_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
+    """J M^-1 J^T of the gear row over its free bodies (1/kg, 1/(kg m^2) or mixed)."""
+    return (_row_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1)
+            + s * s * _row_mass(inv_mass, I_inv, a2, b2, lin2, n2, ra2, rb2)
+            - 2.0 * s * _shared_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2))
+
+
+@njit(**JIT)
+def gear_entries(a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
+    """The gear row's J as four (body, linear part, angular part) entries: b1, a1, b2, a2 (the
+    signs and joint 2's factor -s folded in); J (v, omega) = sum of l . v_body + g . omega_body."""
+    lb1, gb1 = _entry(lin1, n1, rb1)
+    la1, ga1 = _entry(lin1, n1, ra1)
+    lb2, gb2 = _entry(lin2, n2, rb2)
+    la2, ga2 = _entry(lin2, n2, ra2)
+    bodies = (b1, a1, b2, a2)
+    scale = (1.0, -1.0, -s, s)
+    lins = (lb1, la1, lb2, la2)
+    angs = (gb1, ga1, gb2, ga2)
+    return bodies, scale, lins, angs
 
 
 @njit(**JIT)
@@ -110,9 +133,9 @@ def solve_gear(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame
     mass scale, impulse scale); (0, 1, 0) in the relax) on its accumulated impulse."""
     (_j1, a1, b1, lin1, n1, ra1, rb1, _j2, a2, b2, lin2, n2, ra2, rb2, C,
      s) = gear_row(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R)
-    k = (_row_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1)
-         + s * s * _row_mass(inv_mass, I_inv, a2, b2, lin2, n2, ra2, rb2)
-         - 2.0 * s * _shared_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2))
+    k = param[g, G_MASS]
+    if k == 0.0:
+        k = free_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s)
     if k <= 0.0:
         return
     cdot = _row_velocity(v, omega, a1, b1, lin1, n1, ra1, rb1) - s * _row_velocity(v, omega, a2, b2, lin2, n2, ra2, rb2)

@@ -9,8 +9,10 @@ import math
 from numba import njit
 
 from ..joints import (
+    G_MASS,
     JOINT_BALL,
     JOINT_DISTANCE,
+    JOINT_GEAR,
     JOINT_HINGE,
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
@@ -21,6 +23,7 @@ from ..joints import (
 from ..math3d import (
     JIT,
 )
+from .joint_gear import free_mass, gear_entries, gear_on, gear_row
 from .joint_math import (
     _add,
     _anchor,
@@ -30,6 +33,7 @@ from .joint_math import (
     _cross,
     _dot,
     _frames,
+    _mat_vec,
     _scale,
     _sub,
 )
@@ -313,6 +317,38 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
 
 
 @njit(**JIT)
+def _substitute(order, node_parent, Dinv, H_up, W, y, sol, work):
+    """sol = H^-1 y on the factors (n, 6, 6) of ``tree_factor_kernel``; y (n, 6) is overwritten."""
+    n_nodes = order.shape[0]
+    # forward substitution, leaves first: y_p -= W_k^T y_k
+    for kk in range(n_nodes):
+        k = order[kk]
+        p = node_parent[k]
+        if p < 0:
+            continue
+        for r in range(6):
+            s = 0.0
+            for m in range(6):
+                s += W[k, m, r] * y[k, m]
+            y[p, r] -= s
+    # back substitution, roots first: sol_k = D_k^-1 (y_k - H_kp sol_p)
+    for kk in range(n_nodes - 1, -1, -1):
+        k = order[kk]
+        p = node_parent[k]
+        for r in range(6):
+            s = y[k, r]
+            if p >= 0:
+                for m in range(6):
+                    s -= H_up[k, r, m] * sol[p, m]
+            work[0, r] = s
+        for r in range(6):
+            s = 0.0
+            for m in range(6):
+                s += Dinv[k, r, m] * work[0, m]
+            sol[k, r] = s
+
+
+@njit(**JIT)
 def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                            param, rate0, x, R, inv_mass, I_inv, bias_rate, Ja, Jb, C, nrow, Dinv, H_up, W,
                            # scratch
@@ -352,32 +388,7 @@ def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type
         if armature:
             inv_arm = 1.0 / param[j, P_ARMATURE]
             y[k, m] += rate0[j] - inv_arm * axial_impulse[j, A_ARMATURE]
-    # forward substitution, leaves first: y_p -= W_k^T y_k
-    for kk in range(n_nodes):
-        k = order[kk]
-        p = node_parent[k]
-        if p < 0:
-            continue
-        for r in range(6):
-            s = 0.0
-            for m in range(6):
-                s += W[k, m, r] * y[k, m]
-            y[p, r] -= s
-    # back substitution, roots first: sol_k = D_k^-1 (y_k - H_kp sol_p)
-    for kk in range(n_nodes - 1, -1, -1):
-        k = order[kk]
-        p = node_parent[k]
-        for r in range(6):
-            s = y[k, r]
-            if p >= 0:
-                for m in range(6):
-                    s -= H_up[k, r, m] * sol[p, m]
-            work[0, r] = s
-        for r in range(6):
-            s = 0.0
-            for m in range(6):
-                s += Dinv[k, r, m] * work[0, m]
-            sol[k, r] = s
+    _substitute(order, node_parent, Dinv, H_up, W, y, sol, work)
     # apply: body nodes take du; joint nodes give lambda = -mu
     for k in range(n_nodes):
         j = node_joint[k]
@@ -404,6 +415,71 @@ def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type
             else:
                 for c in range(3):
                     angular_impulse[j, c] += lam * Jb[j, r, 3 + c]
+
+
+@njit(**JIT)
+def _gear_response(i, bodies, scale, lins, angs, inv_mass, I_inv):
+    """(dv, dw): body i's part of M^-1 J^T, its velocity change under a unit impulse along a gear's J
+    (``joint_gear.gear_entries``)."""
+    dv = (0.0, 0.0, 0.0)
+    dw = (0.0, 0.0, 0.0)
+    if i < 0:
+        return dv, dw
+    for e in range(4):
+        if bodies[e] == i:
+            dv = _add(dv, _scale(scale[e] * inv_mass[i], lins[e]))
+            dw = _add(dw, _scale(scale[e], _mat_vec(I_inv, i, angs[e])))
+    return dv, dw
+
+
+@njit(**JIT)
+def tree_gear_masses(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
+                     frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow, Dinv, H_up, W,
+                     y, sol, work):
+    """Each acting gear's J M^-1 J^T through the tree into ``param[g, G_MASS]``: the rate of the gear
+    row after a unit impulse along it and the exact tree solve that follows (the response of the
+    articulated bodies, not of the free ones). The gear is a Gauss-Seidel row around the tree solve;
+    with the free bodies' mass, a gear between two pendulums (a 1 kg bob on 0.5 m geared 3:1 to a
+    flywheel) converged by about 0.4 % a sweep (the bob's own I about its centre is 1/250 of its
+    inertia about the hinge), and the gear slipped 0.34 rad in 2 s with the tree's 32 sweeps
+    (measured); with this mass one sweep after the velocities are the tree's meets it (the Schur
+    complement of the loop-closing row, as Baraff 1996 treats loops: there by an iteration on the
+    whole KKT system). Needs the factors of ``tree_factor_kernel`` at the current poses."""
+    n_nodes = order.shape[0]
+    for g in range(joint_type.shape[0]):
+        if joint_type[g] != JOINT_GEAR or not enabled[g] or not gear_on(g, param, enabled):
+            continue
+        (_j1, a1, b1, lin1, n1, ra1, rb1, _j2, a2, b2, lin2, n2, ra2, rb2, _C,
+         s) = gear_row(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R)
+        bodies, scale, lins, angs = gear_entries(a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s)
+        k = free_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s)
+        for kk in range(n_nodes):
+            for r in range(6):
+                y[kk, r] = 0.0
+            j = node_joint[kk]
+            if j < 0:
+                continue
+            a = joint_a[j]
+            b = joint_b[j]
+            dva, dwa = _gear_response(a, bodies, scale, lins, angs, inv_mass, I_inv)
+            dvb, dwb = _gear_response(b, bodies, scale, lins, angs, inv_mass, I_inv)
+            rows = nrow[j] + 1 if _has_armature_row(j, joint_type[j], param) else nrow[j]
+            for r in range(rows):
+                acc = 0.0
+                for c in range(3):
+                    acc += (Ja[j, r, c] * dva[c] + Ja[j, r, 3 + c] * dwa[c] + Jb[j, r, c] * dvb[c]
+                            + Jb[j, r, 3 + c] * dwb[c])
+                y[kk, r] = -acc
+        _substitute(order, node_parent, Dinv, H_up, W, y, sol, work)
+        for kk in range(n_nodes):
+            i = node_body[kk]
+            if i < 0:
+                continue
+            for e in range(4):
+                if bodies[e] == i:
+                    k += scale[e] * (_dot(lins[e], (sol[kk, 0], sol[kk, 1], sol[kk, 2]))
+                                     + _dot(angs[e], (sol[kk, 3], sol[kk, 4], sol[kk, 5])))
+        param[g, G_MASS] = k if k > 0.0 else 0.0
 
 
 @njit(**JIT)
@@ -454,6 +530,9 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             tree_factor_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
                                local_b, frame_a, frame_b, param, position, x, R, inv_mass, I_inv, Ja, Jb, C, nrow, D,
                                Dinv, H_up, W, work)
+            tree_gear_masses(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
+                             local_b, frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow,
+                             Dinv, H_up, W, y, sol, work)
         solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
                                    param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft, 1,
                                    v, omega, linear_impulse, angular_impulse, axial_impulse)

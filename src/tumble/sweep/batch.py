@@ -44,6 +44,7 @@ from .. import checks
 from .. import integrators as K
 from ..errors import InputError, SimulationError
 from ..forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring
+from ..joints import G_FOLLOWS, G_JOINT, JOINT_GEAR
 from ..simulator import Simulator
 from ..trajectory import Trajectory
 from ..world import World
@@ -86,7 +87,10 @@ def _joint_key(scene):
     st = scene.joint_settings or JointSettings()
     if (st.partitions > 1 and len(joints) >= st.partition_min_joints) or any(j.broken for j in joints):
         return None
-    if st.method == "tree" and any(j.bound.param[P_LIMIT_ON] or j.bound.param[P_LIMIT2_ON] for j in joints):
+    # the tree's sweeps while a limit's or a gear's impulse changes run over all joints: one variant's
+    # convergence would set another's sweep count (then its bits)
+    if st.method == "tree" and any(j.bound.param[P_LIMIT_ON] or j.bound.param[P_LIMIT2_ON]
+                                   or j.bound.type_id == JOINT_GEAR for j in joints):
         return None
     return dataclasses.astuple(st)
 
@@ -137,8 +141,9 @@ def merge_worlds(worlds: list[World]) -> World:
         merged.excluded_collisions.update((offset + a, offset + b) for a, b in w.excluded_collisions)
         for rec in w.forces:
             merged.add_force(_moved(rec, w, offset))
+        first_joint = len(merged.joints)
         for rec in getattr(w, "joints", ()):
-            merged.joints.append(_moved_joint(rec, k, offset))
+            merged.joints.append(_moved_joint(rec, k, offset, first_joint))
         offset += w.body_count
     merged._tables = None
     return merged
@@ -154,10 +159,11 @@ def _moved(rec, w: World, offset: int):
     raise InputError(f"cannot batch a force record {type(rec).__name__}", "forces")
 
 
-def _moved_joint(rec, k: int, offset: int):
+def _moved_joint(rec, k: int, offset: int, first_joint: int):
     """A copy of a bound joint record with its bodies at the merged rows (the bound frames, anchors
     and parameters copied as they are: binding again would read the poses, which a URDF's start
-    joint positions moved after binding)."""
+    joint positions moved after binding); a gear's two joints at the merged joint rows (the
+    variant's joints start at ``first_joint``)."""
     b = rec.bound
     row = lambda i: -1 if i < 0 else offset + i
     new = dataclasses.replace(rec, body_a=row(b.body_a), body_b=row(b.body_b),
@@ -165,6 +171,9 @@ def _moved_joint(rec, k: int, offset: int):
     new.bound = dataclasses.replace(b, body_a=row(b.body_a), body_b=row(b.body_b), local_a=np.copy(b.local_a),
                                     local_b=np.copy(b.local_b), frame_a=np.copy(b.frame_a), frame_b=np.copy(b.frame_b),
                                     param=np.copy(b.param))
+    if b.type_id == JOINT_GEAR:
+        new.bound.param[[G_JOINT, G_FOLLOWS]] += first_joint
+        new.joint, new.follows = (int(new.bound.param[G_JOINT]), int(new.bound.param[G_FOLLOWS]))
     new.broken = rec.broken
     return new
 

@@ -1,0 +1,392 @@
+"""Gear joints (``tb.GearJoint``: q_joint = p(q_follows), URDF's mimic, MuJoCo's joint equality,
+Box2D v2's gear) against the reduced systems they make: a coupled pair of coordinates is one
+degree of freedom whose inertia is the gear's effective one, so closed forms (constant
+effort) and SciPy's DOP853 of the reduced equation (a pendulum geared to a flywheel) give the
+motion without tumble."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import tumble as tb
+from tumble import checks
+from tumble.errors import InputError
+from tumble.solver.joints import ACCURATE, JointSettings, JointSolver, step_with_joints
+
+from .solutions import resumed_run
+
+DT = 1 / 240
+RIGID_GS = JointSettings(hertz=0.0)  # rigid rows, Gauss-Seidel (no tree)
+METHODS = {"gauss-seidel rigid": RIGID_GS, "tree": ACCURATE}
+
+
+def gear_pair(ratio=-2.0, torque=0.5, settings=None, offset=0.0):
+    """Two wheels on vertical hinges to the world, 0.6 m apart (they do not touch), no gravity: a
+    torque on the first (cylinder r 0.1 m, 2 kg: I1 = 0.01 kg m^2), the second (r 0.2 m, 2 kg:
+    I2 = 0.04) geared to it, q2 = offset + ratio q1."""
+    w = tb.World(gravity=(0.0, 0.0, 0.0))
+    g1 = w.add_body(tb.Cylinder(0.1, 0.05), mass=2.0, position=(0.0, 0.0, 1.0), name="pinion")
+    g2 = w.add_body(tb.Cylinder(0.2, 0.05), mass=2.0, position=(0.6, 0.0, 1.0), name="wheel")
+    w.add_joint(tb.HingeJoint("world", g1, anchor=(0.0, 0.0, 1.0), axis=(0.0, 0.0, 1.0), torque=torque, name="a1"))
+    w.add_joint(tb.HingeJoint("world", g2, anchor=(0.6, 0.0, 1.0), axis=(0.0, 0.0, 1.0), name="a2"))
+    w.add_joint(tb.GearJoint(joint="a2", follows="a1", ratio=ratio, offset=offset, name="gear"))
+    return w
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("path", ["simulator", "standalone"])
+@pytest.mark.parametrize("ratio", [-2.0, 0.5, 3.0])
+def test_a_gear_pair_spins_up_with_the_reduced_inertia(method, path, ratio):
+    # Compared with the closed form of the one degree of freedom left: q2 = r q1, so the kinetic
+    # energy is (I1 + r^2 I2) q1'^2 / 2 and a torque tau on q1 gives q1'' = tau / (I1 + r^2 I2).
+    # A constant acceleration about principal axes is integrated exactly by the semi-implicit
+    # substeps, so the rates are equal to rounding (1e-9 relative); the rigid gear row holds
+    # q2 - r q1 to 1e-9 rad. Fails with the sign of joint 2's part of the row wrong (checked: the
+    # pair blows up, NaN within the second).
+    tau, I1, I2 = 0.5, 0.01, 0.04
+    w = gear_pair(ratio, tau)
+    settings = METHODS[method]
+    if path == "simulator":
+        sim = tb.Simulator(w, dt=DT, joint_settings=settings)
+        sim.step(240)
+        r = sim.joint_readings()
+    else:
+        solver = JointSolver(settings)
+        for _ in range(240):
+            step_with_joints(w, solver, DT, 4)
+        r = solver.readings()
+    alpha = tau / (I1 + ratio**2 * I2)
+    assert r["rate"][0] == pytest.approx(alpha * 1.0, rel=1e-9)
+    assert r["rate"][1] == pytest.approx(ratio * alpha * 1.0, rel=1e-9)
+    assert abs(r["position"][2]) < 1e-9  # the gear's reading: its error q2 - r q1
+    assert abs(r["position"][1] - ratio * r["position"][0]) < 1e-9
+
+
+def test_the_default_soft_gear_sags_under_load_as_its_stiffness_says():
+    # Box2D's soft rows (60 Hz, damping ratio 2, the defaults) under a steady load: the wheel's
+    # angular acceleration needs a torque I2 r alpha through the gear. In the steady state the
+    # soft row's increment is 0, so m_eff bias_rate C mass_scale = -impulse_scale lambda, and with
+    # b2Softness's coefficients that is C = load / (m_eff omega^2), omega = 2 pi 60 /s: 7.0e-4 rad
+    # here, equal to the closed form to 2.5e-13 (measured; bound 1e-9). The rates still follow
+    # the reduced inertia (1e-14 measured, bound 1e-9): the sag is constant once reached. The sag
+    # measures the row's effective mass 1/k exactly (10 % off with the shared body's cross term
+    # left out, in the gripper below).
+    tau, I1, I2, ratio = 0.5, 0.01, 0.04, -2.0
+    w = gear_pair(ratio, tau)
+    sim = tb.Simulator(w, dt=DT)
+    sim.step(240)
+    r = sim.joint_readings()
+    alpha = tau / (I1 + ratio**2 * I2)
+    assert r["rate"][0] == pytest.approx(alpha, rel=1e-9)
+    # the row's effective mass 1/k, k = 1/I2 + r^2/I1 (1/(kg m^2)); its spring omega^2 / k
+    k = 1.0 / I2 + ratio**2 / I1
+    stiffness = (2 * math.pi * 60.0) ** 2 / k
+    load = I2 * ratio * alpha  # the torque (N m) that turns the wheel, carried by the row
+    assert abs(r["position"][2]) == pytest.approx(abs(load) / stiffness, rel=1e-9)
+
+
+def rack_and_pinion(settings, g=9.81):
+    """A rack (box, 3 kg) on a vertical slider pulled down by gravity, geared to a pinion (ball r
+    0.1, 2 kg: I = 0.008) on a horizontal hinge: the rack's displacement = 0.1 m per rad."""
+    w = tb.World(gravity=(0.0, 0.0, -g))
+    pinion = w.add_body(tb.Sphere(0.1), mass=2.0, position=(0.0, 0.0, 2.0), name="pinion")
+    rack = w.add_body(tb.Box(size=(0.05, 0.05, 0.5)), mass=3.0, position=(0.5, 0.0, 2.0), name="rack")
+    w.add_joint(tb.HingeJoint("world", pinion, anchor=(0.0, 0.0, 2.0), axis=(0.0, 1.0, 0.0), name="pinion"))
+    w.add_joint(tb.SliderJoint("world", rack, anchor=(0.5, 0.0, 2.0), axis=(0.0, 0.0, 1.0), name="rack"))
+    w.add_joint(tb.GearJoint(joint="rack", follows="pinion", ratio=0.1))
+    return w, pinion
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_rack_falls_with_the_pinion_s_inertia_added(method):
+    # Rack and pinion (a slider's linear row geared to a hinge's angular row, m per rad): with x the
+    # rack's fall, x = r theta, so (m + I / r^2) x'' = -m g. Constant, so exact as above (1e-9).
+    w, pinion = rack_and_pinion(METHODS[method])
+    sim = tb.Simulator(w, dt=DT, joint_settings=METHODS[method])
+    sim.step(120)
+    r = sim.joint_readings()
+    I = float(np.linalg.inv(w.I_inv[pinion.index])[1, 1])
+    a = -3.0 * 9.81 / (3.0 + I / 0.1**2)
+    assert r["rate"][1] == pytest.approx(a * 0.5, rel=1e-9)
+    assert r["rate"][0] == pytest.approx(a * 0.5 / 0.1, rel=1e-9)
+    assert abs(r["position"][2]) < 1e-9
+
+
+def gripper(force, settings_mass=(4.0, 0.5)):
+    """A floating hand (4 kg box, no gravity) with two fingers (0.5 kg each) on sliders along x,
+    the second mirrored on the first (ratio -1: a parallel gripper's fingers, Franka's
+    finger_joint2 equal to finger_joint1). A force on the first finger's slider pushes it out.
+    The centres and anchors lie on the sliders' line, so the rows have no rotational part and the
+    gear's J M^-1 J^T is the closed form 2/m + 4/M."""
+    M, m = settings_mass
+    w = tb.World(gravity=(0.0, 0.0, 0.0))
+    hand = w.add_body(tb.Box(size=(0.2, 0.1, 0.05)), mass=M, position=(0.0, 0.0, 1.0), name="hand")
+    f1 = w.add_body(tb.Box(size=(0.02, 0.02, 0.08)), mass=m, position=(0.15, 0.0, 1.0), name="f1")
+    f2 = w.add_body(tb.Box(size=(0.02, 0.02, 0.08)), mass=m, position=(-0.15, 0.0, 1.0), name="f2")
+    w.add_joint(tb.SliderJoint(hand, f1, anchor=(0.15, 0.0, 1.0), axis=(1.0, 0.0, 0.0), force=force, name="j1"))
+    w.add_joint(tb.SliderJoint(hand, f2, anchor=(-0.15, 0.0, 1.0), axis=(1.0, 0.0, 0.0), name="j2"))
+    w.add_joint(tb.GearJoint(joint="j2", follows="j1", ratio=-1.0))
+    return w, hand
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_mirrored_fingers_on_one_hand_open_as_lagrange_says(method):
+    # Lagrange with the hand's X and the first finger's q (the second at -q): T = (M + 2m) X'^2/2 +
+    # m q'^2, the slider force F does work F dq, so X'' = 0 and q'' = F / (2m): the hand stays
+    # where it is and the fingers open at F/(2m). The two sliders share the hand, so the gear's
+    # effective mass has the hand's cross term (k = 2/m + 4/M, not 2/m + 2/M), which the soft
+    # gear's sag shows (below). Total momentum stays 0 (the gear is internal): 1e-12 kg m/s. The
+    # sliders' rows and the gear's act along or across one line, so both methods meet the closed
+    # form to rounding (1e-15 measured; bound 1e-9).
+    F, m = 2.0, 0.5
+    w, hand = gripper(F)
+    sim = tb.Simulator(w, dt=DT, joint_settings=METHODS[method])
+    sim.step(60)
+    r = sim.joint_readings()
+    assert r["rate"][0] == pytest.approx(F / (2 * m) * 0.25, rel=1e-9)
+    assert r["rate"][1] == pytest.approx(-F / (2 * m) * 0.25, rel=1e-9)
+    assert np.abs(w.v[hand.index]).max() < 1e-12
+    assert np.abs(w.P[:3].sum(axis=0)).max() < 1e-12
+
+
+def test_the_soft_gear_of_two_fingers_sags_by_its_effective_mass():
+    # The same gripper with Box2D's soft rows: the gear carries G = F/2 (the second finger's m a),
+    # so in the steady state it sags by C = G k / omega^2 (as the gear pair above) with the
+    # shared hand's cross term in k = 2/m + 4/M: 3.5e-5 m. Measured equal to 6.6e-14 at 0.5 s (bound 1e-9); left out of k
+    # (2/m + 2/M) the sag is 10 % smaller (checked by dropping the term in joint_gear.free_mass).
+    F, M, m = 2.0, 4.0, 0.5
+    w, hand = gripper(F)
+    sim = tb.Simulator(w, dt=DT)
+    sim.step(120)
+    C = sim.joint_readings()["position"][2]
+    k = 2 / m + 4 / M
+    assert abs(C) == pytest.approx((F / 2) * k / (2 * math.pi * 60.0) ** 2, rel=1e-9)
+
+
+def pendulum_and_flywheel(ratio):
+    """A pendulum (1 kg ball on a 0.5 m massless-ish rod: a sphere r 0.05 at 0.5 m below a hinge
+    about y) geared to a flywheel (cylinder r 0.2, 4 kg about its own hinge), released at 1 rad."""
+    w = tb.World(gravity=(0.0, 0.0, -9.81))
+    bob = w.add_body(tb.Sphere(0.05), mass=1.0, position=(0.5 * math.sin(1.0), 0.0, 2.0 - 0.5 * math.cos(1.0)),
+                     name="bob")
+    wheel = w.add_body(tb.Sphere(0.2), mass=4.0, position=(2.0, 0.0, 2.0), name="wheel")
+    w.add_joint(tb.HingeJoint("world", bob, anchor=(0.0, 0.0, 2.0), axis=(0.0, 1.0, 0.0), name="swing"))
+    w.add_joint(tb.HingeJoint("world", wheel, anchor=(2.0, 0.0, 2.0), axis=(0.0, 1.0, 0.0), name="fly"))
+    w.add_joint(tb.GearJoint(joint="fly", follows="swing", ratio=ratio))
+    return w
+
+
+def test_a_pendulum_geared_to_a_flywheel_follows_dop853():
+    # The reduced equation (I_p + r^2 I_w) phi'' = -m g l sin(phi), phi the angle from the bottom
+    # (the hinge's angle is phi - 1, about +y: phi grows as the bob swings to +x... so the hinge
+    # coordinate q = 1 - phi with the right-hand rule about +y taking +x towards -z), written
+    # without tumble and integrated by DOP853 at rtol 1e-12. tumble (tree, rigid rows, dt 1/240 s,
+    # 4 substeps) is first order: measured 1.20e-3 rad at dt, 3.0e-4 at dt/4 over 2 s (a quarter:
+    # the order); bounds 2.4e-3 and 6e-4 rad. The gear holds to 2e-15 rad; with the gear's mass
+    # taken over the free bodies instead of through the tree (``joint_tree.tree_gear_masses``) it
+    # slipped 0.34 rad by the first sample at 0.25 s (checked).
+    ratio, m, l, g = 3.0, 1.0, 0.5, 9.81
+    I_bob = m * l**2 + 0.4 * m * 0.05**2
+    I_wheel = 0.4 * 4.0 * 0.2**2
+    inertia = I_bob + ratio**2 * I_wheel
+
+    def rhs(t, y):
+        return [y[1], -m * g * l * math.sin(y[0]) / inertia]
+
+    times = np.arange(1, 9) * 0.25
+    ref = solve_ivp(rhs, (0.0, 2.0), [1.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-14, t_eval=times)
+    errors = []
+    for dt in (DT, DT / 4):
+        w = pendulum_and_flywheel(ratio)
+        sim = tb.Simulator(w, dt=dt, joint_settings=ACCURATE)
+        worst = 0.0
+        for t, phi in zip(times, ref.y[0]):
+            sim.step(round(0.25 / dt))
+            q = sim.joint_readings()["position"]
+            worst = max(worst, abs((1.0 - phi) - q[0]))
+            assert abs(q[1] - ratio * q[0]) < 1e-8
+        errors.append(worst)
+    assert errors[0] < 2.4e-3
+    assert errors[1] < 6e-4
+    assert errors[1] < 0.4 * errors[0]  # first order: a quarter of the step, about a quarter the error
+
+
+def test_a_quartic_gear_follows_its_polynomial():
+    # MuJoCo's polycoef: q1 = a0 + a1 q2 + a2 q2^2 + a3 q2^3 + a4 q2^4 (q1 "joint" follows q2). q2
+    # driven by a motor at 1 rad/s over 1 s; the rigid gear row (Gauss-Seidel with the tree's
+    # sweeps) holds the curve to its linearisation error per substep (the row is the curve's
+    # tangent: O(h^2 p'' q2'^2) a substep, corrected by the bias): measured 1.6e-7 rad; bound 1e-6.
+    # Its rate is p'(q2) q2' to the same order.
+    coef = (0.1, 0.5, -0.3, 0.2, 0.05)
+    w = tb.World(gravity=(0.0, 0.0, 0.0))
+    b1 = w.add_body(tb.Sphere(0.1), mass=1.0, position=(0.0, 0.0, 1.0))
+    b2 = w.add_body(tb.Sphere(0.1), mass=1.0, position=(1.0, 0.0, 1.0))
+    w.add_joint(tb.HingeJoint("world", b1, anchor=(0.0, 0.0, 1.0), axis=(0.0, 0.0, 1.0), name="q1"))
+    w.add_joint(tb.HingeJoint("world", b2, anchor=(1.0, 0.0, 1.0), axis=(0.0, 0.0, 1.0), motor_speed=1.0, name="q2"))
+    w.add_joint(tb.GearJoint(joint="q1", follows="q2", polynomial=coef))
+    sim = tb.Simulator(w, dt=DT, joint_settings=ACCURATE)
+    p = np.polynomial.Polynomial(coef)
+    worst = 0.0
+    for _ in range(24):
+        sim.step(10)
+        r = sim.joint_readings()
+        q1, q2 = r["position"][:2]
+        worst = max(worst, abs(q1 - p(q2)))
+        assert r["rate"][0] == pytest.approx(p.deriv()(q2) * r["rate"][1], abs=1e-5)
+    assert worst < 2e-6
+    # the motor drove q2 to about 1 rad: the motor and the gear are two Gauss-Seidel rows on
+    # different bodies, each undoing part of the other until the sweeps stop (the tree's sweeps
+    # stop on the gear's impulse): q2 3.2e-4 rad short (measured); bound 1e-3
+    assert r["position"][1] == pytest.approx(1.0, abs=1e-3)
+
+
+def test_an_offset_gear_pulls_its_joints_to_the_relation():
+    # offset 0.3 rad with both joints at 0: the gear starts 0.3 rad off its relation and its bias
+    # closes the gap (as the other rigid rows close a joint's gap); after 1 s the relation holds to
+    # 1e-9 rad and the two rates agree (ratio 1), the pair turning on at the speed the correction
+    # left (no torque acts).
+    w = gear_pair(ratio=1.0, torque=0.0, offset=0.3)
+    sim = tb.Simulator(w, dt=DT, joint_settings=ACCURATE)
+    sim.step(240)
+    r = sim.joint_readings()
+    assert abs(r["position"][1] - (0.3 + r["position"][0])) < 1e-9
+    assert r["rate"][1] == pytest.approx(r["rate"][0], abs=1e-9)
+
+
+def test_a_broken_joint_stops_its_gear():
+    # the follower's hinge (its anchor 0.2 m off the ball's centre) breaks in the first step, its
+    # reaction over max_force: from then on the gear does nothing, so the ball flies free at the
+    # velocity it had (no force acts: the same bits every step) while the driven wheel spins up
+    # alone, tau / I1.
+    w = tb.World(gravity=(0.0, 0.0, 0.0))
+    g1 = w.add_body(tb.Sphere(0.1), mass=1.0, position=(0.0, 0.0, 1.0))
+    g2 = w.add_body(tb.Sphere(0.1), mass=1.0, position=(1.0, 0.0, 1.0))
+    w.add_joint(tb.HingeJoint("world", g1, anchor=(0.0, 0.0, 1.0), axis=(0.0, 0.0, 1.0), torque=1.0, name="a1"))
+    w.add_joint(tb.HingeJoint("world", g2, anchor=(1.2, 0.0, 1.0), axis=(0.0, 0.0, 1.0), max_force=1e-3,
+                              name="a2"))
+    w.add_joint(tb.GearJoint(joint="a2", follows="a1", ratio=1.0))
+    g2_moving = tb.Simulator(w, dt=DT, joint_settings=ACCURATE)
+    g2_moving.step(1)
+    assert w.joints[1].broken
+    rate = w.omega[g2.index].copy()
+    v = w.v[g2.index].copy()
+    spin = w.omega[g1.index, 2]
+    g2_moving.step(24)
+    assert np.array_equal(w.omega[g2.index], rate) and np.array_equal(w.v[g2.index], v)  # free now
+    I1 = 0.4 * 1.0 * 0.1**2
+    assert w.omega[g1.index, 2] - spin == pytest.approx(1.0 / I1 * 24 * DT, rel=1e-9)
+
+
+def test_a_checkpoint_carries_a_gear_bit_for_bit(tmp_path):
+    # Checkpoints name a gear's joints by index: the resumed run equals the whole run bit for bit.
+    whole, resumed = resumed_run(lambda: gear_pair(-2.0, 0.5), tmp_path, 0.5, DT)
+    assert checks.state_hash(whole.world) == checks.state_hash(resumed.world)
+    assert resumed.world.joints[2].kind == "gear"
+
+
+def test_a_gear_in_a_scene_file(tmp_path):
+    scene = tmp_path / "gears.toml"
+    scene.write_text("""
+[simulation]
+gravity = [0, 0, 0]
+[[bodies]]
+name = "pinion"
+shape = {type = "cylinder", radius = 0.1, length = 0.05}
+mass = 2.0
+position = [0, 0, 1]
+[[bodies]]
+name = "wheel"
+shape = {type = "cylinder", radius = 0.2, length = 0.05}
+mass = 2.0
+position = [0.6, 0, 1]
+[[joints]]
+type = "hinge"
+name = "a1"
+body_a = "pinion"
+anchor = [0, 0, 1]
+torque = 0.5
+[[joints]]
+type = "hinge"
+name = "a2"
+body_a = "wheel"
+anchor = [0.6, 0, 1]
+[[joints]]
+type = "gear"
+joint = "a2"
+follows = "a1"
+ratio = -2.0
+[joint_solver]
+hertz = 0
+""")
+    sim = tb.load_scene(scene).simulator()
+    sim.step(round(1.0 / sim.dt))
+    r = sim.joint_readings()
+    # the hinges have body_a the wheel and the world as body_b: the angle of the world about the wheel
+    assert r["position"][1] == pytest.approx(-2.0 * r["position"][0], abs=1e-9)
+    assert abs(r["rate"][0]) == pytest.approx(0.5 / (0.01 + 4 * 0.04), rel=1e-9)
+
+
+BAD_SCENE = """
+[[bodies]]
+name = "p"
+shape = {type = "sphere", radius = 0.1}
+mass = 1.0
+position = [0, 0, 1]
+[[bodies]]
+name = "q"
+shape = {type = "sphere", radius = 0.1}
+mass = 1.0
+position = [1, 0, 1]
+[[joints]]
+type = "hinge"
+name = "a1"
+body_a = "p"
+anchor = [0, 0, 1]
+[[joints]]
+type = "slider"
+name = "a2"
+body_a = "q"
+anchor = [1, 0, 1]
+[[joints]]
+type = "ball"
+name = "b"
+body_a = "q"
+anchor = [1, 0, 1]
+[[joints]]
+"""
+
+
+@pytest.mark.parametrize("entry, problem", [
+    ('type = "gear"\njoint = "a1"\nfollows = "a1"', "joints[3].follows: a gear needs two different joints"),
+    ('type = "gear"\njoint = "a1"\nfollows = "nope"', "joints[3].follows: unknown joint 'nope'"),
+    ('type = "gear"\njoint = "a1"\nfollows = "b"', "joints[3].follows: a gear couples hinge and slider joints"),
+    ('type = "gear"\njoint = "a1"', "joints[3]: missing key 'follows'"),
+    ('type = "gear"\njoint = "a1"\nfollows = "a2"\nbody_a = "p"', "joints[3].body_a: unknown key for a gear joint"),
+    ('type = "gear"\njoint = "a1"\nfollows = "a2"\npolynomial = [1, 2, 3, 4, 5, 6]',
+     "joints[3].polynomial: expected a list of 1 to 5 numbers"),
+    ('type = "gear"\njoint = "a1"\nfollows = "a2"\nratio = "two"', "joints[3].ratio: expected a number"),
+    ('type = "gear"\njoint = 1\nfollows = "a2"', "joints[3].joint: expected the name of a joint above"),
+])
+def test_bad_gears_in_a_scene_file_are_one_line(tmp_path, entry, problem):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(BAD_SCENE + entry + "\n")
+    with pytest.raises(InputError) as err:
+        tb.load_scene(scene)
+    assert problem in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_bad_gears_in_python_are_typed_errors():
+    w = gear_pair()
+    ball = w.add_body(tb.Sphere(0.1), mass=1.0, position=(3.0, 0.0, 1.0))
+    w.add_joint(tb.BallJoint("world", ball, anchor=(3.0, 0.0, 1.0), name="ball"))
+    with pytest.raises(InputError, match="a gear couples hinge and slider joints, not a ball joint"):
+        w.add_joint(tb.GearJoint(joint="ball", follows="a1"))
+    with pytest.raises(InputError, match="not in this world"):
+        w.add_joint(tb.GearJoint(joint=tb.HingeJoint("world", ball), follows="a1"))
+    with pytest.raises(InputError, match="does not break"):
+        w.add_joint(tb.GearJoint(joint="a1", follows="a2", max_force=10.0))
+    with pytest.raises(InputError, match="index below 4"):
+        w.add_joint(tb.GearJoint(joint=7, follows="a2"))
