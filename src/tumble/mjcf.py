@@ -39,9 +39,11 @@ What maps to what:
   "true" (the geoms' where the body has any), "false" (never).
 - ``<equality>``: ``connect`` (``body1``, ``body2`` or the world, ``anchor`` in body1's frame) a
   ``BallJoint`` closing a loop, ``weld`` a ``FixedJoint`` keeping the model's relative pose, both
-  taken at the model's pose (MuJoCo's qpos0) before ``joint_positions`` places the bodies; in
-  ``Robot.equalities``; rigid (MuJoCo's are soft: ``solref``/``solimp`` are not read); a model
-  with one gets the tree solve by default. ``active="false"`` ones are left off.
+  taken at the model's pose (MuJoCo's qpos0) before ``joint_positions`` places the bodies;
+  ``joint`` (``joint1``, ``joint2``, ``polycoef``: q1 - q1_0 = a0 + a1 (q2 - q2_0) + ... + a4
+  (q2 - q2_0)^4, hinge and slide joints) a ``GearJoint``; in ``Robot.equalities``; rigid
+  (MuJoCo's are soft: ``solref``/``solimp`` are not read); a model with one gets the tree solve
+  by default. ``active="false"`` ones are left off.
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
   their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair.
 - ``<actuator>`` on joints, in ``Robot.actuators`` by name, driven by ``Robot.set_controls(sim,
@@ -78,8 +80,8 @@ cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` le
 ``mj_resetDataKeyframe``).
 ``<include>``: expanded as MuJoCo does (``mjcf_xml``: the included file's top-level children in
 its place, paths from the main file's directory; repeated worldbody and compiler sections merged).
-Refused with one line: ``<equality>`` other than connect and weld (joint, tendon,
-flex; between sites; a weld's ``relpose``), spatial tendons and fixed ones with a range,
+Refused with one line: ``<equality>`` other than connect, weld and joint (tendon,
+flex; between sites; a weld's ``relpose``; a joint equality without joint2), spatial tendons and fixed ones with a range,
 stiffness, damping or friction loss, position, velocity and biased actuators on tendons,
 ``<contact><pair>``, ``<frame>``,
 ``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
@@ -149,7 +151,8 @@ class MjcfModel:
     frictions: dict = field(default_factory=dict)  # link name: friction of its colliding geoms
     virtual: list = field(default_factory=list)  # the links between two joints of one body
     actuators: dict = field(default_factory=dict)  # name: MjcfActuator, the file's order
-    equalities: list = field(default_factory=list)  # (kind "connect" | "weld", name, body1, body2, anchor (3,))
+    # (kind "connect" | "weld", name, body1, body2, anchor (3,)); ("joint", name, joint1, joint2, polycoef (5,))
+    equalities: list = field(default_factory=list)
     masks: dict = field(default_factory=dict)  # link name: [(contype, conaffinity)] of its colliding geoms
     sites: dict = field(default_factory=dict)  # name: (link, position (3,), rotation (3, 3)) in the link frame
     cameras: dict = field(default_factory=dict)  # name: (link, position, rotation, fovy deg, (width, height))

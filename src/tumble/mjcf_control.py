@@ -201,17 +201,23 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
 
 def _equalities(reader, root, out: MjcfModel, names):
     """``<equality>``: ``connect`` (body1, body2 or the world, ``anchor`` in body1's frame: a ball
-    joint there, closing a loop) and ``weld`` (the two bodies' relative pose at the model's pose: a
-    fixed joint); ``active="false"`` ones are left off. Into ``out.equalities``."""
+    joint there, closing a loop), ``weld`` (the two bodies' relative pose at the model's pose: a
+    fixed joint) and ``joint`` (``_joint_equality``); ``active="false"`` ones are left off. Into
+    ``out.equalities``."""
     for group in root.findall("equality"):
         for k, e in enumerate(group):
             a = reader.attributes(e, "main")
             name = a.get("name") or f"equality{len(out.equalities)}"
             key = f"equality.{e.tag}[{a.get('name', k)}]"
-            if e.tag not in ("connect", "weld"):
-                raise InputError(f"<equality><{e.tag}> is not supported (only connect and weld)", key)
+            if e.tag not in ("connect", "weld", "joint"):
+                raise InputError(f"<equality><{e.tag}> is not supported (only connect, weld and joint)", key)
             if a.get("active", "true") not in ("true", "false"):
                 raise InputError(f"expected true or false, got {a['active']!r}", f"{key}.active")
+            if e.tag == "joint":
+                coupling = _joint_equality(a, key, out)
+                if a.get("active", "true") == "true":
+                    out.equalities.append(("joint", name, *coupling))
+                continue
             if "site1" in a or "site2" in a:
                 raise InputError("an equality between sites is not supported (give body1, body2)", key)
             bodies = (a.get("body1"), a.get("body2", "world"))
@@ -229,20 +235,46 @@ def _equalities(reader, root, out: MjcfModel, names):
                 out.equalities.append((e.tag, name, bodies[0], bodies[1], anchor))
 
 
+def _joint_equality(a, key: str, out: MjcfModel):
+    """``<equality><joint joint1 joint2 polycoef>``: (joint1, joint2, coefficients (5,)), joint1 following
+    joint2 as q1 - q1_0 = a0 + a1 (q2 - q2_0) + ... + a4 (q2 - q2_0)^4 (MuJoCo's; a ``GearJoint``)."""
+    kinds = {j.name: j.kind for j in out.model.joints}
+    ends = []
+    for role in ("joint1", "joint2"):
+        joint = a.get(role)
+        if joint is None and role == "joint2":
+            raise InputError("an equality that fixes one joint (no joint2) is not supported", key)
+        if joint not in kinds:
+            raise InputError(f"unknown joint {joint!r}", f"{key}.{role}")
+        if kinds[joint] not in ("revolute", "continuous", "prismatic"):
+            raise InputError("a joint equality couples hinge and slide joints", f"{key}.{role}")
+        ends.append(joint)
+    if ends[0] == ends[1]:
+        raise InputError("joint1 and joint2 are the same joint", key)
+    given = floats(a.get("polycoef", "0 1 0 0 0"), f"{key}.polycoef", range(1, 6))
+    coef = np.array([0.0, 1.0, 0.0, 0.0, 0.0])  # MuJoCo's default, for the numbers left out
+    coef[:len(given)] = given
+    return ends[0], ends[1], coef
+
+
 def _add_equalities(world, robot, equalities):
     """The equality constraints as joints at the model's pose: ``connect`` a ``BallJoint`` at its anchor
-    (body1's frame), ``weld`` a ``FixedJoint``; named "MODEL/NAME", in ``robot.equalities``. Their two
-    bodies do not touch (``collide_connected`` False: a loop's links overlap where they meet)."""
-    from .joints import BallJoint, FixedJoint
+    (body1's frame), ``weld`` a ``FixedJoint``, ``joint`` a ``GearJoint`` (joint1 following joint2 by
+    polycoef); named "MODEL/NAME", in ``robot.equalities``. The two bodies of a connect or weld do not
+    touch (``collide_connected`` False: a loop's links overlap where they meet)."""
+    from .joints import BallJoint, FixedJoint, GearJoint
 
     def body(link):
         return "world" if link == "world" else robot.links[link]
 
     for kind, name, body1, body2, anchor in equalities:
         key = f"equality.{kind}[{name}]"
-        if body1 != "world" and body2 != "world" and robot.links[body1] is robot.links[body2]:
+        if kind == "joint":  # body1, body2, anchor: joint1, joint2, polycoef
+            record = GearJoint(joint=robot.joints[body1], follows=robot.joints[body2], polynomial=tuple(anchor),
+                               name=f"{robot.name}/{name}")
+        elif body1 != "world" and body2 != "world" and robot.links[body1] is robot.links[body2]:
             continue  # both welded into one body: nothing left to hold
-        if kind == "connect":
+        elif kind == "connect":
             origin, R = robot.link_pose(body1)  # the worldbody's frame too: where the model was put
             record = BallJoint(body(body1), body(body2), anchor=origin + R @ anchor, name=f"{robot.name}/{name}")
         else:

@@ -32,8 +32,11 @@ What maps to what (the link and joint frames as the URDF gives them, at joint po
   limit of the motors ``Robot.set_motor`` and ``set_position_target`` switch on. A side of a
   ``<limit>`` that is left out is no limit on that side, and lower > upper is no limit at all
   (Bullet's convention; the URDF specification says 0, which would lock the joint).
-  ``<mimic>``, ``<calibration>``, ``<safety_controller>`` are not read (PyBullet reads none of
-  them either): a mimic joint moves on its own.
+  ``<mimic joint multiplier offset>`` makes the joint follow the named one, q = offset +
+  multiplier q_joint, by a ``GearJoint`` (in ``Robot.equalities`` under the mimic joint's name;
+  PyBullet does not read mimic, where a mimic joint moves on its own); a mimic joint that
+  ``joint_positions`` leaves out starts on its relation. ``<calibration>`` and
+  ``<safety_controller>`` are not read (nor by PyBullet).
 - The root link: its body is fixed with ``fixed_base=True`` (PyBullet's ``useFixedBase``) or
   when it has no mass (PyBullet's rule for a base of mass 0; a ROS ``world`` link).
 - Self-collision: off by default (PyBullet's default): no two bodies of one robot touch. With
@@ -92,8 +95,9 @@ class Robot:
             merged into).
         actuators: {name: actuator} of an MJCF model (``mjcf.MjcfActuator``, in the file's order:
             MuJoCo's ``ctrl`` order), driven by ``set_controls``; empty for a URDF.
-        equalities: {name: joint record} of an MJCF model's ``<equality>`` constraints (``connect``:
-            a ``BallJoint``, ``weld``: a ``FixedJoint``); empty for a URDF.
+        equalities: {name: joint record} of an MJCF model's ``<equality>`` constraints
+            (``connect``: a ``BallJoint``, ``weld``: a ``FixedJoint``, ``joint``: a ``GearJoint``),
+            or of a URDF's ``<mimic>`` joints (a ``GearJoint`` under the mimic joint's name).
         sites: {name: (link, position (3,) m, rotation (3, 3))} in the link frame: an MJCF model's
             ``<site>`` frames (``site_pose``); empty for a URDF.
         cameras: {name: ``tb.Camera``} mounted on their links' bodies: an MJCF model's fixed
@@ -454,18 +458,54 @@ def build_robot(world, model: UrdfModel, *, position=(0.0, 0.0, 0.0), orientatio
                              model.source) from None
         joints[j.name] = record
 
+    gears = _add_mimics(world, model, joints, prefix)
     if not self_collision:
         own = list(bodies.values())
         for a in range(len(own)):
             for b in range(a + 1, len(own)):
                 world.exclude_collision(own[a], own[b])
     robot = Robot(prefix, model, world, links, joints, bodies[model.root], link_frames, owner)
+    robot.equalities.update(gears)
+    for j in model.joints:  # a mimic joint not placed by the caller starts on its relation
+        if j.mimic is not None and j.name not in joint_positions and (j.mimic[0] in joint_positions or j.mimic[2]):
+            joint_positions[j.name] = j.mimic[2] + j.mimic[1] * joint_positions.get(j.mimic[0], 0.0)
     if joint_positions:
         _place(world, robot, _link_frames(model, base, joint_positions), owner)
     return robot
 
 
 MOVING_KINDS = ("revolute", "continuous", "prismatic")
+
+
+def _add_mimics(world, model: UrdfModel, joints: dict, prefix: str) -> dict:
+    """``<mimic joint multiplier offset>``: a ``GearJoint`` making the joint follow the named one,
+    q = offset + multiplier q_joint (URDF's mimic, as Drake and Gazebo read it; PyBullet does not),
+    named "ROBOT/JOINT/mimic". Returns {joint name: gear record}."""
+    from .joints import GearJoint
+
+    known = {j.name: j for j in model.joints}
+    gears = {}
+    for j in model.joints:
+        if j.mimic is None:
+            continue
+        key = f"joint[{j.name}].mimic"
+        leader, multiplier, offset = j.mimic
+        if j.kind not in MOVING_KINDS:
+            raise InputError(f"only a revolute, continuous or prismatic joint can mimic, not a {j.kind} one", key,
+                             model.source)
+        if leader not in known:
+            raise InputError(f"unknown joint {leader!r}", f"{key}.joint", model.source)
+        if known[leader].kind not in MOVING_KINDS:
+            raise InputError(f"the joint followed must be revolute, continuous or prismatic, not {known[leader].kind}",
+                             f"{key}.joint", model.source)
+        record = GearJoint(joint=joints[j.name], follows=joints[leader], ratio=multiplier, offset=offset,
+                           name=f"{prefix}/{j.name}/mimic")
+        try:
+            world.add_joint(record)
+        except InputError as err:
+            raise InputError(err.problem, f"{key}.{err.key}" if err.key else key, model.source) from None
+        gears[j.name] = record
+    return gears
 
 
 def _moving_joint(known: dict, name, key: str, whose: str) -> UrdfJoint:

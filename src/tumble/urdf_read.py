@@ -62,6 +62,7 @@ class UrdfJoint:
     target: float = 0.0
     cone_limit: float | None = None  # a spherical joint's swing limit, rad (MJCF's ball range; URDF has none)
     armature: float = 0.0  # kg m^2 or kg added to the coordinate's inertia (MJCF's joint armature; URDF has none)
+    mimic: tuple | None = None  # <mimic joint multiplier offset>: (the joint followed, multiplier, offset)
 
 
 @dataclass
@@ -323,6 +324,13 @@ def _joint(element) -> UrdfJoint:
             joint.effort = _number(limit, "effort", k, nonnegative=True)
         if limit.get("velocity") is not None:
             joint.velocity = _number(limit, "velocity", k, nonnegative=True)
+    mimic = element.find("mimic")
+    if mimic is not None:
+        k = f"{key}.mimic"
+        if not mimic.get("joint"):
+            raise InputError("missing the joint it follows (joint=...)", f"{k}.joint")
+        joint.mimic = (mimic.get("joint"), _number(mimic, "multiplier", k, default=1.0),
+                       _number(mimic, "offset", k, default=0.0))
     dynamics = element.find("dynamics")
     if dynamics is not None:
         joint.damping = _number(dynamics, "damping", f"{key}.dynamics", default=0.0, nonnegative=True)

@@ -390,3 +390,150 @@ def test_bad_gears_in_python_are_typed_errors():
         w.add_joint(tb.GearJoint(joint="a1", follows="a2", max_force=10.0))
     with pytest.raises(InputError, match="index below 4"):
         w.add_joint(tb.GearJoint(joint=7, follows="a2"))
+
+
+GEARED_MJCF = """
+<mujoco model="geared">
+  <option timestep="0.0005" gravity="0 0 -9.81" integrator="RK4"/>
+  <worldbody>
+    <body name="bob" pos="0 0 2">
+      <joint name="swing" type="hinge" axis="0 1 0"/>
+      <inertial pos="0 0 -0.5" mass="1" diaginertia="0.001 0.001 0.001"/>
+      <geom type="sphere" size="0.05" pos="0 0 -0.5" contype="0" conaffinity="0"/>
+    </body>
+    <body name="wheel" pos="2 0 2">
+      <joint name="fly" type="hinge" axis="0 1 0"/>
+      <inertial pos="0 0 0" mass="4" diaginertia="0.064 0.064 0.064"/>
+      <geom type="sphere" size="0.2" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <equality>
+    <joint name="gear" joint1="fly" joint2="swing" polycoef="0 3 0 0 0"/>
+  </equality>
+</mujoco>
+"""
+
+
+def geared_pendulum_reference(times):
+    """DOP853 of the reduced equation of GEARED_MJCF: (I_swing + 9 I_fly) theta'' = -m g l sin(theta),
+    theta the swing joint's qpos (about +y: the bob at (-l sin, -l cos)), from 1 rad at rest."""
+    inertia = (0.001 + 1.0 * 0.5**2) + 3.0**2 * 0.064
+    return solve_ivp(lambda t, y: [y[1], -1.0 * 9.81 * 0.5 * math.sin(y[0]) / inertia], (0.0, times[-1]), [1.0, 0.0],
+                     method="DOP853", rtol=1e-12, atol=1e-14, t_eval=times).y[0]
+
+
+def test_an_mjcf_joint_equality_is_a_gear_that_follows_dop853_as_mujoco_does(tmp_path):
+    # MuJoCo's <equality><joint joint1 joint2 polycoef>: joint1 follows joint2 (fly = 3 swing). The
+    # same file in tumble (its joint equality a GearJoint; the tree solve, as every MJCF model with
+    # an equality) and in MuJoCo (RK4, dt 0.5 ms) against DOP853 of the reduced equation: tumble
+    # at dt 1/960 s (4 substeps) 3.0e-4 rad off over 2 s (1.2e-3 at 1/240 s: first order, as the
+    # pendulum above), the relation to 7e-16; MuJoCo 2.1e-4 rad off, its gear slipping 5.5e-4 rad
+    # under the swing's load (its equality is soft: solref 0.02 by default). Bounds 2x the
+    # measured (1e-12 for tumble's relation). Read the other way round (swing = 3 fly), the
+    # reduced pendulum swings at another period: 1.95 rad off DOP853's within the 2 s.
+    path = tmp_path / "geared.xml"
+    path.write_text(GEARED_MJCF)
+    times = np.arange(1, 9) * 0.25
+    ref = geared_pendulum_reference(times)
+
+    w = tb.World()
+    robot = tb.load_mjcf(w, path, joint_positions={"swing": 1.0, "fly": 3.0})
+    assert robot.equalities["gear"].kind == "gear"
+    sim = tb.Simulator(w, dt=1 / 960)
+    worst = slip = 0.0
+    for theta in ref:
+        sim.step(240)
+        states = robot.joint_states(sim)
+        worst = max(worst, abs(states["swing"][0] - theta))
+        slip = max(slip, abs(states["fly"][0] - 3.0 * states["swing"][0]))
+    assert worst < 6e-4
+    assert slip < 1e-12
+
+    mujoco = pytest.importorskip("mujoco")
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.qpos[:] = [1.0, 3.0]
+    mujoco.mj_forward(m, d)
+    worst_mj = slip_mj = 0.0
+    for theta in ref:
+        for _ in range(500):
+            mujoco.mj_step(m, d)
+        worst_mj = max(worst_mj, abs(d.qpos[0] - theta))
+        slip_mj = max(slip_mj, abs(d.qpos[1] - 3.0 * d.qpos[0]))
+    assert worst_mj < 4.2e-4
+    assert slip_mj < 1.1e-3
+
+
+MIMIC_URDF = """<?xml version="1.0"?>
+<robot name="spinner">
+  <link name="base"/>
+  <link name="w1">
+    <inertial><mass value="2"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><sphere radius="0.1"/></geometry></collision>
+  </link>
+  <link name="w2">
+    <inertial><mass value="2"/><inertia ixx="0.04" iyy="0.04" izz="0.04" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><sphere radius="0.2"/></geometry></collision>
+  </link>
+  <joint name="j1" type="continuous">
+    <parent link="base"/><child link="w1"/><origin xyz="0 0 1"/><axis xyz="0 0 1"/>
+  </joint>
+  <joint name="j2" type="continuous">
+    <parent link="base"/><child link="w2"/><origin xyz="1 0 1"/><axis xyz="0 0 1"/>
+    <mimic joint="j1" multiplier="-2" offset="0.1"/>
+  </joint>
+</robot>
+"""
+
+
+def test_a_urdf_mimic_joint_follows_its_joint(tmp_path):
+    # URDF's <mimic joint="j1" multiplier="-2" offset="0.1">: j2 = 0.1 - 2 j1, a GearJoint. The robot
+    # starts on the relation (j2 placed at 0.1), and a torque on j1 spins the pair up at
+    # tau / (I1 + 4 I2) as the gear pair above: rounding (1e-9), the relation to 1e-9 rad.
+    path = tmp_path / "spinner.urdf"
+    path.write_text(MIMIC_URDF)
+    w = tb.World(gravity=(0.0, 0.0, 0.0))
+    robot = tb.load_urdf(w, path, fixed_base=True)
+    assert robot.equalities["j2"].kind == "gear"
+    sim = tb.Simulator(w, dt=DT, joint_settings=ACCURATE)
+    R2 = robot.link_pose("w2")[1]
+    assert math.atan2(R2[1, 0], R2[0, 0]) == pytest.approx(0.1, abs=1e-12)  # placed on the relation
+    robot.set_joint_torque(sim, "j1", 0.5)
+    sim.step(240)
+    states = robot.joint_states(sim)
+    assert states["j1"][1] == pytest.approx(0.5 / (0.01 + 4 * 0.04), rel=1e-9)
+    assert abs(states["j2"][0] - (0.1 - 2.0 * states["j1"][0])) < 1e-9
+
+
+@pytest.mark.parametrize("change, problem", [
+    ('<mimic joint="j1" multiplier="-2" offset="0.1"/>', None),
+    ('<mimic joint="nope"/>', "joint[j2].mimic.joint: unknown joint 'nope'"),
+    ('<mimic multiplier="2"/>', "joint[j2].mimic.joint: missing the joint it follows"),
+    ('<mimic joint="j1" multiplier="two"/>', "joint[j2].mimic.multiplier: expected"),
+    ('<mimic joint="j2"/>', "joint[j2].mimic.follows: a gear needs two different joints"),
+])
+def test_bad_mimics_are_one_line(tmp_path, change, problem):
+    path = tmp_path / "spinner.urdf"
+    path.write_text(MIMIC_URDF.replace('<mimic joint="j1" multiplier="-2" offset="0.1"/>', change))
+    w = tb.World()
+    if problem is None:
+        tb.load_urdf(w, path, fixed_base=True)
+        return
+    with pytest.raises(InputError) as err:
+        tb.load_urdf(w, path, fixed_base=True)
+    assert problem in str(err.value) and "spinner.urdf" in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("equality, problem", [
+    ('<joint joint1="fly" joint2="nope"/>', "equality.joint[0].joint2: unknown joint 'nope'"),
+    ('<joint joint1="fly"/>', "equality.joint[0]: an equality that fixes one joint (no joint2) is not supported"),
+    ('<joint joint1="fly" joint2="fly"/>', "equality.joint[0]: joint1 and joint2 are the same joint"),
+    ('<joint joint1="fly" joint2="swing" polycoef="0 1 2 3 4 5"/>', "equality.joint[0].polycoef: expected"),
+])
+def test_bad_mjcf_joint_equalities_are_one_line(tmp_path, equality, problem):
+    path = tmp_path / "geared.xml"
+    path.write_text(GEARED_MJCF.replace('<joint name="gear" joint1="fly" joint2="swing" polycoef="0 3 0 0 0"/>',
+                                        equality))
+    with pytest.raises(InputError) as err:
+        tb.load_mjcf(tb.World(), path)
+    assert problem in str(err.value) and "\n" not in str(err.value)

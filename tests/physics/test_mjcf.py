@@ -266,7 +266,8 @@ def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path,
 
 @pytest.mark.parametrize("text, problem", [
     ("<mujoco><worldbody/><equality><weld body1='a'/></equality></mujoco>", "equality.weld[0].body1: unknown body 'a'"),
-    ("<mujoco><worldbody/><equality><joint joint1='a'/></equality></mujoco>", "<equality><joint> is not supported"),
+    ("<mujoco><worldbody/><equality><joint joint1='a'/></equality></mujoco>", "equality.joint[0].joint1: unknown joint 'a'"),
+    ("<mujoco><worldbody/><equality><tendon tendon1='a'/></equality></mujoco>", "<equality><tendon> is not supported"),
     ("<mujoco><worldbody><body name='b'><joint/><geom size='0.1'/></body></worldbody><equality>"
      "<weld body1='b' relpose='0 0 1 1 0 0 0'/></equality></mujoco>", "relpose is not supported"),
     ("<mujoco><worldbody><body name='b'><joint/><geom size='0.1'/></body></worldbody><equality>"
