@@ -434,3 +434,16 @@ def test_a_shape_too_large_for_a_float_is_one_input_error(shape, amount):
     # capsule of radius 1e300 in a URDF loaded with inertia="shapes" ended in a traceback)
     with pytest.raises(InputError, match="too large"):
         mass_properties(shape, **amount)
+
+
+def test_a_compound_part_past_the_float_range_is_one_line():
+    # A ball of radius 1e80 m has a volume of 4e240 and moments past the float range: the sums
+    # gave NaN with a RuntimeWarning (found by the URDF fuzz test); now a typed error naming the part.
+    import tumble as tb
+    from tumble.errors import InputError
+    from tumble.mass import mass_properties
+
+    huge = tb.Compound([(tb.Sphere(1e80), (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)),
+                        (tb.Sphere(0.1), (1.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))])
+    with pytest.raises(InputError, match="part 0 is too large"):
+        mass_properties(huge, mass=1.0)

@@ -3,7 +3,8 @@ file with any attribute given any value, any element dropped or repeated, never 
 it loads and steps, or it is refused with one ``InputError`` line naming the file, and no warning.
 The base file has every element tumble reads (default classes, every orientation form, fromto, a
 mesh asset, each joint type, several joints in one body, an inertial, actuators, an exclude, an
-include, sites, fixed and tracking cameras, a fixed tendon with a motor, sensors, a keyframe)."""
+include, sites, fixed and tracking cameras, a fixed tendon with a motor, a joint equality, sensors, a
+keyframe)."""
 
 import warnings
 
@@ -49,6 +50,7 @@ BASE = """<mujoco model="fuzz">
     <include file="inc.xml"/>
   </worldbody>
   <tendon><fixed name="t"><joint joint="j1" coef="1"/><joint joint="j2" coef="-0.5"/></fixed></tendon>
+  <equality><joint joint1="j2b" joint2="j1" polycoef="0 0.5 0.1"/></equality>
   <sensor>
     <jointpos joint="j1"/><jointvel joint="j2"/><framepos objtype="site" objname="s_a"/>
     <framequat objtype="xbody" objname="b"/><gyro site="s_a"/><velocimeter site="s_ball"/>
@@ -66,7 +68,8 @@ BASE = """<mujoco model="fuzz">
 def mutated(data) -> str:
     return mutate(data, BASE, ["name", "pos", "quat", "euler", "size", "type", "class", "range", "fromto", "mass",
                                "axis", "joint", "limited", "zaxis", "site", "objtype", "objname", "coef", "qpos",
-                               "qvel", "tendon", "mode", "fovy", "resolution", "body", "file"])
+                               "qvel", "tendon", "mode", "fovy", "resolution", "body", "file", "joint1", "joint2",
+                               "polycoef"])
 
 
 @pytest.fixture(scope="module")

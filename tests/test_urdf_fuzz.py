@@ -46,7 +46,8 @@ BASE = """<?xml version="1.0"?>
     <origin xyz="0 0 -0.8"/><axis xyz="0 1 0"/></joint>
   <joint name="wrist" type="fixed"><parent link="lower"/><child link="tip"/><origin xyz="0.05 0 -0.6"/></joint>
   <joint name="slide" type="prismatic"><parent link="upper"/><child link="cart"/>
-    <origin xyz="0 0.2 -0.2" rpy="0 0.5 0"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1"/></joint>
+    <origin xyz="0 0.2 -0.2" rpy="0 0.5 0"/><axis xyz="0 0 1"/><limit lower="-0.1" upper="0.1"/>
+    <mimic joint="elbow" multiplier="0.05" offset="0.01"/></joint>
 </robot>
 """
 
@@ -89,7 +90,8 @@ def mutate(data, base: str, new_attributes) -> str:
 
 
 def mutated(data) -> str:
-    return mutate(data, BASE, ["name", "value", "xyz", "rpy", "size", "radius", "type", "link"])
+    return mutate(data, BASE, ["name", "value", "xyz", "rpy", "size", "radius", "type", "link", "joint", "multiplier",
+                               "offset"])
 
 
 @pytest.fixture(scope="module")
