@@ -118,7 +118,7 @@ class Simulator:
         if joint_settings is None and world.exact_joints:
             # light virtual links between joints (tumble.mjcf): Gauss-Seidel's soft rows leave errors of
             # tenths of a radian there (measured against MuJoCo), the exact tree solve converges; the
-            # same for armature (World.add_joint)
+            # same for armature and gears (World.add_joint)
             from .solver.joints import ACCURATE
 
             joint_settings = ACCURATE

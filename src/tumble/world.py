@@ -342,9 +342,14 @@ class World:
     def add_joint(self, joint):
         """Add a joint record of ``tumble.joints`` (BallJoint, HingeJoint, ...): checks it and
         resolves its anchors and axes into the bodies' frames at their current poses."""
-        from .joints import P_ARMATURE, bind_joint
+        from .joints import JOINT_GEAR, P_ARMATURE, bind_joint
 
         bound = bind_joint(self, joint)
+        if bound.type_id == JOINT_GEAR:
+            # Gauss-Seidel takes a gear's effective mass over the free bodies: a pendulum geared 3:1 to a
+            # flywheel slipped 0.081 rad in 2 s with Box2D's soft rows and blew up within 0.2 s with rigid
+            # ones; the tree method takes it through the tree (2e-15 rad; measured): the default
+            self.exact_joints = True
         if bound.param[P_ARMATURE] > 0.0:
             # Gauss-Seidel converges slowly, and with limits not at all, where the armature dwarfs the
             # links' inertia (two 0.1 kg links of 0.4 m with armature 1 swung twice the exact angle in

@@ -75,7 +75,7 @@ def test_the_default_soft_gear_sags_under_load_as_its_stiffness_says():
     # left out, in the gripper below).
     tau, I1, I2, ratio = 0.5, 0.01, 0.04, -2.0
     w = gear_pair(ratio, tau)
-    sim = tb.Simulator(w, dt=DT)
+    sim = tb.Simulator(w, dt=DT, joint_settings=JointSettings())  # Box2D's (a gear's default is the tree's)
     sim.step(240)
     r = sim.joint_readings()
     alpha = tau / (I1 + ratio**2 * I2)
@@ -158,7 +158,7 @@ def test_the_soft_gear_of_two_fingers_sags_by_its_effective_mass():
     # (2/m + 2/M) the sag is 10 % smaller (checked by dropping the term in joint_gear.free_mass).
     F, M, m = 2.0, 4.0, 0.5
     w, hand = gripper(F)
-    sim = tb.Simulator(w, dt=DT)
+    sim = tb.Simulator(w, dt=DT, joint_settings=JointSettings())
     sim.step(120)
     C = sim.joint_readings()["position"][2]
     k = 2 / m + 4 / M
@@ -277,6 +277,26 @@ def test_a_broken_joint_stops_its_gear():
     assert np.array_equal(w.omega[g2.index], rate) and np.array_equal(w.v[g2.index], v)  # free now
     I1 = 0.4 * 1.0 * 0.1**2
     assert w.omega[g1.index, 2] - spin == pytest.approx(1.0 / I1 * 24 * DT, rel=1e-9)
+
+
+def test_a_world_with_a_gear_defaults_to_the_tree_method():
+    # Gauss-Seidel takes the gear's mass over the free bodies: on the pendulum geared to a flywheel
+    # Box2D's soft rows let the gear slip 0.081 rad in 2 s and rigid rows blow up within 0.2 s
+    # (measured); so a gear sets world.exact_joints and the Simulator takes the tree method
+    # (ACCURATE) unless told otherwise: the gear then holds to rounding (1e-12 bound).
+    w = pendulum_and_flywheel(3.0)
+    assert w.exact_joints
+    sim = tb.Simulator(w, dt=DT)
+    assert sim.joint_settings.method == "tree"
+    sim.step(480)
+    q = sim.joint_readings()["position"]
+    assert abs(q[1] - 3.0 * q[0]) < 1e-12
+    soft = tb.Simulator(pendulum_and_flywheel(3.0), dt=DT, joint_settings=JointSettings())
+    soft.step(480)
+    q = soft.joint_readings()["position"]
+    assert abs(q[1] - 3.0 * q[0]) > 1e-3  # what the default avoids: Gauss-Seidel's slip (0.08 rad at 2 s)
+    with pytest.raises(tb.SimulationError):
+        tb.Simulator(pendulum_and_flywheel(3.0), dt=DT, joint_settings=RIGID_GS).step(480)
 
 
 def test_a_checkpoint_carries_a_gear_bit_for_bit(tmp_path):
@@ -537,3 +557,29 @@ def test_bad_mjcf_joint_equalities_are_one_line(tmp_path, equality, problem):
     with pytest.raises(InputError) as err:
         tb.load_mjcf(tb.World(), path)
     assert problem in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "tree"])
+def test_gear_variants_batch_bit_for_bit(method, tmp_path):
+    # A sweep over the flywheel's mass in examples/joints/geared_flywheel.toml (collisions off, so
+    # that the variants may share space): with Gauss-Seidel chosen in the file the
+    # variants run as one World (tumble.sweep.batch), each gear pointing at its own variant's joints
+    # (their rows moved by the joints before them), and give the bits of their single runs; the tree
+    # method's sweeps while a gear's impulse changes run over all joints, so those run one by one.
+    pytest.importorskip("pyarrow")
+    from pathlib import Path
+
+    from tumble.sweep import run_sweep, tables_equal
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "joints" / "geared_flywheel.toml"
+    scene = tmp_path / "geared.toml"
+    text = example.read_text().replace('method = "tree"', f'method = "{method}"')
+    if method == "gauss-seidel":  # Box2D's soft rows (rigid Gauss-Seidel rows blow this pendulum up)
+        text = text.replace("hertz = 0\n", "")
+    scene.write_text(text.replace("gravity = [0, 0, -9.81]", "gravity = [0, 0, -9.81]\ncollisions = false"))
+    vary = ["bodies.flywheel.mass=linspace(2.0, 6.0, 4)", "simulation.duration=[1.0]"]
+    batched = run_sweep(scene, vary=vary, workers=0, progress=False)
+    single = run_sweep(scene, vary=vary, workers=0, progress=False, batch=False)
+    assert batched["batch_size"].to_pylist() == [4 if method == "gauss-seidel" else 1] * 4
+    assert tables_equal(batched, single, ignore=("wall_time_s", "batch_size"))
+    assert len(set(batched["state_hash"].to_pylist())) == 4

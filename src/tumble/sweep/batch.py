@@ -65,7 +65,7 @@ def batch_key(scene):
         return None
     if w.kinematic.any():  # kinematic bodies are stepped one step at a time, paths by body row
         return None
-    if w.exact_joints:  # MJCF virtual links: its own Simulator picks the tree solve
+    if w.exact_joints and scene.joint_settings is None:  # armature, gears, MJCF: its own Simulator picks the tree
         return None
     impulse_steps = tuple(sorted({int(np.ceil(f.time / scene.dt - 1e-9)) for f in w.forces if isinstance(f, Impulse)}))
     return (
