@@ -113,6 +113,7 @@ def _joint_to_dict(world, joint) -> dict:
             value = _body_name(world, b.body_b)
         elif f.name in ("joint", "follows"):  # a gear's joints: by index in world.joints (its bound row's)
             value = int(b.param[G_JOINT if f.name == "joint" else G_FOLLOWS])
+            value = None if value < 0 else value  # a lock follows no joint
         elif isinstance(value, (tuple, list, np.ndarray)):
             value = np.asarray(value, dtype=float).tolist()
         out[f.name] = value

@@ -436,7 +436,8 @@ class GearJoint(Joint):
     Args:
         joint: the joint that follows: its record, name or index in ``world.joints``, a hinge or
             a slider added before the gear.
-        follows: the joint it follows (another hinge or slider).
+        follows: the joint it follows (another hinge or slider); None: none, the joint is locked
+            at q_joint = offset (``polynomial[0]``; MuJoCo's joint equality without joint2).
         ratio: dq_joint / dq_follows (rad/rad, m/rad, rad/m or m/m). Default 1.
         offset: q_joint when q_follows is 0 (rad or m). Default 0: the two keep their creation's
             relation.
@@ -573,6 +574,9 @@ def _bind_gear(world, gear: GearJoint) -> BoundJoint:
     """A gear's bound row: the two joints' indices and the polynomial's coefficients (``G_*``)."""
     ends = []
     for key in ("joint", "follows"):
+        if key == "follows" and gear.follows is None:  # a lock: q_joint = offset (MuJoCo's equality without joint2)
+            ends.append(-1)
+            continue
         k = _joint_index(world, getattr(gear, key), key)
         rec = world.joints[k]
         if rec.kind not in ("hinge", "slider"):
@@ -601,10 +605,10 @@ def _bind_gear(world, gear: GearJoint) -> BoundJoint:
     # a moving body of each joint (its body_b unless that is the world): islands join them, checkpoints name them
     bodies = []
     for k in ends:
-        bj = world.joints[k].bound
+        bj = world.joints[k if k >= 0 else ends[0]].bound
         bodies.append(bj.body_b if bj.body_b >= 0 else bj.body_a)
     if bodies[0] == bodies[1]:
-        bodies[1] = world.joints[ends[1]].bound.body_a
+        bodies[1] = world.joints[ends[1] if ends[1] >= 0 else ends[0]].bound.body_a
     z = np.zeros(3)
     bound = BoundJoint(JOINT_GEAR, bodies[0], bodies[1], z, z.copy(), np.eye(3), np.eye(3), param)
     gear.bound = bound

@@ -41,7 +41,7 @@ What maps to what:
   ``BallJoint`` closing a loop, ``weld`` a ``FixedJoint`` keeping the model's relative pose, both
   taken at the model's pose (MuJoCo's qpos0) before ``joint_positions`` places the bodies;
   ``joint`` (``joint1``, ``joint2``, ``polycoef``: q1 - q1_0 = a0 + a1 (q2 - q2_0) + ... + a4
-  (q2 - q2_0)^4, hinge and slide joints) a ``GearJoint``; in ``Robot.equalities``; rigid
+  (q2 - q2_0)^4, hinge and slide joints; without joint2, joint1 locked at a0) a ``GearJoint``; in ``Robot.equalities``; rigid
   (MuJoCo's are soft: ``solref``/``solimp`` are not read); a model with one gets the tree solve
   by default. ``active="false"`` ones are left off.
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
@@ -81,7 +81,7 @@ cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` le
 ``<include>``: expanded as MuJoCo does (``mjcf_xml``: the included file's top-level children in
 its place, paths from the main file's directory; repeated worldbody and compiler sections merged).
 Refused with one line: ``<equality>`` other than connect, weld and joint (tendon,
-flex; between sites; a weld's ``relpose``; a joint equality without joint2), spatial tendons and fixed ones with a range,
+flex; between sites; a weld's ``relpose``), spatial tendons and fixed ones with a range,
 stiffness, damping or friction loss, position, velocity and biased actuators on tendons,
 ``<contact><pair>``, ``<frame>``,
 ``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,

@@ -237,13 +237,15 @@ def _equalities(reader, root, out: MjcfModel, names):
 
 def _joint_equality(a, key: str, out: MjcfModel):
     """``<equality><joint joint1 joint2 polycoef>``: (joint1, joint2, coefficients (5,)), joint1 following
-    joint2 as q1 - q1_0 = a0 + a1 (q2 - q2_0) + ... + a4 (q2 - q2_0)^4 (MuJoCo's; a ``GearJoint``)."""
+    joint2 as q1 - q1_0 = a0 + a1 (q2 - q2_0) + ... + a4 (q2 - q2_0)^4 (MuJoCo's; a ``GearJoint``); without
+    joint2 (None), joint1 locked at q1 - q1_0 = a0."""
     kinds = {j.name: j.kind for j in out.model.joints}
     ends = []
     for role in ("joint1", "joint2"):
         joint = a.get(role)
-        if joint is None and role == "joint2":
-            raise InputError("an equality that fixes one joint (no joint2) is not supported", key)
+        if joint is None and role == "joint2":  # joint1 locked at polycoef[0] from its reference
+            ends.append(None)
+            continue
         if joint not in kinds:
             raise InputError(f"unknown joint {joint!r}", f"{key}.{role}")
         if kinds[joint] not in ("revolute", "continuous", "prismatic"):
@@ -270,8 +272,8 @@ def _add_equalities(world, robot, equalities):
     for kind, name, body1, body2, anchor in equalities:
         key = f"equality.{kind}[{name}]"
         if kind == "joint":  # body1, body2, anchor: joint1, joint2, polycoef
-            record = GearJoint(joint=robot.joints[body1], follows=robot.joints[body2], polynomial=tuple(anchor),
-                               name=f"{robot.name}/{name}")
+            record = GearJoint(joint=robot.joints[body1], follows=None if body2 is None else robot.joints[body2],
+                               polynomial=tuple(anchor), name=f"{robot.name}/{name}")
         elif body1 != "world" and body2 != "world" and robot.links[body1] is robot.links[body2]:
             continue  # both welded into one body: nothing left to hold
         elif kind == "connect":

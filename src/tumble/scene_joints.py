@@ -22,7 +22,7 @@ q_follows``, or ``polynomial = [a0, a1, a2, a3, a4]``; ``tumble.joints.GearJoint
     [[joints]]
     type = "gear"
     joint = "wheel_axle"           # the joint that follows
-    follows = "motor_axle"         # the joint it follows
+    follows = "motor_axle"         # the joint it follows (left out: joint locked at offset)
     ratio = -2.0                   # rad/rad (m/rad for a rack on a pinion)
 
 A ball joint takes ``twist_lower``, ``twist_upper`` (rad, in [-pi, pi]) besides its
@@ -191,6 +191,8 @@ def _parse_gear(entry: dict, key: str, world, file, names: set):
     kw: dict[str, Any] = {}
     for k in ("joint", "follows"):
         if k not in entry:
+            if k == "follows":  # none: the joint is locked at offset
+                continue
             raise InputError(f"missing key {k!r}", key, file)
         if not isinstance(entry[k], str) or not entry[k]:
             raise InputError(f"expected the name of a joint above, got {_describe(entry[k])}", f"{key}.{k}", file)

@@ -382,7 +382,7 @@ anchor = [1, 0, 1]
     ('type = "gear"\njoint = "a1"\nfollows = "a1"', "joints[3].follows: a gear needs two different joints"),
     ('type = "gear"\njoint = "a1"\nfollows = "nope"', "joints[3].follows: unknown joint 'nope'"),
     ('type = "gear"\njoint = "a1"\nfollows = "b"', "joints[3].follows: a gear couples hinge and slider joints"),
-    ('type = "gear"\njoint = "a1"', "joints[3]: missing key 'follows'"),
+    ('type = "gear"\nfollows = "a1"', "joints[3]: missing key 'joint'"),
     ('type = "gear"\njoint = "a1"\nfollows = "a2"\nbody_a = "p"', "joints[3].body_a: unknown key for a gear joint"),
     ('type = "gear"\njoint = "a1"\nfollows = "a2"\npolynomial = [1, 2, 3, 4, 5, 6]',
      "joints[3].polynomial: expected a list of 1 to 5 numbers"),
@@ -546,7 +546,6 @@ def test_bad_mimics_are_one_line(tmp_path, change, problem):
 
 @pytest.mark.parametrize("equality, problem", [
     ('<joint joint1="fly" joint2="nope"/>', "equality.joint[0].joint2: unknown joint 'nope'"),
-    ('<joint joint1="fly"/>', "equality.joint[0]: an equality that fixes one joint (no joint2) is not supported"),
     ('<joint joint1="fly" joint2="fly"/>', "equality.joint[0]: joint1 and joint2 are the same joint"),
     ('<joint joint1="fly" joint2="swing" polycoef="0 1 2 3 4 5"/>', "equality.joint[0].polycoef: expected"),
 ])
@@ -583,3 +582,41 @@ def test_gear_variants_batch_bit_for_bit(method, tmp_path):
     assert batched["batch_size"].to_pylist() == [4 if method == "gauss-seidel" else 1] * 4
     assert tables_equal(batched, single, ignore=("wall_time_s", "batch_size"))
     assert len(set(batched["state_hash"].to_pylist())) == 4
+
+
+def test_a_gear_without_a_joint_to_follow_locks_its_joint():
+    # follows=None: q_joint = offset (MuJoCo's joint equality without joint2). A pendulum on a hinge
+    # about y, its bob 1 rad out, locked at 0.3 rad from that start: the lock's bias takes it there
+    # and holds it against gravity; after 1 s it sits at 0.3 rad to 1e-9 (a rigid row through the
+    # tree, the default with a gear), at rest (1e-9 rad/s).
+    w2 = tb.World(gravity=(0.0, 0.0, -9.81))
+    bob = w2.add_body(tb.Sphere(0.05), mass=1.0, position=(0.5 * math.sin(1.0), 0.0, 2.0 - 0.5 * math.cos(1.0)))
+    w2.add_joint(tb.HingeJoint("world", bob, anchor=(0.0, 0.0, 2.0), axis=(0.0, 1.0, 0.0), name="swing"))
+    w2.add_joint(tb.GearJoint(joint="swing", offset=0.3, name="lock"))
+    assert w2.exact_joints
+    sim = tb.Simulator(w2, dt=DT)
+    sim.step(240)
+    r = sim.joint_readings()
+    assert r["position"][0] == pytest.approx(0.3, abs=1e-9)
+    assert abs(r["rate"][0]) < 1e-9
+    assert abs(r["position"][1]) < 1e-9  # the lock's own error
+
+
+def test_an_mjcf_joint_equality_without_joint2_locks_the_joint_as_in_mujoco(tmp_path):
+    # <equality><joint joint1="swing" polycoef="0.3"/>: swing held at 0.3 rad from its reference, the
+    # flywheel (no longer geared) free. tumble holds 0.3 to 1e-9 (its rigid lock); MuJoCo's soft
+    # equality sags under the bob's weight: measured 0.3 - 2.4e-4 rad; bound 5e-4.
+    path = tmp_path / "locked.xml"
+    path.write_text(GEARED_MJCF.replace('<joint name="gear" joint1="fly" joint2="swing" polycoef="0 3 0 0 0"/>',
+                                        '<joint name="lock" joint1="swing" polycoef="0.3"/>'))
+    w = tb.World()
+    robot = tb.load_mjcf(w, path)
+    sim = tb.Simulator(w, dt=1 / 960)
+    sim.step(960)
+    assert robot.joint_states(sim)["swing"][0] == pytest.approx(0.3, abs=1e-9)
+    mujoco = pytest.importorskip("mujoco")
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    for _ in range(2000):
+        mujoco.mj_step(m, d)
+    assert d.qpos[0] == pytest.approx(0.3, abs=5e-4)

@@ -27,8 +27,10 @@ GEAR_COLUMN = 0  # = joint_solve.A_SPRING: the gear's accumulated impulse (N s o
 
 @njit(**JIT)
 def gear_on(g, param, enabled):
-    """Whether gear g acts: both its joints do (a broken joint stops its gear)."""
-    return enabled[int(param[g, G_JOINT])] and enabled[int(param[g, G_FOLLOWS])]
+    """Whether gear g acts: both its joints do (a broken joint stops its gear); a lock (no joint
+    followed: ``G_FOLLOWS`` -1) while its joint does."""
+    k = int(param[g, G_FOLLOWS])
+    return enabled[int(param[g, G_JOINT])] and (k < 0 or enabled[k])
 
 
 @njit(**JIT)
@@ -91,12 +93,21 @@ def gear_row(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b
     j2 = int(param[g, G_FOLLOWS])
     a1 = joint_a[j1]
     b1 = joint_b[j1]
-    a2 = joint_a[j2]
-    b2 = joint_b[j2]
     _h1, lin1, n1, ra1, rb1, q1 = _coordinate_row(joint_type[j1], j1, a1, b1, x, R, local_a, local_b, frame_a,
                                                   frame_b, position)
-    _h2, lin2, n2, ra2, rb2, q2 = _coordinate_row(joint_type[j2], j2, a2, b2, x, R, local_a, local_b, frame_a,
-                                                  frame_b, position)
+    if j2 < 0:  # a lock, q_1 = a0: joint 2's row on no body (the world twice: no velocity, no mass)
+        a2 = -1
+        b2 = -1
+        lin2 = False
+        n2 = (0.0, 0.0, 0.0)
+        ra2 = n2
+        rb2 = n2
+        q2 = 0.0
+    else:
+        a2 = joint_a[j2]
+        b2 = joint_b[j2]
+        _h2, lin2, n2, ra2, rb2, q2 = _coordinate_row(joint_type[j2], j2, a2, b2, x, R, local_a, local_b, frame_a,
+                                                      frame_b, position)
     c0 = param[g, G_COEF]
     c1 = param[g, G_COEF + 1]
     c2 = param[g, G_COEF + 2]

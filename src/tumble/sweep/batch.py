@@ -172,8 +172,11 @@ def _moved_joint(rec, k: int, offset: int, first_joint: int):
                                     local_b=np.copy(b.local_b), frame_a=np.copy(b.frame_a), frame_b=np.copy(b.frame_b),
                                     param=np.copy(b.param))
     if b.type_id == JOINT_GEAR:
-        new.bound.param[[G_JOINT, G_FOLLOWS]] += first_joint
-        new.joint, new.follows = (int(new.bound.param[G_JOINT]), int(new.bound.param[G_FOLLOWS]))
+        for column in (G_JOINT, G_FOLLOWS):
+            if new.bound.param[column] >= 0:  # (-1: a lock follows no joint)
+                new.bound.param[column] += first_joint
+        new.joint = int(new.bound.param[G_JOINT])
+        new.follows = None if new.bound.param[G_FOLLOWS] < 0 else int(new.bound.param[G_FOLLOWS])
     new.broken = rec.broken
     return new
 
