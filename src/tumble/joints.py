@@ -450,7 +450,8 @@ class GearJoint(Joint):
 
     ``body_a``, ``body_b`` and the anchor are set from the two joints (a body of each, for
     islands and checkpoints); the readings' ``position`` is the gear's error q_joint - p(q)
-    (rad or m), ``rate`` its rate; ``force`` and ``torque`` are 0.
+    (rad or m), ``rate`` its rate, and ``torque`` (a hinge) or ``force`` (a slider) what the gear
+    applies to its ``joint``'s body b along that joint's axis (N m or N, world; the other is 0).
     """
 
     body_a: Any = None

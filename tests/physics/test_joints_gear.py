@@ -62,6 +62,9 @@ def test_a_gear_pair_spins_up_with_the_reduced_inertia(method, path, ratio):
     assert r["rate"][1] == pytest.approx(ratio * alpha * 1.0, rel=1e-9)
     assert abs(r["position"][2]) < 1e-9  # the gear's reading: its error q2 - r q1
     assert abs(r["position"][1] - ratio * r["position"][0]) < 1e-9
+    # what the gear applies to the wheel: the torque that turns it, I2 r alpha about z
+    np.testing.assert_allclose(r["torque"][2], [0.0, 0.0, I2 * ratio * alpha], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(r["force"][2], 0.0, atol=0.0)
 
 
 def test_the_default_soft_gear_sags_under_load_as_its_stiffness_says():
@@ -110,6 +113,8 @@ def test_a_rack_falls_with_the_pinion_s_inertia_added(method):
     I = float(np.linalg.inv(w.I_inv[pinion.index])[1, 1])
     a = -3.0 * 9.81 / (3.0 + I / 0.1**2)
     assert r["rate"][1] == pytest.approx(a * 0.5, rel=1e-9)
+    # what the gear applies to the rack: m (a + g) upwards, the force that slows its fall
+    np.testing.assert_allclose(r["force"][2], [0.0, 0.0, 3.0 * (a + 9.81)], rtol=1e-9, atol=1e-12)
     assert r["rate"][0] == pytest.approx(a * 0.5 / 0.1, rel=1e-9)
     assert abs(r["position"][2]) < 1e-9
 

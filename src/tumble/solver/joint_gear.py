@@ -128,6 +128,15 @@ def gear_rate(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_
 
 
 @njit(**JIT)
+def gear_axis(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R):
+    """(linear, n): the coordinate row of the joint gear g moves (its ``joint``): a slider's axis
+    (linear) or a hinge's (world), along which the gear's impulse acts on that joint's body b."""
+    (_j1, _a1, _b1, lin1, n1, _ra1, _rb1, _j2, _a2, _b2, _lin2, _n2, _ra2, _rb2, _C,
+     _s) = gear_row(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R)
+    return lin1, n1
+
+
+@njit(**JIT)
 def gear_apply(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R, inv_mass,
                I_inv, impulse, v, omega):
     """Apply ``impulse`` along gear g's J to v, omega (the warm start)."""

@@ -72,7 +72,7 @@ from ..math3d import (
     quat_exp_multiply_inplace,
     quat_to_matrix_into,
 )
-from .joint_gear import GEAR_COLUMN, gear_rate
+from .joint_gear import GEAR_COLUMN, gear_axis, gear_rate
 from .joint_math import (
     _add,
     _anchor,
@@ -290,12 +290,15 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
         t = joint_type[j]
         a = joint_a[j]
         b = joint_b[j]
-        if t == JOINT_GEAR:  # its error and rate; no reaction of its own, and it does not break
+        if t == JOINT_GEAR:  # its error and rate; what it applies to its joint; it does not break
             position[j], rate[j] = gear_rate(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
                                              param, position, x, R, v, omega)
+            linear, n = gear_axis(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param,
+                                  position, x, R)
+            effort = axial_impulse[j, GEAR_COLUMN] * inv_h
             for k in range(3):
-                reaction_force[j, k] = 0.0
-                reaction_torque[j, k] = 0.0
+                reaction_force[j, k] = effort * n[k] if linear else 0.0
+                reaction_torque[j, k] = 0.0 if linear else effort * n[k]
             broke[j] = False
             continue
         has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
