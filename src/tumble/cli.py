@@ -40,10 +40,11 @@ EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 2, 
 COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.viewer.commands", "tumble.sweep.commands")
 OUTPUT_NAMES = ("trajectory.npz", "summary.json", "checkpoint.npz")
 # What --video, --gltf, --usd and --plots write beside them (tumble demo writes all but USD).
-MEDIA_NAMES = {"video": "video.mp4", "gltf": "trajectory.glb", "usd": "trajectory.usdc", "plots": "plots"}
+MEDIA_NAMES = {"video": "video.mp4", "gltf": "trajectory.glb", "usd": "trajectory.usdc", "plots": "plots",
+               "images": "images"}
 # The modules each kind of media needs, and the extra that installs them.
 MEDIA_NEEDS = {"video": (("pyvista", "imageio", "imageio_ffmpeg"), "render"), "plots": (("matplotlib",), "render"),
-               "usd": (("pxr",), "export"), "gltf": ((), "export")}
+               "usd": (("pxr",), "export"), "gltf": ((), "export"), "images": (("imageio",), "render")}
 VIDEO_SIZE = (960, 540)  # pixels: sharp enough to watch, quick to render (about 0.1 s a frame)
 
 
@@ -83,6 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--gltf", action="store_true", help=f"also export {MEDIA_NAMES['gltf']} (Blender, three.js)")
     run.add_argument("--usd", action="store_true", help=f"also export {MEDIA_NAMES['usd']}")
     run.add_argument("--plots", action="store_true", help=f"also plot energy, momentum and orthonormality into {MEDIA_NAMES['plots']}/")
+    run.add_argument("--images", action="store_true",
+                     help=f"also capture the scene's [[cameras]] at every frame into {MEDIA_NAMES['images']}/ "
+                          "(colour PNGs, depth and segmentation)")
     run.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its checkpoint.npz (no SCENE)")
     parser._run_parser = run
     val = sub.add_parser("validate", help="check a scene file and build its world without running it")
@@ -212,6 +216,8 @@ def cmd_run(args) -> int:
     _apply_overrides(scene, args)
 
     media = _media_requested(args)
+    if "images" in media and not scene.cameras:
+        raise InputError("the scene has no [[cameras]] to capture", "--images", label)
     targets = [out / name for name in OUTPUT_NAMES] + [out / MEDIA_NAMES[m] for m in media] + [out / copy_name]
     if out.exists() and not out.is_dir():
         raise InputError("exists and is not a folder (choose another --out)", None, str(out))
@@ -230,7 +236,7 @@ def cmd_run(args) -> int:
             "settings": scene.settings(), "copy": copy_name}
     status = _stream(sim, out, scene.duration, scene.frame_rate, args, info, resume=False)
     if status == EXIT_OK and media:
-        _write_media(out, media, progress=(not args.no_progress) and sys.stderr.isatty())
+        _write_media(out, media, progress=(not args.no_progress) and sys.stderr.isatty(), scene=scene)
     return status
 
 
@@ -260,8 +266,9 @@ def _missing_modules(modules) -> list[str]:
     return [m for m in modules if importlib.util.find_spec(m) is None]
 
 
-def _write_media(out: Path, media, progress: bool):
-    """The video, glTF, USD and plots of the finished run in ``out`` (issue: see and share the motion)."""
+def _write_media(out: Path, media, progress: bool, scene=None):
+    """The video, glTF, USD and plots of the finished run in ``out`` (issue: see and share the motion);
+    the camera images of ``scene``'s cameras."""
     from .trajectory import load_trajectory
 
     traj = load_trajectory(out / OUTPUT_NAMES[0])
@@ -279,6 +286,11 @@ def _write_media(out: Path, media, progress: bool):
         from .render.plots import plot_trajectory
 
         written.extend(plot_trajectory(traj, out / MEDIA_NAMES["plots"]))
+    if "images" in media:
+        from .scene_cameras import write_images
+
+        files = write_images(out, scene.world, scene.cameras, traj)
+        written.append(f"{out / MEDIA_NAMES['images']}/ ({len(files)} files)")
     print("wrote " + ", ".join(str(p) for p in written))
 
 

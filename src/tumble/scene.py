@@ -77,7 +77,8 @@ DEFAULTS = {
     "sleeping": True,
 }
 
-TOP_KEYS = ("simulation", "bodies", "robots", "forces", "contact", "joints", "joint_solver", "collision_exclusions")
+TOP_KEYS = ("simulation", "bodies", "robots", "forces", "contact", "joints", "joint_solver", "collision_exclusions",
+            "cameras")
 # [contact]: the soft step's settings (tumble.solver.contact.SoftStepSettings), all optional.
 CONTACT_KEYS = tuple(f.name for f in dataclasses.fields(SoftStepSettings))
 SIMULATION_KEYS = tuple(DEFAULTS)
@@ -112,6 +113,7 @@ class Scene:
     contact: SoftStepSettings = field(default_factory=SoftStepSettings)
     joint_settings: Any = None
     record_joints: bool = False
+    cameras: dict = field(default_factory=dict)  # [[cameras]]: {name: tumble.Camera} (scene_cameras)
 
     @property
     def gravity(self) -> list[float]:
@@ -343,13 +345,17 @@ class _Parser(BodyReader, RobotReader):
         parse_joints(doc.get("joints"), world, self.file)
         self.where = "joint_solver"
         joint_settings = parse_joint_settings(doc.get("joint_solver"), self.file) if "joint_solver" in doc else None
+        from .scene_cameras import parse_cameras
+
+        self.where = "cameras"
+        cameras = parse_cameras(doc.get("cameras"), world, self.file)
 
         return Scene(
             world=world, duration=sim["duration"], frame_rate=sim["frame_rate"], dt=sim["dt"],
             integrator=sim["integrator"], substeps=sim["substeps"], layout=sim["layout"],
             data=data, rtol=sim["rtol"], atol=sim["atol"], max_energy_growth=sim["max_energy_growth"],
             record_contacts=sim["record_contacts"], contact=contact, joint_settings=joint_settings,
-            record_joints=sim["record_joints"],
+            record_joints=sim["record_joints"], cameras=cameras,
         )
 
     def exclusion(self, world: World, entry: dict, key: str, names: dict):
