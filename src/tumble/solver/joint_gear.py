@@ -20,7 +20,7 @@ from numba import njit
 
 from ..joints import G_COEF, G_FOLLOWS, G_JOINT, G_MASS
 from ..math3d import JIT
-from .joint_math import _coordinate_row, _cross, _dot, _mat_vec, _row_apply, _row_mass, _row_velocity
+from .joint_math import _coordinate_row, _cross, _dot, _mat_vec, _row_apply, _row_velocity
 
 GEAR_COLUMN = 0  # = joint_solve.A_SPRING: the gear's accumulated impulse (N s or N m s, along J)
 
@@ -42,34 +42,6 @@ def _entry(linear, n, r):
 
 
 @njit(**JIT)
-def _shared_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2):
-    """J_1 M^-1 J_2^T: the terms of the bodies the two rows share (0 if none)."""
-    total = 0.0
-    for side1 in range(2):
-        i = b1 if side1 == 0 else a1
-        if i < 0:
-            continue
-        l1, g1 = _entry(lin1, n1, rb1 if side1 == 0 else ra1)
-        s1 = 1.0 if side1 == 0 else -1.0
-        for side2 in range(2):
-            k = b2 if side2 == 0 else a2
-            if k != i:
-                continue
-            l2, g2 = _entry(lin2, n2, rb2 if side2 == 0 else ra2)
-            s2 = 1.0 if side2 == 0 else -1.0
-            total += s1 * s2 * (inv_mass[i] * _dot(l1, l2) + _dot(g1, _mat_vec(I_inv, i, g2)))
-    return total
-
-
-@njit(**JIT)
-def free_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
-    """J M^-1 J^T of the gear row over its free bodies (1/kg, 1/(kg m^2) or mixed)."""
-    return (_row_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1)
-            + s * s * _row_mass(inv_mass, I_inv, a2, b2, lin2, n2, ra2, rb2)
-            - 2.0 * s * _shared_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2))
-
-
-@njit(**JIT)
 def gear_entries(a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
     """The gear row's J as four (body, linear part, angular part) entries: b1, a1, b2, a2 (the
     signs and joint 2's factor -s folded in); J (v, omega) = sum of l . v_body + g . omega_body."""
@@ -82,6 +54,24 @@ def gear_entries(a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
     lins = (lb1, la1, lb2, la2)
     angs = (gb1, ga1, gb2, ga2)
     return bodies, scale, lins, angs
+
+
+@njit(**JIT)
+def free_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
+    """J M^-1 J^T of the gear row over its free bodies (1/kg, 1/(kg m^2) or mixed): the sum over
+    pairs of its entries on one body, so a body the two joints share (a gripper's hand) gives the
+    cross terms."""
+    bodies, scale, lins, angs = gear_entries(a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s)
+    total = 0.0
+    for e in range(4):
+        i = bodies[e]
+        if i < 0:
+            continue
+        for f in range(4):
+            if bodies[f] == i:
+                total += scale[e] * scale[f] * (inv_mass[i] * _dot(lins[e], lins[f])
+                                                + _dot(angs[e], _mat_vec(I_inv, i, angs[f])))
+    return total
 
 
 @njit(**JIT)

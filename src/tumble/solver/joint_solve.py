@@ -40,16 +40,16 @@ from ..math3d import (
     JIT,
     serial_twin,
 )
-from .joint_gear import gear_apply, gear_on, solve_gear
+from .joint_gear import GEAR_COLUMN, gear_apply, gear_on, solve_gear
 from .joint_math import (
     _add,
-    _coordinate_row,
     _anchor,
     _angular_K,
     _angular_velocity,
     _apply_angular,
     _apply_linear,
     _axis,
+    _coordinate_row,
     _cross,
     _dot,
     _frames,
@@ -556,9 +556,9 @@ def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, fra
         b = joint_b[j]
         t = joint_type[j]
         if t == JOINT_GEAR:
-            if gear_on(j, param, enabled) and axial_impulse[j, A_SPRING] != 0.0:
+            if gear_on(j, param, enabled) and axial_impulse[j, GEAR_COLUMN] != 0.0:
                 gear_apply(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x,
-                           R, inv_mass, I_inv, axial_impulse[j, A_SPRING], v, omega)
+                           R, inv_mass, I_inv, axial_impulse[j, GEAR_COLUMN], v, omega)
             continue
         ra, pa = _anchor(x, R, a, local_a, j)
         rb, pb = _anchor(x, R, b, local_b, j)
