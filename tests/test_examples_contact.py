@@ -368,11 +368,11 @@ def test_gripper_lifts_the_box_squeezed_as_virtual_work_says():
     # examples/gripper.toml: the first finger's motor (at most 10 N) and the gear (q2 = -q1) close
     # both fingers on the box. Virtual work with the gear: the motor's 10 N on dq1 against the two
     # contacts' 2 N dq1 (each finger moves by dq1 inwards) leaves N = 5 N on each side at rest;
-    # measured 4.998 and 5.026 N (the contacts' soft rows share the squeeze unevenly by 0.5 %);
-    # bound 2 %. The box rises with the hand: it slips 1.4 mm when the hand's keyframed path jumps
-    # from rest to 0.3 m/s at 0.5 s (friction accelerates it over a few steps), bound 3 mm; then it
-    # is held at rest (under 1 mm/s) and the gear keeps the fingers mirrored to 2.4e-5 m (the gear's
-    # Gauss-Seidel row beside the contacts' rows), bound 1e-4 m.
+    # measured 4.96 and 4.93 N (the contacts' soft rows and the gear solved one after the other in
+    # each substep leave 1.4 % of the squeeze unbalanced); bound 2 %. The box rises with the hand: it
+    # slips 2.1 mm when the hand's keyframed path jumps from rest to 0.3 m/s at 0.5 s (friction
+    # accelerates it over a few steps), bound 3 mm; then it is held at rest (under 1 mm/s) and the
+    # gear keeps the fingers mirrored to 2.7e-5 m (its row beside the contacts' rows), bound 1e-4 m.
     scene = load_scene(EXAMPLES / "gripper.toml")
     w = scene.world
     sim = scene.simulator()

@@ -53,6 +53,16 @@ BASE = {
         {"type": "impulse", "body": "rod", "impulse": [0, 1, 0], "time": 0.1},
     ],
     "collision_exclusions": [{"bodies": ["box", "rod"]}],
+    "joints": [
+        {"type": "hinge", "name": "h1", "body_a": "rod", "anchor": [0, 0, 1], "axis": [0, 1, 0], "lower_deg": -90,
+         "upper_deg": 90, "torque": 0.1},
+        {"type": "slider", "name": "s1", "body_a": "hull", "anchor": [0, 0, 0], "axis": [1, 0, 0], "armature": 0.1},
+        {"type": "gear", "name": "g1", "joint": "s1", "follows": "h1", "ratio": 0.5, "offset": 0.01},
+        {"type": "gear", "joint": "h1", "polynomial": [0.1]},
+    ],
+    "joint_solver": {"method": "tree", "hertz": 0},
+    "cameras": [{"name": "cam", "position": [0, 0, 0.5], "target": [1, 0, 0.5], "width": 8, "height": 6, "body": "box",
+                 "track": "point"}],
 }
 
 scalars = st.one_of(

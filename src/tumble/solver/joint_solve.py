@@ -471,8 +471,8 @@ def _sweep_joints(lo, hi, backward, order, joint_type, joint_a, joint_b, local_a
         if not enabled[j]:
             continue
         t = joint_type[j]
-        if t == JOINT_GEAR:
-            if gear_on(j, param, enabled):
+        if t == JOINT_GEAR:  # (with the tree method: its own step, joint_tree.tree_sweeps_kernel)
+            if gauss_seidel[j] and gear_on(j, param, enabled):
                 solve_gear(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x,
                            R, inv_mass, I_inv, soft, v, omega, axial_impulse)
             continue

@@ -500,6 +500,8 @@ class JointSolver:
         self.node_parent = np.array(parents, dtype=np.int64)
         self.node_order = np.arange(n - 1, -1, -1, dtype=np.int64)  # parents were added before children
         self.gauss_seidel = ~in_tree
+        # gears are solved by the tree sweeps themselves, each on tree-consistent velocities (tree_sweeps_kernel)
+        self.gauss_seidel[self.joint_type == JOINT_GEAR] = False
         self._scratch = {
             "Ja": np.zeros((J, 6, 6)), "Jb": np.zeros((J, 6, 6)), "C": np.zeros((J, 6)),
             "nrow": np.zeros(J, dtype=np.int64), "D": np.zeros((n, 6, 6)), "Dinv": np.zeros((n, 6, 6)),
