@@ -229,3 +229,32 @@ def test_images_without_cameras_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--images: the scene has no [[cameras]] to capture" in err[0]
     assert not (tmp_path / "o" / "trajectory.npz").exists()
+
+
+def test_an_mjcf_model_s_cameras_are_its_scene_s(tmp_path):
+    # tumble run MODEL.xml --images: the model's <camera>s (robot.cameras) are the scene's cameras,
+    # named "MODEL/CAMERA", captured as [[cameras]] ones: a fixed camera 2 m above a box on the
+    # floor sees the box's top at depth 2 - 0.2 (the box is 0.2 m high, resting on z = 0) at the
+    # image's centre (measured 4.4e-6 m off: its settling into the contact and float32; bound
+    # 1e-4 m), and the floor at 2 m in the corners.
+    from tumble.cli import main
+
+    model = tmp_path / "box.xml"
+    model.write_text("""
+<mujoco model="boxcam">
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <camera name="top" pos="0 0 2" xyaxes="1 0 0 0 1 0" fovy="40" resolution="32 24"/>
+    <body name="box" pos="0 0 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="1"/></body>
+  </worldbody>
+</mujoco>
+""")
+    scene = tb.load_scene(model)
+    assert list(scene.cameras) == ["boxcam/top"]
+    out = tmp_path / "out"
+    assert main(["run", str(model), "--out", str(out), "--images", "--duration", "0.25", "--no-progress"]) == 0
+    data = np.load(out / "images" / "boxcam" / "top.npz")
+    assert data["depth"].shape[1:] == (24, 32)
+    assert (out / "images" / "boxcam" / "top" / "rgb_00000.png").exists()
+    np.testing.assert_allclose(data["depth"][:, 11:13, 15:17], 1.8, atol=1e-4)
+    np.testing.assert_allclose(data["depth"][:, 0, 0], 2.0, atol=1e-9)

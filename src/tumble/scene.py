@@ -113,7 +113,8 @@ class Scene:
     contact: SoftStepSettings = field(default_factory=SoftStepSettings)
     joint_settings: Any = None
     record_joints: bool = False
-    cameras: dict = field(default_factory=dict)  # [[cameras]]: {name: tumble.Camera} (scene_cameras)
+    # [[cameras]] and the robots' MJCF <camera>s ("ROBOT/CAMERA"): {name: tumble.Camera} (scene_cameras)
+    cameras: dict = field(default_factory=dict)
 
     @property
     def gravity(self) -> list[float]:
@@ -321,6 +322,7 @@ class _Parser(BodyReader, RobotReader):
             raise self.error("a scene needs at least one body", "bodies")
         self.check_sizes(bodies)
         names: dict[str, int] = {}
+        self.robot_cameras: dict = {}  # filled by self.robot
         for i, body in enumerate(bodies):
             self.body(world, body, f"bodies[{i}]", names)
         for i, robot in enumerate(robots):
@@ -348,7 +350,11 @@ class _Parser(BodyReader, RobotReader):
         from .scene_cameras import parse_cameras
 
         self.where = "cameras"
-        cameras = parse_cameras(doc.get("cameras"), world, self.file)
+        cameras = dict(self.robot_cameras)
+        for name, camera in parse_cameras(doc.get("cameras"), world, self.file).items():
+            if name in cameras:
+                raise self.error(f"duplicate camera name {name!r} (a robot's camera has it)", "cameras")
+            cameras[name] = camera
 
         return Scene(
             world=world, duration=sim["duration"], frame_rate=sim["frame_rate"], dt=sim["dt"],
