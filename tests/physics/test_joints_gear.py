@@ -646,3 +646,41 @@ def test_two_gears_on_one_joint_hold_together():
     q = sim.joint_readings()["position"]
     assert q[0] == pytest.approx(0.1, abs=1e-9) and q[1] == pytest.approx(0.06, abs=1e-9)
     assert np.abs(q[2:]).max() < 1e-9
+
+
+def test_pybullet_s_joint_gear_on_the_same_file_turns_as_tumble_s_gear(tmp_path):
+    # PyBullet's createConstraint(JOINT_GEAR) with gearRatio g makes q_child = -q_parent / g; with
+    # g = 2 the URDF's two wheels (I 0.01 and 0.04, inertia from the file) spun by 0.5 N m on the
+    # first turn at 0.5 / (0.01 + 0.04 / 4) = 25 rad/s^2 in both engines: tumble's mimic with
+    # multiplier -1/g, the same rates after 1 s to 1e-9 (PyBullet's to 1e-14 of the closed form,
+    # tumble's to rounding).
+    p = pytest.importorskip("pybullet")
+    path = tmp_path / "spinner.urdf"
+    path.write_text(MIMIC_URDF.replace('<mimic joint="j1" multiplier="-2" offset="0.1"/>', ''))
+    client = p.connect(p.DIRECT)
+    try:
+        p.setGravity(0, 0, 0, physicsClientId=client)
+        p.setTimeStep(DT, physicsClientId=client)
+        r = p.loadURDF(str(path), useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client)
+        for j in range(2):
+            p.setJointMotorControl2(r, j, p.VELOCITY_CONTROL, force=0, physicsClientId=client)
+            p.changeDynamics(r, j, linearDamping=0, angularDamping=0, physicsClientId=client)
+        c = p.createConstraint(r, 0, r, 1, jointType=p.JOINT_GEAR, jointAxis=[0, 0, 1], parentFramePosition=[0, 0, 0],
+                               childFramePosition=[0, 0, 0], physicsClientId=client)
+        p.changeConstraint(c, gearRatio=2.0, maxForce=1e6, physicsClientId=client)
+        for _ in range(240):
+            p.setJointMotorControl2(r, 0, p.TORQUE_CONTROL, force=0.5, physicsClientId=client)
+            p.stepSimulation(physicsClientId=client)
+        pb = [s[1] for s in p.getJointStates(r, [0, 1], physicsClientId=client)]
+    finally:
+        p.disconnect(client)
+    w = tb.World(gravity=(0.0, 0.0, 0.0))
+    robot = tb.load_urdf(w, path, fixed_base=True)
+    w.add_joint(tb.GearJoint(joint=robot.joints["j2"], follows=robot.joints["j1"], ratio=-1.0 / 2.0))
+    sim = tb.Simulator(w, dt=DT)
+    robot.set_joint_torque(sim, "j1", 0.5)
+    sim.step(240)
+    states = robot.joint_states(sim)
+    assert pb[0] == pytest.approx(25.0, rel=1e-12)
+    assert states["j1"][1] == pytest.approx(pb[0], rel=1e-9)
+    assert states["j2"][1] == pytest.approx(pb[1], rel=1e-9)
