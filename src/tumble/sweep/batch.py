@@ -10,9 +10,10 @@ that can collide: variants merged into one World must not touch each other, and 
 merged World has collisions off) and no kinematic bodies. Joints batch when each variant's
 joint sweep is one sweep in its own order (fewer joints than ``partition_min_joints``; the
 merged World sweeps with ``partitions = 1``: each variant's joints in their order, its bodies
-touched by nobody else's) and, with the tree method, no joint has a limit (its extra sweeps stop
-on a test over every joint: that would couple the variants); a URDF robot in free space
-batches. Their bodies may differ in anything else (shape,
+touched by nobody else's) and, with the tree method, no joint has a limit and no joint is a
+gear (its extra sweeps stop on a test over every joint: that would couple the variants); a world
+whose joints default to the tree method (``world.exact_joints``) batches only with the scene's own
+``[joint_solver]``; a URDF robot in free space batches. Their bodies may differ in anything else (shape,
 mass, inertia, state, material) and so may their per-body forces (drag, wind,
 constant, point forces, impulses).
 
