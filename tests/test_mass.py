@@ -447,3 +447,17 @@ def test_a_compound_part_past_the_float_range_is_one_line():
                         (tb.Sphere(0.1), (1.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))])
     with pytest.raises(InputError, match="part 0 is too large"):
         mass_properties(huge, mass=1.0)
+
+
+def test_a_compound_of_parts_too_small_for_floating_point_is_one_line():
+    # Balls of radius 1e-110 m have a volume of 0 in floating point (4e-330 underflows): the density
+    # mass / volume divided by zero (found by the URDF fuzz with a mesh scaled by 3.9e-234); now a
+    # typed error.
+    import tumble as tb
+    from tumble.errors import InputError
+    from tumble.mass import mass_properties
+
+    tiny = tb.Compound([(tb.Sphere(1e-110), (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)),
+                        (tb.Sphere(1e-110), (1.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))])
+    with pytest.raises(InputError, match="too small: their volume is 0"):
+        mass_properties(tiny, mass=1.0)

@@ -208,12 +208,15 @@ def _compound_mass_properties(shape, mass: float | None, density: float | None) 
     """
     unit = [(mass_properties(part, density=1.0), pos, _quat_matrix(q)) for part, pos, q in shape.parts]
     for i, (props, _, _) in enumerate(unit):
-        # a huge part (a ball of 1e80 m, a mesh scaled by 1e51) has moments past the float range: inf, then 0 x inf = NaN in the
-        # sums below (the URDF fuzz test found it)
+        # a huge part (a ball of 1e80 m, a mesh scaled by 1e51) has moments past the float range: inf, then
+        # 0 x inf = NaN in the sums below (the URDF fuzz test found it)
         if not (math.isfinite(props.mass) and np.isfinite(props.inertia).all()):
             raise InputError(f"part {i} is too large: its volume or inertia is past the float range", "parts")
+    volume = sum(props.mass for props, _, _ in unit)
+    if not volume > 0.0:  # parts scaled by 1e-234 m have a volume of 0 in floating point (the fuzz test again)
+        raise InputError("the parts are too small: their volume is 0 in floating point", "parts")
     if density is None:
-        density = mass / sum(props.mass for props, _, _ in unit)
+        density = mass / volume
     masses = np.array([density * props.mass for props, _, _ in unit])
     centers = np.array([pos + R @ props.center for props, pos, R in unit])
     total = float(masses.sum())
