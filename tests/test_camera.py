@@ -198,6 +198,11 @@ def test_scene_cameras_capture_every_frame_of_a_run(tmp_path):
         np.testing.assert_array_equal(data["body"][f], np.where(which == 1, ball, scene.world.index_of("ground")))
     np.testing.assert_allclose(data["intrinsics"], cam.intrinsics)
     np.testing.assert_allclose(data["time"], traj.time)
+    # run again shorter over the same folder (--force): only the new run's frames are left
+    assert main(["run", str(scene_file), "--out", str(out), "--images", "--no-progress", "--force",
+                 "--duration", "0.2"]) == 0
+    assert sorted(p.name for p in (out / "images" / "top").iterdir()) == [f"rgb_{f:05d}.png" for f in range(3)]
+    assert np.load(out / "images" / "top.npz")["depth"].shape[0] == 3
 
 
 @pytest.mark.parametrize("old, new, problem", [

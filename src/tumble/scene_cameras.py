@@ -119,6 +119,8 @@ def write_images(out_dir, world, cameras: dict, traj) -> list[Path]:
     for name, cam in cameras.items():
         folder = out / name
         folder.mkdir(parents=True, exist_ok=True)
+        for old in folder.glob("rgb_*.png"):  # an earlier run's frames (tumble run --force): not mixed in
+            old.unlink()
         depth = np.empty((frames, cam.height, cam.width), dtype=np.float32)
         body = np.empty((frames, cam.height, cam.width), dtype=np.int32)
         position = np.empty((frames, 3))
