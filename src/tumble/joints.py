@@ -553,14 +553,15 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
     return bound
 
 
-def _joint_index(world, ref, key) -> int:
-    """The index in ``world.joints`` of a joint given as its record, its name or an index."""
+def joint_index(world, ref, key) -> int:
+    """The index in ``world.joints`` of a joint given as its record, its name or an index
+    (InputError keyed ``key`` when there is none)."""
     joints = world.joints
     if isinstance(ref, Joint):
         for k, rec in enumerate(joints):
             if rec is ref:
                 return k
-        raise InputError("the joint is not in this world (add it before the gear)", key)
+        raise InputError("the joint is not in this world (add it first)", key)
     if isinstance(ref, str):
         for k, rec in enumerate(joints):
             if rec.name == ref:
@@ -578,7 +579,7 @@ def _bind_gear(world, gear: GearJoint) -> BoundJoint:
         if key == "follows" and gear.follows is None:  # a lock: q_joint = offset (MuJoCo's equality without joint2)
             ends.append(-1)
             continue
-        k = _joint_index(world, getattr(gear, key), key)
+        k = joint_index(world, getattr(gear, key), key)
         rec = world.joints[k]
         if rec.kind not in ("hinge", "slider"):
             raise InputError(f"a gear couples hinge and slider joints, not a {rec.kind} joint", key)

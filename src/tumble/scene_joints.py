@@ -212,9 +212,7 @@ def _parse_gear(entry: dict, key: str, world, file, names: set):
                 raise InputError(f"expected a list of 1 to 5 numbers (a0, ..., a4), got {_describe(v)}", sub, file)
             kw[k] = [_number(c, f"{sub}[{i}]", file) for i, c in enumerate(v)]
     try:
-        from .joints import GearJoint
-
-        record = GearJoint(**kw)
+        record = JOINT_CLASSES["gear"](**kw)
         world.add_joint(record)
     except InputError as err:
         raise err.within(key, file) from None

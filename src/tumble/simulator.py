@@ -397,17 +397,10 @@ class Simulator:
         on body b and the opposite on body a, until changed (PyBullet's ``TORQUE_CONTROL``; the
         joint record's ``torque`` / ``force`` field; ``Robot.set_joint_torque`` for robots).
         ``joint``: its record, name or index in ``world.joints``. Before the first step too."""
-        from .joints import P_EFFORT, set_record_effort
+        from .joints import P_EFFORT, joint_index, set_record_effort
 
         joints = self.world.joints
-        record = None
-        for k, rec in enumerate(joints):
-            if rec is joint or (isinstance(joint, str) and rec.name == joint) or (
-                    isinstance(joint, (int, np.integer)) and not isinstance(joint, bool) and k == joint):
-                record = rec
-                break
-        if record is None:
-            raise InputError(f"unknown joint {joint!r}", "joint")
+        record = joints[joint_index(self.world, joint, "joint")]
         value = set_record_effort(record, torque)
         solver = None if self.soft_step is None else self.soft_step.joints
         if solver is not None and solver.count == len(joints):
