@@ -12,7 +12,8 @@ __version__ = "0.1.0"
 
 from .camera import Camera, CameraImage
 from .collision.filter import CollisionFilter
-from .errors import InputError, SimulationError, TumbleError
+from .decomposition import decompose
+from .errors import InputError, SimulationError, TumbleError, TumbleWarning
 from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
 from .kinematic import KeyframePath
 from .joints import BallJoint, DistanceJoint, FixedJoint, GearJoint, HingeJoint, SliderJoint, UniversalJoint
@@ -48,9 +49,9 @@ def load_mjcf(world, path, **options):
 __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "Trajectory", "load_trajectory", "load_scene",
     "load_urdf", "load_mjcf", "Camera", "CameraImage",
-    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield",
+    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield", "decompose",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "GearJoint",
     "KeyframePath",
-    "TumbleError", "InputError", "SimulationError",
+    "TumbleError", "InputError", "SimulationError", "TumbleWarning",
 ]

@@ -117,7 +117,26 @@ def _seconds(text: str) -> float:
 
 
 def main(argv=None) -> int:
-    """Entry point of the console script; returns the exit status."""
+    """Entry point of the console script; returns the exit status. The library's ``TumbleWarning``s
+    (what it did in place of what was asked) are one line each, ``tumble: note: ...``."""
+    import warnings
+
+    from .errors import TumbleWarning
+
+    def note(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, TumbleWarning):
+            print(f"tumble: note: {_one_line(str(message))}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+        warnings.simplefilter("default", TumbleWarning)
+        warnings.showwarning = note
+        return _main(argv)
+
+
+def _main(argv=None) -> int:
     try:
         parser = build_parser()
         try:

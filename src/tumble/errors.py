@@ -48,6 +48,11 @@ def _printable(text: str) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
+class TumbleWarning(UserWarning):
+    """Something tumble did in place of what was asked, said once (the CLI prints it as a note line):
+    a moving concave mesh colliding as its convex hull."""
+
+
 class SimulationError(TumbleError, RuntimeError):
     """The state of a run went bad (non-finite numbers, a quaternion off unit length)."""
 

@@ -127,6 +127,8 @@ def mass_properties(shape, mass=None, density=None) -> MassProperties:
         return particle_mass_properties(shape.points, masses)
     mass, density = _mass_or_density(mass, density)
     if isinstance(shape, Compound):
+        if shape.source is not None:  # convex pieces of a concave mesh (tumble.decompose): the mesh's own integrals
+            return _mesh_mass_properties(shape.source.trimesh, mass, density)
         return _compound_mass_properties(shape, mass, density)
     if isinstance(shape, Mesh):  # Convex is a Mesh
         return _mesh_mass_properties(shape.trimesh, mass, density)

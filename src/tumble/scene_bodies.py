@@ -51,12 +51,14 @@ SHAPE_KEYS = {
     "cylinder": (("radius", "length"), ()),
     "cone": (("radius", "height"), ()),
     "plane": ((), ("normal", "offset")),
-    "mesh": ((), ("path", "vertices", "faces")),
+    "mesh": ((), ("path", "vertices", "faces", "decompose")),
     "convex": ((), ("path", "points")),
     "particles": (("points", "masses"), ()),
     "compound": (("parts",), ()),
     "heightfield": (("size",), ("heights", "path", "base")),
 }
+# decompose = true or {threshold, max_parts, max_hull_vertices, seed}: a moving concave mesh as convex pieces
+DECOMPOSE_KEYS = ("threshold", "max_parts", "max_hull_vertices", "seed")
 # A compound's parts: solid convex shapes only (no plane, mesh, particles, nor another compound).
 PART_KEYS = ("shape", "position", "orientation", "euler_deg", "material")
 PART_TYPES = ("sphere", "box", "capsule", "cylinder", "cone", "convex")
@@ -197,13 +199,15 @@ class BodyReader(ValueReader):
             if "path" in s:
                 if "vertices" in s or "faces" in s:
                     raise self.error("give either a mesh file path or inline vertices and faces, not both", g("path"))
-                return self.library(key, Mesh, path=self.mesh_path(s["path"], g("path")))
-            if "vertices" not in s or "faces" not in s:
-                missing = "vertices" if "vertices" not in s else "faces"
-                raise self.error(f"missing key {missing!r} (give a mesh file 'path', or 'vertices' and 'faces')", key)
-            vertices = self.rows(s["vertices"], g("vertices"), 3)
-            faces = self.rows(s["faces"], g("faces"), 3, lambda v, k: self.integer(v, k, 0))
-            return self.library(key, Mesh, vertices=vertices, faces=faces)
+                mesh = self.library(key, Mesh, path=self.mesh_path(s["path"], g("path")))
+            else:
+                if "vertices" not in s or "faces" not in s:
+                    missing = "vertices" if "vertices" not in s else "faces"
+                    raise self.error(f"missing key {missing!r} (give a mesh file 'path', or 'vertices' and 'faces')", key)
+                vertices = self.rows(s["vertices"], g("vertices"), 3)
+                faces = self.rows(s["faces"], g("faces"), 3, lambda v, k: self.integer(v, k, 0))
+                mesh = self.library(key, Mesh, vertices=vertices, faces=faces)
+            return self.decomposed(mesh, s["decompose"], g("decompose")) if "decompose" in s else mesh
         if kind == "compound":
             return self.compound(s["parts"], g("parts"), key)
         if kind == "heightfield":
@@ -216,6 +220,25 @@ class BodyReader(ValueReader):
         if "points" not in s:
             raise self.error("missing key 'points' (or a mesh file 'path')", key)
         return self.library(key, Convex, points=self.rows(s["points"], g("points"), 3))
+
+    def decomposed(self, mesh, value, key: str):
+        """``decompose = true`` (CoACD's defaults) or ``{threshold, max_parts, max_hull_vertices, seed}``:
+        the mesh as a compound of convex pieces (``tumble.decompose``), so that it can move; false
+        keeps the mesh (a fixed or kinematic body's)."""
+        from .decomposition import decompose
+
+        if isinstance(value, bool) and not value:
+            return mesh
+        options = {} if value is True else self.table(value, key, DECOMPOSE_KEYS,
+                                                      what="true, false or a table of decomposition settings")
+        kw = {"threshold": self.number(options["threshold"], f"{key}.threshold")} if "threshold" in options else {}
+        for k in ("max_parts", "max_hull_vertices", "seed"):
+            if k in options:
+                kw[k] = self.integer(options[k], f"{key}.{k}", 0)
+        try:
+            return decompose(mesh, **kw)
+        except InputError as err:  # keyed by decompose's keyword: the scene's key is KEY.keyword
+            raise (err.within(key, self.file) if err.key != "mesh" else InputError(err.problem, key, self.file)) from None
 
     def heightfield(self, s: dict, key: str):
         """``heights`` = [[...], ...] (rows along y) or ``path`` = a .npy file of them, ``size`` = [sx, sy],

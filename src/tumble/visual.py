@@ -88,6 +88,8 @@ def shape_trimesh(shape, plane_size: float = PLANE_MIN_SIZE):
         return _particle_cloud(np.asarray(d["points"], dtype=float), np.asarray(d["masses"], dtype=float))
     if kind == "plane":
         return _plane_quad(np.asarray(d.get("normal", (0, 0, 1)), dtype=float), float(d.get("offset", 0.0)), plane_size)
+    if kind == "compound" and d.get("source") is not None:  # cut from a concave mesh: draw the mesh, not its pieces
+        return shape_trimesh(d["source"], plane_size)
     if kind == "compound":  # the parts' meshes, each moved to its place in the shape's frame
         from .math3d import quat_to_matrix
 

@@ -4,9 +4,10 @@ Reads a World's shape records and ``com_offset``; writes nothing else. One row p
 shape: a body whose shape is a ``Compound`` gets one row per part (``shape_body``
 repeats, ``shape_local_pos``/``shape_local_q`` place the part in the body frame).
 
-Supported: plane, sphere, capsule, cylinder, cone, box, convex, and mesh on fixed
-bodies. Particles (and a mesh on a moving body) raise ``NotImplementedError`` naming
-the type and body (or get no row with ``skip_unsupported=True``).
+Supported: plane, sphere, capsule, cylinder, cone, box, convex, and mesh on fixed and
+kinematic bodies (on a moving body a mesh is its convex hull: ``moving_hull``). Particles
+raise ``NotImplementedError`` naming the type and body (or get no row with
+``skip_unsupported=True``).
 
 ``shape_params`` (S, 4), in the shape's own frame, metres:
 
@@ -31,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import TumbleWarning
 from ..shapes import (
     SHAPE_BOX,
     SHAPE_CAPSULE,
@@ -349,6 +351,27 @@ def build_bvh(triangles, leaf_size: int = BVH_LEAF_SIZE):
     return order, aabb, first, count, skip
 
 
+def moving_hull(mesh, name):
+    """The ``Convex`` a triangle mesh on a moving body collides as: its convex hull (PyBullet's and
+    MuJoCo's treatment of a moving mesh), made once per record. Triangle meshes collide as such only
+    on fixed and kinematic bodies (the mesh pairs take the mesh as static). A concave mesh's hull
+    fills its hollows (a ring's hull rests on a peg's top), so then a ``TumbleWarning`` names the
+    body and ``tumble.decompose``, once per record. (Before session 18 a moving mesh collided with
+    nothing, without a word: a ring dropped on the ground fell through it.)"""
+    hull = mesh.__dict__.get("_moving_hull")
+    if hull is None:
+        hull = Convex(points=mesh.vertices)
+        object.__setattr__(mesh, "_moving_hull", hull)
+        volume, hull_volume = abs(float(mesh.trimesh.volume)), abs(float(hull.trimesh.volume))
+        if hull_volume > volume * (1.0 + 1e-6):
+            import warnings
+
+            warnings.warn(f"body {name!r}: a moving triangle mesh collides as its convex hull, "
+                          f"{100.0 * (hull_volume / volume - 1.0):.3g} % more volume than the mesh; cut it into convex "
+                          "pieces with tumble.decompose (scene files: decompose = true)", TumbleWarning, stacklevel=2)
+    return hull
+
+
 class _Builder:
     """Collects the rows and the flat hull / mesh arrays."""
 
@@ -364,9 +387,8 @@ class _Builder:
         type_id, p = shape_params(shape)
         data = (0, 0, 0, 0)
         if type_id == SHAPE_MESH and moving:
-            raise NotImplementedError(
-                f"body {name!r}: a triangle mesh collides only on a fixed or kinematic body (terrain, ramps, bowls); "
-                "make a moving body a Compound of Convex pieces")
+            shape = moving_hull(shape, name)
+            type_id, p = shape_params(shape)
         if type_id in (SHAPE_CONVEX, SHAPE_MESH) and id(shape) in self.seen:
             data = self.seen[id(shape)][1]
         elif type_id == SHAPE_CONVEX:
@@ -437,8 +459,8 @@ def build_shape_table(world, skip_unsupported: bool = False) -> ShapeTable:
             collision support get no rows (they collide with nothing) instead of raising.
 
     Raises:
-        NotImplementedError: a body's shape type has no collision support (particles;
-            a mesh on a moving body); the message names the type and the body.
+        NotImplementedError: a body's shape type has no collision support (particles); the
+            message names the type and the body.
     """
     builder = _Builder()
     com_offset = np.asarray(world.com_offset)
