@@ -5,9 +5,9 @@
    thin bowl of examples/marbles.toml: pieces, seconds (median of ``--repeats``), the pieces' hull
    volume over the mesh's; then the same call answered from the cache on disk and in memory.
 2. examples/ring_toss.toml (five tori dropped over three pegs, 3 s at dt 1/240 s) in tumble, and
-   the same scene in PyBullet (rigid bodies, ``useMaximalCoordinates``) with the same CoACD pieces
-   loaded as one compound of convex hulls (an OBJ of one object per piece, PyBullet's way for a
-   V-HACD result), the torus's mass properties (``localInertiaDiagonal``), friction sqrt(mu) per
+   the same scene in PyBullet (each ring a multibody base: its rigid bodies turn NaN once
+   ``localInertiaDiagonal`` is set) with the same CoACD pieces
+   loaded as one compound of convex hulls (``createCollisionShapeArray`` of one OBJ per piece), the torus's mass properties (``localInertiaDiagonal``), friction sqrt(mu) per
    body (Bullet multiplies the pair's), restitution 0; and PyBullet with the ring as one
    ``GEOM_MESH`` (its convex hull, what a moving mesh is in PyBullet). Wall time per step (median
    of ``--repeats`` after a warm-up, compilation apart) and the outcome: rings ending round a peg
@@ -122,16 +122,12 @@ def run_pybullet(compound: bool):
     props = mass_properties(ring, mass=0.05)
     moments = np.linalg.eigvalsh(props.inertia)  # the torus's axes are the mesh's (symmetric about z)
     folder = tempfile.mkdtemp()
-    obj = os.path.join(folder, "pieces.obj")
-    with open(obj, "w") as fh:
-        first = 1
-        for k, (part, _, _) in enumerate(tb.decompose(ring).parts):
-            fh.write(f"o piece{k}\n")
-            for v in part.vertices:
-                fh.write(f"v {v[0]!r} {v[1]!r} {v[2]!r}\n")
-            for f in part.faces:
-                fh.write(f"f {f[0] + first} {f[1] + first} {f[2] + first}\n")
-            first += len(part.vertices)
+    files = []
+    for k, (part, _, _) in enumerate(tb.decompose(ring).parts):
+        files.append(os.path.join(folder, f"piece{k}.obj"))
+        with open(files[-1], "w") as fh:
+            fh.writelines(f"v {v[0]!r} {v[1]!r} {v[2]!r}\n" for v in part.vertices)
+            fh.writelines(f"f {f[0] + 1} {f[1] + 1} {f[2] + 1}\n" for f in part.faces)
     cid = p.connect(p.DIRECT)
     try:
         p.setGravity(0, 0, -9.81, physicsClientId=cid)
@@ -143,12 +139,16 @@ def run_pybullet(compound: bool):
         for px, py in PEGS:
             b = p.createMultiBody(0, peg, basePosition=(px, py, 0.15), useMaximalCoordinates=True, physicsClientId=cid)
             p.changeDynamics(b, -1, lateralFriction=math.sqrt(0.4), physicsClientId=cid)
-        shape = p.createCollisionShape(p.GEOM_MESH, fileName=obj if compound else str(EXAMPLES / "ring.obj"),
-                                       physicsClientId=cid)
+        if compound:  # one convex hull per piece file, in one compound shape
+            shape = p.createCollisionShapeArray(shapeTypes=[p.GEOM_MESH] * len(files), fileNames=files,
+                                                physicsClientId=cid)
+        else:
+            shape = p.createCollisionShape(p.GEOM_MESH, fileName=str(EXAMPLES / "ring.obj"), physicsClientId=cid)
         rings = []
         for pos, quat, omega in ring_specs():
-            b = p.createMultiBody(0.05, shape, basePosition=pos, baseOrientation=quat, useMaximalCoordinates=True,
-                                  physicsClientId=cid)
+            # a multibody base: PyBullet's rigid bodies (useMaximalCoordinates) turn NaN when
+            # localInertiaDiagonal is set (pybullet 3.2.7, measured: a ball NaN within 10 steps)
+            b = p.createMultiBody(0.05, shape, basePosition=pos, baseOrientation=quat, physicsClientId=cid)
             p.resetBaseVelocity(b, (0, 0, 0), omega, physicsClientId=cid)
             p.changeDynamics(b, -1, lateralFriction=math.sqrt(0.4), restitution=0.0,
                              localInertiaDiagonal=tuple(float(m) for m in (moments[0], moments[1], moments[2])),

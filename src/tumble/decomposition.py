@@ -60,8 +60,8 @@ def decompose(mesh, *, threshold: float = 0.05, max_parts: int | None = None, ma
         cache: keep and reuse the result (in this process and on disk, see the module's docstring).
 
     Returns:
-        ``Compound(parts=[(Convex(points=piece), 0, identity), ...], source=mesh)``, in the mesh's
-        frame. Give it to ``World.add_body`` like any shape: its mass, centre of mass and inertia
+        ``Compound(parts=[(Convex(points=piece - middle), middle, identity), ...], source=mesh)``,
+        each piece placed at the middle of its bounds in the mesh's frame. Give it to ``World.add_body`` like any shape: its mass, centre of mass and inertia
         are the mesh's own.
 
     Raises:
@@ -104,8 +104,13 @@ def decompose(mesh, *, threshold: float = 0.05, max_parts: int | None = None, ma
             _memory[key] = pieces
     parts = []
     for points in pieces:
+        # each piece about the middle of its own bounds: a hull's bounding box (collision/bounds.py) is
+        # centred on its origin, so with the mesh's origin every piece of a ring had the whole ring's
+        # box (a ring on a ring: 196 piece pairs to test, 1.3 ms a step; measured) and GJK started
+        # from a far point
+        middle = 0.5 * (points.min(axis=0) + points.max(axis=0))
         try:
-            parts.append((Convex(points=points), (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)))
+            parts.append((Convex(points=points - middle), tuple(float(c) for c in middle), (1.0, 0.0, 0.0, 0.0)))
         except InputError:
             continue  # a flat sliver CoACD left (no volume to hull): the pieces beside it cover its place
     if not parts:

@@ -63,13 +63,17 @@ def test_the_pieces_cover_the_ring_and_leave_its_hole_open(pieces):
     t = rng.uniform(0.0, 2.0 * math.pi, n)
     z = rng.uniform(-HEIGHT / 2, HEIGHT / 2, n)
     solid = np.column_stack([r * np.cos(t), r * np.sin(t), z])
-    hulls = [part.vertices for part, _, _ in pieces.parts]
+    hulls = [part.vertices + pos for part, pos, _ in pieces.parts]
     assert _inside_any(hulls, solid).all()
     r = rng.uniform(0.0, R_IN * math.cos(math.pi / 3), n)
     hole = np.column_stack([r * np.cos(t), r * np.sin(t), z])
     assert not _inside_any(hulls, hole).any()
     assert _inside_any([pieces.source.vertices], hole).all()  # the hull: the test fails with it
     assert len(pieces.parts) >= 4
+    for part, pos, q in pieces.parts:  # each piece about the middle of its bounds (its AABB is centred there)
+        lo, hi = part.vertices.min(axis=0), part.vertices.max(axis=0)
+        np.testing.assert_allclose(lo + hi, 0.0, atol=1e-12)
+        assert q == (1.0, 0.0, 0.0, 0.0)
 
 
 def test_a_decomposed_body_has_the_mesh_exact_mass_properties(ring, pieces):
@@ -118,8 +122,8 @@ def test_a_decomposed_ring_falls_around_a_peg_where_its_hull_rests_on_top(ring, 
 
 def _digest(compound):
     h = hashlib.sha256()
-    for part, _, _ in compound.parts:
-        h.update(np.ascontiguousarray(part.vertices).tobytes())
+    for part, pos, _ in compound.parts:
+        h.update(np.ascontiguousarray(part.vertices).tobytes() + np.ascontiguousarray(pos).tobytes())
     return h.hexdigest()
 
 

@@ -331,7 +331,8 @@ def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot
     lam = np.empty(4)
     ra = core_radius(ta, params_a)
     rb = core_radius(tb, params_b)
-    k, dist, pa, pb = gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, W, SA, SB, lam)
+    k, dist, pa, pb = gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, W, SA, SB, lam,
+                          speculative + ra + rb)
     if dist > TOUCH_GAP:
         sep0 = dist - ra - rb
         if sep0 >= speculative:
