@@ -61,8 +61,8 @@ def decompose(mesh, *, threshold: float = 0.05, max_parts: int | None = None, ma
 
     Returns:
         ``Compound(parts=[(Convex(points=piece - middle), middle, identity), ...], source=mesh)``,
-        each piece placed at the middle of its bounds in the mesh's frame. Give it to ``World.add_body`` like any shape: its mass, centre of mass and inertia
-        are the mesh's own.
+        each piece placed at the middle of its bounds in the mesh's frame. Give it to
+        ``World.add_body`` like any shape: its mass, centre of mass and inertia are the mesh's own.
 
     Raises:
         InputError: a bad setting (keyed by its name), a mesh that is not closed, or CoACD missing
