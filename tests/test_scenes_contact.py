@@ -150,3 +150,22 @@ def test_overlap_check_sees_an_overlap():
     world.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, position=(5, 0, 0.45))
     assert C.max_box_overlap(world) == pytest.approx(0.1)
     assert C.max_box_overlap(C.stack(2)[0]) == 0.0
+
+
+def test_convex_pile_matches_box3d_layout():
+    """Box3D's convex_pile (benchmarks/convex_pile.py): one 32-point hull on a sphere of radius 2 m
+    (PEEL's generator: every point on the sphere to float32 rounding), shared by 64 bodies a layer
+    on a grid 4 m apart, the first layer's centres 2 m up, density 1; the ground box's top at z = 0.
+    With the hull's points fewer than 32 (a generator that repeats), the test fails."""
+    points = C.convex_pile_points()
+    assert points.shape == (32, 3) and len(np.unique(points, axis=0)) == 32
+    np.testing.assert_allclose(np.linalg.norm(points, axis=1), 2.0, rtol=1e-6)
+    w, settings = C.convex_pile(layers=2)
+    assert w.body_count == 129 and settings["n"] == 128 and settings["steps"] == 500
+    hulls = {id(s) for s in w.shapes[1:]}
+    assert len(hulls) == 1 and len(w.shapes[1].vertices) <= 32
+    start = w.x[1:] - np.einsum("nij,j->ni", w.R[1:], w.com_offset[1])  # the hull's origin, where Box3D puts it
+    assert sorted(set(np.round(start[:, 2], 9))) == [2.0, 6.0]
+    assert sorted(set(np.round(start[:, 0], 9))) == [-16.0, -12.0, -8.0, -4.0, 0.0, 4.0, 8.0, 12.0]
+    assert w.x[0, 2] + w.shapes[0].size[2] / 2 == 0.0
+    assert np.isclose(w.mass[1], abs(w.shapes[1].trimesh.volume))

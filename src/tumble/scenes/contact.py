@@ -12,6 +12,7 @@ tower(n=10)         issue 3's tower of unit cubes that must stand 30 s
 pyramid(rows=20)    a 2-D pyramid of unit cubes (rows (rows + 1) / 2 boxes: 210 for 20 rows)
 large_pyramid()     Box3D's large_pyramid: 100 rows, 5050 cubes of 100 kg on a ground box
 many_pyramids()     Box3D's many_pyramids: 14 x 14 pyramids of 55 cubes, 10 780 in all
+convex_pile(layers=80)  Box3D's convex_pile: 5120 copies of a 32-point hull collapsing into a pile
 
 Box3D's scenes are y up; here they are turned by +90 degrees about x, so Box3D's
 (x, y, z) is tumble's (x, -z, y): its y (up) becomes z, and the plane its 2-D pyramids
@@ -182,6 +183,47 @@ def many_pyramids():
     return world, _settings(100 * DT, scene="many_pyramids", n=10780, half_extent=0.5, sleeping=False)
 
 
+def convex_pile_points() -> np.ndarray:
+    """(32, 3) the points of Box3D's convex_pile hull (ported by Box3D from PEEL): 32 directions
+    drawn by PEEL's linear congruential generator (seed 42, state = state 2147001325 + 715136305
+    mod 2^32, each coordinate (state & 0xffff) / 65535 - 0.5 in float32, rejected outside the ball
+    of radius 0.5, normalised), times the amplitude 2 m; Box3D's (x, y, z), y up."""
+    state = 42
+    points = []
+    f32 = np.float32
+    while len(points) < 32:
+        c = []
+        for _ in range(3):
+            state = (state * 2147001325 + 715136305) & 0xFFFFFFFF
+            c.append(f32(state & 0xFFFF) / f32(65535.0) - f32(0.5))
+        p = np.array(c, dtype=np.float32)
+        if p @ p > f32(0.25):
+            continue
+        points.append(f32(2.0) * p / np.sqrt(p @ p, dtype=np.float32))
+    return np.array(points, dtype=float)
+
+
+def convex_pile(layers: int = 80):
+    """Box3D's convex_pile (its benchmark from PEEL): a static ground box of half-extents (250, 250, 1)
+    centred at z = -1, and 8 x 8 x ``layers`` (80: 5120) copies of one convex hull of 32 points on a
+    sphere of radius 2 m (``convex_pile_points``), density 1 (Box3D's default: about 25 kg), friction
+    0.6, restitution 0, on a grid 4 m apart: Box3D's (x, y, z) = ((i - 4) 4, 2 + 4 layer, (k - 4) 4),
+    turned to tumble's (x, -z, y). The column collapses into a pile. Gravity 10; sleeping on (Box3D's
+    default for this scene). 500 steps of 1/60 s with 4 substeps."""
+    from ..shapes import Convex
+
+    world = World(gravity=(0.0, 0.0, -10.0))
+    _ground_box(world, 250.0, 250.0, 0.6)
+    hull = Convex(points=convex_pile_points()[:, [0, 2, 1]] * np.array([1.0, -1.0, 1.0]))
+    material = Material(friction=0.6, restitution=0.0)
+    for layer in range(layers):
+        for k in range(8):
+            for i in range(8):
+                world.add_body(hull, density=1.0, position=((i - 4) * 4.0, -((k - 4) * 4.0), 2.0 + 4.0 * layer),
+                               material=material, name=f"hull{layer}_{k}_{i}")
+    return world, _settings(500 * DT, scene="convex_pile", n=64 * layers)
+
+
 SCENES = {
     "pile": pile,
     "stack": stack,
@@ -189,6 +231,7 @@ SCENES = {
     "pyramid": pyramid,
     "large_pyramid": large_pyramid,
     "many_pyramids": many_pyramids,
+    "convex_pile": convex_pile,
 }
 
 
