@@ -216,6 +216,34 @@ class Kinematics:
         self._col_o = np.zeros((nv, 3))
         self._col_d = np.zeros((nv, 3))
 
+    def couplings(self) -> list:
+        """The robot's gears between its 1-D coordinates (URDF's ``<mimic>``, MuJoCo's joint
+        equalities: ``Robot.equalities``' ``GearJoint``s), as [(qpos index of the joint that
+        follows, qpos index of the one it follows (-1: locked), their qvel indices, coefficients
+        (5,) of q = a0 + a1 q_f + ... + a4 q_f^4)], in the order they were added. Inverse
+        kinematics keeps them (the mass matrix and the Jacobians do not: each joint is a
+        coordinate of its own there, as in MuJoCo)."""
+        from .joints import GearJoint
+
+        names = {id(record): name for name, record in self.robot.joints.items()}
+        out = []
+        for record in self.robot.equalities.values():
+            if not isinstance(record, GearJoint):
+                continue
+            m = self.by_name.get(names.get(id(record.joint)))
+            f = None if record.follows is None else self.by_name.get(names.get(id(record.follows)))
+            if m is None or m.kind not in ONE_DOF or (record.follows is not None and (f is None or f.kind not in ONE_DOF)):
+                continue
+            coef = np.zeros(5)
+            if record.polynomial is not None:
+                given = np.asarray(record.polynomial, dtype=float)
+                coef[:len(given)] = given
+            else:
+                coef[0], coef[1] = record.offset, record.ratio
+            out.append((m.qpos.start, -1 if f is None else f.qpos.start, m.qvel.start,
+                        -1 if f is None else f.qvel.start, coef))
+        return out
+
     # ------------------------------------------------------------------ frames
     def _check(self, values, size, key):
         v = np.asarray(values, dtype=float)
@@ -510,7 +538,9 @@ class Kinematics:
         ``max_iterations``; the answer says which. A limit or a singular pose can hold the
         search in a local minimum: ``restarts`` more tries then start from joint positions drawn
         uniformly within the limits (hinges without limits in [-pi, pi]; the generator seeded by
-        ``seed``, so the answer is reproducible), and the best try is returned."""
+        ``seed``, so the answer is reproducible), and the best try is returned. Gears between
+        joints (URDF's mimic, MuJoCo's joint equalities: ``couplings``) are kept: a joint that
+        follows another is set by it, not searched (a coupled joint's own limits are not)."""
         target = self._check(position, 3, "position")
         R_target = None
         if orientation is not None:
@@ -540,11 +570,15 @@ class Kinematics:
                 e[3:6] = vee * (angle / s) if s > 1e-12 else (np.zeros(3) if angle < 1.0 else _flip_axis(E) * angle)
             return e, (o_all, R_all), p
 
+        couplings = self.couplings()
+
         def clamp(q):
             for c in self.coordinates:
                 if c.kind in ONE_DOF and (c.lower is not None or c.upper is not None):
                     q[c.qpos] = np.clip(q[c.qpos], -np.inf if c.lower is None else c.lower,
                                         np.inf if c.upper is None else c.upper)
+            for m, f, _, _, coef in couplings:  # a coupled joint on its relation (after its leader's clamp)
+                q[m] = np.polynomial.polynomial.polyval(q[f] if f >= 0 else 0.0, coef)
             return q
 
         def descend(q, it):
@@ -565,6 +599,13 @@ class Kinematics:
                     return IkSolution(q, pos_err, ang_err, it, done)
                 it += 1
                 J = self._jacobian_at(self._columns(*frames), k, p)[0:rows]
+                for m, f, mv, fv, coef in couplings:
+                    # q_m = p(q_f): the coupled joint is no unknown of its own; its column moves with
+                    # its leader's, scaled by p'(q_f) (dq_m = p'(q_f) dq_f)
+                    if fv >= 0:
+                        J[:, fv] += np.polynomial.polynomial.polyval(q[f], np.polynomial.polynomial.polyder(coef)) \
+                            * J[:, mv]
+                    J[:, mv] = 0.0
                 # Levenberg-Marquardt's rule for lambda: a step that lowers the error is taken and
                 # lambda halved; one that does not (a limit in the way, too long a step) is refused
                 # and lambda quadrupled. A fixed lambda stalled on 8 of 20 random 6-D targets of the

@@ -684,3 +684,64 @@ def test_pybullet_s_joint_gear_on_the_same_file_turns_as_tumble_s_gear(tmp_path)
     assert pb[0] == pytest.approx(25.0, rel=1e-12)
     assert states["j1"][1] == pytest.approx(pb[0], rel=1e-9)
     assert states["j2"][1] == pytest.approx(pb[1], rel=1e-9)
+
+
+MIMIC_ARM = """<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base"/>
+  <link name="upper">
+    <inertial><origin xyz="0.5 0 0"/><mass value="1"/><inertia ixx="0.01" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="fore">
+    <inertial><origin xyz="0.5 0 0"/><mass value="1"/><inertia ixx="0.01" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/>
+  </joint>
+  <joint name="elbow" type="revolute">
+    <parent link="upper"/><child link="fore"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/>
+    <mimic joint="shoulder" multiplier="1.5" offset="0.2"/>
+  </joint>
+  <link name="hand">
+    <inertial><origin xyz="0.5 0 0"/><mass value="1"/><inertia ixx="0.01" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="wrist" type="revolute">
+    <parent link="fore"/><child link="hand"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+def test_inverse_kinematics_keeps_a_mimic_joint_on_its_relation(tmp_path):
+    """A planar arm of three 1 m links (shoulder, elbow, wrist) whose elbow mimics its shoulder
+    (elbow = 0.2 + 1.5 shoulder): the hand's end reaches (cos s + cos(s + e) + cos(s + e + w), ...).
+    A target made from s = 0.7, w = 0.3 is met (1e-6 m) with the elbow on its relation (to
+    rounding): two unknowns left for two equations. Without the coupling the search meets the
+    target too, on a family of three-joint solutions, with the elbow off its relation (checked
+    here: that is what the test would see if the mimic were ignored), as PyBullet's
+    calculateInverseKinematics does (it reads no mimic)."""
+    path = tmp_path / "arm.urdf"
+    path.write_text(MIMIC_ARM)
+    w = tb.World(gravity=(0.0, 0.0, 0.0))
+    robot = tb.load_urdf(w, path, fixed_base=True)
+    kin = robot.kinematics
+    assert [c[4][:2].tolist() for c in kin.couplings()] == [[0.2, 1.5]]
+    s, wr = 0.7, 0.3
+    e = 0.2 + 1.5 * s
+    target = (math.cos(s) + math.cos(s + e) + math.cos(s + e + wr), math.sin(s) + math.sin(s + e)
+              + math.sin(s + e + wr), 0.0)
+
+    def joints(sol):
+        return [float(sol.qpos[kin.by_name[n].qpos][0]) for n in ("shoulder", "elbow", "wrist")]
+
+    sol = kin.inverse_kinematics("hand", target, point=(1.0, 0.0, 0.0), qpos=np.zeros(kin.nq))
+    assert sol.converged and sol.position_error < 1e-6
+    q_s, q_e, _ = joints(sol)
+    assert q_e == pytest.approx(0.2 + 1.5 * q_s, abs=1e-12)
+    kin.couplings = lambda: []  # the search without the coupling: the elbow leaves its relation
+    free = kin.inverse_kinematics("hand", target, point=(1.0, 0.0, 0.0), qpos=np.zeros(kin.nq))
+    assert free.converged
+    q_s, q_e, _ = joints(free)
+    assert abs(q_e - (0.2 + 1.5 * q_s)) > 0.1
