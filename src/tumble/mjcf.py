@@ -106,6 +106,7 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
     _actuators,
     _keyframes,
     _tendons,
+    _tendon_servos,
     _add_equalities,
     check_keyframes,
     _equalities,
@@ -158,6 +159,7 @@ class MjcfModel:
     cameras: dict = field(default_factory=dict)  # name: (link, position, rotation, fovy deg, (width, height))
     keyframes: dict = field(default_factory=dict)  # name: (qpos | None, qvel | None, ctrl | None)
     tendons: dict = field(default_factory=dict)  # fixed tendon name: ((joint, coef), ...)
+    tendon_servos: list = field(default_factory=list)  # (actuator name, key): biased actuators on tendons
     site_shapes: dict = field(default_factory=dict)  # site name: (type, size (3,) m) (touch sensors)
     anchors: dict = field(default_factory=dict)  # body name: its link frame's origin in the body frame (m)
     sensors: list = field(default_factory=list)  # mjcf_sensors.MjcfSensor, the file's order
@@ -421,6 +423,7 @@ def _read(path: Path) -> MjcfModel:
     _tendons(reader, root, out, joint_names)
     _actuators(reader, root, out, joint_names)
     _equalities(reader, root, out, names)
+    _tendon_servos(out)
     _keyframes(root, out)
     read_sensors(root, out)
     for contact in root.findall("contact"):

@@ -108,6 +108,49 @@ def apply_controls(robot, sim, controls: dict):
         robot._write(sim, joint, values)
 
 
+def _tendon_servos(out: MjcfModel):
+    """The position, velocity and biased actuators on fixed tendons (``out.tendon_servos``), each made an
+    actuator on one joint. Such an actuator's bias couples the tendon's joints (its spring acts on
+    the length sum c_i q_i); tumble takes it where joint equalities tie every joint of the tendon to
+    one of them, q_i = a_i + r_i q (MuJoCo Menagerie's grippers: Franka's "split" tendon over its two
+    fingers, whose equality mirrors them): then the tendon's length is L = L0 + C q (L0 = sum c_i a_i,
+    C = sum c_i r_i), and the actuator is one on that joint with gear gear C and bias b0 + b1 gear L0
+    (the same generalized force on the one coordinate left, so the same motion; its force reaches
+    the other joints through their equalities). Else one line."""
+    for name, key in out.tendon_servos:
+        actuator = out.actuators[name]
+        follows = {}  # joint1: (joint2, a0, a1) of the linear joint equalities
+        for kind, _eq, joint1, joint2, coef in out.equalities:
+            if kind == "joint" and joint2 is not None and not np.any(np.asarray(coef)[2:]):
+                follows[joint1] = (joint2, float(coef[0]), float(coef[1]))
+        joints = [j for j, _c in actuator.tendon]
+        leader = None
+        for candidate in joints:
+            if all(j == candidate or (j in follows and follows[j][0] == candidate) for j in joints):
+                leader = candidate
+                break
+        if leader is None:
+            raise InputError("a position, velocity or biased actuator on a tendon is supported when joint "
+                             "equalities tie the tendon's joints to one of them (else it would couple them)", key)
+        L0 = C = 0.0
+        for j, c in actuator.tendon:
+            a0, a1 = (0.0, 1.0) if j == leader else follows[j][1:]
+            L0 += c * a0
+            C += c * a1
+        gear = actuator.gear * C
+        b0, b1, b2 = actuator.bias
+        if actuator.forcerange is not None and b2 != 0.0 and b1 == 0.0:  # as on a joint (``_actuators``)
+            raise InputError("a forcerange on a damping actuator without stiffness is not supported", key)
+        joint_actuator = MjcfActuator(name, actuator.kind, leader, gear, actuator.ctrlrange, actuator.forcerange,
+                                      actuator.gain, (b0 + b1 * actuator.gear * L0, b1, b2))
+        k, c, limit = out.drives.get(leader, (0.0, 0.0, 0.0))
+        if joint_actuator.stiffness > 0.0:
+            fr = actuator.forcerange
+            limit += math.inf if fr is None else abs(gear) * max(abs(fr[0]), abs(fr[1]))
+        out.drives[leader] = (k + joint_actuator.stiffness, c + joint_actuator.damping, limit)
+        out.actuators[name] = joint_actuator  # in its place: MuJoCo's actuator order (ctrl) kept
+
+
 def _limited(a: dict, flag: str, attr: str, key: str, reader):
     """An actuator's (lo, hi) range ``attr`` when ``flag`` ("ctrllimited", "forcelimited": true,
     false, or auto: limited when the range is given, under ``<compiler autolimits>``), else None."""
@@ -184,10 +227,9 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
             if actuator.stiffness < 0.0 or actuator.damping < 0.0:
                 raise InputError("a negative stiffness or damping (bias) is not supported", key)
             if tendon:
-                if actuator.stiffness or actuator.damping:
-                    raise InputError("a position, velocity or biased actuator on a tendon is not supported (it "
-                                     "would couple the tendon's joints; motors are)", key)
                 out.actuators[name] = actuator
+                if actuator.stiffness or actuator.damping:
+                    out.tendon_servos.append((name, key))  # after the equalities: ``_tendon_servos``
                 continue
             if forcerange is not None and actuator.damping > 0.0 and actuator.stiffness == 0.0:
                 # f = kv (ctrl - l') clipped whole: here an effort and a damper, each of its own

@@ -283,9 +283,10 @@ def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path,
      "<fixed name='t' stiffness='3'><joint joint='j'/></fixed></tendon></mujoco>", "a tendon's stiffness"),
     ("<mujoco><worldbody><body name='b'><joint name='j'/><geom size='0.1'/></body></worldbody><tendon>"
      "<fixed name='t'><joint joint='nope'/></fixed></tendon></mujoco>", "unknown joint 'nope'"),
-    ("<mujoco><worldbody><body name='b'><joint name='j'/><geom size='0.1'/></body></worldbody><tendon>"
-     "<fixed name='t'><joint joint='j'/></fixed></tendon><actuator><position tendon='t' kp='5'/></actuator></mujoco>",
-     "actuator on a tendon is not supported"),
+    ("<mujoco><worldbody><body name='b'><joint name='j'/><joint name='k' axis='1 0 0'/><geom size='0.1'/></body>"
+     "</worldbody><tendon><fixed name='t'><joint joint='j'/><joint joint='k'/></fixed></tendon><actuator>"
+     "<position tendon='t' kp='5'/></actuator></mujoco>",
+     "actuator on a tendon is supported when joint equalities tie the tendon's joints to one of them"),
     ("<robot/>", "expected a <mujoco> element"),
     ("<mujoco><worldbody>", "invalid XML"),
     ("<mujoco/>", "missing <worldbody>"),
@@ -1079,3 +1080,72 @@ def test_pybullet_data_humanoids_with_tendons_load():
     for name, problem in (("ground.xml", "unknown joint 'left_hip_y'"), ("humanoid_fixed.xml", "unknown joint type 'fixed'")):
         with pytest.raises(tb.InputError, match=problem):
             tb.load_mjcf(tb.World(), os.path.join(folder, name))
+
+
+GRIPPER = """
+<mujoco model="gripper">
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <body name="hand" pos="0 0 1">
+      <geom type="box" size="0.03 0.08 0.02" mass="1" contype="0" conaffinity="0"/>
+      <body name="left" pos="0 0.02 -0.05">
+        <joint name="finger1" type="slide" axis="0 1 0" range="0 0.04"/>
+        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
+      </body>
+      <body name="right" pos="0 -0.02 -0.05">
+        <joint name="finger2" type="slide" axis="0 -1 0" range="0 0.04"/>
+        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="split"><joint joint="finger1" coef="0.5"/><joint joint="finger2" coef="0.5"/></fixed>
+  </tendon>
+  <equality><joint joint1="finger1" joint2="finger2" polycoef="{polycoef}"/></equality>
+  <actuator>
+    <general name="grip" tendon="split" ctrlrange="0 255" gainprm="0.01568627451 0 0" biasprm="0 -100 -10"
+             biastype="affine"/>
+  </actuator>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("a0, a1", [(0.0, 1.0), (0.002, 2.0)])
+def test_a_servo_on_a_tendon_whose_joints_are_tied_moves_as_mujoco_does(tmp_path, a0, a1):
+    """Franka's gripper in MuJoCo Menagerie: a general actuator with an affine bias (a position servo,
+    kp 100, kv 10) on the tendon "split" = 0.5 finger1 + 0.5 finger2, the fingers mirrored by a joint
+    equality. Its length L is the fingers' opening q; f = g ctrl - 100 L - 10 L' on the coordinate,
+    so q settles at g ctrl / 100 (closed form: 0.0157 m for ctrl 100, to 1e-6 m at 2 s), and moves
+    as MuJoCo's RK4 says on the same file (an overdamped 22 rad/s servo on 0.2 kg: 2e-4 m over
+    0.5 s, the first-order step at dt 1/960 s; MuJoCo's equality is soft, tumble's gear rigid: the
+    fingers on their relation to 1e-9 m here). A skewed equality, finger1 = a0 + a1 finger2, makes
+    L = L0 + C finger2 with L0 = 0.5 a0, C = 0.5 (1 + a1): finger2 settles at (g ctrl / 100 - L0) / C
+    (0.0147 m without C, 0.0105 m without L0, against 0.0098 m; checked to fail without L0). Before, the actuator stopped the
+    model with one line."""
+    path = tmp_path / "gripper.xml"
+    # both engines start on the relation (a keyframe): MuJoCo's soft equality and tumble's rigid gear
+    # close a gap at the start differently
+    path.write_text(GRIPPER.format(polycoef=f"{a0} {a1} 0 0 0").replace(
+        "<worldbody>", f'<keyframe><key name="open" qpos="{a0} 0"/></keyframe><worldbody>'))
+    m = mujoco.MjModel.from_xml_path(str(path))
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    m.opt.timestep = 1 / 4000
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    d.ctrl[:] = 100.0
+    world = tb.World(gravity=(0, 0, 0))
+    robot = tb.load_mjcf(world, path, keyframe="open")
+    sim = tb.Simulator(world, dt=1 / 960, joint_settings=ACCURATE)
+    robot.set_controls(sim, {"grip": 100.0})
+    for t in (0.1, 0.25, 0.5):
+        sim.step(int(round(t * 960)) - sim.step_index)
+        while d.time < t - 1e-9:
+            mujoco.mj_step(m, d)
+        got = [robot.joint_states(sim)[j][0] for j in ("finger1", "finger2")]
+        np.testing.assert_allclose(got, d.qpos, atol=2e-4)
+        assert abs(got[0] - (a0 + a1 * got[1])) < 1e-9
+    world.sleeping = False  # (asleep, the fingers stop within 4e-6 m of the target, below the sleep speed)
+    sim.step(2 * 960 - sim.step_index)
+    q2 = (0.01568627451 * 100 / 100 - 0.5 * a0) / (0.5 * (1 + a1))
+    assert robot.joint_states(sim)["finger2"][0] == pytest.approx(q2, abs=1e-6)
+    assert robot.joint_states(sim)["finger1"][0] == pytest.approx(a0 + a1 * q2, abs=1e-6)
