@@ -3,7 +3,7 @@ file with any attribute given any value, any element dropped or repeated, never 
 it loads and steps, or it is refused with one ``InputError`` line naming the file, and no warning.
 The base file has every element tumble reads (default classes, every orientation form, fromto, a
 mesh asset, each joint type, several joints in one body, an inertial, actuators, an exclude, an
-include, sites, fixed and tracking cameras, a fixed tendon with a motor, a joint equality, sensors, a
+include, sites, fixed and tracking cameras, fixed tendons with a motor and a servo, a joint equality, sensors, a
 keyframe)."""
 
 import warnings
@@ -49,7 +49,8 @@ BASE = """<mujoco model="fuzz">
     <body name="ball" pos="1 0 1"><freejoint/><geom type="sphere" size="0.1" mass="1"/><site name="s_ball"/></body>
     <include file="inc.xml"/>
   </worldbody>
-  <tendon><fixed name="t"><joint joint="j1" coef="1"/><joint joint="j2" coef="-0.5"/></fixed></tendon>
+  <tendon><fixed name="t"><joint joint="j1" coef="1"/><joint joint="j2" coef="-0.5"/></fixed>
+    <fixed name="tied"><joint joint="j2" coef="0.5"/></fixed></tendon>
   <equality><joint joint1="j2b" joint2="j1" polycoef="0 0.5 0.1"/></equality>
   <sensor>
     <jointpos joint="j1"/><jointvel joint="j2"/><framepos objtype="site" objname="s_a"/>
@@ -60,7 +61,7 @@ BASE = """<mujoco model="fuzz">
   <keyframe><key name="home" qpos="0.1 0.02 0.3 1 0 0 0 1 0 1 1 0 0 0" qvel="0 0 0 0 0 0 0 0 0 0 0 0"/></keyframe>
   <contact><exclude body1="a" body2="c"/></contact>
   <actuator><position joint="j1" kp="10" kv="1" forcerange="-5 5"/><motor joint="j2"/>
-    <motor name="pull" tendon="t" gear="2"/></actuator>
+    <motor name="pull" tendon="t" gear="2"/><position name="servo" tendon="tied" kp="3" kv="0.5"/></actuator>
 </mujoco>
 """
 
@@ -90,6 +91,7 @@ def test_the_base_file_loads(folder):
     assert set(robot.joints) == {"j1", "j2", "j2b", "j3"} and world.exact_joints
     assert "inc" in robot.links and set(robot.sites) == {"s_a", "s_ball"} and set(robot.cameras) == {"cam_a", "cam_track"}
     assert len(robot.sensors) == 12 and robot.sensors_left_off == ["sensor12"] and "pull" in robot.actuators
+    assert robot.actuators["servo"].joint == "j2" and robot.actuators["servo"].gear == 0.5
     assert robot.kinematics.qpos()[0] == pytest.approx(0.1)
 
 
