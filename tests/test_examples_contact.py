@@ -433,6 +433,7 @@ def test_ring_toss_rings_land_round_their_pegs_and_one_misses():
     # the body takes the torus's own mass properties: I_zz = m (R^2 + 3/4 r^2) (a torus's closed form, to
     # the 32 x 12 mesh's faceting: 2 %), not the pieces' (they over-fill it)
     w = scene.world
+    assert len({id(w.shapes[i]) for i in rings}) == 1  # one decomposition, shared by the five rings
     i = rings[0]
     Izz = float(np.max(np.linalg.eigvalsh(w.inertia_body[i])))
     assert Izz == pytest.approx(0.05 * (RING_MAJOR**2 + 0.75 * RING_TUBE**2), rel=0.02)

@@ -129,8 +129,9 @@ def _digest(compound):
 
 def test_decompositions_are_deterministic_and_kept(ring, pieces, tmp_path, monkeypatch):
     """The same mesh and settings give the same pieces, bit for bit: again in this process, in
-    another with one thread (CoACD's search is seeded), and from the cache on disk; a cache file
-    cut short (a run killed while writing it) is made again, not read."""
+    another with one thread (CoACD's search is seeded), and from the cache on disk; in one process
+    the same Compound record (bodies sharing it share its collision data); a cache file cut short
+    (a run killed while writing it) is made again, not read."""
     again = tb.decompose(ring, cache=False)
     assert _digest(again) == _digest(pieces)
     code = ("import sys, trimesh, tumble as tb\n"
@@ -145,6 +146,7 @@ def test_decompositions_are_deterministic_and_kept(ring, pieces, tmp_path, monke
     monkeypatch.setenv("TUMBLE_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(D, "_memory", {})
     first = tb.decompose(ring)
+    assert tb.decompose(tb.Mesh(vertices=ring.vertices, faces=ring.faces)) is first  # one record, kept
     files = list((tmp_path / "decompositions").glob("*.npz"))
     assert len(files) == 1 and _digest(first) == _digest(pieces)
     monkeypatch.setattr(D, "_memory", {})
@@ -156,14 +158,16 @@ def test_decompositions_are_deterministic_and_kept(ring, pieces, tmp_path, monke
     monkeypatch.undo()
     monkeypatch.setenv("TUMBLE_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(D, "_memory", {})
-    assert _digest(tb.decompose(ring)) == _digest(pieces)
+    again = tb.decompose(ring)
+    assert _digest(again) == _digest(pieces)
     assert D._read(files[0]) is not None  # written whole again
+    assert tb.decompose(ring, threshold=0.1, cache=False) is not again
 
 
 def test_a_moving_mesh_collides_as_its_hull_and_says_so_when_concave(ring):
     """A plain mesh on a moving body collides as its convex hull (PyBullet's and MuJoCo's treatment:
-    the ring stops on the peg's top), keeping the mesh's mass properties, and a concave one warns once, naming the body
-    and ``tb.decompose``; a convex mesh's hull is exact: no warning. Before, a moving mesh collided
+    the ring stops on the peg's top), keeping the mesh's mass properties, and a concave one warns
+    once, naming the body and ``tb.decompose``; a convex mesh's hull is exact: no warning. Before, a moving mesh collided
     with nothing: the ring fell through the ground without a word."""
     import warnings
 
