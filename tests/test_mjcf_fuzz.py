@@ -56,7 +56,8 @@ BASE = """<mujoco model="fuzz">
     <jointpos joint="j1"/><jointvel joint="j2"/><framepos objtype="site" objname="s_a"/>
     <framequat objtype="xbody" objname="b"/><gyro site="s_a"/><velocimeter site="s_ball"/>
     <rangefinder site="s_a"/><touch site="s_ball"/><force site="s_a"/><torque site="s_a"/>
-    <subtreecom body="a"/><clock/><accelerometer site="s_a"/>
+    <subtreecom body="a"/><clock/><accelerometer site="s_a"/><actuatorfrc actuator="servo"/>
+    <jointactuatorfrc joint="j2"/><tendonpos tendon="t"/>
   </sensor>
   <keyframe><key name="home" qpos="0.1 0.02 0.3 1 0 0 0 1 0 1 1 0 0 0" qvel="0 0 0 0 0 0 0 0 0 0 0 0"/></keyframe>
   <contact><exclude body1="a" body2="c"/></contact>
@@ -69,7 +70,7 @@ BASE = """<mujoco model="fuzz">
 def mutated(data) -> str:
     return mutate(data, BASE, ["name", "pos", "quat", "euler", "size", "type", "class", "range", "fromto", "mass",
                                "axis", "joint", "limited", "zaxis", "site", "objtype", "objname", "coef", "qpos",
-                               "qvel", "tendon", "mode", "fovy", "resolution", "body", "file", "joint1", "joint2",
+                               "qvel", "tendon", "actuator", "mode", "fovy", "resolution", "body", "file", "joint1", "joint2",
                                "polycoef"])
 
 
@@ -90,7 +91,8 @@ def test_the_base_file_loads(folder):
     robot = tb.load_mjcf(world, folder / "m.xml", keyframe="home")
     assert set(robot.joints) == {"j1", "j2", "j2b", "j3"} and world.exact_joints
     assert "inc" in robot.links and set(robot.sites) == {"s_a", "s_ball"} and set(robot.cameras) == {"cam_a", "cam_track"}
-    assert len(robot.sensors) == 12 and robot.sensors_left_off == ["sensor12"] and "pull" in robot.actuators
+    assert len(robot.sensors) == 15 and robot.sensors_left_off == ["sensor12"] and "pull" in robot.actuators
+    assert set(robot.sensor_data()) == set(robot.sensors)
     assert robot.actuators["servo"].joint == "j2" and robot.actuators["servo"].gear == 0.5
     assert robot.kinematics.qpos()[0] == pytest.approx(0.1)
 

@@ -689,6 +689,7 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     robot.sensors = {sensor.name: sensor for sensor in parsed.sensors}
     robot.sensors_left_off = list(parsed.sensors_left_off)
     robot.site_shapes = dict(parsed.site_shapes)
+    robot.tendons = dict(parsed.tendons)
     robot.anchors = dict(parsed.anchors)
     robot.virtual_links = list(parsed.virtual)
     robot.keyframes = dict(parsed.keyframes)

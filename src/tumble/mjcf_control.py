@@ -60,6 +60,32 @@ class MjcfActuator:
     bias: tuple = (0.0, 0.0, 0.0)
     ctrl: float = 0.0
     tendon: tuple = ()  # on a fixed tendon (``joint`` None): ((joint, coef), ...), each joint's moment arm coef gear
+    # a servo on a tendon made this joint's actuator (``_tendon_servos``): the actuator as the file gives it
+    # (its tendon, gear and bias), for MuJoCo's actuator force and moment arms (``mjcf_sensors``)
+    given: "MjcfActuator | None" = None
+
+    def length_and_rate(self, qpos: dict, qvel: dict) -> tuple:
+        """(l, l') of MuJoCo's actuator length, gear q or gear sum coef_i q_i, from {joint: q}, {joint: q'}."""
+        if self.tendon:
+            return (self.gear * sum(c * qpos[j] for j, c in self.tendon),
+                    self.gear * sum(c * qvel[j] for j, c in self.tendon))
+        return self.gear * qpos[self.joint], self.gear * qvel[self.joint]
+
+    def force(self, qpos: dict, qvel: dict) -> float:
+        """MuJoCo's ``actuator_force``: gain ctrl + b0 + b1 l + b2 l' (ctrl already clipped to its
+        range), clipped to ``forcerange``; the file's actuator for a tendon servo."""
+        a = self.given or self
+        length, rate = a.length_and_rate(qpos, qvel)
+        f = a.gain * a.ctrl + a.bias[0] + a.bias[1] * length + a.bias[2] * rate
+        if a.forcerange is not None:
+            f = min(max(f, a.forcerange[0]), a.forcerange[1])
+        return f
+
+    def moments(self) -> tuple:
+        """((joint, moment arm), ...): where MuJoCo applies the force (gear on its joint; gear coef_i
+        on each joint of its tendon)."""
+        a = self.given or self
+        return tuple((j, a.gear * c) for j, c in a.tendon) if a.tendon else ((a.joint, a.gear),)
 
     @property
     def stiffness(self) -> float:
@@ -93,6 +119,8 @@ def apply_controls(robot, sim, controls: dict):
         given.append((actuator, u))
     for actuator, u in given:
         actuator.ctrl = u
+        if actuator.given is not None:
+            actuator.given.ctrl = u
     touched = []
     for actuator, _ in given:
         touched += [j for j, _c in actuator.tendon] if actuator.tendon else [actuator.joint]
@@ -142,7 +170,7 @@ def _tendon_servos(out: MjcfModel):
         if actuator.forcerange is not None and b2 != 0.0 and b1 == 0.0:  # as on a joint (``_actuators``)
             raise InputError("a forcerange on a damping actuator without stiffness is not supported", key)
         joint_actuator = MjcfActuator(name, actuator.kind, leader, gear, actuator.ctrlrange, actuator.forcerange,
-                                      actuator.gain, (b0 + b1 * actuator.gear * L0, b1, b2))
+                                      actuator.gain, (b0 + b1 * actuator.gear * L0, b1, b2), given=actuator)
         k, c, limit = out.drives.get(leader, (0.0, 0.0, 0.0))
         if joint_actuator.stiffness > 0.0:
             fr = actuator.forcerange

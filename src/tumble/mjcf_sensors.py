@@ -22,8 +22,15 @@ Read (MuJoCo's definitions, XML reference "sensor"; frames in the world unless s
 - ``subtreecom``: the centre of mass of a body and the bodies below it;
 - ``clock``: the simulated time.
 
-Left off (``Robot.sensors_left_off``, names): the others (accelerometer, actuator
-and tendon sensors...), frame sensors of geoms or of a body's inertial frame, and any with
+- ``actuatorpos``, ``actuatorvel``, ``actuatorfrc``: an actuator's length gear q (or gear times its
+  tendon's length), its rate, and its force gain ctrl + b0 + b1 l + b2 l' (clipped to its
+  forcerange: MuJoCo's ``actuator_force`` at the present state; tumble applies a servo's spring
+  and damper implicitly over the step); ``jointactuatorfrc``: the joint's generalized actuator
+  force, the sum of each actuator's force times its moment arm on the joint (``qfrc_actuator``);
+- ``tendonpos``, ``tendonvel``: a fixed tendon's length sum coef_i q_i and its rate.
+
+Left off (``Robot.sensors_left_off``, names): the others (accelerometer, the limit and
+friction-loss sensors...), frame sensors of geoms or of a body's inertial frame, and any with
 ``reftype``: tumble does not compute what they measure the way MuJoCo does, and a sensor reads,
 never acts.
 """
@@ -40,7 +47,8 @@ from .math3d import matrix_to_quat
 
 FRAME = ("framepos", "framequat", "framexaxis", "frameyaxis", "framezaxis", "framelinvel", "frameangvel")
 SITE = ("velocimeter", "gyro", "rangefinder", "touch", "force", "torque")
-READ = ("jointpos", "jointvel", "subtreecom", "clock") + FRAME + SITE
+ACTUATION = ("actuatorpos", "actuatorvel", "actuatorfrc", "jointactuatorfrc", "tendonpos", "tendonvel")
+READ = ("jointpos", "jointvel", "subtreecom", "clock") + FRAME + SITE + ACTUATION
 
 
 @dataclass
@@ -69,8 +77,12 @@ def read_sensors(root, out):
             if e.tag not in READ or "reftype" in a or "refname" in a:
                 out.sensors_left_off.append(name)
                 continue
-            if e.tag in ("jointpos", "jointvel"):
+            if e.tag in ("jointpos", "jointvel", "jointactuatorfrc"):
                 objtype, objname = "joint", a.get("joint")
+            elif e.tag in ("actuatorpos", "actuatorvel", "actuatorfrc"):
+                objtype, objname = "actuator", a.get("actuator")
+            elif e.tag in ("tendonpos", "tendonvel"):
+                objtype, objname = "tendon", a.get("tendon")
             elif e.tag == "subtreecom":
                 objtype, objname = "body", a.get("body")
             elif e.tag in SITE:
@@ -90,8 +102,16 @@ def read_sensors(root, out):
                 if joint is None or joint.kind in ("fixed", "floating"):
                     out.sensors_left_off.append(name)  # no joint into the site's body to measure
                     continue
+            if objtype == "actuator" and objname in out.ctrl_names and objname not in out.actuators:
+                out.sensors_left_off.append(name)  # an actuator tumble leaves off (on a site...)
+                continue
+            if objtype == "joint" and e.tag == "jointactuatorfrc" and objname in {
+                    j.name for j in out.model.joints if j.kind not in ("revolute", "continuous", "prismatic")}:
+                out.sensors_left_off.append(name)  # a ball's or free joint's: no actuator drives it here
+                continue
             known = {"site": out.sites, "xbody": out.anchors, "body": out.anchors,
-                     "joint": {j.name: j for j in out.model.joints}}.get(objtype)
+                     "joint": {j.name: j for j in out.model.joints}, "actuator": out.actuators,
+                     "tendon": out.tendons}.get(objtype)
             if known is not None and objname not in known:
                 raise InputError(f"unknown {objtype} {objname!r}", key)
             out.sensors.append(MjcfSensor(name, e.tag, objtype, objname))
@@ -135,8 +155,30 @@ def sensor_values(robot, sim) -> dict:
     world = robot.world
     kin = robot.kinematics
     qpos = qvel = None
+    joint_q = joint_qd = None
     out = {}
     for s in robot.sensors.values():
+        if s.kind in ACTUATION:
+            if joint_q is None:  # {joint: q}, {joint: q'} of the hinges and slides
+                qpos = kin.qpos(sim) if qpos is None else qpos
+                qvel = kin.qvel() if qvel is None else qvel
+                one = [c for c in kin.coordinates if c.qvel.stop - c.qvel.start == 1 and c.kind != "floating"]
+                joint_q = {c.name: float(qpos[c.qpos][0]) for c in one}
+                joint_qd = {c.name: float(qvel[c.qvel][0]) for c in one}
+            if s.kind in ("tendonpos", "tendonvel"):
+                values = joint_q if s.kind == "tendonpos" else joint_qd
+                out[s.name] = np.array([sum(c * values[j] for j, c in robot.tendons[s.objname])])
+            elif s.kind == "jointactuatorfrc":  # MuJoCo's qfrc_actuator of the joint
+                out[s.name] = np.array([sum(arm * a.force(joint_q, joint_qd) for a in robot.actuators.values()
+                                            for j, arm in a.moments() if j == s.objname)])
+            else:
+                a = robot.actuators[s.objname]
+                if s.kind == "actuatorfrc":
+                    out[s.name] = np.array([a.force(joint_q, joint_qd)])
+                else:
+                    length, rate = (a.given or a).length_and_rate(joint_q, joint_qd)
+                    out[s.name] = np.array([length if s.kind == "actuatorpos" else rate])
+            continue
         if s.kind in ("jointpos", "jointvel"):
             c = kin.by_name[s.objname]
             if s.kind == "jointpos":

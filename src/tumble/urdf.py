@@ -106,6 +106,7 @@ class Robot:
             the key leaves it out), for ``reset_to_keyframe``; empty for a URDF.
         sensors: {name: ``mjcf_sensors.MjcfSensor``} of an MJCF model's ``<sensor>``s that tumble
             reads (``sensor_data``); empty for a URDF. ``sensors_left_off``: the names of the others.
+        tendons: {name: ((joint, coef), ...)} of an MJCF model's fixed tendons; empty for a URDF.
         site_shapes, anchors, virtual_links, ctrl_names, qpos0: an MJCF model's site volumes {name:
             (type, size (3,))}, each body's link frame origin in its body frame {body: (3,) m}, the
             virtual links between joints of one body, the actuators' names in MuJoCo's ctrl order
@@ -127,6 +128,7 @@ class Robot:
     keyframes: dict = field(default_factory=dict)
     sensors: dict = field(default_factory=dict)
     sensors_left_off: list = field(default_factory=list)
+    tendons: dict = field(default_factory=dict)
     site_shapes: dict = field(default_factory=dict)
     anchors: dict = field(default_factory=dict)
     virtual_links: list = field(default_factory=list)

@@ -1149,3 +1149,78 @@ def test_a_servo_on_a_tendon_whose_joints_are_tied_moves_as_mujoco_does(tmp_path
     q2 = (0.01568627451 * 100 / 100 - 0.5 * a0) / (0.5 * (1 + a1))
     assert robot.joint_states(sim)["finger2"][0] == pytest.approx(q2, abs=1e-6)
     assert robot.joint_states(sim)["finger1"][0] == pytest.approx(a0 + a1 * q2, abs=1e-6)
+
+
+TENDON_ACTUATED = """
+<mujoco model="actuated">
+  <option gravity="0 0 0"/>
+  <worldbody>
+    <body name="hand" pos="0 0 1">
+      <geom type="box" size="0.03 0.08 0.02" mass="1" contype="0" conaffinity="0"/>
+      <body name="a" pos="0 0 -0.1">
+        <joint name="hip" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" contype="0" conaffinity="0"/>
+      </body>
+      <body name="left" pos="0 0.02 -0.05">
+        <joint name="finger1" type="slide" axis="0 1 0"/>
+        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
+      </body>
+      <body name="right" pos="0 -0.02 -0.05">
+        <joint name="finger2" type="slide" axis="0 -1 0"/>
+        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="split"><joint joint="finger1" coef="0.5"/><joint joint="finger2" coef="0.5"/></fixed>
+    <fixed name="mix"><joint joint="hip" coef="-1"/><joint joint="finger1" coef="2"/></fixed>
+  </tendon>
+  <equality><joint joint1="finger1" joint2="finger2" polycoef="0.001 2 0 0 0"/></equality>
+  <actuator>
+    <general name="grip" tendon="split" ctrlrange="0 255" gainprm="0.0157" biasprm="0.3 -100 -10" biastype="affine"
+             gear="1.5"/>
+    <position name="servo" joint="hip" kp="20" kv="2" forcerange="-3 3" gear="2"/>
+    <motor name="pull" tendon="mix" gear="1.5" ctrlrange="-1 1"/>
+  </actuator>
+  <sensor>
+    <actuatorfrc name="f_grip" actuator="grip"/><actuatorfrc name="f_servo" actuator="servo"/>
+    <actuatorfrc name="f_pull" actuator="pull"/><actuatorpos name="l_grip" actuator="grip"/>
+    <actuatorvel name="v_servo" actuator="servo"/><actuatorpos name="l_pull" actuator="pull"/>
+    <jointactuatorfrc name="qf_hip" joint="hip"/><jointactuatorfrc name="qf_f1" joint="finger1"/>
+    <jointactuatorfrc name="qf_f2" joint="finger2"/>
+    <tendonpos name="L_split" tendon="split"/><tendonvel name="Ld_mix" tendon="mix"/>
+  </sensor>
+</mujoco>
+"""
+
+
+def test_actuator_and_tendon_sensors_read_what_mujoco_reads(tmp_path):
+    """MuJoCo's actuator and tendon sensors at random states and controls (``Kinematics.set_state``,
+    ``set_controls``; MuJoCo after mj_forward on the same file), to 1e-12: actuator lengths, rates
+    and forces (a servo on a tendon, one on a joint with its force clipped by its forcerange, a
+    motor on a tendon), each joint's actuator force (qfrc_actuator: the tendon servo's force on
+    both fingers by its moment arms, though tumble drives their leader), and tendon lengths and
+    rates. The states leave the fingers off their equality: the sensors read MuJoCo's definitions
+    from the joints, not tumble's reduction."""
+    path = tmp_path / "actuated.xml"
+    path.write_text(TENDON_ACTUATED)
+    world = tb.World(gravity=(0, 0, 0))
+    robot = tb.load_mjcf(world, path)
+    assert robot.sensors_left_off == [] and robot.actuators["grip"].given is not None
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    kin = robot.kinematics
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        q, qd = rng.uniform(-0.3, 0.3, kin.nq), rng.normal(size=kin.nv)
+        ctrl = {"grip": rng.uniform(0, 255), "servo": rng.uniform(-1, 1), "pull": rng.uniform(-1.5, 1.5)}
+        kin.set_state(q, qd)
+        robot.set_controls(None, ctrl)
+        d.qpos[:], d.qvel[:] = q, qd
+        d.ctrl[:] = [ctrl[n] for n in ("grip", "servo", "pull")]
+        mujoco.mj_forward(m, d)
+        values = robot.sensor_data()
+        assert set(values) == set(robot.sensors)
+        for name, got in values.items():
+            np.testing.assert_allclose(got, d.sensor(name).data, atol=1e-12, err_msg=name)
+    assert abs(values["f_servo"][0]) <= 3.0
