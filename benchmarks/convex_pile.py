@@ -42,6 +42,11 @@ def one_run(steps: int, threads: int, layers: int) -> dict:
                        contact_settings=SoftStepSettings(substeps=settings["substeps"]))
     hull = world.shapes[1]
     local = np.asarray(hull.vertices) - world.com_offset[1]
+
+    def lowest():  # m: the deepest hull vertex's height (every body has the same hull)
+        m = world.moving
+        return float((np.einsum("nij,vj->nvi", world.R[m], local)[..., 2] + world.x[m, 2:3]).min())
+
     t0 = time.perf_counter()
     sim.step(1)
     first = time.perf_counter() - t0
@@ -56,16 +61,13 @@ def one_run(steps: int, threads: int, layers: int) -> dict:
         elapsed += took
         times.append(took / k)
         done += k
-        m = world.moving
-        z = np.einsum("nij,vj->nvi", world.R[m], local)[..., 2] + world.x[m, 2:3]
-        deepest = max(deepest, float(-z.min()))
+        deepest = max(deepest, -lowest())
     m = world.moving
-    z = np.einsum("nij,vj->nvi", world.R[m], local)[..., 2] + world.x[m, 2:3]
     sleep = getattr(sim, "sleep", None)
     awake = getattr(sleep, "awake", None)
     return {"threads": threads, "steps": steps, "first_s": first, "ms_mean": 1e3 * elapsed / (steps - 1),
             "ms_median": 1e3 * float(np.median(times)), "ms_max": 1e3 * max(times), "deepest_run": deepest,
-            "deepest_end": float(-z.min()), "speed_end": float(np.linalg.norm(world.v[m], axis=1).max()),
+            "deepest_end": -lowest(), "speed_end": float(np.linalg.norm(world.v[m], axis=1).max()),
             "asleep_end": None if awake is None else int((~np.asarray(awake, dtype=bool)[m]).sum()),
             "height_end": float(world.x[m, 2].max()), "bodies": int(m.sum()), "contacts": int(
                 0 if sim.soft_step is None or sim.soft_step.contacts is None else len(sim.contacts().body_a))}
