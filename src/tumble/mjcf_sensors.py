@@ -102,8 +102,8 @@ def read_sensors(root, out):
                 if joint is None or joint.kind in ("fixed", "floating"):
                     out.sensors_left_off.append(name)  # no joint into the site's body to measure
                     continue
-            if objtype == "actuator" and objname in out.ctrl_names and objname not in out.actuators:
-                out.sensors_left_off.append(name)  # an actuator tumble leaves off (on a site...)
+            if objtype == "actuator" and objname is not None and objname not in out.actuators:
+                out.sensors_left_off.append(name)  # an actuator tumble leaves off (on a site...): not read
                 continue
             if objtype == "joint" and e.tag == "jointactuatorfrc" and objname in {
                     j.name for j in out.model.joints if j.kind not in ("revolute", "continuous", "prismatic")}:

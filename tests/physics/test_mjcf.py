@@ -1224,3 +1224,14 @@ def test_actuator_and_tendon_sensors_read_what_mujoco_reads(tmp_path):
         for name, got in values.items():
             np.testing.assert_allclose(got, d.sensor(name).data, atol=1e-12, err_msg=name)
     assert abs(values["f_servo"][0]) <= 3.0
+
+
+def test_a_sensor_of_an_actuator_left_off_is_left_off_too(tmp_path):
+    """An actuator on a site (a transmission tumble leaves off) is not read, nor is a sensor of it:
+    the model loads and the sensor is named in ``sensors_left_off``, where it once was refused as
+    an unknown actuator."""
+    path = write(tmp_path, "<mujoco><worldbody><body name='b'><joint name='j'/><geom size='0.1'/><site name='s'/>"
+                           "</body></worldbody><actuator><motor name='m' site='s' gear='1 0 0 0 0 0'/></actuator>"
+                           "<sensor><actuatorfrc name='f' actuator='m'/></sensor></mujoco>")
+    robot = tb.load_mjcf(tb.World(), path)
+    assert "m" not in robot.actuators and robot.sensors_left_off == ["f"]
