@@ -37,7 +37,8 @@ EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 2, 
 # Subcommands that live with their feature (export, render, plot, view): each
 # module has ``add_commands(subparsers) -> {name: handler}``, a handler takes the
 # parsed args and returns the exit status, and raises InputError on bad input.
-COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.viewer.commands", "tumble.sweep.commands")
+COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.viewer.commands", "tumble.sweep.commands",
+                   "tumble.decomposition_commands")
 OUTPUT_NAMES = ("trajectory.npz", "summary.json", "checkpoint.npz")
 # What --video, --gltf, --usd and --plots write beside them (tumble demo writes all but USD).
 MEDIA_NAMES = {"video": "video.mp4", "gltf": "trajectory.glb", "usd": "trajectory.usdc", "plots": "plots",

@@ -312,3 +312,33 @@ def test_bad_decompositions_in_scene_files_are_one_line(scene_dir, decompose, li
     err = capsys.readouterr().err.strip()
     assert err == f"tumble: error: {path}: {line}"
     assert not out.exists()
+
+
+def test_the_decompose_command_writes_the_pieces_as_one_obj(scene_dir, capsys):
+    """``tumble decompose MESH -o OUT.obj`` writes one object per piece, in the mesh's frame: read
+    back (trimesh), each object's vertices are a piece's, placed (to the 17 digits written); it
+    prints the count and the hulls' volume over the mesh's; OUT is not overwritten without
+    --force; bad input is one line, exit 2, nothing written."""
+    import trimesh
+
+    from tumble.cli import main
+
+    out = scene_dir / "pieces.obj"
+    pieces = tb.decompose(scene_dir / "ring.obj")  # the file's (rounded) vertices: its own pieces
+    assert main(["decompose", str(scene_dir / "ring.obj"), "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert f"wrote {out} ({len(pieces.parts)} convex pieces of" in printed and "x the mesh's volume" in printed
+    scene = trimesh.load_scene(out, process=False, split_objects=True, group_material=False)
+    got = sorted(np.round(g.vertices, 12).tolist() for g in scene.geometry.values())
+    want = sorted(np.round(part.vertices + pos, 12).tolist() for part, pos, _ in pieces.parts)
+    assert got == want
+    for args, line in (([], f"{out}: exists (pass --force to overwrite)"),
+                       (["--threshold", "0"], "--threshold: must be between 0.01 and 1.0, got 0.0"),
+                       (["--max-parts", "0"], "--max-parts: expected a whole number of at least 1, got 0")):
+        target = out if not args else scene_dir / "other.obj"
+        assert main(["decompose", str(scene_dir / "ring.obj"), "-o", str(target), *args]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("tumble: error: ") and err.endswith(line) and "\n" not in err
+        assert not (scene_dir / "other.obj").exists()
+    assert main(["decompose", str(scene_dir / "ring.obj"), "-o", str(scene_dir / "p.stl")]) == 2
+    assert "expected an .obj file" in capsys.readouterr().err
