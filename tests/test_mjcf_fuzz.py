@@ -62,7 +62,7 @@ BASE = """<mujoco model="fuzz">
   <keyframe><key name="home" qpos="0.1 0.02 0.3 1 0 0 0 1 0 1 1 0 0 0" qvel="0 0 0 0 0 0 0 0 0 0 0 0"/></keyframe>
   <contact><exclude body1="a" body2="c"/></contact>
   <actuator><position joint="j1" kp="10" kv="1" forcerange="-5 5"/><motor joint="j2"/>
-    <motor name="pull" tendon="t" gear="2"/><position name="servo" tendon="tied" kp="3" kv="0.5"/></actuator>
+    <motor name="pull" tendon="t" gear="2"/><position name="servo" tendon="tied" kp="3" dampratio="1"/></actuator>
 </mujoco>
 """
 
@@ -71,7 +71,7 @@ def mutated(data) -> str:
     return mutate(data, BASE, ["name", "pos", "quat", "euler", "size", "type", "class", "range", "fromto", "mass",
                                "axis", "joint", "limited", "zaxis", "site", "objtype", "objname", "coef", "qpos",
                                "qvel", "tendon", "actuator", "mode", "fovy", "resolution", "body", "file", "joint1", "joint2",
-                               "polycoef"])
+                               "polycoef", "dampratio"])
 
 
 @pytest.fixture(scope="module")
@@ -94,6 +94,7 @@ def test_the_base_file_loads(folder):
     assert len(robot.sensors) == 15 and robot.sensors_left_off == ["sensor12"] and "pull" in robot.actuators
     assert set(robot.sensor_data()) == set(robot.sensors)
     assert robot.actuators["servo"].joint == "j2" and robot.actuators["servo"].gear == 0.5
+    assert robot.actuators["servo"].bias[2] < 0.0  # its dampratio made a kv
     assert robot.kinematics.qpos()[0] == pytest.approx(0.1)
 
 

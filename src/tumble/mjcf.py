@@ -108,6 +108,7 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
     _tendons,
     _tendon_servos,
     _add_equalities,
+    resolve_dampratios,
     check_keyframes,
     _equalities,
     _exclude_by_masks,
@@ -643,6 +644,7 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         robot = _build(world, parsed, material, targets, position=position, orientation=orientation,
                        euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
                        collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors)
+        resolve_dampratios(robot)
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
         apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in (joint_targets or {})})

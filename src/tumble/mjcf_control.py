@@ -63,6 +63,9 @@ class MjcfActuator:
     # a servo on a tendon made this joint's actuator (``_tendon_servos``): the actuator as the file gives it
     # (its tendon, gear and bias), for MuJoCo's actuator force and moment arms (``mjcf_sensors``)
     given: "MjcfActuator | None" = None
+    # a position actuator's ``dampratio``: its kv is set from the model's inertia at qpos0 once the robot
+    # is built (``resolve_dampratios``)
+    dampratio: float = 0.0
 
     def length_and_rate(self, qpos: dict, qvel: dict) -> tuple:
         """(l, l') of MuJoCo's actuator length, gear q or gear sum coef_i q_i, from {joint: q}, {joint: q'}."""
@@ -170,13 +173,43 @@ def _tendon_servos(out: MjcfModel):
         if actuator.forcerange is not None and b2 != 0.0 and b1 == 0.0:  # as on a joint (``_actuators``)
             raise InputError("a forcerange on a damping actuator without stiffness is not supported", key)
         joint_actuator = MjcfActuator(name, actuator.kind, leader, gear, actuator.ctrlrange, actuator.forcerange,
-                                      actuator.gain, (b0 + b1 * actuator.gear * L0, b1, b2), given=actuator)
+                                      actuator.gain, (b0 + b1 * actuator.gear * L0, b1, b2), given=actuator,
+                                      dampratio=actuator.dampratio)
         k, c, limit = out.drives.get(leader, (0.0, 0.0, 0.0))
         if joint_actuator.stiffness > 0.0:
             fr = actuator.forcerange
             limit += math.inf if fr is None else abs(gear) * max(abs(fr[0]), abs(fr[1]))
         out.drives[leader] = (k + joint_actuator.stiffness, c + joint_actuator.damping, limit)
         out.actuators[name] = joint_actuator  # in its place: MuJoCo's actuator order (ctrl) kept
+
+
+def resolve_dampratios(robot):
+    """Each position actuator's ``dampratio`` made its kv as MuJoCo makes it (mj_setConst): kv = 2
+    dampratio sqrt(kp m), m = 1 / (r^T M^-1 r) the inertia the actuator sees through its moment arms
+    r (gear on its joint, gear coef_i on a tendon's joints) at qpos0, M the joint-space mass matrix
+    with armature; then the damping of the joints it drives (gear^2 kv, summed with the other
+    actuators') is written. Without it a dampratio was read as no damping at all: the servo rang."""
+    todo = [a for a in robot.actuators.values() if a.dampratio > 0.0]
+    if not todo:
+        return
+    from .joints import P_DAMPING
+
+    kin = robot.kinematics
+    Minv = np.linalg.inv(kin.mass_matrix(robot.qpos0))
+    for a in todo:
+        r = np.zeros(kin.nv)
+        for joint, arm in a.moments():
+            r[kin.by_name[joint].qvel.start] += arm
+        kv = 2.0 * a.dampratio * math.sqrt(a.gain * (1.0 / float(r @ Minv @ r)))
+        if not math.isfinite(kv) or not math.isfinite(a.gear * a.gear * kv):
+            raise InputError(f"the damping it makes (kv = {kv:g}) is past the float range",
+                             f"actuator.{a.kind}[{a.name}].dampratio")
+        for record in (a, a.given):
+            if record is not None:
+                record.bias = (record.bias[0], record.bias[1], -kv)
+    for joint in dict.fromkeys(a.joint for a in todo):
+        damping = sum(b.damping for b in robot.actuators.values() if b.joint == joint)
+        robot._write(None, joint, {P_DAMPING: damping})
 
 
 def _limited(a: dict, flag: str, attr: str, key: str, reader):
@@ -232,10 +265,17 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
             def number(attr, default):
                 return float(floats(a.get(attr, default), f"{key}.{attr}", (1,))[0])
 
+            dampratio = 0.0
             if e.tag == "motor":
                 gain, bias = 1.0, (0.0, 0.0, 0.0)
             elif e.tag == "position":
                 kp, kv = number("kp", "1"), number("kv", "0")
+                if "dampratio" in a:
+                    if "kv" in a:
+                        raise InputError("give kv or dampratio, not both", f"{key}.dampratio")
+                    dampratio = number("dampratio", "0")
+                    if not dampratio >= 0.0:
+                        raise InputError(f"must be >= 0, got {dampratio:g}", f"{key}.dampratio")
                 gain, bias = kp, (0.0, -kp, -kv)
             elif e.tag == "velocity":
                 kv = number("kv", "1")
@@ -251,7 +291,8 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
                 if a.get("biastype", "none") == "affine":
                     b = floats(a.get("biasprm", "0 0 0"), f"{key}.biasprm", range(1, 11))
                     bias = tuple(float(v) for v in (list(b) + [0.0, 0.0])[:3])
-            actuator = MjcfActuator(name, e.tag, joint, gear, ctrlrange, forcerange, gain, bias, tendon=tendon)
+            actuator = MjcfActuator(name, e.tag, joint, gear, ctrlrange, forcerange, gain, bias, tendon=tendon,
+                                    dampratio=dampratio)
             if actuator.stiffness < 0.0 or actuator.damping < 0.0:
                 raise InputError("a negative stiffness or damping (bias) is not supported", key)
             if tendon:
