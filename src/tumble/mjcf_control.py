@@ -228,6 +228,21 @@ def _limited(a: dict, flag: str, attr: str, key: str, reader):
     return float(lo), float(hi)
 
 
+def _inherited_range(out: MjcfModel, joint, factor: float, ctrlrange, key: str) -> tuple:
+    """A position actuator's ``inheritrange``: its ctrlrange the range of its joint scaled by ``factor``
+    about the range's middle (MuJoCo's compiler; the joint's range in radians or metres)."""
+    if ctrlrange is not None:
+        raise InputError("give ctrlrange or inheritrange, not both", key)
+    if not factor > 0.0:
+        raise InputError(f"must be >= 0, got {factor:g}", key)
+    j = next((j for j in out.model.joints if j.name == joint), None)
+    if j is None or j.kind not in ("revolute", "prismatic") or j.lower is None or j.upper is None \
+            or not (math.isfinite(j.lower) and math.isfinite(j.upper)):
+        raise InputError("inheritrange needs a joint with a range (a tendon's range is not read)", key)
+    middle, half = 0.5 * (j.lower + j.upper), 0.5 * (j.upper - j.lower)
+    return middle - factor * half, middle + factor * half
+
+
 def _actuators(reader, root, out: MjcfModel, joint_names):
     """The joint actuators (``MjcfActuator``) and, per joint, their drive (stiffness, damping, force
     limit) into ``out.drives``."""
@@ -270,6 +285,10 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
                 gain, bias = 1.0, (0.0, 0.0, 0.0)
             elif e.tag == "position":
                 kp, kv = number("kp", "1"), number("kv", "0")
+                if "timeconst" in a and number("timeconst", "0") != 0.0:
+                    raise InputError("a timeconst (activation dynamics) is not supported", f"{key}.timeconst")
+                if "inheritrange" in a and number("inheritrange", "0") != 0.0:
+                    ctrlrange = _inherited_range(out, joint, number("inheritrange", "0"), ctrlrange, f"{key}.inheritrange")
                 if "dampratio" in a:
                     if "kv" in a:
                         raise InputError("give kv or dampratio, not both", f"{key}.dampratio")

@@ -5,6 +5,7 @@ step is the reference for the motion. The engines' contact and joint models diff
 is compared on a chain without contacts or struck limits, where both integrate the same equations.
 """
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -1321,3 +1322,27 @@ def test_bad_dampratios_are_one_line(tmp_path, value, problem):
         tb.load_mjcf(tb.World(), path)
     line = str(info.value)
     assert "\n" not in line and str(path) in line and ".dampratio: " in line and problem in line, line
+
+
+def test_inheritrange_sets_the_ctrlrange_as_mujoco_does(tmp_path):
+    """``inheritrange`` (a position servo's ctrlrange from its joint's range, scaled about its middle):
+    equal to MuJoCo's compiled ctrlrange (a hinge's range in degrees, a slide's in metres; 1e-12), and
+    a control past it clipped there, as MuJoCo clips; with a ctrlrange too, without a range, or with a
+    timeconst (activation dynamics): one line."""
+    path = write(tmp_path, "<mujoco><worldbody><body name='b'><joint name='h' range='-60 120'/>"
+                           "<joint name='s' type='slide' axis='1 0 0' range='0 0.2'/><geom size='0.1'/></body>"
+                           "</worldbody><actuator><position name='a' joint='h' kp='5' inheritrange='0.5'/>"
+                           "<position name='b' joint='s' kp='5' inheritrange='1.5'/></actuator></mujoco>")
+    m = mujoco.MjModel.from_xml_path(str(path))
+    robot = tb.load_mjcf(tb.World(), path)
+    for k, name in enumerate(("a", "b")):
+        np.testing.assert_allclose(robot.actuators[name].ctrlrange, m.actuator_ctrlrange[k], atol=1e-12)
+    robot.set_controls(None, {"a": 10.0})
+    assert robot.actuators["a"].ctrl == pytest.approx(m.actuator_ctrlrange[0, 1], abs=1e-12)
+    for extra, problem in (("ctrlrange='0 1' inheritrange='1'", "give ctrlrange or inheritrange, not both"),
+                           ("inheritrange='1'", "inheritrange needs a joint with a range"),
+                           ("timeconst='0.1'", "a timeconst (activation dynamics) is not supported")):
+        bad = write(tmp_path, "<mujoco><worldbody><body name='b'><joint name='j'/><geom size='0.1'/></body>"
+                              f"</worldbody><actuator><position joint='j' kp='5' {extra}/></actuator></mujoco>", "bad.xml")
+        with pytest.raises(tb.InputError, match=re.escape(problem)):
+            tb.load_mjcf(tb.World(), bad)
