@@ -77,8 +77,8 @@ def decompose(mesh, *, threshold: float = 0.05, max_parts: int | None = None, ma
     threshold = _number(threshold, "threshold")
     if not THRESHOLD_RANGE[0] <= threshold <= THRESHOLD_RANGE[1]:
         raise InputError(f"must be between {THRESHOLD_RANGE[0]} and {THRESHOLD_RANGE[1]}, got {threshold!r}", "threshold")
-    max_parts = _count(max_parts, "max_parts", 1)
-    max_hull_vertices = _count(max_hull_vertices, "max_hull_vertices", 4)
+    max_parts = _count(max_parts, "max_parts", 1, optional=True)
+    max_hull_vertices = _count(max_hull_vertices, "max_hull_vertices", 4, optional=True)
     seed = _count(seed, "seed", 0)
     try:
         import coacd
@@ -128,8 +128,8 @@ def _number(value, key: str) -> float:
     return float(value)
 
 
-def _count(value, key: str, least: int) -> int | None:
-    if value is None and key != "seed":
+def _count(value, key: str, least: int, optional: bool = False) -> int | None:
+    if value is None and optional:
         return None
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
         raise InputError(f"expected a whole number of at least {least}, got {value!r}", key)

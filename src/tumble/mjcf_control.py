@@ -148,12 +148,12 @@ def _tendon_servos(out: MjcfModel):
     C = sum c_i r_i), and the actuator is one on that joint with gear gear C and bias b0 + b1 gear L0
     (the same generalized force on the one coordinate left, so the same motion; its force reaches
     the other joints through their equalities). Else one line."""
+    follows = {}  # joint1: (joint2, a0, a1) of the linear joint equalities
+    for kind, _eq, joint1, joint2, coef in out.equalities:
+        if kind == "joint" and joint2 is not None and not np.any(np.asarray(coef)[2:]):
+            follows[joint1] = (joint2, float(coef[0]), float(coef[1]))
     for name, key in out.tendon_servos:
         actuator = out.actuators[name]
-        follows = {}  # joint1: (joint2, a0, a1) of the linear joint equalities
-        for kind, _eq, joint1, joint2, coef in out.equalities:
-            if kind == "joint" and joint2 is not None and not np.any(np.asarray(coef)[2:]):
-                follows[joint1] = (joint2, float(coef[0]), float(coef[1]))
         joints = [j for j, _c in actuator.tendon]
         leader = None
         for candidate in joints:

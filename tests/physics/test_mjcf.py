@@ -1083,6 +1083,18 @@ def test_pybullet_data_humanoids_with_tendons_load():
             tb.load_mjcf(tb.World(), os.path.join(folder, name))
 
 
+# two slide fingers on a hand, mirrored (Franka's gripper in MuJoCo Menagerie), for the tendon models below
+FINGERS = """      <body name="left" pos="0 0.02 -0.05">
+        <joint name="finger1" type="slide" axis="0 1 0"/>
+        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
+      </body>
+      <body name="right" pos="0 -0.02 -0.05">
+        <joint name="finger2" type="slide" axis="0 -1 0"/>
+        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
+      </body>
+"""
+
+
 GRIPPER = """
 <mujoco model="gripper">
   <option gravity="0 0 0"/>
@@ -1162,15 +1174,7 @@ TENDON_ACTUATED = """
         <joint name="hip" axis="0 1 0"/>
         <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" contype="0" conaffinity="0"/>
       </body>
-      <body name="left" pos="0 0.02 -0.05">
-        <joint name="finger1" type="slide" axis="0 1 0"/>
-        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
-      </body>
-      <body name="right" pos="0 -0.02 -0.05">
-        <joint name="finger2" type="slide" axis="0 -1 0"/>
-        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
-      </body>
-    </body>
+""" + FINGERS + """    </body>
   </worldbody>
   <tendon>
     <fixed name="split"><joint joint="finger1" coef="0.5"/><joint joint="finger2" coef="0.5"/></fixed>
@@ -1252,15 +1256,7 @@ DAMPRATIO = """
     </body>
     <body name="hand" pos="0 1 1">
       <geom type="box" size="0.03 0.08 0.02" mass="1" contype="0" conaffinity="0"/>
-      <body name="left" pos="0 0.02 -0.05">
-        <joint name="finger1" type="slide" axis="0 1 0"/>
-        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
-      </body>
-      <body name="right" pos="0 -0.02 -0.05">
-        <joint name="finger2" type="slide" axis="0 -1 0"/>
-        <geom type="box" size="0.01 0.005 0.02" mass="0.1" contype="0" conaffinity="0"/>
-      </body>
-    </body>
+""" + FINGERS + """    </body>
   </worldbody>
   <tendon>
     <fixed name="split"><joint joint="finger1" coef="0.5"/><joint joint="finger2" coef="0.5"/></fixed>
