@@ -7,6 +7,7 @@ import numpy as np
 import tumble as tb
 from tumble.collision.geometry import _Builder
 from tumble.collision.narrowphase import PAIR_WORK_ROWS, collide_shapes
+from tumble.collision.pairs.convex import convex_scratch
 from tumble.math3d import quat_to_matrix
 from tumble.shapes import (
     SHAPE_BOX,
@@ -104,7 +105,7 @@ def collide(a, b, spec=SPEC, geometry=None):
     feat = np.zeros(4, dtype=np.int64)
     n = collide_shapes(a[0], b[0], np.ascontiguousarray(a[1]), np.ascontiguousarray(a[2]), a[3],
                        np.ascontiguousarray(b[1]), np.ascontiguousarray(b[2]), b[3], spec, geometry, 0, 1,
-                       normal, point, sep, feat, np.empty((PAIR_WORK_ROWS, 3)), np.zeros((4, 3)))
+                       normal, point, sep, feat, np.empty((PAIR_WORK_ROWS, 3)), np.zeros((4, 3)), convex_scratch())
     return normal, point[:n].copy(), sep[:n].copy(), feat[:n].copy()
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit, prange, types
 from numba.extending import overload
 
-from ..math3d import JIT
+from ..math3d import JIT, NO_NRT
 from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
                       SHAPE_SPHERE)
 from .geometry import FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES
@@ -19,7 +19,7 @@ from .manifold import KEY_BITS, ContactManifolds
 from .pairs.box import collide_capsule_box, collide_plane_box, collide_sphere_box
 from .pairs.box_box import BOX_WORK_ROWS, box_box_contact
 from .pairs.capsule import collide_capsule_capsule, collide_plane_capsule, collide_sphere_capsule
-from .pairs.convex import apart_on_centre_line, collide_convex_pair, shape_arrays
+from .pairs.convex import apart_on_centre_line, collide_convex_pair, convex_scratch, shape_arrays
 from .pairs.gjk import core_radius
 from .pairs.plane import collide_plane_convex_shape
 from .pairs.mesh import collide_convex_mesh
@@ -124,15 +124,16 @@ def _family_pair_overload(family, ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, 
     return every
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                   normal, point, separation, feature, work, point_normal):
+                   normal, point, separation, feature, work, point_normal, scratch):
     """Dispatch one pair with ``ta <= tb`` in SHAPE_* order to its ``collide_<a>_<b>``; 0 for pairs without a routine.
 
     ``geometry`` is ``ShapeTable.geometry`` (hull and mesh arrays) and a, b the shape rows
     (only the convex and mesh routines read them); ``work`` a (PAIR_WORK_ROWS, 3) scratch;
     ``point_normal`` (4, 3): each point's own normal, written by the mesh routine only (the
-    other pairs' points share ``normal``).
+    other pairs' points share ``normal``); ``scratch``: a ``convex_scratch()`` for the convex
+    and mesh routines.
     """
     if is_analytic_shape(ta) and is_analytic_shape(tb):
         return collide_analytic_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, normal,
@@ -141,7 +142,7 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
         if ta == SHAPE_PLANE or ta == SHAPE_MESH:
             return 0  # both fixed
         return collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                                   normal, point, separation, feature, point_normal)
+                                   normal, point, separation, feature, point_normal, scratch)
     if ta == SHAPE_PLANE:
         if tb == SHAPE_CYLINDER or tb == SHAPE_CONE or tb == SHAPE_CONVEX:
             # collide_plane_cylinder, collide_plane_cone, collide_plane_convex
@@ -152,7 +153,7 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
         # every other pair of sphere, capsule, cylinder, cone, box, convex: GJK/EPA and face clipping
         # (collide_sphere_cylinder ... collide_convex_convex, pairs/convex.py)
         return collide_convex_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a,
-                                   b, normal, point, separation, feature)
+                                   b, normal, point, separation, feature, scratch)
     return 0
 
 
@@ -219,13 +220,16 @@ def _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_par
     return a, b, shape_margin[a] + shape_margin[b] - speculative
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                        shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
                        # outputs
-                       out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work):
+                       out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work,
+                       # scratch
+                       scratch):
     """Candidate k with every shape routine (``collide_shapes``): row k gets the pair, its point
-    count (0: no contact) and its points."""
+    count (0: no contact) and its points. Without reference counting (``math3d.NO_NRT``): its
+    per-candidate views of the shape arrays cost two atomic operations each otherwise."""
     a, b, pair_speculative = _candidate_pair(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params,
                                              shape_pos, shape_rot, shape_aabb, body_moving, speculative,
                                              shape_margin, excluded, body_filter, out_a, out_b, out_count)
@@ -246,7 +250,7 @@ def _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_
     out_count[k] = collide_shapes(ta, tb, shape_pos[a], shape_rot[a], shape_params[a],
                                   shape_pos[b], shape_rot[b], shape_params[b], pair_speculative, geometry,
                                   a, b, out_normal[k], out_point[k], out_separation[k], out_feature[k], work,
-                                  out_point_normal[k])
+                                  out_point_normal[k], scratch)
 
 
 @njit(**JIT, inline="always")
@@ -281,10 +285,12 @@ def _collide_candidates_parallel_kernel(pair_a, pair_b, planes, shape_type, shap
     n_chunks = (total + CHUNK - 1) // CHUNK
     for chunk in prange(n_chunks):
         work = np.empty((PAIR_WORK_ROWS, 3))  # one scratch per task, lent to its pairs
+        scratch = convex_scratch()
         for k in range(chunk * CHUNK, min(total, (chunk + 1) * CHUNK)):
             _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                                shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
-                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work)
+                               out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work,
+                               scratch)
 
 
 @njit(**JIT)
@@ -295,10 +301,12 @@ def _collide_candidates_kernel(pair_a, pair_b, planes, shape_type, shape_body, s
     """Every candidate, on this thread (small worlds: the threads' start-up cost more than the
     pairs; measured 15 ms a step for 5 balls on a busy machine)."""
     work = np.empty((PAIR_WORK_ROWS, 3))
+    scratch = convex_scratch()
     for k in range(out_count.shape[0]):
         _collide_candidate(k, pair_a, pair_b, planes, shape_type, shape_body, shape_params, shape_pos, shape_rot,
                            shape_aabb, body_moving, speculative, shape_margin, geometry, excluded, body_filter,
-                           out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work)
+                           out_a, out_b, out_count, out_normal, out_point, out_separation, out_feature, out_point_normal, work,
+                           scratch)
 
 
 def _analytic_kernels(family: int):

@@ -30,7 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ...math3d import JIT
+from ...math3d import JIT, NO_NRT
 from ...shapes import (
     SHAPE_BOX,
     SHAPE_CAPSULE,
@@ -41,7 +41,7 @@ from ...shapes import (
 )
 from ..constants import MAX_MANIFOLD_POINTS
 from .box_box import add_widest_triangle_points
-from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, support
+from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, gjk_scratch, support
 
 # Vertices of a cylinder cap or cone base used as a polygon (a regular polygon of rim points).
 CAP_SIDES = 8
@@ -63,7 +63,25 @@ FEATURE_SINGLE = 1 << 20
 SLOT_DEEPEST = 31
 
 
+# Rows of the clipping scratch: two faces' points and the clipped polygon (which grows by one
+# point per side plane), its copy, their ids, then the measured candidates (one more: the GJK/EPA point).
+CLIP_ROWS = 2 * MAX_FACE + 8
+
+
 @njit(**JIT)
+def convex_scratch():
+    """The arrays of one convex pair routine (allocated once per narrowphase task and lent to its
+    pairs; the routines run without reference counting, ``math3d.NO_NRT``): 0 ``gjk_scratch()``;
+    1, 2 the supporting faces (MAX_FACE, 3); 3, 4 the clipped polygon and its copy (CLIP_ROWS, 3);
+    5, 6 their ids (CLIP_ROWS,) int; 7-9 the candidate points (CLIP_ROWS + 1, 3), separations and
+    ids; 10 the kept rows (CLIP_ROWS + 2,) int."""
+    return (gjk_scratch(), np.empty((MAX_FACE, 3)), np.empty((MAX_FACE, 3)), np.empty((CLIP_ROWS, 3)),
+            np.empty((CLIP_ROWS, 3)), np.empty(CLIP_ROWS, dtype=np.int64), np.empty(CLIP_ROWS, dtype=np.int64),
+            np.empty((CLIP_ROWS + 1, 3)), np.empty(CLIP_ROWS + 1), np.empty(CLIP_ROWS + 1, dtype=np.int64),
+            np.empty(CLIP_ROWS + 2, dtype=np.int64))
+
+
+@njit(**NO_NRT)
 def reduce_points(pts, seps, n, nx, ny, nz, keep):
     """Indices (into keep[:4]) of at most 4 of n points: the deepest (ties: the outermost), the farthest from it,
     then the two of
@@ -103,7 +121,8 @@ def reduce_points(pts, seps, n, nx, ny, nz, keep):
     return add_widest_triangle_points(pts, n, i1, i2, nx, ny, nz, 1e-3 * best, keep)
 
 
-@njit(**JIT)
+# inline: it returns views, which carry a reference only when the caller counts them (NO_NRT's rule)
+@njit(**JIT, inline="always")
 def shape_arrays(t, s, shape_data, hull_vertex):
     """(verts, face_first, face_count) of shape row s: a hull's vertex rows, or an empty slice."""
     if t == SHAPE_CONVEX:
@@ -112,13 +131,13 @@ def shape_arrays(t, s, shape_data, hull_vertex):
     return hull_vertex[0:0], 0, 0
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _world(pos, rot, x, y, z, poly, k):
     for i in range(3):
         poly[k, i] = pos[i] + rot[i, 0] * x + rot[i, 1] * y + rot[i, 2] * z
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def supporting_face(t, pos, rot, params, verts, f0, nf, hull_face_first, hull_face_count, hull_face_vertex,
                     hull_plane, hull_vertex, dx, dy, dz,
                     # outputs
@@ -148,14 +167,15 @@ def supporting_face(t, pos, rot, params, verts, f0, nf, hull_face_first, hull_fa
         side = 1.0 if (lx, ly, lz)[k] >= 0.0 else -1.0
         j1 = (k + 1) % 3
         j2 = (k + 2) % 3
-        loc = np.zeros(3)
         for v in range(4):
             s1 = 1.0 if v == 0 or v == 3 else -1.0
             s2 = 1.0 if v < 2 else -1.0
-            loc[k] = side * params[k]
-            loc[j1] = s1 * params[j1]
-            loc[j2] = s2 * side * params[j2]  # counter-clockwise seen from outside on both sides
-            _world(pos, rot, loc[0], loc[1], loc[2], poly, v)
+            ck = side * params[k]
+            c1 = s1 * params[j1]
+            c2 = s2 * side * params[j2]  # counter-clockwise seen from outside on both sides
+            # the corner's local coordinates: ck on axis k, c1 on j1, c2 on j2
+            _world(pos, rot, ck if k == 0 else (c1 if j1 == 0 else c2), ck if k == 1 else (c1 if j1 == 1 else c2),
+                   ck if k == 2 else (c1 if j1 == 2 else c2), poly, v)
         n = (side * rot[0, k], side * rot[1, k], side * rot[2, k])
         return 4, 2 * k + (1 if side > 0.0 else 0), n, n[0] * dx + n[1] * dy + n[2] * dz
     if t == SHAPE_CYLINDER or t == SHAPE_CONE:
@@ -231,7 +251,7 @@ def supporting_face(t, pos, rot, params, verts, f0, nf, hull_face_first, hull_fa
     return 1, 0, none, -1.0
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _clip(poly_in, id_in, n_in, sx, sy, sz, off, plane_id, poly_out, id_out):
     """Sutherland-Hodgman against s . p <= off, carrying point ids (crossings get 8 + or 16 + plane_id)."""
     if n_in == 0:
@@ -257,7 +277,7 @@ def _clip(poly_in, id_in, n_in, sx, sy, sz, off, plane_id, poly_out, id_out):
     return n_out
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _clip_to_face(ref, m, rnx, rny, rnz, inc, k, pts, ids, tmp, tmp_ids):
     """Clip the incident polygon or segment (k points) to the prism along direction rn over the reference polygon (m points).
 
@@ -337,20 +357,19 @@ def apart_on_centre_line(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, 
     return vw > 0.0 and vw * vw > cutoff * cutoff * vv
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_b, params_b, verts_b, fb0, fnb,
                    hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
                    # outputs
-                   normal, point, separation, feature):
-    """Contact manifold of two convex shapes (see the module docstring); returns the point count."""
-    W = np.empty((4, 3))
-    SA = np.empty((4, 3))
-    SB = np.empty((4, 3))
-    lam = np.empty(4)
+                   normal, point, separation, feature,
+                   # scratch
+                   scratch):
+    """Contact manifold of two convex shapes (see the module docstring); returns the point count.
+    ``scratch``: a ``convex_scratch()``."""
     ra = core_radius(ta, params_a)
     rb = core_radius(tb, params_b)
-    k, dist, pa, pb = gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, W, SA, SB, lam,
-                          speculative + ra + rb)
+    k, dist, pa, pb = gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b,
+                          speculative + ra + rb, scratch[0])
     if dist > TOUCH_GAP:
         sep0 = dist - ra - rb
         if sep0 >= speculative:
@@ -359,7 +378,7 @@ def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot
         core_sep = dist
     else:
         ok, depth, nrm, pa, pb = epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b,
-                                     W, SA, SB, k)
+                                     k, scratch[0])
         if not ok:
             # A - B is flat (the cores touch without volume): the centre line is the normal
             gx, gy, gz = pos_b[0] - pos_a[0], pos_b[1] - pos_a[1], pos_b[2] - pos_a[2]
@@ -371,10 +390,10 @@ def convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot
         sep0 = core_sep - ra - rb
     return face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_b, params_b, verts_b, fb0, fnb,
                          hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
-                         nx, ny, nz, sep0, core_sep, pa, pb, normal, point, separation, feature)
+                         nx, ny, nz, sep0, core_sep, pa, pb, normal, point, separation, feature, scratch)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _segment_reference(ref, nx, ny, nz):
     """Two segments: turn the reference segment ref[0] ref[1] into a thin rectangle (4 rows of ref) in the
     plane through it normal to n's part across it, whose side planes are the segment's end planes.
@@ -403,7 +422,7 @@ def _segment_reference(ref, nx, ny, nz):
     return True, rn, abs(rn[0] * nx + rn[1] * ny + rn[2] * nz)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _measure_clipped(pts, n, ref, rn, inc, kin, ref_is_b, nx, ny, nz, ra, rb, core_sep, speculative,
                      # outputs
                      cand, seps, cid):
@@ -440,9 +459,10 @@ def _measure_clipped(pts, n, ref, rn, inc, kin, ref_is_b, nx, ny, nz, ra, rb, co
     return count
 
 
-@njit(**JIT)
-def _write_manifold(cand, seps, cid, count, base, sep0, pa, pb, ra, rb, nx, ny, nz, point, separation, feature):
-    """Add the GJK/EPA point if clearly deeper, reduce to 4, write the outputs with unique slots; returns the count."""
+@njit(**NO_NRT)
+def _write_manifold(cand, seps, cid, count, base, sep0, pa, pb, ra, rb, nx, ny, nz, point, separation, feature, keep):
+    """Add the GJK/EPA point if clearly deeper, reduce to 4, write the outputs with unique slots; returns the count.
+    ``keep``: (>= count + 1,) int scratch."""
     smin = seps[0]
     for v in range(1, count):
         smin = min(smin, seps[v])
@@ -452,7 +472,8 @@ def _write_manifold(cand, seps, cid, count, base, sep0, pa, pb, ra, rb, nx, ny, 
         seps[count] = sep0
         cid[count] = SLOT_DEEPEST
         count += 1
-    keep = np.arange(count)
+    for c in range(count):
+        keep[c] = c
     if count > MAX_MANIFOLD_POINTS:
         count = reduce_points(cand, seps, count, nx, ny, nz, keep)
     used = 0
@@ -469,23 +490,24 @@ def _write_manifold(cand, seps, cid, count, base, sep0, pa, pb, ra, rb, nx, ny, 
     return count
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_b, params_b, verts_b, fb0, fnb,
                   hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
                   nx, ny, nz, sep0, core_sep, pa, pb,
                   # outputs
-                  normal, point, separation, feature):
+                  normal, point, separation, feature,
+                  # scratch
+                  scratch):
     """The manifold along a known normal n (a to b): supporting faces, clip, reduce (module docstring).
 
     sep0: the deepest separation (radii included); core_sep: the cores' along n; pa, pb
-    (tuples): the cores' deepest points (the single-point fallback).
+    (tuples): the cores' deepest points (the single-point fallback); scratch: a ``convex_scratch()``.
     """
     ra = core_radius(ta, params_a)
     rb = core_radius(tb, params_b)
     normal[0], normal[1], normal[2] = nx, ny, nz
     if ta != SHAPE_SPHERE and tb != SHAPE_SPHERE:  # a sphere touches at one point: no faces to clip
-        face_a = np.empty((MAX_FACE, 3))
-        face_b = np.empty((MAX_FACE, 3))
+        face_a, face_b = scratch[1], scratch[2]
         ka, ida, nfa, align_a = supporting_face(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, hull_face_first,
                                                 hull_face_count, hull_face_vertex, hull_plane, hull_vertex,
                                                 nx, ny, nz, face_a)
@@ -507,24 +529,18 @@ def face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_
                 _, rn, align = _segment_reference(ref, nx, ny, nz)
                 m = 4
             if align > MIN_ALIGNMENT:
-                size = 2 * MAX_FACE + 8
-                pts = np.empty((size, 3))
-                tmp = np.empty((size, 3))
-                ids = np.empty(size, dtype=np.int64)
-                tmp_ids = np.empty(size, dtype=np.int64)
+                pts, tmp, ids, tmp_ids = scratch[3], scratch[4], scratch[5], scratch[6]
                 # side planes through the reference edges and n (Jolt's ClipPolyVsPoly): a clipped point moved
                 # along n onto the reference plane stays on the reference face, even for an oblique face
                 n = _clip_to_face(ref, m, nx, ny, nz, inc, kin, pts, ids, tmp, tmp_ids)
-                cand = np.empty((n + 1, 3))
-                seps = np.empty(n + 1)
-                cid = np.empty(n + 1, dtype=np.int64)
+                cand, seps, cid = scratch[7], scratch[8], scratch[9]
                 count = _measure_clipped(pts, n, ref, rn, inc, kin, ref_is_b, nx, ny, nz, ra, rb, core_sep,
                                          speculative, cand, seps, cid)
                 if count > 0:
                     base = ((1 << 19) if ref_is_b else 0) | ((idb if ref_is_b else ida) << 12) \
                         | ((ida if ref_is_b else idb) << 5)
                     return _write_manifold(cand, seps, cid, count, base, sep0, pa, pb, ra, rb, nx, ny, nz,
-                                           point, separation, feature)
+                                           point, separation, feature, scratch[10])
     # one point: midway between the two surface points
     for i in range(3):
         ni = (nx, ny, nz)[i]
@@ -538,13 +554,14 @@ def face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_
 TOUCH_GAP = 1e-7
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def collide_convex_pair(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                        normal, point, separation, feature):
-    """Any two of sphere, capsule, cylinder, cone, box, convex (the dispatch's shared routine)."""
+                        normal, point, separation, feature, scratch):
+    """Any two of sphere, capsule, cylinder, cone, box, convex (the dispatch's shared routine);
+    ``scratch``: a ``convex_scratch()``."""
     shape_data, hull_vertex, hull_face_first, hull_face_count, hull_face_vertex, hull_plane = geometry[:6]
     va, fa0, fna = shape_arrays(ta, a, shape_data, hull_vertex)
     vb, fb0, fnb = shape_arrays(tb, b, shape_data, hull_vertex)
     return convex_contact(ta, pos_a, rot_a, params_a, va, fa0, fna, tb, pos_b, rot_b, params_b, vb, fb0, fnb,
                           hull_face_first, hull_face_count, hull_face_vertex, hull_plane, hull_vertex, speculative,
-                          normal, point, separation, feature)
+                          normal, point, separation, feature, scratch)

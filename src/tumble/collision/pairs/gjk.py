@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ...math3d import JIT
+from ...math3d import JIT, NO_NRT
 from ...shapes import (
     SHAPE_BOX,
     SHAPE_CAPSULE,
@@ -47,7 +47,7 @@ EPA_MAX_FACES = 256
 EPA_TOLERANCE = 1e-9
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def core_radius(t, params):
     """The radius a core is grown by: spheres and capsules; 0 for the others."""
     if t == SHAPE_SPHERE or t == SHAPE_CAPSULE:
@@ -55,7 +55,7 @@ def core_radius(t, params):
     return 0.0
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def support(t, pos, rot, params, verts, dx, dy, dz):
     """The point of the core of shape (t, pos, rot, params, verts) farthest along world (dx, dy, dz); a tuple."""
     lx = rot[0, 0] * dx + rot[1, 0] * dy + rot[2, 0] * dz
@@ -93,12 +93,12 @@ def support(t, pos, rot, params, verts, dx, dy, dz):
             pos[2] + rot[2, 0] * px + rot[2, 1] * py + rot[2, 2] * pz)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _dot(W, i, x, y, z):
     return W[i, 0] * x + W[i, 1] * y + W[i, 2] * z
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _keep(W, SA, SB, ids, n, tmp):
     """Compact the simplex to rows ``ids[:n]`` (in that order; ids may repeat none but come in any order).
 
@@ -118,7 +118,7 @@ def _keep(W, SA, SB, ids, n, tmp):
     return n
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _closest_triangle(W, i0, i1, i2, lam3, sub):
     """Closest point of triangle W[i0] W[i1] W[i2] to the origin (Ericson §5.1.5).
 
@@ -184,7 +184,7 @@ def _closest_triangle(W, i0, i1, i2, lam3, sub):
     return 3, x * x + y * y + z * z
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _reduce_simplex(W, SA, SB, k, lam, sub, lam3, best_sub, best_lam, tmp):
     """Reduce the simplex (k rows of W = SA - SB) to the rows that support its closest point to the origin.
 
@@ -251,12 +251,27 @@ def _reduce_simplex(W, SA, SB, k, lam, sub, lam3, best_sub, best_lam, tmp):
 
 
 @njit(**JIT)
-def gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, W, SA, SB, lam, cutoff):
+def gjk_scratch():
+    """The arrays one GJK and EPA call work in (allocated once per narrowphase task and lent to its
+    pairs: ``gjk`` and ``epa`` run without Numba's reference counting, ``math3d.NO_NRT``, so they
+    allocate nothing). Rows: 0-3 the simplex W, SA, SB (4, 3) and its weights lam (4,); 4-8 the
+    simplex reduction's sub (4,), best_sub (3,) int, lam3, best_lam (3,), tmp (4, 9); 9-11 EPA's
+    polytope V, VA, VB (EPA_MAX_VERTS, 3); 12-16 its faces F (EPA_MAX_FACES, 3) int, N (.., 3),
+    D (..,), alive (..,) bool and its horizon edges (3 EPA_MAX_FACES, 2) int."""
+    return (np.empty((4, 3)), np.empty((4, 3)), np.empty((4, 3)), np.empty(4),
+            np.empty(4, dtype=np.int64), np.empty(3, dtype=np.int64), np.empty(3), np.empty(3), np.empty((4, 9)),
+            np.empty((EPA_MAX_VERTS, 3)), np.empty((EPA_MAX_VERTS, 3)), np.empty((EPA_MAX_VERTS, 3)),
+            np.empty((EPA_MAX_FACES, 3), dtype=np.int64), np.empty((EPA_MAX_FACES, 3)), np.empty(EPA_MAX_FACES),
+            np.zeros(EPA_MAX_FACES, dtype=np.bool_), np.empty((3 * EPA_MAX_FACES, 2), dtype=np.int64))
+
+
+@njit(**NO_NRT)
+def gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, cutoff, scratch):
     """GJK distance between the cores of a and b.
 
-    Args: the two shapes; W, SA, SB (4, 3) and lam (4,) scratch that holds the
-    final simplex (W = SA - SB, points of A - B) and its weights; ``cutoff`` (m): a
-    distance beyond which the caller has no use for the exact one.
+    Args: the two shapes; ``cutoff`` (m): a distance beyond which the caller has no use for
+    the exact one; ``scratch``: a ``gjk_scratch()`` (its W, SA, SB (4, 3) and lam (4,) hold the
+    final simplex, W = SA - SB, points of A - B, and its weights: ``epa`` starts from them).
 
     Returns:
         (k, distance, pa (tuple), pb (tuple)): simplex size, distance of the cores
@@ -269,11 +284,8 @@ def gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
         vx, vy, vz = 1.0, 0.0, 0.0
     k = 0
     prev = np.inf
-    sub = np.empty(4, dtype=np.int64)
-    best_sub = np.empty(3, dtype=np.int64)
-    lam3 = np.empty(3)
-    best_lam = np.empty(3)
-    tmp = np.empty((4, 9))
+    W, SA, SB, lam = scratch[0], scratch[1], scratch[2], scratch[3]
+    sub, best_sub, lam3, best_lam, tmp = scratch[4], scratch[5], scratch[6], scratch[7], scratch[8]
     for _ in range(GJK_ITERATIONS):
         sa = support(ta, pos_a, rot_a, params_a, verts_a, -vx, -vy, -vz)
         sb = support(tb, pos_b, rot_b, params_b, verts_b, vx, vy, vz)
@@ -327,7 +339,7 @@ def gjk(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
     return k, dist, (pa0, pa1, pa2), (pb0, pb1, pb2)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _add_support(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, dx, dy, dz, V, VA, VB, i):
     sa = support(ta, pos_a, rot_a, params_a, verts_a, dx, dy, dz)
     sb = support(tb, pos_b, rot_b, params_b, verts_b, -dx, -dy, -dz)
@@ -337,7 +349,7 @@ def _add_support(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b
         V[i, c] = sa[c] - sb[c]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _face(V, F, N, D, f, i0, i1, i2):
     """Set face f = (i0, i1, i2) with its unit normal and distance; a degenerate face gets D = inf."""
     F[f, 0], F[f, 1], F[f, 2] = i0, i1, i2
@@ -353,17 +365,17 @@ def _face(V, F, N, D, f, i0, i1, i2):
     D[f] = (N[f, 0] * V[i0, 0] + N[f, 1] * V[i0, 1] + N[f, 2] * V[i0, 2])
 
 
-@njit(**JIT)
-def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, W, SA, SB, k):
-    """Penetration of two overlapping (or touching) cores, from GJK's final simplex (k rows of W, SA, SB).
+@njit(**NO_NRT)
+def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, k, scratch):
+    """Penetration of two overlapping (or touching) cores, from GJK's final simplex (k rows of W, SA,
+    SB in ``scratch``, the ``gjk_scratch()`` that ``gjk`` has just used).
 
     Returns (ok, depth, normal (tuple), pa, pb): depth >= 0 along ``normal`` (from a
     to b: moving b by depth * normal separates the cores), and the deepest points
     of the cores. ok is False when A - B is flat (no tetrahedron found).
     """
-    V = np.empty((EPA_MAX_VERTS, 3))
-    VA = np.empty((EPA_MAX_VERTS, 3))
-    VB = np.empty((EPA_MAX_VERTS, 3))
+    W, SA, SB = scratch[0], scratch[1], scratch[2]
+    V, VA, VB = scratch[9], scratch[10], scratch[11]
     for i in range(k):
         for c in range(3):
             V[i, c] = W[i, c]
@@ -421,10 +433,8 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
                 break
         if k < 4:
             return False, 0.0, (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-    F = np.empty((EPA_MAX_FACES, 3), dtype=np.int64)
-    N = np.empty((EPA_MAX_FACES, 3))
-    D = np.empty(EPA_MAX_FACES)
-    alive = np.zeros(EPA_MAX_FACES, dtype=np.bool_)
+    # faces f < n_faces only are read, each set when made: no clearing needed
+    F, N, D, alive = scratch[12], scratch[13], scratch[14], scratch[15]
     # the four faces, each wound so that its normal points away from the fourth vertex
     for f in range(4):
         i0, i1, i2 = (f + 1) % 4, (f + 2) % 4, (f + 3) % 4
@@ -437,7 +447,7 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
     for i in range(4):
         scale = max(scale, abs(V[i, 0]) + abs(V[i, 1]) + abs(V[i, 2]))
     visible = 1e-10 * scale
-    edges = np.empty((3 * EPA_MAX_FACES, 2), dtype=np.int64)
+    edges = scratch[16]
     best = 0
     for _ in range(EPA_ITERATIONS):
         best = -1
@@ -503,7 +513,7 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
     return True, depth, (nx, ny, nz), pa, pb
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _barycentric(V, i0, i1, i2, px, py, pz):
     """Weights of p in triangle V[i0] V[i1] V[i2] (Ericson §3.4), clamped to the triangle's centroid if degenerate."""
     v0x, v0y, v0z = V[i1, 0] - V[i0, 0], V[i1, 1] - V[i0, 1], V[i1, 2] - V[i0, 2]

@@ -307,9 +307,10 @@ def _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separa
 
 @njit(**JIT)
 def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
-                        normal, point, separation, feature, point_normal):
+                        normal, point, separation, feature, point_normal, scratch):
     """Sphere, capsule, cylinder, cone, box or convex a against the fixed mesh b (collide_<a>_mesh);
-    ``point_normal`` (4, 3) gets each point's own normal (unit, world, from a to b)."""
+    ``point_normal`` (4, 3) gets each point's own normal (unit, world, from a to b); ``scratch``: a
+    ``convex.convex_scratch()`` for the convex routines."""
     shape_data, hull_vertex, hull_face_first, hull_face_count, hull_face_vertex, hull_plane = geometry[:6]
     mesh_triangle, mesh_edge_active, node_aabb, node_first, node_count, node_skip = geometry[6:]
     verts_a, fa0, fna = shape_arrays(ta, a, shape_data, hull_vertex)
@@ -378,7 +379,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                 n = face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, TRIANGLE, pos_b, rot_b,
                                   params_b, tri, ZERO, ZERO, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
                                   hull_vertex, speculative, -Nx, -Ny, -Nz, depth_sep, core, low, (px, py, pz),
-                                  tn, tp, ts, tf)
+                                  tn, tp, ts, tf, scratch)
                 if n == 1 and tf[0] == FEATURE_SINGLE:
                     mx, my, mz = _to_mesh(px, py, pz, pos_b, rot_b)
                     if not _over_triangle(tri, mx, my, mz):
@@ -391,7 +392,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             else:
                 n = convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, TRIANGLE, pos_b, rot_b,
                                    params_b, tri, ZERO, ZERO, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
-                                   hull_vertex, speculative, tn, tp, ts, tf)
+                                   hull_vertex, speculative, tn, tp, ts, tf, scratch)
             if n == 0:
                 continue
             n = _fix_internal_edge(tri, mesh_edge_active[t], n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b,
