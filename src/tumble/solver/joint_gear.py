@@ -19,13 +19,13 @@ from __future__ import annotations
 from numba import njit
 
 from ..joints import G_COEF, G_FOLLOWS, G_JOINT, G_MASS
-from ..math3d import JIT
+from ..math3d import NO_NRT
 from .joint_math import _coordinate_row, _cross, _dot, _mat_vec, _row_apply, _row_velocity
 
 GEAR_COLUMN = 0  # = joint_solve.A_SPRING: the gear's accumulated impulse (N s or N m s, along J)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def gear_on(g, param, enabled):
     """Whether gear g acts: both its joints do (a broken joint stops its gear); a lock (no joint
     followed: ``G_FOLLOWS`` -1) while its joint does."""
@@ -33,7 +33,7 @@ def gear_on(g, param, enabled):
     return enabled[int(param[g, G_JOINT])] and (k < 0 or enabled[k])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _entry(linear, n, r):
     """(linear part, angular part) of a coordinate row on its body b (on body a: the negatives)."""
     if linear:
@@ -41,7 +41,7 @@ def _entry(linear, n, r):
     return (0.0, 0.0, 0.0), n
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def gear_entries(a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
     """The gear row's J as four (body, linear part, angular part) entries: b1, a1, b2, a2 (the
     signs and joint 2's factor -s folded in); J (v, omega) = sum of l . v_body + g . omega_body."""
@@ -56,7 +56,7 @@ def gear_entries(a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
     return bodies, scale, lins, angs
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def free_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2, rb2, s):
     """J M^-1 J^T of the gear row over its free bodies (1/kg, 1/(kg m^2) or mixed): the sum over
     pairs of its entries on one body, so a body the two joints share (a gripper's hand) gives the
@@ -74,7 +74,7 @@ def free_mass(inv_mass, I_inv, a1, b1, lin1, n1, ra1, rb1, a2, b2, lin2, n2, ra2
     return total
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def gear_row(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R):
     """Gear g's two coordinate rows at the current poses: (j1, a1, b1, linear1, n1, ra1, rb1, j2,
     a2, b2, linear2, n2, ra2, rb2, C, s) with C = q_1 - p(q_2) (rad or m) its error and s = p'(q_2)
@@ -108,7 +108,7 @@ def gear_row(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b
     return j1, a1, b1, lin1, n1, ra1, rb1, j2, a2, b2, lin2, n2, ra2, rb2, q1 - p, s
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def gear_rate(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R, v, omega):
     """(C, Cdot): gear g's error (rad or m) and its rate J (v, omega)."""
     (_j1, a1, b1, lin1, n1, ra1, rb1, _j2, a2, b2, lin2, n2, ra2, rb2, C,
@@ -117,7 +117,7 @@ def gear_rate(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_
                - s * _row_velocity(v, omega, a2, b2, lin2, n2, ra2, rb2))
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def gear_axis(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R):
     """(linear, n): the coordinate row of the joint gear g moves (its ``joint``): a slider's axis
     (linear) or a hinge's (world), along which the gear's impulse acts on that joint's body b."""
@@ -126,7 +126,7 @@ def gear_axis(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_
     return lin1, n1
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def gear_apply(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R, inv_mass,
                I_inv, impulse, v, omega):
     """Apply ``impulse`` along gear g's J to v, omega (the warm start)."""
@@ -136,7 +136,7 @@ def gear_apply(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame
     _row_apply(v, omega, inv_mass, I_inv, a2, b2, lin2, n2, ra2, rb2, -s * impulse)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def solve_gear(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R, inv_mass,
                I_inv, soft, v, omega, axial_impulse):
     """One Gauss-Seidel update of gear g: the soft row (Box2D v3's b2Softness ``soft`` = (bias rate,

@@ -12,37 +12,37 @@ from numba import njit
 
 from ..joints import JOINT_BALL, JOINT_DISTANCE, JOINT_HINGE, JOINT_SLIDER, JOINT_UNIVERSAL
 from ..math3d import (
-    JIT,
+    NO_NRT,
 )
 
 
 # ---------------------------------------------------------------------- vector helpers (tuples)
-@njit(**JIT)
+@njit(**NO_NRT)
 def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _scale(s, a):
     return (s * a[0], s * a[1], s * a[2])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _mat_vec(M, i, a):
     """M[i] @ a, or 0 for the world (i < 0)."""
     if i < 0:
@@ -52,7 +52,7 @@ def _mat_vec(M, i, a):
             M[i, 2, 0] * a[0] + M[i, 2, 1] * a[1] + M[i, 2, 2] * a[2])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _anchor(x, R, i, local, j):
     """(arm, point): arm R_i l from the centre of mass and the world point, of local[j]."""
     lj = (local[j, 0], local[j, 1], local[j, 2])
@@ -62,7 +62,7 @@ def _anchor(x, R, i, local, j):
     return r, (r[0] + x[i, 0], r[1] + x[i, 1], r[2] + x[i, 2])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _axis(R, i, frame, j, col):
     """World direction of column ``col`` of the joint frame ``frame[j]`` of body i."""
     f = (frame[j, 0, col], frame[j, 1, col], frame[j, 2, col])
@@ -71,7 +71,7 @@ def _axis(R, i, frame, j, col):
     return _mat_vec(R, i, f)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _frames(R, a, b, frame_a, frame_b, j):
     """The world axes (x, y, z) of joint j's frame on body a, then on body b: six unit 3-vectors
     (columns of R frame; the world's own frame where a body is -1)."""
@@ -79,12 +79,12 @@ def _frames(R, a, b, frame_a, frame_b, j):
             _axis(R, b, frame_b, j, 0), _axis(R, b, frame_b, j, 1), _axis(R, b, frame_b, j, 2))
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _inv_m(inv_mass, i):
     return inv_mass[i] if i >= 0 else 0.0
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _point_velocity(v, omega, i, r):
     if i < 0:
         return (0.0, 0.0, 0.0)
@@ -93,14 +93,14 @@ def _point_velocity(v, omega, i, r):
     return (v[i, 0] + c[0], v[i, 1] + c[1], v[i, 2] + c[2])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _angular_velocity(omega, i):
     if i < 0:
         return (0.0, 0.0, 0.0)
     return (omega[i, 0], omega[i, 1], omega[i, 2])
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, p):
     """Impulse p (world) on b at arm rb and -p on a at arm ra."""
     if a >= 0:
@@ -117,7 +117,7 @@ def _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, p):
             omega[b, k] += w[k]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _apply_angular(omega, I_inv, a, b, t):
     """Angular impulse t (world) on b and -t on a."""
     if a >= 0:
@@ -130,7 +130,7 @@ def _apply_angular(omega, I_inv, a, b, t):
             omega[b, k] += w[k]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb):
     """J M^-1 J^T of a row: linear along n at arms ra, rb, or angular about n."""
     if linear:
@@ -141,7 +141,7 @@ def _row_mass(inv_mass, I_inv, a, b, linear, n, ra, rb):
     return _dot(n, _mat_vec(I_inv, a, n)) + _dot(n, _mat_vec(I_inv, b, n))
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _slider_rows(inv_mass, I_inv, R, a, b, frame_a, j, ra, rb):
     """A slider's two linear rows, across its axis: the unit axes p1, p2 (3,) (world frame;
     columns 0 and 1 of joint j's frame on body a) and the rows' 2x2 K = J M^-1 J^T as k11, k12,
@@ -156,14 +156,14 @@ def _slider_rows(inv_mass, I_inv, R, a, b, frame_a, j, ra, rb):
     return p1, p2, k11, k12, k22
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _row_velocity(v, omega, a, b, linear, n, ra, rb):
     if linear:
         return _dot(n, _sub(_point_velocity(v, omega, b, rb), _point_velocity(v, omega, a, ra)))
     return _dot(n, _sub(_angular_velocity(omega, b), _angular_velocity(omega, a)))
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, impulse):
     if linear:
         _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, _scale(impulse, n))
@@ -171,7 +171,7 @@ def _row_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, impulse):
         _apply_angular(omega, I_inv, a, b, _scale(impulse, n))
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _solve3(K, r):
     """K^-1 r for a symmetric 3x3 K given as 6 numbers (k00, k01, k02, k11, k12, k22); 0 if singular."""
     k00, k01, k02, k11, k12, k22 = K
@@ -190,7 +190,7 @@ def _solve3(K, r):
             (c02 * r[0] + c12 * r[1] + c22 * r[2]) * inv)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _point_K(inv_mass, I_inv, a, b, ra, rb):
     """K = (ma + mb) 1 + S_a Ia S_a^T + S_b Ib S_b^T, S = [r]x, as (k00, k01, k02, k11, k12, k22)."""
     m = _inv_m(inv_mass, a) + _inv_m(inv_mass, b)
@@ -216,7 +216,7 @@ def _point_K(inv_mass, I_inv, a, b, ra, rb):
     return (k00, k01, k02, k11, k12, k22)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _angular_K(I_inv, a, b):
     k00 = k01 = k02 = k11 = k12 = k22 = 0.0
     for side in range(2):
@@ -231,7 +231,7 @@ def _angular_K(I_inv, a, b):
     return (k00, k01, k02, k11, k12, k22)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _solve2(k00, k01, k11, r0, r1):
     det = k00 * k11 - k01 * k01
     if det == 0.0:
@@ -240,12 +240,12 @@ def _solve2(k00, k01, k11, r0, r1):
     return (k11 * r0 - k01 * r1) * inv, (k00 * r1 - k01 * r0) * inv
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _wrap(angle):
     return angle - 2.0 * math.pi * math.floor((angle + math.pi) / (2.0 * math.pi))
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_position):
     """The joint's 1-D coordinate: (has_row, linear, n, arm_a, arm_b, position).
 

@@ -38,6 +38,7 @@ from ..joints import (
 )
 from ..math3d import (
     JIT,
+    NO_NRT,
     serial_twin,
 )
 from .joint_gear import GEAR_COLUMN, gear_apply, gear_on, solve_gear
@@ -83,7 +84,7 @@ AXIAL_COUNT = 12
 AXIAL_COUNT_V1 = 11  # before the armature column (checkpoints of older versions)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def twist_angle(xa, ya, za, xb, yb, zb):
     """Twist (rad, in (-pi, pi]) of frame b relative to frame a about the z axis, by the
     swing-twist decomposition Q = Fa^T Fb = Q_swing Q_twist (Q_twist about z, Q_swing
@@ -101,7 +102,7 @@ def twist_angle(xa, ya, za, xb, yb, zb):
     return math.atan2(_dot(ya, xb) - _dot(xa, yb), _dot(xa, xb) + _dot(ya, yb))
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _second_row(t, j, a, b, R, frame_a, frame_b):
     """The joint's second angular coordinate: (has_row, n, position).
 
@@ -126,7 +127,7 @@ def _second_row(t, j, a, b, R, frame_a, frame_b):
     return False, za, 0.0
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, acc, col, impulse, keep, axial_impulse):
     """A 1-D coordinate row's impulse, with the anchor impulse ``comp`` per unit that keeps
     the anchor's velocity (zero for rows without an anchor block), accumulated in
@@ -162,7 +163,7 @@ def _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, ac
             acc[j, col + k] += p[k]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _solve_motor_row(j, slot, speed, max_impulse, m_eff, a, b, linear, n, ra, rb, comp, keep, inv_mass, I_inv,
                      v, omega, axial_impulse):
     """A motor on one joint coordinate (row n, linear or angular): drives the row's rate to
@@ -177,7 +178,7 @@ def _solve_motor_row(j, slot, speed, max_impulse, m_eff, a, b, linear, n, ra, rb
                  new - old, keep, axial_impulse)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp, keep, m_eff, soft, inv_h,
                       inv_mass, I_inv, v, omega, linear_impulse, axial_impulse):
     """The lower and upper limit rows of one joint coordinate (``pos``, rad or m, along row n:
@@ -282,7 +283,7 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
                           inv_h, inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _limits_idle(j, p, pos, cdot, inv_h, axial_impulse):
     """Whether both limit rows of the 1-D coordinate at ``pos`` moving at ``cdot`` would apply
     nothing this sweep (``_solve_limit_rows``): each bound infinite, or apart (C > 0) with no
@@ -298,7 +299,7 @@ def _limits_idle(j, p, pos, cdot, inv_h, axial_impulse):
     return True
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _solve_armature(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, rate0, inv_mass, I_inv,
                     v, omega, axial_impulse):
     """MuJoCo's armature a on the 1-D coordinate q: (I_q + a) q'' = tau adds a q'' to its
@@ -328,7 +329,7 @@ def _solve_armature(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param,
                  axial_impulse)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _centred_angle(angle, lower, upper):
     """An angle of (-pi, pi] (twist, universal angles) seen in the chart of width 2 pi centred
     on the middle of its limits [lower, upper] (within [-pi, pi]): the cut where the angle
@@ -339,7 +340,7 @@ def _centred_angle(angle, lower, upper):
     return mid + _wrap(angle - mid)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb):
     """(k_eff, comp) of an angular row about n on a joint that pins its anchor (both joint
     coordinates' rows): k_eff = k - c.K^-1 c and comp = -K^-1 c, the anchor impulse per unit
@@ -452,7 +453,7 @@ def _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass,
     _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, imp)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _sym_mat_vec(K, u):
     """K u for K as 6 numbers."""
     k00, k01, k02, k11, k12, k22 = K
@@ -540,7 +541,7 @@ def solve_joints_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, lo
 solve_joints_serial_kernel = serial_twin(solve_joints_kernel, "solve_joints_serial_kernel")
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
                              position, x, R, inv_mass, I_inv, h, linear_impulse, angular_impulse, axial_impulse,
                              # outputs
@@ -586,7 +587,7 @@ def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, fra
                 _apply_angular(omega, I_inv, a, b, _scale(total2, n2))
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, position,
                        x, R, v, omega,
                        # outputs

@@ -21,7 +21,7 @@ from ..joints import (
     P_RIGID,
 )
 from ..math3d import (
-    JIT,
+    NO_NRT,
 )
 from .joint_gear import free_mass, gear_entries, gear_on, gear_row, solve_gear
 from .joint_math import (
@@ -50,7 +50,7 @@ from .joint_solve import (
 # H = [[M, J^T], [J, 0]] of a tree of bodies and joints, ordered leaves first, factors as
 # L D L^T with no fill-in. Each node (a moving body: 6 dofs v, omega; a joint: up to 6 rigid
 # rows, padded with identity rows) is one 6x6 block.
-@njit(**JIT)
+@njit(**NO_NRT)
 def _joint_rows(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, Ja, Jb, C):
     """Rigid rows of joint j at the current pose into Ja[j], Jb[j] (6, 6) (rows x (v, omega)
     of body a / b) and their errors C[j] (6,) (m or rad). Returns the row count."""
@@ -122,7 +122,7 @@ def _joint_rows(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, Ja,
     return n
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _invert6(A, out):
     """out = A^-1 for a 6x6 A (Gauss-Jordan, partial pivoting); A is overwritten. False if singular."""
     for r in range(6):
@@ -152,7 +152,7 @@ def _invert6(A, out):
     return True
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _project_accumulated(j, t, a, b, x, R, local_a, local_b, m, Jb, inv_mass, I_inv, v, omega,
                          linear_impulse, angular_impulse):
     """Put joint j's accumulated angular (hinge: 2 rows, universal: 1) and linear (slider: 2
@@ -199,13 +199,13 @@ def _project_accumulated(j, t, a, b, x, R, local_a, local_b, m, Jb, inv_mass, I_
             linear_impulse[j, c] = kept[c]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _has_armature_row(j, t, param):
     """Whether joint j's tree block has an armature row (a hinge or slider with armature)."""
     return param[j, P_ARMATURE] > 0.0 and (t == JOINT_HINGE or t == JOINT_SLIDER)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                        frame_a, frame_b, param, position, x, R, inv_mass, I_inv,
                        # outputs (scratch)
@@ -316,7 +316,7 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
                 D[p, r, c] -= s
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _substitute(order, node_parent, Dinv, H_up, W, y, sol, work):
     """sol = H^-1 y on the factors (n, 6, 6) of ``tree_factor_kernel``; y (n, 6) is overwritten."""
     n_nodes = order.shape[0]
@@ -348,7 +348,7 @@ def _substitute(order, node_parent, Dinv, H_up, W, y, sol, work):
             sol[k, r] = s
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                            param, rate0, x, R, inv_mass, I_inv, bias_rate, Ja, Jb, C, nrow, Dinv, H_up, W,
                            # scratch
@@ -417,7 +417,7 @@ def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type
                     angular_impulse[j, c] += lam * Jb[j, r, 3 + c]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _gear_response(i, bodies, scale, lins, angs, inv_mass, I_inv):
     """(dv, dw): body i's part of M^-1 J^T, its velocity change under a unit impulse along a gear's J
     (``joint_gear.gear_entries``)."""
@@ -432,7 +432,7 @@ def _gear_response(i, bodies, scale, lins, angs, inv_mass, I_inv):
     return dv, dw
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def tree_gear_masses(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                      frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow, Dinv, H_up, W,
                      y, sol, work):
@@ -482,7 +482,7 @@ def tree_gear_masses(order, node_joint, node_body, node_parent, joint_type, join
         param[g, G_MASS] = k if k > 0.0 else 0.0
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
                        local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
                        inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent,
