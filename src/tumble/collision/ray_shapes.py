@@ -16,14 +16,14 @@ import math
 import numpy as np
 from numba import njit
 
-from ..math3d import JIT
+from ..math3d import NO_NRT
 from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE, \
     SHAPE_SPHERE
 
 _MISS = (False, 0.0, 0.0, 0.0, 0.0)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _slab(o, d, lo, hi):
     """(t_enter, t_exit) of the line o + t d through lo <= p <= hi along one axis (-inf, inf:
     always inside; (inf, -inf): never)."""
@@ -38,7 +38,7 @@ def _slab(o, d, lo, hi):
     return t1, t2
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_plane(p, o, d, t_max):
     """Half-space n . x <= offset, p = (n, offset)."""
     height = p[0] * o[0] + p[1] * o[1] + p[2] * o[2] - p[3]
@@ -51,7 +51,7 @@ def _ray_plane(p, o, d, t_max):
     return True, t, p[0], p[1], p[2]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_sphere(radius, cz, o, d, t_max):
     """Sphere of ``radius`` centred at (0, 0, cz) (cz: a capsule's end)."""
     oz = o[2] - cz
@@ -68,7 +68,7 @@ def _ray_sphere(radius, cz, o, d, t_max):
     return True, t, (o[0] + t * d[0]) / radius, (o[1] + t * d[1]) / radius, (oz + t * d[2]) / radius
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _side(radius, o, d):
     """(t_enter, t_exit) of the line through the infinite solid cylinder x^2 + y^2 <= radius^2."""
     a = d[0] * d[0] + d[1] * d[1]
@@ -85,7 +85,7 @@ def _side(radius, o, d):
     return (-b - sq) / a, (-b + sq) / a
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_box(h, o, d, t_max):
     """Box |x_i| <= h_i: the slabs' latest entry, if before their earliest exit."""
     enter = -np.inf
@@ -103,7 +103,7 @@ def _ray_box(h, o, d, t_max):
     return True, enter, sign if axis == 0 else 0.0, sign if axis == 1 else 0.0, sign if axis == 2 else 0.0
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_cylinder(radius, half, o, d, t_max):
     """Cylinder x^2 + y^2 <= r^2, |z| <= h: the side's and the caps' slab's intervals intersected."""
     s1, s2 = _side(radius, o, d)
@@ -116,7 +116,7 @@ def _ray_cylinder(radius, half, o, d, t_max):
     return True, enter, (o[0] + enter * d[0]) / radius, (o[1] + enter * d[1]) / radius, 0.0
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_capsule(radius, half, o, d, t_max):
     """Capsule: points within r of the segment |z| <= h. Origin inside: no hit; else the first of
     the side (where |z| <= h) and the two end spheres."""
@@ -137,7 +137,7 @@ def _ray_capsule(radius, half, o, d, t_max):
     return best
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_cone(radius, height, o, d, t_max):
     """Cone: base disc of radius r at z = 0, apex at z = H. The solid is {z >= 0} and the solid
     infinite cone C = {rho <= k (H - z)}, k = r / H; a line meets the convex C in one interval,
@@ -194,7 +194,7 @@ def _ray_cone(radius, height, o, d, t_max):
     return True, enter, px / rho * s, py / rho * s, k * s
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_convex(face_first, face_count, hull_plane, o, d, t_max):
     """Convex hull, the intersection of its faces' half-spaces n . x <= offset (Cyrus-Beck)."""
     enter = -np.inf
@@ -220,7 +220,7 @@ def _ray_convex(face_first, face_count, hull_plane, o, d, t_max):
     return True, enter, p[0], p[1], p[2]
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_mesh(node_first_row, node_count, mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip, o, d, t_max):
     """Static triangle mesh: the nearest triangle along the ray (either side), through the BVH."""
     best = _MISS
@@ -273,7 +273,7 @@ def _ray_mesh(node_first_row, node_count, mesh_triangle, node_aabb, leaf_first, 
     return best
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _ray_shape(s, lo, dl, best, shape_type, shape_params, shape_data, hull_plane, mesh_triangle, node_aabb,
                leaf_first, leaf_count, node_skip):
     """Shape s against the ray (lo, dl) in its frame, up to ``best``: the ``_ray_<shape>`` it takes."""

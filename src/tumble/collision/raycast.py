@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import InputError
-from ..math3d import JIT, argsort_stable
+from ..math3d import JIT, NO_NRT, argsort_stable
 from ..shapes import SHAPE_PLANE
 from .bounds import update_bounds
 from .filter import ALL_CATEGORIES, CollisionFilter
@@ -174,7 +174,7 @@ def refit_shape_bvh(aabb, items, node_aabb, node_first, node_count, node_skip, n
     return total
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _box_entry(origin, direction, r, boxes, j, t_max):
     """Where ray r enters box j (boxes (B, 2, 3) min row, max row) within [0, t_max]; inf: it does not."""
     enter = 0.0
@@ -186,12 +186,13 @@ def _box_entry(origin, direction, r, boxes, j, t_max):
     return enter if enter <= leave else np.inf
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _cast_one(r, origin, direction, max_distance, exclude, seen, planes, items, tree_aabb, tree_first, tree_count,
               tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
               mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip, stack, stack_enter, hit_shape,
               hit_distance, hit_normal):
-    """Ray r of ``ray_cast_kernel``; ``stack``, ``stack_enter`` (64,) its scratch."""
+    """Ray r of ``ray_cast_kernel``; ``stack``, ``stack_enter`` (64,) its scratch. Without reference
+    counting (``math3d.NO_NRT``): a counted call increfs and decrefs its 28 arrays, per ray."""
     nodes = tree_first.shape[0]
     o0, o1, o2 = origin[r, 0], origin[r, 1], origin[r, 2]
     e0, e1, e2 = direction[r, 0], direction[r, 1], direction[r, 2]
