@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..math3d import JIT, argsort_stable
+from ..math3d import JIT, NO_NRT, argsort_stable
 from ..shapes import SHAPE_PLANE
 
 
@@ -21,13 +21,13 @@ from ..shapes import SHAPE_PLANE
 BIG_CELLS = 8
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _cell(v, origin, size, n):
     c = int((v - origin) / size)
     return 0 if c < 0 else (n - 1 if c >= n else c)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _emit(a, b, pair_a, pair_b, count):
     if count < pair_a.shape[0]:
         if a < b:
@@ -39,7 +39,7 @@ def _emit(a, b, pair_a, pair_b, count):
     return count + 1
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _overlap(aabb, a, b):
     for i in range(3):
         if aabb[a, 1, i] < aabb[b, 0, i] or aabb[b, 1, i] < aabb[a, 0, i]:

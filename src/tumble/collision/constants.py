@@ -40,3 +40,7 @@ ABS_TOLERANCE = 0.5 * LINEAR_SLOP
 # feature-id bases, so that the ids of the different kinds of contact never collide
 FEATURE_EDGE = 1 << 12
 FEATURE_FACE = 1 << 13
+
+# Most triangle contact points gathered for one (shape, mesh) pair before the reduction
+# (pairs/mesh.py); beyond it a new point replaces the shallowest one.
+MESH_POINTS = 64

@@ -39,7 +39,7 @@ from ...shapes import (
     SHAPE_CYLINDER,
     SHAPE_SPHERE,
 )
-from ..constants import MAX_MANIFOLD_POINTS
+from ..constants import MAX_MANIFOLD_POINTS, MESH_POINTS
 from .box_box import add_widest_triangle_points
 from .gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, gjk_scratch, support
 
@@ -74,11 +74,18 @@ def convex_scratch():
     pairs; the routines run without reference counting, ``math3d.NO_NRT``): 0 ``gjk_scratch()``;
     1, 2 the supporting faces (MAX_FACE, 3); 3, 4 the clipped polygon and its copy (CLIP_ROWS, 3);
     5, 6 their ids (CLIP_ROWS,) int; 7-9 the candidate points (CLIP_ROWS + 1, 3), separations and
-    ids; 10 the kept rows (CLIP_ROWS + 2,) int."""
+    ids; 10 the kept rows (CLIP_ROWS + 2,) int; 11 the mesh routine's (``mesh.collide_convex_mesh``):
+    its box lo, hi (3,), gathered points, normals (MESH_POINTS, 3), separations and features, one
+    triangle's normal (3,), points (4, 3), separations and features, the sphere-triangle simplex
+    (3, 3), its weights (3,) and rows (4,) int, the kept rows (MESH_POINTS,) int."""
     return (gjk_scratch(), np.empty((MAX_FACE, 3)), np.empty((MAX_FACE, 3)), np.empty((CLIP_ROWS, 3)),
             np.empty((CLIP_ROWS, 3)), np.empty(CLIP_ROWS, dtype=np.int64), np.empty(CLIP_ROWS, dtype=np.int64),
             np.empty((CLIP_ROWS + 1, 3)), np.empty(CLIP_ROWS + 1), np.empty(CLIP_ROWS + 1, dtype=np.int64),
-            np.empty(CLIP_ROWS + 2, dtype=np.int64))
+            np.empty(CLIP_ROWS + 2, dtype=np.int64),
+            (np.empty(3), np.empty(3), np.empty((MESH_POINTS, 3)), np.empty((MESH_POINTS, 3)), np.empty(MESH_POINTS),
+             np.empty(MESH_POINTS, dtype=np.int64), np.empty(3), np.empty((MAX_MANIFOLD_POINTS, 3)),
+             np.empty(MAX_MANIFOLD_POINTS), np.empty(MAX_MANIFOLD_POINTS, dtype=np.int64), np.empty((3, 3)),
+             np.empty(3), np.empty(4, dtype=np.int64), np.empty(MESH_POINTS, dtype=np.int64)))
 
 
 @njit(**NO_NRT)

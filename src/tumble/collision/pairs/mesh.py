@@ -32,9 +32,9 @@ import math
 import numpy as np
 from numba import njit
 
-from ...math3d import JIT
+from ...math3d import NO_NRT
 from ...shapes import SHAPE_SPHERE
-from ..constants import MAX_MANIFOLD_POINTS
+from ..constants import MESH_POINTS
 from .convex import (
     FEATURE_SINGLE,
     SLOT_DEEPEST,
@@ -45,9 +45,6 @@ from .convex import (
 )
 from .gjk import SHAPE_TRIANGLE, _closest_triangle, core_radius, support
 
-# Most triangle contact points gathered for one (shape, mesh) pair before the reduction;
-# beyond it a new point replaces the shallowest one.
-MESH_POINTS = 64
 # A contact normal within this of the face normal (1 - cos) is a face contact.
 FACE_COS = 1e-6
 # A triangle point with a barycentric weight below this is on an edge (or a vertex).
@@ -63,7 +60,7 @@ TRIANGLE = np.int64(SHAPE_TRIANGLE)
 ZERO = np.int64(0)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, grow, lo, hi):
     """The shape's box in the mesh frame: its extreme points along the mesh axes, grown by ``grow``."""
     r = core_radius(ta, params_a) + grow
@@ -75,7 +72,7 @@ def _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, grow, lo, hi):
         lo[k] = (q[0] - pos_b[0]) * ax + (q[1] - pos_b[1]) * ay + (q[2] - pos_b[2]) * az - r
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _barycentric(tri, px, py, pz):
     """(ok, b1, b2): the barycentric weights of corners 1 and 2 of triangle ``tri`` (3, 3) for the
     projection of p onto its plane (mesh frame; corner 0's weight is 1 - b1 - b2); ok is False
@@ -96,7 +93,7 @@ def _barycentric(tri, px, py, pz):
     return True, b1, b2
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _on_inactive_feature(tri, px, py, pz, active):
     """Whether the triangle point p (mesh frame) lies on an inactive edge, or a vertex with both edges inactive."""
     ok, b1, b2 = _barycentric(tri, px, py, pz)
@@ -116,7 +113,7 @@ def _on_inactive_feature(tri, px, py, pz, active):
     return True
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _to_mesh(x, y, z, pos_b, rot_b):
     """World point to the mesh frame."""
     qx, qy, qz = x - pos_b[0], y - pos_b[1], z - pos_b[2]
@@ -124,7 +121,7 @@ def _to_mesh(x, y, z, pos_b, rot_b):
             rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz)
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _over_triangle(tri, px, py, pz):
     """Whether p (mesh frame) projects into the triangle (barycentric weights >= -1e-9)."""
     ok, b1, b2 = _barycentric(tri, px, py, pz)
@@ -133,7 +130,7 @@ def _over_triangle(tri, px, py, pz):
     return b1 >= -1e-9 and b2 >= -1e-9 and 1.0 - b1 - b2 >= -1e-9
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _drop_deepest_beside(tri, n, px, py, pz, pos_b, rot_b, tn, tp, ts, tf):
     """The clipped manifold of one triangle without its added deepest point (slot SLOT_DEEPEST,
     the shape's deepest point along the triangle's normal, projected to p on its plane) when p is
@@ -159,14 +156,14 @@ def _drop_deepest_beside(tri, n, px, py, pz, pos_b, rot_b, tn, tp, ts, tf):
     return out
 
 
-@njit(**JIT)
-def _sphere_triangle(c, r, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, normal, point, separation, feature):
-    """A sphere against one triangle: the closest point of the triangle to the centre (exact; no GJK)."""
+@njit(**NO_NRT)
+def _sphere_triangle(c, r, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, lam, sub, normal, point, separation,
+                     feature):
+    """A sphere against one triangle: the closest point of the triangle to the centre (exact; no GJK).
+    W (3, 3), lam (3,), sub (4,) int: scratch."""
     for v in range(3):
         for i in range(3):
             W[v, i] = pos_b[i] + rot_b[i, 0] * tri[v, 0] + rot_b[i, 1] * tri[v, 1] + rot_b[i, 2] * tri[v, 2] - c[i]
-    lam = np.empty(3)
-    sub = np.empty(4, dtype=np.int64)
     k, dd = _closest_triangle(W, ZERO, np.int64(1), np.int64(2), lam, sub)
     dist = math.sqrt(dd)
     if dist - r >= speculative:
@@ -190,7 +187,7 @@ def _sphere_triangle(c, r, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, normal
     return 1
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b, speculative, tn, tp, ts, tf):
     """The internal-edge and back-face rule (module docstring) on one triangle's contact; returns its new count."""
     facing = tn[0] * Nx + tn[1] * Ny + tn[2] * Nz
@@ -230,7 +227,7 @@ def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, ro
     return n
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats):
     """Add one triangle's n points to the pair's list (merging repeats, keeping the deepest when full)."""
     for m in range(n):
@@ -262,16 +259,17 @@ def _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats):
     return count
 
 
-@njit(**JIT)
-def _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature, point_normal):
+@njit(**NO_NRT)
+def _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature, point_normal, keep):
     """Reduce the gathered points to a manifold (each point with its own triangle's normal, and the
-    manifold's normal their weighted mean); returns its point count."""
+    manifold's normal their weighted mean); returns its point count. keep: (MESH_POINTS,) int scratch."""
     deepest = 0
     for m in range(1, count):
         if seps[m] < seps[deepest]:
             deepest = m
     nx, ny, nz = cand_n[deepest, 0], cand_n[deepest, 1], cand_n[deepest, 2]
-    keep = np.arange(count)
+    for c in range(count):
+        keep[c] = c
     if count > 2:
         count = reduce_points(cand, seps, count, nx, ny, nz, keep)
     # the manifold's normal (a summary for the record; the solver pushes each point along its own):
@@ -305,7 +303,7 @@ def _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separa
     return out
 
 
-@njit(**JIT)
+@njit(**NO_NRT)
 def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
                         normal, point, separation, feature, point_normal, scratch):
     """Sphere, capsule, cylinder, cone, box or convex a against the fixed mesh b (collide_<a>_mesh);
@@ -315,18 +313,9 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
     mesh_triangle, mesh_edge_active, node_aabb, node_first, node_count, node_skip = geometry[6:]
     verts_a, fa0, fna = shape_arrays(ta, a, shape_data, hull_vertex)
     ra = core_radius(ta, params_a)
-    lo = np.empty(3)
-    hi = np.empty(3)
+    # the routine's arrays: the mesh part of the convex scratch (convex.convex_scratch)
+    lo, hi, cand, cand_n, seps, feats, tn, tp, ts, tf, W, lam, sub, keep = scratch[11]
     _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, speculative, lo, hi)
-    cand = np.empty((MESH_POINTS, 3))
-    cand_n = np.empty((MESH_POINTS, 3))
-    seps = np.empty(MESH_POINTS)
-    feats = np.empty(MESH_POINTS, dtype=np.int64)
-    tn = np.empty(3)
-    tp = np.empty((MAX_MANIFOLD_POINTS, 3))
-    ts = np.empty(MAX_MANIFOLD_POINTS)
-    tf = np.empty(MAX_MANIFOLD_POINTS, dtype=np.int64)
-    W = np.empty((3, 3))
     count = np.int64(0)  # not a literal (see TRIANGLE)
     n0 = shape_data[b, 2]
     n_end = n0 + shape_data[b, 3]
@@ -388,7 +377,8 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                 elif n > 1:
                     n = _drop_deepest_beside(tri, n, px, py, pz, pos_b, rot_b, tn, tp, ts, tf)
             elif ta == SHAPE_SPHERE:
-                n = _sphere_triangle(pos_a, ra, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, tn, tp, ts, tf)
+                n = _sphere_triangle(pos_a, ra, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, lam, sub, tn, tp, ts,
+                                     tf)
             else:
                 n = convex_contact(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, TRIANGLE, pos_b, rot_b,
                                    params_b, tri, ZERO, ZERO, hull_face_first, hull_face_count, hull_face_vertex, hull_plane,
@@ -401,4 +391,5 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
         i += 1
     if count == 0:
         return 0
-    return _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature, point_normal)
+    return _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature, point_normal,
+                   keep)
