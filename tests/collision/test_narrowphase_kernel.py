@@ -55,6 +55,16 @@ def _world(seed, pairs=150):
     return w
 
 
+def _table_and_bounds(w):
+    """The world's shape table, its shapes' poses, boxes and margins over a step of 1/60 s, and
+    the first shape of each pair (the pairs are shapes 2k and 2k + 1)."""
+    table = build_shape_table(w)
+    margin = np.empty(table.shape_count)
+    pos, R, aabb = update_bounds(w.x, w.R, table, SPECULATIVE_DISTANCE, v=w.v, omega=w.omega, dt=1 / 60,
+                                 shape_margin=margin)
+    return table, pos, R, aabb, margin, np.arange(0, table.shape_count, 2, dtype=np.int64)
+
+
 def _routine(table, pos, R, margin, a, b, work, scratch):
     """``collide_shapes`` on shape rows a, b (in SHAPE_* order) with the kernel's pair margin."""
     if table.shape_type[a] > table.shape_type[b]:
@@ -72,12 +82,7 @@ def _kernel_and_routine(seed):
     claimed "apart" too early or too late would show; then every pair by the kernel and by the
     routine."""
     w = _world(seed)
-    table = build_shape_table(w)
-    S = table.shape_count
-    margin = np.empty(S)
-    pos, R, aabb = update_bounds(w.x, w.R, table, SPECULATIVE_DISTANCE, v=w.v, omega=w.omega, dt=1 / 60,
-                                 shape_margin=margin)
-    pair_a = np.arange(0, S, 2, dtype=np.int64)
+    table, pos, R, aabb, margin, pair_a = _table_and_bounds(w)
     pair_b = pair_a + 1
     work, scratch = np.empty((PAIR_WORK_ROWS, 3)), convex_scratch()
     for k, (a, b) in enumerate(zip(pair_a, pair_b)):
@@ -127,12 +132,7 @@ def test_kernel_leaves_no_array_referenced():
     down (an array handed from a counted routine to an uncounted one) would keep it alive: with
     ``convex.shape_arrays`` compiled as a counted call, the hull vertices stayed (checked)."""
     w = _world(7, pairs=40)
-    table = build_shape_table(w)
-    S = table.shape_count
-    margin = np.empty(S)
-    pos, R, aabb = update_bounds(w.x, w.R, table, SPECULATIVE_DISTANCE, v=w.v, omega=w.omega, dt=1 / 60,
-                                 shape_margin=margin)
-    pair_a = np.arange(0, S, 2, dtype=np.int64)
+    table, pos, R, aabb, margin, pair_a = _table_and_bounds(w)
     out = collide_pairs(pair_a, pair_a + 1, table, pos, R, aabb, SPECULATIVE_DISTANCE, ContactManifolds(),
                         shape_margin=margin)
     assert out.manifold_count > 0
