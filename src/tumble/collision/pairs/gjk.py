@@ -190,7 +190,7 @@ def _reduce_simplex(W, SA, SB, k, lam, sub, lam3, best_sub, best_lam, tmp):
 
     Sets ``lam`` (barycentric weights) and returns the new size; 4 means the
     origin is inside the tetrahedron. sub (4,) int, lam3 (3,), best_sub (3,) int, best_lam (3,),
-    tmp (4, 9): scratch (allocated once per GJK call).
+    tmp (4, 9): scratch (``gjk_scratch``, lent once per narrowphase task).
     """
     if k == 1:
         lam[0] = 1.0
