@@ -24,12 +24,14 @@ from numba import njit
 # _nrt (Numba's reference-counted runtime) is set, not inherited: a kernel compiled first from
 # a NO_NRT caller would otherwise inherit NO_NRT's setting (Numba's flag inheritance).
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy", _nrt=True)
-# The hot pair routines of the narrowphase (GJK, EPA, face clipping) without Numba's reference
-# counting. PERF: a compiled call increfs each array argument on entry and decrefs it on every
-# exit (atomic operations); in the convex pile's narrowphase they were 64 % of the time (perf:
-# NRT_incref 31 %, NRT_decref 33 %), more than the geometry. Rules for a NO_NRT function: it
-# allocates nothing (scratch is lent by the caller: ``gjk.gjk_scratch``), and it returns no array
-# (a view it made carries no reference; an NRT caller would drop one it never got).
+# Hot routines made of many small calls, without Numba's reference counting: the narrowphase's
+# convex and mesh routines (GJK, EPA, face clipping), the broadphase's pair helpers, the joint
+# solver and the ray casts. PERF: a compiled call increfs each array argument on entry and decrefs
+# it on every exit (atomic operations); in the convex pile's narrowphase they were 64 % of the time
+# (perf: NRT_incref 31 %, NRT_decref 33 %), in the humanoid's step 46 %. Rules for a NO_NRT
+# function: it allocates nothing (scratch is lent by the caller: ``convex.convex_scratch``), and
+# it returns no array (a view it made carries no reference; an NRT caller would drop one it never
+# got). tests/test_reference_counting.py and tests/collision/test_narrowphase_kernel.py check it.
 NO_NRT = dict(JIT, _nrt=False)
 
 
