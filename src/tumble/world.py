@@ -414,6 +414,16 @@ class World:
 
         return overlap_aabb(self, lower, upper, mask, category)
 
+    def closest_points(self, body_a, body_b, max_distance=math.inf):
+        """Signed distance, closest points and normal of each pair of bodies at their current poses:
+        ``collision.distance.closest_points`` (PyBullet's getClosestPoints, MuJoCo's
+        mj_geomDistance; body_a, body_b a body or P of them; returns a ``ClosestPoints`` with a
+        row per pair: distance (P,) m, negative when they overlap, point_a, point_b, normal (P, 3)
+        world)."""
+        from .collision.distance import closest_points
+
+        return closest_points(self, body_a, body_b, max_distance)
+
     def exclude_collision(self, body_a, body_b):
         """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,
         whatever their filters (MuJoCo's ``<exclude>``, PyBullet's ``setCollisionFilterPair``)."""
