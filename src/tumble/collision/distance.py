@@ -300,7 +300,7 @@ def shape_distance(sa, sb, shape_type, shape_params, shape_pos, shape_rot, shape
 
 
 # ---------------------------------------------------------------------- pairs of bodies
-PAIRS_PER_CHUNK = 16
+PAIRS_PER_CHUNK = 32
 PARALLEL_MIN_PAIRS = 64  # fewer pairs run on the calling thread (starting the threads costs more)
 
 
@@ -374,12 +374,25 @@ closest_points_serial_kernel = serial_twin(closest_points_kernel, "closest_point
 
 # ---------------------------------------------------------------------- the query
 def _bodies(world, name: str, value) -> np.ndarray:
-    """(K,) int64 body indices from a body (``Body``, name or index) or a sequence of them."""
-    if np.ndim(value) == 0 or isinstance(value, str):
+    """(K,) int64 body indices from a body (``Body``, name or index) or a sequence of them.
+    PERF: an integer array is checked as a whole (one ``index_of`` per body cost 1 us a pair)."""
+    if isinstance(value, (str, int, np.integer)) or not hasattr(value, "__len__"):
         try:
             return np.array([world.index_of(value)], dtype=np.int64)
         except InputError as err:
             raise InputError(err.problem, name) from None
+    if not isinstance(value, np.ndarray):
+        try:
+            as_array = np.asarray(value)
+        except (TypeError, ValueError):
+            as_array = None
+        value = as_array if as_array is not None and as_array.dtype.kind in "iu" else value
+    if isinstance(value, np.ndarray) and value.dtype.kind in "iu":
+        index = value.astype(np.int64).reshape(-1)
+        bad = (index < 0) | (index >= world.body_count)
+        if bad.any():
+            raise InputError(f"unknown body {int(index[bad][0])}", name)
+        return index
     out = []
     for item in value:
         try:
@@ -424,20 +437,27 @@ def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
 
     a = _bodies(world, "body_a", body_a)
     b = _bodies(world, "body_b", body_b)
-    if len(a) != len(b) and 1 not in (len(a), len(b)):
-        raise InputError(f"has {len(b)} bodies but body_a has {len(a)}", "body_b")
     P = max(len(a), len(b))
-    a = np.ascontiguousarray(np.broadcast_to(a, (P,)))
-    b = np.ascontiguousarray(np.broadcast_to(b, (P,)))
-    same = np.flatnonzero(a == b)
-    if len(same):
-        raise InputError(f"body {int(a[same[0]])} is paired with itself (pair {int(same[0])})", "body_b")
-    dist = np.asarray(max_distance, dtype=float)
-    if dist.ndim > 1 or (dist.ndim == 1 and len(dist) != P):
-        raise InputError(f"must be a number or one per pair ({P}), got shape {dist.shape}", "max_distance")
-    if np.any(np.isnan(dist)):
-        raise InputError("must not be NaN", "max_distance")
-    dist = np.ascontiguousarray(np.broadcast_to(dist, (P,)))
+    if len(a) != len(b):
+        if 1 not in (len(a), len(b)):
+            raise InputError(f"has {len(b)} bodies but body_a has {len(a)}", "body_b")
+        a = np.full(P, a[0], dtype=np.int64) if len(a) == 1 else a
+        b = np.full(P, b[0], dtype=np.int64) if len(b) == 1 else b
+    same = a == b
+    if same.any():
+        first_same = int(np.argmax(same))
+        raise InputError(f"body {int(a[first_same])} is paired with itself (pair {first_same})", "body_b")
+    if isinstance(max_distance, (float, int)):
+        if math.isnan(max_distance):
+            raise InputError("must not be NaN", "max_distance")
+        dist = np.full(P, float(max_distance))
+    else:
+        dist = np.asarray(max_distance, dtype=float)
+        if dist.ndim > 1 or (dist.ndim == 1 and len(dist) != P):
+            raise InputError(f"must be a number or one per pair ({P}), got shape {dist.shape}", "max_distance")
+        if np.isnan(dist).any():
+            raise InputError("must not be NaN", "max_distance")
+        dist = np.ascontiguousarray(np.broadcast_to(dist, (P,)))
 
     scene = kept_scene(world)
     table = scene.table
@@ -451,7 +471,12 @@ def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
         shape_a[:] = shape_b[:] = -1
         points[:] = np.nan
     else:
-        pos, rot, aabb = update_bounds(np.asarray(world.x), np.asarray(world.R), table, 0.0)
+        S = table.shape_count
+        buffers = getattr(scene, "_distance_buffers", None)
+        if buffers is None or len(buffers[0]) != S:  # kept with the scene: no allocation per query
+            buffers = scene._distance_buffers = (np.empty((S, 3)), np.empty((S, 3, 3)), np.empty((S, 2, 3)),
+                                                 np.empty(S))
+        pos, rot, aabb = update_bounds(world.x, world.R, table, 0.0, *buffers[:3], shape_margin=buffers[3])
         kernel = closest_points_kernel if P >= PARALLEL_MIN_PAIRS else closest_points_serial_kernel
         kernel(a, b, dist, first, count, order, table.shape_type, table.shape_params, pos, rot, aabb, table.shape_data,
                table.hull_vertex, table.mesh_triangle, table.mesh_node_aabb, table.mesh_node_first,
