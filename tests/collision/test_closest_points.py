@@ -31,6 +31,7 @@ from .helpers import random_rotation
 TOL = 1e-8
 POINT_TOL_OVERLAP = 2e-5  # m (test_sphere_against_solid_of_revolution)
 NORMAL_TOL_OVERLAP = 1e-4  # rad
+NORMAL_GAP = 1e-7  # m (test_every_convex_pair_against_support_functions)
 
 
 def _world():
@@ -316,6 +317,99 @@ def test_polytopes_against_the_exact_distance(kind):
             assert np.max(N @ P - off) == pytest.approx(0.0, abs=TOL)
         signs.append(np.sign(expect))
     assert signs.count(1) >= 8 and signs.count(-1) >= 8  # apart and overlapping both measured
+
+
+# ---------------------------------------------------------------------- every convex kind
+def _support_value(kind, dims, origin, R, n):
+    """h(n) = max over the shape of p . n (world), in closed form from its dimensions."""
+    l = R.T @ n
+    if kind == "box":
+        return origin @ n + np.abs(l) @ dims
+    if kind == "sphere":
+        return origin @ n + dims[0]
+    if kind == "capsule":
+        return origin @ n + abs(l[2]) * dims[1] / 2 + dims[0]
+    if kind == "cylinder":
+        return origin @ n + abs(l[2]) * dims[1] / 2 + dims[0] * np.hypot(l[0], l[1])
+    if kind == "cone":  # base rim or apex
+        return origin @ n + max(dims[0] * np.hypot(l[0], l[1]), dims[1] * l[2])
+    return origin @ n + np.max(dims @ l)  # hull: its vertices (shape frame)
+
+
+def _minkowski_signed_distance(f):
+    """-min over unit n of f(n) = h_A(n) + h_B(-n): the signed distance of A and B (apart: the
+    widest gap over directions; overlapping: the smallest overlap, the translational depth), by
+    Nelder-Mead in spherical angles from the best of 1000 spread directions and 8 random ones."""
+    from scipy.optimize import minimize
+
+    k = np.arange(1000) + 0.5
+    theta, phi = np.arccos(1 - 2 * k / 1000), np.pi * (1 + 5 ** 0.5) * k  # a Fibonacci sphere
+    vals = [f(np.array([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])) for t, p in zip(theta, phi)]
+    starts = [(theta[i], phi[i]) for i in np.argsort(vals)[:4]]
+    starts += list(np.random.default_rng(0).uniform((0, 0), (np.pi, 2 * np.pi), (8, 2)))
+    best = np.inf
+    for x0 in starts:
+        r = minimize(lambda a: f(np.array([np.sin(a[0]) * np.cos(a[1]), np.sin(a[0]) * np.sin(a[1]), np.cos(a[0])])),
+                     x0, method="Nelder-Mead", options=dict(xatol=1e-12, fatol=1e-15, maxiter=4000))
+        best = min(best, r.fun)
+    return -best
+
+
+KINDS = ("box", "sphere", "capsule", "cylinder", "cone", "hull")
+
+
+@pytest.mark.parametrize("pair", [(a, b) for i, a in enumerate(KINDS) for b in KINDS[i:] if "sphere" not in (a, b)
+                                  or (a, b) == ("sphere", "hull")])
+def test_every_convex_pair_against_support_functions(pair):
+    """Any two convex shapes, apart and overlapping: the signed distance equals -min over directions
+    of h_A(n) + h_B(-n) (support functions in closed form; no GJK or EPA) to 1e-8 m (the solvers'
+    stopping rules, module docstring; the Nelder-Mead minimum is converged to 1e-12 and checked
+    no worse than tumble's own normal), and the normal nearly achieves it: h_A(normal) +
+    h_B(-normal) = -distance to NORMAL_GAP. Measured: below 1e-9 m for every pair but three, 2.9e-8
+    (a box corner beside a cone's side, apart), 3.6e-8 (two cones apart) and 4.0e-8 (a capsule in a
+    cylinder); in the first, GJK's last triangle (the corner, the apex, a rim point) is so thin
+    that its closest point carries a 1e-9 relative error, the next support point repeats the apex,
+    and GJK stops with the distance right to 1e-12 m but the normal 2e-5 rad from the best one
+    (a support gap of 3e-8 m along it). The contacts use the same GJK."""
+    rng = np.random.default_rng(sum(map(ord, "".join(pair))))
+    make = {"box": lambda: (tb.Box(size=(0.5, 0.3, 0.7)), np.array([0.25, 0.15, 0.35])),
+            "sphere": lambda: (tb.Sphere(0.3), np.array([0.3])),
+            "capsule": lambda: (tb.Capsule(0.15, 0.5), np.array([0.15, 0.5])),
+            "cylinder": lambda: (tb.Cylinder(0.25, 0.6), np.array([0.25, 0.6])),
+            "cone": lambda: (tb.Cone(0.3, 0.6), np.array([0.3, 0.6])),
+            "hull": lambda: (tb.Convex(points=rng.normal(size=(12, 3)) * 0.25), None)}
+    w = _world()
+    dims = []
+    for i, kind in enumerate(pair):
+        shape, d = make[kind]()
+        w.add_body(shape, mass=1, name="ab"[i])
+        dims.append(d)
+    from tumble.collision.raycast import kept_scene
+
+    table = kept_scene(w).table
+    for i, kind in enumerate(pair):
+        if kind == "hull":
+            v0, nv = table.shape_data[i, :2]
+            dims[i] = table.hull_vertex[v0:v0 + nv]
+    signs = []
+    for trial in range(6):
+        w.body("a").R, w.body("b").R = random_rotation(rng), random_rotation(rng)
+        w.body("a").x = (0, 0, 0)
+        w.body("b").x = rng.normal(size=3) * 0.35
+        origins = [w.x[i] + w.R[i] @ table.shape_local_pos[i] for i in (0, 1)]
+
+        def f(n):
+            return (_support_value(pair[0], dims[0], origins[0], w.R[0], n)
+                    + _support_value(pair[1], dims[1], origins[1], w.R[1], -n))
+
+        expect = _minkowski_signed_distance(f)
+        r = w.closest_points("a", "b")
+        assert r.distance[0] == pytest.approx(expect, abs=TOL), (trial, r.distance[0], expect)
+        assert -f(r.normal[0]) == pytest.approx(r.distance[0], abs=NORMAL_GAP)
+        assert expect >= -f(r.normal[0]) - 1e-12  # the oracle's minimum is no worse than tumble's direction
+        _consistent(r)
+        signs.append(np.sign(expect))
+    assert 1 in signs and -1 in signs  # apart and overlapping both measured
 
 
 # ---------------------------------------------------------------------- meshes, compounds
