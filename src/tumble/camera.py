@@ -170,27 +170,20 @@ class Camera:
         return c, axes, d @ axes.T
 
     def capture(self, world) -> CameraImage:
-        """The images of ``world`` at its present state (``CameraImage``)."""
+        """The images of ``world`` at its present state (``CameraImage``): one compiled pass over the
+        pixels (``collision.raycast.image_kernel``: the rays of ``rays``, their casts as
+        ``World.ray_cast``'s, the shading)."""
+        from .collision.raycast import cast_image
         from .visual import palette_colors
 
-        c, axes, d = self.rays(world)
-        H, W = self.height, self.width
-        flat = d.reshape(-1, 3)
-        exclude = None
+        c, axes = self.pose(world)
+        K = self.intrinsics
+        exclude = -1
         if self.body is not None and self.exclude_body:
             exclude = world.index_of(self.body)
-        hits = world.ray_cast(c, flat, max_distance=float(self.max_distance), exclude=exclude, mask=int(self.mask))
-        body = hits.body.reshape(H, W)
-        distance = hits.distance.reshape(H, W)
-        depth = distance * (d @ axes[:, 2])  # z in the camera frame; inf stays inf where no hit
-        point = hits.point.reshape(H, W, 3)
-        normal = hits.normal.reshape(H, W, 3)
         colors = palette_colors(~(np.asarray(world.moving, bool) | np.asarray(world.kinematic, bool)))
-        rgb = np.empty((H, W, 3), dtype=np.uint8)
-        rgb[:] = SKY
-        seen = body >= 0
-        if seen.any():
-            light = AMBIENT + DIFFUSE * np.abs(np.einsum("ij,ij->i", normal[seen], d[seen]))
-            rgb[seen] = np.clip(np.rint(colors[body[seen]] * light[:, None]), 0, 255).astype(np.uint8)
+        depth, distance, body, point, normal, rgb = cast_image(
+            world, c, axes, K[0, 0], K[0, 2], K[1, 2], self.width, self.height, float(self.max_distance), exclude,
+            int(self.mask), colors, SKY, AMBIENT, DIFFUSE)
         return CameraImage(depth=depth, distance=distance, body=body, point=point, normal=normal, rgb=rgb,
-                           position=c, rotation=axes, intrinsics=self.intrinsics)
+                           position=c, rotation=axes, intrinsics=K)
