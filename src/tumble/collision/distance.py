@@ -251,6 +251,30 @@ def _swap(out):
 
 
 @njit(**NO_NRT)
+def convex_to_shape(ta, pos_a, rot_a, params_a, verts_a, sb, shape_type, shape_params, shape_pos, shape_rot,
+                    shape_data, hull_vertex, mesh_triangle, node_aabb, node_first, node_count, node_skip, cutoff,
+                    scratch, lo, hi, work, out):
+    """Signed distance (m) of a convex shape a (sphere, capsule, cylinder, cone, box or hull, given by
+    its type, pose, params and hull vertices) to shape row sb (any type), or inf above ``cutoff``;
+    points and normal (from a to sb) in ``out`` (9,) as ``convex_distance``. Shared by the pairs of
+    bodies (``shape_distance``) and the queries of a shape not in the world (``shape_query``)."""
+    tb = shape_type[sb]
+    vb0 = shape_data[sb, 0]
+    verts_b = hull_vertex[vb0:vb0 + shape_data[sb, 1]] if tb == SHAPE_CONVEX else hull_vertex[0:0]
+    if tb == SHAPE_PLANE:
+        d = _plane_distance(shape_pos[sb], shape_rot[sb], shape_params[sb], ta, pos_a, rot_a, params_a, verts_a,
+                            np.int64(0), np.int64(0), mesh_triangle, cutoff, out)
+        _swap(out)
+        return d
+    if tb == SHAPE_MESH:
+        return _mesh_distance(ta, pos_a, rot_a, params_a, verts_a, shape_pos[sb], shape_rot[sb], shape_params[sb], sb,
+                              shape_data, mesh_triangle, node_aabb, node_first, node_count, node_skip, cutoff, scratch,
+                              lo, hi, work, out)
+    return convex_distance(ta, pos_a, rot_a, params_a, verts_a, tb, shape_pos[sb], shape_rot[sb], shape_params[sb],
+                           verts_b, cutoff, scratch, out)
+
+
+@njit(**NO_NRT)
 def shape_distance(sa, sb, shape_type, shape_params, shape_pos, shape_rot, shape_data, hull_vertex, mesh_triangle,
                    node_aabb, node_first, node_count, node_skip, cutoff, scratch, lo, hi, work, out):
     """Signed distance (m) between shape rows sa and sb at poses ``shape_pos``, ``shape_rot``, or inf
@@ -258,10 +282,6 @@ def shape_distance(sa, sb, shape_type, shape_params, shape_pos, shape_rot, shape
     to sb) in ``out`` (9,) as ``convex_distance``."""
     ta = shape_type[sa]
     tb = shape_type[sb]
-    va0, vb0 = shape_data[sa, 0], shape_data[sb, 0]
-    # a hull's vertex rows; an empty slice for the other shapes
-    verts_a = hull_vertex[va0:va0 + shape_data[sa, 1]] if ta == SHAPE_CONVEX else hull_vertex[0:0]
-    verts_b = hull_vertex[vb0:vb0 + shape_data[sb, 1]] if tb == SHAPE_CONVEX else hull_vertex[0:0]
     static_a = ta == SHAPE_PLANE or ta == SHAPE_MESH
     static_b = tb == SHAPE_PLANE or tb == SHAPE_MESH
     if static_a and static_b:
@@ -270,33 +290,26 @@ def shape_distance(sa, sb, shape_type, shape_params, shape_pos, shape_rot, shape
         # a plane and a mesh: the mesh's triangles' corners against the plane
         if ta == SHAPE_PLANE:
             return _plane_distance(shape_pos[sa], shape_rot[sa], shape_params[sa], tb, shape_pos[sb], shape_rot[sb],
-                                   shape_params[sb], verts_b, shape_data[sb, 0], shape_data[sb, 0] + shape_data[sb, 1],
-                                   mesh_triangle, cutoff, out)
+                                   shape_params[sb], hull_vertex[0:0], shape_data[sb, 0],
+                                   shape_data[sb, 0] + shape_data[sb, 1], mesh_triangle, cutoff, out)
         d = _plane_distance(shape_pos[sb], shape_rot[sb], shape_params[sb], ta, shape_pos[sa], shape_rot[sa],
-                            shape_params[sa], verts_a, shape_data[sa, 0], shape_data[sa, 0] + shape_data[sa, 1],
-                            mesh_triangle, cutoff, out)
+                            shape_params[sa], hull_vertex[0:0], shape_data[sa, 0],
+                            shape_data[sa, 0] + shape_data[sa, 1], mesh_triangle, cutoff, out)
         _swap(out)
         return d
-    if ta == SHAPE_PLANE:
-        return _plane_distance(shape_pos[sa], shape_rot[sa], shape_params[sa], tb, shape_pos[sb], shape_rot[sb],
-                               shape_params[sb], verts_b, np.int64(0), np.int64(0), mesh_triangle, cutoff, out)
-    if tb == SHAPE_PLANE:
-        d = _plane_distance(shape_pos[sb], shape_rot[sb], shape_params[sb], ta, shape_pos[sa], shape_rot[sa],
-                            shape_params[sa], verts_a, np.int64(0), np.int64(0), mesh_triangle, cutoff, out)
+    if static_a:  # the convex one first, then turned round
+        vb0 = shape_data[sb, 0]
+        verts_b = hull_vertex[vb0:vb0 + shape_data[sb, 1]] if tb == SHAPE_CONVEX else hull_vertex[0:0]
+        d = convex_to_shape(tb, shape_pos[sb], shape_rot[sb], shape_params[sb], verts_b, sa, shape_type, shape_params,
+                            shape_pos, shape_rot, shape_data, hull_vertex, mesh_triangle, node_aabb, node_first,
+                            node_count, node_skip, cutoff, scratch, lo, hi, work, out)
         _swap(out)
         return d
-    if tb == SHAPE_MESH:
-        return _mesh_distance(ta, shape_pos[sa], shape_rot[sa], shape_params[sa], verts_a, shape_pos[sb],
-                              shape_rot[sb], shape_params[sb], sb, shape_data, mesh_triangle, node_aabb, node_first,
-                              node_count, node_skip, cutoff, scratch, lo, hi, work, out)
-    if ta == SHAPE_MESH:
-        d = _mesh_distance(tb, shape_pos[sb], shape_rot[sb], shape_params[sb], verts_b, shape_pos[sa],
-                           shape_rot[sa], shape_params[sa], sa, shape_data, mesh_triangle, node_aabb, node_first,
+    va0 = shape_data[sa, 0]
+    verts_a = hull_vertex[va0:va0 + shape_data[sa, 1]] if ta == SHAPE_CONVEX else hull_vertex[0:0]
+    return convex_to_shape(ta, shape_pos[sa], shape_rot[sa], shape_params[sa], verts_a, sb, shape_type, shape_params,
+                           shape_pos, shape_rot, shape_data, hull_vertex, mesh_triangle, node_aabb, node_first,
                            node_count, node_skip, cutoff, scratch, lo, hi, work, out)
-        _swap(out)
-        return d
-    return convex_distance(ta, shape_pos[sa], shape_rot[sa], shape_params[sa], verts_a, tb, shape_pos[sb],
-                           shape_rot[sb], shape_params[sb], verts_b, cutoff, scratch, out)
 
 
 # ---------------------------------------------------------------------- pairs of bodies
