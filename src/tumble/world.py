@@ -424,6 +424,25 @@ class World:
 
         return closest_points(self, body_a, body_b, max_distance)
 
+    def shape_cast(self, shape, position, translation, orientation=None, exclude=None, mask=ALL_CATEGORIES,
+                   category=ALL_CATEGORIES):
+        """Where ``shape`` (a Sphere, Capsule, Cylinder, Cone, Box or Convex not in the world) moved from
+        ``position`` by ``translation`` ((3,) or (K, 3) m, world) first touches a body:
+        ``collision.shape_query.shape_cast`` (Box2D's b2World_CastShape; returns a ``ShapeHits``:
+        body, fraction of the translation, position, point and normal per cast)."""
+        from .collision.shape_query import shape_cast
+
+        return shape_cast(self, shape, position, translation, orientation, exclude, mask, category)
+
+    def overlap_shape(self, shape, position, orientation=None, exclude=None, mask=ALL_CATEGORIES,
+                      category=ALL_CATEGORIES) -> np.ndarray:
+        """Sorted (K,) int64 indices of the bodies that ``shape`` (not in the world) placed at
+        ``position`` (its origin, (3,) m, world) overlaps or touches: ``collision.shape_query``
+        (Box2D's b2World_OverlapShape, pymunk's shape_query)."""
+        from .collision.shape_query import overlap_shape
+
+        return overlap_shape(self, shape, position, orientation, exclude, mask, category)
+
     def exclude_collision(self, body_a, body_b):
         """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,
         whatever their filters (MuJoCo's ``<exclude>``, PyBullet's ``setCollisionFilterPair``)."""

@@ -54,8 +54,7 @@ from ..errors import InputError
 from ..math3d import JIT, NO_NRT, serial_twin
 from ..shapes import SHAPE_CAPSULE, SHAPE_CONVEX, SHAPE_MESH, SHAPE_PLANE
 from .bounds import update_bounds
-from .pairs.convex import TOUCH_GAP
-from .pairs.gjk import SHAPE_TRIANGLE, core_radius, epa, gjk, gjk_scratch, support
+from .pairs.gjk import SHAPE_TRIANGLE, TOUCH, core_radius, epa, gjk, gjk_scratch, support
 
 
 @dataclass
@@ -130,7 +129,10 @@ def convex_distance(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, param
                           cutoff + ra + rb, scratch)
     if k == 0:
         return np.inf  # the cores are farther apart than the cutoff (GJK's lower bound)
-    if dist > TOUCH_GAP:
+    # GJK's distance down to its own touching threshold (1e-9 m), not the contacts' TOUCH_GAP (1e-7 m,
+    # below which they take EPA's normal): EPA gives a depth of about 0 for cores that touch, and with
+    # 1e-7 a gap of 2.6e-8 m came out as 0 (a shape cast stopped that far short, measured)
+    if dist > TOUCH:
         nx, ny, nz = (pb[0] - pa[0]) / dist, (pb[1] - pa[1]) / dist, (pb[2] - pa[2]) / dist
         d = dist - ra - rb
     else:
@@ -428,6 +430,24 @@ def _shapes_of_bodies(scene, body_count: int):
     return kept
 
 
+def shape_poses(world):
+    """(scene, shape_pos (S, 3), shape_rot (S, 3, 3), shape_aabb (S, 2, 3)) at the world's current
+    poses: the query scene kept on the world (``raycast.kept_scene``: its ``ShapeTable``) and the
+    shapes' world poses and boxes without margin, in buffers kept with the scene (no allocation
+    per query; the next query overwrites them)."""
+    from .raycast import kept_scene
+
+    scene = kept_scene(world)
+    table = scene.table
+    S = table.shape_count
+    buffers = getattr(scene, "_distance_buffers", None)
+    if buffers is None or len(buffers[0]) != S:
+        buffers = scene._distance_buffers = (np.empty((S, 3)), np.empty((S, 3, 3)), np.empty((S, 2, 3)), np.empty(S))
+    if S:
+        update_bounds(world.x, world.R, table, 0.0, *buffers[:3], shape_margin=buffers[3])
+    return scene, buffers[0], buffers[1], buffers[2]
+
+
 def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
     """The closest points and signed distance of each pair of bodies at their current poses
     (module docstring).
@@ -446,8 +466,6 @@ def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
         InputError: an unknown body, a body paired with itself, sides of different lengths, a NaN
             max_distance; one line naming the argument.
     """
-    from .raycast import kept_scene
-
     a = _bodies(world, "body_a", body_a)
     b = _bodies(world, "body_b", body_b)
     P = max(len(a), len(b))
@@ -472,7 +490,7 @@ def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
             raise InputError("must not be NaN", "max_distance")
         dist = np.ascontiguousarray(np.broadcast_to(dist, (P,)))
 
-    scene = kept_scene(world)
+    scene, pos, rot, aabb = shape_poses(world)
     table = scene.table
     first, count, order = _shapes_of_bodies(scene, world.body_count)
     distance = np.empty(P)
@@ -484,12 +502,6 @@ def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
         shape_a[:] = shape_b[:] = -1
         points[:] = np.nan
     else:
-        S = table.shape_count
-        buffers = getattr(scene, "_distance_buffers", None)
-        if buffers is None or len(buffers[0]) != S:  # kept with the scene: no allocation per query
-            buffers = scene._distance_buffers = (np.empty((S, 3)), np.empty((S, 3, 3)), np.empty((S, 2, 3)),
-                                                 np.empty(S))
-        pos, rot, aabb = update_bounds(world.x, world.R, table, 0.0, *buffers[:3], shape_margin=buffers[3])
         kernel = closest_points_kernel if P >= PARALLEL_MIN_PAIRS else closest_points_serial_kernel
         kernel(a, b, dist, first, count, order, table.shape_type, table.shape_params, pos, rot, aabb, table.shape_data,
                table.hull_vertex, table.mesh_triangle, table.mesh_node_aabb, table.mesh_node_first,
