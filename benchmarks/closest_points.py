@@ -14,6 +14,10 @@ inertial frame). Queries: every pair of shapes (4950 for 100), with no distance 
 - MuJoCo: ``mj_geomDistance(m, d, g1, g2, 100, fromto)`` per pair (geoms of mocap bodies, after
   ``mj_forward``; ``opt.ccd_tolerance`` 1e-6 by default, also run at 1e-10).
 
+Shape casts (no peer: PyBullet's API has no convex sweep, MuJoCo none): ``--count`` capsules
+(radius 0.1 m, segment 0.3 m) dropped 6 m straight down from above the same shapes, one
+``shape_cast`` call for all (both cores), and a box cast likewise; each's median.
+
 Timed: each query set's median of ``--runs``, tumble's first call (compilation or cache load) apart.
 Agreement: for each kind of pair, the largest difference of the distances from tumble's.
 
@@ -206,6 +210,15 @@ def main(argv=None):
     bullet, bullet_pair = run_pybullet(w, shapes, a, b, args.runs)
     mj6, mj6_pair = run_mujoco(shapes, a, b, args.runs, 1e-6)
     mj10, mj10_pair = run_mujoco(shapes, a, b, args.runs, 1e-10)
+    rng = np.random.default_rng(1)
+    starts = np.column_stack([rng.uniform(-1.5, 1.5, (args.count, 2)), np.full(args.count, 3.0)])
+    drop = np.tile([0.0, 0.0, -6.0], (args.count, 1))
+    cast_rows = []
+    for label, probe in (("capsule (radius 0.1, segment 0.3)", tb.Capsule(0.1, 0.3)),
+                         ("box (0.2 x 0.3 x 0.4)", tb.Box(size=(0.2, 0.3, 0.4)))):
+        hits = w.shape_cast(probe, starts, drop)
+        t_cast = median_time(lambda: w.shape_cast(probe, starts, drop), args.runs)
+        cast_rows.append((label, t_cast, int(hits.hit.sum())))
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, tumble git {rev}; "
           f"{args.count} shapes, {len(a)} pairs, median of {args.runs}")
@@ -221,6 +234,11 @@ def main(argv=None):
     print()
     print(f"tumble's first call (compilation or cache load): {first:.2f} s; overlapping pairs: "
           f"{int((ours < 0).sum())} of {len(a)}")
+    print()
+    print(f"| shape cast ({args.count} casts 6 m down through the shapes, one call) | total ms | us per cast | hits |")
+    print("|---|---|---|---|")
+    for label, t_cast, n_hit in cast_rows:
+        print(f"| {label} | {t_cast * 1e3:.2f} | {t_cast / args.count * 1e6:.1f} | {n_hit} |")
     print()
     print("| pair kind | pairs | largest difference from tumble: PyBullet (m) | MuJoCo 1e-6 (m) | MuJoCo 1e-10 (m) |")
     print("|---|---|---|---|---|")
