@@ -26,7 +26,7 @@ from scipy.spatial import ConvexHull
 import tumble as tb
 from tumble.errors import InputError
 
-from .helpers import random_rotation
+from .helpers import random_rotation, rot
 
 TOL = 1e-8
 POINT_TOL_OVERLAP = 2e-5  # m (test_sphere_against_solid_of_revolution)
@@ -82,11 +82,7 @@ def test_shapes_above_a_tilted_plane_get_their_lowest_point():
     n /= np.linalg.norm(n)
     w = _world()
     # a plane body rotated so that its shape's +z is n, placed at (0, 0, 1)
-    axis = np.cross([0, 0, 1], n)
-    ang = np.arccos(n[2])
-    axis /= np.linalg.norm(axis)
-    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    Rp = np.eye(3) + np.sin(ang) * K + (1 - np.cos(ang)) * K @ K  # Rodrigues: +z onto n
+    Rp = rot(np.cross([0, 0, 1], n), np.arccos(n[2]))
     w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, position=(0, 0, 1), orientation=_q(Rp), name="ground")
     for k in range(20):
         R = random_rotation(rng)

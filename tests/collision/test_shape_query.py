@@ -29,7 +29,7 @@ import tumble as tb
 from tumble.errors import InputError
 from tumble.math3d import matrix_to_quat
 
-from .helpers import random_rotation
+from .helpers import random_rotation, rot
 from .test_closest_points import _point_surface_distance, _support_value
 
 PATH_TOL = 1e-8  # m along the translation
@@ -72,11 +72,7 @@ def test_shapes_cast_down_onto_a_tilted_plane(shape):
     n = np.array([0.2, -0.3, 1.0])
     n /= np.linalg.norm(n)
     w = _world()
-    axis = np.cross([0, 0, 1], n)
-    ang = np.arccos(n[2])
-    axis /= np.linalg.norm(axis)
-    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    Rp = np.eye(3) + np.sin(ang) * K + (1 - np.cos(ang)) * K @ K
+    Rp = rot(np.cross([0, 0, 1], n), np.arccos(n[2]))  # +z onto n
     w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, orientation=matrix_to_quat(Rp), name="ground")
     kind = type(shape).__name__.lower()
     dims = {"box": np.array([0.2, 0.3, 0.4]), "cylinder": np.array([0.3, 0.8]), "capsule": np.array([0.2, 0.5]),

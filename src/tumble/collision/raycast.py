@@ -39,8 +39,22 @@ from .filter import ALL_CATEGORIES, CollisionFilter
 from .ray_shapes import _ray_shape, _slab
 from .geometry import build_shape_table
 
+class HitRows:
+    """The rows of a query's hits (``RayHits``, ``shape_query.ShapeHits``): ``body`` (K,) -1 where none."""
+
+    body: np.ndarray
+
+    @property
+    def hit(self) -> np.ndarray:
+        """(K,) bool: the row's ray or cast found a body."""
+        return self.body >= 0
+
+    def __len__(self) -> int:
+        return len(self.body)
+
+
 @dataclass
-class RayHits:
+class RayHits(HitRows):
     """What ``ray_cast`` found, one row per ray (R rays).
 
     body: (R,) int64, index of the body hit, -1 where nothing was hit.
@@ -56,14 +70,6 @@ class RayHits:
     distance: np.ndarray
     point: np.ndarray
     normal: np.ndarray
-
-    @property
-    def hit(self) -> np.ndarray:
-        """(R,) bool: the ray hit a shape."""
-        return self.body >= 0
-
-    def __len__(self) -> int:
-        return len(self.body)
 
 
 # ---------------------------------------------------------------------- all rays, all shapes

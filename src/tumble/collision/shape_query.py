@@ -41,6 +41,7 @@ from .distance import convex_distance, convex_to_shape, shape_poses
 from .filter import ALL_CATEGORIES
 from .geometry import shape_params
 from .pairs.gjk import SHAPE_TRIANGLE, core_radius, gjk_scratch, support
+from .raycast import HitRows, _seen
 
 CAST_TOLERANCE = 1e-9  # m: a cast stops when the gap is this small
 CAST_ITERATIONS = 64  # advancement steps per pair of shapes (a handful are used; a grazing approach halves its gap a step)
@@ -49,7 +50,7 @@ PARALLEL_MIN_CASTS = 16  # fewer casts run on the calling thread
 
 
 @dataclass
-class ShapeHits:
+class ShapeHits(HitRows):
     """What ``shape_cast`` found, one row per cast (K casts).
 
     body: (K,) int64, the body first touched, -1 where nothing was.
@@ -70,14 +71,6 @@ class ShapeHits:
     point: np.ndarray
     normal: np.ndarray
 
-    @property
-    def hit(self) -> np.ndarray:
-        """(K,) bool: the cast touched a body."""
-        return self.body >= 0
-
-    def __len__(self) -> int:
-        return len(self.body)
-
 
 # ---------------------------------------------------------------------- kernels
 @njit(**NO_NRT)
@@ -92,6 +85,18 @@ def _query_box(tq, pos, rot, params, verts, grow, box):
         q = support(tq, pos, rot, params, verts, -ax, -ay, -az)
         box[1, k] = p[k] + r
         box[0, k] = q[k] - r
+
+
+@njit(**NO_NRT)
+def _may_touch(s, exclude, seen, shape_body, shape_aabb, box):
+    """Shape row s is seen by the query (its body not ``exclude``, ``seen``) and its box meets ``box`` (2, 3)."""
+    b = shape_body[s]
+    if b == exclude or not seen[b]:
+        return False
+    for k in range(3):
+        if shape_aabb[s, 0, k] > box[1, k] or shape_aabb[s, 1, k] < box[0, k]:
+            return False
+    return True
 
 
 @njit(**NO_NRT)
@@ -129,6 +134,18 @@ def _first_touch(tq, p0, rot_q, params_q, verts_q, trans, length, s, tri, shape_
 
 
 @njit(**NO_NRT)
+def _keep_first(t, best, found, s, c, out, hit_point, hit_normal):
+    """(best, found) after a touch of shape s at fraction t: kept, with its point and normal (the hit
+    shape's, towards the cast shape) in row c, when it is the first so far (ties: the first shape)."""
+    if t < best or (found < 0 and t <= best):
+        for k in range(3):
+            hit_point[c, k] = out[3 + k]
+            hit_normal[c, k] = -out[6 + k]
+        return t, s
+    return best, found
+
+
+@njit(**NO_NRT)
 def _cast_one(c, tq, params_q, verts_q, rot_q, start, translation, exclude, seen, shape_type, shape_body, shape_params,
               shape_pos, shape_rot, shape_aabb, shape_data, hull_vertex, mesh_triangle, node_aabb, node_first,
               node_count, node_skip, scratch, lo, hi, work, pos, out, box, swept,
@@ -144,14 +161,7 @@ def _cast_one(c, tq, params_q, verts_q, rot_q, start, translation, exclude, seen
     best = 1.0
     found = -1
     for s in range(shape_type.shape[0]):
-        b = shape_body[s]
-        if b == exclude[c] or not seen[b]:
-            continue
-        apart = False
-        for k in range(3):
-            if shape_aabb[s, 0, k] > swept[1, k] or shape_aabb[s, 1, k] < swept[0, k]:
-                apart = True
-        if apart:
+        if not _may_touch(s, exclude[c], seen, shape_body, shape_aabb, swept):
             continue
         if shape_type[s] == SHAPE_MESH:
             # triangle by triangle, those whose box meets the swept box (mesh frame: the swept box's
@@ -186,23 +196,13 @@ def _cast_one(c, tq, params_q, verts_q, rot_q, start, translation, exclude, seen
                                      shape_params, shape_pos, shape_rot, shape_data, hull_vertex, mesh_triangle,
                                      node_aabb, node_first, node_count, node_skip, best, scratch, lo, hi, work, pos,
                                      out)
-                    if t < best or (found < 0 and t <= best):
-                        best = t
-                        found = s
-                        for k in range(3):
-                            hit_point[c, k] = out[3 + k]
-                            hit_normal[c, k] = -out[6 + k]
+                    best, found = _keep_first(t, best, found, s, c, out, hit_point, hit_normal)
                 i += 1
             continue
         t = _first_touch(tq, start[c], rot_q, params_q, verts_q, trans, length, s, np.int64(-1), shape_type,
                          shape_params, shape_pos, shape_rot, shape_data, hull_vertex, mesh_triangle, node_aabb,
                          node_first, node_count, node_skip, best, scratch, lo, hi, work, pos, out)
-        if t < best or (found < 0 and t <= best):
-            best = t
-            found = s
-            for k in range(3):
-                hit_point[c, k] = out[3 + k]
-                hit_normal[c, k] = -out[6 + k]
+        best, found = _keep_first(t, best, found, s, c, out, hit_point, hit_normal)
     hit_shape[c] = found
     hit_fraction[c] = best if found >= 0 else np.inf
 
@@ -256,13 +256,7 @@ def overlap_shape_kernel(tq, params_q, verts_q, pos_q, rot_q, exclude, seen, sha
     _query_box(tq, pos_q, rot_q, params_q, verts_q, CAST_TOLERANCE, box)
     for s in range(shape_type.shape[0]):
         b = shape_body[s]
-        if b == exclude or not seen[b] or touched[b]:
-            continue
-        apart = False
-        for k in range(3):
-            if shape_aabb[s, 0, k] > box[1, k] or shape_aabb[s, 1, k] < box[0, k]:
-                apart = True
-        if apart:
+        if touched[b] or not _may_touch(s, exclude, seen, shape_body, shape_aabb, box):
             continue
         d = convex_to_shape(tq, pos_q, rot_q, params_q, verts_q, s, shape_type, shape_params, shape_pos, shape_rot,
                             shape_data, hull_vertex, mesh_triangle, node_aabb, node_first, node_count, node_skip, 0.0,
@@ -330,8 +324,6 @@ def shape_cast(world, shape, position, translation, orientation=None, exclude=No
     Returns:
         ``ShapeHits`` with a row per cast.
     """
-    from .raycast import _seen
-
     tq, params, verts = _query_shape(shape)
     rot = _rotation(orientation)
     start = _points("position", position)
@@ -371,8 +363,6 @@ def overlap_shape(world, shape, position, orientation=None, exclude=None, mask=A
     bodies' current poses; ``exclude``, ``mask`` and ``category`` as ``shape_cast``'s. A static mesh
     is a surface: a shape wholly inside a closed mesh, touching none of its triangles, is not
     found."""
-    from .raycast import _seen
-
     tq, params, verts = _query_shape(shape)
     rot = _rotation(orientation)
     p = _points("position", position)
