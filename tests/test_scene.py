@@ -250,7 +250,7 @@ BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
 SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound, heightfield"
 BODY_KEYS = ("name, shape, mass, density, inertia, fixed, kinematic, position, orientation, euler_deg, velocity, "
-             "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity, sensor")
+             "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity, sensor, drop")
 PATH = "{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]] }"
 
 
@@ -411,6 +411,9 @@ BAD_SCENES = [
     ("mass-and-density", body(density="1000"), "bodies[0].density", "give either mass or density, not both"),
     ("plane-not-fixed", body(shape='{ type = "plane" }', mass=None), "bodies[0].fixed", re.escape("a plane can only be a fixed body (set fixed = true)")),
     ("no-bodies", "bodies = []\n", "bodies", "a scene needs at least one body"),
+    ("drop-not-boolean", body(drop='"yes"'), "bodies[0].drop", re.escape("expected true or false, got 'yes' (a string)")),
+    ("drop-nothing-below", body(drop="true"), "bodies[0].drop",
+     re.escape("nothing to land on within 1000 m along [0.0, 0.0, -9.81]")),
     # time steps
     ("dt-not-dividing-frame", "[simulation]\ndt = 0.01\n" + BODY, "simulation.dt",
      re.escape("must divide 1 / frame_rate = 0.0416667 s into whole steps, got 0.01 s (4.16667 steps a frame)")),

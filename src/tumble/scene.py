@@ -323,10 +323,13 @@ class _Parser(BodyReader, RobotReader):
         self.check_sizes(bodies)
         names: dict[str, int] = {}
         self.robot_cameras: dict = {}  # filled by self.robot
+        self.drops: list = []  # (name, key) of the bodies with drop = true, filled by self.body
         for i, body in enumerate(bodies):
             self.body(world, body, f"bodies[{i}]", names)
         for i, robot in enumerate(robots):
             self.robot(world, robot, f"robots[{i}]", names)
+        for name, key in self.drops:  # each onto what is below it by then (shape_query.drop)
+            self.library(key, world.drop, name)
 
         forces = doc.get("forces", [])
         if not isinstance(forces, list) or not all(isinstance(f, dict) for f in forces):

@@ -38,7 +38,7 @@ from .world import World
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter", "path",
-    "surface_velocity", "sensor",
+    "surface_velocity", "sensor", "drop",
 )
 # path = {times, positions, orientations or euler_deg, repeat}: a kinematic body's keyframes (tumble.kinematic)
 PATH_KEYS = ("times", "positions", "orientations", "euler_deg", "repeat")
@@ -144,7 +144,13 @@ class BodyReader(ValueReader):
                                      "give no position, orientation or velocity", f"{key}.{k}")
             if "repeat" in path:
                 path["repeat"] = self.boolean(path["repeat"], f"{key}.path.repeat")
+        drop = self.boolean(b["drop"], f"{key}.drop") if "drop" in b else False
+        if drop and path is not None:
+            raise self.error("a body on a path starts at the path's pose: it cannot be dropped", f"{key}.drop")
         body = self.library(key, world.add_body, shape, **kw)
+        if drop:
+            # dropped once every body and robot is in the world, in the file's order (scene.py)
+            self.drops.append((name, key))
         if path is not None:
             from .kinematic import KeyframePath
 

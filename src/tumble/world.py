@@ -443,6 +443,13 @@ class World:
 
         return overlap_shape(self, shape, position, orientation, exclude, mask, category)
 
+    def drop(self, body, direction=None, max_distance: float = 1000.0) -> float:
+        """Move ``body`` straight along ``direction`` (default gravity's) until it touches another body;
+        returns the distance moved: ``collision.shape_query.drop`` (a scene's ``drop = true``)."""
+        from .collision.shape_query import drop
+
+        return drop(self, body, direction, max_distance)
+
     def exclude_collision(self, body_a, body_b):
         """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,
         whatever their filters (MuJoCo's ``<exclude>``, PyBullet's ``setCollisionFilterPair``)."""

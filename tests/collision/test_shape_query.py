@@ -273,3 +273,77 @@ def test_bad_arguments_get_one_line_naming_them():
         w.shape_cast(tb.Sphere(0.1), (0, 0, 0), (1, 0, 0), exclude="nope")
     with pytest.raises(InputError, match="position: must be finite"):
         w.overlap_shape(tb.Sphere(0.1), (0, np.nan, 0))
+
+
+# ---------------------------------------------------------------------- drop
+def test_dropped_bodies_come_to_touch_what_is_below_them():
+    """Boxes, a cylinder and a compound dropped one after another onto a tilted plane and onto each
+    other: each moves straight along gravity and ends touching (closest-points distance 0 to the
+    cast's accuracy) the body it landed on, and nothing deeper."""
+    rng = np.random.default_rng(12)
+    w = tb.World(gravity=(0.5, -0.3, -9.81))
+    n = np.array([0.1, 0.05, 1.0])
+    n /= np.linalg.norm(n)
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, orientation=matrix_to_quat(rot(np.cross([0, 0, 1], n),
+                                                                                     np.arccos(n[2]))), name="ground")
+    dumbbell = tb.Compound(parts=[(tb.Sphere(0.2), (-0.4, 0, 0), (1, 0, 0, 0)), (tb.Sphere(0.3), (0.4, 0, 0), (1, 0, 0, 0))])
+    shapes = [tb.Box(size=(1.0, 1.0, 0.4)), tb.Box(size=(0.5, 0.4, 0.3)), tb.Cylinder(0.2, 0.4), dumbbell]
+    names = []
+    for k, shape in enumerate(shapes):
+        names.append(f"s{k}")
+        w.add_body(shape, mass=1, position=(0.05 * k, 0, 3 + 2 * k), orientation=matrix_to_quat(random_rotation(rng)) if k else None,
+                   name=names[-1])
+    g = w.gravity / np.linalg.norm(w.gravity)
+    for name in names:
+        before = w.body(name).x.copy()
+        moved = w.drop(name)
+        step = w.body(name).x - before
+        np.testing.assert_allclose(step, moved * g, atol=1e-12)  # straight along gravity
+        others = [o for o in ["ground", *names] if o != name]
+        gaps = w.closest_points(name, others).distance
+        assert abs(gaps.min()) <= CURVED_PATH_TOL and gaps.min() > -CURVED_PATH_TOL, (name, gaps)
+    assert w.drop("s0") == pytest.approx(0.0, abs=1e-9)  # already touching: stays
+
+
+def test_drop_errors():
+    w = tb.World()
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+    w.add_body(tb.Sphere(0.5), mass=1, position=(0, 0, 2), name="ball")
+    with pytest.raises(InputError, match="drop: nothing to land on within 1000 m along"):
+        w.drop("ball", direction=(0, 0, 1))
+    with pytest.raises(InputError, match="drop: a body of Plane shape cannot be dropped"):
+        w.drop("ground")
+    with pytest.raises(InputError, match="direction: must not be zero"):
+        w.drop("ball", direction=(0, 0, 0))
+
+
+def test_a_scene_drops_its_bodies_in_order(tmp_path):
+    """``drop = true``: after every body is made, in the file's order, each onto what is below it."""
+    from tumble.scene import load_scene
+
+    path = tmp_path / "stack.toml"
+    path.write_text('''[[bodies]]
+name = "ground"
+shape = { type = "plane" }
+fixed = true
+
+[[bodies]]
+name = "lower"
+shape = { type = "box", size = [0.6, 0.6, 0.2] }
+mass = 1
+position = [0, 0, 5]
+euler_deg = [10, 0, 0]
+drop = true
+
+[[bodies]]
+name = "upper"
+shape = { type = "convex", points = [[0, 0, 0], [0.3, 0, 0], [0, 0.3, 0], [0, 0, 0.3], [0.2, 0.2, 0.2]] }
+mass = 1
+position = [0.05, 0.05, 9]
+drop = true
+''')
+    scene = load_scene(path)
+    w = scene.world
+    assert abs(w.closest_points("lower", "ground").distance[0]) <= PATH_TOL
+    assert abs(w.closest_points("upper", "lower").distance[0]) <= PATH_TOL
+    assert w.x[w.index_of("upper"), 2] < 1.0 and w.x[w.index_of("lower"), 2] < 0.5
