@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import InputError
-from ..math3d import JIT, NO_NRT, quat_to_matrix, serial_twin
+from ..math3d import JIT, NO_NRT, matrix_to_quat, quat_to_matrix, serial_twin
 from ..shapes import SHAPE_CONVEX, SHAPE_MESH, Box, Capsule, Cone, Convex, Cylinder, Sphere
 from .distance import convex_distance, convex_to_shape, shape_poses
 from .filter import ALL_CATEGORIES
@@ -415,7 +415,7 @@ def drop(world, body, direction=None, max_distance: float = 1000.0) -> float:
                              "cylinders, cones, boxes, convex hulls and compounds of them)", "drop")
         Rp = R @ quat_to_matrix(np.asarray(q, dtype=float))
         hit = shape_cast(world, part, origin + R @ np.asarray(p, dtype=float), translation,
-                         orientation=_quaternion_of(Rp), exclude=i, mask=own.mask, category=own.category)
+                         orientation=matrix_to_quat(np.ascontiguousarray(Rp)), exclude=i, mask=own.mask, category=own.category)
         if hit.hit[0]:
             best = min(best, float(hit.fraction[0]))
     if not math.isfinite(best):
@@ -424,8 +424,3 @@ def drop(world, body, direction=None, max_distance: float = 1000.0) -> float:
     world.body(i).x = np.asarray(world.x[i]) + best * translation
     return moved
 
-
-def _quaternion_of(R) -> np.ndarray:
-    from ..math3d import matrix_to_quat
-
-    return matrix_to_quat(np.ascontiguousarray(R))
