@@ -14,7 +14,8 @@ compound), at the bodies' current poses:
   either sign of d).
 
 The pair of shapes with the smallest d gives the body pair's row (the first in shape order on a
-tie). Pairs of shapes farther apart than ``max_distance`` are not measured (GJK stops as soon as
+tie). Every collision shape of the two bodies counts (a sensor's too): it is a measurement of
+geometry, so collision filters and excluded pairs do not apply. Pairs of shapes farther apart than ``max_distance`` are not measured (GJK stops as soon as
 it has a lower bound beyond it), so a finite ``max_distance`` makes far pairs cheap, as
 PyBullet's ``distance`` argument.
 
