@@ -424,6 +424,14 @@ class World:
 
         return closest_points(self, body_a, body_b, max_distance)
 
+    def near_pairs(self, max_distance: float, mask=ALL_CATEGORIES, category=ALL_CATEGORIES):
+        """Every pair of bodies whose shapes come within ``max_distance`` m of each other (or overlap),
+        with their signed distance, points and normal: ``collision.distance.near_pairs`` (a
+        ``ClosestPoints`` whose ``body_a``, ``body_b`` name each row's pair)."""
+        from .collision.distance import near_pairs
+
+        return near_pairs(self, max_distance, mask, category)
+
     def shape_cast(self, shape, position, translation, orientation=None, exclude=None, mask=ALL_CATEGORIES,
                    category=ALL_CATEGORIES):
         """Where ``shape`` (a Sphere, Capsule, Cylinder, Cone, Box or Convex not in the world) moved from

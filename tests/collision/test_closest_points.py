@@ -532,3 +532,48 @@ def test_bad_arguments_get_one_line_naming_them():
         w.closest_points("a", "b", max_distance=np.nan)
     r = w.closest_points("a", "point")
     assert np.isinf(r.distance[0]) and r.shape_b[0] == -1
+
+
+# ---------------------------------------------------------------------- near pairs
+def test_near_pairs_are_every_pair_within_the_distance():
+    """World.near_pairs against a brute force over all pairs of 60 spheres and boxes' bounding spheres
+    (spheres only here, so the distances are closed forms: |c_i - c_j| - r_i - r_j) and a ground
+    plane: the same set of pairs, the same distances; two fixed spheres near each other are left
+    out (they never move), and so are a sensor and a body whose filter the query's mask leaves out."""
+    rng = np.random.default_rng(21)
+    w = _world()
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+    centres, radii = [], []
+    for k in range(60):
+        r = rng.uniform(0.05, 0.15)
+        c = rng.uniform(-1, 1, 3) * (1, 1, 0.5) + (0, 0, 0.8)
+        w.add_body(tb.Sphere(r), mass=1, position=c)
+        centres.append(c)
+        radii.append(r)
+    w.add_body(tb.Sphere(0.1), fixed=True, position=(5, 0, 1), name="post1")
+    w.add_body(tb.Sphere(0.1), fixed=True, position=(5, 0, 1.25), name="post2")
+    w.add_body(tb.Sphere(0.1), mass=1, position=(5, 0, 1.5), sensor=True, name="zone")
+    w.add_body(tb.Sphere(0.1), mass=1, position=(8, 0, 0.15), name="shy", collision_filter=tb.CollisionFilter(category=2))
+    limit = 0.12
+    got = w.near_pairs(limit, mask=1)
+    expect = {}
+    for i in range(60):
+        if centres[i][2] - radii[i] <= limit:
+            expect[(0, i + 1)] = centres[i][2] - radii[i]
+        for j in range(i + 1, 60):
+            d = np.linalg.norm(centres[i] - centres[j]) - radii[i] - radii[j]
+            if d <= limit:
+                expect[(i + 1, j + 1)] = d
+    assert len(expect) >= 20
+    pairs = list(zip(got.body_a.tolist(), got.body_b.tolist()))
+    assert pairs == sorted(expect)
+    np.testing.assert_allclose(got.distance, [expect[p] for p in pairs], atol=1e-12)
+    # the posts (fixed, 0.05 m apart), the sensor and the masked body: none appears
+    everything = w.near_pairs(limit)
+    names = {w.index_of(n) for n in ("post1", "post2", "zone")}
+    assert not names & set(everything.body_a.tolist() + everything.body_b.tolist())
+    shy = w.index_of("shy")  # 0.05 m above the ground: found, unless the mask leaves its category out
+    assert (0, shy) in set(zip(everything.body_a.tolist(), everything.body_b.tolist()))
+    assert shy not in set(got.body_a.tolist() + got.body_b.tolist())
+    with pytest.raises(InputError, match="max_distance: must be a finite number of metres >= 0"):
+        w.near_pairs(-1.0)

@@ -55,6 +55,7 @@ from ..errors import InputError
 from ..math3d import JIT, NO_NRT, serial_twin
 from ..shapes import SHAPE_CAPSULE, SHAPE_CONVEX, SHAPE_MESH, SHAPE_PLANE
 from .bounds import update_bounds
+from .filter import ALL_CATEGORIES
 from .pairs.gjk import SHAPE_TRIANGLE, TOUCH, core_radius, epa, gjk, gjk_scratch, support
 
 
@@ -69,6 +70,7 @@ class ClosestPoints:
     normal: (P, 3) unit, world, from a to b; NaN likewise.
     shape_a, shape_b: (P,) int64, rows of the World's shape table (a compound has a row per
         part) of the two shapes measured; -1 where distance is inf.
+    body_a, body_b: (P,) int64, the bodies of each pair.
     """
 
     distance: np.ndarray
@@ -77,6 +79,8 @@ class ClosestPoints:
     normal: np.ndarray
     shape_a: np.ndarray
     shape_b: np.ndarray
+    body_a: np.ndarray = None
+    body_b: np.ndarray = None
 
     @property
     def found(self) -> np.ndarray:
@@ -508,4 +512,54 @@ def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
                table.hull_vertex, table.mesh_triangle, table.mesh_node_aabb, table.mesh_node_first,
                table.mesh_node_count, table.mesh_node_skip, distance, shape_a, shape_b, points)
     return ClosestPoints(distance=distance, point_a=points[:, 0:3], point_b=points[:, 3:6], normal=points[:, 6:9],
-                         shape_a=shape_a, shape_b=shape_b)
+                         shape_a=shape_a, shape_b=shape_b, body_a=a, body_b=b)
+
+
+def near_pairs(world, max_distance: float, mask=ALL_CATEGORIES, category=ALL_CATEGORIES) -> ClosestPoints:
+    """Every pair of bodies whose shapes come within ``max_distance`` (m) of each other at their
+    current poses, or overlap, measured as ``closest_points`` (a proximity query over the whole
+    world: MuJoCo's contacts within a geom margin, Bullet's contact test with a distance). The
+    candidates come from the broadphase (``broadphase.find_pairs``) on the shapes' boxes grown by
+    half of ``max_distance`` on every side, and every plane against every other shape; pairs of two
+    fixed bodies are left out (they never move), and so are sensors and bodies whose filter does not
+    meet ``mask`` / ``category`` (as ``ray_cast``). Rows sorted by (body_a, body_b), body_a < body_b.
+
+    Raises:
+        InputError: a max_distance that is negative, NaN or infinite.
+    """
+    from .broadphase import find_pairs
+    from .raycast import _seen
+
+    if not (isinstance(max_distance, (int, float, np.floating, np.integer)) and math.isfinite(max_distance)
+            and max_distance >= 0):
+        raise InputError(f"must be a finite number of metres >= 0, got {max_distance!r}", "max_distance")
+    seen = _seen(world, mask, category)
+    scene, pos, rot, aabb = shape_poses(world)
+    table = scene.table
+    free = np.asarray(world.moving, dtype=bool) | np.asarray(world.kinematic, dtype=bool)
+    pairs = np.zeros((0, 2), dtype=np.int64)
+    if table.shape_count:
+        grown = aabb.copy()
+        grown[:, 0] -= 0.5 * max_distance
+        grown[:, 1] += 0.5 * max_distance
+        pa, pb = find_pairs(grown, table.shape_type, table.shape_body, free)
+        owner = table.shape_body
+        found = [np.column_stack([owner[pa], owner[pb]])]
+        planes = np.flatnonzero(table.shape_type == SHAPE_PLANE)
+        others = np.flatnonzero(table.shape_type != SHAPE_PLANE)
+        for p in planes:  # planes are unbounded: every other shape of a body that moves is a candidate
+            near = others[(owner[others] != owner[p]) & (free[owner[others]] | free[owner[p]])]
+            found.append(np.column_stack([np.full(len(near), owner[p]), owner[near]]))
+        pairs = np.sort(np.concatenate(found), axis=1)
+        pairs = pairs[(pairs[:, 0] != pairs[:, 1]) & seen[pairs[:, 0]] & seen[pairs[:, 1]]]
+        pairs = np.unique(pairs, axis=0)
+    r = closest_points(world, pairs[:, 0], pairs[:, 1], float(max_distance)) if len(pairs) else None
+    if r is None:
+        empty = np.zeros((0, 3))
+        none = np.zeros(0, dtype=np.int64)
+        return ClosestPoints(distance=np.zeros(0), point_a=empty, point_b=empty.copy(), normal=empty.copy(),
+                             shape_a=none, shape_b=none.copy(), body_a=none.copy(), body_b=none.copy())
+    keep = r.found
+    return ClosestPoints(distance=r.distance[keep], point_a=r.point_a[keep], point_b=r.point_b[keep],
+                         normal=r.normal[keep], shape_a=r.shape_a[keep], shape_b=r.shape_b[keep],
+                         body_a=r.body_a[keep], body_b=r.body_b[keep])
