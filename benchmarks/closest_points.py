@@ -18,6 +18,9 @@ Shape casts (no peer: PyBullet's API has no convex sweep, MuJoCo none): ``--coun
 (radius 0.1 m, segment 0.3 m) dropped 6 m straight down from above the same shapes, one
 ``shape_cast`` call for all (both cores), and a box cast likewise; each's median.
 
+Near pairs: ``World.near_pairs(0.1)`` over the same shapes, and ``near_pairs(0.25)`` over
+BENCHMARKS.md's pile of 1000 boxes at its start poses (0.4 m apart on a grid, the lowest 0.4 m above the ground).
+
 Timed: each query set's median of ``--runs``, tumble's first call (compilation or cache load) apart.
 Agreement: for each kind of pair, the largest difference of the distances from tumble's.
 
@@ -219,6 +222,14 @@ def main(argv=None):
         hits = w.shape_cast(probe, starts, drop)
         t_cast = median_time(lambda: w.shape_cast(probe, starts, drop), args.runs)
         cast_rows.append((label, t_cast, int(hits.hit.sum())))
+    near = w.near_pairs(0.1)
+    t_near = median_time(lambda: w.near_pairs(0.1), args.runs)
+    from tumble.scenes.contact import pile
+
+    pile_world = pile(1000)[0]
+    pile_world.near_pairs(0.25)
+    t_pile = median_time(lambda: pile_world.near_pairs(0.25), args.runs)
+    pile_near = pile_world.near_pairs(0.25)
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, tumble git {rev}; "
           f"{args.count} shapes, {len(a)} pairs, median of {args.runs}")
@@ -239,6 +250,12 @@ def main(argv=None):
     print("|---|---|---|---|")
     for label, t_cast, n_hit in cast_rows:
         print(f"| {label} | {t_cast * 1e3:.2f} | {t_cast / args.count * 1e6:.1f} | {n_hit} |")
+    print()
+    print("| near pairs | ms | pairs found |")
+    print("|---|---|---|")
+    print(f"| `near_pairs(0.1)` over these {args.count} shapes | {t_near * 1e3:.2f} | {len(near)} |")
+    print(f"| `near_pairs(0.25)` over the pile of 1000 boxes at its start (and its ground) | {t_pile * 1e3:.2f} | "
+          f"{len(pile_near)} |")
     print()
     print("| pair kind | pairs | largest difference from tumble: PyBullet (m) | MuJoCo 1e-6 (m) | MuJoCo 1e-10 (m) |")
     print("|---|---|---|---|---|")
