@@ -41,7 +41,7 @@ from .distance import convex_distance, convex_to_shape, shape_poses
 from .filter import ALL_CATEGORIES
 from .geometry import shape_params
 from .pairs.gjk import SHAPE_TRIANGLE, core_radius, gjk_scratch, support
-from .raycast import HitRows, _seen
+from .raycast import HitRows, _rays, _seen
 
 CAST_TOLERANCE = 1e-9  # m: a cast stops when the gap is this small
 CAST_ITERATIONS = 64  # advancement steps per pair of shapes (a handful are used; a grazing approach halves its gap a step)
@@ -289,14 +289,8 @@ def _rotation(orientation) -> np.ndarray:
 
 
 def _points(name: str, value) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
-    if a.ndim == 1:
-        a = a[None, :]
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise InputError(f"must be a 3-vector or a (K, 3) array, got shape {np.shape(value)}", name)
-    if not np.all(np.isfinite(a)):
-        raise InputError("must be finite", name)
-    return a
+    """(K, 3) finite m from a 3-vector or a (K, 3) array: the ray casts' own check (``raycast._rays``)."""
+    return _rays(name, value, None)
 
 
 def _exclude(world, exclude) -> int:
