@@ -291,3 +291,43 @@ def test_custom_force_spring_matches_builtin_spring():
         np.testing.assert_allclose(x1, t2.position[n, 0], rtol=0, atol=1e-15)
         np.testing.assert_allclose(x2, x1 + 0.5 * DT * v1, rtol=0, atol=1e-15)
         assert np.linalg.norm(x3 - x2) > 0  # stage 3 is yet another state
+
+
+# ---------------------------------------------------------------------- removing and changing forces
+def test_remove_force_stops_it_and_keeps_the_applied_impulses_applied():
+    """World.remove_force: the removed spring no longer acts (a free body then moves at its
+    constant velocity, exactly), and an impulse after it in the list, already applied, is not
+    applied again (the applied ones are counted by their place in the list)."""
+    world = tb.World(gravity=(0, 0, 0))
+    body = world.add_body(tb.Sphere(0.1), mass=2.0)
+    spring = world.add_force(tb.Spring(body_a=0, anchor_b=(1.0, 0, 0), stiffness=50.0, rest_length=0.0))
+    world.add_force(tb.Impulse(body=0, impulse=(0, 0.4, 0), time=0.0))
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(24)
+    assert world.applied_impulses == {1}
+    world.remove_force(spring)
+    assert world.applied_impulses == {0} and len(world.forces) == 1
+    v = body.v.copy()
+    x = body.x.copy()
+    sim.step(24)
+    np.testing.assert_array_equal(body.v, v)  # no force left, the impulse not applied twice
+    np.testing.assert_allclose(body.x, x + 0.1 * v, rtol=0, atol=1e-15)
+    with pytest.raises(tb.InputError, match="cannot be removed"):
+        world.remove_force(world.forces[0])
+    with pytest.raises(tb.InputError, match="not a force of this world"):
+        world.remove_force(spring)
+
+
+def test_forces_changed_makes_a_moved_anchor_act():
+    """A spring's world anchor moved in place acts from the next step once ``forces_changed`` is
+    said: the force on a body at rest at the old anchor is stiffness * (new anchor - x)."""
+    world = tb.World(gravity=(0, 0, 0))
+    body = world.add_body(tb.Sphere(0.1), mass=1.0)
+    spring = world.add_force(tb.Spring(body_a=0, anchor_b=(0, 0, 0), stiffness=10.0, rest_length=0.0))
+    sim = tb.Simulator(world, dt=1 / 240, integrator="semi-implicit-euler")
+    sim.step(1)
+    assert np.all(body.v == 0)
+    spring.anchor_b = (0.5, 0.0, 0.0)
+    world.forces_changed()
+    sim.step(1)
+    np.testing.assert_allclose(body.v, [10.0 * 0.5 / 240, 0, 0], rtol=1e-12)

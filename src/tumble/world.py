@@ -339,6 +339,26 @@ class World:
         self._tables = None
         return force
 
+    def remove_force(self, force):
+        """Remove a force record added by ``add_force`` (that very object): a spring let go, a
+        wind stopped. An ``Impulse`` stays (it is part of the run's history: the impulses applied
+        are counted by their place in the list)."""
+        if isinstance(force, Impulse):
+            raise InputError("an impulse cannot be removed (it is applied once, at its time)", "forces")
+        for k, f in enumerate(self.forces):
+            if f is force:
+                del self.forces[k]
+                # the applied impulses are counted by their place in ``forces``: those after k move up one
+                self.applied_impulses = {j - 1 if j > k else j for j in self.applied_impulses}
+                self._tables = None
+                return
+        raise InputError(f"not a force of this world: {force!r}", "forces")
+
+    def forces_changed(self):
+        """Say that force records were changed in place (a spring's anchor moved, a drag's
+        coefficient set): the kernels' force tables are rebuilt before the next step."""
+        self._tables = None
+
     def add_joint(self, joint):
         """Add a joint record of ``tumble.joints`` (BallJoint, HingeJoint, ...): checks it and
         resolves its anchors and axes into the bodies' frames at their current poses."""

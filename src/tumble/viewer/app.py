@@ -330,9 +330,7 @@ class Viewer:
         fixed = np.zeros(N, bool) if self.traj.fixed is None else np.asarray(self.traj.fixed, bool)
         sensor = sensor_flags(self.traj)
         com_offset = np.asarray(self.traj.com_offset, float)
-        # A body that keeps its pose over the whole run is posed once, in a group of its own kind.
-        static = np.all(self.position == self.position[:1], axis=(0, 2)) \
-            & np.all(self.orientation == self.orientation[:1], axis=(0, 2))
+        static = self._static_bodies()
 
         # Tessellate each distinct (shape record, com_offset) once: a pile of equal boxes is one mesh,
         # not N (trimesh's creation functions cost ~0.1 ms each).
@@ -393,7 +391,7 @@ class Viewer:
                 # sensors translucent, so what they hold shows
                 opacity=SENSOR_OPACITY if group_sensor else None)
             # The browser says which instance was clicked: row j of this group is body bodies[j].
-            handle.on_click(lambda event, bodies=bodies: self._pick(bodies, event.instance_index))
+            handle.on_click(lambda event, bodies=bodies: self._clicked(bodies, event))
             self.mesh_groups.append(MeshGroup(handle, bodies, group_static, group_colors, rows))
         self._moving_groups = [group for group in self.mesh_groups if not group.static]
         self._moving_planes = [i for i in self.plane_frames if not static[i]]
@@ -404,7 +402,7 @@ class Viewer:
         self.axes_node = scene.add_batched_axes("/bodies/axes", self.orientation[0], self.position[0],
                                                 batched_scales=lengths, axes_length=1.0, axes_radius=0.03,
                                                 visible=False)
-        self.axes_node.on_click(lambda event: self._pick(np.arange(N), event.instance_index))
+        self.axes_node.on_click(lambda event: self._clicked(np.arange(N), event))
         self._axes_frame = 0  # the frame the axes were last posed at
         self.body_radius = radii
 
@@ -435,6 +433,16 @@ class Viewer:
 
         self.contact_points_node = None
         self.contact_forces_node = None
+
+    def _static_bodies(self) -> np.ndarray:
+        """(N,) bool: the bodies that keep their pose over the whole run (posed once, in groups of
+        their own kind)."""
+        return np.all(self.position == self.position[:1], axis=(0, 2)) \
+            & np.all(self.orientation == self.orientation[:1], axis=(0, 2))
+
+    def _clicked(self, bodies: np.ndarray, event):
+        """A click on a batched node whose row j is body ``bodies[j]`` (viser's pointer event)."""
+        self._pick(bodies, event.instance_index)
 
     def _pick(self, bodies: np.ndarray, instance_index: int | None):
         """A click on instance ``instance_index`` of a batched node whose row j is body ``bodies[j]``."""
@@ -509,51 +517,25 @@ class Viewer:
 
     def _build_gui(self):
         gui = self.server.gui
-        F = self.frame_count
-        with gui.add_folder("Playback"):
-            self.play_button = gui.add_button("Play", icon=None)
-            self.pause_button = gui.add_button("Pause", visible=False)
-            self.frame_slider = gui.add_slider("Frame", min=0, max=max(F - 1, 1), step=1, initial_value=0,
-                                               disabled=F < 2)
-            self.speed_slider = gui.add_slider("Speed", min=0.05, max=4.0, step=0.05, initial_value=1.0,
-                                               hint="playback speed, times real time")
-            self.loop_checkbox = gui.add_checkbox("Loop", initial_value=True)
-            self.time_text = gui.add_markdown("")
+        self._build_playback_gui(gui)
         with gui.add_folder("Show"):
             self.axes_checkbox = gui.add_checkbox("Body axes", initial_value=False,
                                                   hint="a frame at each centre of mass: red x, green y, blue z (body axes)")
-            has_points = "contact_point" in self.contacts
-            has_forces = "contact_force" in self.contacts
+            has_points, has_forces, source = self._contact_data()
             self.contact_points_checkbox = gui.add_checkbox(
                 "Contact points", initial_value=has_points,
-                hint="from the trajectory's contact_point" if has_points else "this trajectory has no contact data")
+                hint=f"from {source}'s contact_point" if has_points else f"{source} has no contact data")
             self.contact_forces_checkbox = gui.add_checkbox(
                 "Contact forces", initial_value=has_forces,
-                hint="from the trajectory's contact_force" if has_forces else "this trajectory has no contact forces")
+                hint=f"from {source}'s contact_force" if has_forces else f"{source} has no contact forces")
             self.grid_checkbox = gui.add_checkbox("Ground grid", initial_value=True)
             if not has_points:
-                gui.add_markdown("*No contact data in this trajectory.*")
+                gui.add_markdown(f"*No contact data in {source}.*")
         with gui.add_folder("Body"):
             options = ["(none)"] + [self._body_label(i) for i in range(self.body_count)]
             self.body_dropdown = gui.add_dropdown("Body", options, initial_value="(none)",
                                                   hint="or click a body in the scene")
             self.info = gui.add_markdown("*Click a body to see its quantities.*")
-
-        @self.play_button.on_click
-        def _(_event):
-            self.play()
-
-        @self.pause_button.on_click
-        def _(_event):
-            self.pause()
-
-        @self.frame_slider.on_update
-        def _(_event):
-            k = int(np.clip(int(self.frame_slider.value), 0, F - 1))
-            with self._lock:
-                if not self._internal_update:  # scrubbed by the user: playback continues from here
-                    self._t = float(self.time[k])
-                self._show_frame(k)
 
         @self.axes_checkbox.on_update
         def _(_event):
@@ -584,6 +566,39 @@ class Viewer:
             value = self.body_dropdown.value
             self.select(None if value == "(none)" else int(value.split(":", 1)[0]))
 
+    def _contact_data(self) -> tuple[bool, bool, str]:
+        """(contact points to draw, contact forces to draw, what they come from) for the toggles."""
+        return "contact_point" in self.contacts, "contact_force" in self.contacts, "this trajectory"
+
+    def _build_playback_gui(self, gui):
+        """The "Playback" folder: play, pause, the frame slider, speed, looping, the time."""
+        F = self.frame_count
+        with gui.add_folder("Playback"):
+            self.play_button = gui.add_button("Play", icon=None)
+            self.pause_button = gui.add_button("Pause", visible=False)
+            self.frame_slider = gui.add_slider("Frame", min=0, max=max(F - 1, 1), step=1, initial_value=0,
+                                               disabled=F < 2)
+            self.speed_slider = gui.add_slider("Speed", min=0.05, max=4.0, step=0.05, initial_value=1.0,
+                                               hint="playback speed, times real time")
+            self.loop_checkbox = gui.add_checkbox("Loop", initial_value=True)
+            self.time_text = gui.add_markdown("")
+
+        @self.play_button.on_click
+        def _(_event):
+            self.play()
+
+        @self.pause_button.on_click
+        def _(_event):
+            self.pause()
+
+        @self.frame_slider.on_update
+        def _(_event):
+            k = int(np.clip(int(self.frame_slider.value), 0, F - 1))
+            with self._lock:
+                if not self._internal_update:  # scrubbed by the user: playback continues from here
+                    self._t = float(self.time[k])
+                self._show_frame(k)
+
     # ---- frames -----------------------------------------------------------------------------
 
     def _show_frame(self, k: int):
@@ -600,8 +615,11 @@ class Viewer:
                 if self.axes_checkbox.value:  # hidden axes are not moved (posed when shown again)
                     self._pose_axes(k)
                 self._draw_contacts(k)
-            self.time_text.content = f"t = {self.time[k]:.3f} s, frame {k} of {self.frame_count - 1}"
+            self.time_text.content = self._status_text(k)
             self._update_info()
+
+    def _status_text(self, k: int) -> str:
+        return f"t = {self.time[k]:.3f} s, frame {k} of {self.frame_count - 1}"
 
     def _update_info(self):
         i = self._selected

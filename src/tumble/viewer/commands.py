@@ -1,7 +1,8 @@
 """``tumble view SCENE_OR_TRAJ``: the browser viewer from the command line (``tumble.cli`` hook).
 
 A ``.npz`` trajectory is shown as is; a scene file (``.toml``/``.json``) is run
-first (with a progress bar), then shown. The server binds to 127.0.0.1 unless
+first (with a progress bar), then shown; with ``--live`` a scene is simulated as it
+is shown (``tumble.viewer.live``). The server binds to 127.0.0.1 unless
 ``--host`` says otherwise, prints its URL, and serves until Ctrl-C or SIGTERM (exit 0).
 Bad input (missing file, unknown suffix, bad scene or trajectory) raises
 ``InputError``: one line, exit status 2.
@@ -24,6 +25,8 @@ def add_commands(subparsers) -> dict:
     p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=_port, default=8080, help="port (default 8080; the next free one if busy)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser, just print the URL")
+    p.add_argument("--live", action="store_true",
+                   help="simulate the scene as it is shown, in real time: play, pause, step, reset, push and grab bodies")
     return {"view": cmd_view}
 
 
@@ -49,14 +52,21 @@ def cmd_view(args, wait=None) -> int:
         check_address(args.host, args.port)
     except InputError as err:
         raise InputError(err.problem, f"--{err.key}") from None
-    traj, extras = load_input(args.target, progress=sys.stderr.isatty())  # InputError on bad input
-    viewer = Viewer(traj, host=args.host, port=args.port, play=True, extras=extras)
+    if args.live:
+        from .live_viewer import live
+
+        viewer = live(args.target, host=args.host, port=args.port)  # InputError on bad input
+        what = f"live, {viewer.sim.dt:g} s steps"
+    else:
+        traj, extras = load_input(args.target, progress=sys.stderr.isatty())  # InputError on bad input
+        viewer = Viewer(traj, host=args.host, port=args.port, play=True, extras=extras)
+        what = f"{len(traj.time)} frames"
     try:
         # NOTE: Ctrl-C is caught from before the ready line on: a SIGINT sent as soon as the line
         # was read once came before the wait and ended the viewer with status 130 (seen in CI)
         try:
             with _terminate_as_interrupt():
-                print(f"tumble view: {args.target}: {len(traj.names)} bodies, {len(traj.time)} frames at "
+                print(f"tumble view: {args.target}: {viewer.body_count} bodies, {what} at "
                       f"{viewer.url} (Ctrl-C to stop)", flush=True)
                 if not args.no_browser:
                     import webbrowser

@@ -1,0 +1,437 @@
+"""The live viewer: a scene simulated in the browser as it is watched, and poked.
+
+``tumble view SCENE --live`` (or ``tumble.viewer.live(scene)``) runs the scene's
+``Simulator`` in a background thread at real time (times a speed factor) and sends
+the bodies' poses to the browser after each batch of steps, as MuJoCo's
+``python -m mujoco.viewer`` and PyBullet's GUI do. The scene is the one
+``tumble run`` would run: the same dt, integrator, contacts, joints, robots and
+controllers; the viewer only calls ``Simulator.step`` between its frames, so that
+what it shows after n steps has the bits of a plain run of n steps (tested).
+
+What it adds to the playback viewer (``tumble.viewer.app``, whose meshes, picking,
+body quantities and toggles it shares):
+
+* "Live": Play / Pause, "Step" (one frame: 1/24 s, or the scene's frame rate),
+  "Reset" (the scene made again from its file: bit-identical to the first start),
+  a speed factor, and the time with the real-time factor reached (a scene whose
+  steps cost more than real time runs slower, never in bigger steps);
+* "Click a body to": select it (its x, v, omega, P, L, energy); push it (an
+  impulse ``m * push speed`` along the click's ray, at the point the ray hits,
+  Box2D's ``b2Body_ApplyLinearImpulse``: the body's momentum changes by exactly
+  that, its angular momentum by ``(p - x) x J``); or grab it: a spring from the
+  point clicked to a handle (viser's transform controls) that the mouse drags,
+  as MuJoCo's viewer perturbs a body (a mass-scaled spring of ``GRAB_HERTZ`` with
+  a critical damping of the body's motion; "Release" or a click elsewhere lets
+  go). Shift + click pushes whatever the mode.
+* the contact points and forces of the last step, from ``Simulator.contacts()``.
+
+A step that blows up (``SimulationError``) pauses the run at the last good state and
+shows the error's line in the status.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, SimulationError
+from ..forces import Drag, Spring
+from ..recording import frame_values, static_values
+from ..trajectory import Trajectory
+from .app import SCENE_SUFFIXES, Viewer, check_address
+
+LIVE_TICK_S = 1.0 / 60.0  # s of wall time between pose updates when the steps keep up
+TICK_BUDGET_S = 0.05  # s of wall time a tick may step before it sends poses (a slow scene still shows motion)
+MAX_LAG_S = 0.1  # s of simulated time the run may owe real time; more is dropped (the run slows down)
+PUSH_SPEED = 2.0  # m/s: a push's default change of speed (impulse = mass * speed)
+GRAB_HERTZ = 2.0  # Hz: natural frequency of a grabbed body on the grab spring (stiffness = m (2 pi f)^2)
+GRAB_DAMPING_RATIO = 1.0  # critical: the body follows the handle without swinging past it
+CLICK_MODES = ("select", "push", "grab")
+
+
+def live(scene, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = False, *, play: bool = True,
+         frame_rate: float | None = None) -> "LiveViewer":
+    """Start the live viewer on ``scene`` and return it at once (the server and the run are
+    background threads; ``.stop()`` ends them).
+
+    Args:
+        scene: a scene file (``.toml``, ``.json``, or a MuJoCo ``.xml``), or a function of no
+            arguments returning a new ``Simulator`` (or ``Scene``) each time it is called: the
+            start and every Reset call it (a world built in Python: ``live(make_sim)``).
+        host, port: where to serve (127.0.0.1: this machine only; port 0: any free port).
+        open_browser: open the page in the system's browser.
+        play: start running at once (False: paused at the start).
+        frame_rate: frames per second of the Step button (default: the scene's, else 24).
+    """
+    if isinstance(scene, (str, Path)):
+        path = Path(scene)
+        if path.suffix.lower() not in SCENE_SUFFIXES + (".xml",):
+            raise InputError(f"unknown file type {path.suffix!r} (the live viewer runs a scene .toml/.json or "
+                             "a MuJoCo .xml; a trajectory .npz is played by tumble view without --live)", None, str(path))
+        if not path.is_file():
+            raise InputError("file not found" if not path.exists() else "not a file", None, str(path))
+
+        def make():
+            from ..scene import load_scene
+
+            return load_scene(path)
+
+        label = path.name
+    elif callable(scene):
+        make, label = scene, getattr(scene, "__name__", "the scene")
+    else:
+        raise InputError(f"expected a scene file or a function returning a Simulator, got {type(scene).__name__}", "scene")
+    viewer = LiveViewer(make, host=host, port=port, play=play, frame_rate=frame_rate, label=label)
+    if open_browser:
+        import webbrowser
+
+        try:
+            webbrowser.open(viewer.url)
+        except (webbrowser.Error, OSError):  # no browser here: the URL is still there to copy
+            pass
+    return viewer
+
+
+def _simulator_of(made):
+    """The ``Simulator`` of what a scene function returned (a ``Scene`` gives its own), with its
+    frame rate (the scene's, or None)."""
+    from ..scene import Scene
+    from ..simulator import Simulator
+
+    if isinstance(made, Scene):
+        return made.simulator(), made.frame_rate
+    if isinstance(made, Simulator):
+        return made, None
+    raise InputError(f"the scene function must return a Simulator or a Scene, got {type(made).__name__}", "scene")
+
+
+def _trajectory_now(world) -> Trajectory:
+    """A one-frame ``Trajectory`` of the world as it is: the arrays the viewer draws from."""
+    frame = {key: np.array(value, dtype=float)[None].copy() for key, value in frame_values(world).items()}
+    return Trajectory(**frame, **static_values(world))
+
+
+class LiveViewer(Viewer):
+    """A running live viewer: use ``live()`` to make one; ``stop()`` ends it.
+
+    Attributes (besides ``Viewer``'s):
+        sim: the ``Simulator`` being run (a new one after each ``reset()``).
+        steps_per_frame: steps of the Step button (one frame at ``frame_rate``).
+        real_time_factor: simulated seconds per wall second over the last second of running.
+        error: the line of the ``SimulationError`` that paused the run, or None.
+        grabbed: (body, spring) while a body is grabbed, else None.
+        step_button, reset_button, click_dropdown, push_speed_slider, release_button,
+        grab_handle: the GUI handles added (``grab_handle``: the transform controls, or None).
+    """
+
+    def __init__(self, make_simulator, host: str = "127.0.0.1", port: int = 8080, *, play: bool = True,
+                 frame_rate: float | None = None, label: str = "the scene"):
+        check_address(host, port)
+        self._make_simulator = make_simulator
+        self.label = label
+        self.sim, scene_rate = _simulator_of(make_simulator())
+        self.frame_rate = float(frame_rate or scene_rate or 24.0)
+        if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
+            raise InputError(f"must be a positive number, got {frame_rate!r}", "frame_rate")
+        self.steps_per_frame = max(1, int(round(1.0 / (self.frame_rate * self.sim.dt))))
+        self.error: str | None = None
+        self.grabbed: tuple[int, Spring, Drag] | None = None
+        self.grab_handle = None
+        self.real_time_factor = 0.0
+        self._lag = 0.0  # s of simulated time owed to real time
+        self._rate_window: list[tuple[float, float]] = []  # (wall time, simulated time) over the last second
+        self._force_max = 0.0
+        super().__init__(_trajectory_now(self.sim.world), host=host, port=port, play=False)
+        self._refresh()
+        if play:
+            self.play()
+
+    # ---- public API -------------------------------------------------------------------------
+
+    @property
+    def world(self):
+        return self.sim.world
+
+    def play(self):
+        with self._lock:
+            if self.error is not None:
+                return  # a blown-up run stays paused until Reset
+            self._playing = True
+            self._lag = 0.0
+        self.play_button.visible = False
+        self.pause_button.visible = True
+
+    def set_frame(self, k: int):
+        raise InputError("a live run has no frames to go to: use step_frame() or reset()", "frame")
+
+    def step_frame(self, frames: int = 1):
+        """Advance ``frames`` frames (``steps_per_frame`` steps each) and show the result."""
+        self.advance(frames * self.steps_per_frame)
+
+    def advance(self, steps: int):
+        """Advance the run ``steps`` steps of dt (``Simulator.step``) and show the result. A
+        ``SimulationError`` pauses the run (the world back at the start of the call) and is kept
+        in ``error``."""
+        with self._lock:
+            if self.error is not None or steps <= 0:
+                return
+            self._step(int(steps))
+            self._refresh()
+
+    def reset(self):
+        """Start again: a new ``Simulator`` from the scene (its file read again), paused."""
+        with self._lock:
+            self.pause()
+            self._release_spring()
+            made, _ = _simulator_of(self._make_simulator())
+            if made.world.names != self.sim.world.names:
+                raise InputError("the scene's bodies changed since the viewer started: start the viewer again", "scene")
+            self.sim = made
+            self.error = None
+            self._rate_window.clear()
+            self.real_time_factor = 0.0
+            self._force_max = 0.0
+            self._refresh()
+
+    def push(self, body, point=None, direction=(0.0, 0.0, 1.0), speed: float | None = None):
+        """Push a dynamic body: an impulse ``J = m speed d / |d|`` (N s, world) at ``point`` ((3,) m,
+        world; default its centre of mass), so that its centre of mass gains ``speed`` m/s along
+        ``direction`` and L gains ``(point - x) x J`` (``Body.apply_impulse``; it wakes).
+        ``speed`` defaults to the "Push speed" slider."""
+        with self._lock:
+            b = self.sim.world.body(body)
+            if not self.sim.world.moving[b.index]:
+                raise InputError(f"body {b.name!r} is not dynamic: only a dynamic body can be pushed", "push")
+            speed = float(self.push_speed_slider.value if speed is None else speed)
+            d = np.asarray(direction, dtype=float)
+            norm = float(np.linalg.norm(d))
+            if not (math.isfinite(norm) and norm > 0 and math.isfinite(speed)):
+                raise InputError(f"needs a nonzero finite direction and speed, got {direction!r}, {speed!r}", "push")
+            b.apply_impulse(float(self.sim.world.mass[b.index]) * speed * d / norm, point)
+            self._refresh()
+
+    def grab(self, body, point=None):
+        """Hold a dynamic body by ``point`` ((3,) m, world, on the body; default its centre of mass):
+        a spring of rest length 0 from that body point to a handle at ``point``, stiffness
+        ``m (2 pi GRAB_HERTZ)^2``, with a drag ``2 GRAB_DAMPING_RATIO m omega`` on the body's
+        velocity (and its angular counterpart), so that it follows ``move_grab`` without
+        swinging; gravity still acts (held by its centre of mass, a body hangs ``g / omega^2``
+        below the handle). One body at a time: a second grab lets the first go."""
+        with self._lock:
+            w = self.sim.world
+            b = w.body(body)
+            if not w.moving[b.index]:
+                raise InputError(f"body {b.name!r} is not dynamic: only a dynamic body can be grabbed", "grab")
+            self._release_spring()
+            p = np.array(b.x if point is None else point, dtype=float)
+            m = float(w.mass[b.index])
+            omega = 2.0 * math.pi * GRAB_HERTZ
+            anchor = w.R[b.index].T @ (p - w.x[b.index])  # body frame, centre-of-mass origin
+            spring = w.add_force(Spring(body_a=b.index, anchor_a=anchor, body_b=None, anchor_b=p,
+                                        stiffness=m * omega ** 2, damping=0.0, rest_length=0.0))
+            c = 2.0 * GRAB_DAMPING_RATIO * m * omega
+            # the angular drag: critical for a body whose inertia is its mean principal moment
+            inertia = float(np.mean(w.principal_moments[b.index]))
+            drag = w.add_force(Drag(linear=c, angular_linear=2.0 * GRAB_DAMPING_RATIO * omega * inertia, bodies=[b.index]))
+            self.grabbed = (b.index, spring, drag)
+            w.wake_requests.add(b.index)
+            self._show_grab_handle(p)
+
+    def move_grab(self, target):
+        """Move the grab handle to ``target`` ((3,) m, world)."""
+        with self._lock:
+            if self.grabbed is None:
+                return
+            index, spring, _ = self.grabbed
+            target = np.asarray(target, dtype=float)
+            if target.shape != (3,) or not np.all(np.isfinite(target)):
+                raise InputError(f"expected a finite (3,) point, got {target!r}", "target")
+            spring.anchor_b = tuple(float(c) for c in target)
+            self.sim.world.forces_changed()
+            self.sim.world.wake_requests.add(index)
+
+    def release(self):
+        """Let go of the grabbed body (if any)."""
+        with self._lock:
+            self._release_spring()
+
+    # ---- the run ----------------------------------------------------------------------------
+
+    def _step(self, steps: int):
+        try:
+            if self.grabbed is not None:  # a held body may have fallen asleep in the handle's hand
+                self.sim.world.wake_requests.add(self.grabbed[0])
+            self.sim.step(steps)
+        except (SimulationError, InputError) as err:  # a blow-up, or a user's force gone wrong
+            self.error = str(err)
+            self.pause()
+
+    def _playback_loop(self):
+        last = _time.monotonic()
+        while not self._stop_event.wait(LIVE_TICK_S):
+            now = _time.monotonic()
+            elapsed, last = now - last, now
+            if not self._playing:
+                continue
+            try:
+                with self._lock:
+                    if not self._playing:
+                        continue
+                    dt = self.sim.dt
+                    self._lag = min(self._lag + elapsed * float(self.speed_slider.value), MAX_LAG_S)
+                    started = _time.monotonic()
+                    # step by step until the run has caught up or the tick's budget is spent: a
+                    # slow scene keeps showing its motion, more slowly than real time
+                    while self._lag >= dt and self._playing and _time.monotonic() - started < TICK_BUDGET_S:
+                        self._step(1)
+                        self._lag -= dt
+                    self._refresh()
+                    self._measure_rate(now)
+            except Exception:  # the server was stopped under us
+                if self._stop_event.is_set():
+                    return
+                raise
+
+    def _measure_rate(self, now: float):
+        window = self._rate_window
+        window.append((now, float(self.sim.world.t)))
+        while len(window) > 2 and now - window[0][0] > 1.0:
+            window.pop(0)
+        wall = window[-1][0] - window[0][0]
+        self.real_time_factor = (window[-1][1] - window[0][1]) / wall if wall > 0 else 0.0
+
+    def _refresh(self):
+        """Copy the world's state into the one-frame arrays and send the poses."""
+        values = frame_values(self.sim.world)
+        t = self.traj
+        self.time[0] = t.time[0] = values["time"]
+        for key, value in values.items():
+            if key != "time":
+                getattr(t, key)[0] = value
+        self.position[0] = values["position"]
+        self.orientation[0] = values["orientation"]
+        if self.contact_points_checkbox.value or self.contact_forces_checkbox.value:
+            self._read_contacts()
+        self._show_frame(0)
+
+    def _read_contacts(self):
+        c = self.sim.contacts()
+        force = np.asarray(c.force, dtype=float).reshape(-1, 3)
+        largest = float(np.max(np.linalg.norm(force, axis=1))) if len(force) else 0.0
+        # the arrows' scale follows the largest recent force, fading after an impact
+        self._force_max = max(largest, 0.97 * self._force_max)
+        self.contacts = {"contact_point": np.asarray(c.point, dtype=float).reshape(1, -1, 3), "contact_force": force[None],
+                         "force_max": self._force_max}
+
+    # ---- what the viewer asks ---------------------------------------------------------------
+
+    def _static_bodies(self) -> np.ndarray:
+        return np.asarray(self.sim.world.fixed, dtype=bool).copy()
+
+    def _contact_data(self) -> tuple[bool, bool, str]:
+        w = self.sim.world
+        colliding = bool(w.collisions) and any(shape is not None for shape in w.shapes)
+        return colliding, colliding, "the live run"
+
+    def _status_text(self, k: int) -> str:
+        line = f"t = {self.sim.world.t:.3f} s, step {self.sim.step_index}"
+        if self._playing:
+            line += f", {self.real_time_factor:.2f} x real time"
+        if self.error is not None:
+            line += f"\n\n**Stopped:** {self.error} (Reset to start again)"
+        return line
+
+    def _build_playback_gui(self, gui):
+        with gui.add_folder("Live"):
+            self.play_button = gui.add_button("Play")
+            self.pause_button = gui.add_button("Pause", visible=False)
+            self.step_button = gui.add_button("Step", hint=f"one frame: {self.steps_per_frame} steps of {self.sim.dt:g} s")
+            self.reset_button = gui.add_button("Reset", hint=f"start {self.label} again")
+            self.speed_slider = gui.add_slider("Speed", min=0.05, max=4.0, step=0.05, initial_value=1.0,
+                                               hint="simulated seconds per second, at most (a slow scene runs slower)")
+            self.time_text = gui.add_markdown("")
+        with gui.add_folder("Interact"):
+            self.click_dropdown = gui.add_dropdown("Click a body to", CLICK_MODES, initial_value="select",
+                                                   hint="select: its quantities; push: an impulse along the click; "
+                                                        "grab: a spring to a handle you drag (shift + click pushes)")
+            self.push_speed_slider = gui.add_slider("Push speed (m/s)", min=0.1, max=20.0, step=0.1,
+                                                    initial_value=PUSH_SPEED, hint="the speed a push gives the body")
+            self.release_button = gui.add_button("Release", visible=False, hint="let go of the grabbed body")
+
+        @self.play_button.on_click
+        def _(_event):
+            self.play()
+
+        @self.pause_button.on_click
+        def _(_event):
+            self.pause()
+
+        @self.step_button.on_click
+        def _(_event):
+            self.pause()
+            self.step_frame()
+
+        @self.reset_button.on_click
+        def _(_event):
+            self.reset()
+
+        @self.release_button.on_click
+        def _(_event):
+            self.release()
+
+    def _clicked(self, bodies: np.ndarray, event):
+        mode = "push" if getattr(event, "modifier", None) == "shift" else self.click_dropdown.value
+        if mode == "select":
+            super()._clicked(bodies, event)
+            return
+        self.click_ray(event.ray_origin, event.ray_direction, mode)
+
+    def click_ray(self, origin, direction, mode: str):
+        """What a click along the ray ``origin`` + s ``direction`` (world) does in ``mode`` ("push",
+        "grab", "select"): the first body the ray hits (``World.ray_cast``, the bodies' exact
+        shapes), pushed along the ray at the hit point, grabbed there, or selected. Returns the
+        body's index, or None (nothing hit, or a body that does not move: only selected)."""
+        if mode not in CLICK_MODES:
+            raise InputError(f"expected one of {', '.join(CLICK_MODES)}, got {mode!r}", "mode")
+        with self._lock:
+            hits = self.sim.world.ray_cast(np.asarray(origin, float), np.asarray(direction, float))
+            body = int(hits.body[0])
+            if body < 0:
+                if mode == "grab":
+                    self._release_spring()
+                return None
+            self.select(body)
+            if mode == "select" or not self.sim.world.moving[body]:
+                return None
+            if mode == "push":
+                self.push(body, hits.point[0], direction)
+            else:
+                self.grab(body, hits.point[0])
+            return body
+
+    # ---- grabbing ---------------------------------------------------------------------------
+
+    def _show_grab_handle(self, p):
+        scale = max(0.15 * self.extent, 0.2)
+        self.grab_handle = self.server.scene.add_transform_controls(
+            "/grab", scale=scale, position=tuple(float(c) for c in p), disable_rotations=True, depth_test=False)
+
+        @self.grab_handle.on_update
+        def _(_event):
+            self.move_grab(np.asarray(self.grab_handle.position, dtype=float))
+
+        self.release_button.visible = True
+
+    def _release_spring(self):
+        if self.grabbed is not None:
+            _, spring, drag = self.grabbed
+            self.grabbed = None
+            self.sim.world.remove_force(spring)
+            self.sim.world.remove_force(drag)
+        if self.grab_handle is not None:
+            handle, self.grab_handle = self.grab_handle, None
+            handle.remove()
+        self.release_button.visible = False

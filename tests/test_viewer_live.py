@@ -1,0 +1,330 @@
+"""The live viewer (tumble.viewer.live_viewer, ``tumble view SCENE --live``): a scene simulated as it is shown.
+
+What each test compares with:
+* the steps: a plain ``Simulator`` of the same scene file stepped the same number of steps
+  (the viewer must add nothing to the physics: equal bits);
+* Reset: the first start (equal bits, then equal bits again after the same steps);
+* a push: the impulse's definition, dP = J and dL = (p - x) x J, to round-off (1e-12
+  relative: one addition each);
+* a grab: the static equilibrium of a mass on a spring of stiffness m omega^2 under gravity,
+  the centre of mass g / omega^2 below the handle (to 1e-9 m after 4 s: the critically damped
+  error decays as (1 + omega t) e^(-omega t), 1e-20 at 4 s; the integrator is exact on a
+  constant force); without the grab's drag a sideways start would keep swinging (checked);
+* the browser test: a click in headless Chromium (the same setup as tests/test_viewer.py)
+  reaches the viewer as a push of the body under the mouse.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+import urllib.request
+
+import numpy as np
+import pytest
+
+from tumble.cli import main
+from tumble.errors import InputError
+
+viser = pytest.importorskip("viser")
+
+from tests.test_viewer import (  # noqa: E402  (after importorskip: these import viser's users)
+    BENIGN_CONSOLE_ERRORS, CANVAS_ONLY_CSS, VIEWPORT, browser, camera_settled, free_port, project, wait_for)
+from tumble.viewer import live  # noqa: E402
+from tumble.viewer.commands import cmd_view  # noqa: E402
+from tumble.viewer.live_viewer import GRAB_HERTZ, MAX_LAG_S  # noqa: E402
+import tumble as tb  # noqa: E402
+
+__all__ = ["browser"]  # the fixture, shared
+
+SCENE = """
+[simulation]
+duration = 2.0
+frame_rate = 24
+gravity = [0, 0, -9.81]
+
+[[bodies]]
+name = "ground"
+shape = { type = "plane", normal = [0, 0, 1] }
+fixed = true
+
+[[bodies]]
+name = "box"
+shape = { type = "box", size = [0.4, 0.4, 0.4] }
+mass = 2.0
+position = [0, 0, 0.6]
+euler_deg = [20, 10, 0]
+
+[[bodies]]
+name = "ball"
+shape = { type = "sphere", radius = 0.2 }
+mass = 1.0
+position = [0.8, 0, 0.5]
+velocity = [-1, 0, 0]
+"""
+
+
+@pytest.fixture
+def scene_file(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE)
+    return path
+
+
+@pytest.fixture
+def paused(scene_file):
+    v = live(scene_file, port=free_port(), play=False)
+    try:
+        yield v
+    finally:
+        v.stop()
+
+
+def plain_state(path, steps: int) -> np.ndarray:
+    sim = tb.load_scene(path).simulator()
+    sim.step(steps)
+    return sim.world.pack()
+
+
+def test_live_steps_have_the_bits_of_a_plain_run(paused, scene_file):
+    v = paused
+    assert v.steps_per_frame == 10  # 1/24 s at the scene's dt = 1/240 s
+    v.step_frame(3)
+    v.advance(17)
+    assert v.sim.step_index == 47
+    assert np.array_equal(v.world.pack(), plain_state(scene_file, 47))
+    # what the browser was sent is the world's state (float32 on the wire), and the body panel reads it
+    for i in (1, 2):
+        x, q = v.body_pose(i)
+        np.testing.assert_allclose(x, v.world.x[i], rtol=0, atol=1e-6)
+        np.testing.assert_allclose(q, v.world.q[i], rtol=0, atol=1e-6)
+    v.select(1)
+    info = v.body_info(1)
+    assert np.array_equal(info["v"], v.world.v[1]) and np.array_equal(info["L"], v.world.L[1])
+    assert "**box**" in v.info.content and "t = 0.196 s" in v.info.content
+    assert v.time_text.content.startswith("t = 0.196 s, step 47")
+
+
+def test_reset_starts_again_bit_identically(paused, scene_file):
+    v = paused
+    start = v.world.pack()
+    v.step_frame(2)
+    v.push("box", None, (1, 0, 0), speed=3.0)
+    v.grab("ball")
+    v.move_grab((0, 1, 2))
+    v.advance(30)
+    assert not np.array_equal(v.world.pack(), plain_state(scene_file, 50))
+    v.reset()
+    assert v.grabbed is None and v.grab_handle is None and not v.playing
+    assert v.sim.step_index == 0 and v.world.t == 0.0
+    assert np.array_equal(v.world.pack(), start)
+    assert not any(isinstance(f, (tb.Spring, tb.Drag)) for f in v.world.forces)
+    v.advance(50)
+    assert np.array_equal(v.world.pack(), plain_state(scene_file, 50))
+
+
+def test_push_changes_the_momenta_by_the_impulse(paused):
+    v = paused
+    w = v.world
+    i = w.index_of("box")
+    P0, L0, x = w.P[i].copy(), w.L[i].copy(), w.x[i].copy()
+    point = x + np.array([0.1, -0.2, 0.15])
+    direction = np.array([1.0, 2.0, -0.5])
+    v.push("box", point, direction, speed=4.0)
+    J = 2.0 * 4.0 * direction / np.linalg.norm(direction)
+    np.testing.assert_allclose(w.P[i] - P0, J, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(w.L[i] - L0, np.cross(point - x, J), rtol=1e-12, atol=1e-12)
+    with pytest.raises(InputError, match="push"):
+        v.push("box", None, (0, 0, 0))
+    with pytest.raises(InputError, match="dynamic"):
+        v.push("ground", None, (0, 0, 1))
+    with pytest.raises(InputError, match="not dynamic"):
+        v.grab("ground")
+
+
+def test_a_click_in_push_mode_pushes_the_body_the_ray_hits_where_it_hits(paused):
+    v = paused
+    w = v.world
+    i = w.index_of("ball")
+    P0, L0 = w.P[i].copy(), w.L[i].copy()
+    centre = w.x[i].copy()
+    origin = centre + np.array([3.0, 0.05, 0.0])  # a ray along -x, 5 cm off the ball's centre line
+    body = v.click_ray(origin, (-1, 0, 0), "push")
+    assert body == i and v.selected == i
+    # the ray enters the sphere of radius 0.2 at x = cx + sqrt(0.2^2 - 0.05^2)
+    hit = centre + np.array([math.sqrt(0.04 - 0.0025), 0.05, 0.0])
+    J = np.array([-1.0 * v.push_speed_slider.value, 0, 0])
+    np.testing.assert_allclose(w.P[i] - P0, J, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(w.L[i] - L0, np.cross(hit - centre, J), rtol=0, atol=1e-9)
+    # the ground is hit but does not move: selected only; a ray into the sky hits nothing
+    assert v.click_ray((0, 3, 1), (0, 0, -1), "push") is None and v.selected == w.index_of("ground")
+    assert v.click_ray((0, 3, 1), (0, 0, 1), "push") is None
+    with pytest.raises(InputError, match="mode"):
+        v.click_ray(origin, (-1, 0, 0), "throw")
+
+
+def grab_world():
+    world = tb.World(gravity=(0, 0, -9.81))
+    world.add_body(tb.Box(size=(0.3, 0.2, 0.1)), mass=3.0, position=(0, 0, 1), velocity=(1.0, -0.5, 0.0),
+                   angular_velocity=(0.0, 0.0, 2.0))
+    return tb.Simulator(world, dt=1 / 240)
+
+
+def test_a_grabbed_body_hangs_g_over_omega_squared_below_the_handle_and_falls_when_let_go():
+    v = live(grab_world, port=free_port(), play=False)
+    try:
+        w = v.world
+        forces_before = list(w.forces)
+        v.grab(0)  # by its centre of mass
+        handle = np.array([0.5, 0.2, 1.5])
+        v.move_grab(handle)
+        v.advance(4 * 240)
+        omega = 2 * math.pi * GRAB_HERTZ
+        expected = handle - np.array([0, 0, 9.81 / omega**2])
+        np.testing.assert_allclose(w.x[0], expected, rtol=0, atol=1e-9)
+        assert np.linalg.norm(w.v[0]) < 1e-8 and np.linalg.norm(w.omega[0]) < 1e-6
+        v.release()
+        assert w.forces == forces_before and v.grabbed is None
+        v.advance(24)
+        np.testing.assert_allclose(w.v[0], [0, 0, -9.81 * 0.1], rtol=0, atol=1e-8)  # free fall again
+    finally:
+        v.stop()
+
+
+def test_without_the_grabs_drag_the_body_would_swing(monkeypatch):
+    """The check above can fail: a grab spring alone (no drag) leaves a sideways start swinging."""
+    import tumble.viewer.live_viewer as live_module
+
+    monkeypatch.setattr(live_module, "Drag", lambda **kw: tb.Drag(bodies=kw["bodies"]))
+    v = live(grab_world, port=free_port(), play=False)
+    try:
+        v.grab(0)
+        v.move_grab((0.5, 0.2, 1.5))
+        v.advance(4 * 240)
+        omega = 2 * math.pi * GRAB_HERTZ
+        assert np.linalg.norm(v.world.x[0] - np.array([0.5, 0.2, 1.5 - 9.81 / omega**2])) > 1e-3
+    finally:
+        v.stop()
+
+
+def test_playing_never_runs_ahead_of_real_time(scene_file):
+    v = live(scene_file, port=free_port(), play=False)
+    try:
+        v.speed_slider.value = 0.5
+        started = time.monotonic()
+        v.play()
+        time.sleep(1.0)
+        v.pause()
+        wall = time.monotonic() - started
+        t = v.world.t
+        assert 0.0 < t <= 0.5 * wall + MAX_LAG_S + v.sim.dt, (t, wall)
+        assert np.array_equal(v.world.pack(), plain_state(scene_file, v.sim.step_index))
+        stopped_at = v.sim.step_index
+        time.sleep(0.2)
+        assert v.sim.step_index == stopped_at  # paused: no steps
+    finally:
+        v.stop()
+
+
+def blowing_up():
+    world = tb.World(gravity=(0, 0, 0))
+    world.add_body(tb.Sphere(0.1), mass=1.0)
+    world.add_force(tb.CustomForce(lambda t, body: ((1e308 if t > 0.05 else 0.0, 0, 0), (0, 0, 0))))
+    return tb.Simulator(world, dt=1 / 240)
+
+
+def test_a_blow_up_pauses_the_run_with_its_line():
+    v = live(blowing_up, port=free_port(), play=False)
+    try:
+        v.advance(240)
+        assert v.error is not None and v.error.startswith("body 'body0': non-finite"), v.error
+        assert not v.playing and v.world.t < 0.06 and np.all(np.isfinite(v.world.pack()))
+        assert "**Stopped:**" in v.time_text.content
+        v.play()
+        assert not v.playing  # stays paused until Reset
+        v.reset()
+        assert v.error is None and v.world.t == 0.0
+    finally:
+        v.stop()
+
+
+def test_bad_input_is_one_input_error(tmp_path):
+    (tmp_path / "run.npz").write_bytes(b"")
+    with pytest.raises(InputError, match="without --live"):
+        live(tmp_path / "run.npz", port=0)
+    with pytest.raises(InputError, match="file not found"):
+        live(tmp_path / "none.toml", port=0)
+    with pytest.raises(InputError, match="Simulator or a Scene"):
+        live(lambda: 42, port=0)
+    with pytest.raises(InputError, match="scene file or a function"):
+        live(42, port=0)
+
+
+@pytest.mark.parametrize("case", ["npz", "missing", "bad_scene"])
+def test_cli_live_bad_input_is_one_line_exit_2(case, tmp_path, capsys):
+    (tmp_path / "t.npz").write_bytes(b"")
+    (tmp_path / "bad.toml").write_text("[[bodies]]\nname = 'a'\nshape = { type = 'sphere', radius = -1 }\nmass = 1\n")
+    target = {"npz": "t.npz", "missing": "nope.toml", "bad_scene": "bad.toml"}[case]
+    status = main(["view", str(tmp_path / target), "--live", "--no-browser", "--port", "0"])
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert status == 2 and len(lines) == 1 and lines[0].startswith("tumble: error: "), err
+    assert target in lines[0] and "Traceback" not in err
+    if case == "bad_scene":
+        assert "radius" in lines[0]
+
+
+def test_cli_live_serves_and_runs(scene_file, capsys):
+    port = free_port()
+    seen = {}
+
+    def wait():
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=5) as r:
+            seen["status"] = r.status
+
+    args = argparse.Namespace(target=str(scene_file), host="127.0.0.1", port=port, no_browser=True, live=True)
+    assert cmd_view(args, wait=wait) == 0
+    out = capsys.readouterr().out
+    assert seen["status"] == 200
+    assert f"scene.toml: 3 bodies, live, 0.00416667 s steps at http://127.0.0.1:{port}/" in out
+
+
+def test_a_click_in_the_browser_pushes_the_body_under_the_mouse(browser, scene_file):
+    v = live(scene_file, port=free_port(), play=False)
+    page = browser.new_page(viewport=VIEWPORT)
+    problems = []
+    page.on("console", lambda m: problems.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
+    page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
+    try:
+        page.goto(v.url)
+        page.wait_for_selector("canvas", timeout=30_000)
+        client = wait_for(lambda: next(iter(v.server.get_clients().values()), None), 30)
+        assert client is not None, "the page never connected to the viewer"
+        assert wait_for(lambda: client.camera.update_timestamp != 0.0, 30), "the client never reported its camera"
+        page.add_style_tag(content=CANVAS_ONLY_CSS)
+        assert camera_settled(client.camera, 30), "the client's camera never settled"
+        i = v.world.index_of("box")
+        u, w_ = project(client.camera, v.world.x[i], VIEWPORT["width"], VIEWPORT["height"])
+        v.click_dropdown.value = "push"
+        P0 = v.world.P[i].copy()
+        page.mouse.click(u, w_)
+        assert wait_for(lambda: not np.array_equal(v.world.P[i], P0), 10), "the click did not push the box"
+        dP = v.world.P[i] - P0
+        # the push is m * speed along the click's ray, which runs from the camera through the box
+        assert abs(np.linalg.norm(dP) - 2.0 * v.push_speed_slider.value) < 1e-9
+        ray = v.world.x[i] - np.asarray(client.camera.position)
+        assert dP @ ray / (np.linalg.norm(dP) * np.linalg.norm(ray)) > 0.99
+        assert v.selected == i
+        # grab mode: a click on the ball holds it by the point clicked, with a handle to drag
+        ball = v.world.index_of("ball")
+        v.click_dropdown.value = "grab"
+        page.mouse.click(*project(client.camera, v.world.x[ball], VIEWPORT["width"], VIEWPORT["height"]))
+        assert wait_for(lambda: v.grabbed is not None, 10), "the click did not grab the ball"
+        assert v.grabbed[0] == ball and v.grab_handle is not None and v.release_button.visible
+        anchor = np.asarray(v.grabbed[1].anchor_b)
+        assert abs(np.linalg.norm(anchor - v.world.x[ball]) - 0.2) < 1e-9  # on the ball's surface
+    finally:
+        page.close()
+        v.stop()
+    assert not [p for p in problems if not any(b in p for b in BENIGN_CONSOLE_ERRORS)], problems
