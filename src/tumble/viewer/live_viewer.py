@@ -137,6 +137,9 @@ class LiveViewer(Viewer):
         if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
             raise InputError(f"must be a positive number, got {frame_rate!r}", "frame_rate")
         self.steps_per_frame = max(1, int(round(1.0 / (self.frame_rate * self.sim.dt))))
+        # A first step loads (or compiles) the scene's kernels: seconds for a robot or contacts.
+        # Taken here on a twin of the scene, so that the page opens on a run that already moves.
+        _simulator_of(make_simulator())[0].step(1)
         self.error: str | None = None
         self.grabbed: tuple[int, Spring, Drag] | None = None
         self.grab_handle = None
@@ -288,6 +291,8 @@ class LiveViewer(Viewer):
                     while self._lag >= dt and self._playing and _time.monotonic() - started < TICK_BUDGET_S:
                         self._step(1)
                         self._lag -= dt
+                    if self._stop_event.is_set():  # stopped while stepping: the server is gone
+                        return
                     self._refresh()
                     self._measure_rate(now)
             except Exception:  # the server was stopped under us
