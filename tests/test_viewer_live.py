@@ -102,7 +102,7 @@ def test_live_steps_have_the_bits_of_a_plain_run(paused, scene_file):
     v.select(1)
     info = v.body_info(1)
     assert np.array_equal(info["v"], v.world.v[1]) and np.array_equal(info["L"], v.world.L[1])
-    assert "**box**" in v.info.content and "t = 0.196 s" in v.info.content
+    assert "**box**" in v.info.content and "t = 0.196 s (step 47)" in v.info.content
     assert v.time_text.content.startswith("t = 0.196 s, step 47")
 
 

@@ -618,6 +618,10 @@ class Viewer:
             self.time_text.content = self._status_text(k)
             self._update_info()
 
+    def _where(self, k: int) -> str:
+        """Where frame ``k`` is in the run, for the body panel."""
+        return f"frame {k}"
+
     def _status_text(self, k: int) -> str:
         return f"t = {self.time[k]:.3f} s, frame {k} of {self.frame_count - 1}"
 
@@ -629,7 +633,7 @@ class Viewer:
         d = self.body_info(i)
         rows = [("x (m)", d["x"]), ("v (m/s)", d["v"]), ("ω (rad/s)", d["omega"]),
                 ("P (kg m/s)", d["P"]), ("L (kg m²/s)", d["L"])]
-        lines = [f"**{d['name']}** at t = {d['time']:.3f} s (frame {d['frame']})", "",
+        lines = [f"**{d['name']}** at t = {d['time']:.3f} s ({self._where(d['frame'])})", "",
                  "| | x | y | z |", "|:--|--:|--:|--:|"]
         lines += [f"| {label} | {_fmt(vec)} |" for label, vec in rows]
         lines += ["", f"Kinetic energy: {d['kinetic_energy']:.6g} J (all bodies: {d['kinetic_energy_total']:.6g} J)", "",

@@ -341,6 +341,9 @@ class LiveViewer(Viewer):
         colliding = bool(w.collisions) and any(shape is not None for shape in w.shapes)
         return colliding, colliding, "the live run"
 
+    def _where(self, k: int) -> str:
+        return f"step {self.sim.step_index}"
+
     def _status_text(self, k: int) -> str:
         line = f"t = {self.sim.world.t:.3f} s, step {self.sim.step_index}"
         if self._playing:
