@@ -124,6 +124,27 @@ def test_reset_starts_again_bit_identically(paused, scene_file):
     assert np.array_equal(v.world.pack(), plain_state(scene_file, 50))
 
 
+def test_dragging_the_handle_moves_the_grab_anchor(paused):
+    """The handle's drag reaches the grab spring: viser calls the handle's update callbacks with a
+    TransformControlsEvent whose target has the new pose (called here as viser's message handler
+    does; the browser's own drag gesture is not driven by these tests)."""
+    from viser._scene_handles import TransformControlsEvent
+
+    v = paused
+    v.click_ray(v.world.x[2] + np.array([0.0, 0.0, 3.0]), (0, 0, -1), "grab")
+    assert v.grabbed is not None and v.grabbed[0] == 2
+    np.testing.assert_allclose(v.grab_handle.position, v.world.x[2] + [0, 0, 0.2], atol=1e-6)  # the ball's top
+    handle = v.grab_handle
+    handle.position = (0.8, 0.3, 1.2)
+    for phase in ("start", "update", "end"):
+        for callback in handle._impl_aux.update_cb:
+            callback(TransformControlsEvent(client=None, client_id=None, target=handle, phase=phase))
+    assert v.grabbed[1].anchor_b == (0.8, 0.3, 1.2)
+    # a click on nothing in grab mode lets go
+    v.click_ray((0, 0, 5), (0, 0, 1), "grab")
+    assert v.grabbed is None and v.grab_handle is None and not v.release_button.visible
+
+
 def test_push_changes_the_momenta_by_the_impulse(paused):
     v = paused
     w = v.world

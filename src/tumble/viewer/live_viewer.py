@@ -428,8 +428,8 @@ class LiveViewer(Viewer):
             "/grab", scale=scale, position=tuple(float(c) for c in p), disable_rotations=True, depth_test=False)
 
         @self.grab_handle.on_update
-        def _(_event):
-            self.move_grab(np.asarray(self.grab_handle.position, dtype=float))
+        def _(event):  # every phase of a drag (start, update, end) carries the handle's pose
+            self.move_grab(np.asarray(event.target.position, dtype=float))
 
         self.release_button.visible = True
 
