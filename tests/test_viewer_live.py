@@ -229,6 +229,36 @@ def test_without_the_grabs_drag_the_body_would_swing(monkeypatch):
         v.stop()
 
 
+def test_actuator_sliders_set_the_controls_a_plain_run_would(tmp_path):
+    """An MJCF model's actuators get a slider each (MuJoCo's viewer: over its ctrlrange); moving
+    one is ``Robot.set_controls`` from the next step: the bits of a plain run given the same
+    control at the same step. Reset puts the sliders back at the scene's own controls."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "mjcf_turntable.toml"
+    v = live(path, port=free_port(), play=False)
+    try:
+        slider = v.control_sliders[("turntable", "spin")]
+        assert (slider.min, slider.max, slider.value) == (-3.0, 3.0, 1.2)  # ctrlrange; the scene's controls
+        v.advance(10)
+        v.set_control("turntable", "spin", 2.5)
+        v.advance(38)
+        scene = tb.load_scene(path)
+        sim = scene.simulator()
+        sim.step(10)
+        scene.robots["turntable"].set_controls(sim, {"spin": 2.5})
+        sim.step(38)
+        assert np.array_equal(v.world.pack(), sim.world.pack())
+        v.set_control("turntable", "spin", 9.0)  # past the range: the slider and MuJoCo clip it
+        assert v.robots["turntable"].actuators["spin"].ctrl == 3.0
+        v.reset()
+        assert slider.value == 1.2 and v.robots["turntable"].actuators["spin"].ctrl == 1.2
+        with pytest.raises(InputError, match="no actuator"):
+            v.set_control("turntable", "lift", 1.0)
+    finally:
+        v.stop()
+
+
 def test_playing_never_runs_ahead_of_real_time(scene_file):
     v = live(scene_file, port=free_port(), play=False)
     try:

@@ -115,6 +115,8 @@ class Scene:
     record_joints: bool = False
     # [[cameras]] and the robots' MJCF <camera>s ("ROBOT/CAMERA"): {name: tumble.Camera} (scene_cameras)
     cameras: dict = field(default_factory=dict)
+    # the [[robots]] loaded (URDF and MJCF): {name: tumble.urdf.Robot}, for set_controls, set_motor, kinematics
+    robots: dict = field(default_factory=dict)
 
     @property
     def gravity(self) -> list[float]:
@@ -323,6 +325,7 @@ class _Parser(BodyReader, RobotReader):
         self.check_sizes(bodies)
         names: dict[str, int] = {}
         self.robot_cameras: dict = {}  # filled by self.robot
+        self.robots: dict = {}  # {name: Robot}, filled by self.robot
         self.drops: list = []  # (name, key) of the bodies with drop = true, filled by self.body
         for i, body in enumerate(bodies):
             self.body(world, body, f"bodies[{i}]", names)
@@ -364,7 +367,7 @@ class _Parser(BodyReader, RobotReader):
             integrator=sim["integrator"], substeps=sim["substeps"], layout=sim["layout"],
             data=data, rtol=sim["rtol"], atol=sim["atol"], max_energy_growth=sim["max_energy_growth"],
             record_contacts=sim["record_contacts"], contact=contact, joint_settings=joint_settings,
-            record_joints=sim["record_joints"], cameras=cameras,
+            record_joints=sim["record_joints"], cameras=cameras, robots=dict(self.robots),
         )
 
     def exclusion(self, world: World, entry: dict, key: str, names: dict):

@@ -122,6 +122,7 @@ class RobotReader:
                     raise self.error(err.problem, f"{key}.{option}.{name}") from None
         for i in range(before, world.body_count):
             names[world.names[i]] = len(names)
+        self.robots[robot.name] = robot
         # an MJCF model's <camera>s: the scene's cameras too ("ROBOT/CAMERA"), for tumble run --images
         for name, camera in robot.cameras.items():
             self.robot_cameras[f"{robot.name}/{name}"] = camera

@@ -23,7 +23,9 @@ body quantities and toggles it shares):
   as MuJoCo's viewer perturbs a body (a mass-scaled spring of ``GRAB_HERTZ`` with
   a critical damping of the body's motion; "Release" or a click elsewhere lets
   go). Shift + click pushes whatever the mode.
-* the contact points and forces of the last step, from ``Simulator.contacts()``.
+* the contact points and forces of the last step, from ``Simulator.contacts()``;
+* "Controls": a slider per actuator of the scene's MJCF models (over its ``ctrlrange``,
+  -1 .. 1 when unlimited, as MuJoCo's viewer), ``Robot.set_controls`` when moved.
 
 A step that blows up (``SimulationError``) pauses the run at the last good state and
 shows the error's line in the status.
@@ -97,14 +99,14 @@ def live(scene, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = 
 
 def _simulator_of(made):
     """The ``Simulator`` of what a scene function returned (a ``Scene`` gives its own), with its
-    frame rate (the scene's, or None)."""
+    frame rate (the scene's, or None) and its robots ({name: Robot})."""
     from ..scene import Scene
     from ..simulator import Simulator
 
     if isinstance(made, Scene):
-        return made.simulator(), made.frame_rate
+        return made.simulator(), made.frame_rate, dict(made.robots)
     if isinstance(made, Simulator):
-        return made, None
+        return made, None, {}
     raise InputError(f"the scene function must return a Simulator or a Scene, got {type(made).__name__}", "scene")
 
 
@@ -132,7 +134,7 @@ class LiveViewer(Viewer):
         check_address(host, port)
         self._make_simulator = make_simulator
         self.label = label
-        self.sim, scene_rate = _simulator_of(make_simulator())
+        self.sim, scene_rate, self.robots = _simulator_of(make_simulator())
         self.frame_rate = float(frame_rate or scene_rate or 24.0)
         if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
             raise InputError(f"must be a positive number, got {frame_rate!r}", "frame_rate")
@@ -189,10 +191,11 @@ class LiveViewer(Viewer):
         with self._lock:
             self.pause()
             self._release_spring()
-            made, _ = _simulator_of(self._make_simulator())
-            if made.world.names != self.sim.world.names:
+            made, _, robots = _simulator_of(self._make_simulator())
+            if made.world.names != self.sim.world.names or robots.keys() != self.robots.keys():
                 raise InputError("the scene's bodies changed since the viewer started: start the viewer again", "scene")
-            self.sim = made
+            self.sim, self.robots = made, robots
+            self._show_controls()  # the scene's own controls again
             self.error = None
             self._rate_window.clear()
             self.real_time_factor = 0.0
@@ -369,6 +372,20 @@ class LiveViewer(Viewer):
                                                     initial_value=PUSH_SPEED, hint="the speed a push gives the body")
             self.release_button = gui.add_button("Release", visible=False, hint="let go of the grabbed body")
 
+        self.control_sliders = {}  # (robot, actuator) -> slider
+        actuated = [(r, name, a) for r, robot in self.robots.items() for name, a in robot.actuators.items()]
+        if actuated:
+            with gui.add_folder("Controls"):
+                for robot_name, name, actuator in actuated:
+                    # MuJoCo's viewer: a slider per actuator over its ctrlrange, -1 .. 1 when unlimited
+                    low, high = actuator.ctrlrange if actuator.ctrlrange is not None else (-1.0, 1.0)
+                    label = name if len(self.robots) == 1 else f"{robot_name}/{name}"
+                    slider = gui.add_slider(label, min=float(low), max=float(high), step=(high - low) / 200,
+                                            initial_value=float(np.clip(actuator.ctrl, low, high)),
+                                            hint=f"{actuator.kind} actuator on {actuator.joint or 'a tendon'}: its ctrl")
+                    slider.on_update(lambda _event, key=(robot_name, name): self._control_moved(key))
+                    self.control_sliders[(robot_name, name)] = slider
+
         @self.play_button.on_click
         def _(_event):
             self.play()
@@ -389,6 +406,30 @@ class LiveViewer(Viewer):
         @self.release_button.on_click
         def _(_event):
             self.release()
+
+    def set_control(self, robot: str, actuator: str, value: float):
+        """Set an actuator's control (MuJoCo's ``data.ctrl``; ``Robot.set_controls``) from the next
+        step on, as its slider in "Controls" does."""
+        slider = self.control_sliders.get((robot, actuator))
+        if slider is None:
+            raise InputError(f"no actuator {actuator!r} of a robot {robot!r} in this scene", "controls")
+        slider.value = float(value)  # its callback sets the control
+
+    def _control_moved(self, key):
+        robot_name, name = key
+        with self._lock:
+            if self._internal_update:
+                return
+            self.robots[robot_name].set_controls(self.sim, {name: float(self.control_sliders[key].value)})
+
+    def _show_controls(self):
+        """Put each control slider at its actuator's ctrl (after a reset: the scene's own)."""
+        self._internal_update = True
+        try:
+            for (robot_name, name), slider in self.control_sliders.items():
+                slider.value = float(self.robots[robot_name].actuators[name].ctrl)
+        finally:
+            self._internal_update = False
 
     def _clicked(self, bodies: np.ndarray, event):
         mode = "push" if getattr(event, "modifier", None) == "shift" else self.click_dropdown.value
