@@ -43,6 +43,7 @@ SCENE = """
 duration = 2.0
 frame_rate = 24
 gravity = [0, 0, -9.81]
+record_contacts = true
 
 [[bodies]]
 name = "ground"
@@ -122,6 +123,57 @@ def test_reset_starts_again_bit_identically(paused, scene_file):
     assert not any(isinstance(f, (tb.Spring, tb.Drag)) for f in v.world.forces)
     v.advance(50)
     assert np.array_equal(v.world.pack(), plain_state(scene_file, 50))
+
+
+def test_the_recording_is_the_trajectory_of_a_plain_run(paused, scene_file):
+    """Frames at the frame rate from the start, as ``Simulator.run`` records them: every array
+    (contacts too: the scene records them) equal to a plain run's, bit for bit; a part frame's steps
+    are not a frame."""
+    v = paused
+    v.step_frame(69)
+    v.advance(25)  # 2.5 frames: frames 70 and 71 recorded, half of the 72nd stepped
+    traj = v.trajectory()  # 72 frames: past the recorder's first 64 (it grows)
+    plain = tb.load_scene(scene_file).simulator().run(71 / 24)
+    assert len(traj.time) == 72 and traj.contact_count is not None and traj.contact_count[-1] > 0
+    for field in ("time", "position", "orientation", "velocity", "angular_velocity", "linear_momentum",
+                  "angular_momentum", "kinetic_energy", "potential_energy", "contact_count", "contact_point",
+                  "contact_force", "names", "shapes", "fixed", "com_offset"):
+        assert np.array_equal(getattr(traj, field), getattr(plain, field), equal_nan=field.startswith("contact")), field
+    assert "recorded 72 frames" in v.time_text.content
+
+
+def test_save_writes_each_run_to_a_new_folder_and_reset_starts_a_new_recording(paused, tmp_path):
+    from tumble.trajectory import load_trajectory
+
+    v = paused
+    v.out = tmp_path / "live"
+    v.step_frame(3)
+    v.push("ball", None, (0, 0, 1), speed=2.0)
+    v.step_frame(2)
+    first = v.save()
+    second = v.save()
+    assert (first.name, second.name) == ("run-001", "run-002")
+    for folder in (first, second):
+        assert (folder / "trajectory.glb").stat().st_size > 1000
+        saved = load_trajectory(folder / "trajectory.npz")
+        assert np.array_equal(saved.position, v.trajectory().position) and len(saved.time) == 6
+    # the push is in the recording: the ball's vertical momentum jumps by m * 2 m/s between frames 3 and 4
+    saved = load_trajectory(first / "trajectory.npz")
+    assert saved.linear_momentum[4, 2, 2] - saved.linear_momentum[3, 2, 2] > 1.5
+    assert f"saved {second}" in v.time_text.content
+    v.reset()
+    assert len(v.trajectory().time) == 1 and v.trajectory().time[0] == 0.0
+
+
+def test_the_recording_stops_at_the_memory_limit(scene_file, monkeypatch):
+    monkeypatch.setenv("TUMBLE_MAX_MEMORY", "20000")  # bytes: 2 x (3 bodies x 152 + 80) a frame -> 18 frames
+    v = live(scene_file, port=free_port(), play=False)
+    try:
+        v.step_frame(20)
+        assert len(v.trajectory().time) == 18 and v.sim.step_index == 200
+        assert "(full: the memory limit)" in v.time_text.content
+    finally:
+        v.stop()
 
 
 def test_dragging_the_handle_moves_the_grab_anchor(paused):
@@ -312,16 +364,17 @@ def test_bad_input_is_one_input_error(tmp_path):
         live(42, port=0)
 
 
-@pytest.mark.parametrize("case", ["npz", "missing", "bad_scene"])
+@pytest.mark.parametrize("case", ["npz", "missing", "bad_scene", "out_without_live"])
 def test_cli_live_bad_input_is_one_line_exit_2(case, tmp_path, capsys):
     (tmp_path / "t.npz").write_bytes(b"")
     (tmp_path / "bad.toml").write_text("[[bodies]]\nname = 'a'\nshape = { type = 'sphere', radius = -1 }\nmass = 1\n")
-    target = {"npz": "t.npz", "missing": "nope.toml", "bad_scene": "bad.toml"}[case]
-    status = main(["view", str(tmp_path / target), "--live", "--no-browser", "--port", "0"])
+    target = {"npz": "t.npz", "missing": "nope.toml", "bad_scene": "bad.toml", "out_without_live": "t.npz"}[case]
+    flags = ["--out", str(tmp_path / "o")] if case == "out_without_live" else ["--live"]
+    status = main(["view", str(tmp_path / target), *flags, "--no-browser", "--port", "0"])
     err = capsys.readouterr().err
     lines = err.strip().splitlines()
     assert status == 2 and len(lines) == 1 and lines[0].startswith("tumble: error: "), err
-    assert target in lines[0] and "Traceback" not in err
+    assert (target if case != "out_without_live" else "--out") in lines[0] and "Traceback" not in err
     if case == "bad_scene":
         assert "radius" in lines[0]
 
@@ -334,7 +387,7 @@ def test_cli_live_serves_and_runs(scene_file, capsys):
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=5) as r:
             seen["status"] = r.status
 
-    args = argparse.Namespace(target=str(scene_file), host="127.0.0.1", port=port, no_browser=True, live=True)
+    args = argparse.Namespace(target=str(scene_file), host="127.0.0.1", port=port, no_browser=True, live=True, out=None)
     assert cmd_view(args, wait=wait) == 0
     out = capsys.readouterr().out
     assert seen["status"] == 200

@@ -164,7 +164,16 @@ class _Recorder:
         if sensors_of is not None:
             self.arrays["sensor_visitors"] = np.zeros((capacity, int(world.sensor.sum())))
 
+    def grow(self):
+        """Twice the capacity, the frames kept (a recording of unknown length: the live viewer's)."""
+        for key, a in self.arrays.items():
+            bigger = np.zeros((2 * max(len(a), 1),) + a.shape[1:], dtype=a.dtype)
+            bigger[:len(a)] = a
+            self.arrays[key] = bigger
+
     def record(self):
+        if self.count == len(self.arrays["time"]):
+            self.grow()
         for key, value in frame_values(self.world).items():
             self.arrays[key][self.count] = value
         if self.contacts_of is not None:

@@ -27,6 +27,8 @@ def add_commands(subparsers) -> dict:
     p.add_argument("--no-browser", action="store_true", help="do not open a browser, just print the URL")
     p.add_argument("--live", action="store_true",
                    help="simulate the scene as it is shown, in real time: play, pause, step, reset, push and grab bodies")
+    p.add_argument("--out", metavar="DIR", default=None,
+                   help="with --live: where Save writes the runs (DIR/run-001/trajectory.npz and .glb; default tumble-live)")
     return {"view": cmd_view}
 
 
@@ -52,10 +54,12 @@ def cmd_view(args, wait=None) -> int:
         check_address(args.host, args.port)
     except InputError as err:
         raise InputError(err.problem, f"--{err.key}") from None
+    if getattr(args, "out", None) is not None and not args.live:
+        raise InputError("--out is for --live (where Save writes the runs)", "--out")
     if args.live:
         from .live_viewer import live
 
-        viewer = live(args.target, host=args.host, port=args.port)  # InputError on bad input
+        viewer = live(args.target, host=args.host, port=args.port, out=args.out)  # InputError on bad input
         what = f"live, {viewer.sim.dt:g} s steps"
     else:
         traj, extras = load_input(args.target, progress=sys.stderr.isatty())  # InputError on bad input

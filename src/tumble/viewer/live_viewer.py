@@ -12,7 +12,9 @@ What it adds to the playback viewer (``tumble.viewer.app``, whose meshes, pickin
 body quantities and toggles it shares):
 
 * "Live": Play / Pause, "Step" (one frame: 1/24 s, or the scene's frame rate),
-  "Reset" (the scene made again from its file: bit-identical to the first start),
+  "Reset" (the scene made again from its file: bit-identical to the first start), "Save"
+  (the run so far, recorded at the frame rate as ``Simulator.run`` records it, written to
+  ``out/run-NNN/trajectory.npz`` and ``trajectory.glb``),
   a speed factor, and the time with the real-time factor reached (a scene whose
   steps cost more than real time runs slower, never in bigger steps);
 * "Click a body to": select it (its x, v, omega, P, L, energy); push it (an
@@ -41,7 +43,8 @@ import numpy as np
 
 from ..errors import InputError, SimulationError
 from ..forces import Drag, Spring
-from ..recording import frame_values, static_values
+from .. import checks
+from ..recording import _Recorder, frame_values, static_values
 from ..trajectory import Trajectory
 from .app import SCENE_SUFFIXES, Viewer, check_address
 
@@ -55,7 +58,7 @@ CLICK_MODES = ("select", "push", "grab")
 
 
 def live(scene, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = False, *, play: bool = True,
-         frame_rate: float | None = None) -> "LiveViewer":
+         frame_rate: float | None = None, out=None) -> "LiveViewer":
     """Start the live viewer on ``scene`` and return it at once (the server and the run are
     background threads; ``.stop()`` ends them).
 
@@ -66,7 +69,9 @@ def live(scene, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = 
         host, port: where to serve (127.0.0.1: this machine only; port 0: any free port).
         open_browser: open the page in the system's browser.
         play: start running at once (False: paused at the start).
-        frame_rate: frames per second of the Step button (default: the scene's, else 24).
+        frame_rate: frames per second of the Step button and of the recording (default: the
+            scene's, else 24).
+        out: folder where "Save" writes the runs (``run-001/``, ...; default ``tumble-live``).
     """
     if isinstance(scene, (str, Path)):
         path = Path(scene)
@@ -86,7 +91,7 @@ def live(scene, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = 
         make, label = scene, getattr(scene, "__name__", "the scene")
     else:
         raise InputError(f"expected a scene file or a function returning a Simulator, got {type(scene).__name__}", "scene")
-    viewer = LiveViewer(make, host=host, port=port, play=play, frame_rate=frame_rate, label=label)
+    viewer = LiveViewer(make, host=host, port=port, play=play, frame_rate=frame_rate, label=label, out=out)
     if open_browser:
         import webbrowser
 
@@ -130,7 +135,7 @@ class LiveViewer(Viewer):
     """
 
     def __init__(self, make_simulator, host: str = "127.0.0.1", port: int = 8080, *, play: bool = True,
-                 frame_rate: float | None = None, label: str = "the scene"):
+                 frame_rate: float | None = None, label: str = "the scene", out=None):
         check_address(host, port)
         self._make_simulator = make_simulator
         self.label = label
@@ -142,7 +147,10 @@ class LiveViewer(Viewer):
         # A first step loads (or compiles) the scene's kernels: seconds for a robot or contacts.
         # Taken here on a twin of the scene, so that the page opens on a run that already moves.
         _simulator_of(make_simulator())[0].step(1)
+        self.out = Path("tumble-live" if out is None else out)
+        self.saved: list[Path] = []
         self.error: str | None = None
+        self._start_recording()
         self.grabbed: tuple[int, Spring, Drag] | None = None
         self.grab_handle = None
         self.real_time_factor = 0.0
@@ -195,6 +203,7 @@ class LiveViewer(Viewer):
             if made.world.names != self.sim.world.names or robots.keys() != self.robots.keys():
                 raise InputError("the scene's bodies changed since the viewer started: start the viewer again", "scene")
             self.sim, self.robots = made, robots
+            self._start_recording()
             self._show_controls()  # the scene's own controls again
             self.error = None
             self._rate_window.clear()
@@ -266,11 +275,59 @@ class LiveViewer(Viewer):
 
     # ---- the run ----------------------------------------------------------------------------
 
+    def trajectory(self) -> Trajectory:
+        """The run so far as ``tumble run`` records it: a frame at the start (or the last Reset) and
+        one every ``steps_per_frame`` steps, pushes and grabs included (contacts and joints too when
+        the scene records them). A run longer than the memory limit allows keeps its first frames."""
+        with self._lock:
+            return self._recorder.trajectory()
+
+    def save(self) -> Path:
+        """Write the run so far to a new folder ``out/run-NNN/``: ``trajectory.npz`` (for
+        ``tumble view``, ``render``, ``export``) and ``trajectory.glb`` (Blender, three.js). Returns
+        the folder."""
+        from ..export import export_gltf
+
+        traj = self.trajectory()
+        self.out.mkdir(parents=True, exist_ok=True)
+        k = 1
+        while True:  # a new folder each time: nothing written before is touched
+            folder = self.out / f"run-{k:03d}"
+            try:
+                folder.mkdir()
+                break
+            except FileExistsError:
+                k += 1
+        traj.save(folder / "trajectory.npz")
+        export_gltf(traj, folder / "trajectory.glb")
+        self.saved.append(folder)
+        with self._lock:
+            self.time_text.content = self._status_text(0)
+        return folder
+
+    def _start_recording(self):
+        sim = self.sim
+        self._recorder = _Recorder(sim.world, 64, sim if sim.record_contacts else None, sim if sim.record_joints else None,
+                                   sim if sim._sensing() else None)
+        n = sim.world.body_count
+        self._max_frames = max(2, int((checks.memory_limit() or 2**62) // (2 * (n * checks.FRAME_BYTES_PER_BODY + 80))))
+        # as Simulator.run starts: derived quantities and sensors brought up to date, then frame 0
+        sim.world.update_derived()
+        sim._sense_now()
+        self._recorder.record()
+
     def _step(self, steps: int):
+        """``steps`` steps, in pieces that end on frame boundaries, where a frame is recorded."""
+        spf = self.steps_per_frame
         try:
-            if self.grabbed is not None:  # a held body may have fallen asleep in the handle's hand
-                self.sim.world.wake_requests.add(self.grabbed[0])
-            self.sim.step(steps)
+            while steps > 0:
+                if self.grabbed is not None:  # a held body may have fallen asleep in the handle's hand
+                    self.sim.world.wake_requests.add(self.grabbed[0])
+                take = min(steps, spf - self.sim.step_index % spf)
+                self.sim.step(take)
+                steps -= take
+                if self.sim.step_index % spf == 0 and self._recorder.count < self._max_frames:
+                    self._recorder.record()
         except (SimulationError, InputError) as err:  # a blow-up, or a user's force gone wrong
             self.error = str(err)
             self.pause()
@@ -351,6 +408,12 @@ class LiveViewer(Viewer):
         line = f"t = {self.sim.world.t:.3f} s, step {self.sim.step_index}"
         if self._playing:
             line += f", {self.real_time_factor:.2f} x real time"
+        frames = self._recorder.count
+        line += f"\n\nrecorded {frames} frame{'s' if frames != 1 else ''}"
+        if frames >= self._max_frames:
+            line += " (full: the memory limit)"
+        if self.saved:
+            line += f"; saved {self.saved[-1]}"
         if self.error is not None:
             line += f"\n\n**Stopped:** {self.error} (Reset to start again)"
         return line
@@ -361,6 +424,8 @@ class LiveViewer(Viewer):
             self.pause_button = gui.add_button("Pause", visible=False)
             self.step_button = gui.add_button("Step", hint=f"one frame: {self.steps_per_frame} steps of {self.sim.dt:g} s")
             self.reset_button = gui.add_button("Reset", hint=f"start {self.label} again")
+            self.save_button = gui.add_button("Save", hint=f"write the run since the start to {self.out}/run-NNN/: "
+                                                            "trajectory.npz and trajectory.glb")
             self.speed_slider = gui.add_slider("Speed", min=0.05, max=4.0, step=0.05, initial_value=1.0,
                                                hint="simulated seconds per second, at most (a slow scene runs slower)")
             self.time_text = gui.add_markdown("")
@@ -402,6 +467,13 @@ class LiveViewer(Viewer):
         @self.reset_button.on_click
         def _(_event):
             self.reset()
+
+        @self.save_button.on_click
+        def _(_event):
+            try:
+                self.save()
+            except (OSError, InputError) as err:  # a full disk, a folder not writable: said, not raised
+                self.time_text.content = self._status_text(0) + f"\n\n**Not saved:** {err}"
 
         @self.release_button.on_click
         def _(_event):
