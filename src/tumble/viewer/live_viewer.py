@@ -128,10 +128,14 @@ class LiveViewer(Viewer):
         sim: the ``Simulator`` being run (a new one after each ``reset()``).
         steps_per_frame: steps of the Step button (one frame at ``frame_rate``).
         real_time_factor: simulated seconds per wall second over the last second of running.
-        error: the line of the ``SimulationError`` that paused the run, or None.
-        grabbed: (body, spring) while a body is grabbed, else None.
-        step_button, reset_button, click_dropdown, push_speed_slider, release_button,
-        grab_handle: the GUI handles added (``grab_handle``: the transform controls, or None).
+        error: the line of the ``SimulationError`` (or a user force's ``InputError``) that paused
+            the run, or None.
+        grabbed: (body index, its grab ``Spring``, its ``Drag``) while a body is grabbed, else None.
+        robots: {name: Robot} of the scene's ``[[robots]]`` ({} for a scene function's Simulator).
+        out: the folder ``save()`` writes into; saved: the folders written.
+        step_button, reset_button, save_button, click_dropdown, push_speed_slider, release_button,
+        control_sliders ({(robot, actuator): slider}), grab_handle: the GUI handles added
+        (``grab_handle``: the transform controls, or None).
     """
 
     def __init__(self, make_simulator, host: str = "127.0.0.1", port: int = 8080, *, play: bool = True,
