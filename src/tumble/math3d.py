@@ -35,7 +35,7 @@ JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy", _nrt=Tru
 NO_NRT = dict(JIT, _nrt=False)
 
 
-def serial_twin(kernel, name: str):
+def serial_twin(kernel, name: str, flags: dict = JIT):
     """The Python function of the parallel Numba ``kernel`` compiled again without ``parallel`` under
     ``name`` (its ``prange`` loops run as ``range`` on the calling thread): for small inputs, where
     starting the threads costs more than the work. The same source, so the same arithmetic and
@@ -46,7 +46,7 @@ def serial_twin(kernel, name: str):
     twin.__qualname__ = name
     twin.__doc__ = f"``{f.__name__}`` on the calling thread (``math3d.serial_twin``)."
     twin.__module__ = f.__module__
-    return njit(**JIT)(twin)
+    return njit(**flags)(twin)
 
 
 @njit(**JIT)
