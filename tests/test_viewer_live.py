@@ -281,6 +281,37 @@ def test_without_the_grabs_drag_the_body_would_swing(monkeypatch):
         v.stop()
 
 
+def test_reset_takes_the_integrator_and_dt_chosen(paused, scene_file):
+    """The "Integration" choices apply at Reset: the run then has the bits of the scene run with
+    that integrator and dt; the dt offered are those that divide a frame into whole steps."""
+    v = paused
+    assert list(v._dt_choices.values()) == [1 / 120, 1 / 240, 1 / 480, 1 / 960, 1 / 2400]  # not 1/60: 2.5 a frame
+    assert v.integrator_dropdown.value == "rk4" and "(the scene's)" in v.dt_dropdown.value
+    v.integrator_dropdown.value = "explicit-euler"
+    v.dt_dropdown.value = next(label for label, dt in v._dt_choices.items() if dt == 1 / 480)
+    v.advance(5)
+    assert v.sim.integrator == "rk4"  # not before the Reset
+    v.reset()
+    assert (v.sim.integrator, v.sim.dt, v.steps_per_frame) == ("explicit-euler", 1 / 480, 20)
+    v.step_frame(2)
+    scene = tb.load_scene(scene_file)
+    scene.integrator, scene.dt = "explicit-euler", 1 / 480
+    sim = scene.simulator()
+    sim.step(40)
+    assert np.array_equal(v.world.pack(), sim.world.pack())
+
+
+def test_the_energy_plot_shows_the_recorded_frames(paused):
+    v = paused
+    v.step_frame(6)
+    t, kinetic, potential, total = v.energy_plot.data
+    traj = v.trajectory()
+    assert np.array_equal(t, traj.time) and len(t) == 7
+    assert np.array_equal(kinetic, traj.kinetic_energy) and np.array_equal(potential, traj.potential_energy)
+    assert np.array_equal(total, traj.kinetic_energy + traj.potential_energy)
+    assert kinetic[-1] > kinetic[0]  # the bodies fall: potential turns into kinetic energy
+
+
 def test_actuator_sliders_set_the_controls_a_plain_run_would(tmp_path):
     """An MJCF model's actuators get a slider each (MuJoCo's viewer: over its ctrlrange); moving
     one is ``Robot.set_controls`` from the next step: the bits of a plain run given the same

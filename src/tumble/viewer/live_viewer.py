@@ -26,6 +26,10 @@ body quantities and toggles it shares):
   a critical damping of the body's motion; "Release" or a click elsewhere lets
   go). Shift + click pushes whatever the mode.
 * the contact points and forces of the last step, from ``Simulator.contacts()``;
+* "Integration" (a scene file): the integrator and dt the next Reset starts with (the
+  course's explicit Euler beside RK4 or the splitting, a step 4x larger or 10x smaller), and a
+  plot of the kinetic, potential and total energy of the recorded frames (the drift an
+  integrator leaves shows at once);
 * "Controls": a slider per actuator of the scene's MJCF models (over its ``ctrlrange``,
   -1 .. 1 when unlimited, as MuJoCo's viewer), ``Robot.set_controls`` when moved.
 
@@ -55,6 +59,9 @@ PUSH_SPEED = 2.0  # m/s: a push's default change of speed (impulse = mass * spee
 GRAB_HERTZ = 2.0  # Hz: natural frequency of a grabbed body on the grab spring (stiffness = m (2 pi f)^2)
 GRAB_DAMPING_RATIO = 1.0  # critical: the body follows the handle without swinging past it
 CLICK_MODES = ("select", "push", "grab")
+ENERGY_PLOT_FRAMES = 1200  # frames the energy plot shows (the last ones): 50 s at 24 fps
+ENERGY_PLOT_PERIOD_S = 0.25  # s of wall time between the energy plot's updates while running
+DT_FACTORS = (4.0, 2.0, 1.0, 0.5, 0.25, 0.1)  # the dt choices, times the scene's
 
 
 def live(scene, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = False, *, play: bool = True,
@@ -143,7 +150,13 @@ class LiveViewer(Viewer):
         check_address(host, port)
         self._make_simulator = make_simulator
         self.label = label
-        self.sim, scene_rate, self.robots = _simulator_of(make_simulator())
+        made = make_simulator()
+        self._scene_dt = self._scene_integrator = None  # the file's (a Scene); None for a Simulator
+        from ..scene import Scene
+
+        if isinstance(made, Scene):
+            self._scene_dt, self._scene_integrator = made.dt, made.integrator
+        self.sim, scene_rate, self.robots = _simulator_of(made)
         self.frame_rate = float(frame_rate or scene_rate or 24.0)
         if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
             raise InputError(f"must be a positive number, got {frame_rate!r}", "frame_rate")
@@ -161,8 +174,10 @@ class LiveViewer(Viewer):
         self._lag = 0.0  # s of simulated time owed to real time
         self._rate_window: list[tuple[float, float]] = []  # (wall time, simulated time) over the last second
         self._force_max = 0.0
+        self._plotted_at = 0.0  # wall time of the energy plot's last update
         super().__init__(_trajectory_now(self.sim.world), host=host, port=port, play=False)
         self._refresh()
+        self._plot_energy()
         if play:
             self.play()
 
@@ -197,16 +212,24 @@ class LiveViewer(Viewer):
                 return
             self._step(int(steps))
             self._refresh()
+            self._plot_energy()
 
     def reset(self):
         """Start again: a new ``Simulator`` from the scene (its file read again), paused."""
         with self._lock:
             self.pause()
             self._release_spring()
-            made, _, robots = _simulator_of(self._make_simulator())
+            scene = self._make_simulator()
+            if self._scene_dt is not None:
+                scene.integrator = self.integrator_dropdown.value
+                scene.dt = self._dt_choices[self.dt_dropdown.value]
+                scene.check()  # the choices were checked when offered: a changed file says so here
+            made, _, robots = _simulator_of(scene)
             if made.world.names != self.sim.world.names or robots.keys() != self.robots.keys():
                 raise InputError("the scene's bodies changed since the viewer started: start the viewer again", "scene")
             self.sim, self.robots = made, robots
+            self.steps_per_frame = max(1, int(round(1.0 / (self.frame_rate * self.sim.dt))))
+            self.step_button.hint = f"one frame: {self.steps_per_frame} steps of {self.sim.dt:g} s"
             self._start_recording()
             self._show_controls()  # the scene's own controls again
             self.error = None
@@ -214,6 +237,7 @@ class LiveViewer(Viewer):
             self.real_time_factor = 0.0
             self._force_max = 0.0
             self._refresh()
+            self._plot_energy()
 
     def push(self, body, point=None, direction=(0.0, 0.0, 1.0), speed: float | None = None):
         """Push a dynamic body: an impulse ``J = m speed d / |d|`` (N s, world) at ``point`` ((3,) m,
@@ -359,6 +383,9 @@ class LiveViewer(Viewer):
                         return
                     self._refresh()
                     self._measure_rate(now)
+                    if now - self._plotted_at >= ENERGY_PLOT_PERIOD_S:
+                        self._plot_energy()
+                        self._plotted_at = now
             except Exception:  # the server was stopped under us
                 if self._stop_event.is_set():
                     return
@@ -441,6 +468,28 @@ class LiveViewer(Viewer):
                                                     initial_value=PUSH_SPEED, hint="the speed a push gives the body")
             self.release_button = gui.add_button("Release", visible=False, hint="let go of the grabbed body")
 
+        if self._scene_dt is not None:
+            from ..integrators import INTEGRATOR_IDS
+
+            self._dt_choices = self._dt_options()
+            with gui.add_folder("Integration"):
+                self.integrator_dropdown = gui.add_dropdown(
+                    "Integrator", tuple(INTEGRATOR_IDS), initial_value=self._scene_integrator,
+                    hint="taken at the next Reset (docs/integrators.md)")
+                self.dt_dropdown = gui.add_dropdown("dt", tuple(self._dt_choices),
+                                                    initial_value=next(iter(k for k, v in self._dt_choices.items()
+                                                                            if v == self._scene_dt)),
+                                                    hint="the step, taken at the next Reset")
+                gui.add_markdown("*Taken at the next Reset.*")
+        with gui.add_folder("Energy"):
+            import viser.uplot as uplot
+
+            self.energy_plot = gui.add_uplot(
+                data=self._energy_data(empty=True),
+                series=(uplot.Series(label="t (s)"), uplot.Series(label="kinetic (J)", stroke="#d62728", width=1.5),
+                        uplot.Series(label="potential (J)", stroke="#1f77b4", width=1.5),
+                        uplot.Series(label="total (J)", stroke="#2ca02c", width=2)),
+                scales={"x": uplot.Scale(time=False)}, title="energy of the recorded frames", aspect=1.6)
         self.control_sliders = {}  # (robot, actuator) -> slider
         actuated = [(r, name, a) for r, robot in self.robots.items() for name, a in robot.actuators.items()]
         if actuated:
@@ -470,7 +519,10 @@ class LiveViewer(Viewer):
 
         @self.reset_button.on_click
         def _(_event):
-            self.reset()
+            try:
+                self.reset()
+            except InputError as err:  # the scene file changed, or an integrator it refuses: said, not raised
+                self.time_text.content = self._status_text(0) + f"\n\n**Not reset:** {err}"
 
         @self.save_button.on_click
         def _(_event):
@@ -482,6 +534,41 @@ class LiveViewer(Viewer):
         @self.release_button.on_click
         def _(_event):
             self.release()
+
+    def _dt_options(self) -> dict:
+        """{label: dt} of the steps offered: the scene's dt times ``DT_FACTORS`` that divide a frame
+        into whole steps (the scene file's own check)."""
+        from ..scene import _check_settings
+
+        period = 1.0 / self.frame_rate
+        options = {}
+        for factor in DT_FACTORS:
+            dt = self._scene_dt * factor
+            try:
+                _check_settings(1.0 / self.frame_rate, self.frame_rate, dt, "rk4", 1, 1.0, 1.0)
+            except InputError:
+                continue
+            steps = int(round(period / dt))
+            rate = 1.0 / dt
+            text = f"1/{rate:.0f} s" if abs(rate - round(rate)) < 1e-9 * rate else f"{dt:.6g} s"
+            label = f"{text}, {steps} a frame" + (" (the scene's)" if factor == 1.0 else "")
+            options[label] = dt
+        return options
+
+    def _energy_data(self, empty: bool = False) -> tuple:
+        """(t, kinetic, potential, total) of the last ``ENERGY_PLOT_FRAMES`` recorded frames."""
+        if empty:
+            return tuple(np.zeros(1) for _ in range(4))
+        rec = self._recorder
+        k = rec.count
+        first = max(0, k - ENERGY_PLOT_FRAMES)
+        t = rec.arrays["time"][first:k].copy()
+        kinetic = rec.arrays["kinetic_energy"][first:k].copy()
+        potential = rec.arrays["potential_energy"][first:k].copy()
+        return t, kinetic, potential, kinetic + potential
+
+    def _plot_energy(self):
+        self.energy_plot.data = self._energy_data()
 
     def set_control(self, robot: str, actuator: str, value: float):
         """Set an actuator's control (MuJoCo's ``data.ctrl``; ``Robot.set_controls``) from the next
