@@ -106,11 +106,16 @@ def view(traj_or_scene_path, host: str = "127.0.0.1", port: int = 8080, open_bro
         raise InputError(f"expected a Trajectory or a file path, got {type(traj_or_scene_path).__name__}", "traj_or_scene_path")
     viewer = Viewer(traj, host=host, port=port, play=play, extras=extras)
     if open_browser:
-        try:
-            webbrowser.open(viewer.url)
-        except (webbrowser.Error, OSError):  # no browser here: the URL is still there to copy
-            pass
+        open_in_browser(viewer.url)
     return viewer
+
+
+def open_in_browser(url: str):
+    """Open ``url`` in the system's browser, if there is one (the URL is printed anyway)."""
+    try:
+        webbrowser.open(url)
+    except (webbrowser.Error, OSError):  # no browser here: the URL is still there to copy
+        pass
 
 
 def _check_trajectory(traj: Trajectory):
@@ -566,6 +571,10 @@ class Viewer:
             value = self.body_dropdown.value
             self.select(None if value == "(none)" else int(value.split(":", 1)[0]))
 
+    def _wire_play_pause(self):
+        self.play_button.on_click(lambda _event: self.play())
+        self.pause_button.on_click(lambda _event: self.pause())
+
     def _contact_data(self) -> tuple[bool, bool, str]:
         """(contact points to draw, contact forces to draw, what they come from) for the toggles."""
         return "contact_point" in self.contacts, "contact_force" in self.contacts, "this trajectory"
@@ -582,14 +591,7 @@ class Viewer:
                                                hint="playback speed, times real time")
             self.loop_checkbox = gui.add_checkbox("Loop", initial_value=True)
             self.time_text = gui.add_markdown("")
-
-        @self.play_button.on_click
-        def _(_event):
-            self.play()
-
-        @self.pause_button.on_click
-        def _(_event):
-            self.pause()
+        self._wire_play_pause()
 
         @self.frame_slider.on_update
         def _(_event):

@@ -46,7 +46,7 @@ def _port(text: str) -> int:
 
 def cmd_view(args, wait=None) -> int:
     """Run the viewer until Ctrl-C. ``wait`` (tests) replaces the blocking wait."""
-    from .app import Viewer, check_address, load_input
+    from .app import Viewer, check_address, load_input, open_in_browser
 
     if importlib.util.find_spec("viser") is None:
         raise InputError("needs viser: pip install 'tumble[viewer]'", None, "tumble view") from None
@@ -73,12 +73,7 @@ def cmd_view(args, wait=None) -> int:
                 print(f"tumble view: {args.target}: {viewer.body_count} bodies, {what} at "
                       f"{viewer.url} (Ctrl-C to stop)", flush=True)
                 if not args.no_browser:
-                    import webbrowser
-
-                    try:
-                        webbrowser.open(viewer.url)
-                    except (webbrowser.Error, OSError):  # no browser here: the URL is printed above
-                        pass
+                    open_in_browser(viewer.url)
                 (wait or _wait_forever)()
         except KeyboardInterrupt:
             pass

@@ -50,7 +50,7 @@ from ..forces import Drag, Spring
 from .. import checks
 from ..recording import _Recorder, frame_values, static_values
 from ..trajectory import Trajectory
-from .app import SCENE_SUFFIXES, Viewer, check_address
+from .app import SCENE_SUFFIXES, Viewer, check_address, open_in_browser
 
 LIVE_TICK_S = 1.0 / 60.0  # s of wall time between pose updates when the steps keep up
 TICK_BUDGET_S = 0.05  # s of wall time a tick may step before it sends poses (a slow scene still shows motion)
@@ -100,12 +100,7 @@ def live(scene, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = 
         raise InputError(f"expected a scene file or a function returning a Simulator, got {type(scene).__name__}", "scene")
     viewer = LiveViewer(make, host=host, port=port, play=play, frame_rate=frame_rate, label=label, out=out)
     if open_browser:
-        import webbrowser
-
-        try:
-            webbrowser.open(viewer.url)
-        except (webbrowser.Error, OSError):  # no browser here: the URL is still there to copy
-            pass
+        open_in_browser(viewer.url)
     return viewer
 
 
@@ -504,13 +499,7 @@ class LiveViewer(Viewer):
                     slider.on_update(lambda _event, key=(robot_name, name): self._control_moved(key))
                     self.control_sliders[(robot_name, name)] = slider
 
-        @self.play_button.on_click
-        def _(_event):
-            self.play()
-
-        @self.pause_button.on_click
-        def _(_event):
-            self.pause()
+        self._wire_play_pause()
 
         @self.step_button.on_click
         def _(_event):
