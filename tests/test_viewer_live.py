@@ -336,8 +336,38 @@ def test_actuator_sliders_set_the_controls_a_plain_run_would(tmp_path):
         assert v.robots["turntable"].actuators["spin"].ctrl == 3.0
         v.reset()
         assert slider.value == 1.2 and v.robots["turntable"].actuators["spin"].ctrl == 1.2
-        with pytest.raises(InputError, match="no actuator"):
+        with pytest.raises(InputError, match="no actuator or driven joint"):
             v.set_control("turntable", "lift", 1.0)
+    finally:
+        v.stop()
+
+
+def test_drive_sliders_set_a_urdf_robots_motor_and_targets_as_a_plain_run_would():
+    """A URDF robot's driven joints get a slider each (PyBullet's debug parameters feeding
+    setJointMotorControl2): the motor's speed, the PD drives' targets (over the joints' limits),
+    with the scene's gains and force limits: the bits of a plain run given the same commands."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "robot_arm.toml"
+    v = live(path, port=free_port(), play=False)
+    try:
+        sliders = {name: (s.label, s.min, s.max, s.value) for (_robot, name), s in v.control_sliders.items()}
+        assert sliders == {"yaw": ("yaw speed (rad/s)", -3.0, 3.0, 1.5),  # twice the speed given
+                           "shoulder": ("shoulder target (rad)", -2.0, 2.0, 1.2),  # the URDF's limits
+                           "elbow": ("elbow target (rad)", -2.5, 2.5, 0.9)}
+        v.advance(10)
+        v.set_control("arm", "shoulder", 0.5)
+        v.set_control("arm", "yaw", -1.0)
+        v.advance(30)
+        scene = tb.load_scene(path)
+        sim = scene.simulator()
+        sim.step(10)
+        scene.robots["arm"].set_position_target(sim, "shoulder", 0.5, 400.0, 40.0)
+        scene.robots["arm"].set_motor(sim, "yaw", -1.0, max_force=20.0)
+        sim.step(30)
+        assert np.array_equal(v.world.pack(), sim.world.pack())
+        v.reset()
+        assert {name: s.value for (_r, name), s in v.control_sliders.items()} == {"yaw": 1.5, "shoulder": 1.2, "elbow": 0.9}
     finally:
         v.stop()
 

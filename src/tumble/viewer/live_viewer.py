@@ -31,7 +31,8 @@ body quantities and toggles it shares):
   plot of the kinetic, potential and total energy of the recorded frames (the drift an
   integrator leaves shows at once);
 * "Controls": a slider per actuator of the scene's MJCF models (over its ``ctrlrange``,
-  -1 .. 1 when unlimited, as MuJoCo's viewer), ``Robot.set_controls`` when moved.
+  -1 .. 1 when unlimited, as MuJoCo's viewer), ``Robot.set_controls`` when moved; a slider per
+  driven joint of a URDF robot (its motor's speed or its PD drive's target).
 
 A step that blows up (``SimulationError``) pauses the run at the last good state and
 shows the error's line in the status.
@@ -485,17 +486,14 @@ class LiveViewer(Viewer):
                         uplot.Series(label="potential (J)", stroke="#1f77b4", width=1.5),
                         uplot.Series(label="total (J)", stroke="#2ca02c", width=2)),
                 scales={"x": uplot.Scale(time=False)}, title="energy of the recorded frames", aspect=1.6)
-        self.control_sliders = {}  # (robot, actuator) -> slider
-        actuated = [(r, name, a) for r, robot in self.robots.items() for name, a in robot.actuators.items()]
-        if actuated:
+        self.control_sliders = {}  # (robot, actuator or joint) -> slider
+        controls = self._controls()
+        if controls:
             with gui.add_folder("Controls"):
-                for robot_name, name, actuator in actuated:
-                    # MuJoCo's viewer: a slider per actuator over its ctrlrange, -1 .. 1 when unlimited
-                    low, high = actuator.ctrlrange if actuator.ctrlrange is not None else (-1.0, 1.0)
+                for robot_name, name, what, low, high, value, hint in controls:
                     label = name if len(self.robots) == 1 else f"{robot_name}/{name}"
-                    slider = gui.add_slider(label, min=float(low), max=float(high), step=(high - low) / 200,
-                                            initial_value=float(np.clip(actuator.ctrl, low, high)),
-                                            hint=f"{actuator.kind} actuator on {actuator.joint or 'a tendon'}: its ctrl")
+                    slider = gui.add_slider(f"{label} {what}".strip(), min=low, max=high, step=(high - low) / 200,
+                                            initial_value=float(np.clip(value, low, high)), hint=hint)
                     slider.on_update(lambda _event, key=(robot_name, name): self._control_moved(key))
                     self.control_sliders[(robot_name, name)] = slider
 
@@ -559,27 +557,76 @@ class LiveViewer(Viewer):
     def _plot_energy(self):
         self.energy_plot.data = self._energy_data()
 
-    def set_control(self, robot: str, actuator: str, value: float):
-        """Set an actuator's control (MuJoCo's ``data.ctrl``; ``Robot.set_controls``) from the next
-        step on, as its slider in "Controls" does."""
-        slider = self.control_sliders.get((robot, actuator))
+    def _controls(self) -> list:
+        """What the "Controls" folder offers: (robot, name, what, low, high, value, hint) rows.
+
+        An MJCF model: each actuator (MuJoCo's viewer: its ctrl over its ctrlrange, -1 .. 1
+        when unlimited). A robot without actuators (a URDF): each joint the scene drives, its
+        velocity motor's speed (PyBullet's VELOCITY_CONTROL; over the URDF's velocity limit, else
+        twice the speed given and at least 1) or its PD drive's target (POSITION_CONTROL; over the
+        joint's limits, else a turn or a metre either way), with the scene's gains and force limits.
+        """
+        from ..joints import HingeJoint, P_MOTOR_ON, P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
+
+        rows = []
+        for robot_name, robot in self.robots.items():
+            if robot.actuators:
+                for name, a in robot.actuators.items():
+                    low, high = a.ctrlrange if a.ctrlrange is not None else (-1.0, 1.0)
+                    rows.append((robot_name, name, "", float(low), float(high), a.ctrl,
+                                 f"{a.kind} actuator on {a.joint or 'a tendon'}: its ctrl"))
+                continue
+            for name, record in robot.joints.items():
+                p = getattr(getattr(record, "bound", None), "param", None)
+                if p is None:
+                    continue
+                urdf = robot._urdf_joint(name)
+                unit = "rad" if isinstance(record, HingeJoint) else "m"
+                if p[P_MOTOR_ON]:
+                    top = urdf.velocity or max(2.0 * abs(p[P_MOTOR_SPEED]), 1.0)
+                    rows.append((robot_name, name, f"speed ({unit}/s)", -float(top), float(top), p[P_MOTOR_SPEED],
+                                 "its velocity motor's speed (set_motor)"))
+                elif p[P_STIFFNESS] > 0.0:
+                    span = math.pi if unit == "rad" else 1.0
+                    low = urdf.lower if urdf.lower is not None else min(-span, p[P_TARGET])
+                    high = urdf.upper if urdf.upper is not None else max(span, p[P_TARGET])
+                    rows.append((robot_name, name, f"target ({unit})", float(low), float(high), p[P_TARGET],
+                                 "its PD drive's target (set_position_target)"))
+        return rows
+
+    def set_control(self, robot: str, name: str, value: float):
+        """Set an MJCF actuator's control (MuJoCo's ``data.ctrl``; ``Robot.set_controls``), or a
+        driven URDF joint's motor speed or drive target, from the next step on, as its slider
+        in "Controls" does (the value clipped to the slider's range)."""
+        slider = self.control_sliders.get((robot, name))
         if slider is None:
-            raise InputError(f"no actuator {actuator!r} of a robot {robot!r} in this scene", "controls")
-        slider.value = float(value)  # its callback sets the control
+            raise InputError(f"no actuator or driven joint {name!r} of a robot {robot!r} in this scene", "controls")
+        slider.value = float(np.clip(value, slider.min, slider.max))  # its callback sets the control
 
     def _control_moved(self, key):
+        from ..joints import (P_DAMPING, P_MAX_DRIVE, P_MAX_MOTOR, P_MOTOR_ON, P_STIFFNESS)
+
         robot_name, name = key
         with self._lock:
             if self._internal_update:
                 return
-            self.robots[robot_name].set_controls(self.sim, {name: float(self.control_sliders[key].value)})
+            robot, value = self.robots[robot_name], float(self.control_sliders[key].value)
+            if robot.actuators:
+                robot.set_controls(self.sim, {name: value})
+                return
+            p = robot.joints[name].bound.param
+            if p[P_MOTOR_ON]:
+                robot.set_motor(self.sim, name, value, max_force=float(p[P_MAX_MOTOR]))
+            else:
+                robot.set_position_target(self.sim, name, value, float(p[P_STIFFNESS]), float(p[P_DAMPING]),
+                                          max_force=float(p[P_MAX_DRIVE]))
 
     def _show_controls(self):
-        """Put each control slider at its actuator's ctrl (after a reset: the scene's own)."""
+        """Put each control slider at its control's value (after a reset: the scene's own)."""
         self._internal_update = True
         try:
-            for (robot_name, name), slider in self.control_sliders.items():
-                slider.value = float(self.robots[robot_name].actuators[name].ctrl)
+            for robot_name, name, _what, _low, _high, value, _hint in self._controls():
+                self.control_sliders[(robot_name, name)].value = float(value)
         finally:
             self._internal_update = False
 
