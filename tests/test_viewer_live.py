@@ -485,7 +485,7 @@ def test_a_click_in_the_browser_pushes_the_body_under_the_mouse(browser, scene_f
         ball = v.world.index_of("ball")
         v.click_dropdown.value = "grab"
         page.mouse.click(*project(client.camera, v.world.x[ball], VIEWPORT["width"], VIEWPORT["height"]))
-        assert wait_for(lambda: v.grabbed is not None, 10), "the click did not grab the ball"
+        assert wait_for(lambda: v.grabbed is not None and v.grab_handle is not None, 10), "the click did not grab the ball"
         assert v.grabbed[0] == ball and v.grab_handle is not None and v.release_button.visible
         anchor = np.asarray(v.grabbed[1].anchor_b)
         assert abs(np.linalg.norm(anchor - v.world.x[ball]) - 0.2) < 1e-9  # on the ball's surface

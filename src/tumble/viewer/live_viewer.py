@@ -275,9 +275,9 @@ class LiveViewer(Viewer):
             # the angular drag: critical for a body whose inertia is its mean principal moment
             inertia = float(np.mean(w.principal_moments[b.index]))
             drag = w.add_force(Drag(linear=c, angular_linear=2.0 * GRAB_DAMPING_RATIO * omega * inertia, bodies=[b.index]))
-            self.grabbed = (b.index, spring, drag)
             w.wake_requests.add(b.index)
             self._show_grab_handle(p)
+            self.grabbed = (b.index, spring, drag)  # last: whoever sees it set sees the handle too
 
     def move_grab(self, target):
         """Move the grab handle to ``target`` ((3,) m, world)."""
