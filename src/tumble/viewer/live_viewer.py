@@ -156,7 +156,7 @@ class LiveViewer(Viewer):
         self.frame_rate = float(frame_rate or scene_rate or 24.0)
         if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
             raise InputError(f"must be a positive number, got {frame_rate!r}", "frame_rate")
-        self.steps_per_frame = max(1, int(round(1.0 / (self.frame_rate * self.sim.dt))))
+        self.steps_per_frame = self._steps_per_frame()
         # A first step loads (or compiles) the scene's kernels: seconds for a robot or contacts.
         # Taken here on a twin of the scene, so that the page opens on a run that already moves.
         _simulator_of(make_simulator())[0].step(1)
@@ -224,7 +224,7 @@ class LiveViewer(Viewer):
             if made.world.names != self.sim.world.names or robots.keys() != self.robots.keys():
                 raise InputError("the scene's bodies changed since the viewer started: start the viewer again", "scene")
             self.sim, self.robots = made, robots
-            self.steps_per_frame = max(1, int(round(1.0 / (self.frame_rate * self.sim.dt))))
+            self.steps_per_frame = self._steps_per_frame()
             self.step_button.hint = f"one frame: {self.steps_per_frame} steps of {self.sim.dt:g} s"
             self._start_recording()
             self._show_controls()  # the scene's own controls again
@@ -234,6 +234,9 @@ class LiveViewer(Viewer):
             self._force_max = 0.0
             self._refresh()
             self._plot_energy()
+
+    def _steps_per_frame(self) -> int:
+        return max(1, int(round(1.0 / (self.frame_rate * self.sim.dt))))
 
     def push(self, body, point=None, direction=(0.0, 0.0, 1.0), speed: float | None = None):
         """Push a dynamic body: an impulse ``J = m speed d / |d|`` (N s, world) at ``point`` ((3,) m,
