@@ -372,6 +372,32 @@ def test_drive_sliders_set_a_urdf_robots_motor_and_targets_as_a_plain_run_would(
         v.stop()
 
 
+def test_the_camera_folder_shows_the_scenes_camera_image():
+    """A scene's camera (examples/gripper.toml's "side") is shown as ``Camera.capture`` makes it at
+    the current state: the colour image itself; the depth as grey, nearer brighter (255 the
+    nearest, 55 the farthest seen), nothing seen black."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "gripper.toml"
+    v = live(path, port=free_port(), play=False)
+    try:
+        assert list(v.cameras) == ["side"] and v.camera_frame() is None and not v.camera_image.visible
+        v.camera_dropdown.value = "side"
+        v.step_frame(3)
+        image = v.cameras["side"].capture(v.world)
+        assert v.camera_image.visible and np.array_equal(v.camera_image.image, image.rgb)
+        v.camera_kind.value = "depth"
+        grey = v.camera_image.image[..., 0]
+        seen = np.isfinite(image.depth)
+        assert seen.any() and (~seen).any() and np.all(grey[~seen] == 0)
+        d, g = image.depth[seen], grey[seen].astype(int)
+        assert g[np.argmin(d)] == 255 and g[np.argmax(d)] == 55
+        order = np.argsort(d, kind="stable")
+        assert np.all(np.diff(g[order]) <= 0)  # farther never brighter
+    finally:
+        v.stop()
+
+
 def test_playing_never_runs_ahead_of_real_time(scene_file):
     v = live(scene_file, port=free_port(), play=False)
     try:

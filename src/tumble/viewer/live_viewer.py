@@ -30,6 +30,9 @@ body quantities and toggles it shares):
   course's explicit Euler beside RK4 or the splitting, a step 4x larger or 10x smaller), and a
   plot of the kinetic, potential and total energy of the recorded frames (the drift an
   integrator leaves shows at once);
+* "Cameras": the image of one of the scene's cameras (its ``[[cameras]]``, its MJCF models'
+  ``<camera>``s: ``tb.Camera.capture``, the exact ray-cast image), colour or depth, renewed five
+  times a second while running and after every step;
 * "Controls": a slider per actuator of the scene's MJCF models (over its ``ctrlrange``,
   -1 .. 1 when unlimited, as MuJoCo's viewer), ``Robot.set_controls`` when moved; a slider per
   driven joint of a URDF robot (its motor's speed or its PD drive's target).
@@ -60,6 +63,7 @@ PUSH_SPEED = 2.0  # m/s: a push's default change of speed (impulse = mass * spee
 GRAB_HERTZ = 2.0  # Hz: natural frequency of a grabbed body on the grab spring (stiffness = m (2 pi f)^2)
 GRAB_DAMPING_RATIO = 1.0  # critical: the body follows the handle without swinging past it
 CLICK_MODES = ("select", "push", "grab")
+CAMERA_PERIOD_S = 0.2  # s of wall time between a camera's images while running (a capture costs 2-40 ms)
 ENERGY_PLOT_FRAMES = 1200  # frames the energy plot shows (the last ones): 50 s at 24 fps
 ENERGY_PLOT_PERIOD_S = 0.25  # s of wall time between the energy plot's updates while running
 DT_FACTORS = (4.0, 2.0, 1.0, 0.5, 0.25, 0.1)  # the dt choices, times the scene's
@@ -112,9 +116,9 @@ def _simulator_of(made):
     from ..simulator import Simulator
 
     if isinstance(made, Scene):
-        return made.simulator(), made.frame_rate, dict(made.robots)
+        return made.simulator(), made.frame_rate, dict(made.robots), dict(made.cameras)
     if isinstance(made, Simulator):
-        return made, None, {}
+        return made, None, {}, {}
     raise InputError(f"the scene function must return a Simulator or a Scene, got {type(made).__name__}", "scene")
 
 
@@ -152,7 +156,7 @@ class LiveViewer(Viewer):
 
         if isinstance(made, Scene):
             self._scene_dt, self._scene_integrator = made.dt, made.integrator
-        self.sim, scene_rate, self.robots = _simulator_of(made)
+        self.sim, scene_rate, self.robots, self.cameras = _simulator_of(made)
         self.frame_rate = float(frame_rate or scene_rate or 24.0)
         if not (math.isfinite(self.frame_rate) and self.frame_rate > 0):
             raise InputError(f"must be a positive number, got {frame_rate!r}", "frame_rate")
@@ -171,6 +175,7 @@ class LiveViewer(Viewer):
         self._rate_window: list[tuple[float, float]] = []  # (wall time, simulated time) over the last second
         self._force_max = 0.0
         self._plotted_at = 0.0  # wall time of the energy plot's last update
+        self._captured_at = 0.0  # wall time of the camera image's last update
         super().__init__(_trajectory_now(self.sim.world), host=host, port=port, play=False)
         self._refresh()
         self._plot_energy()
@@ -209,6 +214,7 @@ class LiveViewer(Viewer):
             self._step(int(steps))
             self._refresh()
             self._plot_energy()
+            self._show_camera()
 
     def reset(self):
         """Start again: a new ``Simulator`` from the scene (its file read again), paused."""
@@ -220,7 +226,7 @@ class LiveViewer(Viewer):
                 scene.integrator = self.integrator_dropdown.value
                 scene.dt = self._dt_choices[self.dt_dropdown.value]
                 scene.check()  # the choices were checked when offered: a changed file says so here
-            made, _, robots = _simulator_of(scene)
+            made, _, robots, self.cameras = _simulator_of(scene)
             if made.world.names != self.sim.world.names or robots.keys() != self.robots.keys():
                 raise InputError("the scene's bodies changed since the viewer started: start the viewer again", "scene")
             self.sim, self.robots = made, robots
@@ -234,6 +240,7 @@ class LiveViewer(Viewer):
             self._force_max = 0.0
             self._refresh()
             self._plot_energy()
+            self._show_camera()
 
     def _steps_per_frame(self) -> int:
         return max(1, int(round(1.0 / (self.frame_rate * self.sim.dt))))
@@ -385,6 +392,9 @@ class LiveViewer(Viewer):
                     if now - self._plotted_at >= ENERGY_PLOT_PERIOD_S:
                         self._plot_energy()
                         self._plotted_at = now
+                    if now - self._captured_at >= CAMERA_PERIOD_S:
+                        self._show_camera()
+                        self._captured_at = _time.monotonic()
             except Exception:  # the server was stopped under us
                 if self._stop_event.is_set():
                     return
@@ -489,6 +499,15 @@ class LiveViewer(Viewer):
                         uplot.Series(label="potential (J)", stroke="#1f77b4", width=1.5),
                         uplot.Series(label="total (J)", stroke="#2ca02c", width=2)),
                 scales={"x": uplot.Scale(time=False)}, title="energy of the recorded frames", aspect=1.6)
+        self.camera_dropdown = self.camera_image = None
+        if self.cameras:
+            with gui.add_folder("Cameras"):
+                self.camera_dropdown = gui.add_dropdown("Camera", ("(none)", *self.cameras), initial_value="(none)",
+                                                        hint="one of the scene's cameras (tb.Camera.capture)")
+                self.camera_kind = gui.add_dropdown("Image", ("colour", "depth"), initial_value="colour")
+                self.camera_image = gui.add_image(np.zeros((2, 2, 3), np.uint8), visible=False)
+            self.camera_dropdown.on_update(lambda _event: self._show_camera())
+            self.camera_kind.on_update(lambda _event: self._show_camera())
         self.control_sliders = {}  # (robot, actuator or joint) -> slider
         controls = self._controls()
         if controls:
@@ -556,6 +575,32 @@ class LiveViewer(Viewer):
         kinetic = rec.arrays["kinetic_energy"][first:k].copy()
         potential = rec.arrays["potential_energy"][first:k].copy()
         return t, kinetic, potential, kinetic + potential
+
+    def camera_frame(self) -> np.ndarray | None:
+        """The image the "Cameras" folder shows now: (H, W, 3) uint8, the camera's ``rgb``, or its
+        ``depth`` as grey (near white, far dark, nothing black); None when no camera is chosen."""
+        if self.camera_dropdown is None or self.camera_dropdown.value == "(none)":
+            return None
+        with self._lock:
+            image = self.cameras[self.camera_dropdown.value].capture(self.sim.world)
+        if self.camera_kind.value == "colour":
+            return image.rgb
+        depth = image.depth
+        seen = np.isfinite(depth)
+        grey = np.zeros(depth.shape, np.uint8)
+        if seen.any():
+            near, far = float(depth[seen].min()), float(depth[seen].max())
+            scale = (depth[seen] - near) / (far - near) if far > near else np.zeros(int(seen.sum()))
+            grey[seen] = np.round(255 - 200 * scale).astype(np.uint8)
+        return np.repeat(grey[..., None], 3, axis=2)
+
+    def _show_camera(self):
+        if self.camera_image is None:
+            return
+        frame = self.camera_frame()
+        self.camera_image.visible = frame is not None
+        if frame is not None:
+            self.camera_image.image = frame
 
     def _plot_energy(self):
         self.energy_plot.data = self._energy_data()
