@@ -462,6 +462,17 @@ def test_cli_bad_input_is_one_line_exit_2(case, tmp_path, capsys):
     assert expected in lines[0]
 
 
+def test_load_input_runs_a_mujoco_model_as_a_scene():
+    """``tumble view model.xml`` runs the model as ``tumble run`` does (a scene of its own): the
+    frames of ``load_scene(model).run()``."""
+    import tumble as tb
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "robots" / "pendulum.xml"
+    traj, extras = load_input(path, progress=False)
+    plain = tb.load_scene(path).run(progress=False)
+    assert extras == {} and np.array_equal(traj.position, plain.position) and len(traj.time) == len(plain.time) > 1
+
+
 def test_cli_serves_a_trajectory_until_ctrl_c(tmp_path):
     path = tmp_path / "run.npz"
     make_trajectory(6).save(path)

@@ -87,7 +87,7 @@ def live(scene, host: str = "127.0.0.1", port: int = 8080, open_browser: bool = 
     """
     if isinstance(scene, (str, Path)):
         path = Path(scene)
-        if path.suffix.lower() not in SCENE_SUFFIXES + (".xml",):
+        if path.suffix.lower() not in SCENE_SUFFIXES:
             raise InputError(f"unknown file type {path.suffix!r} (the live viewer runs a scene .toml/.json or "
                              "a MuJoCo .xml; a trajectory .npz is played by tumble view without --live)", None, str(path))
         if not path.is_file():
