@@ -63,9 +63,11 @@ BENIGN_CONSOLE_ERRORS = (
     "GPU stall due to ReadPixels",
 )
 VIEWPORT = {"width": 960, "height": 640}
-# Hide every DOM element but the three.js canvas (the GUI panel and notices),
-# so that the pixels measured are the rendered scene's only.
-CANVAS_ONLY_CSS = "body * { visibility: hidden !important; } canvas { visibility: visible !important; }"
+# Hide every DOM element but the three.js canvas (the GUI panel and notices, and the energy plot's
+# own canvas inside the panel: uPlot draws on a <canvas> too), so that the pixels measured are the
+# rendered scene's only and clicks reach it.
+CANVAS_ONLY_CSS = ("body * { visibility: hidden !important; } canvas { visibility: visible !important; } "
+                   ".uplot, .uplot * { visibility: hidden !important; }")
 SRC = Path(__file__).resolve().parents[1] / "src"
 
 FRAMES = 24
@@ -460,6 +462,23 @@ def test_cli_bad_input_is_one_line_exit_2(case, tmp_path, capsys):
     assert "Traceback" not in err
     expected = {"missing": "nope.npz", "suffix": "run.txt", "bad_scene": "duration", "bad_npz": "junk.npz", "bad_host": "--host"}[case]
     assert expected in lines[0]
+
+
+def test_the_energy_plot_shows_the_runs_energy(viewer):
+    """The "Energy" folder plots each frame's kinetic, potential and total energy as the trajectory
+    has them; a run of more than 10 000 frames is plotted every k-th frame, its last one kept."""
+    t, kinetic, potential, total = viewer.energy_plot.data
+    traj = viewer.traj
+    assert np.array_equal(t, traj.time) and np.array_equal(kinetic, traj.kinetic_energy)
+    assert np.array_equal(potential, traj.potential_energy) and np.array_equal(total, kinetic + potential)
+    long = make_trajectory(25_001)
+    v = view(long, port=free_port(), play=False)
+    try:
+        t = v.energy_plot.data[0]
+        assert len(t) <= 10_001 and t[0] == long.time[0] and t[-1] == long.time[-1]
+        assert np.all(np.diff(t) > 0) and np.isin(t, long.time).all()
+    finally:
+        v.stop()
 
 
 def test_load_input_runs_a_mujoco_model_as_a_scene():

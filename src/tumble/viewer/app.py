@@ -18,6 +18,8 @@ What it shows (z up, metres, DESIGN.md's conventions):
 * picking: click a body (or choose it in the "Body" list) to see the course's
   quantities at the current frame: x, v, omega, P, L and its kinetic energy
   ``(v . P + omega . L) / 2``, beside the total kinetic and potential energy;
+* an energy plot: the kinetic, potential and total energy of every frame (``tumble plot``'s
+  first figure, in the page);
 * toggles: body axes (a frame at each centre of mass, red/green/blue = body
   x/y/z; one batched axes node for all bodies, moved only while shown), contact
   points and contact forces, the ground grid (the contacts a trajectory may carry:
@@ -52,6 +54,7 @@ PALETTE = visual.PALETTE  # body colours shared with export and video
 SELECTED_COLOR = (255, 215, 0)
 PLANE_COLOR = (120, 120, 120)
 PLAYBACK_TICK_S = 1.0 / 60.0
+ENERGY_PLOT_POINTS = 10_000  # frames the energy plot takes at most (a longer run: every k-th)
 
 
 def load_input(path, progress: bool | None = None) -> tuple[Trajectory, dict]:
@@ -523,6 +526,15 @@ class Viewer:
     def _build_gui(self):
         gui = self.server.gui
         self._build_playback_gui(gui)
+        with gui.add_folder("Energy"):
+            import viser.uplot as uplot
+
+            self.energy_plot = gui.add_uplot(
+                data=self._energy_data(),
+                series=(uplot.Series(label="t (s)"), uplot.Series(label="kinetic (J)", stroke="#d62728", width=1.5),
+                        uplot.Series(label="potential (J)", stroke="#1f77b4", width=1.5),
+                        uplot.Series(label="total (J)", stroke="#2ca02c", width=2)),
+                scales={"x": uplot.Scale(time=False)}, title="kinetic, potential and total energy", aspect=1.6)
         with gui.add_folder("Show"):
             self.axes_checkbox = gui.add_checkbox("Body axes", initial_value=False,
                                                   hint="a frame at each centre of mass: red x, green y, blue z (body axes)")
@@ -574,6 +586,15 @@ class Viewer:
     def _wire_play_pause(self):
         self.play_button.on_click(lambda _event: self.play())
         self.pause_button.on_click(lambda _event: self.pause())
+
+    def _energy_data(self) -> tuple:
+        """(t, kinetic, potential, total) (F,) of the run's frames for the energy plot (at most
+        ``ENERGY_PLOT_POINTS``: a longer run every k-th frame, its last frame kept)."""
+        F = self.frame_count
+        rows = np.arange(F) if F <= ENERGY_PLOT_POINTS else np.unique(np.r_[np.arange(0, F, -(-F // ENERGY_PLOT_POINTS)), F - 1])
+        kinetic = np.asarray(self.traj.kinetic_energy, float)[rows]
+        potential = np.asarray(self.traj.potential_energy, float)[rows]
+        return self.time[rows].copy(), kinetic, potential, kinetic + potential
 
     def _contact_data(self) -> tuple[bool, bool, str]:
         """(contact points to draw, contact forces to draw, what they come from) for the toggles."""

@@ -490,15 +490,6 @@ class LiveViewer(Viewer):
                                                                             if v == self._scene_dt)),
                                                     hint="the step, taken at the next Reset")
                 gui.add_markdown("*Taken at the next Reset.*")
-        with gui.add_folder("Energy"):
-            import viser.uplot as uplot
-
-            self.energy_plot = gui.add_uplot(
-                data=self._energy_data(empty=True),
-                series=(uplot.Series(label="t (s)"), uplot.Series(label="kinetic (J)", stroke="#d62728", width=1.5),
-                        uplot.Series(label="potential (J)", stroke="#1f77b4", width=1.5),
-                        uplot.Series(label="total (J)", stroke="#2ca02c", width=2)),
-                scales={"x": uplot.Scale(time=False)}, title="energy of the recorded frames", aspect=1.6)
         self.camera_dropdown = self.camera_image = None
         if self.cameras:
             with gui.add_folder("Cameras"):
@@ -564,10 +555,8 @@ class LiveViewer(Viewer):
             options[label] = dt
         return options
 
-    def _energy_data(self, empty: bool = False) -> tuple:
+    def _energy_data(self) -> tuple:
         """(t, kinetic, potential, total) of the last ``ENERGY_PLOT_FRAMES`` recorded frames."""
-        if empty:
-            return tuple(np.zeros(1) for _ in range(4))
         rec = self._recorder
         k = rec.count
         first = max(0, k - ENERGY_PLOT_FRAMES)
