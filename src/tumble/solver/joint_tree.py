@@ -153,6 +153,39 @@ def _invert6(A, out):
 
 
 @njit(**NO_NRT)
+def _invert3(A, out):
+    """out[:3, :3] = A[:3, :3]^-1 by ``_invert6``'s steps on the 3x3 block: the bits ``_invert6`` gives
+    for the block-diagonal (A, identity) a body node's inertia makes (its pivots never leave the
+    block, and the identity's rows and columns add and scale only zeros), at an eighth of the work.
+    A is overwritten. False if singular (out as ``_invert6`` leaves it)."""
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = 1.0 if r == c else 0.0
+    for c in range(3):
+        p = c
+        for r in range(c + 1, 3):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if A[p, c] == 0.0:
+            return False
+        if p != c:
+            for k in range(3):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+                out[c, k], out[p, k] = out[p, k], out[c, k]
+        inv = 1.0 / A[c, c]
+        for k in range(3):
+            A[c, k] *= inv
+            out[c, k] *= inv
+        for r in range(3):
+            if r != c and A[r, c] != 0.0:
+                f = A[r, c]
+                for k in range(3):
+                    A[r, k] -= f * A[c, k]
+                    out[r, k] -= f * out[c, k]
+    return True
+
+
+@njit(**NO_NRT)
 def _project_accumulated(j, t, a, b, x, R, local_a, local_b, m, Jb, inv_mass, I_inv, v, omega,
                          linear_impulse, angular_impulse):
     """Put joint j's accumulated angular (hinge: 2 rows, universal: 1) and linear (slider: 2
@@ -265,10 +298,8 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
             for r in range(3):
                 for c in range(3):
                     work[r, c] = I_inv[i, r, c]
-                    work[r + 3, c] = 0.0
-                    work[r, c + 3] = 0.0
-                    work[r + 3, c + 3] = 1.0 if r == c else 0.0
-            _invert6(work, Dinv[k])
+            # PERF: I_world by the 3x3 block alone (the same bits as the 6x6 of (I_inv, identity))
+            _invert3(work, Dinv[k])
             for r in range(3):
                 for c in range(3):
                     D[k, 3 + r, 3 + c] = Dinv[k, r, c]
