@@ -123,66 +123,47 @@ def _joint_rows(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, Ja,
 
 
 @njit(**NO_NRT)
-def _invert6(A, out):
-    """out = A^-1 for a 6x6 A (Gauss-Jordan, partial pivoting); A is overwritten. False if singular."""
-    for r in range(6):
-        for c in range(6):
+def _gauss_jordan(A, out, n):
+    """out[:n, :n] = A[:n, :n]^-1 (Gauss-Jordan, partial pivoting); A is overwritten. False if singular."""
+    for r in range(n):
+        for c in range(n):
             out[r, c] = 1.0 if r == c else 0.0
-    for c in range(6):
+    for c in range(n):
         p = c
-        for r in range(c + 1, 6):
+        for r in range(c + 1, n):
             if abs(A[r, c]) > abs(A[p, c]):
                 p = r
         if A[p, c] == 0.0:
             return False
         if p != c:
-            for k in range(6):
+            for k in range(n):
                 A[c, k], A[p, k] = A[p, k], A[c, k]
                 out[c, k], out[p, k] = out[p, k], out[c, k]
         inv = 1.0 / A[c, c]
-        for k in range(6):
+        for k in range(n):
             A[c, k] *= inv
             out[c, k] *= inv
-        for r in range(6):
+        for r in range(n):
             if r != c and A[r, c] != 0.0:
                 f = A[r, c]
-                for k in range(6):
+                for k in range(n):
                     A[r, k] -= f * A[c, k]
                     out[r, k] -= f * out[c, k]
     return True
 
 
 @njit(**NO_NRT)
+def _invert6(A, out):
+    """out = A^-1 for a 6x6 A (``_gauss_jordan``); A is overwritten. False if singular."""
+    return _gauss_jordan(A, out, 6)
+
+
+@njit(**NO_NRT)
 def _invert3(A, out):
-    """out[:3, :3] = A[:3, :3]^-1 by ``_invert6``'s steps on the 3x3 block: the bits ``_invert6`` gives
-    for the block-diagonal (A, identity) a body node's inertia makes (its pivots never leave the
-    block, and the identity's rows and columns add and scale only zeros), at an eighth of the work.
-    A is overwritten. False if singular (out as ``_invert6`` leaves it)."""
-    for r in range(3):
-        for c in range(3):
-            out[r, c] = 1.0 if r == c else 0.0
-    for c in range(3):
-        p = c
-        for r in range(c + 1, 3):
-            if abs(A[r, c]) > abs(A[p, c]):
-                p = r
-        if A[p, c] == 0.0:
-            return False
-        if p != c:
-            for k in range(3):
-                A[c, k], A[p, k] = A[p, k], A[c, k]
-                out[c, k], out[p, k] = out[p, k], out[c, k]
-        inv = 1.0 / A[c, c]
-        for k in range(3):
-            A[c, k] *= inv
-            out[c, k] *= inv
-        for r in range(3):
-            if r != c and A[r, c] != 0.0:
-                f = A[r, c]
-                for k in range(3):
-                    A[r, k] -= f * A[c, k]
-                    out[r, k] -= f * out[c, k]
-    return True
+    """out[:3, :3] = A[:3, :3]^-1 by ``_gauss_jordan``: the bits ``_invert6`` gives for the
+    block-diagonal (A, identity) a body node's inertia makes (its pivots never leave the block, and
+    the identity's rows and columns add and scale only zeros), at an eighth of the work."""
+    return _gauss_jordan(A, out, 3)
 
 
 @njit(**NO_NRT)
