@@ -52,7 +52,7 @@ import numpy as np
 from ..errors import InputError, SimulationError
 from ..forces import Drag, Spring
 from .. import checks
-from ..recording import _Recorder, frame_values, static_values
+from ..recording import _Recorder, frame_values
 from ..trajectory import Trajectory
 from .app import SCENE_SUFFIXES, Viewer, check_address, open_in_browser
 
@@ -122,12 +122,6 @@ def _simulator_of(made):
     raise InputError(f"the scene function must return a Simulator or a Scene, got {type(made).__name__}", "scene")
 
 
-def _trajectory_now(world) -> Trajectory:
-    """A one-frame ``Trajectory`` of the world as it is: the arrays the viewer draws from."""
-    frame = {key: np.array(value, dtype=float)[None].copy() for key, value in frame_values(world).items()}
-    return Trajectory(**frame, **static_values(world))
-
-
 class LiveViewer(Viewer):
     """A running live viewer: use ``live()`` to make one; ``stop()`` ends it.
 
@@ -176,7 +170,10 @@ class LiveViewer(Viewer):
         self._force_max = 0.0
         self._plotted_at = 0.0  # wall time of the energy plot's last update
         self._captured_at = 0.0  # wall time of the camera image's last update
-        super().__init__(_trajectory_now(self.sim.world), host=host, port=port, play=False)
+        # the recording's first frame (one copy of it) is the one-frame trajectory the viewer draws from
+        super().__init__(self._recorder.trajectory(), host=host, port=port, play=False)
+        assert self.position is self.traj.position and self.orientation is self.traj.orientation \
+            and self.time is self.traj.time  # see _refresh
         self._refresh()
         self._plot_energy()
         if play:
@@ -410,14 +407,10 @@ class LiveViewer(Viewer):
 
     def _refresh(self):
         """Copy the world's state into the one-frame arrays and send the poses."""
-        values = frame_values(self.sim.world)
-        t = self.traj
-        self.time[0] = t.time[0] = values["time"]
-        for key, value in values.items():
-            if key != "time":
-                getattr(t, key)[0] = value
-        self.position[0] = values["position"]
-        self.orientation[0] = values["orientation"]
+        # the viewer's time, position and orientation are the trajectory's own float64 arrays
+        # (``Viewer.__init__`` takes them by np.asarray): one write serves both
+        for key, value in frame_values(self.sim.world).items():
+            getattr(self.traj, key)[0] = value
         if self.contact_points_checkbox.value or self.contact_forces_checkbox.value:
             self._read_contacts()
         self._show_frame(0)
