@@ -80,10 +80,12 @@ cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` le
 ``mj_resetDataKeyframe``).
 ``<include>``: expanded as MuJoCo does (``mjcf_xml``: the included file's top-level children in
 its place, paths from the main file's directory; repeated worldbody and compiler sections merged).
+``<frame>``: its bodies, geoms, joints, sites, cameras and frames placed in its pose, with its
+``childclass`` (``mjcf_xml.framed``), as MuJoCo places them.
 Refused with one line: ``<equality>`` other than connect, weld and joint (tendon,
 flex; between sites; a weld's ``relpose``), spatial tendons and fixed ones with a range,
 stiffness, damping or friction loss, position, velocity and biased actuators on tendons,
-``<contact><pair>``, ``<frame>``,
+``<contact><pair>``,
 ``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
 hfield and sdf geoms, a free joint beside another joint, and unknown joint or geom types.
 """
@@ -116,7 +118,7 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
 )
 from .mjcf_control import floats as _floats
 from .mjcf_sensors import _camera, _sites_and_cameras, read_sensors
-from .mjcf_xml import read_model_xml
+from .mjcf_xml import GENERATORS, check_tag as _check_tag, framed, place, read_model_xml  # noqa: F401
 from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
@@ -126,8 +128,6 @@ DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
 VIRTUAL_FRACTION = 1e-3
 GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "mesh")
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
-# elements of <worldbody>/<body> that make bodies or geoms of their own: refused, not dropped without a word
-GENERATORS = ("frame", "replicate", "composite", "flexcomp", "attach")
 
 
 @dataclass
@@ -406,12 +406,13 @@ def _read(path: Path) -> MjcfModel:
         raise InputError("missing <worldbody>", "mujoco")
     names: set = {"world"}
     joint_names: set = set()
-    for k, g in enumerate(worldbody.findall("geom")):
-        a = reader.attributes(g, "main")
+    for k, (g, cls, frame) in enumerate(framed(reader, worldbody, ("geom",), "main", "worldbody")):
+        a = reader.attributes(g, cls)
         name = a.get("name", f"geom{k}")
         if any(s.name == name for s in out.statics):
             raise InputError("duplicate geom name", f"worldbody.geom[{name}]")
         shape, position, R, collides, friction = _geom(reader, a, f"worldbody.geom[{name}]", meshes)
+        position, R = place(frame, position, R)
         if collides:
             out.statics.append(MjcfStatic(name, shape, position, R, friction))
             out.masks[f"world/{name}"] = [_masks(a, f"worldbody.geom[{name}]")]
@@ -419,8 +420,8 @@ def _read(path: Path) -> MjcfModel:
         _check_tag(child, "worldbody")
     _sites_and_cameras(reader, worldbody, "main", "worldbody", "world", np.zeros(3), out)
     counter = [0]
-    for b in worldbody.findall("body"):
-        _body(reader, b, "world", "main", np.zeros(3), out, meshes, names, joint_names, counter)
+    for b, cls, frame in framed(reader, worldbody, ("body",), "main", "worldbody"):
+        _body(reader, b, "world", cls, np.zeros(3), out, meshes, names, joint_names, counter, frame)
     _tendons(reader, root, out, joint_names)
     _actuators(reader, root, out, joint_names)
     _equalities(reader, root, out, names)
@@ -439,15 +440,11 @@ def _read(path: Path) -> MjcfModel:
     return out
 
 
-def _check_tag(child, where: str):
-    if child.tag in GENERATORS:
-        raise InputError(f"<{child.tag}> is not supported (write its bodies and geoms out)", f"{where}.{child.tag}")
-
-
 def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfModel, meshes, names, joint_names,
-          counter):
+          counter, frame=None):
     """Add one ``<body>`` (and its subtree) as a link; ``shift`` (3,): the parent link frame's
-    origin in the parent body's frame (its joint's ``pos``)."""
+    origin in the parent body's frame (its joint's ``pos``); ``frame``: the pose of the ``<frame>``
+    holding it in the parent body's frame (``mjcf_xml.framed``), None outside frames."""
     counter[0] += 1
     name = element.get("name") or f"body{counter[0]}"
     key = f"body[{name}]"
@@ -457,14 +454,14 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
     cls = element.get("childclass", cls)
     if cls not in reader.classes:
         raise InputError(f"unknown default class {cls!r}", f"{key}.childclass")
-    position, R = reader.pose(element.attrib, key)
+    position, R = place(frame, *reader.pose(element.attrib, key))
     position = position - shift
     for child in element:
         _check_tag(child, key)
     link = UrdfLink(name)
     specs = []  # (joint name, key, kind, attributes, anchor (3,) body frame)
-    for je in (j for j in element if j.tag in ("joint", "freejoint")):
-        a = reader.attributes(je, cls) if je.tag == "joint" else {"type": "free", **je.attrib}
+    for je, jcls, jframe in framed(reader, element, ("joint", "freejoint"), cls, key):
+        a = reader.attributes(je, jcls) if je.tag == "joint" else {"type": "free", **je.attrib}
         jname = a.get("name") or f"{name}_joint{len(specs) if specs else ''}"
         jkey = f"joint[{jname}]"
         if jname in joint_names:
@@ -474,8 +471,10 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
         if kind not in JOINT_TYPES:
             raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(JOINT_TYPES)})", f"{jkey}.type")
         anchor = np.zeros(3) if kind == "free" else _floats(a.get("pos", "0 0 0"), f"{jkey}.pos", (3,))
-        specs.append((jname, jkey, kind, a, anchor))
-    if len(specs) > 1 and any(kind == "free" for _, _, kind, _, _ in specs):
+        if jframe is not None and kind != "free":
+            anchor = place(jframe, anchor, np.eye(3))[0]
+        specs.append((jname, jkey, kind, a, anchor, jframe))
+    if len(specs) > 1 and any(spec[2] == "free" for spec in specs):
         raise InputError("a free joint must be its body's only joint", key)
     anchor = specs[-1][4] if specs else np.zeros(3)
     _mass_and_shapes(reader, element, cls, key, anchor, link, out, meshes)
@@ -487,9 +486,11 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
     if not specs:
         out.model.joints.append(UrdfJoint(f"{name}_weld", "fixed", parent, name, (position, R),
                                           np.array([1.0, 0.0, 0.0])))
-    for k, (jname, jkey, kind, a, at) in enumerate(specs):
+    for k, (jname, jkey, kind, a, at, jframe) in enumerate(specs):
         child = name if k == len(specs) - 1 else f"{name}/{jname}"
         joint = _joint(reader, a, jname, jkey, kind, previous, child)
+        if jframe is not None:  # the axis, given in the frame
+            joint.axis = jframe[1] @ joint.axis
         joint.origin = (position + R @ at, R) if previous_anchor is None else (at - previous_anchor, np.eye(3))
         out.model.joints.append(joint)
         if child != name:
@@ -505,8 +506,8 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
     out.model.links[name] = link
     out.anchors[name] = anchor
     _sites_and_cameras(reader, element, cls, key, name, anchor, out)
-    for b in element.findall("body"):
-        _body(reader, b, name, cls, anchor, out, meshes, names, joint_names, counter)
+    for b, bcls, frame in framed(reader, element, ("body",), cls, key):
+        _body(reader, b, name, bcls, anchor, out, meshes, names, joint_names, counter, frame)
 
 
 def _joint(reader, a, jname, jkey, kind, parent, child) -> UrdfJoint:
@@ -556,12 +557,13 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
 
     terms = []  # (mass, centre, inertia about the centre) in the link frame
     frictions = []
-    for k, g in enumerate(element.findall("geom")):
-        a = reader.attributes(g, cls)
+    for k, (g, gcls, frame) in enumerate(framed(reader, element, ("geom",), cls, key)):
+        a = reader.attributes(g, gcls)
         gkey = f"{key}.geom[{a.get('name', k)}]"
         shape, position, R, collides, friction = _geom(reader, a, gkey, meshes)
         if isinstance(shape, Plane):
             raise InputError("a plane must be a <worldbody> geom", gkey)
+        position, R = place(frame, position, R)
         position = position - anchor
         if collides:
             link.parts.append((shape, position, R))

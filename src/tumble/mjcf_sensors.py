@@ -43,6 +43,7 @@ import numpy as np
 
 from .errors import InputError
 from .mjcf_control import floats as _floats
+from .mjcf_xml import framed, place
 from .math3d import matrix_to_quat
 
 FRAME = ("framepos", "framequat", "framexaxis", "frameyaxis", "framezaxis", "framelinvel", "frameangvel")
@@ -256,13 +257,13 @@ def _sites_and_cameras(reader, element, cls: str, key: str, link: str, anchor: n
     whatever the compiler's angle; ``resolution`` its image size (default 160 x 120). Cameras
     whose ``mode`` is not ``fixed`` (tracking ones) are not read (module docstring)."""
     for tag, table in (("site", out.sites), ("camera", out.cameras)):
-        for k, e in enumerate(element.findall(tag)):
-            a = reader.attributes(e, cls)
+        for k, (e, ecls, frame) in enumerate(framed(reader, element, (tag,), cls, key)):
+            a = reader.attributes(e, ecls)
             name = a.get("name") or f"{link}_{tag}{k}"
             ekey = f"{key}.{tag}[{name}]"
             if name in table:
                 raise InputError(f"duplicate {tag} name", ekey)
-            position, R = reader.pose(a, ekey)
+            position, R = place(frame, *reader.pose(a, ekey))
             if tag == "site":
                 table[name] = (link, position - anchor, R)
                 size = _floats(a.get("size", "0.005"), f"{ekey}.size", (1, 2, 3))

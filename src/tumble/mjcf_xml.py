@@ -8,6 +8,11 @@ is an error (which also stops a cycle). The layout of MuJoCo Menagerie's models:
 (floor, lights) includes the robot's file. After the expansion a model can hold several
 ``<worldbody>`` and ``<compiler>`` sections: the worldbodies' children are joined in file order
 into the first, and the compilers' attributes too (a later one's win), as MuJoCo reads them.
+
+``<frame>`` (XML reference, ``frame``): a pose (``pos`` and one orientation) and a ``childclass``
+for the bodies, geoms, joints, sites, cameras and frames it holds, which MuJoCo places in the
+frame's pose within the body that holds the frame; it makes no body of its own. ``framed`` walks an
+element's children and those inside its frames, and gives each its frame's pose and class.
 """
 
 from __future__ import annotations
@@ -19,6 +24,48 @@ from .errors import InputError
 from .urdf_read import read_xml
 
 MAX_INCLUDED_FILES = 256
+# elements of <worldbody>/<body> that make bodies or geoms of their own: refused, not dropped without a word
+GENERATORS = ("replicate", "composite", "flexcomp", "attach")
+
+
+def check_tag(child: ET.Element, where: str):
+    """InputError for a generator element (``GENERATORS``): tumble does not expand them."""
+    if child.tag in GENERATORS:
+        raise InputError(f"<{child.tag}> is not supported (write its bodies and geoms out)", f"{where}.{child.tag}")
+
+
+def framed(reader, element: ET.Element, tags: tuple, cls: str, key: str):
+    """Yield (child, default class, frame) for each child of ``element`` whose tag is in ``tags``,
+    and for each such child of its ``<frame>`` elements (nested ones too), in the file's order.
+
+    ``frame`` is None for a direct child, else (position (3,), R (3, 3)): the pose of the frame the
+    child sits in, in ``element``'s frame (the frames' poses composed, outermost first); place the
+    child with ``place``. The class is ``cls``, or the nearest enclosing frame's ``childclass``.
+    ``reader`` reads poses (``reader.pose``: the compiler's angle unit and Euler sequence) and knows
+    the default classes (``reader.classes``). Generators inside frames are refused (``check_tag``).
+    """
+    def walk(parent, cls, frame, where):
+        for k, child in enumerate(parent):
+            if child.tag in tags:
+                yield child, cls, frame
+            elif child.tag == "frame":
+                fkey = f"{where}.frame[{child.get('name') or k}]"
+                fcls = child.get("childclass", cls)
+                if fcls not in reader.classes:
+                    raise InputError(f"unknown default class {fcls!r}", f"{fkey}.childclass")
+                for inner in child:
+                    check_tag(inner, fkey)
+                yield from walk(child, fcls, place(frame, *reader.pose(child.attrib, fkey)), fkey)
+
+    yield from walk(element, cls, None, key)
+
+
+def place(frame, position, R) -> tuple:
+    """(position (3,), R (3, 3)) of a pose given in ``frame`` (None: already in the parent's frame,
+    returned as it is; else (position (3,), R (3, 3)) of the frame in the parent's)."""
+    if frame is None:
+        return position, R
+    return frame[0] + frame[1] @ position, frame[1] @ R
 
 
 def read_model_xml(path: Path) -> ET.Element:

@@ -291,8 +291,12 @@ def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path,
     ("<robot/>", "expected a <mujoco> element"),
     ("<mujoco><worldbody>", "invalid XML"),
     ("<mujoco/>", "missing <worldbody>"),
-    ("<mujoco><worldbody><body><frame pos='1 0 0'><geom size='0.1'/></frame></body></worldbody></mujoco>",
-     "<frame> is not supported"),
+    ("<mujoco><worldbody><body><frame pos='1 0 0'><replicate count='2'><geom size='0.1'/></replicate></frame>"
+     "</body></worldbody></mujoco>", "body[body1].frame[0].replicate: <replicate> is not supported"),
+    ("<mujoco><worldbody><frame name='f' childclass='nope'><body><geom size='0.1'/></body></frame></worldbody>"
+     "</mujoco>", "worldbody.frame[f].childclass: unknown default class 'nope'"),
+    ("<mujoco><worldbody><frame euler='0 0 1' quat='1 0 0 0'><geom size='0.1'/></frame></worldbody></mujoco>",
+     "worldbody.frame[0]: give one orientation"),
     ("<mujoco><worldbody><body><joint name='h'/><geom size='0.1'/></body></worldbody>"
      "<actuator><position joint='x'/></actuator></mujoco>", "unknown joint 'x'"),
 ])
@@ -1342,3 +1346,76 @@ def test_inheritrange_sets_the_ctrlrange_as_mujoco_does(tmp_path):
                               f"</worldbody><actuator><position joint='j' kp='5' {extra}/></actuator></mujoco>", "bad.xml")
         with pytest.raises(tb.InputError, match=re.escape(problem)):
             tb.load_mjcf(tb.World(), bad)
+
+
+# <frame>s (MuJoCo 3's): nested, with every kind of element inside and a childclass, in the
+# worldbody and in a body; a joint whose anchor and axis are given in a frame; a static geom in one
+FRAMED = """
+<mujoco model="framed">
+  <default>
+    <default class="big"><geom type="box" size="0.05 0.1 0.02" density="2000"/><site size="0.02"/>
+      <joint axis="1 0 0" damping="0.1"/></default>
+  </default>
+  <worldbody>
+    <frame name="shelf" pos="0.3 0 0.2" euler="0 0 30">
+      <geom name="ledge" type="box" size="0.2 0.1 0.01" pos="0.1 0 0"/>
+      <frame pos="0 0.5 1" axisangle="1 0 0 40" childclass="big">
+        <body name="a" pos="0.1 0 0" euler="10 0 0">
+          <frame pos="0 0 -0.1" zaxis="0.3 1 1">
+            <joint name="ja" pos="0 0.02 0"/>
+            <geom pos="0 0 -0.2"/>
+            <site name="sa" pos="0.05 0 0"/>
+          </frame>
+          <geom type="capsule" fromto="0 0 0 0 0.1 -0.3" size="0.03"/>
+          <frame pos="0 0.1 -0.3" quat="0.9 0.1 0.2 0.3">
+            <body name="b" pos="0 0 -0.05">
+              <joint name="jb" type="hinge" axis="0 1 0"/>
+              <frame euler="0 90 0"><geom class="big" pos="0.02 0 0"/><camera name="eye" pos="0 0 0.1"/></frame>
+              <geom type="sphere" size="0.05" pos="0 0 -0.1"/>
+            </body>
+          </frame>
+        </body>
+      </frame>
+    </frame>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_frames_place_what_they_hold_as_mujoco_does(tmp_path):
+    """Bodies, geoms, joints, sites, cameras and frames inside <frame>s (nested, with a
+    childclass): masses, centres, inertias, joint anchors and axes, the site's and the camera's
+    frames and the static geom's pose equal MuJoCo's compiled model at qpos0. Tolerances as in
+    test_mass_properties_and_joint_frames_match_mujocos_compiled_model (same closed forms, double
+    precision); a frame dropped, applied twice or in the wrong order is off by centimetres."""
+    path = write(tmp_path, FRAMED)
+    ref, ref_joints = mujoco_bodies(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    for name in ("a", "b"):
+        body = robot.links[name]
+        mass, centre, inertia = ref[name]
+        assert body.mass == pytest.approx(mass, rel=1e-12), name
+        np.testing.assert_allclose(body.x, centre, atol=1e-12, err_msg=name)
+        R = np.asarray(body.R)
+        np.testing.assert_allclose(R @ np.asarray(body.inertia_body) @ R.T, inertia, atol=1e-10 * np.abs(inertia).max(),
+                                   err_msg=name)
+    for name in ("ja", "jb"):
+        joint = robot.joints[name]
+        anchor, axis = ref_joints[name]
+        np.testing.assert_allclose(joint.anchor, anchor, atol=1e-12, err_msg=name)
+        np.testing.assert_allclose(np.asarray(joint.axis) / np.linalg.norm(joint.axis), axis, atol=1e-12, err_msg=name)
+    assert robot.joints["ja"].damping == pytest.approx(0.1)  # the frame's childclass
+    o, R = robot.site_pose("sa")
+    np.testing.assert_allclose(o, d.site("sa").xpos, atol=1e-12)
+    np.testing.assert_allclose(R, d.site("sa").xmat.reshape(3, 3), atol=1e-12)
+    camera = robot.cameras["eye"]
+    centre, axes = camera.pose(world)  # tumble's axes x right, y down, z forward; MuJoCo's looks along -z, y up
+    np.testing.assert_allclose(centre, d.cam("eye").xpos, atol=1e-12)
+    np.testing.assert_allclose(axes * [1.0, -1.0, -1.0], d.cam("eye").xmat.reshape(3, 3), atol=1e-12)
+    ledge = robot.links["world/ledge"]
+    np.testing.assert_allclose(ledge.x, d.geom("ledge").xpos, atol=1e-12)
+    np.testing.assert_allclose(ledge.R, d.geom("ledge").xmat.reshape(3, 3), atol=1e-12)
