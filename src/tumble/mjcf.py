@@ -80,14 +80,16 @@ cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` le
 ``mj_resetDataKeyframe``).
 ``<include>``: expanded as MuJoCo does (``mjcf_xml``: the included file's top-level children in
 its place, paths from the main file's directory; repeated worldbody and compiler sections merged).
+``<asset><hfield>`` and ``hfield`` geoms (``<worldbody>`` ones): static terrain
+(``shapes.heightfield``), read as MuJoCo's compiler reads them (``mjcf_hfield``).
 ``<frame>``: its bodies, geoms, joints, sites, cameras and frames placed in its pose, with its
 ``childclass`` (``mjcf_xml.framed``), as MuJoCo places them.
 Refused with one line: ``<equality>`` other than connect, weld and joint (tendon,
 flex; between sites; a weld's ``relpose``), spatial tendons and fixed ones with a range,
 stiffness, damping or friction loss, position, velocity and biased actuators on tendons,
 ``<contact><pair>``,
-``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid,
-hfield and sdf geoms, a free joint beside another joint, and unknown joint or geom types.
+``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid
+and sdf geoms, hfield geoms on bodies, a free joint beside another joint, and unknown joint or geom types.
 """
 
 from __future__ import annotations
@@ -101,7 +103,8 @@ import numpy as np
 from . import checks
 from .errors import InputError
 from .math3d import matrix_to_quat, quat_to_matrix
-from .shapes import Box, Capsule, Convex, Cylinder, Plane, Sphere
+from .mjcf_hfield import read_hfields
+from .shapes import Box, Capsule, Convex, Cylinder, Plane, Sphere, heightfield
 from .urdf import balanced_inertia
 from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public here too)
     MjcfActuator,
@@ -126,7 +129,7 @@ DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
 # the mass and inertia of the virtual link between two joints of one body, as a fraction of the
 # body's (MuJoCo has nothing there; a moving body needs a mass in maximal coordinates)
 VIRTUAL_FRACTION = 1e-3
-GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "mesh")
+GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "mesh", "hfield")
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
 
 
@@ -214,6 +217,7 @@ class _Reader:
         if self.inertiafromgeom not in ("auto", "true", "false"):
             raise InputError(f"expected auto, true or false, got {self.inertiafromgeom!r}", "compiler.inertiafromgeom")
         self.meshdir = path.parent / c.get("meshdir", c.get("assetdir", ""))
+        self.hfields: dict = {}  # name: (heights, size, base) of <asset><hfield> (mjcf_hfield.read_hfields)
         self.classes: dict[str, tuple] = {}  # name: (parent name or None, {tag: attributes})
         for d in root.findall("default"):
             self._read_defaults(d, None)
@@ -316,6 +320,11 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
             shape = Box(size=2.0 * need(3)[:3])
         elif kind == "plane":
             shape = Plane(normal=(0.0, 0.0, 1.0))
+        elif kind == "hfield":
+            name = a.get("hfield")
+            if name not in reader.hfields:
+                raise InputError(f"unknown height field {name!r} (not in <asset>)", f"{key}.hfield")
+            shape = heightfield(*reader.hfields[name])
         else:
             name = a.get("mesh")
             if name not in meshes:
@@ -400,6 +409,7 @@ def _read(path: Path) -> MjcfModel:
     root = read_model_xml(path)  # includes expanded (MuJoCo Menagerie's scene.xml + robot.xml)
     reader = _Reader(root, path)
     meshes = _meshes(reader, root)
+    reader.hfields = read_hfields(reader, root)
     out = MjcfModel(UrdfModel(root.get("model") or path.stem, {"world": UrdfLink("world")}, [], "world", str(path)))
     worldbody = root.find("worldbody")
     if worldbody is None:
@@ -561,8 +571,8 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
         a = reader.attributes(g, gcls)
         gkey = f"{key}.geom[{a.get('name', k)}]"
         shape, position, R, collides, friction = _geom(reader, a, gkey, meshes)
-        if isinstance(shape, Plane):
-            raise InputError("a plane must be a <worldbody> geom", gkey)
+        if isinstance(shape, Plane) or a.get("type") == "hfield":
+            raise InputError(f"a {a.get('type')} must be a <worldbody> geom (tumble's are static)", gkey)
         position, R = place(frame, position, R)
         position = position - anchor
         if collides:

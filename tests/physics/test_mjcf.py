@@ -297,6 +297,21 @@ def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path,
      "</mujoco>", "worldbody.frame[f].childclass: unknown default class 'nope'"),
     ("<mujoco><worldbody><frame euler='0 0 1' quat='1 0 0 0'><geom size='0.1'/></frame></worldbody></mujoco>",
      "worldbody.frame[0]: give one orientation"),
+    ("<mujoco><worldbody><geom type='hfield' hfield='h'/></worldbody></mujoco>",
+     "worldbody.geom[geom0].hfield: unknown height field 'h' (not in <asset>)"),
+    ("<mujoco><asset><hfield name='h' nrow='2' ncol='2'/></asset><worldbody/></mujoco>",
+     "asset.hfield[h]: missing size (rx ry top base)"),
+    ("<mujoco><asset><hfield name='h' nrow='2' ncol='2' size='1 1 0 1'/></asset><worldbody/></mujoco>",
+     "asset.hfield[h].size: expected four numbers > 0"),
+    ("<mujoco><asset><hfield name='h' nrow='2' ncol='3' size='1 1 1 1' elevation='1 2 3 4'/></asset><worldbody/>"
+     "</mujoco>", "asset.hfield[h].elevation: expected 6 numbers"),
+    ("<mujoco><asset><hfield name='h' ncol='3' size='1 1 1 1'/></asset><worldbody/></mujoco>",
+     "asset.hfield[h]: missing nrow (or a file)"),
+    ("<mujoco><asset><hfield name='h' file='nope.png' size='1 1 1 1'/></asset><worldbody/></mujoco>",
+     "asset.hfield[h].file: height field file not found"),
+    ("<mujoco><asset><hfield name='h' nrow='2' ncol='2' size='1 1 1 1'/></asset><worldbody><body><joint/>"
+     "<geom type='hfield' hfield='h'/></body></worldbody></mujoco>",
+     "body[body1].geom[0]: a hfield must be a <worldbody> geom (tumble's are static)"),
     ("<mujoco><worldbody><body><joint name='h'/><geom size='0.1'/></body></worldbody>"
      "<actuator><position joint='x'/></actuator></mujoco>", "unknown joint 'x'"),
 ])
@@ -1419,3 +1434,119 @@ def test_frames_place_what_they_hold_as_mujoco_does(tmp_path):
     ledge = robot.links["world/ledge"]
     np.testing.assert_allclose(ledge.x, d.geom("ledge").xpos, atol=1e-12)
     np.testing.assert_allclose(ledge.R, d.geom("ledge").xmat.reshape(3, 3), atol=1e-12)
+
+
+# Height fields (``mjcf_hfield``): an asymmetric grid from each source MuJoCo reads, placed by its
+# geom (in a frame), and what MuJoCo's compiler makes of it
+HFIELD_ELEVATION = np.array([[0.0, 1.0, 2.0, 3.0, 0.5], [4.0, 5.0, 6.0, 9.0, 7.5], [8.0, 2.0, 1.0, 0.0, 0.25]])
+
+
+def hfield_files(tmp_path):
+    """{source: the <hfield> attributes}: elevation, a grey PNG, a colour PNG, MuJoCo's binary file."""
+    from PIL import Image
+
+    grey = np.array([[20, 50, 100, 150, 90], [200, 220, 30, 20, 60], [70, 80, 10, 250, 40]], np.uint8)
+    Image.fromarray(grey).save(tmp_path / "grey.png")
+    green = (grey.astype(int) * 7 % 256).astype(np.uint8)  # unlike red: a colour read as a mean or luminance fails
+    Image.fromarray(np.stack([grey, green, np.full_like(grey, 7)], -1)).save(tmp_path / "colour.png")
+    with open(tmp_path / "grid.bin", "wb") as f:
+        np.array(HFIELD_ELEVATION.shape, np.int32).tofile(f)
+        HFIELD_ELEVATION.astype(np.float32).tofile(f)
+    text = " ".join(f"{v:g}" for v in HFIELD_ELEVATION.ravel())
+    return {"elevation": f'nrow="3" ncol="5" elevation="{text}"', "grey": 'file="grey.png"',
+            "colour": 'file="colour.png"', "binary": 'file="grid.bin"'}
+
+
+def hfield_model(source):
+    return f"""
+<mujoco model="terrain">
+  <asset><hfield name="ground" {source} size="1.5 1.0 0.4 0.2"/></asset>
+  <worldbody>
+    <frame pos="0.2 -0.1 0.05" euler="0 0 20">
+      <geom name="terrain" type="hfield" hfield="ground" pos="0.1 0 0.3" euler="3 -2 0"/>
+    </frame>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("source", ["elevation", "grey", "colour", "binary"])
+def test_hfields_are_the_terrain_mujoco_compiles(tmp_path, source):
+    """Each height field source (elevation, grey and colour PNG, MuJoCo's binary file): the heights
+    tumble reads are MuJoCo's compiled ``hfield_data`` to the bit (float32 normalisation, row order),
+    and vertical rays hit tumble's terrain where MuJoCo's ``mj_ray`` hits MuJoCo's, at grid points
+    and inside cells on both sides of each cell's diagonal (1e-9 m: both are the same planar
+    triangles in double precision; a flipped row order, a wrong diagonal or a missed geom or
+    frame pose is off by centimetres)."""
+    from tumble import mjcf_hfield
+    from tumble.mjcf import _Reader
+    from tumble.mjcf_xml import read_model_xml
+
+    path = write(tmp_path, hfield_model(hfield_files(tmp_path)[source]))
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    root = read_model_xml(path)
+    heights, size, base = mjcf_hfield.read_hfields(_Reader(root, path), root)["ground"]
+    assert heights.shape == (m.hfield_nrow[0], m.hfield_ncol[0])
+    np.testing.assert_array_equal(heights, 0.4 * m.hfield_data.reshape(heights.shape).astype(float))
+    assert (size.tolist(), base) == ([3.0, 2.0], 0.2)
+    world = tb.World()
+    robot = tb.load_mjcf(world, path)
+    terrain = robot.links["world/terrain"].index
+    centre, R = d.geom("terrain").xpos, d.geom("terrain").xmat.reshape(3, 3)
+    rng = np.random.default_rng(3)
+    u = np.concatenate([np.stack(np.meshgrid(np.linspace(-1, 1, 5) * 0.999, np.linspace(-1, 1, 3) * 0.999), -1)
+                        .reshape(-1, 2), rng.uniform(-0.98, 0.98, (60, 2))])
+    geomid = np.zeros(1, np.int32)
+    for ux, uy in u:
+        origin = centre + R @ np.array([1.5 * ux, 1.0 * uy, 0.0]) + np.array([0.0, 0.0, 3.0])
+        expected = mujoco.mj_ray(m, d, origin, np.array([0.0, 0.0, -1.0]), None, 1, -1, geomid)
+        assert geomid[0] == m.geom("terrain").id
+        hit = world.ray_cast(origin, (0.0, 0.0, -1.0))
+        assert hit.body[0] == terrain
+        assert hit.distance[0] == pytest.approx(expected, abs=1e-9), (ux, uy)
+
+
+def test_a_box_comes_to_rest_on_an_mjcf_hfield(tmp_path):
+    """A box dropped onto a sloped height field (a 4 x 6 grid rising 0.4 m over 3 m, 7.6 degrees,
+    under MuJoCo's default friction 1: it sticks) ends resting on the surface: its gap to the
+    terrain (closest points) within the contact solver's resting penetration (under 1 mm),
+    still (under 1 mm/s) after 3 s and where it landed."""
+    slope = " ".join(f"{v:g}" for v in np.tile(np.linspace(1.0, 0.0, 6), 4))
+    model = f"""
+<mujoco model="slope">
+  <asset><hfield name="ground" nrow="4" ncol="6" elevation="{slope}" size="1.5 1.0 0.4 0.2"/></asset>
+  <worldbody>
+    <geom name="terrain" type="hfield" hfield="ground"/>
+    <body name="box" pos="0.1 0.2 0.6" euler="0 0 30"><freejoint/><geom type="box" size="0.1 0.08 0.05"/></body>
+  </worldbody>
+</mujoco>
+"""
+    path = write(tmp_path, model)
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(720)
+    box, terrain = robot.links["box"], robot.links["world/terrain"]
+    gap = world.closest_points(box.index, terrain.index).distance[0]
+    assert -1e-3 < gap < 1e-3, gap
+    assert np.linalg.norm(box.v) < 1e-3
+    # on the slope where it landed (the surface is 0.187 m high under its start; measured 6.6 mm
+    # of settling along it), not slid down nor fallen past it
+    assert np.linalg.norm(box.x[:2] - (0.1, 0.2)) < 0.02 and 0.2 < box.x[2] < 0.3
+
+
+@pytest.mark.parametrize("name, content, problem", [
+    ("short.bin", b"abc", "not a PNG and too short for MuJoCo's binary height field"),
+    ("sized.bin", np.array([2, 3], np.int32).tobytes() + b"\0" * 20, "expected int32 nrow, ncol (>= 2)"),
+    ("broken.png", b"not an image", "broken.png: cannot read the image"),
+])
+def test_bad_hfield_files_are_one_line(tmp_path, name, content, problem):
+    (tmp_path / name).write_bytes(content)
+    path = write(tmp_path, f"<mujoco><asset><hfield name='h' file='{name}' size='1 1 1 1'/></asset><worldbody>"
+                           "<geom type='hfield' hfield='h'/></worldbody></mujoco>")
+    with pytest.raises(tb.InputError) as info:
+        tb.load_mjcf(tb.World(), path)
+    line = str(info.value)
+    assert "\n" not in line and str(path) in line and "asset.hfield[h].file" in line and problem in line, line
