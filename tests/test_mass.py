@@ -17,7 +17,7 @@ from tumble.mass import (
     particle_mass_properties,
     particles_from_shape,
 )
-from tumble.shapes import Box, Capsule, Cone, Convex, Cylinder, Mesh, Particles, Plane, Sphere
+from tumble.shapes import Box, Capsule, Cone, Convex, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere
 
 GRID_SIZES = (4, 8, 16, 32)
 
@@ -152,6 +152,7 @@ def test_density_gives_volume_times_density():
         (Cylinder(0.5, 2.0), math.pi * 0.25 * 2.0),
         (Capsule(0.5, 2.0), math.pi * 0.25 * 2.0 + 4 / 3 * math.pi * 0.125),
         (Cone(0.5, 2.0), math.pi * 0.25 * 2.0 / 3),
+        (Ellipsoid((0.5, 0.3, 0.2)), 4 / 3 * math.pi * 0.03),
     ]
     for shape, volume in cases:
         assert mass_properties(shape, density=rho).mass == pytest.approx(rho * volume, rel=1e-12)

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .shapes import Box, Capsule, Compound, Cone, Cylinder, Mesh, Particles, Plane, Sphere
+from .shapes import Box, Capsule, Compound, Cone, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,6 +138,7 @@ def mass_properties(shape, mass=None, density=None) -> MassProperties:
         Cylinder: lambda s: math.pi * s.radius**2 * s.length,
         Capsule: lambda s: math.pi * s.radius**2 * (s.length + 4.0 / 3.0 * s.radius),
         Cone: lambda s: math.pi * s.radius**2 * s.height / 3.0,
+        Ellipsoid: lambda s: 4.0 / 3.0 * math.pi * s.radii[0] * s.radii[1] * s.radii[2],
     }
     if type(shape) not in volume_of:
         raise InputError(f"cannot compute mass properties of {type(shape).__name__}", "shape")
@@ -163,6 +164,9 @@ def _primitive_mass_properties(shape, m: float) -> MassProperties:
         moments = np.array([ixx, ixx, 0.5 * m * r * r])
     elif isinstance(shape, Capsule):
         moments = _capsule_moments(shape.radius, shape.length, m)
+    elif isinstance(shape, Ellipsoid):  # the unit ball's m/5 (y^2 + z^2) ... with x, y, z scaled by a, b, c
+        a, b, c = shape.radii
+        moments = m / 5.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
     else:  # Cone
         r, h = shape.radius, shape.height
         # the centroid of a cone is a quarter of the way up from the base

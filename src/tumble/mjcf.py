@@ -15,7 +15,7 @@ What maps to what:
   default 1000 kg/m^3, or of the given ``mass``; visual-only geoms included, as MuJoCo's
   ``inertiafromgeom``), combined by the parallel-axis theorem.
 - ``<geom>``: ``sphere``, ``capsule``, ``cylinder`` (``size`` radius and half-length, or ``fromto``),
-  ``box`` (half-sizes), ``mesh`` (an ``<asset><mesh file scale>``: its convex hull, as MuJoCo
+  ``box`` (half-sizes), ``ellipsoid`` (semi-axes: ``tb.Ellipsoid``), ``mesh`` (an ``<asset><mesh file scale>``: its convex hull, as MuJoCo
   collides meshes), ``plane`` (in ``<worldbody>``). ``friction``'s first number is the body's
   friction (default 1, MuJoCo's; the first colliding geom's when several differ). A geom with
   ``contype = conaffinity = 0`` (a visual geom) has mass but no collision shape. The
@@ -88,8 +88,7 @@ Refused with one line: ``<equality>`` other than connect, weld and joint (tendon
 flex; between sites; a weld's ``relpose``), spatial tendons and fixed ones with a range,
 stiffness, damping or friction loss, position, velocity and biased actuators on tendons,
 ``<contact><pair>``,
-``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, ellipsoid
-and sdf geoms, hfield geoms on bodies, a free joint beside another joint, and unknown joint or geom types.
+``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, sdf geoms, hfield geoms on bodies, a free joint beside another joint, and unknown joint or geom types.
 """
 
 from __future__ import annotations
@@ -104,7 +103,7 @@ from . import checks
 from .errors import InputError
 from .math3d import matrix_to_quat, quat_to_matrix
 from .mjcf_hfield import read_hfields
-from .shapes import Box, Capsule, Convex, Cylinder, Plane, Sphere, heightfield
+from .shapes import Box, Capsule, Convex, Cylinder, Ellipsoid, Plane, Sphere, heightfield
 from .urdf import balanced_inertia
 from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public here too)
     MjcfActuator,
@@ -129,7 +128,7 @@ DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
 # the mass and inertia of the virtual link between two joints of one body, as a fraction of the
 # body's (MuJoCo has nothing there; a moving body needs a mass in maximal coordinates)
 VIRTUAL_FRACTION = 1e-3
-GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "mesh", "hfield")
+GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "ellipsoid", "mesh", "hfield")
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
 
 
@@ -318,6 +317,8 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
             shape = Cylinder(radius=need(2)[0], length=2.0 * need(2)[1])
         elif kind == "box":
             shape = Box(size=2.0 * need(3)[:3])
+        elif kind == "ellipsoid":
+            shape = Ellipsoid(radii=need(3)[:3])
         elif kind == "plane":
             shape = Plane(normal=(0.0, 0.0, 1.0))
         elif kind == "hfield":

@@ -23,6 +23,7 @@ from .shapes import (
     Capsule,
     Compound,
     Cone,
+    Ellipsoid,
     Convex,
     Cylinder,
     Mesh,
@@ -50,6 +51,7 @@ SHAPE_KEYS = {
     "capsule": (("radius", "length"), ()),
     "cylinder": (("radius", "length"), ()),
     "cone": (("radius", "height"), ()),
+    "ellipsoid": (("radii",), ()),
     "plane": ((), ("normal", "offset")),
     "mesh": ((), ("path", "vertices", "faces", "decompose")),
     "convex": ((), ("path", "points")),
@@ -61,7 +63,7 @@ SHAPE_KEYS = {
 DECOMPOSE_KEYS = ("threshold", "max_parts", "max_hull_vertices", "seed")
 # A compound's parts: solid convex shapes only (no plane, mesh, particles, nor another compound).
 PART_KEYS = ("shape", "position", "orientation", "euler_deg", "material")
-PART_TYPES = ("sphere", "box", "capsule", "cylinder", "cone", "convex")
+PART_TYPES = ("sphere", "box", "capsule", "cylinder", "cone", "ellipsoid", "convex")
 # Per force type: (required keys, optional keys), besides "type".
 FORCE_KEYS = {
     "drag": ((), ("linear", "quadratic", "angular_linear", "angular_quadratic", "wind", "bodies")),
@@ -186,6 +188,8 @@ class BodyReader(ValueReader):
             return self.library(key, cls, self.positive(s["radius"], g("radius")), self.positive(s["length"], g("length")))
         if kind == "cone":
             return self.library(key, Cone, self.positive(s["radius"], g("radius")), self.positive(s["height"], g("height")))
+        if kind == "ellipsoid":
+            return self.library(key, Ellipsoid, self.vector(s["radii"], g("radii"), 3, self.positive))
         if kind == "plane":
             normal = self.vector(s.get("normal", [0.0, 0.0, 1.0]), g("normal"))
             if all(c == 0 for c in normal):

@@ -19,9 +19,13 @@ import numpy as np
 from .errors import InputError
 
 # Type ids in the order collision pair routines will dispatch on (STYLE 5.2).
-SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER, SHAPE_CONE, SHAPE_BOX, SHAPE_CONVEX, SHAPE_MESH, SHAPE_PARTICLES = range(9)
+# NOTE: a pair's routine is found with its two ids in this order (narrowphase.collide_shapes: the
+# smaller id is a; the convex family spans SHAPE_SPHERE..SHAPE_CONVEX, a mesh comes last), so a new
+# convex kind goes before SHAPE_CONVEX (the ellipsoid did: the ids after it moved up by one).
+(SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER, SHAPE_CONE, SHAPE_BOX, SHAPE_ELLIPSOID, SHAPE_CONVEX, SHAPE_MESH,
+ SHAPE_PARTICLES) = range(10)
 # A compound is not a collision type: the shape table has one row per part.
-SHAPE_COMPOUND = 9
+SHAPE_COMPOUND = 10
 
 
 def positive(value, key: str) -> float:
@@ -119,6 +123,22 @@ class Cone:
     def __post_init__(self):
         object.__setattr__(self, "radius", positive(self.radius, "radius"))
         object.__setattr__(self, "height", positive(self.height, "height"))
+
+
+@dataclass(frozen=True)
+class Ellipsoid:
+    """Solid ellipsoid with semi-axes ``radii`` (a, b, c) (m) along x, y, z, centred on its origin
+    (MuJoCo's ``ellipsoid`` geom, whose ``size`` is the same three semi-axes):
+    (x / a)^2 + (y / b)^2 + (z / c)^2 <= 1."""
+
+    radii: tuple
+    type_id = SHAPE_ELLIPSOID
+
+    def __post_init__(self):
+        radii = finite_vector(self.radii, "radii")
+        for k, r in enumerate(radii):
+            positive(r, f"radii[{k}]")
+        object.__setattr__(self, "radii", tuple(float(r) for r in radii))
 
 
 @dataclass(frozen=True)
@@ -327,6 +347,7 @@ SHAPE_TYPES = {
     "cylinder": Cylinder,
     "capsule": Capsule,
     "cone": Cone,
+    "ellipsoid": Ellipsoid,
     "plane": Plane,
     "particles": Particles,
     "mesh": Mesh,

@@ -80,6 +80,9 @@ def shape_trimesh(shape, plane_size: float = PLANE_MIN_SIZE):
         return create.cylinder(radius=float(d["radius"]), height=float(d["length"]), sections=SECTIONS)
     if kind == "capsule":  # trimesh's height is the distance between the hemisphere centres, as ours
         return create.capsule(height=float(d["length"]), radius=float(d["radius"]), count=[SECTIONS, SECTIONS // 2])
+    if kind == "ellipsoid":  # the sphere's mesh, its vertices scaled by the semi-axes
+        mesh = create.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=1.0)
+        return trimesh.Trimesh(mesh.vertices * np.asarray(d["radii"], dtype=float), mesh.faces, process=False)
     if kind == "cone":  # base disc on z = 0 centred on the origin, apex at z = height: as tumble.shapes.Cone
         return create.cone(radius=float(d["radius"]), height=float(d["height"]), sections=SECTIONS)
     if kind in ("mesh", "convex"):

@@ -454,7 +454,7 @@ class World:
 
     def shape_cast(self, shape, position, translation, orientation=None, exclude=None, mask=ALL_CATEGORIES,
                    category=ALL_CATEGORIES):
-        """Where ``shape`` (a Sphere, Capsule, Cylinder, Cone, Box or Convex not in the world) moved from
+        """Where ``shape`` (a Sphere, Capsule, Cylinder, Cone, Box, Ellipsoid or Convex not in the world) moved from
         ``position`` by ``translation`` ((3,) or (K, 3) m, world) first touches a body:
         ``collision.shape_query.shape_cast`` (Box2D's b2World_CastShape; returns a ``ShapeHits``:
         body, fraction of the translation, position, point and normal per cast)."""

@@ -64,7 +64,7 @@ def test_a_sphere_cast_at_a_sphere_touches_where_the_centres_are_the_radii_apart
 
 
 @pytest.mark.parametrize("shape", [tb.Box(size=(0.4, 0.6, 0.8)), tb.Cylinder(0.3, 0.8), tb.Capsule(0.2, 0.5),
-                                   tb.Cone(0.3, 0.6)])
+                                   tb.Cone(0.3, 0.6), tb.Ellipsoid(radii=(0.35, 0.15, 0.25))])
 def test_shapes_cast_down_onto_a_tilted_plane(shape):
     """The plane through the origin with normal n: a shape's lowest point along n is its support
     along -n; moved by t u it touches when that point's height h0 + t u . n reaches 0."""
@@ -76,7 +76,7 @@ def test_shapes_cast_down_onto_a_tilted_plane(shape):
     w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, orientation=matrix_to_quat(Rp), name="ground")
     kind = type(shape).__name__.lower()
     dims = {"box": np.array([0.2, 0.3, 0.4]), "cylinder": np.array([0.3, 0.8]), "capsule": np.array([0.2, 0.5]),
-            "cone": np.array([0.3, 0.6])}[kind]
+            "cone": np.array([0.3, 0.6]), "ellipsoid": np.array([0.35, 0.15, 0.25])}[kind]
     for trial in range(10):
         R = random_rotation(rng)
         start = rng.uniform(-1, 1, 3) + (0, 0, 3)
@@ -113,7 +113,7 @@ def _minkowski_entry(fa, fb, u):
     return best
 
 
-KINDS = ("box", "capsule", "cylinder", "cone", "hull")
+KINDS = ("box", "capsule", "cylinder", "cone", "ellipsoid", "hull")
 
 
 @pytest.mark.parametrize("pair", [(a, b) for a in KINDS for b in KINDS if KINDS.index(a) <= KINDS.index(b)])
@@ -123,6 +123,7 @@ def test_every_convex_cast_against_the_minkowski_difference(pair):
             "capsule": lambda: (tb.Capsule(0.15, 0.5), np.array([0.15, 0.5])),
             "cylinder": lambda: (tb.Cylinder(0.25, 0.6), np.array([0.25, 0.6])),
             "cone": lambda: (tb.Cone(0.3, 0.6), np.array([0.3, 0.6])),
+            "ellipsoid": lambda: (tb.Ellipsoid(radii=(0.35, 0.15, 0.25)), np.array([0.35, 0.15, 0.25])),
             "hull": lambda: (tb.Convex(points=rng.normal(size=(12, 3)) * 0.25), None)}
     moving, dims_a = make[pair[0]]()
     target, dims_b = make[pair[1]]()
@@ -147,7 +148,7 @@ def test_every_convex_cast_against_the_minkowski_difference(pair):
         t = _minkowski_entry(lambda n: _support_value(pair[0], dims_a, start, Ra, n),
                              lambda n: _support_value(pair[1], dims_b, origin_b, w.R[0], n), trans)
         L = np.linalg.norm(trans)
-        tol = CURVED_PATH_TOL if {"cylinder", "cone"} & set(pair) else PATH_TOL
+        tol = CURVED_PATH_TOL if {"cylinder", "cone", "ellipsoid"} & set(pair) else PATH_TOL
         assert h.body[0] == 0, trial
         assert h.fraction[0] * L == pytest.approx(t * L, abs=tol), trial
         # there, the two touch: the moved shape, added as a body, is at distance 0 (to the same tolerance)
@@ -263,7 +264,7 @@ def test_many_casts_on_both_cores_give_the_serial_bits():
 def test_bad_arguments_get_one_line_naming_them():
     w = _world()
     w.add_body(tb.Sphere(0.5), mass=1, name="a")
-    with pytest.raises(InputError, match="shape: must be a Sphere, Capsule, Cylinder, Cone, Box or Convex, got Plane"):
+    with pytest.raises(InputError, match="shape: must be a Sphere, Capsule, Cylinder, Cone, Box, Ellipsoid or Convex, got Plane"):
         w.shape_cast(tb.Plane(normal=(0, 0, 1)), (0, 0, 0), (1, 0, 0))
     with pytest.raises(InputError, match="orientation: must be a quaternion"):
         w.overlap_shape(tb.Sphere(0.1), (0, 0, 0), orientation=(1, 0, 0))

@@ -240,7 +240,7 @@ def test_a_free_body_lands_on_the_worldbody_floor_and_a_position_actuator_holds_
 
 
 @pytest.mark.parametrize("body, key, problem", [
-    ('<body><geom type="ellipsoid" size="0.1 0.2 0.3"/></body>', "body[body1].geom[0].type", "unsupported geom type"),
+    ('<body><geom type="sdf" size="0.1 0.2 0.3"/></body>', "body[body1].geom[0].type", "unsupported geom type"),
     ('<body><freejoint/><joint/><geom size="0.1"/></body>', "body[body1]", "free joint must be its body's only"),
     ('<body><joint name="h"/><joint name="h"/><geom size="0.1"/></body>', "joint[h]", "duplicate joint name"),
     ('<body><joint type="screw"/><geom size="0.1"/></body>', "joint[body1_joint].type", "unknown joint type"),
@@ -1550,3 +1550,33 @@ def test_bad_hfield_files_are_one_line(tmp_path, name, content, problem):
         tb.load_mjcf(tb.World(), path)
     line = str(info.value)
     assert "\n" not in line and str(path) in line and "asset.hfield[h].file" in line and problem in line, line
+
+
+def test_ellipsoid_geoms_are_tumbles_ellipsoids_with_mujocos_mass_properties(tmp_path):
+    """An ``ellipsoid`` geom (size: its three semi-axes) is a ``tb.Ellipsoid``: the body's mass,
+    centre and inertia (an ellipsoid beside a sphere, turned) equal MuJoCo's compiled model to
+    1e-12 (tolerances as the first test's), and a ray down onto it meets it where mj_ray does."""
+    path = write(tmp_path, """
+<mujoco><worldbody>
+  <body name="egg" pos="0 0 1"><freejoint/>
+    <geom type="ellipsoid" size="0.3 0.2 0.1" euler="20 30 40" density="1100"/>
+    <geom type="sphere" size="0.05" pos="0.2 0 0.1"/>
+  </body>
+</worldbody></mujoco>""")
+    ref, _ = mujoco_bodies(path)
+    world = tb.World()
+    robot = tb.load_mjcf(world, path)
+    egg = robot.links["egg"]
+    assert any(isinstance(part[0], tb.Ellipsoid) for part in world.shapes[egg.index].parts)
+    mass, centre, inertia = ref["egg"]
+    assert egg.mass == pytest.approx(mass, rel=1e-12)
+    np.testing.assert_allclose(egg.x, centre, atol=1e-12)
+    R = np.asarray(egg.R)
+    np.testing.assert_allclose(R @ np.asarray(egg.inertia_body) @ R.T, inertia, atol=1e-10 * np.abs(inertia).max())
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    for x, y in ((0.0, 0.0), (0.05, -0.03), (-0.04, 0.02)):
+        origin = np.array([x, y, 3.0])
+        expected = mujoco.mj_ray(m, d, origin, np.array([0.0, 0.0, -1.0]), None, 1, -1, np.zeros(1, np.int32))
+        assert world.ray_cast(origin, (0.0, 0.0, -1.0)).distance[0] == pytest.approx(expected, abs=1e-9)

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from ..math3d import JIT, quat_to_matrix_into
-from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_SPHERE
+from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_ELLIPSOID, SHAPE_MESH, SHAPE_SPHERE
 
 
 @njit(**JIT)
@@ -60,6 +60,10 @@ def _update_bounds_kernel(x, R, v, omega, dt, shape_type, shape_body, shape_para
                 # origin holds it (loose by up to H along the axis; the AABB stays centred on the shape origin)
                 u = shape_rot[s, i, 2]
                 e = abs(u) * p[1] + p[0] * np.sqrt(max(0.0, 1.0 - u * u))
+            elif t == SHAPE_ELLIPSOID:
+                # the support along world axis i: sqrt(sum_j (R_ij r_j)^2) (gjk.support's p . e_i)
+                e = np.sqrt((shape_rot[s, i, 0] * p[0]) ** 2 + (shape_rot[s, i, 1] * p[1]) ** 2
+                            + (shape_rot[s, i, 2] * p[2]) ** 2)
             else:
                 # planes (and types without bounds yet) are unbounded; find_pairs skips them
                 e = np.inf

@@ -4,7 +4,7 @@ Reads a World's shape records and ``com_offset``; writes nothing else. One row p
 shape: a body whose shape is a ``Compound`` gets one row per part (``shape_body``
 repeats, ``shape_local_pos``/``shape_local_q`` place the part in the body frame).
 
-Supported: plane, sphere, capsule, cylinder, cone, box, convex, and mesh on fixed and
+Supported: plane, sphere, capsule, cylinder, cone, box, ellipsoid, convex, and mesh on fixed and
 kinematic bodies (on a moving body a mesh is its convex hull: ``moving_hull``). Particles
 raise ``NotImplementedError`` naming the type and body (or get no row with
 ``skip_unsupported=True``).
@@ -18,6 +18,7 @@ capsule    (radius, half_length, 0, 0): segment from -h z to +h z
 cylinder   (radius, half_length, 0, 0): caps at z = -h and z = +h
 cone       (radius, height, 0, 0): base disc at z = 0, apex at z = height
 box        (hx, hy, hz, 0): half extents
+ellipsoid  (a, b, c, 0): semi-axes along x, y, z
 convex     (hx, hy, hz, 0): max |coordinate| of its vertices (bounds only)
 mesh       (hx, hy, hz, 0): max |coordinate| of its vertices (bounds only)
 =========  ===================================================
@@ -39,6 +40,7 @@ from ..shapes import (
     SHAPE_CONE,
     SHAPE_CONVEX,
     SHAPE_CYLINDER,
+    SHAPE_ELLIPSOID,
     SHAPE_MESH,
     SHAPE_PARTICLES,
     SHAPE_PLANE,
@@ -49,6 +51,7 @@ from ..shapes import (
     Cone,
     Convex,
     Cylinder,
+    Ellipsoid,
     Mesh,
     Plane,
     Sphere,
@@ -56,10 +59,10 @@ from ..shapes import (
 
 SHAPE_NAMES = {
     SHAPE_PLANE: "plane", SHAPE_SPHERE: "sphere", SHAPE_CAPSULE: "capsule", SHAPE_CYLINDER: "cylinder",
-    SHAPE_CONE: "cone", SHAPE_BOX: "box", SHAPE_CONVEX: "convex", SHAPE_MESH: "mesh", SHAPE_PARTICLES: "particles",
+    SHAPE_CONE: "cone", SHAPE_BOX: "box", SHAPE_ELLIPSOID: "ellipsoid", SHAPE_CONVEX: "convex", SHAPE_MESH: "mesh", SHAPE_PARTICLES: "particles",
 }
-SUPPORTED_TYPES = (SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER, SHAPE_CONE, SHAPE_BOX, SHAPE_CONVEX,
-                   SHAPE_MESH)
+SUPPORTED_TYPES = (SHAPE_PLANE, SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER, SHAPE_CONE, SHAPE_BOX, SHAPE_ELLIPSOID,
+                   SHAPE_CONVEX, SHAPE_MESH)
 
 # Triangles per BVH leaf (a query then tests at most this many triangles per leaf it reaches).
 BVH_LEAF_SIZE = 4
@@ -148,7 +151,7 @@ class ShapeTable:
         #: some shape is round: the contact solver's anchors then take the round offsets and shared
         #: points of ``solver.contact_anchor`` (else every anchor is fixed in its body)
         self.has_round = bool(np.any(np.isin(self.shape_type, (SHAPE_SPHERE, SHAPE_CAPSULE, SHAPE_CYLINDER,
-                                                               SHAPE_CONE))))
+                                                               SHAPE_CONE, SHAPE_ELLIPSOID))))
         #: some compound part has its own material: the contact solver then mixes per shape
         self.has_part_materials = any(m is not None for m in self.shape_material)
 
@@ -190,6 +193,8 @@ def shape_params(shape) -> tuple[int, tuple[float, float, float, float]]:
         return SHAPE_CYLINDER, (shape.radius, 0.5 * shape.length, 0.0, 0.0)
     if isinstance(shape, Cone):
         return SHAPE_CONE, (shape.radius, shape.height, 0.0, 0.0)
+    if isinstance(shape, Ellipsoid):
+        return SHAPE_ELLIPSOID, (*shape.radii, 0.0)
     if isinstance(shape, Box):
         h = shape.half_extents
         return SHAPE_BOX, (float(h[0]), float(h[1]), float(h[2]), 0.0)
@@ -199,7 +204,7 @@ def shape_params(shape) -> tuple[int, tuple[float, float, float, float]]:
     type_id = getattr(shape, "type_id", None)
     name = SHAPE_NAMES.get(type_id, type(shape).__name__)
     raise NotImplementedError(f"collision shape {name!r} is not supported yet "
-                              "(supported: plane, sphere, capsule, cylinder, cone, box, convex, mesh)")
+                              "(supported: plane, sphere, capsule, cylinder, cone, box, ellipsoid, convex, mesh)")
 
 
 def _quat_mul(a, b):

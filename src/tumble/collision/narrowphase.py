@@ -11,7 +11,7 @@ from numba import njit, prange, types
 from numba.extending import overload
 
 from ..math3d import JIT, NO_NRT
-from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE,
+from ..shapes import (SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_ELLIPSOID, SHAPE_MESH, SHAPE_PLANE,
                       SHAPE_SPHERE)
 from .geometry import FAMILY_ALL, FAMILY_BOXES, FAMILY_SPHERES
 from .filter import NO_FILTER, filter_allows
@@ -144,8 +144,8 @@ def collide_shapes(ta, tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, specu
         return collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, a, b,
                                    normal, point, separation, feature, point_normal, scratch)
     if ta == SHAPE_PLANE:
-        if tb == SHAPE_CYLINDER or tb == SHAPE_CONE or tb == SHAPE_CONVEX:
-            # collide_plane_cylinder, collide_plane_cone, collide_plane_convex
+        if tb == SHAPE_CYLINDER or tb == SHAPE_CONE or tb == SHAPE_CONVEX or tb == SHAPE_ELLIPSOID:
+            # collide_plane_cylinder, collide_plane_cone, collide_plane_convex, collide_plane_ellipsoid
             return collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative,
                                               geometry, b, normal, point, separation, feature)
         return 0

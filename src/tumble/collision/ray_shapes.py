@@ -4,7 +4,7 @@ shapes' tree and calls ``_ray_shape`` on the candidates).
 Each ``_ray_<shape>`` takes the ray (o, d) in the shape's frame (d unit) and the largest t worth
 reporting, and returns (hit, t, nx, ny, nz): the entry distance (m) and the outward unit normal,
 shape frame; ``_MISS`` when the ray does not enter the shape before t_max. Closed forms for the
-plane, sphere, box, cylinder, capsule and cone; hulls by clipping the ray with their face planes
+plane, sphere, box, cylinder, capsule, cone and ellipsoid; hulls by clipping the ray with their face planes
 (Cyrus and Beck 1978); meshes through their own BVH with the Moller-Trumbore triangle test (1997).
 The rules (origin inside a solid: no hit; meshes hit from either side) are ``collision.raycast``'s.
 """
@@ -17,8 +17,8 @@ import numpy as np
 from numba import njit
 
 from ..math3d import NO_NRT
-from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_MESH, SHAPE_PLANE, \
-    SHAPE_SPHERE
+from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_ELLIPSOID, SHAPE_MESH, \
+    SHAPE_PLANE, SHAPE_SPHERE
 
 _MISS = (False, 0.0, 0.0, 0.0, 0.0)
 
@@ -66,6 +66,29 @@ def _ray_sphere(radius, cz, o, d, t_max):
     if t < 0.0 or t > t_max:
         return _MISS
     return True, t, (o[0] + t * d[0]) / radius, (o[1] + t * d[1]) / radius, (oz + t * d[2]) / radius
+
+
+@njit(**NO_NRT)
+def _ray_ellipsoid(p, o, d, t_max):
+    """Ellipsoid of semi-axes p[:3]: the unit sphere's quadratic in coordinates scaled by 1 / p,
+    |u + t w|^2 = 1 with u = o / p, w = d / p (t stays the distance along the unit d)."""
+    u0, u1, u2 = o[0] / p[0], o[1] / p[1], o[2] / p[2]
+    w0, w1, w2 = d[0] / p[0], d[1] / p[1], d[2] / p[2]
+    a = w0 * w0 + w1 * w1 + w2 * w2
+    b = u0 * w0 + u1 * w1 + u2 * w2
+    c = u0 * u0 + u1 * u1 + u2 * u2 - 1.0
+    if c < 0.0 or b > 0.0:  # inside, or outside and moving away
+        return _MISS
+    disc = b * b - a * c
+    if disc < 0.0:
+        return _MISS
+    t = (-b - math.sqrt(disc)) / a
+    if t < 0.0 or t > t_max:
+        return _MISS
+    # the outward normal: the gradient of (x/a)^2 + (y/b)^2 + (z/c)^2 at the hit point
+    n0, n1, n2 = (u0 + t * w0) / p[0], (u1 + t * w1) / p[1], (u2 + t * w2) / p[2]
+    n = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    return True, t, n0 / n, n1 / n, n2 / n
 
 
 @njit(**NO_NRT)
@@ -291,6 +314,8 @@ def _ray_shape(s, lo, dl, best, shape_type, shape_params, shape_data, hull_plane
         return _ray_cylinder(p[0], p[1], lo, dl, best)
     if t == SHAPE_CONE:
         return _ray_cone(p[0], p[1], lo, dl, best)
+    if t == SHAPE_ELLIPSOID:
+        return _ray_ellipsoid(p, lo, dl, best)
     if t == SHAPE_CONVEX:
         return _ray_convex(shape_data[s, 2], shape_data[s, 3], hull_plane, lo, dl, best)
     if t == SHAPE_MESH:

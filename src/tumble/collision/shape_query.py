@@ -36,7 +36,7 @@ from numba import njit, prange
 
 from ..errors import InputError
 from ..math3d import JIT, NO_NRT, matrix_to_quat, quat_to_matrix, serial_twin
-from ..shapes import SHAPE_CONVEX, SHAPE_MESH, Box, Capsule, Cone, Convex, Cylinder, Sphere
+from ..shapes import SHAPE_CONVEX, SHAPE_MESH, Box, Capsule, Cone, Convex, Cylinder, Ellipsoid, Sphere
 from .distance import convex_distance, convex_to_shape, shape_poses
 from .filter import ALL_CATEGORIES
 from .geometry import shape_params
@@ -266,13 +266,13 @@ def overlap_shape_kernel(tq, params_q, verts_q, pos_q, rot_q, exclude, seen, sha
 
 
 # ---------------------------------------------------------------------- the queries
-QUERY_SHAPES = (Sphere, Capsule, Cylinder, Cone, Box, Convex)
+QUERY_SHAPES = (Sphere, Capsule, Cylinder, Cone, Box, Ellipsoid, Convex)
 
 
 def _query_shape(shape):
     """(type, params (4,), hull vertices (V, 3)) of a query shape, or InputError."""
     if not isinstance(shape, QUERY_SHAPES):
-        raise InputError(f"must be a Sphere, Capsule, Cylinder, Cone, Box or Convex, got {type(shape).__name__}",
+        raise InputError(f"must be a Sphere, Capsule, Cylinder, Cone, Box, Ellipsoid or Convex, got {type(shape).__name__}",
                          "shape")
     t, p = shape_params(shape)
     verts = np.ascontiguousarray(shape.vertices, dtype=float) if t == SHAPE_CONVEX else np.zeros((0, 3))
@@ -308,7 +308,7 @@ def shape_cast(world, shape, position, translation, orientation=None, exclude=No
 
     Args:
         world: a ``tumble.World``, at its bodies' current poses.
-        shape: a Sphere, Capsule, Cylinder, Cone, Box or Convex record (not added to the world).
+        shape: a Sphere, Capsule, Cylinder, Cone, Box, Ellipsoid or Convex record (not added to the world).
         position: (3,) or (K, 3) m, world: where the shape's origin starts.
         translation: (3,) or (K, 3) m, world: the straight move (no rotation); K casts at once.
         orientation: (4,) unit quaternion (w, x, y, z), the shape's turn (default none).

@@ -290,6 +290,7 @@ class ContactSolver:
             anchor_offsets = anchor_offsets_kernel if parallel else anchor_offsets_serial_kernel
             anchor_offsets(contacts.contact_manifold, contacts.manifold_shape_a, contacts.manifold_shape_b,
                            contacts.contact_point, contacts.contact_normal, contacts.contact_separation,
+                           contacts.contact_body_a, contacts.contact_body_b, omega,
                            table.shape_type, table.shape_params, shapes.shape_pos, shapes.shape_rot,
                            self.anchor_offset)
         (prepare_contacts_kernel if parallel else prepare_contacts_serial_kernel)(

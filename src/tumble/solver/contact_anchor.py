@@ -47,7 +47,7 @@ from numba import njit, prange
 
 from ..collision.constants import DEEP_OVERLAP
 from ..math3d import JIT, serial_twin
-from ..shapes import SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CYLINDER, SHAPE_SPHERE
+from ..shapes import SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CYLINDER, SHAPE_ELLIPSOID, SHAPE_SPHERE
 
 # A contact on a cylinder or a cone counts as on its round side or rim when its surface point
 # lies within ROUND_RIM_FRACTION of the radius from the axis and its direction from the axis is
@@ -100,15 +100,18 @@ def _arms(x, R, a, b, local_a, local_b, anchor_offset, c):
 
 
 @njit(**JIT)
-def round_offset(shape_type, radius, half_length, centre, rot, s, p0, p1, p2, u0, u1, u2):
+def round_offset(shape_type, params, centre, rot, s, p0, p1, p2, u0, u1, u2, w0, w1, w2):
     """(o0, o1, o2, round) for a contact whose surface point p (m, world) lies on shape ``s``
     touching the other body in the unit direction u (world): where the shape is round at p,
     the offset o from its core to p (radius long), else (0, 0, 0, False).
 
-    shape_type, radius, half_length: of shape s (``shape_params`` columns 0 and 1; a cone's
-    column 1 is its height, unused here); centre (S, 3) m and rot (S, 3, 3) its pose at the
-    step's start (``update_bounds``): the axis is rot[:, 2].
+    shape_type, params: of shape s (``shape_params`` row: radius and half length in columns 0
+    and 1; a cone's column 1 is its height, unused here; an ellipsoid's semi-axes); centre (S, 3)
+    m and rot (S, 3, 3) its pose at the step's start (``update_bounds``): the axis is rot[:, 2];
+    w (rad/s, world): the body's angular velocity less the other body's (an ellipsoid's rolling).
     """
+    radius = params[0]
+    half_length = params[1]
     q0 = p0 - centre[s, 0]
     q1 = p1 - centre[s, 1]
     q2 = p2 - centre[s, 2]
@@ -118,6 +121,8 @@ def round_offset(shape_type, radius, half_length, centre, rot, s, p0, p1, p2, u0
             return 0.0, 0.0, 0.0, False
         k = radius / length
         return k * q0, k * q1, k * q2, True
+    if shape_type == SHAPE_ELLIPSOID:
+        return _ellipsoid_offset(rot, s, params, q0, q1, q2, w0, w1, w2)
     if shape_type != SHAPE_CAPSULE and shape_type != SHAPE_CYLINDER and shape_type != SHAPE_CONE:
         return 0.0, 0.0, 0.0, False
     k0, k1, k2 = rot[s, 0, 2], rot[s, 1, 2], rot[s, 2, 2]
@@ -143,9 +148,55 @@ def round_offset(shape_type, radius, half_length, centre, rot, s, p0, p1, p2, u0
     return k * r0, k * r1, k * r2, True
 
 
+@njit(**JIT)
+def _ellipsoid_offset(rot, s, params, q0, q1, q2, w0, w1, w2):
+    """The round offset at surface point q (world, from the centre) of ellipsoid s: its radius of
+    curvature rho along the way the contact runs over it, times its outward unit normal there.
+
+    NOTE: an ellipsoid has no core that a radius grows into it; its surface near q is the
+    osculating circle, of centre q - rho n, in the plane of n and the direction t the contact
+    point runs along the surface, t = n x w (w the rolling: the relative angular velocity). Its
+    anchor is that centre, fixed in the body, plus rho n held in the world: the sphere's rule with
+    the local sphere. Dead ends (an egg rocking 0.05 rad on its short axis, rolling without
+    slipping, amplitude after 2 s at dt 1/240 s; it must stay 0.05): an anchor fixed in the body
+    0.065, the offset from the centre held in the world (Box2D's anchors) 0.060: both gain
+    energy at first order in dt. The normal curvature along unit t (shape frame), F = sum
+    x_i^2 / a_i^2: kappa = t' (Hess F) t / |grad F| = sum t_i^2 / a_i^2 / |x / a^2|.
+    Without rolling (w along n, or none) any tangent serves: the contact does not move."""
+    a, b, c = params[0], params[1], params[2]
+    # the point and w in the shape frame
+    x = rot[s, 0, 0] * q0 + rot[s, 1, 0] * q1 + rot[s, 2, 0] * q2
+    y = rot[s, 0, 1] * q0 + rot[s, 1, 1] * q1 + rot[s, 2, 1] * q2
+    z = rot[s, 0, 2] * q0 + rot[s, 1, 2] * q1 + rot[s, 2, 2] * q2
+    wx = rot[s, 0, 0] * w0 + rot[s, 1, 0] * w1 + rot[s, 2, 0] * w2
+    wy = rot[s, 0, 1] * w0 + rot[s, 1, 1] * w1 + rot[s, 2, 1] * w2
+    wz = rot[s, 0, 2] * w0 + rot[s, 1, 2] * w1 + rot[s, 2, 2] * w2
+    gx, gy, gz = x / (a * a), y / (b * b), z / (c * c)
+    g = math.sqrt(gx * gx + gy * gy + gz * gz)
+    if g == 0.0:
+        return 0.0, 0.0, 0.0, False
+    nx, ny, nz = gx / g, gy / g, gz / g
+    tx, ty, tz = ny * wz - nz * wy, nz * wx - nx * wz, nx * wy - ny * wx
+    t = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if t <= 1e-12 * math.sqrt(wx * wx + wy * wy + wz * wz) or t == 0.0:
+        # any tangent: n x the axis n leans on least
+        if abs(nx) <= abs(ny) and abs(nx) <= abs(nz):
+            tx, ty, tz = 0.0, nz, -ny
+        elif abs(ny) <= abs(nz):
+            tx, ty, tz = -nz, 0.0, nx
+        else:
+            tx, ty, tz = ny, -nx, 0.0
+        t = math.sqrt(tx * tx + ty * ty + tz * tz)
+    tx, ty, tz = tx / t, ty / t, tz / t
+    rho = g / (tx * tx / (a * a) + ty * ty / (b * b) + tz * tz / (c * c))
+    return (rho * (rot[s, 0, 0] * nx + rot[s, 0, 1] * ny + rot[s, 0, 2] * nz),
+            rho * (rot[s, 1, 0] * nx + rot[s, 1, 1] * ny + rot[s, 1, 2] * nz),
+            rho * (rot[s, 2, 0] * nx + rot[s, 2, 1] * ny + rot[s, 2, 2] * nz), True)
+
+
 @njit(**JIT, parallel=True)
 def anchor_offsets_kernel(contact_manifold, manifold_shape_a, manifold_shape_b, point, normal, separation,
-                          shape_type, shape_params, shape_pos, shape_rot,
+                          contact_body_a, contact_body_b, omega, shape_type, shape_params, shape_pos, shape_rot,
                           # output
                           anchor_offset):
     """Per contact (C): the round offsets of both anchors and the weight w of b's anchor in the
@@ -153,6 +204,7 @@ def anchor_offsets_kernel(contact_manifold, manifold_shape_a, manifold_shape_b, 
 
     point (C, 3) m midway between the surfaces, normal (C, 3) from a to b, separation (C,) m:
     a's surface point is point - s/2 n (touching b along +n), b's point + s/2 n (along -n).
+    contact_body_a, contact_body_b (C,): the bodies; omega (N, 3) rad/s, world, at the step's start.
     """
     for c in prange(point.shape[0]):
         mf = contact_manifold[c]
@@ -162,12 +214,15 @@ def anchor_offsets_kernel(contact_manifold, manifold_shape_a, manifold_shape_b, 
         half = 0.5 * separation[c]
         ta = shape_type[sa]
         tb = shape_type[sb]
-        oa0, oa1, oa2, round_a = round_offset(ta, shape_params[sa, 0], shape_params[sa, 1], shape_pos, shape_rot, sa,
+        ba = contact_body_a[c]
+        bb = contact_body_b[c]
+        w0, w1, w2 = omega[ba, 0] - omega[bb, 0], omega[ba, 1] - omega[bb, 1], omega[ba, 2] - omega[bb, 2]
+        oa0, oa1, oa2, round_a = round_offset(ta, shape_params[sa], shape_pos, shape_rot, sa,
                                               point[c, 0] - half * n0, point[c, 1] - half * n1,
-                                              point[c, 2] - half * n2, n0, n1, n2)
-        ob0, ob1, ob2, round_b = round_offset(tb, shape_params[sb, 0], shape_params[sb, 1], shape_pos, shape_rot, sb,
+                                              point[c, 2] - half * n2, n0, n1, n2, w0, w1, w2)
+        ob0, ob1, ob2, round_b = round_offset(tb, shape_params[sb], shape_pos, shape_rot, sb,
                                               point[c, 0] + half * n0, point[c, 1] + half * n1,
-                                              point[c, 2] + half * n2, -n0, -n1, -n2)
+                                              point[c, 2] + half * n2, -n0, -n1, -n2, -w0, -w1, -w2)
         if separation[c] < -DEEP_OVERLAP:
             w = 0.5  # the midpoint, far from both (see the module docstring)
         elif round_b and not round_a:

@@ -1,6 +1,6 @@
-"""Convex family: cylinder, cone and convex hull against every convex shape (contract in ``pairs/__init__``).
+"""Convex family: cylinder, cone, ellipsoid and convex hull against every convex shape (contract in ``pairs/__init__``).
 
-Any two convex shapes (sphere, capsule, cylinder, cone, box, convex hull, mesh
+Any two convex shapes (sphere, capsule, cylinder, cone, box, ellipsoid, convex hull, mesh
 triangle): GJK on their cores gives the distance and the normal when they are apart,
 EPA when the cores overlap (``pairs/gjk``). The manifold then comes from the two
 *supporting faces* (the feature of each shape most facing the other along the
@@ -37,6 +37,7 @@ from ...shapes import (
     SHAPE_CONE,
     SHAPE_CONVEX,
     SHAPE_CYLINDER,
+    SHAPE_ELLIPSOID,
     SHAPE_SPHERE,
 )
 from ..constants import MAX_MANIFOLD_POINTS, MESH_POINTS
@@ -252,6 +253,11 @@ def supporting_face(t, pos, rot, params, verts, f0, nf, hull_face_first, hull_fa
                 poly[1, i], poly[2, i] = poly[2, i], poly[1, i]
             return 3, 1, (-nx, -ny, -nz), -c
         return 3, 0, (nx, ny, nz), c
+    if t == SHAPE_ELLIPSOID:  # smooth everywhere: its one support point
+        p = support(t, pos, rot, params, verts, dx, dy, dz)
+        for i in range(3):
+            poly[0, i] = p[i]
+        return 1, 0, none, -1.0
     # sphere
     for i in range(3):
         poly[0, i] = pos[i]
@@ -513,7 +519,8 @@ def face_manifold(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, tb, pos_b, rot_
     ra = core_radius(ta, params_a)
     rb = core_radius(tb, params_b)
     normal[0], normal[1], normal[2] = nx, ny, nz
-    if ta != SHAPE_SPHERE and tb != SHAPE_SPHERE:  # a sphere touches at one point: no faces to clip
+    if ta != SHAPE_SPHERE and tb != SHAPE_SPHERE and ta != SHAPE_ELLIPSOID and tb != SHAPE_ELLIPSOID:
+        # (a sphere or an ellipsoid touches at one point: no faces to clip)
         face_a, face_b = scratch[1], scratch[2]
         ka, ida, nfa, align_a = supporting_face(ta, pos_a, rot_a, params_a, verts_a, fa0, fna, hull_face_first,
                                                 hull_face_count, hull_face_vertex, hull_plane, hull_vertex,

@@ -26,6 +26,7 @@ from ...shapes import (
     SHAPE_CONE,
     SHAPE_CONVEX,
     SHAPE_CYLINDER,
+    SHAPE_ELLIPSOID,
     SHAPE_SPHERE,
 )
 
@@ -77,6 +78,12 @@ def support(t, pos, rot, params, verts, dx, dy, dz):
             pz = params[1]  # the apex
         else:
             px, py = params[0] * ux, params[0] * uy  # a point of the base rim
+    elif t == SHAPE_ELLIPSOID:
+        # the point of (x/a)^2 + (y/b)^2 + (z/c)^2 = 1 whose normal is l: p = A^2 l / |A l|, A = diag(a, b, c)
+        ax, ay, az = params[0] * lx, params[1] * ly, params[2] * lz
+        n = math.sqrt(ax * ax + ay * ay + az * az)
+        if n > 0.0:
+            px, py, pz = params[0] * ax / n, params[1] * ay / n, params[2] * az / n
     elif t == SHAPE_BOX:
         px = params[0] if lx >= 0.0 else -params[0]
         py = params[1] if ly >= 0.0 else -params[1]

@@ -1,4 +1,4 @@
-"""Plane family, round and hull shapes: plane-cylinder, plane-cone, plane-convex (contract in ``pairs/__init__``)."""
+"""Plane family, round and hull shapes: plane-cylinder, plane-cone, plane-ellipsoid, plane-convex (contract in ``pairs/__init__``)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from .sphere import plane_world
 @njit(**JIT)
 def collide_plane_convex_shape(tb, pos_a, rot_a, params_a, pos_b, rot_b, params_b, speculative, geometry, b,
                                normal, point, separation, feature):
-    """Plane a against a cylinder, cone or convex hull b.
+    """Plane a against a cylinder, cone, ellipsoid or convex hull b.
 
     Hull: every vertex within ``speculative`` of the plane (feature = vertex row),
     reduced to 4. Cylinder and cone: the supporting face towards the plane (cap
