@@ -150,3 +150,74 @@ def test_capsule_capsule_fuzz():
         for k in range(len(s)):
             assert abs(capsule_sdf(p[k] - 0.5 * s[k] * n, A)) < 1e-9 or len(s) == 2
             assert abs(capsule_sdf(p[k] + 0.5 * s[k] * n, B)) < 1e-9 or len(s) == 2
+
+
+def _ellipsoid(pos, R, radii):
+    from tumble.shapes import SHAPE_ELLIPSOID
+
+    return SHAPE_ELLIPSOID, np.asarray(pos, float), np.asarray(R, float), np.array([*radii, 0.0])
+
+
+def _point_ellipsoid_distance(p, radii):
+    """Distance from p (shape frame, outside) to the ellipsoid's surface and the nearest point:
+    q_i = a_i^2 p_i / (a_i^2 + t), t > 0 the root of sum (a_i p_i / (a_i^2 + t))^2 = 1 (the
+    Lagrange condition; brentq on a bracket), no GJK."""
+    from scipy.optimize import brentq
+
+    a2 = np.asarray(radii) ** 2
+    g = lambda t: np.sum(a2 * p * p / (a2 + t) ** 2) - 1.0  # noqa: E731
+    t = brentq(g, 0.0, np.linalg.norm(p) * np.max(radii) * 4.0, xtol=1e-15, rtol=1e-15, maxiter=500)
+    q = a2 * p / (a2 + t)
+    return float(np.linalg.norm(p - q)), q
+
+
+def test_ellipsoid_plane_and_sphere_fuzz():
+    """An ellipsoid on a plane: one contact, its separation the closed form z - |A R^T e_z| (1e-12)
+    and its point the lowest point; an ellipsoid against a sphere (GJK/EPA): one contact, the
+    separation the exact point-ellipsoid distance less the radius (Lagrange root, no GJK) to 1e-8 m
+    (GJK/EPA on a curved surface, docs/contact.md), both surface points on their surfaces to 1e-7."""
+    from .helpers import plane
+
+    rng = np.random.default_rng(17)
+    P = plane()
+    for _ in range(200):
+        radii = rng.uniform(0.05, 0.4, 3)
+        R = random_rotation(rng)
+        E = _ellipsoid((0, 0, rng.uniform(-0.02, 0.05) + np.linalg.norm(radii * R[2])), R, radii)
+        n, p, s, f = collide(P, E)
+        expected = E[1][2] - np.linalg.norm(radii * R[2])
+        if expected >= SPEC:
+            assert len(s) == 0
+            continue
+        assert len(s) == 1
+        np.testing.assert_allclose(n, (0, 0, 1), atol=1e-15)
+        assert s[0] == pytest.approx(expected, abs=1e-12)
+        low = R.T @ (p[0] + 0.5 * s[0] * n - E[1])  # b's surface point, shape frame
+        assert np.sum((low / radii) ** 2) == pytest.approx(1.0, abs=1e-12)
+    checked = 0
+    for _ in range(200):
+        radii = rng.uniform(0.05, 0.4, 3)
+        R = random_rotation(rng)
+        E = _ellipsoid(rng.normal(size=3) * 0.05, R, radii)
+        r = rng.uniform(0.05, 0.3)
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        centre = E[1] + d * (np.linalg.norm(radii * (R.T @ d)) + rng.uniform(-0.8, 1.0) * r)
+        local = R.T @ (centre - E[1])
+        if np.sum((local / radii) ** 2) <= 1.0 + 1e-6:
+            continue  # the sphere's centre inside the ellipsoid: no point-distance oracle
+        dist, _ = _point_ellipsoid_distance(local, radii)
+        expected = dist - r
+        n, p, s, f = collide(sphere(centre, r), E)
+        if expected >= SPEC:
+            assert len(s) == 0
+            continue
+        checked += 1
+        assert len(s) == 1
+        check_unit_normal(n, s)
+        assert s[0] == pytest.approx(expected, abs=1e-8)
+        on_sphere = p[0] - 0.5 * s[0] * n
+        on_ellipsoid = R.T @ (p[0] + 0.5 * s[0] * n - E[1])
+        assert np.linalg.norm(on_sphere - centre) == pytest.approx(r, abs=1e-7)
+        assert np.sum((on_ellipsoid / radii) ** 2) == pytest.approx(1.0, abs=1e-6)
+    assert checked > 80
