@@ -15,8 +15,8 @@ What maps to what:
   default 1000 kg/m^3, or of the given ``mass``; visual-only geoms included, as MuJoCo's
   ``inertiafromgeom``), combined by the parallel-axis theorem.
 - ``<geom>``: ``sphere``, ``capsule``, ``cylinder`` (``size`` radius and half-length, or ``fromto``),
-  ``box`` (half-sizes), ``ellipsoid`` (semi-axes: ``tb.Ellipsoid``), ``mesh`` (an ``<asset><mesh file scale>``: its convex hull, as MuJoCo
-  collides meshes), ``plane`` (in ``<worldbody>``). ``friction``'s first number is the body's
+  ``box`` (half-sizes), ``ellipsoid`` (semi-axes: ``tb.Ellipsoid``), ``mesh`` (an ``<asset><mesh file scale>``, or
+  inline ``vertex`` points: its convex hull, as MuJoCo collides meshes), ``plane`` (in ``<worldbody>``). ``friction``'s first number is the body's
   friction (default 1, MuJoCo's; the first colliding geom's when several differ). A geom with
   ``contype = conaffinity = 0`` (a visual geom) has mass but no collision shape. The
   ``<worldbody>``'s own geoms become fixed bodies of their own (the floor).
@@ -367,14 +367,25 @@ def _meshes(reader: _Reader, root) -> dict:
             file = a.get("file")
             name = a.get("name") or (Path(file).stem if file else None)
             key = f"asset.mesh[{name}]"
+            scale = _floats(a.get("scale", "1 1 1"), f"{key}.scale", (3,))
+            if not file and "vertex" in a:  # inline vertices (x y z ...): their hull, as MuJoCo collides it
+                values = [float(v) for v in a["vertex"].split()] if a["vertex"].strip() else []
+                if len(values) < 12 or len(values) % 3:
+                    raise InputError(f"expected at least 4 points of 3 numbers, got {len(values)} numbers",
+                                     f"{key}.vertex")
+                points = _floats(a["vertex"], f"{key}.vertex", (len(values),)).reshape(-1, 3) * scale
+                try:
+                    out[name] = Convex(points=points)
+                except InputError as err:
+                    raise InputError(err.problem, f"{key}.vertex") from None
+                continue
             if not file:
-                raise InputError("missing file (inline vertices are not supported)", key)
+                raise InputError("missing file (or inline vertex)", key)
             p = reader.meshdir / file
             if not p.is_file():
                 raise InputError(f"mesh file not found: {p}", f"{key}.file")
             checks.check_memory(p.stat().st_size * checks.FILE_EXPANSION, f"reading the mesh file {p}", key,
                                 str(reader.path))
-            scale = _floats(a.get("scale", "1 1 1"), f"{key}.scale", (3,))
             try:
                 out[name] = Convex(points=np.asarray(_read_mesh_file(str(p)).vertices, dtype=float) * scale)
             except InputError as err:
