@@ -83,12 +83,13 @@ its place, paths from the main file's directory; repeated worldbody and compiler
 ``<asset><hfield>`` and ``hfield`` geoms (``<worldbody>`` ones): static terrain
 (``shapes.heightfield``), read as MuJoCo's compiler reads them (``mjcf_hfield``).
 ``<frame>``: its bodies, geoms, joints, sites, cameras and frames placed in its pose, with its
-``childclass`` (``mjcf_xml.framed``), as MuJoCo places them.
+``childclass`` (``mjcf_xml.framed``), as MuJoCo places them. ``<replicate>``: its copies, as
+MuJoCo makes them (``mjcf_xml.expand_replicates``: frames in the poses T^i, names suffixed).
 Refused with one line: ``<equality>`` other than connect, weld and joint (tendon,
 flex; between sites; a weld's ``relpose``), spatial tendons and fixed ones with a range,
 stiffness, damping or friction loss, position, velocity and biased actuators on tendons,
 ``<contact><pair>``,
-``<replicate>``, ``<composite>``, ``<flexcomp>``, ``<attach>``, sdf geoms, hfield geoms on bodies, a free joint beside another joint, and unknown joint or geom types.
+``<composite>``, ``<flexcomp>``, ``<attach>``, sdf geoms, hfield geoms on bodies, a free joint beside another joint, and unknown joint or geom types.
 """
 
 from __future__ import annotations
@@ -120,7 +121,7 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
 )
 from .mjcf_control import floats as _floats
 from .mjcf_sensors import _camera, _sites_and_cameras, read_sensors
-from .mjcf_xml import GENERATORS, check_tag as _check_tag, framed, place, read_model_xml  # noqa: F401
+from .mjcf_xml import GENERATORS, check_tag as _check_tag, expand_replicates, framed, place, read_model_xml  # noqa: F401
 from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
@@ -420,6 +421,7 @@ def read_option_gravity(path) -> np.ndarray:
 def _read(path: Path) -> MjcfModel:
     root = read_model_xml(path)  # includes expanded (MuJoCo Menagerie's scene.xml + robot.xml)
     reader = _Reader(root, path)
+    expand_replicates(root, reader)
     meshes = _meshes(reader, root)
     reader.hfields = read_hfields(reader, root)
     out = MjcfModel(UrdfModel(root.get("model") or path.stem, {"world": UrdfLink("world")}, [], "world", str(path)))

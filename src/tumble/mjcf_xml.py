@@ -13,19 +13,29 @@ into the first, and the compilers' attributes too (a later one's win), as MuJoCo
 for the bodies, geoms, joints, sites, cameras and frames it holds, which MuJoCo places in the
 frame's pose within the body that holds the frame; it makes no body of its own. ``framed`` walks an
 element's children and those inside its frames, and gives each its frame's pose and class.
+
+``<replicate count offset euler sep>`` (XML reference, ``replicate``; each rule measured on
+MuJoCo's compiled model): ``count`` copies of its children, copy i in the pose T^i of the
+transform T = (``offset``, ``euler`` in the compiler's angle unit and sequence), each named
+element's name suffixed by ``sep`` (default none) and i zero-padded to the digits of ``count``
+(count 12: 00 ... 11); nested ones expand inside first, so the inner suffix comes first.
+``expand_replicates`` writes each copy as a ``<frame>`` in its place.
 """
 
 from __future__ import annotations
 
+import copy
 import xml.etree.ElementTree as ET
 from pathlib import Path
+
+import numpy as np
 
 from .errors import InputError
 from .urdf_read import read_xml
 
 MAX_INCLUDED_FILES = 256
 # elements of <worldbody>/<body> that make bodies or geoms of their own: refused, not dropped without a word
-GENERATORS = ("replicate", "composite", "flexcomp", "attach")
+GENERATORS = ("composite", "flexcomp", "attach")
 
 
 def check_tag(child: ET.Element, where: str):
@@ -122,3 +132,62 @@ def _merge(root: ET.Element, tag: str, children: bool):
         else:
             sections[0].attrib.update(extra.attrib)
         root.remove(extra)
+
+
+MAX_REPLICATED = 100_000  # elements a file's replicates may make (a typo in count stops with one line)
+
+
+def expand_replicates(root: ET.Element, reader) -> None:
+    """Replace each ``<replicate>`` below ``root``'s ``<worldbody>`` by its copies, each a
+    ``<frame>`` in the copy's pose (module docstring). ``reader.orientation`` turns ``euler``
+    into a rotation (the compiler's angle unit and sequence). InputError (one line) for a bad
+    count, offset or euler."""
+    from .math3d import matrix_to_quat
+    from .mjcf_control import floats
+
+    made = [0]
+
+    def expand(parent: ET.Element, where: str):
+        k = 0
+        while k < len(parent):
+            child = parent[k]
+            key = f"{where}.{child.tag}[{child.get('name') or k}]"
+            expand(child, key)  # inside first: an inner replicate's suffix comes first
+            if child.tag != "replicate":
+                k += 1
+                continue
+            text = child.get("count", "")
+            try:
+                count = int(text)
+            except ValueError:
+                count = 0
+            if count < 1:
+                raise InputError(f"expected a whole number >= 1, got {text!r}", f"{key}.count")
+            made[0] += count * sum(1 for _ in child.iter())
+            if made[0] > MAX_REPLICATED:
+                raise InputError(f"the replicates make more than {MAX_REPLICATED} elements", f"{key}.count")
+            offset = floats(child.get("offset", "0 0 0"), f"{key}.offset", (3,))
+            R = reader.orientation({"euler": child.get("euler")} if "euler" in child.attrib else {}, key)
+            sep = child.get("sep", "")
+            width = len(str(count))
+            position, turn = np.zeros(3), np.eye(3)
+            copies = []
+            for i in range(count):
+                frame = ET.Element("frame", {"pos": " ".join(repr(float(v)) for v in position),
+                                             "quat": " ".join(repr(float(v)) for v in matrix_to_quat(turn))})
+                suffix = f"{sep}{i:0{width}d}"
+                for part in child:
+                    part = copy.deepcopy(part)
+                    for element in part.iter():
+                        if element.get("name"):
+                            element.set("name", element.get("name") + suffix)
+                    frame.append(part)
+                copies.append(frame)
+                position, turn = position + turn @ offset, turn @ R
+            parent.remove(child)
+            for j, frame in enumerate(copies):
+                parent.insert(k + j, frame)
+            k += len(copies)
+
+    for worldbody in root.findall("worldbody"):
+        expand(worldbody, "worldbody")

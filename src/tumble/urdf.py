@@ -660,9 +660,10 @@ def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, 
 
 
 def _place(world, robot: Robot, frames: dict, owner: dict):
-    """Move every body to its links' frames at the start joint positions (bodies at rest)."""
+    """Move every body to its links' frames at the start joint positions (bodies at rest). Bodies
+    outside the link tree (an MJCF model's worldbody geoms: fixed bodies of their own) stay."""
     for link, body in robot.links.items():
-        if owner[link] != link:
+        if owner.get(link) != link:
             continue
         p, R = frames[link]
         i = body.index

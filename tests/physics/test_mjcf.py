@@ -291,8 +291,12 @@ def test_bad_models_stop_with_one_line_naming_file_element_and_problem(tmp_path,
     ("<robot/>", "expected a <mujoco> element"),
     ("<mujoco><worldbody>", "invalid XML"),
     ("<mujoco/>", "missing <worldbody>"),
-    ("<mujoco><worldbody><body><frame pos='1 0 0'><replicate count='2'><geom size='0.1'/></replicate></frame>"
-     "</body></worldbody></mujoco>", "body[body1].frame[0].replicate: <replicate> is not supported"),
+    ("<mujoco><worldbody><body><frame pos='1 0 0'><composite type='grid' count='2 2 1'/></frame>"
+     "</body></worldbody></mujoco>", "body[body1].frame[0].composite: <composite> is not supported"),
+    ("<mujoco><worldbody><replicate count='0'><geom size='0.1'/></replicate></worldbody></mujoco>",
+     "worldbody.replicate[0].count: expected a whole number >= 1, got '0'"),
+    ("<mujoco><worldbody><replicate count='2' offset='1 0'><geom size='0.1'/></replicate></worldbody></mujoco>",
+     "worldbody.replicate[0].offset: expected 3 numbers"),
     ("<mujoco><worldbody><frame name='f' childclass='nope'><body><geom size='0.1'/></body></frame></worldbody>"
      "</mujoco>", "worldbody.frame[f].childclass: unknown default class 'nope'"),
     ("<mujoco><worldbody><frame euler='0 0 1' quat='1 0 0 0'><geom size='0.1'/></frame></worldbody></mujoco>",
@@ -1616,3 +1620,64 @@ def test_inline_mesh_vertices_give_mujocos_mass_properties(tmp_path):
     bad = write(tmp_path, '<mujoco><asset><mesh name="m" vertex="0 0 0 1 0 0"/></asset><worldbody/></mujoco>', "bad.xml")
     with pytest.raises(tb.InputError, match=r"asset.mesh\[m\].vertex: expected at least 4 points"):
         tb.load_mjcf(tb.World(), bad)
+
+
+# <replicate>s (MuJoCo 3's): nested, turned (euler in radians here), with sep, a joint and a site
+# in each copy, a sensor on one copy's joint, and a row of static pegs (12 copies: 2-digit suffixes)
+REPLICATED = """
+<mujoco model="rows">
+  <compiler angle="radian"/>
+  <worldbody>
+    <replicate count="2" offset="0.6 0 0" euler="0 0 0.3" sep="x">
+      <replicate count="3" offset="0 0.4 0.05" sep="y">
+        <body name="arm" pos="0 0 1" euler="0.1 0 0">
+          <joint name="hinge" axis="0 1 0" pos="0 0 0.1"/>
+          <geom type="capsule" fromto="0 0 0 0 0.05 -0.3" size="0.03"/>
+          <site name="tip" pos="0 0 -0.3"/>
+        </body>
+      </replicate>
+    </replicate>
+    <replicate count="12" offset="0.1 0 0" euler="0 0 0.05">
+      <geom name="peg" type="box" size="0.01 0.01 0.05" pos="0 -1 0.05"/>
+    </replicate>
+  </worldbody>
+  <sensor><jointpos name="q" joint="hingey1x0"/></sensor>
+</mujoco>
+"""
+
+
+def test_replicates_make_the_copies_mujoco_makes(tmp_path):
+    """Every copy MuJoCo's compiler makes of a <replicate> (nested, turned, sep, 2-digit
+    suffixes) is in tumble under the same name: bodies with their masses, centres and inertias,
+    joints with their anchors and axes, sites and static geoms where MuJoCo puts them (1e-12:
+    the same closed forms; a pose composed the wrong way round is off by centimetres), and a
+    sensor on one copy's joint reads it. Unnamed copies stay unnamed, as in MuJoCo."""
+    path = write(tmp_path, REPLICATED)
+    ref, ref_joints = mujoco_bodies(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    world = tb.World()
+    robot = tb.load_mjcf(world, path)
+    assert set(ref) == {f"army{i}x{j}" for i in range(3) for j in range(2)}
+    for name, (mass, centre, inertia) in ref.items():
+        body = robot.links[name]
+        assert body.mass == pytest.approx(mass, rel=1e-12), name
+        np.testing.assert_allclose(body.x, centre, atol=1e-12, err_msg=name)
+        R = np.asarray(body.R)
+        np.testing.assert_allclose(R @ np.asarray(body.inertia_body) @ R.T, inertia, atol=1e-10 * np.abs(inertia).max())
+    for name, (anchor, axis) in ref_joints.items():
+        joint = robot.joints[name]
+        np.testing.assert_allclose(joint.anchor, anchor, atol=1e-12, err_msg=name)
+        np.testing.assert_allclose(np.asarray(joint.axis) / np.linalg.norm(joint.axis), axis, atol=1e-12, err_msg=name)
+    for k in range(m.nsite):
+        o, R = robot.site_pose(m.site(k).name)
+        np.testing.assert_allclose(o, d.site_xpos[k], atol=1e-12)
+        np.testing.assert_allclose(R, d.site_xmat[k].reshape(3, 3), atol=1e-12)
+    pegs = [m.geom(k).name for k in range(m.ngeom) if m.geom(k).name.startswith("peg")]
+    assert pegs == [f"peg{i:02d}" for i in range(12)]
+    for name in pegs:
+        np.testing.assert_allclose(robot.links[f"world/{name}"].x, d.geom(name).xpos, atol=1e-12, err_msg=name)
+    sim = tb.Simulator(world, dt=1 / 240)
+    robot.reset_joint_positions(sim, {"hingey1x0": 0.25})
+    assert robot.sensor_data(sim)["q"] == pytest.approx(0.25, abs=1e-12)
