@@ -245,6 +245,7 @@ shapes = st.one_of(
     st.builds(lambda s: {"type": "box", "size": s}, vec(0.05, 1.0)),
     st.builds(lambda r, l: {"type": "capsule", "radius": r, "length": l}, st.floats(0.05, 0.5), st.floats(0.05, 1.0)),
     st.builds(lambda r, l: {"type": "cylinder", "radius": r, "length": l}, st.floats(0.05, 0.5), st.floats(0.05, 1.0)),
+    st.builds(lambda r: {"type": "ellipsoid", "radii": r}, vec(0.05, 1.0)),
     # a tetrahedron of particles, jittered (never flat: a valid body has positive principal moments)
     st.builds(lambda jit, m: {"type": "particles", "points": (np.array([[0, 0, 0], [0.3, 0, 0], [0, 0.3, 0], [0, 0, 0.3]]) + jit).tolist(),
                               "masses": m}, st.lists(vec(-0.05, 0.05), min_size=4, max_size=4), st.lists(st.floats(0.2, 2), min_size=4, max_size=4)),
