@@ -44,24 +44,7 @@ from tumble.viewer.app import SELECTED_COLOR, linear_colors
 from tumble.viewer.contacts import contacts_at
 from tumble.viewer.meshes import body_mesh, mesh_key, shape_mesh
 
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_ARGS = [
-    "--headless=new",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--use-angle=swiftshader",
-    "--enable-unsafe-swiftshader",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-    "--disable-quic",
-]
-BENIGN_CONSOLE_ERRORS = (
-    "favicon.ico",
-    "GL Driver Message",
-    "GPU stall due to ReadPixels",
-)
+from tests.browser import BENIGN_CONSOLE_ERRORS, CHROMIUM, CHROMIUM_ARGS, browser_session  # noqa: F401  (re-exported)
 VIEWPORT = {"width": 960, "height": 640}
 # Hide every DOM element but the three.js canvas (the GUI panel and notices, and the energy plot's
 # own canvas inside the panel: uPlot draws on a <canvas> too), so that the pixels measured are the
@@ -206,19 +189,7 @@ def settled_screenshot(page, predicate, timeout: float):
 
 @pytest.fixture(scope="module")
 def browser():
-    if not os.path.exists(CHROMIUM):
-        message = f"{CHROMIUM} not found: run .ci/setup.d/chromium.sh"
-        if os.environ.get("CI"):
-            pytest.fail(message)
-        pytest.skip(message)
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True)
-        try:
-            yield b
-        finally:
-            b.close()
+    yield from browser_session()
 
 
 @pytest.fixture

@@ -129,6 +129,14 @@ class Trajectory:
             raise KeyError(name)
         return int(hits[0])
 
+    def show(self, height: int = 480, title: str | None = None):
+        """The run as a web page in a notebook cell (Jupyter shows the returned ``HtmlView``: the
+        glTF animation in Google's model-viewer, play, pause, a time slider; no server, no network;
+        ``.save("run.html")`` keeps it). ``tumble.export.html``."""
+        from .export.html import HtmlView
+
+        return HtmlView(self, height=height, title=title)
+
     def save(self, path) -> Path:
         """Write the .npz atomically (temporary file in the same folder, then rename)."""
         arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self) if getattr(self, f.name) is not None}

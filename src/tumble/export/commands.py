@@ -1,4 +1,5 @@
-"""``tumble export TRAJ -o OUT``: a trajectory file to glTF (.glb) or USD (.usd, .usda, .usdc).
+"""``tumble export TRAJ -o OUT``: a trajectory file to glTF (.glb), USD (.usd, .usda, .usdc) or a
+self-contained web page (.html).
 
 Hooked into the ``tumble`` command by ``tumble.cli.COMMAND_MODULES``. TRAJ is a
 ``trajectory.npz`` or the output folder of ``tumble run`` / ``tumble demo``
@@ -12,19 +13,21 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import InputError
-from . import GLTF_SUFFIXES, SUFFIXES
+from . import GLTF_SUFFIXES, HTML_SUFFIXES, SUFFIXES
 
-FORMAT_NAMES = {".glb": "glTF 2.0 binary", ".usd": "USD (binary)", ".usdc": "USD (binary)", ".usda": "USD (text)"}
+FORMAT_NAMES = {".glb": "glTF 2.0 binary", ".usd": "USD (binary)", ".usdc": "USD (binary)", ".usda": "USD (text)",
+                ".html": "web page with its viewer", ".htm": "web page with its viewer"}
 
 
 def add_commands(subparsers) -> dict:
     p = subparsers.add_parser(
-        "export", help="write a trajectory as glTF (.glb) or USD (.usd, .usda, .usdc)",
-        description="Write a trajectory as an animation: glTF 2.0 binary (.glb) or USD (.usd, .usda, .usdc), "
-                    "chosen by the output file's suffix. Each body is a mesh whose transform follows its "
-                    "centre of mass and orientation, frame by frame.")
+        "export", help="write a trajectory as glTF (.glb), USD (.usd, .usda, .usdc) or a web page (.html)",
+        description="Write a trajectory as an animation: glTF 2.0 binary (.glb), USD (.usd, .usda, .usdc) or one "
+                    "self-contained web page that plays it (.html: no network, no server), chosen by the output "
+                    "file's suffix. Each body is a mesh whose transform follows its centre of mass and "
+                    "orientation, frame by frame.")
     p.add_argument("trajectory", metavar="TRAJ", help="trajectory.npz, or a folder written by tumble run / tumble demo")
-    p.add_argument("-o", "--output", metavar="OUT", required=True, help="output file: .glb, .usd, .usda or .usdc")
+    p.add_argument("-o", "--output", metavar="OUT", required=True, help="output file: .glb, .usd, .usda, .usdc or .html")
     p.add_argument("--force", action="store_true", help="overwrite OUT if it exists")
     return {"export": cmd_export}
 
@@ -53,6 +56,8 @@ def cmd_export(args) -> int:
     try:
         if suffix in GLTF_SUFFIXES:
             from .gltf import export_gltf as write
+        elif suffix in HTML_SUFFIXES:
+            from .html import export_html as write
         else:
             try:
                 import pxr  # noqa: F401  (usd-core)
