@@ -248,7 +248,7 @@ def test_parse_scene_from_a_dict(tmp_path):
 
 BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 1\n'
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
-SHAPES = "sphere, box, capsule, cylinder, cone, plane, mesh, convex, particles, compound, heightfield"
+SHAPES = "sphere, box, capsule, cylinder, cone, ellipsoid, plane, mesh, convex, particles, compound, heightfield"
 BODY_KEYS = ("name, shape, mass, density, inertia, fixed, kinematic, position, orientation, euler_deg, velocity, "
              "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity, sensor, drop")
 PATH = "{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]] }"
@@ -382,11 +382,11 @@ BAD_SCENES = [
      body(shape='{ type = "compound", parts = [{ shape = { type = "sphere", radius = 1 } }, { shape = { type = "sphere", radius = -1 } }] }'),
      "bodies[0].shape.parts[1].shape.radius", "must be positive, got -1"),
     ("compound-in-compound", body(shape='{ type = "compound", parts = [{ shape = { type = "compound", parts = [] } }] }'),
-     "bodies[0].shape.parts[0].shape.type", "a compound part cannot be a compound (expected one of sphere, box, capsule, cylinder, cone, convex)"),
+     "bodies[0].shape.parts[0].shape.type", "a compound part cannot be a compound (expected one of sphere, box, capsule, cylinder, cone, ellipsoid, convex)"),
     ("compound-plane-part", body(shape='{ type = "compound", parts = [{ shape = { type = "plane" } }] }'),
-     "bodies[0].shape.parts[0].shape.type", "a compound part cannot be a plane (expected one of sphere, box, capsule, cylinder, cone, convex)"),
+     "bodies[0].shape.parts[0].shape.type", "a compound part cannot be a plane (expected one of sphere, box, capsule, cylinder, cone, ellipsoid, convex)"),
     ("compound-mesh-part", body(shape='{ type = "compound", parts = [{ shape = { type = "mesh", path = "x.obj" } }] }'),
-     "bodies[0].shape.parts[0].shape.type", "a compound part cannot be a mesh (expected one of sphere, box, capsule, cylinder, cone, convex)"),
+     "bodies[0].shape.parts[0].shape.type", "a compound part cannot be a mesh (expected one of sphere, box, capsule, cylinder, cone, ellipsoid, convex)"),
     ("compound-unknown-part-type", body(shape='{ type = "compound", parts = [{ shape = { type = "blob" } }] }'),
      "bodies[0].shape.parts[0].shape.type", re.escape(f"unknown shape type 'blob' (expected one of {SHAPES})")),
     ("compound-part-zero-quaternion", body(shape='{ type = "compound", parts = [{ shape = { type = "sphere", radius = 1 }, orientation = [0, 0, 0, 0] }] }'),

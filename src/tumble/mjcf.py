@@ -120,6 +120,7 @@ from .mjcf_control import (  # noqa: F401  (MjcfActuator, apply_controls: public
     apply_controls,
 )
 from .mjcf_control import floats as _floats
+from .mjcf_control import whole_number
 from .mjcf_sensors import _camera, _sites_and_cameras, read_sensors
 from .mjcf_xml import GENERATORS, check_tag as _check_tag, expand_replicates, framed, place, read_model_xml  # noqa: F401
 from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
@@ -344,17 +345,7 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
 
 def _masks(a: dict, key: str) -> tuple:
     """A geom's (``contype``, ``conaffinity``) bit masks, MuJoCo's default 1 and 1."""
-    out = []
-    for attr in ("contype", "conaffinity"):
-        text = a.get(attr, "1")
-        try:
-            value = int(text)
-        except ValueError:
-            raise InputError(f"expected an integer >= 0, got {text!r}", f"{key}.{attr}") from None
-        if value < 0:
-            raise InputError(f"expected an integer >= 0, got {text!r}", f"{key}.{attr}")
-        out.append(value)
-    return tuple(out)
+    return tuple(whole_number(a.get(attr, "1"), f"{key}.{attr}", 0, "an integer") for attr in ("contype", "conaffinity"))
 
 
 def _meshes(reader: _Reader, root) -> dict:

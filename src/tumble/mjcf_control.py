@@ -37,6 +37,17 @@ def floats(text, key, counts) -> np.ndarray:
     return np.array(values)
 
 
+def whole_number(text, key, minimum: int, what: str = "a whole number") -> int:
+    """An attribute's integer, at least ``minimum``: InputError naming ``key`` otherwise."""
+    try:
+        value = int(text)
+    except (TypeError, ValueError):
+        value = None
+    if value is None or value < minimum:
+        raise InputError(f"expected {what} >= {minimum}, got {text!r}", key)
+    return value
+
+
 @dataclass
 class MjcfActuator:
     """An ``<actuator>`` on a joint in MuJoCo's general form: the actuator force f = gain ctrl + b0 +

@@ -27,7 +27,7 @@ import numpy as np
 
 from . import checks
 from .errors import InputError
-from .mjcf_control import floats
+from .mjcf_control import floats, whole_number
 
 HFIELD_SIZE_NUMBERS = 4  # rx ry top base
 
@@ -67,16 +67,9 @@ def _attribute_data(a: dict, key: str) -> np.ndarray:
     zeros without ``elevation`` (MuJoCo's: the data are set at run time)."""
     shape = []
     for attr in ("nrow", "ncol"):
-        text = a.get(attr)
-        if text is None:
+        if a.get(attr) is None:
             raise InputError(f"missing {attr} (or a file)", key)
-        try:
-            n = int(text)
-        except ValueError:
-            raise InputError(f"expected a whole number >= 2, got {text!r}", f"{key}.{attr}") from None
-        if n < 2:
-            raise InputError(f"expected a whole number >= 2, got {text!r}", f"{key}.{attr}")
-        shape.append(n)
+        shape.append(whole_number(a[attr], f"{key}.{attr}", 2))
     checks.check_memory(8 * shape[0] * shape[1], "a height field's grid", key)
     if "elevation" not in a:
         return np.zeros(shape)

@@ -143,7 +143,7 @@ def expand_replicates(root: ET.Element, reader) -> None:
     into a rotation (the compiler's angle unit and sequence). InputError (one line) for a bad
     count, offset or euler."""
     from .math3d import matrix_to_quat
-    from .mjcf_control import floats
+    from .mjcf_control import floats, whole_number
 
     made = [0]
 
@@ -156,13 +156,7 @@ def expand_replicates(root: ET.Element, reader) -> None:
             if child.tag != "replicate":
                 k += 1
                 continue
-            text = child.get("count", "")
-            try:
-                count = int(text)
-            except ValueError:
-                count = 0
-            if count < 1:
-                raise InputError(f"expected a whole number >= 1, got {text!r}", f"{key}.count")
+            count = whole_number(child.get("count", ""), f"{key}.count", 1)
             made[0] += count * sum(1 for _ in child.iter())
             if made[0] > MAX_REPLICATED:
                 raise InputError(f"the replicates make more than {MAX_REPLICATED} elements", f"{key}.count")

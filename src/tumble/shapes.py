@@ -54,6 +54,11 @@ def finite_vector(value, key: str, length: int = 3) -> np.ndarray:
     return arr
 
 
+def positive_vector(value, key: str) -> tuple:
+    """``value`` as three finite floats > 0 (a tuple), or an InputError naming ``key`` or ``key[k]``."""
+    return tuple(positive(v, f"{key}[{k}]") for k, v in enumerate(finite_vector(value, key)))
+
+
 @dataclass(frozen=True)
 class Sphere:
     """Solid sphere of ``radius`` (m), centred on its origin."""
@@ -73,10 +78,7 @@ class Box:
     type_id = SHAPE_BOX
 
     def __post_init__(self):
-        size = finite_vector(self.size, "size")
-        for k, s in enumerate(size):
-            positive(s, f"size[{k}]")
-        object.__setattr__(self, "size", tuple(float(s) for s in size))
+        object.__setattr__(self, "size", positive_vector(self.size, "size"))
 
     @property
     def half_extents(self) -> np.ndarray:
@@ -135,10 +137,7 @@ class Ellipsoid:
     type_id = SHAPE_ELLIPSOID
 
     def __post_init__(self):
-        radii = finite_vector(self.radii, "radii")
-        for k, r in enumerate(radii):
-            positive(r, f"radii[{k}]")
-        object.__setattr__(self, "radii", tuple(float(r) for r in radii))
+        object.__setattr__(self, "radii", positive_vector(self.radii, "radii"))
 
 
 @dataclass(frozen=True)

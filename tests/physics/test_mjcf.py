@@ -124,6 +124,30 @@ def combined(parts):
     return mass, centre, inertia
 
 
+def assert_mass_properties(body, reference, name="", rel=1e-12, centre=1e-12, inertia=1e-10):
+    """``body``'s mass, centre (world) and inertia (world, about the centre) equal ``reference``
+    (mass, centre, inertia: ``mujoco_bodies``' entry) to ``rel`` relative, ``centre`` m and
+    ``inertia`` relative to the largest moment."""
+    mass, c, I = reference
+    assert body.mass == pytest.approx(mass, rel=rel), name
+    np.testing.assert_allclose(body.x, c, atol=centre, err_msg=name)
+    R = np.asarray(body.R)
+    np.testing.assert_allclose(R @ np.asarray(body.inertia_body) @ R.T, I, atol=inertia * np.abs(I).max(), err_msg=name)
+
+
+def assert_rays_down_hit_where_mujoco_does(world, path, points, tol):
+    """Rays straight down from z = 3 m over ``points`` ((x, y) pairs) hit tumble's world where
+    ``mj_ray`` hits MuJoCo's compiled model of ``path``, to ``tol`` m (both must hit)."""
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    for x, y in points:
+        origin = np.array([x, y, 3.0])
+        expected = mujoco.mj_ray(m, d, origin, np.array([0.0, 0.0, -1.0]), None, 1, -1, np.zeros(1, np.int32))
+        assert expected > 0, (x, y)
+        assert world.ray_cast(origin, (0.0, 0.0, -1.0)).distance[0] == pytest.approx(expected, abs=tol), (x, y)
+
+
 @pytest.mark.parametrize("eulerseq, inertiafromgeom", [("xyz", "auto"), ("ZYX", "auto"), ("zxz", "auto"), ("XzY", "auto"),
                                                       ("xyz", "true")])
 def test_mass_properties_and_joint_frames_match_mujocos_compiled_model(tmp_path, eulerseq, inertiafromgeom):
@@ -140,13 +164,7 @@ def test_mass_properties_and_joint_frames_match_mujocos_compiled_model(tmp_path,
     ref["d"] = combined([ref["d"], ref["welded"]])  # tumble merges a welded body into its parent
     assert robot.links["welded"] is robot.links["d"]
     for name in ("a", "b", "c", "d"):
-        body = robot.links[name]
-        mass, centre, inertia = ref[name]
-        assert body.mass == pytest.approx(mass, rel=1e-12), name
-        np.testing.assert_allclose(body.x, centre, atol=1e-12, err_msg=name)
-        R = np.asarray(body.R)
-        np.testing.assert_allclose(R @ np.asarray(body.inertia_body) @ R.T, inertia, atol=1e-10 * np.abs(inertia).max(),
-                                   err_msg=name)
+        assert_mass_properties(robot.links[name], ref[name], name)
     for name in ("j1", "j2", "j3", "j4"):
         joint = robot.joints[name]
         anchor, axis = ref_joints[name]
@@ -1415,13 +1433,7 @@ def test_frames_place_what_they_hold_as_mujoco_does(tmp_path):
     world = tb.World(gravity=(0, 0, -G))
     robot = tb.load_mjcf(world, path)
     for name in ("a", "b"):
-        body = robot.links[name]
-        mass, centre, inertia = ref[name]
-        assert body.mass == pytest.approx(mass, rel=1e-12), name
-        np.testing.assert_allclose(body.x, centre, atol=1e-12, err_msg=name)
-        R = np.asarray(body.R)
-        np.testing.assert_allclose(R @ np.asarray(body.inertia_body) @ R.T, inertia, atol=1e-10 * np.abs(inertia).max(),
-                                   err_msg=name)
+        assert_mass_properties(robot.links[name], ref[name], name)
     for name in ("ja", "jb"):
         joint = robot.joints[name]
         anchor, axis = ref_joints[name]
@@ -1572,18 +1584,8 @@ def test_ellipsoid_geoms_are_tumbles_ellipsoids_with_mujocos_mass_properties(tmp
     robot = tb.load_mjcf(world, path)
     egg = robot.links["egg"]
     assert any(isinstance(part[0], tb.Ellipsoid) for part in world.shapes[egg.index].parts)
-    mass, centre, inertia = ref["egg"]
-    assert egg.mass == pytest.approx(mass, rel=1e-12)
-    np.testing.assert_allclose(egg.x, centre, atol=1e-12)
-    R = np.asarray(egg.R)
-    np.testing.assert_allclose(R @ np.asarray(egg.inertia_body) @ R.T, inertia, atol=1e-10 * np.abs(inertia).max())
-    m = mujoco.MjModel.from_xml_path(str(path))
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
-    for x, y in ((0.0, 0.0), (0.05, -0.03), (-0.04, 0.02)):
-        origin = np.array([x, y, 3.0])
-        expected = mujoco.mj_ray(m, d, origin, np.array([0.0, 0.0, -1.0]), None, 1, -1, np.zeros(1, np.int32))
-        assert world.ray_cast(origin, (0.0, 0.0, -1.0)).distance[0] == pytest.approx(expected, abs=1e-9)
+    assert_mass_properties(egg, ref["egg"])
+    assert_rays_down_hit_where_mujoco_does(world, path, ((0.0, 0.0), (0.05, -0.03), (-0.04, 0.02)), 1e-9)
 
 
 def test_inline_mesh_vertices_give_mujocos_mass_properties(tmp_path):
@@ -1604,19 +1606,8 @@ def test_inline_mesh_vertices_give_mujocos_mass_properties(tmp_path):
     world = tb.World()
     robot = tb.load_mjcf(world, path)
     rock = robot.links["rock"]
-    mass, centre, inertia = ref["rock"]
-    assert rock.mass == pytest.approx(mass, rel=3e-7)
-    np.testing.assert_allclose(rock.x, centre, atol=1e-7)
-    R = np.asarray(rock.R)
-    np.testing.assert_allclose(R @ np.asarray(rock.inertia_body) @ R.T, inertia, atol=3e-7 * np.abs(inertia).max())
-    m = mujoco.MjModel.from_xml_path(str(path))
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
-    for x, y in ((0.05, 0.0), (0.08, 0.02), (0.02, -0.02)):
-        origin = np.array([x, y, 3.0])
-        expected = mujoco.mj_ray(m, d, origin, np.array([0.0, 0.0, -1.0]), None, 1, -1, np.zeros(1, np.int32))
-        assert expected > 0
-        assert world.ray_cast(origin, (0.0, 0.0, -1.0)).distance[0] == pytest.approx(expected, abs=1e-8)
+    assert_mass_properties(rock, ref["rock"], rel=3e-7, centre=1e-7, inertia=3e-7)
+    assert_rays_down_hit_where_mujoco_does(world, path, ((0.05, 0.0), (0.08, 0.02), (0.02, -0.02)), 1e-8)
     bad = write(tmp_path, '<mujoco><asset><mesh name="m" vertex="0 0 0 1 0 0"/></asset><worldbody/></mujoco>', "bad.xml")
     with pytest.raises(tb.InputError, match=r"asset.mesh\[m\].vertex: expected at least 4 points"):
         tb.load_mjcf(tb.World(), bad)
@@ -1660,12 +1651,8 @@ def test_replicates_make_the_copies_mujoco_makes(tmp_path):
     world = tb.World()
     robot = tb.load_mjcf(world, path)
     assert set(ref) == {f"army{i}x{j}" for i in range(3) for j in range(2)}
-    for name, (mass, centre, inertia) in ref.items():
-        body = robot.links[name]
-        assert body.mass == pytest.approx(mass, rel=1e-12), name
-        np.testing.assert_allclose(body.x, centre, atol=1e-12, err_msg=name)
-        R = np.asarray(body.R)
-        np.testing.assert_allclose(R @ np.asarray(body.inertia_body) @ R.T, inertia, atol=1e-10 * np.abs(inertia).max())
+    for name, reference in ref.items():
+        assert_mass_properties(robot.links[name], reference, name)
     for name, (anchor, axis) in ref_joints.items():
         joint = robot.joints[name]
         np.testing.assert_allclose(joint.anchor, anchor, atol=1e-12, err_msg=name)
