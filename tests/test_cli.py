@@ -275,7 +275,7 @@ def test_subprocess_bad_scene(tmp_path):
 
 def test_demo_writes_video_gltf_and_plots_and_run_takes_media_flags(tmp_path, capsys):
     # Issue 5 item 6: `tumble demo` writes the trajectory, a video, a .glb and the plots;
-    # `tumble run` does the same on request (--video, --gltf, --usd, --plots).
+    # `tumble run` does the same on request (--video, --gltf, --usd, --html, --plots).
     import imageio.v3 as iio
 
     out = tmp_path / "demo"
@@ -289,8 +289,9 @@ def test_demo_writes_video_gltf_and_plots_and_run_takes_media_flags(tmp_path, ca
     scene = tmp_path / "s.toml"
     scene.write_text('[simulation]\nduration = 0.25\n[[bodies]]\nname = "b"\nshape = { type = "sphere", radius = 0.2 }\nmass = 1.0\n')
     run_out = tmp_path / "run"
-    assert main(["run", str(scene), "--out", str(run_out), "--gltf", "--usd", "--plots", "--no-progress"]) == 0
+    assert main(["run", str(scene), "--out", str(run_out), "--gltf", "--usd", "--html", "--plots", "--no-progress"]) == 0
     assert (run_out / "trajectory.glb").exists() and (run_out / "trajectory.usdc").exists() and (run_out / "plots").is_dir()
+    assert (run_out / "trajectory.html").read_text().startswith("<!doctype html>")
     assert not (run_out / "video.mp4").exists()
     capsys.readouterr()
 

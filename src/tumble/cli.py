@@ -40,12 +40,12 @@ EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 2, 
 COMMAND_MODULES = ("tumble.export.commands", "tumble.render.commands", "tumble.viewer.commands", "tumble.sweep.commands",
                    "tumble.decomposition_commands")
 OUTPUT_NAMES = ("trajectory.npz", "summary.json", "checkpoint.npz")
-# What --video, --gltf, --usd and --plots write beside them (tumble demo writes all but USD).
-MEDIA_NAMES = {"video": "video.mp4", "gltf": "trajectory.glb", "usd": "trajectory.usdc", "plots": "plots",
-               "images": "images"}
+# What --video, --gltf, --usd, --html and --plots write beside them (tumble demo writes all but USD and HTML).
+MEDIA_NAMES = {"video": "video.mp4", "gltf": "trajectory.glb", "usd": "trajectory.usdc", "html": "trajectory.html",
+               "plots": "plots", "images": "images"}
 # The modules each kind of media needs, and the extra that installs them.
 MEDIA_NEEDS = {"video": (("pyvista", "imageio", "imageio_ffmpeg"), "render"), "plots": (("matplotlib",), "render"),
-               "usd": (("pxr",), "export"), "gltf": ((), "export"), "images": (("imageio",), "render")}
+               "usd": (("pxr",), "export"), "gltf": ((), "export"), "html": ((), "export"), "images": (("imageio",), "render")}
 VIDEO_SIZE = (960, 540)  # pixels: sharp enough to watch, quick to render (about 0.1 s a frame)
 
 
@@ -84,6 +84,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--video", action="store_true", help=f"also render {MEDIA_NAMES['video']} (headless)")
     run.add_argument("--gltf", action="store_true", help=f"also export {MEDIA_NAMES['gltf']} (Blender, three.js)")
     run.add_argument("--usd", action="store_true", help=f"also export {MEDIA_NAMES['usd']}")
+    run.add_argument("--html", action="store_true",
+                     help=f"also write {MEDIA_NAMES['html']}: one web page that plays the run (no server, no network)")
     run.add_argument("--plots", action="store_true", help=f"also plot energy, momentum and orthonormality into {MEDIA_NAMES['plots']}/")
     run.add_argument("--images", action="store_true",
                      help=f"also capture the scene's [[cameras]] at every frame into {MEDIA_NAMES['images']}/ "
@@ -297,7 +299,7 @@ def _write_media(out: Path, media, progress: bool, scene=None):
         from .render import render_video
 
         written.append(render_video(traj, out / MEDIA_NAMES["video"], width=VIDEO_SIZE[0], height=VIDEO_SIZE[1], progress=progress))
-    for kind in ("gltf", "usd"):
+    for kind in ("gltf", "usd", "html"):
         if kind in media:
             from .export import export
 
