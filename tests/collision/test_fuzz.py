@@ -221,3 +221,50 @@ def test_ellipsoid_plane_and_sphere_fuzz():
         assert np.linalg.norm(on_sphere - centre) == pytest.approx(r, abs=1e-7)
         assert np.sum((on_ellipsoid / radii) ** 2) == pytest.approx(1.0, abs=1e-6)
     assert checked > 80
+
+
+def test_smooth_penetration_is_newtons_minimum_of_the_support_functions():
+    """Two overlapping ellipsoids, or an ellipsoid and a sphere's centre (pairs/gjk._smooth_depth):
+    Newton from a coarse EPA ends (done, not the EPA fallback) in at least 95 % of 300 random
+    overlaps, at a stationary direction of h_D(n) = h_A(n) + h_B(-n): its tangent gradient below
+    1e-9 m; at a depth between the two bounds a full 64-iteration EPA gives, its inscribed
+    polytope's face distance below and h_D along its normal above (any direction's h_D bounds the
+    minimum from above); with the support points as the deepest points. (On deep overlaps, 0.3 m,
+    the full EPA is itself 1e-5 to 4e-5 m short where Newton meets a Nelder-Mead minimum of h_D
+    to 1e-15: measured.)"""
+    from tumble.collision.pairs.gjk import (EPA_ITERATIONS, SMOOTH_EPA_ITERATIONS, _epa, _smooth_depth, gjk,
+                                            gjk_scratch)
+    from tumble.shapes import SHAPE_SPHERE
+
+    rng = np.random.default_rng(23)
+    scratch = gjk_scratch()
+    H = np.empty((6, 3))
+    done = trials = 0
+    for _ in range(300):
+        A = _ellipsoid(np.zeros(3), random_rotation(rng), rng.uniform(0.05, 0.4, 3))
+        if rng.uniform() < 0.3:
+            B = (SHAPE_SPHERE, rng.normal(size=3) * 0.1, np.eye(3), np.array([0.1, 0, 0, 0.0]))
+        else:
+            B = _ellipsoid(rng.normal(size=3) * 0.2, random_rotation(rng), rng.uniform(0.05, 0.4, 3))
+        args = (A[0], A[1], A[2], A[3], np.zeros((0, 3)), B[0], B[1], B[2], B[3], np.zeros((0, 3)))
+        k, dist, _, _ = gjk(*args, 1.0, scratch)
+        if k != 4:
+            continue  # apart (or touching): GJK's answer, no penetration solve
+        trials += 1
+        ok, coarse, n0, _, _ = _epa(*args, k, scratch, SMOOTH_EPA_ITERATIONS)
+        assert ok
+        ok_full, full, n_full, _, _ = _epa(*args, k, scratch, EPA_ITERATIONS)
+        finished, depth, n, pa, pb = _smooth_depth(A[0], A[1], A[2], A[3], B[0], B[1], B[2], B[3], n0, H[:3], H[3:])
+        if not finished:
+            continue
+        done += 1
+        n = np.asarray(n)
+        n_full = np.asarray(n_full)
+        upper = (A[1] @ n_full + np.linalg.norm(A[3][:3] * (A[2].T @ n_full))
+                 + (-B[1] @ n_full if B[0] == SHAPE_SPHERE else -B[1] @ n_full + np.linalg.norm(B[3][:3] * (B[2].T @ n_full))))
+        assert full - 1e-12 <= depth <= upper + 1e-12, (full, depth, upper)
+        # stationary: the support point of A - B along n is depth * n (no tangent gradient)
+        g = np.asarray(pa) - np.asarray(pb)
+        assert np.linalg.norm(g - (g @ n) * n) < 1e-9
+        assert g @ n == pytest.approx(depth, abs=1e-12)
+    assert trials > 150 and done >= 0.95 * trials, (done, trials)
