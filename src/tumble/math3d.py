@@ -49,6 +49,20 @@ def serial_twin(kernel, name: str, flags: dict = JIT):
     return njit(**flags)(twin)
 
 
+@njit(**NO_NRT)
+def unit_tangent(nx, ny, nz):
+    """A unit vector perpendicular to unit n (a tuple): n x the axis n leans on least, normalised.
+    (The contact solver's friction tangents keep their own rule: their bits are in every run.)"""
+    if abs(nx) <= abs(ny) and abs(nx) <= abs(nz):
+        tx, ty, tz = 0.0, nz, -ny
+    elif abs(ny) <= abs(nz):
+        tx, ty, tz = -nz, 0.0, nx
+    else:
+        tx, ty, tz = ny, -nx, 0.0
+    ln = math.sqrt(tx * tx + ty * ty + tz * tz)
+    return tx / ln, ty / ln, tz / ln
+
+
 @njit(**JIT)
 def star(w):
     """The matrix w* of the cross product: ``star(w) @ a == cross(w, a)``.

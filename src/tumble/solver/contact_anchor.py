@@ -46,7 +46,7 @@ import math
 from numba import njit, prange
 
 from ..collision.constants import DEEP_OVERLAP
-from ..math3d import JIT, serial_twin
+from ..math3d import JIT, serial_twin, unit_tangent
 from ..shapes import SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CYLINDER, SHAPE_ELLIPSOID, SHAPE_SPHERE
 
 # A contact on a cylinder or a cone counts as on its round side or rim when its surface point
@@ -179,15 +179,9 @@ def _ellipsoid_offset(rot, s, params, q0, q1, q2, w0, w1, w2):
     tx, ty, tz = ny * wz - nz * wy, nz * wx - nx * wz, nx * wy - ny * wx
     t = math.sqrt(tx * tx + ty * ty + tz * tz)
     if t <= 1e-12 * math.sqrt(wx * wx + wy * wy + wz * wz) or t == 0.0:
-        # any tangent: n x the axis n leans on least
-        if abs(nx) <= abs(ny) and abs(nx) <= abs(nz):
-            tx, ty, tz = 0.0, nz, -ny
-        elif abs(ny) <= abs(nz):
-            tx, ty, tz = -nz, 0.0, nx
-        else:
-            tx, ty, tz = ny, -nx, 0.0
-        t = math.sqrt(tx * tx + ty * ty + tz * tz)
-    tx, ty, tz = tx / t, ty / t, tz / t
+        tx, ty, tz = unit_tangent(nx, ny, nz)  # any tangent
+    else:
+        tx, ty, tz = tx / t, ty / t, tz / t
     rho = g / (tx * tx / (a * a) + ty * ty / (b * b) + tz * tz / (c * c))
     return (rho * (rot[s, 0, 0] * nx + rot[s, 0, 1] * ny + rot[s, 0, 2] * nz),
             rho * (rot[s, 1, 0] * nx + rot[s, 1, 1] * ny + rot[s, 1, 2] * nz),

@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ...math3d import JIT, NO_NRT
+from ...math3d import JIT, NO_NRT, unit_tangent
 from ...shapes import (
     SHAPE_BOX,
     SHAPE_CAPSULE,
@@ -459,15 +459,7 @@ def _smooth_depth(ta, pos_a, rot_a, params_a, tb, pos_b, rot_b, params_b, n0, HA
         hb, gbx, gby, gbz = _smooth_support(tb, pos_b, rot_b, params_b, -nx, -ny, -nz, HB)
         h = ha + hb
         gx, gy, gz = gax - gbx, gay - gby, gaz - gbz
-        # a tangent basis at n: n x the axis n leans on least, then n x t1
-        if abs(nx) <= abs(ny) and abs(nx) <= abs(nz):
-            t1x, t1y, t1z = 0.0, nz, -ny
-        elif abs(ny) <= abs(nz):
-            t1x, t1y, t1z = -nz, 0.0, nx
-        else:
-            t1x, t1y, t1z = ny, -nx, 0.0
-        ln = math.sqrt(t1x * t1x + t1y * t1y + t1z * t1z)
-        t1x, t1y, t1z = t1x / ln, t1y / ln, t1z / ln
+        t1x, t1y, t1z = unit_tangent(nx, ny, nz)  # a tangent basis at n: t1, then n x t1
         t2x, t2y, t2z = ny * t1z - nz * t1y, nz * t1x - nx * t1z, nx * t1y - ny * t1x
         t1 = (t1x, t1y, t1z)
         t2 = (t2x, t2y, t2z)
