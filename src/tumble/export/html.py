@@ -126,9 +126,13 @@ def camera_view(traj) -> tuple:
 
 def export_html(traj, path, title: str | None = None) -> Path:
     """Write ``traj`` as one self-contained web page (.html) at ``path``, atomically; returns the path."""
+    return _write_page(html_document(traj, title), path)
+
+
+def _write_page(page: str, path) -> Path:
     from ..trajectory import write_atomic
 
-    data = html_document(traj, title).encode("utf-8")
+    data = page.encode("utf-8")
     return write_atomic(path, lambda fh: fh.write(data))
 
 
@@ -146,7 +150,4 @@ class HtmlView:
 
     def save(self, path) -> Path:
         """Write the page to ``path`` (atomically)."""
-        from ..trajectory import write_atomic
-
-        data = self.page.encode("utf-8")
-        return write_atomic(path, lambda fh: fh.write(data))
+        return _write_page(self.page, path)
