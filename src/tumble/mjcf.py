@@ -361,11 +361,10 @@ def _meshes(reader: _Reader, root) -> dict:
             key = f"asset.mesh[{name}]"
             scale = _floats(a.get("scale", "1 1 1"), f"{key}.scale", (3,))
             if not file and "vertex" in a:  # inline vertices (x y z ...): their hull, as MuJoCo collides it
-                values = [float(v) for v in a["vertex"].split()] if a["vertex"].strip() else []
-                if len(values) < 12 or len(values) % 3:
-                    raise InputError(f"expected at least 4 points of 3 numbers, got {len(values)} numbers",
-                                     f"{key}.vertex")
-                points = _floats(a["vertex"], f"{key}.vertex", (len(values),)).reshape(-1, 3) * scale
+                count = len(a["vertex"].split())
+                if count < 12 or count % 3:
+                    raise InputError(f"expected at least 4 points of 3 numbers, got {count} numbers", f"{key}.vertex")
+                points = _floats(a["vertex"], f"{key}.vertex", (count,)).reshape(-1, 3) * scale
                 try:
                     out[name] = Convex(points=points)
                 except InputError as err:

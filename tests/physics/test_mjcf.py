@@ -1594,7 +1594,7 @@ def test_inline_mesh_vertices_give_mujocos_mass_properties(tmp_path):
     convex mesh's volume integrals) to 3e-7 relative and 1e-7 m (both integrate the same hull, but
     MuJoCo keeps its vertices in float32, 6e-8 relative each: measured 1.5e-8 in the mass, 3e-9 m
     in the centre, 4e-8 in the inertia), and a ray down onto it meets it where mj_ray does to
-    1e-8 m (measured 6e-10). A short vertex list is one line."""
+    1e-8 m (measured 6e-10). A short vertex list, or one with a word in it, is one line."""
     rng = np.random.default_rng(4)
     points = rng.normal(size=(20, 3)) * (0.1, 0.07, 0.05)
     text = " ".join(f"{v:.6f}" for v in points.ravel())
@@ -1611,6 +1611,10 @@ def test_inline_mesh_vertices_give_mujocos_mass_properties(tmp_path):
     bad = write(tmp_path, '<mujoco><asset><mesh name="m" vertex="0 0 0 1 0 0"/></asset><worldbody/></mujoco>', "bad.xml")
     with pytest.raises(tb.InputError, match=r"asset.mesh\[m\].vertex: expected at least 4 points"):
         tb.load_mjcf(tb.World(), bad)
+    words = write(tmp_path, '<mujoco><asset><mesh name="m" vertex="0 0 0 1 0 0 0 1 0 0 0 x"/></asset><worldbody/></mujoco>',
+                  "words.xml")
+    with pytest.raises(tb.InputError, match=r"asset.mesh\[m\].vertex: expected numbers"):
+        tb.load_mjcf(tb.World(), words)
 
 
 # <replicate>s (MuJoCo 3's): nested, turned (euler in radians here), with sep, a joint and a site
