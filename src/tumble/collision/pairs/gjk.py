@@ -450,14 +450,14 @@ def _smooth_depth(ta, pos_a, rot_a, params_a, tb, pos_b, rot_b, params_b, n0, HA
     pa, pb: the support points (grad h_A(n), grad h_B(-n)), the cores' deepest points. HA, HB:
     (3, 3) scratch for the two Hessians."""
     nx, ny, nz = n0
-    ha, _, _, _ = _smooth_support(ta, pos_a, rot_a, params_a, nx, ny, nz, HA)
-    hb, _, _, _ = _smooth_support(tb, pos_b, rot_b, params_b, -nx, -ny, -nz, HB)
-    bound = ha + hb  # the depth is at most h_D(n0)
+    bound = 0.0  # h_D(n0), set on the first step: the depth is at most that
     done = False
-    for _ in range(NEWTON_ITERATIONS):
+    for step in range(NEWTON_ITERATIONS):
         ha, gax, gay, gaz = _smooth_support(ta, pos_a, rot_a, params_a, nx, ny, nz, HA)
         hb, gbx, gby, gbz = _smooth_support(tb, pos_b, rot_b, params_b, -nx, -ny, -nz, HB)
         h = ha + hb
+        if step == 0:
+            bound = h
         gx, gy, gz = gax - gbx, gay - gby, gaz - gbz
         t1x, t1y, t1z = unit_tangent(nx, ny, nz)  # a tangent basis at n: t1, then n x t1
         t2x, t2y, t2z = ny * t1z - nz * t1y, nz * t1x - nx * t1z, nx * t1y - ny * t1x
