@@ -299,7 +299,9 @@ def _step_bodies_kernels(integrator: int):
                  gravity, uforce_kind, uforce_param, uforce_start):
         n_chunks = (Y.shape[0] + BODY_CHUNK - 1) // BODY_CHUNK
         for c in prange(n_chunks):
-            _advance_chunk(c, integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q,
+            # COMPILE: prange's index is unsigned; passed as it is, it compiled _advance_chunk a
+            # second time (uint64) beside the serial kernel's int64 one, for each integrator.
+            _advance_chunk(np.int64(c), integrator, layout, h, n_steps, Y, mass, inv_mass, inertia_body_inv, principal_q,
                            principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start)
 
     return serial, parallel

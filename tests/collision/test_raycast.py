@@ -552,3 +552,35 @@ def test_a_tree_refitted_past_its_growth_bound_is_built_again():
     assert (scene.builds, scene.refits) == (2, 1)
     fresh = ray_cast(w, origin, d, table=scene.table)
     assert np.array_equal(kept.body, fresh.body) and np.array_equal(kept.distance, fresh.distance)
+
+
+def test_queries_compile_their_kernels_once_whatever_the_layout_of_their_arguments():
+    """A read-only broadcast origin, a transposed (Fortran-order) direction array and read-only
+    distance arrays give the same hits as plain arrays, through the kernels already compiled:
+    Numba compiles a kernel once per layout of its array arguments, and each extra layout cost a
+    user 3-7 s in the middle of a session (four ray-cast layouts were compiled by this suite
+    before the queries copied their arguments into one layout, ``raycast.rows``)."""
+    from tumble.collision import distance, raycast, shape_query
+
+    w = tb.World()
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
+    w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(0, 0, 2))
+    origin = np.array([[0.0, 0, 5], [0.1, 0, 5], [0.2, 0, 5]])
+    down = np.array([[0.0, 0, -1]] * 3)
+    plain = (w.ray_cast(origin, down, max_distance=np.full(3, 10.0)),
+             w.closest_points([1], [0], max_distance=np.full(1, 10.0)),
+             w.shape_cast(tb.Sphere(radius=0.1), origin, (0, 0, -10)))
+    kernels = (raycast.ray_cast_kernel, distance.closest_points_serial_kernel, shape_query.shape_cast_serial_kernel)
+    compiled = [len(k.signatures) for k in kernels]
+
+    read_only_origin = np.broadcast_to(origin[0], (3, 3))
+    fortran_down = np.asfortranarray(down)
+    assert not read_only_origin.flags.writeable and not fortran_down.flags.c_contiguous
+    read_only_distance = np.broadcast_to(np.array(10.0), (3,))
+    odd = (w.ray_cast(read_only_origin, fortran_down, max_distance=read_only_distance),
+           w.closest_points([1], [0], max_distance=read_only_distance[:1]),
+           w.shape_cast(tb.Sphere(radius=0.1), read_only_origin, np.broadcast_to(np.array([0, 0, -10.0]), (3, 3))))
+    assert [len(k.signatures) for k in kernels] == compiled
+    np.testing.assert_array_equal(odd[0].distance, np.full(3, plain[0].distance[0]))
+    assert odd[1].distance[0] == plain[1].distance[0]
+    np.testing.assert_array_equal(odd[2].fraction, np.full(3, plain[2].fraction[0]))

@@ -57,6 +57,7 @@ from ..shapes import SHAPE_CAPSULE, SHAPE_CONVEX, SHAPE_MESH, SHAPE_PLANE
 from .bounds import update_bounds
 from .filter import ALL_CATEGORIES
 from .pairs.gjk import SHAPE_TRIANGLE, TOUCH, core_radius, epa, gjk, gjk_scratch, support
+from .raycast import rows
 
 
 @dataclass
@@ -493,7 +494,7 @@ def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
             raise InputError(f"must be a number or one per pair ({P}), got shape {dist.shape}", "max_distance")
         if np.isnan(dist).any():
             raise InputError("must not be NaN", "max_distance")
-        dist = np.ascontiguousarray(np.broadcast_to(dist, (P,)))
+        dist = rows(dist, P)
 
     scene, pos, rot, aabb = shape_poses(world)
     table = scene.table

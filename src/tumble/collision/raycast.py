@@ -387,7 +387,17 @@ def _rays(name: str, value, count: int | None) -> np.ndarray:
         raise InputError(f"has {len(a)} rows but origin has {count}", name)
     if not np.all(np.isfinite(a)):
         raise InputError("must be finite", name)
-    return a
+    return np.array(a, order="C")  # a new writable C array: see ``rows``
+
+
+def rows(a: np.ndarray, n: int, dtype=float) -> np.ndarray:
+    """``a`` broadcast to n rows, as a new writable C-contiguous array of ``dtype``.
+
+    COMPILE: a Numba kernel is compiled once per layout of its array arguments; a read-only
+    broadcast view or a transposed (Fortran-order) array given by a caller compiled the ray
+    cast again (3-7 s each, measured at four layouts in the test suite), so every query hands
+    its kernels this one layout."""
+    return np.array(np.broadcast_to(a, (n,) + np.shape(a)[1:]), dtype=dtype, order="C")
 
 
 # A kept tree is refitted to moved shapes (``refit_shape_bvh``) until the sum of its boxes' areas
@@ -498,8 +508,8 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
     o = _rays("origin", origin, None)
     d = _rays("direction", direction, len(o))
     R = max(len(o), len(d))
-    o = np.ascontiguousarray(np.broadcast_to(o, (R, 3)))
-    d = np.array(np.broadcast_to(d, (R, 3)))
+    o = rows(o, R)
+    d = rows(d, R)
     length = np.linalg.norm(d, axis=1)
     if np.any(length == 0.0):
         raise InputError("must not be zero", "direction")
@@ -509,7 +519,7 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         raise InputError(f"must be a number or one per ray ({R}), got shape {dist.shape}", "max_distance")
     if np.any(np.isnan(dist)) or np.any(dist < 0.0):
         raise InputError("must be >= 0", "max_distance")
-    dist = np.ascontiguousarray(np.broadcast_to(dist, (R,)))
+    dist = rows(dist, R)
     if exclude is None:
         skip = np.full(R, -1, dtype=np.int64)
     elif np.ndim(exclude) == 0:  # one body, as a Body, a name or an index
@@ -518,7 +528,7 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         except InputError as err:
             raise InputError(err.problem, "exclude") from None
     else:
-        skip = np.asarray(exclude, dtype=np.int64)
+        skip = np.array(exclude, dtype=np.int64, order="C")
         if skip.shape != (R,):
             raise InputError(f"must be one body or one index per ray ({R}), got shape {skip.shape}", "exclude")
     seen = _seen(world, mask, category)

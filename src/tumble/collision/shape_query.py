@@ -41,7 +41,7 @@ from .distance import convex_distance, convex_to_shape, shape_poses
 from .filter import ALL_CATEGORIES
 from .geometry import shape_params
 from .pairs.gjk import SHAPE_TRIANGLE, core_radius, gjk_scratch, support
-from .raycast import HitRows, _rays, _seen
+from .raycast import HitRows, _rays, _seen, rows
 
 CAST_TOLERANCE = 1e-9  # m: a cast stops when the gap is this small
 CAST_ITERATIONS = 64  # advancement steps per pair of shapes (a handful are used; a grazing approach halves its gap a step)
@@ -325,8 +325,8 @@ def shape_cast(world, shape, position, translation, orientation=None, exclude=No
     if len(start) != len(trans) and 1 not in (len(start), len(trans)):
         raise InputError(f"has {len(trans)} rows but position has {len(start)}", "translation")
     K = max(len(start), len(trans))
-    start = np.ascontiguousarray(np.broadcast_to(start, (K, 3)))
-    trans = np.ascontiguousarray(np.broadcast_to(trans, (K, 3)))
+    start = rows(start, K)
+    trans = rows(trans, K)
     skip = np.full(K, _exclude(world, exclude), dtype=np.int64)
     seen = _seen(world, mask, category)
     scene, pos, rot_s, aabb = shape_poses(world)
