@@ -19,6 +19,7 @@ from .kinematic import KeyframePath
 from .joints import BallJoint, DistanceJoint, FixedJoint, GearJoint, HingeJoint, SliderJoint, UniversalJoint
 from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere, heightfield
 from .simulator import Simulator
+from .snapshot import SimState
 from .trajectory import Trajectory, load_trajectory
 from .world import Body, Material, World
 
@@ -47,7 +48,7 @@ def load_mjcf(world, path, **options):
 
 
 __all__ = [
-    "World", "Body", "Material", "CollisionFilter", "Simulator", "Trajectory", "load_trajectory", "load_scene",
+    "World", "Body", "Material", "CollisionFilter", "Simulator", "SimState", "Trajectory", "load_trajectory", "load_scene",
     "load_urdf", "load_mjcf", "Camera", "CameraImage",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Ellipsoid", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield", "decompose",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",

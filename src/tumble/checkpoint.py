@@ -8,7 +8,7 @@ A checkpoint is an .npz (loaded with ``allow_pickle=False``) holding:
   (bodies by name; ``CustomForce`` as a placeholder), the touching pairs of the
   contact events when they are on, the joint records (``_joint_to_dict``: fields, bodies by name, ``broken``, and the
   anchors, axes and parameters they were bound to at creation), the impulses
-  already applied, the simulator's settings (joint settings and ``record_joints``
+  already applied, the bodies to wake at the next step, the simulator's settings (joint settings and ``record_joints``
   included), statistics and energy reference, and the caller's ``run`` data
   (``run_to_file`` keeps its progress there);
 * the constant arrays (mass, inertia, principal axes, centre-of-mass offsets) and
@@ -204,6 +204,9 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "forces": [_force_to_dict(w, f) for f in w.forces],
         "joints": [_joint_to_dict(w, j) for j in getattr(w, "joints", ())],
         "applied_impulses": sorted(int(k) for k in w.applied_impulses),
+        # bodies pushed, moved or placed since the last step: the next step wakes them (absent
+        # from older checkpoints: none)
+        "wake_requests": sorted(int(k) for k in w.wake_requests),
         "settings": sim.settings(),
         # the pairs touching after the last step, when contact events are on: the resumed run's
         # first step then begins only new touches, as the whole run's would
@@ -215,21 +218,51 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "run": run,
     }
     arrays = {name: np.ascontiguousarray(getattr(w, name)) for name in CONSTANTS + STATE + KINEMATIC}
-    # the contact solver's warm-start impulses: without them a resumed run differs in the last bits
+    arrays.update(_solver_arrays(sim))
+    arrays["meta"] = np.array(json.dumps(meta, default=_json_default, allow_nan=True))
+    return write_atomic(path, lambda fh: np.savez(fh, **arrays))
+
+
+def _solver_arrays(sim) -> dict:
+    """Copies of what the next step reads from the steps before, besides the bodies' state, by
+    file name: the contact solver's warm start (``contact_*``: without it a resumed run differs in
+    the last bits), the sleep timers and flags (``sleep_*``: a resumed run sleeps when the whole
+    one does) and the joint solver's warm start and coordinates (``joint_*``, none before the
+    first step: the resumed run starts from zeros too)."""
+    arrays = {}
     if sim.soft_step is not None:
         for name, arr in sim.soft_step.solver.warm_start_state().items():
-            arrays["contact_" + name] = np.ascontiguousarray(arr)
-    if sim.sleep is not None:  # the sleep timers and flags: a resumed run sleeps when the whole one does
+            arrays["contact_" + name] = np.array(arr, order="C")
+    if sim.sleep is not None:
         for name, arr in sim.sleep.state().items():
-            arrays["sleep_" + name] = np.ascontiguousarray(arr)
-    # the joint solver's warm start and coordinates: without them a resumed run differs from the
-    # next step on (none before the first step: the resumed run starts from zeros too)
+            arrays["sleep_" + name] = np.array(arr, order="C")
     solver = _joint_solver(sim)
     if solver is not None:
         for name in JOINT_SOLVER_STATE:
-            arrays["joint_" + name] = np.ascontiguousarray(getattr(solver, name))
-    arrays["meta"] = np.array(json.dumps(meta, default=_json_default, allow_nan=True))
-    return write_atomic(path, lambda fh: np.savez(fh, **arrays))
+            arrays["joint_" + name] = np.array(getattr(solver, name), order="C")
+    return arrays
+
+
+def _solver_parts(names, get) -> tuple[dict, dict, dict]:
+    """(warm start, sleep state, joint solver state) from the arrays ``names`` (``get(name)`` reads
+    one): ``_solver_arrays``'s files, split by prefix."""
+    warm = {name[len("contact_"):]: get(name) for name in WARM_START + WARM_START_OPTIONAL if name in names}
+    sleep = {name[len("sleep_"):]: get(name) for name in names if name.startswith("sleep_")}
+    joint_state = {name[len("joint_"):]: get(name) for name in names if name.startswith("joint_")}
+    return warm, sleep, joint_state
+
+
+def _restore_solvers(sim, warm: dict, sleep: dict, joint_state: dict):
+    """Put ``_solver_parts`` back into a Simulator whose soft step and sleep state are not made yet."""
+    if all(name[len("contact_"):] in warm for name in WARM_START):
+        _restore_warm_start(sim, warm)
+    if joint_state:
+        _restore_joint_solver(sim, joint_state)
+    if sleep:
+        from .solver.island import SleepState
+
+        sim.sleep = SleepState(sim.world.body_count)
+        sim.sleep.set_state(sleep)
 
 
 def _json_default(o):
@@ -256,10 +289,7 @@ def load_checkpoint(cls, path, custom_forces=None):
             missing = [name for name in CONSTANTS + STATE if name not in arrays]
             if missing:
                 raise KeyError(f"{missing[0]} is not a file in the archive")
-            warm = {name[len("contact_"):]: np.array(data[name]) for name in WARM_START + WARM_START_OPTIONAL
-                    if name in data.files}
-            sleep = {name[len("sleep_"):]: np.array(data[name]) for name in data.files if name.startswith("sleep_")}
-            joint_state = {name[len("joint_"):]: np.array(data[name]) for name in data.files if name.startswith("joint_")}
+            warm, sleep, joint_state = _solver_parts(data.files, lambda name: np.array(data[name]))
     except Exception as exc:  # damaged or foreign file: one line
         raise InputError(f"not a readable checkpoint file ({type(exc).__name__}: {' '.join(str(exc).split())})", None, file) from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
@@ -268,15 +298,7 @@ def load_checkpoint(cls, path, custom_forces=None):
         raise InputError(f"checkpoint format version {meta.get('version')!r} is not supported (expected {VERSION})", None, file)
     try:
         sim = _rebuild(cls, meta, arrays, custom_forces)
-        if all(name[len("contact_"):] in warm for name in WARM_START):
-            _restore_warm_start(sim, warm)
-        if joint_state:
-            _restore_joint_solver(sim, joint_state)
-        if sleep:
-            from .solver.island import SleepState
-
-            sim.sleep = SleepState(sim.world.body_count)
-            sim.sleep.set_state(sleep)
+        _restore_solvers(sim, warm, sleep, joint_state)
     except InputError as err:
         raise InputError(f"checkpoint does not rebuild: {err}", None, file) from None
     except SimulationError as err:
@@ -392,6 +414,7 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
     w.collisions = bool(meta.get("collisions", True))
     w.sleeping = bool(meta.get("sleeping", True))
     w.applied_impulses = {int(k) for k in meta["applied_impulses"]}
+    w.wake_requests = {int(k) for k in meta.get("wake_requests") or ()}
     w.update_derived()
     checks.validate_world(w, "load_checkpoint")
     s = meta["settings"]

@@ -778,6 +778,31 @@ class Simulator:
 
         return save_checkpoint(self, path, run)
 
+    def save_state(self):
+        """The simulation's state now, in memory (``tumble.snapshot.SimState``: PyBullet's
+        ``saveState``, MuJoCo's ``mj_getState``): the bodies' state, the time, the joints broken,
+        the impulses applied, and the contact, sleep and joint solvers' arrays that the next
+        step reads. ``restore_state`` puts it back; the steps after are bit-identical to those
+        taken from the save. The world's description (bodies, shapes, forces, joints,
+        materials) is not in it: it stays the world's."""
+        from .snapshot import save_state
+
+        return save_state(self)
+
+    def restore_state(self, state) -> None:
+        """Put a ``save_state`` state back, in place (the world and its ``Body`` handles stay the
+        same objects). The world must have the bodies and joints it had at the save, and the
+        simulator the same dt. Undrained contact and sensor events are dropped, and
+        ``contacts()`` is empty until the next step (the contact pipeline is made anew, as a
+        loaded checkpoint's is).
+
+        Raises:
+            InputError: ``state`` is not a ``SimState``, or is of another world or dt (one line).
+        """
+        from .snapshot import restore_state
+
+        restore_state(self, state)
+
     @classmethod
     def load_checkpoint(cls, path, custom_forces=None) -> "Simulator":
         """A Simulator on a new World rebuilt from a checkpoint file (loaded with ``allow_pickle=False``).
