@@ -65,7 +65,9 @@ def test_a_restored_simulation_goes_on_with_the_bits_of_the_uninterrupted_one(na
     sim.step(after)
     assert state_hash(sim.world) != expected  # it went elsewhere
 
+    table = sim.soft_step.pipeline.table
     sim.restore_state(saved)
+    assert sim.soft_step.pipeline.table is table  # the shapes' table (the world's description) is kept
     assert state_hash(sim.world) == at_save and sim.step_index == before
     sim.step(after)
     assert state_hash(sim.world) == expected

@@ -15,9 +15,10 @@ pairs of the contact events and the sensors' overlaps.
 
 A restore makes the simulation's contact pipeline anew, as ``Simulator.load_checkpoint`` does,
 and gives it the saved arrays: the continuation is then the checkpoint's resumed run, which the
-reliability tests hold to the uninterrupted run's bits. Its caches (the broadphase's pairs, the
-shape tables) are rebuilt by the next step; that is the restore's cost beyond copying arrays
-(docs/benchmarks.md "snapshots").
+reliability tests hold to the uninterrupted run's bits. The new pipeline keeps the old one's
+shape table (the world's description: the costly part of a new one); its other buffers are made
+by the next step, which is the restore's cost beyond copying arrays (docs/benchmarks.md
+"snapshots").
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 
 from .checkpoint import KINEMATIC, STATE, _restore_solvers, _solver_arrays, _solver_parts
 from .errors import InputError
+from .solver.soft_step import SoftStep
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,7 +126,11 @@ def restore_state(sim, state: SimState) -> None:
     # tests/test_snapshot.py's scenes too (its caches are refreshed from the state each step),
     # but that is a property of today's caches, which nothing holds it to; made anew, it takes
     # the loaded checkpoint's path, which the reliability tests hold to the bits in every scene.
+    old = sim.soft_step
     sim.soft_step = None
+    if old is not None:
+        sim.soft_step = SoftStep(w, sim.contact_settings, sim.joint_settings)  # as _contact_on makes it
+        sim.soft_step.pipeline.take_table(old.pipeline)
     sim.sleep = None
     sim._sensor_log = None
     if sim._event_log is not None:
