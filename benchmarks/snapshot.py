@@ -12,10 +12,12 @@ For each engine: the pile is stepped 1 s (its boxes in contact), then
   tumble restore makes the contact pipeline anew, and the step after it rebuilds its caches;
 * branch: restore + 0.25 s of steps, the loop of a model predictive controller;
 * identical: whether the 0.25 s after a restore give the same bits as the 0.25 s after the save
-  (positions and velocities of every box, compared exactly).
+  (positions, orientations and velocities of every box, compared exactly), and if not, the
+  largest distance between a box's two positions.
 
 Steps as in benchmarks/contact.py: tumble dt = 1/60 s with 4 solver substeps (Box3D's step),
-PyBullet and MuJoCo dt = 1/240 s. Writes benchmarks/results/snapshot.md.
+PyBullet and MuJoCo dt = 1/240 s; PyBullet's boxes as rigid bodies (maximal coordinates) and as
+multibodies. Writes benchmarks/results/snapshot.md.
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ class Tumble:
         self.scene = TumbleScene("pile", {"n": n}, "semi-implicit-euler", None, 1, 4)
         self.sim = self.scene.sim
         self.dt = self.scene.dt
+        self.count = self.sim.world.body_count  # the ground too: a fixed row of zeros in both
 
     def step(self, k):
         self.sim.step(k)
@@ -67,13 +70,13 @@ class Tumble:
 
 
 class Pybullet:
-    name = "pybullet"
-
-    def __init__(self, spec):
+    def __init__(self, spec, variant: str):
         from peers.pybullet_scenes import PybulletScene
 
-        self.eng = PybulletScene(spec, "rigidbody")
+        self.name = f"pybullet ({variant})"
+        self.eng = PybulletScene(spec, variant)
         self.p, self.c, self.dt = self.eng.p, self.eng.cid, self.eng.dt
+        self.count = spec.n
 
     def step(self, k):
         self.eng.step(k)
@@ -99,6 +102,7 @@ class Mujoco:
         self.mj, self.m, self.dt = self.eng.mujoco, self.eng.model, self.eng.dt
         self.sig = int(self.mj.mjtState.mjSTATE_INTEGRATION)
         self.size = self.mj.mj_stateSize(self.m, self.sig)
+        self.count = spec.n
 
     def step(self, k):
         for _ in range(k):
@@ -114,7 +118,8 @@ class Mujoco:
 
     def bits(self):
         d = self.eng.data
-        return np.concatenate([d.qpos.ravel(), d.qvel.ravel()])
+        qpos = d.qpos.reshape(-1, 7)  # free joints: position, then quaternion
+        return np.concatenate([qpos[:, :3].ravel(), qpos[:, 3:].ravel(), d.qvel.ravel()])
 
 
 def measure(eng, repeats: int) -> dict:
@@ -126,8 +131,11 @@ def measure(eng, repeats: int) -> dict:
     after_save = eng.bits()
     eng.restore(s)
     eng.step(branch)
-    identical = bool(np.array_equal(eng.bits(), after_save))
-    row = {"engine": eng.name, "dt": eng.dt, "identical": identical}
+    again = eng.bits()
+    identical = bool(np.array_equal(again, after_save))
+    positions = slice(0, 3 * eng.count)  # every adapter's bits start with the (n, 3) positions
+    apart = float(np.max(np.abs(again[positions] - after_save[positions])))
+    row = {"engine": eng.name, "dt": eng.dt, "identical": identical, "apart_m": apart}
     row["save_ms"] = 1e3 * timed(eng.save, repeats)
     row["restore_ms"] = 1e3 * timed(lambda: eng.restore(s), repeats)
     eng.restore(s)
@@ -154,7 +162,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=[100, 1000])
     ap.add_argument("--repeats", type=int, default=20)
-    ap.add_argument("--engines", nargs="+", default=["tumble", "pybullet", "mujoco"])
+    ap.add_argument("--engines", nargs="+", default=["tumble", "pybullet:rigidbody", "pybullet:multibody", "mujoco"])
     args = ap.parse_args(argv)
     rows = []
     for n in args.n:
@@ -165,7 +173,9 @@ def main(argv=None):
         t = Tumble(n)
         spec = scene_spec(t.scene.world, {"scene": "pile"})
         for name in args.engines:
-            eng = {"tumble": lambda: t, "pybullet": lambda: Pybullet(spec), "mujoco": lambda: Mujoco(spec)}[name]()
+            engine, _, variant = name.partition(":")
+            eng = {"tumble": lambda: t, "pybullet": lambda: Pybullet(spec, variant or "rigidbody"),
+                   "mujoco": lambda: Mujoco(spec)}[engine]()
             row = {"n": n, **measure(eng, args.repeats)}
             rows.append(row)
             print(row, flush=True)
@@ -173,7 +183,8 @@ def main(argv=None):
               "restore + 0.25 s ms", "0.25 s after a restore = after the save"]
     table = md_table(header, [[r["n"], r["engine"], f"1/{round(1 / r['dt'])}", f"{r['save_ms']:.3f}",
                                f"{r['restore_ms']:.3f}", f"{r['first_step_ms']:.2f}", f"{r['step_ms']:.2f}",
-                               f"{r['branch_ms']:.1f}", "bit for bit" if r["identical"] else "no"] for r in rows])
+                               f"{r['branch_ms']:.1f}",
+                               "bit for bit" if r["identical"] else f"no: {r['apart_m']:.1e} m apart"] for r in rows])
     info = machine()
     markdown = f"machine: {info}\n\n{table}\n"
     print(markdown)
