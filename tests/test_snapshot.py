@@ -159,10 +159,11 @@ def test_a_state_of_another_world_or_dt_is_one_line():
     bigger.world.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(0, 0, 5))
     other_dt = tb.Simulator(example("dominoes").world, dt=sim.dt / 2)
     cases = [(bigger, state, "bodies"), (other_dt, state, "dt"), (sim, {"x": 1}, "SimState")]
+    before = [state_hash(target.world) for target, _, _ in cases]
     for target, value, word in cases:
         with pytest.raises(InputError) as err:
             target.restore_state(value)
         line = str(err.value)
         assert "\n" not in line and "state" in line and word in line, line
-    # nothing was changed by a refused restore
-    assert bigger.world.t == 0.0 and state_hash(sim.world) == state_hash(sim.world)
+    # a refused restore changes nothing
+    assert [state_hash(target.world) for target, _, _ in cases] == before

@@ -253,7 +253,8 @@ def _solver_parts(names, get) -> tuple[dict, dict, dict]:
 
 
 def _restore_solvers(sim, warm: dict, sleep: dict, joint_state: dict):
-    """Put ``_solver_parts`` back into a Simulator whose soft step and sleep state are not made yet."""
+    """Put ``_solver_parts`` back into a Simulator whose soft step is new or not made yet and whose
+    sleep state is not made yet (a loaded checkpoint's, a restored ``snapshot.SimState``'s)."""
     if all(name[len("contact_"):] in warm for name in WARM_START):
         _restore_warm_start(sim, warm)
     if joint_state:

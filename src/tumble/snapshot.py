@@ -9,9 +9,9 @@ actions, resets of a learning environment, "what if" branches of one run).
 What is saved is what a checkpoint file saves of the run (``tumble.checkpoint``), without the
 world's description, which stays where it is: the bodies' state (x, q and R, P, L), the
 kinematic bodies' velocities, the time and step index, the joints broken so far, the impulses
-already applied, the bodies to wake at the next step, and what the next step reads from the steps before: the contact solver's warm
-start, the sleep timers and flags, the joint solver's warm start and coordinates, the touching
-pairs of the contact events and the sensors' overlaps.
+already applied, the bodies to wake at the next step, and what the next step reads from the
+steps before: the contact solver's warm start, the sleep timers and flags, the joint solver's
+warm start and coordinates, the touching pairs of the contact events and the sensors' overlaps.
 
 A restore makes the simulation's contact pipeline anew, as ``Simulator.load_checkpoint`` does,
 and gives it the saved arrays: the continuation is then the checkpoint's resumed run, which the
