@@ -589,3 +589,26 @@ def test_near_pairs_are_every_pair_within_the_distance():
     assert shy not in set(got.body_a.tolist() + got.body_b.tolist())
     with pytest.raises(InputError, match="max_distance: must be a finite number of metres >= 0"):
         w.near_pairs(-1.0)
+
+
+def test_mesh_queries_compile_the_convex_routines_for_no_literal_shape_type():
+    """A closest-points query and a shape cast against a static mesh pass the triangle's shape
+    type to ``convex_distance`` as an int64, not as the literal 100: Numba compiles a routine
+    once more for each literal value of an argument, and the literal compiled GJK, EPA and
+    ``convex_distance`` twice (a first mesh query's compile 38.3 s -> 22.0 s once it went,
+    docs/benchmarks.md "compile time")."""
+    import trimesh
+
+    from tumble.collision import distance
+    from tumble.collision.pairs import gjk
+
+    slab = trimesh.creation.box(extents=(4, 4, 0.2))
+    w = tb.World()
+    w.add_body(tb.Mesh(vertices=np.array(slab.vertices), faces=np.array(slab.faces)), fixed=True)
+    w.add_body(tb.Box(size=(0.5, 0.5, 0.5)), mass=1.0, position=(0.1, 0.2, 1.0))
+    assert w.closest_points(1, 0).distance[0] == pytest.approx(1.0 - 0.25 - 0.1, abs=1e-9)
+    # beside the box: onto the slab's top, z = 0.1
+    assert w.shape_cast(tb.Sphere(radius=0.2), (1.5, 1.5, 2.0), (0, 0, -3)).fraction[0] == pytest.approx(1.7 / 3, abs=1e-8)
+    for routine in (distance.convex_distance, gjk.gjk, gjk.epa):
+        literal = [sig for sig in routine.signatures if any("Literal" in str(t) for t in sig)]
+        assert not literal, (routine.__name__, literal)

@@ -57,6 +57,7 @@ from ..shapes import SHAPE_CAPSULE, SHAPE_CONVEX, SHAPE_MESH, SHAPE_PLANE
 from .bounds import update_bounds
 from .filter import ALL_CATEGORIES
 from .pairs.gjk import SHAPE_TRIANGLE, TOUCH, core_radius, epa, gjk, gjk_scratch, support
+from .pairs.mesh import TRIANGLE
 from .raycast import rows
 
 
@@ -239,7 +240,7 @@ def _mesh_distance(ta, pos_a, rot_a, params_a, verts_a, pos_m, rot_m, params_m, 
             i = node_skip[i]
             continue
         for t in range(node_first[i], node_first[i] + node_count[i]):
-            d = convex_distance(ta, pos_a, rot_a, params_a, verts_a, SHAPE_TRIANGLE, pos_m, rot_m, params_m,
+            d = convex_distance(ta, pos_a, rot_a, params_a, verts_a, TRIANGLE, pos_m, rot_m, params_m,
                                 mesh_triangle[t], best, scratch, work)
             if d < found:
                 found = d

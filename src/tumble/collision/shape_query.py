@@ -40,7 +40,8 @@ from ..shapes import SHAPE_CONVEX, SHAPE_MESH, Box, Capsule, Cone, Convex, Cylin
 from .distance import convex_distance, convex_to_shape, shape_poses
 from .filter import ALL_CATEGORIES
 from .geometry import shape_params
-from .pairs.gjk import SHAPE_TRIANGLE, core_radius, gjk_scratch, support
+from .pairs.gjk import core_radius, gjk_scratch, support
+from .pairs.mesh import TRIANGLE
 from .raycast import HitRows, _rays, _seen, rows
 
 CAST_TOLERANCE = 1e-9  # m: a cast stops when the gap is this small
@@ -114,7 +115,7 @@ def _first_touch(tq, p0, rot_q, params_q, verts_q, trans, length, s, tri, shape_
         # farther than the path left before the best hit so far: no earlier hit here
         cutoff = (t_limit - t) * length + CAST_TOLERANCE
         if tri >= 0:
-            d = convex_distance(tq, pos, rot_q, params_q, verts_q, SHAPE_TRIANGLE, shape_pos[s], shape_rot[s],
+            d = convex_distance(tq, pos, rot_q, params_q, verts_q, TRIANGLE, shape_pos[s], shape_rot[s],
                                 shape_params[s], mesh_triangle[tri], cutoff, scratch, out)
         else:
             d = convex_to_shape(tq, pos, rot_q, params_q, verts_q, s, shape_type, shape_params, shape_pos, shape_rot,
