@@ -596,7 +596,7 @@ def test_mesh_queries_compile_the_convex_routines_for_no_literal_shape_type():
     type to ``convex_distance`` as an int64, not as the literal 100: Numba compiles a routine
     once more for each literal value of an argument, and the literal compiled GJK, EPA and
     ``convex_distance`` twice (a first mesh query's compile 38.3 s -> 22.0 s once it went,
-    docs/benchmarks.md "compile time")."""
+    docs/benchmarks.md "compile time"); likewise EPA's iteration counts."""
     import trimesh
 
     from tumble.collision import distance
@@ -609,6 +609,12 @@ def test_mesh_queries_compile_the_convex_routines_for_no_literal_shape_type():
     assert w.closest_points(1, 0).distance[0] == pytest.approx(1.0 - 0.25 - 0.1, abs=1e-9)
     # beside the box: onto the slab's top, z = 0.1
     assert w.shape_cast(tb.Sphere(radius=0.2), (1.5, 1.5, 2.0), (0, 0, -3)).fraction[0] == pytest.approx(1.7 / 3, abs=1e-8)
-    for routine in (distance.convex_distance, gjk.gjk, gjk.epa):
+    # and EPA's iteration counts: two overlapping ellipsoids take 12 iterations then Newton, an
+    # ellipsoid in a box the full 64; as literals they compiled ``_epa`` twice
+    w.add_body(tb.Ellipsoid(radii=(0.3, 0.2, 0.1)), mass=1.0, position=(3.0, 0, 1))
+    w.add_body(tb.Ellipsoid(radii=(0.3, 0.2, 0.1)), mass=1.0, position=(3.4, 0, 1))
+    w.add_body(tb.Box(size=(0.5, 0.5, 0.5)), mass=1.0, position=(3.0, 0, 1.25))
+    assert np.all(w.closest_points([2, 2], [3, 4]).distance < 0)
+    for routine in (distance.convex_distance, gjk.gjk, gjk.epa, gjk._epa):
         literal = [sig for sig in routine.signatures if any("Literal" in str(t) for t in sig)]
         assert not literal, (routine.__name__, literal)

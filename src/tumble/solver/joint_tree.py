@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from ..joints import (
@@ -545,9 +546,11 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             tree_gear_masses(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
                              local_b, frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow,
                              Dinv, H_up, W, y, sol, work)
+        # COMPILE: one sweep as an int64, not the literal 1: the literal compiled the joint sweeps a
+        # second time beside the Gauss-Seidel solve's (about 20 s of a first robot run)
         solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
-                                   param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft, 1,
-                                   v, omega, linear_impulse, angular_impulse, axial_impulse)
+                                   param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft,
+                                   np.int64(1), v, omega, linear_impulse, angular_impulse, axial_impulse)
         for g in range(joint_type.shape[0]):
             # each gear on velocities the tree solve has just made consistent, with its mass through the
             # tree: block Gauss-Seidel on the gears' Schur complement, which converges. Solved beside the

@@ -385,8 +385,9 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
     Newton on the support functions (``_smooth_depth``); EPA alone otherwise.
     """
     if _is_smooth(ta) and _is_smooth(tb):
+        # COMPILE: the iteration counts as int64: as literals (12, 64) they compiled _epa twice
         ok, depth, nrm, pa, pb = _epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, k,
-                                      scratch, SMOOTH_EPA_ITERATIONS)
+                                      scratch, np.int64(SMOOTH_EPA_ITERATIONS))
         if ok:
             # the Hessians in rows of EPA's face normals, free once EPA is done (a rerun rewrites them)
             done, d2, n2, pa2, pb2 = _smooth_depth(ta, pos_a, rot_a, params_a, tb, pos_b, rot_b, params_b, nrm,
@@ -394,7 +395,7 @@ def epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b
             if done:
                 return True, d2, n2, pa2, pb2
     return _epa(ta, pos_a, rot_a, params_a, verts_a, tb, pos_b, rot_b, params_b, verts_b, k, scratch,
-                EPA_ITERATIONS)
+                np.int64(EPA_ITERATIONS))
 
 
 @njit(**NO_NRT)
