@@ -547,7 +547,8 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
                              local_b, frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow,
                              Dinv, H_up, W, y, sol, work)
         # COMPILE: one sweep as an int64, not the literal 1: the literal compiled the joint sweeps a
-        # second time beside the Gauss-Seidel solve's (about 20 s of a first robot run)
+        # second time beside the Gauss-Seidel solve's (their compile 27.8 -> 13.9 s in robot_arm's
+        # first run; docs/benchmarks.md "compile time")
         solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
                                    param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft,
                                    np.int64(1), v, omega, linear_impulse, angular_impulse, axial_impulse)
