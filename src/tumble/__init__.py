@@ -14,7 +14,7 @@ from .camera import Camera, CameraImage
 from .collision.filter import CollisionFilter
 from .decomposition import decompose
 from .errors import InputError, SimulationError, TumbleError, TumbleWarning
-from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring, Wind
+from .forces import ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring, Wind
 from .kinematic import KeyframePath
 from .joints import BallJoint, DistanceJoint, FixedJoint, GearJoint, HingeJoint, SliderJoint, UniversalJoint
 from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere, heightfield
@@ -51,8 +51,18 @@ __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "SimState", "Trajectory", "load_trajectory", "load_scene",
     "load_urdf", "load_mjcf", "Camera", "CameraImage",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Ellipsoid", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield", "decompose",
-    "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "CustomForce",
+    "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "Explosion", "Blast", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "GearJoint",
     "KeyframePath",
     "TumbleError", "InputError", "SimulationError", "TumbleWarning",
 ]
+
+
+def __getattr__(name):
+    # ``tb.Blast`` (what ``World.explode`` returns) is imported on first use: its module brings
+    # the closest-point routines, which ``import tumble`` does not otherwise need
+    if name == "Blast":
+        from .collision.explosion import Blast
+
+        return Blast
+    raise AttributeError(f"module 'tumble' has no attribute {name!r}")

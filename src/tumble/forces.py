@@ -8,8 +8,8 @@ into flat tables that the kernels read (``build_force_tables``):
 * springs, one row per spring (they couple two bodies);
 * gravity is a world vector applied as m g to every moving body.
 
-Impulses happen at one instant and are applied between steps by the
-simulator; ``CustomForce`` calls user Python and takes the slow path.
+Impulses and explosions happen at one instant and are applied between steps by
+the simulator; ``CustomForce`` calls user Python and takes the slow path.
 ``tumble.reference.compute_force_and_torque`` evaluates the same records per
 body in plain Python, and the tests compare the two.
 """
@@ -160,6 +160,46 @@ class Impulse:
 
 
 @dataclass
+class Explosion:
+    """A blast at world ``position`` (m) at ``time`` (s): Box2D v3's ``b2World_Explode`` in 3-D.
+
+    Every shape of a dynamic body within ``radius + falloff`` (m) of the centre takes an impulse
+    ``impulse_per_area`` (N s / m^2, the blast's pressure impulse; negative: an implosion) times
+    the area of its shadow seen from the centre, the area projected along the direction d from
+    the centre to the shape's closest point, at that point and along d; ``falloff`` (m) ramps it
+    linearly from full at ``radius`` to nothing at ``radius + falloff``. Bodies whose collision
+    category does not meet ``mask`` are not touched (the filters' bits, ``tb.CollisionFilter``);
+    sensors never. Applied once, before the first step that starts at or after ``time``, as an
+    ``Impulse`` is (``tumble.collision.explosion`` gives the rules and the shadow areas).
+    """
+
+    position: Sequence[float]
+    radius: float
+    impulse_per_area: float
+    falloff: float = 0.0
+    time: float = 0.0
+    mask: int = 0xFFFFFFFF
+
+    def __post_init__(self):
+        from .collision.filter import ALL_CATEGORIES, _int
+
+        self.position = tuple(finite_vector(self.position, "position"))
+        self.radius = _nonnegative(self.radius, "radius")
+        self.falloff = _nonnegative(self.falloff, "falloff")
+        if self.radius + self.falloff <= 0.0:
+            raise InputError("radius + falloff must be positive (the blast reaches nothing)", "radius")
+        try:
+            impulse = float(self.impulse_per_area)
+        except (TypeError, ValueError):
+            raise InputError(f"expected a number, got {self.impulse_per_area!r}", "impulse_per_area") from None
+        if not math.isfinite(impulse):
+            raise InputError(f"must be a finite number, got {impulse}", "impulse_per_area")
+        self.impulse_per_area = impulse
+        self.time = _nonnegative(self.time, "time")
+        self.mask = _int(self.mask, "mask", 0, ALL_CATEGORIES)
+
+
+@dataclass
 class CustomForce:
     """A user Python function adding force and torque (slow path: called every stage).
 
@@ -184,6 +224,7 @@ FORCE_TYPES = {
     "point": PointForce,
     "spring": Spring,
     "impulse": Impulse,
+    "explosion": Explosion,
 }
 
 
@@ -238,7 +279,7 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> 
         elif isinstance(f, CustomForce):
             targets = all_moving if f.bodies is None else np.array([resolve(b) for b in f.bodies], dtype=np.int64)
             custom.append((f, np.asarray(targets, dtype=np.int64)))
-        elif isinstance(f, Impulse):
+        elif isinstance(f, (Impulse, Explosion)):
             continue  # applied by the simulator between steps
         else:
             raise InputError(f"unknown force record {f!r}", "forces")

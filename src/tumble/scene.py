@@ -21,7 +21,7 @@ The format is DESIGN.md's "Scene file" contract::
     [[robots]]              file = "robot.urdf", name, position, euler_deg, fixed_base,
                             joint_positions ...: a URDF's links and joints (tumble.scene_robots)
     [[collision_exclusions]] bodies = [NAME, NAME]: a pair that never touches
-    [[forces]]              type = drag | wind | constant | point | spring | impulse,
+    [[forces]]              type = drag | wind | constant | point | spring | impulse | explosion,
                             with that type's keys; bodies are referred to by name
                             (tumble.scene_bodies).
 

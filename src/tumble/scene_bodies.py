@@ -15,7 +15,7 @@ from typing import Any
 
 from . import checks
 from .errors import InputError
-from .forces import ConstantForce, Drag, Impulse, PointForce, Spring, Wind
+from .forces import ConstantForce, Drag, Explosion, Impulse, PointForce, Spring, Wind
 from .math3d import quat_from_euler_deg
 from .scene_values import ValueReader, _describe
 from .shapes import (
@@ -72,6 +72,7 @@ FORCE_KEYS = {
     "point": (("body", "force", "point"), ("frame",)),
     "spring": (("body_a", "stiffness"), ("body_b", "anchor_a", "anchor_b", "damping", "rest_length")),
     "impulse": (("body", "impulse"), ("point", "time")),
+    "explosion": (("position", "radius", "impulse_per_area"), ("falloff", "time", "mask")),
 }
 
 
@@ -377,6 +378,12 @@ class BodyReader(ValueReader):
             if f.get("rest_length") is not None:
                 kw["rest_length"] = nonneg("rest_length")
             record = self.library(key, Spring, a, b, **kw)
+        elif kind == "explosion":
+            kw = {k: nonneg(k) for k in ("radius", "falloff", "time") if k in f}
+            kw["impulse_per_area"] = self.number(f["impulse_per_area"], g("impulse_per_area"))
+            if "mask" in f:
+                kw["mask"] = f["mask"]  # the record checks it as a filter's bits
+            record = self.library(key, Explosion, vec("position"), **kw)
         else:  # impulse
             body = self.body_ref(f["body"], g("body"), names)
             kw = {"point": vec("point")} if "point" in f else {}

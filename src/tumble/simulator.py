@@ -25,7 +25,8 @@ from . import checks
 from . import integrators as K
 from .errors import InputError, SimulationError
 from .collision.sensor import SensorLog
-from .forces import Impulse
+from .forces import Explosion, Impulse
+from .math3d import quat_to_matrix
 from .kinematic import drive_paths, touched_by_kinematic
 from .recording import RunResult, _first_frame_notice, _progress_bar, _Recorder
 from .solver.contact import SoftStepSettings
@@ -434,11 +435,16 @@ class Simulator:
         return int(math.ceil(impulse.time / self.dt - 1e-9))
 
     def _apply_due_impulses(self, Y: np.ndarray):
-        """P += J, L += (p - x) x J for impulses due at this step (in the order they were added)."""
+        """P += J, L += (p - x) x J for impulses and explosions due at this step (in the order they
+        were added); an explosion at the poses of Y, its bodies woken (``collision.explosion``)."""
         W = Y.shape[1]
         applied = self.world.applied_impulses
         for k, imp in enumerate(self.world.forces):
-            if not isinstance(imp, Impulse) or k in applied or self._impulse_step(imp) > self.step_index:
+            if not isinstance(imp, (Impulse, Explosion)) or k in applied or self._impulse_step(imp) > self.step_index:
+                continue
+            if isinstance(imp, Explosion):
+                self._explode(imp, Y)
+                applied.add(k)
                 continue
             i = self.world.index_of(imp.body)
             if self.world.moving[i]:
@@ -447,6 +453,27 @@ class Simulator:
                 Y[i, W - 6:W - 3] += J
                 Y[i, W - 3:] += np.cross(p - Y[i, :3], J)
             applied.add(k)
+
+    def _explode(self, explosion, Y: np.ndarray):
+        """Apply ``explosion`` to the packed state Y (N, W) at its own poses (the World's arrays may
+        still hold the start of the call)."""
+        from .collision.explosion import apply_blast, blast
+
+        w = self.world
+        n, W = Y.shape
+        x = Y[:, :3]
+        if w.layout == "matrix":
+            R = Y[:, 3:12].reshape(n, 3, 3)
+        else:
+            R = np.stack([quat_to_matrix(Y[i, 3:7]) for i in range(n)]) if n else np.zeros((0, 3, 3))
+        result = blast(w, explosion, x, R)
+        if len(result):
+            P = Y[:, W - 6:W - 3].copy()
+            L = Y[:, W - 3:].copy()
+            apply_blast(result, x, P, L)
+            Y[:, W - 6:W - 3] = P
+            Y[:, W - 3:] = L
+            w.wake_requests.update(int(i) for i in np.unique(result.body))
 
     def _kernel_args(self):
         w = self.world

@@ -42,6 +42,7 @@ from .forces import (
     ConstantForce,
     CustomForce,
     Drag,
+    Explosion,
     Impulse,
     PointForce,
     Spring,
@@ -322,9 +323,9 @@ class World:
 
     def add_force(self, force):
         """Add a force record of ``tumble.forces`` (Drag, Wind, ConstantForce, PointForce,
-        Spring, Impulse, CustomForce). A spring with ``rest_length=None`` takes the
+        Spring, Impulse, Explosion, CustomForce). A spring with ``rest_length=None`` takes the
         distance between its anchors now."""
-        if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, CustomForce)):
+        if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, CustomForce)):
             raise InputError(f"not a force record: {force!r}", "forces")
         for attr in ("body", "body_a", "body_b"):
             b = getattr(force, attr, None)
@@ -341,10 +342,11 @@ class World:
 
     def remove_force(self, force):
         """Remove a force record added by ``add_force`` (that very object): a spring let go, a
-        wind stopped. An ``Impulse`` stays (it is part of the run's history: the impulses applied
-        are counted by their place in the list)."""
-        if isinstance(force, Impulse):
-            raise InputError("an impulse cannot be removed (it is applied once, at its time)", "forces")
+        wind stopped. An ``Impulse`` or ``Explosion`` stays (it is part of the run's history: the
+        impulses applied are counted by their place in the list)."""
+        if isinstance(force, (Impulse, Explosion)):
+            kind = "an impulse" if isinstance(force, Impulse) else "an explosion"
+            raise InputError(f"{kind} cannot be removed (it is applied once, at its time)", "forces")
         for k, f in enumerate(self.forces):
             if f is force:
                 del self.forces[k]
@@ -478,6 +480,18 @@ class World:
 
         return drop(self, body, direction, max_distance)
 
+    def explode(self, position, radius: float, impulse_per_area: float, falloff: float = 0.0, mask=None):
+        """A blast now at ``position`` ((3,) m, world), Box2D v3's ``b2World_Explode`` in 3-D: each
+        shape of a dynamic body within ``radius + falloff`` m takes ``impulse_per_area`` (N s / m^2)
+        times its shadow's area, at its closest point, away from the centre (full within
+        ``radius``, fading linearly to nothing over ``falloff``); bodies whose category misses
+        ``mask`` are spared. Sleeping bodies hit wake at the next step. Returns the ``Blast``: the
+        bodies, points, areas and impulses (``collision.explosion``; a timed one is a
+        ``tb.Explosion`` record)."""
+        from .collision.explosion import explode
+
+        return explode(self, position, radius, impulse_per_area, falloff, mask)
+
     def exclude_collision(self, body_a, body_b):
         """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,
         whatever their filters (MuJoCo's ``<exclude>``, PyBullet's ``setCollisionFilterPair``)."""
@@ -523,8 +537,9 @@ class World:
         return self._tables
 
     @property
-    def impulses(self) -> list[Impulse]:
-        return [f for f in self.forces if isinstance(f, Impulse)]
+    def impulses(self) -> list:
+        """The records applied once at their ``time``: ``Impulse`` and ``Explosion``."""
+        return [f for f in self.forces if isinstance(f, (Impulse, Explosion))]
 
     # ------------------------------------------------------------------ the course's state vector
     @property

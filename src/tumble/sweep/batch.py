@@ -4,7 +4,8 @@ Variants are *batchable together* when their scenes share everything the
 simulator applies to the world as a whole (``batch_key``): dt, integrator,
 substeps, layout, duration, frame rate, gravity, the energy bound, the body
 names and which bodies are fixed, and the steps at which impulses act; and no
-force couples two bodies or calls Python (no springs, no custom forces) and the
+force couples two bodies or calls Python (no springs, no custom forces), no explosion (its blast
+would reach every variant's bodies at once), and the
 integrator is not adaptive, and the scene has no contact (collisions off, or no two shapes
 that can collide: variants merged into one World must not touch each other, and the
 merged World has collisions off) and no kinematic bodies. Joints batch when each variant's
@@ -44,7 +45,7 @@ import numpy as np
 from .. import checks
 from .. import integrators as K
 from ..errors import InputError, SimulationError
-from ..forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring
+from ..forces import ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring
 from ..joints import G_FOLLOWS, G_JOINT, JOINT_GEAR
 from ..simulator import Simulator
 from ..trajectory import Trajectory
@@ -57,7 +58,7 @@ def batch_key(scene):
     w = scene.world
     if K.INTEGRATOR_IDS[scene.integrator] in K.ADAPTIVE:
         return None
-    if any(isinstance(f, (Spring, CustomForce)) for f in w.forces):
+    if any(isinstance(f, (Spring, CustomForce, Explosion)) for f in w.forces):  # an explosion reaches every variant
         return None
     if w.collisions and _can_collide(w):
         return None

@@ -1,0 +1,241 @@
+"""Explosions: a blast that pushes every dynamic shape near it (Box2D v3's ``b2World_Explode``,
+in 3-D), ``World.explode`` now or a ``tb.Explosion`` record at a time of the run.
+
+The rule (Box2D v3's, with its perimeter made an area): for each collision shape of a dynamic
+body (a compound's parts one by one; sensors, fixed and kinematic bodies never), the signed
+distance d from the blast's centre c to the shape and the shape's closest point p
+(``distance.convex_to_shape`` with a point: GJK, EPA). A shape with d > radius + falloff is not
+touched. Otherwise the impulse
+
+    J = impulse_per_area * A(u) * s * u,   u = (p - c) / |p - c|,
+    s = 1 when d <= radius, else (radius + falloff - d) / falloff,
+
+acts at p: P += J, L += (p - x) x J. A(u) (m^2) is the area of the shape's shadow on a plane
+normal to u, its projected area: the blast's pressure impulse (N s / m^2) times the area it
+meets, so a box face-on takes more than edge-on and a long rod more side-on than end-on. The
+shadow of the whole shape counts, also where part of it lies beyond the reach, and nothing
+shades anything (a box behind another takes its whole impulse): Box2D's model, a blast's
+first push, not a pressure field.
+
+A(u) in the shape's frame, u = (ux, uy, uz) unit (``projected_area``):
+
+* sphere of radius r: pi r^2;
+* box of half extents (a, b, c): 4 (b c |ux| + a c |uy| + a b |uz|) (half the surface's
+  |u . n| dA: Cauchy's projection formula, each face pair counted once);
+* capsule of radius r and segment length l: pi r^2 + 2 r l sin(theta), theta the angle of u to
+  the axis;
+* cylinder: pi r^2 |cos(theta)| + 2 r l sin(theta);
+* cone of base radius r and height h: its base projects to an ellipse of semi-axes r and
+  b = r |cos(theta)|, its apex to a point at e = h sin(theta) from the ellipse's centre along
+  the short axis; the shadow is their convex hull: pi r b when e <= b, else
+  r b (pi - arccos(b / e)) + r sqrt(e^2 - b^2) (the ellipse as a circle stretched along the
+  short axis: the circle's hull with a point, pi r^2 - phi r^2 + r sqrt(D^2 - r^2),
+  cos(phi) = r / D, scaled by b / r);
+* ellipsoid of semi-axes (a, b, c): pi sqrt((b c ux)^2 + (a c uy)^2 + (a b uz)^2);
+* convex hull: the area of the 2-D convex hull of its vertices projected on the plane
+  (``scipy.spatial.ConvexHull``).
+
+A centre inside a shape (d <= 0) has no closest point outside: the impulse then acts at the
+body's centre of mass, along the centre-to-centre-of-mass direction, at full strength; with the
+blast exactly at the centre of mass it pushes every way at once and moves nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..errors import InputError
+from ..math3d import JIT
+from ..shapes import (
+    SHAPE_BOX,
+    SHAPE_CAPSULE,
+    SHAPE_CONE,
+    SHAPE_CONVEX,
+    SHAPE_CYLINDER,
+    SHAPE_ELLIPSOID,
+    SHAPE_SPHERE,
+)
+from .bounds import update_bounds
+from .distance import convex_to_shape
+from .pairs.gjk import gjk_scratch
+
+# a centre closer than this to a body's centre of mass, inside the body, gives no direction (m)
+CENTRE_TOLERANCE = 1e-12
+
+
+@dataclass
+class Blast:
+    """The impulses an explosion gave, one row per shape it touched (K rows, in shape-table order).
+
+    body: (K,) int64, the body of each shape.
+    shape: (K,) int64, the shape-table row (a compound's part).
+    distance: (K,) m, the signed distance from the centre to the shape (<= 0: the centre inside).
+    point: (K, 3) m, world, where the impulse acted (the shape's closest point; the body's centre
+        of mass for a centre inside it).
+    area: (K,) m^2, the shape's shadow area along the push.
+    impulse: (K, 3) N s, world, the impulse given.
+    """
+
+    body: np.ndarray
+    shape: np.ndarray
+    distance: np.ndarray
+    point: np.ndarray
+    area: np.ndarray
+    impulse: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.body)
+
+
+@njit(**JIT)
+def blast_distance_kernel(centre, reach, hit, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_aabb,
+                          shape_data, hull_vertex, mesh_triangle, node_aabb, node_first, node_count, node_skip,
+                          # outputs
+                          distance, point):
+    """distance[s] (S,) m: signed distance from ``centre`` (3,) m, world, to shape s when its body is
+    ``hit`` (N,) bool and it lies within ``reach`` m (inf otherwise); point[s] (S, 3) its closest
+    point, world. The centre is a sphere of radius 0 (a point core) for ``convex_to_shape``."""
+    scratch = gjk_scratch()
+    lo = np.empty(3)
+    hi = np.empty(3)
+    work = np.empty(9)
+    out = np.empty(9)
+    rot = np.eye(3)
+    params = np.zeros(4)
+    verts = np.zeros((0, 3))
+    for s in range(shape_type.shape[0]):
+        distance[s] = np.inf
+        if not hit[shape_body[s]]:
+            continue
+        gap = 0.0  # the centre's distance to the shape's box: a lower bound of its distance to the shape
+        for i in range(3):
+            g = max(shape_aabb[s, 0, i] - centre[i], centre[i] - shape_aabb[s, 1, i], 0.0)
+            gap += g * g
+        if math.sqrt(gap) > reach:
+            continue
+        d = convex_to_shape(SHAPE_SPHERE, centre, rot, params, verts, s, shape_type, shape_params, shape_pos,
+                            shape_rot, shape_data, hull_vertex, mesh_triangle, node_aabb, node_first, node_count,
+                            node_skip, reach, scratch, lo, hi, work, out)
+        distance[s] = d
+        for i in range(3):
+            point[s, i] = out[3 + i]
+
+
+def projected_area(shape_type: int, params, vertices, u) -> float:
+    """The area (m^2) of a convex shape's shadow on a plane normal to ``u`` (3,) unit, shape frame
+    (module docstring): ``shape_type`` a ``SHAPE_*`` id, ``params`` (4,) its shape-table
+    parameters, ``vertices`` (V, 3) m a hull's vertices in the shape frame (else unused)."""
+    ux, uy, uz = (float(c) for c in u)
+    axial = min(abs(uz), 1.0)
+    side = math.sqrt(max(0.0, 1.0 - axial * axial))
+    if shape_type == SHAPE_SPHERE:
+        return math.pi * params[0] ** 2
+    if shape_type == SHAPE_BOX:
+        a, b, c = params[0], params[1], params[2]
+        return 4.0 * (b * c * abs(ux) + a * c * abs(uy) + a * b * abs(uz))
+    if shape_type == SHAPE_CAPSULE:
+        r, half = params[0], params[1]
+        return math.pi * r * r + 4.0 * r * half * side
+    if shape_type == SHAPE_CYLINDER:
+        r, half = params[0], params[1]
+        return math.pi * r * r * axial + 4.0 * r * half * side
+    if shape_type == SHAPE_CONE:
+        r, h = params[0], params[1]
+        b, e = r * axial, h * side
+        if e <= b:
+            return math.pi * r * b
+        return r * b * (math.pi - math.acos(b / e)) + r * math.sqrt(e * e - b * b)
+    if shape_type == SHAPE_ELLIPSOID:
+        a, b, c = params[0], params[1], params[2]
+        return math.pi * math.sqrt((b * c * ux) ** 2 + (a * c * uy) ** 2 + (a * b * uz) ** 2)
+    if shape_type == SHAPE_CONVEX:
+        from scipy.spatial import ConvexHull, QhullError
+
+        n = np.array([ux, uy, uz])
+        e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(ux) < 0.9 else [0.0, 1.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        flat = np.asarray(vertices, dtype=float) @ np.stack([e1, e2], axis=1)
+        try:
+            return float(ConvexHull(flat).volume)  # a 2-D hull's "volume" is its area
+        except (QhullError, ValueError):  # the vertices project onto a line: no area
+            return 0.0
+    raise InputError(f"shape type {shape_type} has no projected area", "shape")
+
+
+def blast(world, explosion, x=None, R=None) -> Blast:
+    """The impulses of ``explosion`` (a ``tb.Explosion``) on ``world``'s bodies at poses ``x``
+    (N, 3) m and ``R`` (N, 3, 3) (default: the world's own), not applied (module docstring)."""
+    from .raycast import _seen, kept_scene
+
+    x = world.x if x is None else x
+    R = world.R if R is None else R
+    scene = kept_scene(world)
+    table = scene.table
+    S = table.shape_count
+    hit = world.moving & _seen(world, explosion.mask)
+    empty = Blast(body=np.zeros(0, np.int64), shape=np.zeros(0, np.int64), distance=np.zeros(0),
+                  point=np.zeros((0, 3)), area=np.zeros(0), impulse=np.zeros((0, 3)))
+    if S == 0 or not hit.any():
+        return empty
+    pos, rot, aabb, margin = np.empty((S, 3)), np.empty((S, 3, 3)), np.empty((S, 2, 3)), np.empty(S)
+    update_bounds(np.ascontiguousarray(x), np.ascontiguousarray(R), table, 0.0, pos, rot, aabb, shape_margin=margin)
+    centre = np.array(explosion.position, dtype=float)
+    reach = explosion.radius + explosion.falloff
+    distance = np.empty(S)
+    point = np.empty((S, 3))
+    blast_distance_kernel(centre, float(reach), hit, table.shape_type, table.shape_body, table.shape_params, pos, rot,
+                          aabb, table.shape_data, table.hull_vertex, table.mesh_triangle, table.mesh_node_aabb,
+                          table.mesh_node_first, table.mesh_node_count, table.mesh_node_skip, distance, point)
+    touched = np.flatnonzero(distance <= reach)
+    if len(touched) == 0:
+        return empty
+    body = table.shape_body[touched].astype(np.int64)
+    d = distance[touched]
+    p = point[touched].copy()
+    inside = d <= 0.0
+    p[inside] = x[body[inside]]  # no closest point outside: the body's centre of mass (docstring)
+    direction = p - centre
+    length = np.linalg.norm(direction, axis=1)
+    u = np.zeros_like(direction)
+    ok = length > CENTRE_TOLERANCE
+    u[ok] = direction[ok] / length[ok, None]
+    area = np.zeros(len(touched))
+    for k, s in enumerate(touched):
+        if ok[k]:
+            v0, nv = table.shape_data[s, 0], table.shape_data[s, 1]
+            verts = table.hull_vertex[v0:v0 + nv] if table.shape_type[s] == SHAPE_CONVEX else None
+            area[k] = projected_area(int(table.shape_type[s]), table.shape_params[s], verts, rot[s].T @ u[k])
+    scale = np.ones(len(touched))
+    if explosion.falloff > 0.0:  # (reach - d) / falloff >= 1 exactly when d <= radius: the clip gives both parts
+        scale = np.clip((reach - d) / explosion.falloff, 0.0, 1.0)
+    impulse = (explosion.impulse_per_area * area * scale)[:, None] * u
+    return Blast(body=body, shape=touched.astype(np.int64), distance=d, point=p, area=area, impulse=impulse)
+
+
+def apply_blast(result: Blast, x, P, L):
+    """P += J, L += (p - x) x J for each row of ``result``, in row order, on the (N, 3) arrays
+    ``P``, ``L`` (kg m/s, kg m^2/s, world) of bodies at centres ``x`` (N, 3) m."""
+    for k in range(len(result)):
+        i = result.body[k]
+        J = result.impulse[k]
+        P[i] += J
+        L[i] += np.cross(result.point[k] - x[i], J)
+
+
+def explode(world, position, radius, impulse_per_area, falloff=0.0, mask=None) -> Blast:
+    """``World.explode``: an explosion now, at the bodies' current poses; returns what it gave."""
+    from ..forces import Explosion
+
+    kw = {} if mask is None else {"mask": mask}
+    record = Explosion(position=position, radius=radius, impulse_per_area=impulse_per_area, falloff=falloff, **kw)
+    result = blast(world, record)
+    if len(result):
+        apply_blast(result, world.x, world.P, world.L)
+        world.wake_requests.update(int(i) for i in np.unique(result.body))
+        world.update_derived()
+    return result
