@@ -51,6 +51,8 @@ BASE = {
         {"type": "point", "body": "rod", "force": [1, 0, 0], "point": [0, 0, 0.5], "frame": "body"},
         {"type": "spring", "body_a": "ell", "body_b": "box", "anchor_a": [0, 0, 0], "stiffness": 20, "damping": 0.1, "rest_length": 1},
         {"type": "impulse", "body": "rod", "impulse": [0, 1, 0], "time": 0.1},
+        {"type": "explosion", "position": [0, 0, 0.5], "radius": 1.0, "falloff": 0.5, "impulse_per_area": 2.0,
+         "time": 0.2, "mask": 3},
     ],
     "collision_exclusions": [{"bodies": ["box", "rod"]}],
     "joints": [
