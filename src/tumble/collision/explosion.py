@@ -132,7 +132,7 @@ def projected_areas(shape_type, params, u, hulls=None) -> np.ndarray:
     read where the type is ``SHAPE_CONVEX`` (else None). The closed forms vectorised by type.
 
     PERF: a Python call per shape cost 7.5 us a body reached (3777 boxes of a 10 000-box pile: 28.6
-    ms); by type over the arrays 2.6 ms (benchmarks/explosion.py, docs/benchmarks.md)."""
+    ms); by type over the arrays 2.6-3.9 ms (benchmarks/explosion.py, docs/benchmarks.md)."""
     t = np.asarray(shape_type, dtype=np.int64)
     p = np.asarray(params, dtype=float).reshape(len(t), 4)
     u = np.asarray(u, dtype=float).reshape(len(t), 3)
