@@ -237,6 +237,37 @@ def test_a_click_in_push_mode_pushes_the_body_the_ray_hits_where_it_hits(paused)
         v.click_ray(origin, (-1, 0, 0), "throw")
 
 
+
+def test_a_click_in_blast_mode_sets_off_the_explosion_the_world_would_at_the_hit(paused):
+    """A click on the ground beside the box and the ball, in blast mode: the momenta change by
+    exactly the impulses of the explosion at the ray's hit point (``collision.explosion.blast``,
+    whose arithmetic tests/physics/test_explosion.py checks) with the sliders' radius and strength
+    and as much falloff as radius; both bodies are reached; the ground is blasted from, not
+    moved. A click on nothing sets nothing off."""
+    v = paused
+    w = v.world
+    v.blast_radius_slider.value, v.blast_strength_slider.value = 0.6, 150.0
+    origin, direction = np.array([0.3, 0.2, 3.0]), np.array([0.0, 0.0, -1.0])  # straight down onto the ground
+    hit = w.ray_cast(origin, direction)
+    assert hit.body[0] == w.index_of("ground")
+    P0, L0 = w.P.copy(), w.L.copy()
+    from tumble.collision.explosion import blast
+
+    expected = blast(w, tb.Explosion(position=hit.point[0], radius=0.6, falloff=0.6, impulse_per_area=150.0))
+    assert sorted(expected.body.tolist()) == [w.index_of("box"), w.index_of("ball")]
+    assert v.click_ray(origin, direction, "blast") is None  # the ground: blasted from, not moved
+    dP = np.zeros_like(P0)
+    dL = np.zeros_like(L0)
+    for k, i in enumerate(expected.body):
+        dP[i] += expected.impulse[k]
+        dL[i] += np.cross(expected.point[k] - w.x[i], expected.impulse[k])
+    np.testing.assert_array_equal(w.P, P0 + dP)
+    np.testing.assert_allclose(w.L, L0 + dL, rtol=0, atol=1e-15)
+    assert np.any(dP != 0)
+    P1 = w.P.copy()
+    assert v.click_ray((0, 3, 1), (0, 0, 1), "blast") is None  # into the sky
+    np.testing.assert_array_equal(w.P, P1)
+
 def grab_world():
     world = tb.World(gravity=(0, 0, -9.81))
     world.add_body(tb.Box(size=(0.3, 0.2, 0.1)), mass=3.0, position=(0, 0, 1), velocity=(1.0, -0.5, 0.0),

@@ -24,7 +24,9 @@ body quantities and toggles it shares):
   point clicked to a handle (viser's transform controls) that the mouse drags,
   as MuJoCo's viewer perturbs a body (a mass-scaled spring of ``GRAB_HERTZ`` with
   a critical damping of the body's motion; "Release" or a click elsewhere lets
-  go). Shift + click pushes whatever the mode.
+  go); or blast it: an explosion where the click's ray meets the scene (``World.explode``,
+  Box2D's ``b2World_Explode``: full within the "Blast radius", fading over as far again,
+  "Blast strength" N s per m^2 of each shape's shadow). Shift + click pushes whatever the mode.
 * the contact points and forces of the last step, from ``Simulator.contacts()``;
 * "Integration" (a scene file): the integrator and dt the next Reset starts with (the
   course's explicit Euler beside RK4 or the splitting, a step 4x larger or 10x smaller), and a
@@ -62,7 +64,9 @@ MAX_LAG_S = 0.1  # s of simulated time the run may owe real time; more is droppe
 PUSH_SPEED = 2.0  # m/s: a push's default change of speed (impulse = mass * speed)
 GRAB_HERTZ = 2.0  # Hz: natural frequency of a grabbed body on the grab spring (stiffness = m (2 pi f)^2)
 GRAB_DAMPING_RATIO = 1.0  # critical: the body follows the handle without swinging past it
-CLICK_MODES = ("select", "push", "grab")
+CLICK_MODES = ("select", "push", "grab", "blast")
+BLAST_RADIUS = 0.5  # m: a click's explosion, full strength within it (and as far again, fading)
+BLAST_IMPULSE = 200.0  # N s / m^2: its impulse per area of a shape's shadow (a 20 cm cube face-on: 8 N s)
 CAMERA_PERIOD_S = 0.2  # s of wall time between a camera's images while running (a capture costs 2-40 ms)
 ENERGY_PLOT_FRAMES = 1200  # frames the energy plot shows (the last ones): 50 s at 24 fps
 ENERGY_PLOT_PERIOD_S = 0.25  # s of wall time between the energy plot's updates while running
@@ -258,6 +262,17 @@ class LiveViewer(Viewer):
                 raise InputError(f"needs a nonzero finite direction and speed, got {direction!r}, {speed!r}", "push")
             b.apply_impulse(float(self.sim.world.mass[b.index]) * speed * d / norm, point)
             self._refresh()
+
+    def blast(self, position, radius: float | None = None, impulse_per_area: float | None = None):
+        """An explosion now at ``position`` ((3,) m, world): ``World.explode`` with ``radius`` (m, full
+        strength) and as much again of falloff, ``impulse_per_area`` N s/m^2 (defaults: the "Blast"
+        sliders). Returns its ``Blast`` (the bodies hit and their impulses); they wake."""
+        with self._lock:
+            radius = float(self.blast_radius_slider.value if radius is None else radius)
+            strength = float(self.blast_strength_slider.value if impulse_per_area is None else impulse_per_area)
+            result = self.sim.world.explode(position, radius=radius, impulse_per_area=strength, falloff=radius)
+            self._refresh()
+            return result
 
     def grab(self, body, point=None):
         """Hold a dynamic body by ``point`` ((3,) m, world, on the body; default its centre of mass):
@@ -465,9 +480,16 @@ class LiveViewer(Viewer):
         with gui.add_folder("Interact"):
             self.click_dropdown = gui.add_dropdown("Click a body to", CLICK_MODES, initial_value="select",
                                                    hint="select: its quantities; push: an impulse along the click; "
-                                                        "grab: a spring to a handle you drag (shift + click pushes)")
+                                                        "grab: a spring to a handle you drag; blast: an explosion "
+                                                        "where you click (shift + click pushes)")
             self.push_speed_slider = gui.add_slider("Push speed (m/s)", min=0.1, max=20.0, step=0.1,
                                                     initial_value=PUSH_SPEED, hint="the speed a push gives the body")
+            self.blast_radius_slider = gui.add_slider("Blast radius (m)", min=0.05, max=5.0, step=0.05,
+                                                      initial_value=BLAST_RADIUS,
+                                                      hint="a blast's full strength within it, fading over as far again")
+            self.blast_strength_slider = gui.add_slider("Blast strength (N s/m^2)", min=10.0, max=5000.0, step=10.0,
+                                                        initial_value=BLAST_IMPULSE,
+                                                        hint="impulse per m^2 of each shape's shadow")
             self.release_button = gui.add_button("Release", visible=False, hint="let go of the grabbed body")
 
         if self._scene_dt is not None:
@@ -669,9 +691,11 @@ class LiveViewer(Viewer):
 
     def click_ray(self, origin, direction, mode: str):
         """What a click along the ray ``origin`` + s ``direction`` (world) does in ``mode`` ("push",
-        "grab", "select"): the first body the ray hits (``World.ray_cast``, the bodies' exact
-        shapes), pushed along the ray at the hit point, grabbed there, or selected. Returns the
-        body's index, or None (nothing hit, or a body that does not move: only selected)."""
+        "grab", "blast", "select"): the first body the ray hits (``World.ray_cast``, the bodies'
+        exact shapes), pushed along the ray at the hit point, grabbed there, blasted from there
+        (``blast``: any body hit, the ground too, is where the explosion goes off), or selected.
+        Returns the body's index, or None (nothing hit, or a body that does not move: only
+        selected, or blasted from)."""
         if mode not in CLICK_MODES:
             raise InputError(f"expected one of {', '.join(CLICK_MODES)}, got {mode!r}", "mode")
         with self._lock:
@@ -682,6 +706,9 @@ class LiveViewer(Viewer):
                     self._release_spring()
                 return None
             self.select(body)
+            if mode == "blast":
+                self.blast(hits.point[0])
+                return body if self.sim.world.moving[body] else None
             if mode == "select" or not self.sim.world.moving[body]:
                 return None
             if mode == "push":
