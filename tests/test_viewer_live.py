@@ -268,6 +268,42 @@ def test_a_click_in_blast_mode_sets_off_the_explosion_the_world_would_at_the_hit
     assert v.click_ray((0, 3, 1), (0, 0, 1), "blast") is None  # into the sky
     np.testing.assert_array_equal(w.P, P1)
 
+
+def test_back_to_mark_returns_to_the_snapshot_and_cuts_the_take_back(paused, scene_file):
+    """Mark after two frames, push the box, grab the ball, run on, Back to mark: the state is the
+    mark's, bit for bit, the grab let go, the recording cut back to the mark's frames; running on
+    from there gives a plain run's bits and frames (the push and grab gone from history). A Reset
+    forgets the mark."""
+    v = paused
+    v.step_frame(2)
+    assert v.back_button.disabled
+    at_mark = v.world.pack()
+    v.mark()
+    assert not v.back_button.disabled and "mark at t = 0.083 s" in v.time_text.content
+    v.push("box", None, (1, 0, 0), speed=3.0)
+    v.grab("ball")
+    v.move_grab((0, 1, 2))
+    v.advance(30)
+    assert v._recorder.count == 6 and not np.array_equal(v.world.pack(), plain_state(scene_file, 50))
+    v.back_to_mark()
+    assert np.array_equal(v.world.pack(), at_mark) and v.sim.step_index == 20
+    assert v.grabbed is None and v.grab_handle is None and not v.playing
+    assert v._recorder.count == 3
+    v.advance(30)
+    assert np.array_equal(v.world.pack(), plain_state(scene_file, 50))
+    traj = v.trajectory()
+    plain = tb.load_scene(scene_file)
+    plain.duration = 50 / 240
+    expected = plain.run(progress=False)
+    assert traj.frame_count == expected.frame_count == 6
+    np.testing.assert_array_equal(traj.position, expected.position)
+    v.back_to_mark()  # the mark stays: back again
+    assert np.array_equal(v.world.pack(), at_mark)
+    v.reset()
+    assert v.back_button.disabled
+    with pytest.raises(InputError, match="no mark"):
+        v.back_to_mark()
+
 def grab_world():
     world = tb.World(gravity=(0, 0, -9.81))
     world.add_body(tb.Box(size=(0.3, 0.2, 0.1)), mass=3.0, position=(0, 0, 1), velocity=(1.0, -0.5, 0.0),

@@ -171,6 +171,11 @@ class _Recorder:
             bigger[:len(a)] = a
             self.arrays[key] = bigger
 
+    def truncate(self, count: int):
+        """Keep the first ``count`` frames only (the live viewer's "Back to mark")."""
+        self.count = min(self.count, int(count))
+        del self.contact_frames[self.count:]
+
     def record(self):
         if self.count == len(self.arrays["time"]):
             self.grow()

@@ -14,7 +14,9 @@ body quantities and toggles it shares):
 * "Live": Play / Pause, "Step" (one frame: 1/24 s, or the scene's frame rate),
   "Reset" (the scene made again from its file: bit-identical to the first start), "Save"
   (the run so far, recorded at the frame rate as ``Simulator.run`` records it, written to
-  ``out/run-NNN/trajectory.npz`` and ``trajectory.glb``),
+  ``out/run-NNN/trajectory.npz`` and ``trajectory.glb``), "Mark" and "Back to mark" (a snapshot of
+  the run, ``Simulator.save_state``, and the run returned to it, its recording cut back: try a
+  push again from the same moment),
   a speed factor, and the time with the real-time factor reached (a scene whose
   steps cost more than real time runs slower, never in bigger steps);
 * "Click a body to": select it (its x, v, omega, P, L, energy); push it (an
@@ -138,7 +140,8 @@ class LiveViewer(Viewer):
         grabbed: (body index, its grab ``Spring``, its ``Drag``) while a body is grabbed, else None.
         robots: {name: Robot} of the scene's ``[[robots]]`` ({} for a scene function's Simulator).
         out: the folder ``save()`` writes into; saved: the folders written.
-        step_button, reset_button, save_button, click_dropdown, push_speed_slider, release_button,
+        step_button, reset_button, save_button, mark_button, back_button, click_dropdown, push_speed_slider,
+        blast_radius_slider, blast_strength_slider, release_button,
         control_sliders ({(robot, actuator): slider}), grab_handle: the GUI handles added
         (``grab_handle``: the transform controls, or None).
     """
@@ -168,6 +171,7 @@ class LiveViewer(Viewer):
         self._start_recording()
         self.grabbed: tuple[int, Spring, Drag] | None = None
         self.grab_handle = None
+        self._mark = None  # (SimState, frames recorded) of "Mark", or None
         self.real_time_factor = 0.0
         self._lag = 0.0  # s of simulated time owed to real time
         self._rate_window: list[tuple[float, float]] = []  # (wall time, simulated time) over the last second
@@ -231,6 +235,8 @@ class LiveViewer(Viewer):
             if made.world.names != self.sim.world.names or robots.keys() != self.robots.keys():
                 raise InputError("the scene's bodies changed since the viewer started: start the viewer again", "scene")
             self.sim, self.robots = made, robots
+            self._mark = None  # a mark of the run before the Reset (its frames are gone)
+            self.back_button.disabled = True
             self.steps_per_frame = self._steps_per_frame()
             self.step_button.hint = f"one frame: {self.steps_per_frame} steps of {self.sim.dt:g} s"
             self._start_recording()
@@ -238,6 +244,34 @@ class LiveViewer(Viewer):
             self.error = None
             self._rate_window.clear()
             self.real_time_factor = 0.0
+            self._force_max = 0.0
+            self._refresh()
+            self._plot_energy()
+            self._show_camera()
+
+    def mark(self):
+        """Remember this moment of the run (``Simulator.save_state``: the bodies, the solvers' warm
+        starts, sleep, joints, contact and sensor pairs) and the frames recorded so far; "Back to
+        mark" returns to it. A Reset forgets it."""
+        with self._lock:
+            self._mark = (self.sim.save_state(), self._recorder.count)
+            self.back_button.disabled = False
+            self.time_text.content = self._status_text(0)
+
+    def back_to_mark(self):
+        """Return the run to the last ``mark``: the state restored in place
+        (``Simulator.restore_state``: the steps after it repeat a plain run's bits from there) and
+        the recording cut back to the frames it had then, so a saved take holds one history. A
+        grab is let go; the sliders' controls stay as they are. Paused."""
+        with self._lock:
+            if self._mark is None:
+                raise InputError("no mark: press Mark first", "mark")
+            self.pause()
+            self._release_spring()
+            state, frames = self._mark
+            self.sim.restore_state(state)
+            self._recorder.truncate(frames)
+            self.error = None
             self._force_max = 0.0
             self._refresh()
             self._plot_energy()
@@ -462,6 +496,8 @@ class LiveViewer(Viewer):
             line += " (full: the memory limit)"
         if self.saved:
             line += f"; saved {self.saved[-1]}"
+        if self._mark is not None:
+            line += f"; mark at t = {self._mark[0].t:.3f} s"
         if self.error is not None:
             line += f"\n\n**Stopped:** {self.error} (Reset to start again)"
         return line
@@ -474,6 +510,9 @@ class LiveViewer(Viewer):
             self.reset_button = gui.add_button("Reset", hint=f"start {self.label} again")
             self.save_button = gui.add_button("Save", hint=f"write the run since the start to {self.out}/run-NNN/: "
                                                             "trajectory.npz and trajectory.glb")
+            self.mark_button = gui.add_button("Mark", hint="remember this moment (a snapshot of the run)")
+            self.back_button = gui.add_button("Back to mark", disabled=True,
+                                              hint="return to the mark: try again from there (the take is cut back too)")
             self.speed_slider = gui.add_slider("Speed", min=0.05, max=4.0, step=0.05, initial_value=1.0,
                                                hint="simulated seconds per second, at most (a slow scene runs slower)")
             self.time_text = gui.add_markdown("")
@@ -549,6 +588,14 @@ class LiveViewer(Viewer):
         @self.release_button.on_click
         def _(_event):
             self.release()
+
+        @self.mark_button.on_click
+        def _(_event):
+            self.mark()
+
+        @self.back_button.on_click
+        def _(_event):
+            self.back_to_mark()
 
     def _dt_options(self) -> dict:
         """{label: dt} of the steps offered: the scene's dt times ``DT_FACTORS`` that divide a frame
