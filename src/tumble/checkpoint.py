@@ -359,6 +359,17 @@ def _restore_joint_solver(sim, state: dict):
         target[...] = saved
 
 
+def _restore_logs(sim, contact_touching, sensor_pairs):
+    """Give a simulator's new contact-event log the pairs touching after the last step and its
+    sensor log the overlapping pairs (lists of pairs, or None / empty: none), so that the run's
+    next step begins only new touches and overlaps, as the whole run's would. Shared by the
+    checkpoint's load and the snapshot's restore."""
+    if sim._event_log is not None and contact_touching:
+        sim._event_log.set_pairs(contact_touching, sim.world.body_count)
+    if sensor_pairs is not None and len(sensor_pairs) and sim._sensors() is not None:
+        sim._sensors().set_pairs(list(sensor_pairs))
+
+
 def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
     names = meta["names"]
     n = len(names)
@@ -426,10 +437,7 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
               joint_settings=None if s.get("joint_solver") is None else JointSettings(**s["joint_solver"]),
               record_joints=bool(s.get("record_joints", False)),
               contact_events=bool(s.get("contact_events", False)))
-    if sim._event_log is not None and meta.get("contact_touching"):
-        sim._event_log.set_pairs(meta["contact_touching"], w.body_count)
-    if meta.get("sensor_pairs") and sim._sensors() is not None:
-        sim._sensors().set_pairs(meta["sensor_pairs"])
+    _restore_logs(sim, meta.get("contact_touching"), meta.get("sensor_pairs"))
     sim.step_index = int(meta["step_index"])
     if not math.isclose(sim.step_index * sim.dt, w.t, rel_tol=1e-12, abs_tol=1e-12):
         raise InputError(f"step index {sim.step_index} does not match t = {w.t}")

@@ -250,8 +250,13 @@ class Simulator:
         if not getattr(self.world, "collisions", True) and not getattr(self.world, "joints", None):
             return False
         if self.soft_step is None:
-            self.soft_step = SoftStep(self.world, self.contact_settings, self.joint_settings)
+            self.soft_step = self._new_soft_step()
         return self.soft_step.has_collisions() or self.soft_step.has_joints()
+
+    def _new_soft_step(self) -> SoftStep:
+        """The contact and joint stages for this world and settings (made on the first step, and
+        anew by ``restore_state``)."""
+        return SoftStep(self.world, self.contact_settings, self.joint_settings)
 
     def _advance_with_contacts(self, Y, n, scratch, check=None):
         """n steps: collide; bodies with contacts take the soft step, the others the chosen integrator.

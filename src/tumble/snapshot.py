@@ -28,9 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .checkpoint import KINEMATIC, STATE, _restore_solvers, _solver_arrays, _solver_parts
+from .checkpoint import KINEMATIC, STATE, _restore_logs, _restore_solvers, _solver_arrays, _solver_parts
 from .errors import InputError
-from .solver.soft_step import SoftStep
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,15 +128,12 @@ def restore_state(sim, state: SimState) -> None:
     old = sim.soft_step
     sim.soft_step = None
     if old is not None:
-        sim.soft_step = SoftStep(w, sim.contact_settings, sim.joint_settings)  # as _contact_on makes it
+        sim.soft_step = sim._new_soft_step()
         sim.soft_step.pipeline.take_table(old.pipeline)
     sim.sleep = None
     sim._sensor_log = None
     if sim._event_log is not None:
         sim._event_log = type(sim._event_log)()
-        if state.contact_touching:
-            sim._event_log.set_pairs(state.contact_touching, w.body_count)
-    if state.sensor_pairs is not None and len(state.sensor_pairs) and sim._sensors() is not None:
-        sim._sensors().set_pairs(state.sensor_pairs.tolist())
+    _restore_logs(sim, state.contact_touching, None if state.sensor_pairs is None else state.sensor_pairs.tolist())
     warm, sleep, joint_state = _solver_parts(list(state.arrays), lambda name: state.arrays[name].copy())
     _restore_solvers(sim, warm, sleep, joint_state)
