@@ -418,3 +418,17 @@ def test_sweeps_do_not_batch_variants_with_an_explosion(tmp_path):
     assert batch_key(parse_scene(data)) is None
     data.pop("forces")
     assert batch_key(parse_scene(data)) is not None
+
+
+def test_the_blast_kernel_compiles_the_closest_point_routines_for_no_literal_shape_type():
+    """The blast's centre is a point (a sphere of radius 0) whose type goes to ``convex_to_shape``
+    as an int64: as the literal SHAPE_SPHERE it compiled ``convex_to_shape``, ``convex_distance``,
+    GJK and EPA once more (found by the closest points' own literal test in the suite)."""
+    from tumble.collision import distance
+
+    w = _free_world()
+    w.add_body(tb.Box(size=(0.5, 0.5, 0.5)), mass=1.0, position=(1.0, 0, 0))
+    assert len(w.explode((0, 0, 0), radius=2.0, impulse_per_area=1.0)) == 1
+    for routine in (distance.convex_to_shape, distance.convex_distance):
+        literal = [sig for sig in routine.signatures if any("Literal" in str(t) for t in sig)]
+        assert not literal, (routine.__name__, literal)

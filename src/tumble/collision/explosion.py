@@ -65,6 +65,9 @@ from .pairs.gjk import gjk_scratch
 
 # a centre closer than this to a body's centre of mass, inside the body, gives no direction (m)
 CENTRE_TOLERANCE = 1e-12
+# COMPILE: the centre's shape type as an int64, not the literal SHAPE_SPHERE, which compiled
+# convex_distance, GJK and EPA a second time for the literal (as mesh.TRIANGLE, session 23)
+POINT = np.int64(SHAPE_SPHERE)
 
 
 @dataclass
@@ -117,7 +120,7 @@ def blast_distance_kernel(centre, reach, hit, shape_type, shape_body, shape_para
             gap += g * g
         if math.sqrt(gap) > reach:
             continue
-        d = convex_to_shape(SHAPE_SPHERE, centre, rot, params, verts, s, shape_type, shape_params, shape_pos,
+        d = convex_to_shape(POINT, centre, rot, params, verts, s, shape_type, shape_params, shape_pos,
                             shape_rot, shape_data, hull_vertex, mesh_triangle, node_aabb, node_first, node_count,
                             node_skip, reach, scratch, lo, hi, work, out)
         distance[s] = d
