@@ -24,6 +24,14 @@ from .trajectory import Trajectory, load_trajectory
 from .world import Body, Material, World
 
 
+def fracture(shape, pieces: int = 16, seed: int = 0, points=None):
+    """Cut a convex shape into the Voronoi cells of ``pieces`` random points (``World.add_fractured``
+    glues them into a breakable body). See tumble.fracturing."""
+    from .fracturing import fracture as _fracture
+
+    return _fracture(shape, pieces, seed, points)
+
+
 def load_scene(path):
     """Read a scene file (TOML or JSON) into a ``Scene`` (its World and settings). See tumble.scene."""
     from .scene import load_scene as _load
@@ -50,7 +58,7 @@ def load_mjcf(world, path, **options):
 __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "SimState", "Trajectory", "load_trajectory", "load_scene",
     "load_urdf", "load_mjcf", "Camera", "CameraImage",
-    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Ellipsoid", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield", "decompose",
+    "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Ellipsoid", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield", "decompose", "fracture",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "Explosion", "Blast", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "GearJoint",
     "KeyframePath",

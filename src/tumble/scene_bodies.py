@@ -39,8 +39,11 @@ from .world import World
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter", "path",
-    "surface_velocity", "sensor", "drop",
+    "surface_velocity", "sensor", "drop", "fracture",
 )
+# fracture = {pieces, seed, strength, min_face}: the body as Voronoi cells glued by breakable joints (tumble.fracturing)
+FRACTURE_KEYS = ("pieces", "seed", "strength", "min_face")
+FRACTURE_SHAPES = (Box, Convex, Sphere, Capsule, Cylinder, Cone, Ellipsoid)
 # path = {times, positions, orientations or euler_deg, repeat}: a kinematic body's keyframes (tumble.kinematic)
 PATH_KEYS = ("times", "positions", "orientations", "euler_deg", "repeat")
 # collision_filter = {category, mask, group}: which bodies this one touches (collision/filter.py)
@@ -150,6 +153,9 @@ class BodyReader(ValueReader):
         drop = self.boolean(b["drop"], f"{key}.drop") if "drop" in b else False
         if drop and path is not None:
             raise self.error("a body on a path starts at the path's pose: it cannot be dropped", f"{key}.drop")
+        if "fracture" in b:
+            self.fractured(world, b, shape, kw, key, names, drop)
+            return
         body = self.library(key, world.add_body, shape, **kw)
         if drop:
             # dropped once every body and robot is in the world, in the file's order (scene.py)
@@ -159,6 +165,39 @@ class BodyReader(ValueReader):
 
             self.library(f"{key}.path", lambda: world.add_path(KeyframePath(body, **path)))
         names[name] = len(names)
+
+    def fractured(self, world: World, b: dict, shape, kw: dict, key: str, names: dict, drop: bool):
+        """A body with ``fracture = {...}``: its shape cut into cells, each a body ``NAME/k``, glued
+        (``World.add_fractured``)."""
+        from .fracturing import MIN_FACE, fracture
+
+        where = f"{key}.fracture"
+        f = self.table(b["fracture"], where, FRACTURE_KEYS)
+        if kw.get("fixed") or kw.get("kinematic") or kw.get("sensor") or "path" in b or drop:
+            raise self.error("only a dynamic body can be fractured (not fixed, kinematic, a sensor, on a path "
+                             "or dropped)", where)
+        if not isinstance(shape, FRACTURE_SHAPES):
+            raise self.error(f"cannot fracture a {type(shape).__name__.lower()} shape: a box, convex, sphere, "
+                             "capsule, cylinder, cone or ellipsoid", where)
+        if "inertia" in b:
+            raise self.error("the cells' inertias come from their shapes: give no inertia", f"{key}.inertia")
+        pieces = self.integer(f["pieces"], f"{where}.pieces", 2) if "pieces" in f else 16
+        seed = self.integer(f["seed"], f"{where}.seed", 0) if "seed" in f else 0
+        strength = self.positive(f["strength"], f"{where}.strength") if "strength" in f else float("inf")
+        min_face = self.nonnegative(f["min_face"], f"{where}.min_face") if "min_face" in f else MIN_FACE
+        cells = self.library(where, fracture, shape, pieces, seed)
+        name = kw.pop("name")
+        density = kw.pop("density") if "density" in kw else kw.pop("mass") / float(cells.volume.sum())
+        kw.pop("fixed", None)
+        width = len(str(len(cells) - 1))
+        for k in range(len(cells)):
+            piece = f"{name}/{k:0{width}d}"
+            if piece in names:
+                raise self.error(f"a cell's name {piece!r} is taken (bodies[{names[piece]}])", f"{key}.name")
+        self.library(key, world.add_fractured, cells, density=density, strength=strength, min_face=min_face, name=name,
+                     **kw)
+        for k in range(len(cells)):
+            names[f"{name}/{k:0{width}d}"] = len(names)
 
     def inertia(self, value, key: str):
         self.where = key

@@ -480,6 +480,17 @@ class World:
 
         return drop(self, body, direction, max_distance)
 
+    def add_fractured(self, fractured, *, density: float, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None,
+                      strength: float = math.inf, min_face: float | None = None, name: str = "piece", **body_options):
+        """Add a ``tb.fracture(shape, ...)`` as bodies ``{name}/{k}``, one per cell, glued by breakable
+        fixed joints on the faces they share (a glue of tensile ``strength`` Pa); returns (bodies,
+        joints). ``tumble.fracturing``."""
+        from .fracturing import MIN_FACE, add_fractured
+
+        return add_fractured(self, fractured, density=density, position=position, orientation=orientation,
+                             euler_deg=euler_deg, strength=strength, min_face=MIN_FACE if min_face is None else min_face,
+                             name=name, **body_options)
+
     def explode(self, position, radius: float, impulse_per_area: float, falloff: float = 0.0, mask=None):
         """A blast now at ``position`` ((3,) m, world), Box2D v3's ``b2World_Explode`` in 3-D: each
         shape of a dynamic body within ``radius + falloff`` m takes ``impulse_per_area`` (N s / m^2)
