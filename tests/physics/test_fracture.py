@@ -15,7 +15,7 @@ from scipy.spatial import ConvexHull
 
 import tumble as tb
 from tumble.errors import InputError
-from tumble.fracturing import MIN_FACE
+from tumble.fracturing import glued_faces
 
 BOX = (1.0, 0.2, 0.8)
 
@@ -69,8 +69,15 @@ def test_the_glued_cells_have_the_mass_properties_of_the_whole(cells):
         I += np.linalg.inv(w.I_inv[k]) + m[k] * (d @ d * np.eye(3) - np.outer(d, d))
     expected = M / 3 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
     np.testing.assert_allclose(I, expected, rtol=0, atol=1e-12 * expected.max())
-    glued = cells.face_area >= MIN_FACE * cells.face_area.mean()
+    glued = glued_faces(cells)
     assert len(joints) == int(glued.sum()) and len(joints) > len(bodies)  # a connected web with loops
+    # every face of a quarter of the mean face's area or more, and a spanning tree: one piece
+    assert np.all(glued[cells.face_area >= 0.25 * cells.face_area.mean()])
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    i, j = cells.faces[glued].T
+    assert connected_components(sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(len(cells),) * 2))[0] == 1
 
 
 def test_a_glued_whole_falls_spins_and_lands_in_one_piece(cells):
@@ -133,7 +140,7 @@ def test_a_ball_breaks_the_glue_near_its_impact_and_the_cells_then_collide():
         w, pane, bodies, joints, sim = _pane_hit(strength)
         broken[strength] = [j for j in joints if j.broken]
     impact = np.array([0.2, 0.05, 0.6])
-    faces = pane.face_centroid[pane.face_area >= MIN_FACE * pane.face_area.mean()] + [0, 0, 0.5]  # glued, world
+    faces = pane.face_centroid[glued_faces(pane)] + [0, 0, 0.5]  # the glued faces' centroids, world
     d = np.linalg.norm(faces - impact, axis=1)
     cut = np.array([j.broken for j in joints])
     assert cut.any() and (~cut).any()
