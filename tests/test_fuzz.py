@@ -40,6 +40,8 @@ BASE = {
         {"name": "belt", "shape": {"type": "box", "size": [2, 1, 0.1]}, "kinematic": True, "velocity": [0.5, 0, 0],
          "angular_velocity": [0, 0, 0.1], "surface_velocity": [0, 1, 0]},
         {"name": "zone", "shape": {"type": "box", "size": [1, 1, 1]}, "fixed": True, "sensor": True, "position": [0, 0, 0.5]},
+        {"name": "slab", "shape": {"type": "box", "size": [0.6, 0.1, 0.4]}, "density": 2000, "position": [0, 3, 0.2],
+         "fracture": {"pieces": 4, "seed": 2, "strength": 1e6, "min_face": 0.1}},
         {"name": "lift", "shape": {"type": "sphere", "radius": 0.2}, "kinematic": True,
          "path": {"times": [0, 0.25, 0.5], "positions": [[3, 0, 0], [3, 0, 1], [3, 1, 1]],
                   "euler_deg": [[0, 0, 0], [0, 0, 90], [0, 0, 0]], "repeat": True}},
