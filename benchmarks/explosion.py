@@ -30,16 +30,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from contact import TumbleScene, machine, md_table, write_results  # noqa: E402
-from peers.common import median  # noqa: E402
-
-
-def timed(f, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t0)
-    return median(times)
+from peers.common import median_time as timed  # noqa: E402
 
 
 def main(argv=None):

@@ -34,16 +34,9 @@ sys.path.insert(0, str(HERE))
 
 from contact import TumbleScene, machine, md_table, write_results  # noqa: E402
 from peers.common import median, scene_spec  # noqa: E402
+from peers.common import median_time as timed  # noqa: E402
 
 
-def timed(f, repeats: int) -> float:
-    """Median seconds of ``f()`` over ``repeats`` calls."""
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        f()
-        times.append(time.perf_counter() - t0)
-    return median(times)
 
 
 class Tumble:

@@ -219,6 +219,18 @@ def median(values):
     return v[m] if len(v) % 2 else 0.5 * (v[m - 1] + v[m])
 
 
+def median_time(f, repeats: int) -> float:
+    """Median seconds of ``f()`` over ``repeats`` calls."""
+    import time
+
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - t0)
+    return median(times)
+
+
 def fmt(x, spec=".2e"):
     if x is None:
         return "-"
