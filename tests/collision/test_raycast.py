@@ -570,7 +570,7 @@ def test_queries_compile_their_kernels_once_whatever_the_layout_of_their_argumen
     plain = (w.ray_cast(origin, down, max_distance=np.full(3, 10.0)),
              w.closest_points([1], [0], max_distance=np.full(1, 10.0)),
              w.shape_cast(tb.Sphere(radius=0.1), origin, (0, 0, -10)))
-    kernels = (raycast.ray_cast_serial_kernel, distance.closest_points_serial_kernel, shape_query.shape_cast_serial_kernel)
+    kernels = (raycast.ray_cast_kernel, distance.closest_points_serial_kernel, shape_query.shape_cast_serial_kernel)
     compiled = [len(k.signatures) for k in kernels]
 
     read_only_origin = np.broadcast_to(origin[0], (3, 3))
@@ -584,27 +584,3 @@ def test_queries_compile_their_kernels_once_whatever_the_layout_of_their_argumen
     np.testing.assert_array_equal(odd[0].distance, np.full(3, plain[0].distance[0]))
     assert odd[1].distance[0] == plain[1].distance[0]
     np.testing.assert_array_equal(odd[2].fraction, np.full(3, plain[2].fraction[0]))
-
-
-def test_a_few_rays_on_the_calling_thread_give_the_bits_of_a_batch_on_the_threads():
-    """Fewer than ``PARALLEL_MIN_RAYS`` rays are cast by the serial twin of the ray kernel (waking
-    the threads cost a single ray 0.2-0.6 ms): the same source, so each ray cast alone gives
-    exactly what it gives in a batch cast on both cores."""
-    from tumble.collision import raycast
-
-    rng = np.random.default_rng(4)
-    w = tb.World()
-    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
-    for k in range(40):
-        w.add_body(tb.Box(size=rng.uniform(0.1, 0.5, 3)), mass=1.0, position=rng.uniform(-2, 2, 3) + (0, 0, 2),
-                   euler_deg=rng.uniform(-180, 180, 3))
-    R = 2 * raycast.PARALLEL_MIN_RAYS
-    origin = rng.uniform(-3, 3, (R, 3)) + (0, 0, 6)
-    direction = rng.normal(size=(R, 3)) + (0, 0, -2)
-    batch = w.ray_cast(origin, direction)
-    assert raycast.ray_cast_kernel.signatures and (batch.body >= 0).sum() > R // 2
-    for r in range(0, R, 7):
-        alone = w.ray_cast(origin[r], direction[r])
-        assert alone.body[0] == batch.body[r] and alone.distance[0] == batch.distance[r]
-        assert np.array_equal(alone.normal[0], batch.normal[r], equal_nan=True)
-    assert raycast.ray_cast_serial_kernel.signatures

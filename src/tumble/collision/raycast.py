@@ -32,7 +32,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import InputError
-from ..math3d import JIT, NO_NRT, argsort_stable, serial_twin
+from ..math3d import JIT, NO_NRT, argsort_stable
 from ..shapes import SHAPE_PLANE
 from .bounds import update_bounds
 from .filter import ALL_CATEGORIES, CollisionFilter
@@ -75,10 +75,6 @@ class RayHits(HitRows):
 # ---------------------------------------------------------------------- all rays, all shapes
 SHAPES_PER_LEAF = 4
 RAYS_PER_CHUNK = 64  # rays per task of the parallel loop (each task allocates its traversal stack once)
-# fewer rays than this are cast on the calling thread (``ray_cast_serial_kernel``: the same source,
-# the same bits): one chunk's task gains nothing from the threads, and waking them cost a single
-# ray 0.2-0.6 ms (measured: 100 to 10 000 boxes, 2 cores), as the contact preparation's start did
-PARALLEL_MIN_RAYS = 2 * RAYS_PER_CHUNK
 
 
 @njit(**JIT)
@@ -310,9 +306,6 @@ def ray_cast_kernel(origin, direction, max_distance, exclude, seen, planes, item
                       tree_skip, shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_plane,
                       mesh_triangle, node_aabb, leaf_first, leaf_count, node_skip, stack, stack_enter, hit_shape,
                       hit_distance, hit_normal)
-
-
-ray_cast_serial_kernel = serial_twin(ray_cast_kernel, "ray_cast_serial_kernel")
 
 
 @njit(**JIT, parallel=True)
@@ -548,10 +541,9 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
     distance = np.empty(R)
     normal = np.empty((R, 3))
     table = scene.table
-    kernel = ray_cast_kernel if R >= PARALLEL_MIN_RAYS else ray_cast_serial_kernel
-    kernel(o, d, dist, skip, seen, planes, items, *tree, table.shape_type, table.shape_body, table.shape_params,
-           pos, rot, table.shape_data, table.hull_plane, table.mesh_triangle, table.mesh_node_aabb,
-           table.mesh_node_first, table.mesh_node_count, table.mesh_node_skip, shape, distance, normal)
+    ray_cast_kernel(o, d, dist, skip, seen, planes, items, *tree, table.shape_type, table.shape_body, table.shape_params,
+                    pos, rot, table.shape_data, table.hull_plane, table.mesh_triangle, table.mesh_node_aabb,
+                    table.mesh_node_first, table.mesh_node_count, table.mesh_node_skip, shape, distance, normal)
     hit = shape >= 0
     body = np.full(R, -1, dtype=np.int64)
     body[hit] = table.shape_body[shape[hit]]
