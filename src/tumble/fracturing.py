@@ -98,13 +98,15 @@ def _inside(points, halfspaces, margin):
 def fracture(shape, pieces: int = 16, seed: int = 0, points=None) -> Fractured:
     """Cut ``shape`` into the Voronoi cells of ``pieces`` points drawn uniformly inside it (NumPy's
     generator from ``seed``), or of the given ``points`` ((K, 3) m, shape frame, inside it)."""
-    from scipy.spatial import ConvexHull, HalfspaceIntersection
+    from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
     verts, walls = _shape_hull(shape)
     size = float(np.max(np.ptp(verts, axis=0)))
     if points is None:
         if isinstance(pieces, bool) or not isinstance(pieces, (int, np.integer)) or not 2 <= pieces <= 1000:
             raise InputError(f"must be a whole number from 2 to 1000, got {pieces!r}", "pieces")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise InputError(f"must be a whole number >= 0, got {seed!r}", "seed")
         rng = np.random.default_rng(seed)
         lo, hi = verts.min(axis=0), verts.max(axis=0)
         seeds = np.zeros((0, 3))
@@ -127,8 +129,12 @@ def fracture(shape, pieces: int = 16, seed: int = 0, points=None) -> Fractured:
         normal = seeds[others] - seeds[i]  # (s_j - s_i) . p - (|s_j|^2 - |s_i|^2) / 2 <= 0
         offset = -0.5 * (np.einsum("ij,ij->i", seeds[others], seeds[others]) - seeds[i] @ seeds[i])
         halfspaces = np.vstack([walls, np.column_stack([normal, offset])])
-        cell = HalfspaceIntersection(halfspaces, seeds[i]).intersections
-        hull = ConvexHull(cell)
+        try:
+            cell = HalfspaceIntersection(halfspaces, seeds[i]).intersections
+            hull = ConvexHull(cell)
+        except (QhullError, ValueError) as err:  # a flat or vanishing cell: points nearly together
+            first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            raise InputError(f"cell {i} could not be cut (points too close together?): {first}", "points") from None
         cells.append(cell[hull.vertices])
         volume[i] = hull.volume
     faces, area, centroid, facing = [], [], [], []

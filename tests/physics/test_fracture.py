@@ -183,6 +183,8 @@ def test_other_shapes_fracture_by_their_hull_and_bad_input_is_one_line():
         tb.fracture(tb.Box(size=(1, 1, 1)), pieces=1)
     with pytest.raises(InputError, match="pieces"):
         tb.fracture(tb.Box(size=(1, 1, 1)), pieces=5000)
+    with pytest.raises(InputError, match="seed"):
+        tb.fracture(tb.Box(size=(1, 1, 1)), pieces=3, seed=-1)
     with pytest.raises(InputError, match="inside the shape"):
         tb.fracture(tb.Box(size=(1, 1, 1)), points=[[0, 0, 0], [2, 0, 0]])
     with pytest.raises(InputError, match="cannot fracture"):

@@ -157,10 +157,12 @@ def projected_areas(shape_type, params, u, hulls=None) -> np.ndarray:
         r, minor, e = a[k], a[k] * axial[k], b[k] * side[k]
         inside = e <= minor
         with np.errstate(divide="ignore", invalid="ignore"):
-            hull = r * minor * (np.pi - np.arccos(np.clip(minor / e, 0.0, 1.0))) + r * np.sqrt(np.maximum(e * e - minor * minor, 0.0))
+            phi = np.arccos(np.clip(minor / e, 0.0, 1.0))
+            hull = r * minor * (np.pi - phi) + r * np.sqrt(np.maximum(e * e - minor * minor, 0.0))
         area[k] = np.where(inside, np.pi * r * minor, hull)
     k = t == SHAPE_ELLIPSOID
-    area[k] = np.pi * np.sqrt((b[k] * c[k] * u[k, 0]) ** 2 + (a[k] * c[k] * u[k, 1]) ** 2 + (a[k] * b[k] * u[k, 2]) ** 2)
+    area[k] = np.pi * np.sqrt((b[k] * c[k] * u[k, 0]) ** 2 + (a[k] * c[k] * u[k, 1]) ** 2
+                              + (a[k] * b[k] * u[k, 2]) ** 2)
     for i in np.flatnonzero(t == SHAPE_CONVEX):
         area[i] = _hull_shadow(hulls[i], u[i]) if u[i].any() else 0.0  # no push, no shadow
     if np.isnan(area).any():
