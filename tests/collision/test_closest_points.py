@@ -642,6 +642,7 @@ def test_a_query_about_a_few_bodies_of_a_large_world_updates_their_shapes_alone(
             w.near_pairs(0.05)  # a query that writes every shape's row
         return np.array(out)
 
+    monkeypatch.setattr(distance, "FEW_BODIES_MIN_SHAPES", 0)  # a world of 40 shapes takes the few-bodies path
     for trial in range(3):
         before = w.x.copy()
         for body in w.bodies:
@@ -651,7 +652,7 @@ def test_a_query_about_a_few_bodies_of_a_large_world_updates_their_shapes_alone(
         few = answers()
         monkeypatch.setattr(distance, "FEW_BODIES_FACTOR", 0)
         every = answers()
-        monkeypatch.undo()
+        monkeypatch.setattr(distance, "FEW_BODIES_FACTOR", 8)
         assert np.array_equal(few, every)
     calls = []
     real = distance.update_bounds_rows

@@ -24,65 +24,6 @@ from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_C
 
 
 @njit(**JIT)
-def _shape_bounds(s, x, R, v, omega, dt, shape_type, shape_body, shape_params, shape_local_pos, shape_local_q, margin,
-                  local, extent,
-                  # outputs
-                  shape_pos, shape_rot, shape_aabb, shape_margin):
-    """Shape row s's world pose, AABB and margin (``_update_bounds_kernel``); ``local`` (3, 3) and
-    ``extent`` (3,) scratch."""
-    b = shape_body[s]
-    quat_to_matrix_into(shape_local_q[s], local)
-    # shape pose in the world: p = x + R p_local, Rs = R Rlocal (DESIGN.md: p_world = R p_body + x)
-    for i in range(3):
-        shape_pos[s, i] = x[b, i] + R[b, i, 0] * shape_local_pos[s, 0] + R[b, i, 1] * shape_local_pos[s, 1] \
-            + R[b, i, 2] * shape_local_pos[s, 2]
-        for j in range(3):
-            shape_rot[s, i, j] = R[b, i, 0] * local[0, j] + R[b, i, 1] * local[1, j] + R[b, i, 2] * local[2, j]
-    t = shape_type[s]
-    p = shape_params[s]
-    for i in range(3):
-        if t == SHAPE_SPHERE:
-            e = p[0]
-        elif t == SHAPE_CAPSULE:
-            e = abs(shape_rot[s, i, 2]) * p[1] + p[0]
-        elif t == SHAPE_BOX or t == SHAPE_CONVEX or t == SHAPE_MESH:
-            # half width of a rotated box along world axis i: sum_j |R_ij| h_j (convex, mesh: the box
-            # |l_j| <= h_j around the shape origin that holds every vertex)
-            e = abs(shape_rot[s, i, 0]) * p[0] + abs(shape_rot[s, i, 1]) * p[1] + abs(shape_rot[s, i, 2]) * p[2]
-        elif t == SHAPE_CYLINDER:
-            # a disc of radius r with normal u spans r sqrt(1 - u_i^2) along axis i; plus the axis h |u_i|
-            u = shape_rot[s, i, 2]
-            e = abs(u) * p[1] + p[0] * np.sqrt(max(0.0, 1.0 - u * u))
-        elif t == SHAPE_CONE:
-            # base disc at the origin, apex at height H along u: a cylinder of half length H around the
-            # origin holds it (loose by up to H along the axis; the AABB stays centred on the shape origin)
-            u = shape_rot[s, i, 2]
-            e = abs(u) * p[1] + p[0] * np.sqrt(max(0.0, 1.0 - u * u))
-        elif t == SHAPE_ELLIPSOID:
-            # the support along world axis i: sqrt(sum_j (R_ij r_j)^2) (gjk.support's p . e_i)
-            e = np.sqrt((shape_rot[s, i, 0] * p[0]) ** 2 + (shape_rot[s, i, 1] * p[1]) ** 2
-                        + (shape_rot[s, i, 2] * p[2]) ** 2)
-        else:
-            # planes (and types without bounds yet) are unbounded; find_pairs skips them
-            e = np.inf
-        extent[i] = e
-    # motion bound over the step: |v| dt + |omega| dt r, r = |shape origin - x| + |half extents|
-    # (dt = 0, a query at rest: v and omega are not read)
-    sweep = 0.0
-    if dt > 0.0:
-        speed = math.sqrt(v[b, 0] ** 2 + v[b, 1] ** 2 + v[b, 2] ** 2)
-        spin = math.sqrt(omega[b, 0] ** 2 + omega[b, 1] ** 2 + omega[b, 2] ** 2)
-        if speed > 0.0 or spin > 0.0:
-            r = math.sqrt(extent[0] ** 2 + extent[1] ** 2 + extent[2] ** 2) + math.sqrt(
-                (shape_pos[s, 0] - x[b, 0]) ** 2 + (shape_pos[s, 1] - x[b, 1]) ** 2 + (shape_pos[s, 2] - x[b, 2]) ** 2)
-            sweep = dt * (speed + spin * r)
-    shape_margin[s] = margin + sweep
-    for i in range(3):
-        shape_aabb[s, 0, i] = shape_pos[s, i] - extent[i] - shape_margin[s]
-        shape_aabb[s, 1, i] = shape_pos[s, i] + extent[i] + shape_margin[s]
-
-
-@njit(**JIT)
 def _update_bounds_kernel(x, R, v, omega, dt, shape_type, shape_body, shape_params, shape_local_pos, shape_local_q,
                           margin,
                           # outputs
@@ -91,22 +32,54 @@ def _update_bounds_kernel(x, R, v, omega, dt, shape_type, shape_body, shape_para
     local = np.empty((3, 3))
     extent = np.empty(3)
     for s in range(shape_type.shape[0]):
-        _shape_bounds(s, x, R, v, omega, dt, shape_type, shape_body, shape_params, shape_local_pos, shape_local_q,
-                      margin, local, extent, shape_pos, shape_rot, shape_aabb, shape_margin)
-
-
-@njit(**JIT)
-def _update_bounds_rows_kernel(rows, x, R, shape_type, shape_body, shape_params, shape_local_pos, shape_local_q,
-                               # outputs
-                               shape_pos, shape_rot, shape_aabb, shape_margin):
-    """``_update_bounds_kernel`` for the shape rows ``rows`` (K,) only, at rest (no motion bound)
-    and without margin: a query about a few bodies of a large world (``distance.closest_points``)."""
-    local = np.empty((3, 3))
-    extent = np.empty(3)
-    for k in range(rows.shape[0]):
-        # dt = 0: the motion bound reads no velocity (x stands in for v and omega)
-        _shape_bounds(rows[k], x, R, x, x, 0.0, shape_type, shape_body, shape_params, shape_local_pos, shape_local_q,
-                      0.0, local, extent, shape_pos, shape_rot, shape_aabb, shape_margin)
+        b = shape_body[s]
+        quat_to_matrix_into(shape_local_q[s], local)
+        # shape pose in the world: p = x + R p_local, Rs = R Rlocal (DESIGN.md: p_world = R p_body + x)
+        for i in range(3):
+            shape_pos[s, i] = x[b, i] + R[b, i, 0] * shape_local_pos[s, 0] + R[b, i, 1] * shape_local_pos[s, 1] \
+                + R[b, i, 2] * shape_local_pos[s, 2]
+            for j in range(3):
+                shape_rot[s, i, j] = R[b, i, 0] * local[0, j] + R[b, i, 1] * local[1, j] + R[b, i, 2] * local[2, j]
+        t = shape_type[s]
+        p = shape_params[s]
+        for i in range(3):
+            if t == SHAPE_SPHERE:
+                e = p[0]
+            elif t == SHAPE_CAPSULE:
+                e = abs(shape_rot[s, i, 2]) * p[1] + p[0]
+            elif t == SHAPE_BOX or t == SHAPE_CONVEX or t == SHAPE_MESH:
+                # half width of a rotated box along world axis i: sum_j |R_ij| h_j (convex, mesh: the box
+                # |l_j| <= h_j around the shape origin that holds every vertex)
+                e = abs(shape_rot[s, i, 0]) * p[0] + abs(shape_rot[s, i, 1]) * p[1] + abs(shape_rot[s, i, 2]) * p[2]
+            elif t == SHAPE_CYLINDER:
+                # a disc of radius r with normal u spans r sqrt(1 - u_i^2) along axis i; plus the axis h |u_i|
+                u = shape_rot[s, i, 2]
+                e = abs(u) * p[1] + p[0] * np.sqrt(max(0.0, 1.0 - u * u))
+            elif t == SHAPE_CONE:
+                # base disc at the origin, apex at height H along u: a cylinder of half length H around the
+                # origin holds it (loose by up to H along the axis; the AABB stays centred on the shape origin)
+                u = shape_rot[s, i, 2]
+                e = abs(u) * p[1] + p[0] * np.sqrt(max(0.0, 1.0 - u * u))
+            elif t == SHAPE_ELLIPSOID:
+                # the support along world axis i: sqrt(sum_j (R_ij r_j)^2) (gjk.support's p . e_i)
+                e = np.sqrt((shape_rot[s, i, 0] * p[0]) ** 2 + (shape_rot[s, i, 1] * p[1]) ** 2
+                            + (shape_rot[s, i, 2] * p[2]) ** 2)
+            else:
+                # planes (and types without bounds yet) are unbounded; find_pairs skips them
+                e = np.inf
+            extent[i] = e
+        # motion bound over the step: |v| dt + |omega| dt r, r = |shape origin - x| + |half extents|
+        speed = math.sqrt(v[b, 0] ** 2 + v[b, 1] ** 2 + v[b, 2] ** 2)
+        spin = math.sqrt(omega[b, 0] ** 2 + omega[b, 1] ** 2 + omega[b, 2] ** 2)
+        sweep = 0.0
+        if speed > 0.0 or spin > 0.0:
+            r = math.sqrt(extent[0] ** 2 + extent[1] ** 2 + extent[2] ** 2) + math.sqrt(
+                (shape_pos[s, 0] - x[b, 0]) ** 2 + (shape_pos[s, 1] - x[b, 1]) ** 2 + (shape_pos[s, 2] - x[b, 2]) ** 2)
+            sweep = dt * (speed + spin * r)
+        shape_margin[s] = margin + sweep
+        for i in range(3):
+            shape_aabb[s, 0, i] = shape_pos[s, i] - extent[i] - shape_margin[s]
+            shape_aabb[s, 1, i] = shape_pos[s, i] + extent[i] + shape_margin[s]
 
 
 def update_bounds(x, R, table, margin, shape_pos=None, shape_rot=None, shape_aabb=None, v=None, omega=None,
@@ -153,9 +126,14 @@ def update_bounds(x, R, table, margin, shape_pos=None, shape_rot=None, shape_aab
 
 def update_bounds_rows(x, R, table, rows, shape_pos, shape_rot, shape_aabb, shape_margin):
     """``update_bounds`` (at rest, no margin) of the shape rows ``rows`` (K,) int64 only, into the
-    given (S, ...) buffers; the other rows are left as they were."""
-    _update_bounds_rows_kernel(np.asarray(rows, dtype=np.int64), np.ascontiguousarray(x, dtype=np.float64),
-                               np.ascontiguousarray(R, dtype=np.float64), table.shape_type, table.shape_body,
-                               table.shape_params, table.shape_local_pos, table.shape_local_q, shape_pos, shape_rot,
-                               shape_aabb, shape_margin)
+    given (S, ...) buffers; the other rows are left as they were. The rows' table columns are
+    gathered and the whole-table kernel run on them: a query about a few bodies of a large world
+    (``distance.shape_poses``) then costs what their shapes cost."""
+    from types import SimpleNamespace
+
+    part = SimpleNamespace(shape_count=len(rows), shape_type=table.shape_type[rows], shape_body=table.shape_body[rows],
+                           shape_params=table.shape_params[rows], shape_local_pos=table.shape_local_pos[rows],
+                           shape_local_q=table.shape_local_q[rows])
+    pos, rot, aabb = update_bounds(x, R, part, 0.0)
+    shape_pos[rows], shape_rot[rows], shape_aabb[rows], shape_margin[rows] = pos, rot, aabb, 0.0
 

@@ -323,8 +323,11 @@ def shape_distance(sa, sb, shape_type, shape_params, shape_pos, shape_rot, shape
 
 # ---------------------------------------------------------------------- pairs of bodies
 PAIRS_PER_CHUNK = 32
-# a query about fewer than 1/FEW_BODIES_FACTOR of the bodies brings only their shapes' poses up to date
+# a query about fewer than 1/FEW_BODIES_FACTOR of the bodies of a world of FEW_BODIES_MIN_SHAPES shapes
+# or more brings only their shapes' poses up to date (gathering their rows costs ~30 us: in a smaller
+# world updating every shape is cheaper; one pair among 1000 / 10 000 boxes: 60 -> 51 / 357 -> 53 us)
 FEW_BODIES_FACTOR = 8
+FEW_BODIES_MIN_SHAPES = 512
 PARALLEL_MIN_PAIRS = 64  # fewer pairs run on the calling thread (starting the threads costs more)
 
 
@@ -443,12 +446,15 @@ def shape_poses(world, bodies=None):
     """(scene, shape_pos (S, 3), shape_rot (S, 3, 3), shape_aabb (S, 2, 3)) at the world's current
     poses: the query scene kept on the world (``raycast.kept_scene``: its ``ShapeTable``) and the
     shapes' world poses and boxes without margin, in buffers kept with the scene (no allocation
-    per query; the next query overwrites them). ``bodies`` ((K,) int64): only those bodies'
-    shape rows are brought up to date when they are few (a pair in a large world), the others
-    left as the last query wrote them.
+    per query; the next query overwrites them). ``bodies`` (arrays of body indices): only those
+    bodies' shape rows are brought up to date when they are few in a large world (a pair among
+    thousands), the others left as the last query wrote them.
 
-    PERF: updating every shape cost a single pair's query in a world of 10 000 boxes ~0.3 ms, 20x
-    the pair itself (docs/benchmarks.md, "closest points")."""
+    PERF: updating every shape cost a single pair's query in a world of 10 000 boxes 0.36 ms, 20x
+    the pair itself; a first version ran the per-shape routine, split out of the step's kernel,
+    on the rows: the step's update of 10 000 boxes went 0.44 -> 1.3 ms (0.8 inlined), so the
+    rows' columns are gathered for the step's own kernel instead (docs/benchmarks.md, "closest
+    points")."""
     from .raycast import kept_scene
 
     scene = kept_scene(world)
@@ -457,8 +463,8 @@ def shape_poses(world, bodies=None):
     buffers = getattr(scene, "_distance_buffers", None)
     if buffers is None or len(buffers[0]) != S:
         buffers = scene._distance_buffers = (np.empty((S, 3)), np.empty((S, 3, 3)), np.empty((S, 2, 3)), np.empty(S))
-    few = None if bodies is None else np.unique(bodies)
-    if S and few is not None and len(few) * FEW_BODIES_FACTOR < world.body_count:
+    if S >= FEW_BODIES_MIN_SHAPES and bodies is not None and sum(map(len, bodies)) * FEW_BODIES_FACTOR < world.body_count:
+        few = np.unique(np.concatenate(bodies))
         first, count, order = _shapes_of_bodies(scene, world.body_count)
         c = count[few]  # their shape rows: order[first[b]:first[b] + count[b]] for each, in one index
         rows = order[np.repeat(first[few] - np.cumsum(c) + c, c) + np.arange(c.sum())]
@@ -510,7 +516,7 @@ def closest_points(world, body_a, body_b, max_distance=np.inf) -> ClosestPoints:
             raise InputError("must not be NaN", "max_distance")
         dist = rows(dist, P)
 
-    scene, pos, rot, aabb = shape_poses(world, np.concatenate([a, b]))
+    scene, pos, rot, aabb = shape_poses(world, (a, b))
     table = scene.table
     first, count, order = _shapes_of_bodies(scene, world.body_count)
     distance = np.empty(P)
