@@ -471,13 +471,9 @@ class Simulator:
             R = Y[:, 3:12].reshape(n, 3, 3)
         else:
             R = np.stack([quat_to_matrix(Y[i, 3:7]) for i in range(n)]) if n else np.zeros((0, 3, 3))
-        result = blast(w, explosion, x, R)
+        result = blast(w, explosion, x, R)  # R row by row as the world derives it (quat_to_matrix_into)
         if len(result):
-            P = Y[:, W - 6:W - 3].copy()
-            L = Y[:, W - 3:].copy()
-            apply_blast(result, x, P, L)
-            Y[:, W - 6:W - 3] = P
-            Y[:, W - 3:] = L
+            apply_blast(result, x, Y[:, W - 6:W - 3], Y[:, W - 3:])  # views: P and L in Y itself
             w.wake_requests.update(int(i) for i in np.unique(result.body))
 
     def _kernel_args(self):
