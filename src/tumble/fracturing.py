@@ -181,6 +181,13 @@ def _polygon(points, n):
     return abs(a), cx * e1 + cy * e2 + level * n
 
 
+def cell_names(name: str, count: int) -> list[str]:
+    """The bodies' names of a fractured body's ``count`` cells: ``name/00``, ``name/01``, ... (as
+    many digits as the last index has)."""
+    width = len(str(count - 1))
+    return [f"{name}/{k:0{width}d}" for k in range(count)]
+
+
 def glued_faces(fractured: Fractured, min_face: float = MIN_FACE) -> np.ndarray:
     """(F,) bool: the faces ``add_fractured`` glues: those of at least ``min_face`` times the mean
     face's area, and those of the largest-area spanning tree of the cells (Kruskal's, over the
@@ -223,11 +230,10 @@ def add_fractured(world, fractured: Fractured, *, density: float, position=(0.0,
 
     if not (isinstance(strength, (int, float)) and not isinstance(strength, bool) and strength > 0):
         raise InputError(f"must be a positive number of Pa, got {strength!r}", "strength")
-    width = len(str(len(fractured) - 1))
     bodies = []
-    for k, cell in enumerate(fractured.cells):
+    for cell, cell_name in zip(fractured.cells, cell_names(name, len(fractured))):
         bodies.append(world.add_body(Convex(points=cell), density=density, position=position, orientation=orientation,
-                                     euler_deg=euler_deg, name=f"{name}/{k:0{width}d}", **body_options))
+                                     euler_deg=euler_deg, name=cell_name, **body_options))
     w = world
     rows = [b.index for b in bodies]
     omega = w.omega[rows[0]].copy()

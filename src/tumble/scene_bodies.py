@@ -169,7 +169,7 @@ class BodyReader(ValueReader):
     def fractured(self, world: World, b: dict, shape, kw: dict, key: str, names: dict, drop: bool):
         """A body with ``fracture = {...}``: its shape cut into cells, each a body ``NAME/k``, glued
         (``World.add_fractured``)."""
-        from .fracturing import MIN_FACE, fracture
+        from .fracturing import MIN_FACE, cell_names, fracture
 
         where = f"{key}.fracture"
         f = self.table(b["fracture"], where, FRACTURE_KEYS)
@@ -189,15 +189,14 @@ class BodyReader(ValueReader):
         name = kw.pop("name")
         density = kw.pop("density") if "density" in kw else kw.pop("mass") / float(cells.volume.sum())
         kw.pop("fixed", None)
-        width = len(str(len(cells) - 1))
-        for k in range(len(cells)):
-            piece = f"{name}/{k:0{width}d}"
+        taken = cell_names(name, len(cells))
+        for piece in taken:
             if piece in names:
                 raise self.error(f"a cell's name {piece!r} is taken (bodies[{names[piece]}])", f"{key}.name")
         self.library(key, world.add_fractured, cells, density=density, strength=strength, min_face=min_face, name=name,
                      **kw)
-        for k in range(len(cells)):
-            names[f"{name}/{k:0{width}d}"] = len(names)
+        for piece in taken:
+            names[piece] = len(names)
 
     def inertia(self, value, key: str):
         self.where = key
