@@ -55,9 +55,17 @@ def load_mjcf(world, path, **options):
     return _load(world, path, **options)
 
 
+def load_usd(world, path, **options):
+    """Add a USD stage's rigid bodies, colliders and joints (the UsdPhysics schema: Omniverse, Isaac
+    Sim, PhysX) to ``world``; returns a ``tumble.usd_physics.UsdScene``. See tumble.usd_physics."""
+    from .usd_physics import load_usd as _load
+
+    return _load(world, path, **options)
+
+
 __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "SimState", "Trajectory", "load_trajectory", "load_scene",
-    "load_urdf", "load_mjcf", "Camera", "CameraImage",
+    "load_urdf", "load_mjcf", "load_usd", "Camera", "CameraImage",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Ellipsoid", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield", "decompose", "fracture",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "Explosion", "Blast", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "GearJoint",

@@ -57,6 +57,7 @@ from .scene_values import _describe, _fmt, _one_line
 from .simulator import Simulator, steps_between
 from .solver.contact import SoftStepSettings
 from .trajectory import Trajectory
+from .usd_physics import USD_SUFFIXES
 from .world import World
 
 # Defaults of [simulation] (DESIGN.md; gravity z down).
@@ -167,8 +168,9 @@ class Scene:
 
 
 def load_scene(path) -> Scene:
-    """Read a scene file: ``.toml`` (tomllib) or ``.json``; or a MuJoCo model (``.xml``, MJCF) run
-    as a scene of its own (``_model_scene``).
+    """Read a scene file: ``.toml`` (tomllib) or ``.json``; or a MuJoCo model (``.xml``, MJCF) or a
+    USD stage with physics (``.usd``, ``.usda``, ``.usdc``, ``.usdz``) run as a scene of its own
+    (``_model_scene``, ``_usd_scene``).
 
     Mesh paths inside it are relative to the file's folder.
 
@@ -180,9 +182,11 @@ def load_scene(path) -> Scene:
     suffix = path.suffix.lower()
     if suffix == ".xml":
         return _model_scene(path)
+    if suffix in USD_SUFFIXES:
+        return _usd_scene(path)
     if suffix not in (".toml", ".json"):
-        raise InputError(f"unknown scene file type {path.suffix or '(none)'!r} (expected .toml, .json or an MJCF .xml)",
-                         None, file)
+        raise InputError(f"unknown scene file type {path.suffix or '(none)'!r} (expected .toml, .json, an MJCF .xml "
+                         "or a USD stage)", None, file)
     try:
         size = path.stat().st_size
     except OSError:
@@ -229,6 +233,17 @@ def _model_scene(path: Path) -> Scene:
     read_mjcf(path)  # the model's own problems as its own line (FILE: element: problem), not as the entry's
     data = {"simulation": {"gravity": [float(g) for g in read_option_gravity(path)]},
             "robots": [{"file": path.name}]}
+    return parse_scene(data, str(path), path.parent, source=path)
+
+
+def _usd_scene(path: Path) -> Scene:
+    """A USD stage with UsdPhysics prims as a scene (``tumble run stage.usda``): one ``[[robots]]``
+    entry loading it (``usd_physics.load_usd``), the stage's PhysicsScene gravity as the scene's,
+    the other ``[simulation]`` keys at their defaults."""
+    from .usd_physics import load_usd
+
+    gravity = load_usd(World(), path).gravity  # the stage's own problems as its own line, before the entry's
+    data = {"simulation": {"gravity": [float(g) for g in gravity]}, "robots": [{"file": path.name}]}
     return parse_scene(data, str(path), path.parent, source=path)
 
 

@@ -25,6 +25,10 @@ do not apply to it, and ``self_collision`` defaults to true (MuJoCo's rule); ``c
 ctrl }`` sets its actuators' controls (MuJoCo's ``data.ctrl``, ``Robot.set_controls``) for the run,
 and ``keyframe = "home"`` starts it in a ``<keyframe>`` key (``Robot.reset_to_keyframe``).
 
+A USD stage (``.usd``, ``.usda``, ``.usdc``, ``.usdz``) is read by ``usd_physics.load_usd``: its
+rigid bodies, colliders and joints (the UsdPhysics schema), named ``NAME/<prim path>`` when ``name``
+is given; it takes no other key (its bodies' poses, materials and filters are the stage's).
+
 A problem inside the URDF file is one line naming both files:
 ``scene.toml: robots[0].file: arm.urdf: joint[elbow].limit.lower: expected 1 number, got 'x'``.
 """
@@ -36,6 +40,7 @@ from pathlib import Path
 from .collision.filter import FILTER_KEYS, CollisionFilter
 from .errors import InputError
 from .mjcf import load_mjcf
+from .usd_physics import USD_SUFFIXES, load_usd
 from .urdf import INERTIA_SOURCES, load_urdf
 
 URDF_ONLY = ("fixed_base", "merge_fixed", "package_dirs")
@@ -50,6 +55,8 @@ class RobotReader:
 
     def robot(self, world, entry: dict, key: str, names: dict):
         self.table(entry, key, ROBOT_KEYS, required=("file",))
+        if str(entry["file"]).lower().endswith(USD_SUFFIXES):
+            return self._usd(world, entry, key, names)
         mjcf = str(entry["file"]).lower().endswith(".xml")
         path = Path(self.data_path(entry["file"], f"{key}.file", "MJCF" if mjcf else "URDF"))
         if mjcf:
@@ -126,3 +133,26 @@ class RobotReader:
         # an MJCF model's <camera>s: the scene's cameras too ("ROBOT/CAMERA"), for tumble run --images
         for name, camera in robot.cameras.items():
             self.robot_cameras[f"{robot.name}/{name}"] = camera
+
+    def _usd(self, world, entry: dict, key: str, names: dict):
+        """A ``[[robots]]`` entry holding a USD stage: its bodies and joints added to the world."""
+        for k in entry:
+            if k not in ("file", "name"):
+                raise self.error("a robot option: a USD stage takes only file and name", f"{key}.{k}")
+        path = Path(self.data_path(entry["file"], f"{key}.file", "USD"))
+        name = None
+        if "name" in entry:
+            name = self.string(entry["name"], f"{key}.name")
+            if not name:
+                raise self.error("must not be empty", f"{key}.name")
+        self.where = key
+        before = world.body_count
+        try:
+            load_usd(world, path, name=name)
+        except InputError as err:
+            if err.file:  # the stage's own problem: both files on the line
+                inner = ": ".join(str(p) for p in (Path(err.file).name, err.key) if p)
+                raise self.error(f"{inner}: {err.problem}", f"{key}.file") from None
+            raise err.within(key, self.file) from None
+        for i in range(before, world.body_count):
+            names[world.names[i]] = len(names)

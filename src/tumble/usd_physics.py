@@ -1,0 +1,668 @@
+"""USD physics scenes (the ``UsdPhysics`` schema) read into a World: ``load_usd``.
+
+UsdPhysics is the rigid-body description that Pixar, Apple and NVIDIA wrote into OpenUSD
+(openusd.org, "UsdPhysics: USD Physics Schema"): Omniverse and Isaac Sim author it, PhysX and
+Newton simulate it, Unity's and other exporters write it. A stage marks rigid bodies with
+``PhysicsRigidBodyAPI``, their colliders with ``PhysicsCollisionAPI`` on geometry prims
+(``Cube``, ``Sphere``, ``Capsule``, ``Cylinder``, ``Cone``, ``Plane``, ``Mesh`` with
+``PhysicsMeshCollisionAPI``), mass with ``PhysicsMassAPI``, surfaces with ``PhysicsMaterialAPI``,
+and joints as ``PhysicsRevoluteJoint``, ``PhysicsPrismaticJoint``, ``PhysicsSphericalJoint``,
+``PhysicsFixedJoint``, ``PhysicsDistanceJoint`` prims. The stage is parsed by OpenUSD's own
+parser (``UsdPhysics.LoadUsdPhysicsFromRange``, usd-core), which resolves the transform
+hierarchy: each body's world pose, each collider's pose in its body and its size with the
+scales applied, each joint's two local frames. What this module adds is the mapping onto
+tumble's bodies, shapes, materials and joints:
+
+- units: lengths times the stage's ``metersPerUnit``, masses times ``kilogramsPerUnit``;
+  angles of the schema (joint limits, drive targets, angular velocities) are degrees.
+- axes: a stage whose up axis is Y is turned into tumble's z up (a rotation of +90 degrees
+  about x applied to every world pose, velocity, axis and to gravity); its bodies' names and
+  local frames are unchanged.
+- a body: ``add_body`` at the body prim's world pose with its colliders as the shape (a
+  ``Compound`` when there are several or one is offset); colliders of no rigid body (or of
+  a body whose ``rigidBodyEnabled`` is false) are fixed bodies of their own; ``kinematicEnabled``
+  makes a kinematic body (moving at its velocity); velocities as authored (the schema gives
+  them in the body's parent space: turned into the world).
+- mass (the schema's precedence, "Mass properties" in its overview): the body's
+  ``physics:mass`` if positive, else the sum over its colliders of each one's mass (its own
+  ``physics:mass``, or a density times its volume: the collider's ``physics:density``, else
+  the body's, else its bound material's, else 1000 kg/m^3); ``physics:centerOfMass``,
+  ``physics:diagonalInertia`` with ``physics:principalAxes`` replace what the shapes give
+  (tumble's ``add_body(mass, inertia, center_of_mass)``).
+- materials: ``dynamicFriction`` becomes the body's (or the collider's) ``friction`` (tumble
+  has one Coulomb coefficient for sticking and sliding: the sliding one is the one a slide
+  shows), ``restitution`` as is; the schema's combine modes (PhysX attributes) are not read,
+  tumble's rules apply (docs/contact.md).
+- collision filters: ``PhysicsFilteredPairsAPI`` between bodies or their colliders: the
+  bodies' pair excluded; ``PhysicsCollisionGroup`` prims with ``filteredGroups`` (and
+  ``invertFilteredGroups``) become Box2D category and mask bits (up to 31 groups; a body's
+  colliders must share their groups, since tumble's filter is per body).
+- joints: anchors and axes from the joint's two local frames (``localPos0/1``, ``localRot0/1``,
+  the joint axis ``X``, ``Y`` or ``Z`` of frame 0) in the world at load time; tumble's joint
+  coordinate is 0 at creation, so a revolute or prismatic joint whose two frames are apart
+  by an angle or a distance at load has its limits and drive target moved by it. Limits,
+  ``PhysicsDriveAPI`` (force drives: stiffness and damping per degree for angles; a drive
+  with a target velocity and no stiffness becomes a velocity motor with ``maxForce``),
+  ``breakForce`` / ``breakTorque``, ``collisionEnabled``, ``jointEnabled`` are read. A
+  spherical joint's two cone angles must be equal (tumble's cone is round).
+
+Refused, with one line naming the prim: D6 and custom joints, acceleration drives, a plane
+or a triangle mesh (``approximation = "none"``) on a moving body... (a moving mesh collider
+of approximation ``convexHull``, ``boundingCube`` or ``boundingSphere`` is its convex hull;
+``convexDecomposition`` is cut by CoACD, the ``decompose`` extra). Time-sampled values are read
+at the stage's default time.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, TumbleWarning
+from .mass import _quat_matrix, combine_mass_properties, mass_properties
+from .material import Material
+from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Plane, Sphere
+
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
+
+DEFAULT_DENSITY = 1000.0  # kg/m^3, the schema's density when nothing sets one (its overview)
+MAX_GROUPS = 31  # collision groups: bit 0 is "no group", 31 bits are left for groups
+
+
+@dataclass
+class UsdScene:
+    """What ``load_usd`` added to the World.
+
+    Attributes:
+        bodies: {prim path: ``Body``}, the rigid bodies and the static colliders.
+        joints: {prim path: ``Joint``}.
+        gravity: (3,) m/s^2, world (z up): the stage's ``PhysicsScene`` gravity, or the
+            schema's default (9.81 m/s^2 against the up axis) when it has none. ``load_usd``
+            does not set the World's gravity; ``tumble run file.usda`` does.
+        up_axis: "Y" or "Z", the stage's.
+        meters_per_unit, kilograms_per_unit: the stage's units.
+    """
+
+    bodies: dict = field(default_factory=dict)
+    joints: dict = field(default_factory=dict)
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    up_axis: str = "Z"
+    meters_per_unit: float = 1.0
+    kilograms_per_unit: float = 1.0
+
+
+def _f(x) -> float:
+    """A number the parser hands over in single precision (its descriptors hold Gf.Vec3f and
+    floats), as the shortest decimal that rounds to it: 9.81 read back as 9.81, not 9.8100004."""
+    return float(str(np.float32(x)))
+
+
+def _vec(v) -> np.ndarray:
+    return np.array([_f(v[0]), _f(v[1]), _f(v[2])])
+
+
+def _quat(q) -> np.ndarray:
+    """(w, x, y, z) of a Gf quaternion, made unit."""
+    im = q.GetImaginary()
+    out = np.array([_f(q.GetReal()), _f(im[0]), _f(im[1]), _f(im[2])])
+    n = float(np.linalg.norm(out))
+    return out / n if n > 0.0 else np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def _matrix_quat(R: np.ndarray) -> np.ndarray:
+    """(w, x, y, z) of a rotation matrix (Shepperd's method: the largest of the four first)."""
+    t = np.trace(R)
+    if t > 0.0:
+        s = 2.0 * math.sqrt(1.0 + t)
+        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+    else:
+        i = int(np.argmax(np.diag(R)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(max(1.0 + R[i, i] - R[j, j] - R[k, k], 0.0))
+        q = [0.0, 0.0, 0.0, 0.0]
+        q[0] = (R[k, j] - R[j, k]) / s
+        q[1 + i] = 0.25 * s
+        q[1 + j] = (R[j, i] + R[i, j]) / s
+        q[1 + k] = (R[k, i] + R[i, k]) / s
+    q = np.array(q)
+    return q / np.linalg.norm(q)
+
+
+_AXES = {"X": 0, "Y": 1, "Z": 2}
+
+
+def _axis_index(axis) -> int:
+    return _AXES[str(axis).rsplit(".", 1)[-1]]
+
+
+def _along_z(axis: int) -> np.ndarray:
+    """Rotation (w, x, y, z) taking z (tumble's capsule, cylinder and cone axis) to the axis."""
+    h = math.sqrt(0.5)
+    return [np.array([h, 0.0, h, 0.0]), np.array([h, -h, 0.0, 0.0]), np.array([1.0, 0.0, 0.0, 0.0])][axis]
+
+
+def _compose(q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:
+    """The product q_a q_b (w, x, y, z): q_b's rotation, then q_a's."""
+    w1, x1, y1, z1 = q_a
+    w2, x2, y2, z2 = q_b
+    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
+class _Reader:
+    def __init__(self, path: Path, name_prefix: str | None):
+        self.file = str(path)
+        self.path = path
+        self.prefix = name_prefix
+
+    def error(self, problem: str, prim=None) -> InputError:
+        return InputError(problem, str(prim) if prim is not None else None, self.file)
+
+    # -- the stage
+    def open(self):
+        try:
+            from pxr import Tf, Usd, UsdGeom, UsdPhysics
+        except ImportError:  # pragma: no cover - usd-core is a dependency
+            raise self.error("reading USD needs usd-core (pip install usd-core)") from None
+        if not self.path.exists():
+            raise self.error("file not found")
+        if self.path.is_dir():
+            raise self.error("is a folder, not a USD file")
+        try:
+            stage = Usd.Stage.Open(str(self.path))
+        except Tf.ErrorException as exc:
+            # "Error in 'pxr...::_ReadFromAsset' at line 323 in file .../usdaFileFormat.cpp : 'MESSAGE'"
+            text = " ".join(str(exc).split())
+            found = re.findall(r" : '(.*?)'(?: Error in|$)", text)
+            raise self.error(f"cannot read this USD file: {(found[0] if found else text)[:200]}") from None
+        if stage is None:
+            raise self.error("cannot read this USD file")
+        self.stage = stage
+        self.mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
+        self.kpu = float(UsdPhysics.GetStageKilogramsPerUnit(stage))
+        for value, what in ((self.mpu, "metersPerUnit"), (self.kpu, "kilogramsPerUnit")):
+            if not (math.isfinite(value) and value > 0.0):
+                raise self.error(f"the stage's {what} must be a positive number, got {value:g}")
+        self.up = str(UsdGeom.GetStageUpAxis(stage)).upper()
+        if self.up not in ("Y", "Z"):
+            raise self.error(f"the stage's upAxis must be Y or Z, got {self.up!r}")
+        # Y up -> z up: +90 deg about x takes y to z (and z to -y)
+        self.C = np.eye(3) if self.up == "Z" else np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+        self.qC = _matrix_quat(self.C)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            parsed = UsdPhysics.LoadUsdPhysicsFromRange(stage, ["/"])
+        self.parsed = {str(kind).rsplit(".", 1)[-1]: list(zip(*descs)) for kind, descs in parsed.items()}
+        self.UsdPhysics = UsdPhysics
+        self.UsdGeom = UsdGeom
+        self.Usd = Usd
+
+    def descs(self, kind: str) -> list:
+        return self.parsed.get(kind, [])
+
+    # -- world frame (tumble's: z up, metres)
+    def point(self, p) -> np.ndarray:
+        return self.C @ (_vec(p) * self.mpu)
+
+    def rotation(self, q) -> np.ndarray:
+        return _compose(self.qC, _quat(q))
+
+    def name(self, prim_path) -> str:
+        base = str(prim_path).lstrip("/") or "root"
+        return f"{self.prefix}/{base}" if self.prefix else base
+
+    # -- attributes the parser leaves out
+    def attr(self, prim_path, name: str):
+        prim = self.stage.GetPrimAtPath(prim_path)
+        if not prim:
+            return None
+        a = prim.GetAttribute(name)
+        if not a or not a.HasAuthoredValue():
+            return None
+        return a.Get()
+
+    def positive(self, prim_path, name: str):
+        v = self.attr(prim_path, name)
+        if v is None:
+            return None
+        v = float(v)
+        if not math.isfinite(v) or v < 0.0:
+            raise self.error(f"{name} must be a number >= 0, got {v:g}", prim_path)
+        return v if v > 0.0 else None
+
+    def scene(self) -> np.ndarray:
+        """Gravity (3,) m/s^2 in tumble's frame."""
+        scenes = self.descs("Scene")
+        if len(scenes) > 1:
+            raise self.error(f"{len(scenes)} PhysicsScene prims; tumble runs one scene",
+                             scenes[1][0])
+        up = np.array([0.0, 0.0, 1.0])
+        if not scenes:
+            return -9.81 * up
+        path, d = scenes[0]
+        direction = _vec(d.gravityDirection)
+        magnitude = _f(d.gravityMagnitude)
+        if not math.isfinite(magnitude) or magnitude < 0.0:  # -inf: "earth gravity" in the schema
+            magnitude = 9.81 / self.mpu
+        n = float(np.linalg.norm(direction))
+        if n == 0.0:
+            return -9.81 * up if magnitude else np.zeros(3)
+        return self.C @ (direction / n) * magnitude * self.mpu
+
+    # -- shapes
+    def collider_shape(self, kind: str, path, d, moving: bool):
+        """(shape, position (3,) m, orientation (4,)) of a collider in its body's frame (or the
+        world's for a collider of no body), or None for a plane (returned apart)."""
+        s = self.mpu
+        pos = _vec(d.localPos) * s
+        q = _quat(d.localRot)
+        if kind == "CubeShape":
+            return Box(size=tuple(2.0 * _vec(d.halfExtents) * s)), pos, q
+        if kind == "SphereShape":
+            return Sphere(radius=_f(d.radius) * s), pos, q
+        if kind in ("CapsuleShape", "CylinderShape", "ConeShape"):
+            axis = _axis_index(d.axis)
+            r, half = _f(d.radius) * s, _f(d.halfHeight) * s
+            turn = _along_z(axis)
+            q2 = _compose(q, turn)
+            if kind == "CapsuleShape":
+                return Capsule(radius=r, length=2.0 * half), pos, q2
+            if kind == "CylinderShape":
+                return Cylinder(radius=r, length=2.0 * half), pos, q2
+            # USD's cone is centred on its bounding box, apex at +half; tumble's base sits on its origin
+            return Cone(radius=r, height=2.0 * half), pos - _quat_matrix(q2) @ np.array([0.0, 0.0, half]), q2
+        if kind in ("Capsule1Shape", "Cylinder1Shape"):
+            raise self.error("a capsule or cylinder with two radii is not supported", path)
+        if kind == "MeshShape":
+            return self.mesh_shape(path, d, moving), pos, q
+        raise self.error(f"collider type {kind} is not supported", path)
+
+    def mesh_shape(self, path, d, moving: bool):
+        mesh = self.UsdGeom.Mesh(self.stage.GetPrimAtPath(path))
+        points = mesh.GetPointsAttr().Get() if mesh else None
+        if points is None or len(points) < 4:
+            raise self.error("a mesh collider needs at least 4 points", path)
+        vertices = np.array(points, dtype=float) * _vec(d.meshScale) * self.mpu
+        approximation = str(d.approximation).rsplit(".", 1)[-1].lower()
+        if approximation in ("convexhull", "boundingcube", "boundingsphere", "meshsimplification") or (
+                moving and approximation == "none"):
+            if moving and approximation == "none":
+                warnings.warn(f"{self.file}: {path}: a triangle mesh collider on a moving body: its convex hull "
+                              "collides (PhysX's rule)", TumbleWarning, stacklevel=4)
+            try:
+                return Convex(points=vertices)
+            except InputError as err:
+                raise self.error(f"its convex hull: {err.problem}", path) from None
+        counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get() or [], dtype=np.int64)
+        indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get() or [], dtype=np.int64)
+        if counts.sum() != len(indices) or (len(indices) and (indices.min() < 0 or indices.max() >= len(vertices))):
+            raise self.error("faceVertexCounts and faceVertexIndices do not match the points", path)
+        faces, k = [], 0
+        for c in counts:  # fans: the polygons are convex in any mesh a physics engine takes as is
+            faces.extend((indices[k], indices[k + i], indices[k + i + 1]) for i in range(1, c - 1))
+            k += c
+        if str(self.attr(path, "orientation") or "rightHanded") == "leftHanded":
+            faces = [(a, c, b) for a, b, c in faces]
+        try:
+            closed = Mesh(vertices=vertices, faces=np.array(faces, dtype=np.int64).reshape(-1, 3))
+        except InputError as err:
+            raise self.error(f"{err.problem} (tumble's triangle meshes are closed; approximation "
+                             "'convexHull' takes its hull)", path) from None
+        if approximation == "convexdecomposition":
+            from .decomposition import decompose
+
+            return decompose(closed)
+        return closed
+
+    # -- materials, mass
+    def material(self, paths) -> tuple[Material | None, float | None]:
+        """(Material, density kg/m^3 or None) of the first bound physics material, or (None, None)."""
+        for p in paths or ():
+            for mpath, d in self.descs("RigidBodyMaterial"):
+                if str(mpath) == str(p):
+                    try:
+                        mat = Material(friction=_f(d.dynamicFriction), restitution=_f(d.restitution))
+                    except InputError as err:
+                        raise self.error(f"{err.key}: {err.problem}", mpath) from None
+                    density = _f(d.density) * self.kpu / self.mpu ** 3 if d.density > 0 else None
+                    return mat, density
+        return None, None
+
+    def mass_of(self, body_path, parts) -> dict:
+        """add_body's mass keywords for a body of ``parts`` [(path, shape, pos, q, density)]."""
+        kpu, mpu = self.kpu, self.mpu
+        body_mass = self.positive(body_path, "physics:mass")
+        body_density = self.positive(body_path, "physics:density")
+        terms = []
+        for path, shape, pos, q, mat_density in parts:
+            own_mass = self.positive(path, "physics:mass") if str(path) != str(body_path) else None
+            own_density = self.positive(path, "physics:density") if str(path) != str(body_path) else None
+            if own_mass is not None:
+                props = mass_properties(shape, mass=own_mass * kpu)
+            else:
+                rho = (own_density * kpu / mpu ** 3 if own_density is not None else
+                       body_density * kpu / mpu ** 3 if body_density is not None else
+                       mat_density if mat_density is not None else DEFAULT_DENSITY)
+                props = mass_properties(shape, density=rho)
+            R = _quat_matrix(q)
+            terms.append((props.mass, pos + R @ props.center, R @ props.inertia @ R.T))
+        mass, center, inertia = combine_mass_properties(terms)
+        if body_mass is not None:
+            scale = body_mass * kpu / mass if mass > 0.0 else 0.0
+            mass, inertia = body_mass * kpu, inertia * scale
+        if mass <= 0.0:  # a body with no collider and no mass: PhysX's 1 kg and unit inertia
+            mass, center, inertia = 1.0, np.zeros(3), np.eye(3)
+        com = self.attr(body_path, "physics:centerOfMass")
+        if com is not None and all(math.isfinite(float(c)) and abs(float(c)) < 1e30 for c in com):
+            # the schema's "not set" is (-inf, -inf, -inf)
+            center = _vec(com) * mpu
+        diag = self.attr(body_path, "physics:diagonalInertia")
+        if diag is not None and all(float(c) > 0.0 for c in diag):
+            axes = self.attr(body_path, "physics:principalAxes")
+            Q = _quat_matrix(_quat(axes)) if axes is not None else np.eye(3)
+            inertia = Q @ np.diag(_vec(diag) * kpu * mpu * mpu) @ Q.T
+        return {"mass": mass, "center_of_mass": center, "inertia": inertia}
+
+
+def load_usd(world, path, *, name: str | None = None) -> UsdScene:
+    """Add the rigid bodies, colliders and joints of a USD stage (the UsdPhysics schema) to ``world``.
+
+    Args:
+        world: the ``World`` to add to.
+        path: a ``.usd``, ``.usda``, ``.usdc`` or ``.usdz`` file.
+        name: optional prefix of the bodies' names (``"NAME/World/box"``); default none: a body is
+            named by its prim path without the leading slash (``"World/box"``).
+
+    Returns:
+        a ``UsdScene``: the bodies and joints by prim path, the stage's gravity and units.
+
+    Raises:
+        InputError: one line ``FILE: PRIM: problem``.
+    """
+    path = Path(path)
+    r = _Reader(path, name)
+    r.open()
+    out = UsdScene(up_axis=r.up, meters_per_unit=r.mpu, kilograms_per_unit=r.kpu)
+    out.gravity = r.scene()
+    shapes = {}  # collider path -> (kind, desc)
+    for kind, items in r.parsed.items():
+        if kind.endswith("Shape"):
+            for p, d in items:
+                shapes[str(p)] = (kind, d)
+    bodies = {str(p): d for p, d in r.descs("RigidBody")}
+    if not bodies and not shapes:
+        raise r.error("no UsdPhysics rigid bodies or colliders on this stage")
+    body_rows = {}
+    claimed = set()
+    for bpath, d in bodies.items():
+        if not d.rigidBodyEnabled:
+            continue
+        moving = True
+        parts = []
+        for cpath in d.collisions:
+            cpath = str(cpath)
+            if cpath not in shapes:
+                continue
+            kind, cd = shapes[cpath]
+            if not cd.collisionEnabled:
+                claimed.add(cpath)
+                continue
+            if kind == "PlaneShape":
+                raise r.error("a plane collider on a moving body (a plane is static)", cpath)
+            shape, pos, q = r.collider_shape(kind, cpath, cd, moving)
+            mat, density = r.material(cd.materials)
+            parts.append((cpath, shape, pos, q, density, mat))
+            claimed.add(cpath)
+        kw = r.mass_of(bpath, [p[:5] for p in parts])
+        if not parts:
+            raise r.error("a rigid body without a collider (tumble's bodies have a shape)", bpath)
+        mats = [p[5] for p in parts]
+        material = mats[0] if all(m == mats[0] for m in mats) else None
+        if len(parts) == 1 and not parts[0][2].any() and np.array_equal(parts[0][3], [1.0, 0.0, 0.0, 0.0]):
+            shape = parts[0][1]
+        else:
+            shape = Compound(parts=[(p[1], p[2], p[3]) for p in parts],
+                             materials=None if material is not None or all(m is None for m in mats) else mats)
+        # the schema's velocities are in the body's parent space (angular in degrees per second)
+        prim = r.stage.GetPrimAtPath(bpath)
+        parent = r.UsdGeom.Xformable(prim).ComputeParentToWorldTransform(r.Usd.TimeCode.Default()) if prim else None
+        P = np.eye(3)
+        if parent is not None:
+            M = np.array(parent.ExtractRotationMatrix(), dtype=float).T  # Gf row vectors -> columns
+            P = M / np.cbrt(np.linalg.det(M)) if np.linalg.det(M) > 0 else np.eye(3)
+        v = r.C @ P @ (_vec(d.linearVelocity) * r.mpu)
+        w = r.C @ P @ np.radians(_vec(d.angularVelocity))
+        try:
+            body = world.add_body(shape, position=r.point(d.position), orientation=r.rotation(d.rotation),
+                                  velocity=v, angular_velocity=w, kinematic=bool(d.kinematicBody),
+                                  material=material, name=r.name(bpath), **kw)
+        except InputError as err:
+            raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
+        out.bodies[bpath] = body
+        body_rows[bpath] = body.index
+    # colliders of no (enabled) body: static, each a fixed body at its world pose
+    for cpath, (kind, cd) in shapes.items():
+        if cpath in claimed or not cd.collisionEnabled:
+            continue
+        owner = str(cd.rigidBody)
+        if owner and owner in bodies and bodies[owner].rigidBodyEnabled:
+            continue
+        mat, _ = r.material(cd.materials)
+        if kind == "PlaneShape":
+            n = r.C @ _quat_matrix(_quat(cd.localRot))[:, _axis_index(cd.axis)]
+            p = r.point(cd.localPos)
+            shape, pos, q = Plane(normal=tuple(n), offset=float(n @ p)), np.zeros(3), np.array([1.0, 0, 0, 0])
+        else:
+            shape, pos, q = r.collider_shape(kind, cpath, cd, False)
+            pos, q = r.C @ pos, _compose(r.qC, q)
+        try:
+            body = world.add_body(shape, fixed=True, position=pos, orientation=q, material=mat, name=r.name(cpath))
+        except InputError as err:
+            raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, cpath) from None
+        out.bodies[cpath] = body
+        body_rows[cpath] = body.index
+    _filters(r, world, out, shapes, bodies)
+    _joints(r, world, out)
+    return out
+
+
+def _owner(r, out, path: str):
+    """The tumble body of a body or collider prim path, or None."""
+    if path in out.bodies:
+        return out.bodies[path]
+    for kind, items in r.parsed.items():
+        if kind.endswith("Shape"):
+            for p, d in items:
+                if str(p) == path and str(d.rigidBody) in out.bodies:
+                    return out.bodies[str(d.rigidBody)]
+    return None
+
+
+def _filters(r, world, out, shapes, bodies):
+    from .collision.filter import CollisionFilter
+
+    # pairs: PhysicsFilteredPairsAPI on bodies and on colliders
+    for kind, items in r.parsed.items():
+        for p, d in items:
+            for other in getattr(d, "filteredCollisions", None) or ():
+                a, b = _owner(r, out, str(p)), _owner(r, out, str(other))
+                if a is not None and b is not None and a.index != b.index:
+                    world.exclude_collision(a.index, b.index)
+    groups = r.descs("CollisionGroup")
+    if not groups:
+        return
+    if len(groups) > MAX_GROUPS:
+        raise r.error(f"{len(groups)} collision groups; tumble's filter bits hold {MAX_GROUPS}", groups[MAX_GROUPS][0])
+    bit = {str(p): 1 << (k + 1) for k, (p, _) in enumerate(groups)}
+    every = (1 << 32) - 1
+    # group g collides with group h unless filtered (symmetric: a filter names a pair)
+    blocked = {g: 0 for g in bit}
+    for p, d in groups:
+        listed = 0
+        for h in d.filteredGroups:
+            if str(h) not in bit:
+                raise r.error(f"filteredGroups names {str(h)!r}, not a collision group", p)
+            listed |= bit[str(h)]
+        mine = (every & ~1 & ~listed) if d.invertFilteredGroups else listed
+        for h, b in bit.items():
+            if mine & b:
+                blocked[str(p)] |= b
+                blocked[h] |= bit[str(p)]
+    membership = {}  # body index -> bits
+    for cpath, (kind, cd) in shapes.items():
+        body = _owner(r, out, cpath)
+        if body is None:
+            continue
+        bits = 0
+        for g in cd.collisionGroups:
+            bits |= bit.get(str(g), 0)
+        if body.index in membership and membership[body.index] != bits:
+            raise r.error("its colliders are in different collision groups (tumble's filter is per body)",
+                          [p for p, b in out.bodies.items() if b.index == body.index][0])
+        membership[body.index] = bits
+    for index, bits in membership.items():
+        if not bits:
+            continue
+        mask = every
+        for g, b in bit.items():
+            if bits & b:
+                mask &= ~blocked[g]
+        world.collision_filters[index] = CollisionFilter(category=bits, mask=mask)
+    world.filter_version += 1
+
+
+def _joint_frame(r, out, body_path, pos, rot):
+    """World anchor (3,) and frame (3, 3) of a joint's local frame on a body (or the world)."""
+    p = _vec(pos) * r.mpu
+    Rl = _quat_matrix(_quat(rot))
+    if not body_path:
+        return r.C @ p, r.C @ Rl
+    if body_path not in out.bodies:
+        return None
+    body = out.bodies[body_path]
+    # the prim's frame: the body's frame less its centre-of-mass offset (com_offset, shape frame)
+    R = body.R.copy()
+    origin = body.x - R @ np.asarray(body.com_offset, dtype=float)
+    return origin + R @ p, R @ Rl
+
+
+def _joints(r, world, out):
+    kinds = ("RevoluteJoint", "PrismaticJoint", "SphericalJoint", "FixedJoint", "DistanceJoint")
+    for kind, items in r.parsed.items():
+        if kind.endswith("Joint") and kind not in kinds:
+            raise r.error(f"{kind.replace('Joint', ' joint')}s are not supported (revolute, prismatic, "
+                          "spherical, fixed and distance joints are)", items[0][0])
+    for kind in kinds:
+        for jpath, d in r.descs(kind):
+            if not d.jointEnabled:
+                continue
+            b0, b1 = str(d.body0), str(d.body1)
+            for b in (b0, b1):
+                if b and b not in out.bodies:
+                    raise r.error(f"its body {b!r} is not a rigid body or collider of this stage", jpath)
+            if not b0 and not b1:
+                raise r.error("a joint needs at least one body", jpath)
+            p0, F0 = _joint_frame(r, out, b0, d.localPose0Position, d.localPose0Orientation)
+            p1, F1 = _joint_frame(r, out, b1, d.localPose1Position, d.localPose1Orientation)
+            common = dict(max_force=_f(d.breakForce) if math.isfinite(d.breakForce) else math.inf,
+                          max_torque=_f(d.breakTorque) if math.isfinite(d.breakTorque) else math.inf,
+                          collide_connected=bool(d.collisionEnabled), name=str(jpath))
+            # tumble's body_a is a body; body_b may be the world. Its coordinate is body_b's motion
+            # relative to body_a's, the schema's body1's relative to body0's: the same but when
+            # body0 is the world (then body1 is tumble's body_a and the coordinate runs the other way)
+            flipped = not b0
+            if flipped:
+                common.update(body_a=out.bodies[b1].index, body_b=None, anchor=p1, anchor_b=p0)
+            else:
+                common.update(body_a=out.bodies[b0].index, body_b=out.bodies[b1].index if b1 else None,
+                              anchor=p0, anchor_b=p1)
+            try:
+                joint = _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped)
+                world.add_joint(joint)
+            except InputError as err:
+                raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, jpath) from None
+            out.joints[str(jpath)] = joint
+
+
+def _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped: bool):
+    """The tumble joint of one joint descriptor (world anchors p0, p1 (3,) m and frames F0, F1
+    (3, 3) of its two local frames)."""
+    from .joints import BallJoint, DistanceJoint, FixedJoint, HingeJoint, SliderJoint
+
+    if kind == "FixedJoint":
+        return FixedJoint(**common)
+    if kind == "DistanceJoint":
+        lo = _f(d.limit.lower) * r.mpu if d.minEnabled and d.limit.lower >= 0 else None
+        hi = _f(d.limit.upper) * r.mpu if d.maxEnabled and d.limit.upper >= 0 else None
+        if lo is None and hi is None:
+            raise r.error("a distance joint with neither minDistance nor maxDistance", jpath)
+        return DistanceJoint(min_length=lo, max_length=hi, **common)
+    axis = _axis_index(d.axis)
+    a = F0[:, axis]
+    if kind == "SphericalJoint":
+        lo, hi = _f(d.limit.lower), _f(d.limit.upper)
+        cone = None
+        if d.limit.enabled and lo >= 0 and hi >= 0:
+            if abs(lo - hi) > 1e-9 * max(1.0, abs(lo)):
+                raise r.error(f"coneAngle0Limit {lo:g} and coneAngle1Limit {hi:g} differ: tumble's swing cone is round",
+                              jpath)
+            cone = math.radians(lo)
+        return BallJoint(axis=tuple(a), cone_limit=cone, **common)
+    if kind == "RevoluteJoint":
+        # the angle of frame 1 from frame 0 about the axis at load (tumble's angle starts at 0)
+        u = F0[:, (axis + 1) % 3]
+        v = F1[:, (axis + 1) % 3]
+        start = math.atan2(float(np.cross(u, v) @ a), float(u @ v))
+        scale = math.pi / 180.0
+    else:
+        start = float((p1 - p0) @ a)
+        scale = r.mpu
+    kw = {}
+    if d.limit.enabled:
+        lo, hi = _f(d.limit.lower), _f(d.limit.upper)
+        if math.isfinite(lo) and lo > -1e30:
+            kw["lower"] = lo * scale - start
+        if math.isfinite(hi) and hi < 1e30:
+            kw["upper"] = hi * scale - start
+    drive = d.drive
+    if drive.enabled:
+        if drive.acceleration:
+            raise r.error("acceleration drives are not supported (force drives are)", jpath)
+        stiffness, damping = _f(drive.stiffness), _f(drive.damping)
+        limit = _f(drive.forceLimit)
+        limit = math.inf if not math.isfinite(limit) or limit > 1e30 else limit
+        # per degree in the schema for angles: N m / deg -> N m / rad
+        per = 180.0 / math.pi if kind == "RevoluteJoint" else 1.0 / r.mpu
+        if stiffness > 0.0 or (damping > 0.0 and drive.targetVelocity == 0.0):
+            kw.update(stiffness=stiffness * per, damping=damping * per, target=_f(drive.targetPosition) * scale - start)
+            kw["max_drive_torque" if kind == "RevoluteJoint" else "max_drive_force"] = limit
+        if drive.targetVelocity != 0.0:
+            if stiffness > 0.0:
+                raise r.error("a drive with both a stiffness and a target velocity is not supported", jpath)
+            kw["motor_speed"] = _f(drive.targetVelocity) * scale
+            kw["max_motor_torque" if kind == "RevoluteJoint" else "max_motor_force"] = limit
+    if flipped:
+        kw = _flip(kw)
+    cls = HingeJoint if kind == "RevoluteJoint" else SliderJoint
+    return cls(axis=tuple(a), **common, **kw)
+
+
+def _flip(kw: dict) -> dict:
+    out = dict(kw)
+    lo, hi = kw.get("lower"), kw.get("upper")
+    out.pop("lower", None)
+    out.pop("upper", None)
+    if hi is not None:
+        out["lower"] = -hi
+    if lo is not None:
+        out["upper"] = -lo
+    if "target" in kw:
+        out["target"] = -kw["target"]
+    if "motor_speed" in kw:
+        out["motor_speed"] = -kw["motor_speed"]
+    return out
