@@ -38,9 +38,12 @@ tumble's bodies, shapes, materials and joints:
   ``invertFilteredGroups``) become Box2D category and mask bits (up to 31 groups; a body's
   colliders must share their groups, since tumble's filter is per body).
 - joints: anchors and axes from the joint's two local frames (``localPos0/1``, ``localRot0/1``,
-  the joint axis ``X``, ``Y`` or ``Z`` of frame 0) in the world at load time; tumble's joint
-  coordinate is 0 at creation, so a revolute or prismatic joint whose two frames are apart
-  by an angle or a distance at load has its limits and drive target moved by it. Limits,
+  the joint axis ``X``, ``Y`` or ``Z`` of frame 0) in the world at load time. tumble's hinge
+  angle is 0 at creation, so a revolute joint whose two frames are turned apart about the axis
+  at load has its limits and drive target moved by that angle (a prismatic joint's coordinate
+  is the two anchors' distance along the axis, as the schema's is). When body0 is the world,
+  tumble's joint runs from body1 to the world and its coordinate is the schema's negated
+  (limits, targets and motor speeds are turned round to match). Limits,
   ``PhysicsDriveAPI`` (force drives: stiffness and damping per degree for angles; a drive
   with a target velocity and no stiffness becomes a velocity motor with ``maxForce``),
   ``breakForce`` / ``breakTorque``, ``collisionEnabled``, ``jointEnabled`` are read. A
@@ -168,7 +171,7 @@ class _Reader:
         try:
             from pxr import Tf, Usd, UsdGeom, UsdPhysics
         except ImportError:  # pragma: no cover - usd-core is a dependency
-            raise self.error("reading USD needs usd-core (pip install usd-core)") from None
+            raise self.error("reading USD needs usd-core: pip install 'tumble[usd]'") from None
         if not self.path.exists():
             raise self.error("file not found")
         if self.path.is_dir():
@@ -194,9 +197,9 @@ class _Reader:
         # Y up -> z up: +90 deg about x takes y to z (and z to -y)
         self.C = np.eye(3) if self.up == "Z" else np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
         self.qC = _matrix_quat(self.C)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)
-            parsed = UsdPhysics.LoadUsdPhysicsFromRange(stage, ["/"])
+        # OpenUSD's parser (usd-core 25.05 on); 26.x renamed it and keeps the old name, deprecated
+        load = getattr(UsdPhysics, "UsdPhysicsLoadStageFromPrimRange", None) or UsdPhysics.LoadUsdPhysicsFromRange
+        parsed = load(stage, ["/"])
         self.parsed = {str(kind).rsplit(".", 1)[-1]: list(zip(*descs)) for kind, descs in parsed.items()}
         self.UsdPhysics = UsdPhysics
         self.UsdGeom = UsdGeom
@@ -245,14 +248,19 @@ class _Reader:
         if not scenes:
             return -9.81 * up
         path, d = scenes[0]
+        # read the attributes themselves: the parser turns the schema's "earth gravity" (a magnitude
+        # left out or -inf) into 9.81 / metersPerUnit in single precision (981.0001 in a cm stage)
+        magnitude = self.attr(path, "physics:gravityMagnitude")
+        magnitude = None if magnitude is None else float(magnitude)
+        if magnitude is None or not math.isfinite(magnitude) or magnitude < 0.0:
+            g = 9.81
+        else:
+            g = _f(magnitude) * self.mpu
         direction = _vec(d.gravityDirection)
-        magnitude = _f(d.gravityMagnitude)
-        if not math.isfinite(magnitude) or magnitude < 0.0:  # -inf: "earth gravity" in the schema
-            magnitude = 9.81 / self.mpu
         n = float(np.linalg.norm(direction))
         if n == 0.0:
-            return -9.81 * up if magnitude else np.zeros(3)
-        return self.C @ (direction / n) * magnitude * self.mpu
+            return -g * up
+        return self.C @ (direction / n) * g
 
     # -- shapes
     def collider_shape(self, kind: str, path, d, moving: bool):
@@ -508,7 +516,10 @@ def _filters(r, world, out, shapes, bodies):
             if str(h) not in bit:
                 raise r.error(f"filteredGroups names {str(h)!r}, not a collision group", p)
             listed |= bit[str(h)]
-        mine = (every & ~1 & ~listed) if d.invertFilteredGroups else listed
+        # the attribute itself: the parser's descriptor reports invertFilteredGroups true on groups
+        # that do not author it (usd-core 26.11; its default is false)
+        invert = bool(r.attr(p, "physics:invertFilteredGroups") or False)
+        mine = (every & ~1 & ~listed) if invert else listed
         for h, b in bit.items():
             if mine & b:
                 blocked[str(p)] |= b
@@ -620,7 +631,9 @@ def _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped: bool):
         start = math.atan2(float(np.cross(u, v) @ a), float(u @ v))
         scale = math.pi / 180.0
     else:
-        start = float((p1 - p0) @ a)
+        # tumble's slider coordinate is (anchor_b - anchor_a) . axis from the anchors as given, apart
+        # or not: the frames' distance along the axis at load is in it already
+        start = 0.0
         scale = r.mpu
     kw = {}
     if d.limit.enabled:
