@@ -240,6 +240,93 @@ def test_colliders_of_no_body_are_static_and_planes_and_capsules_have_their_axes
     assert pill.x[2] == pytest.approx(0.1, abs=1e-4)
 
 
+def _mesh(stage, path, points, counts, indices, at=(0, 0, 0), body=True, approximation=None):
+    m = UsdGeom.Mesh.Define(stage, path)
+    m.GetPointsAttr().Set([Gf.Vec3f(*p) for p in points])
+    m.GetFaceVertexCountsAttr().Set(counts)
+    m.GetFaceVertexIndicesAttr().Set(indices)
+    m.AddTranslateOp().Set(Gf.Vec3d(*at))
+    UsdPhysics.CollisionAPI.Apply(m.GetPrim())
+    if approximation is not None:
+        UsdPhysics.MeshCollisionAPI.Apply(m.GetPrim()).CreateApproximationAttr(approximation)
+    if body:
+        UsdPhysics.RigidBodyAPI.Apply(m.GetPrim())
+    return m.GetPrim()
+
+
+# a unit cube's corners and its six quads, wound outwards
+CUBE_POINTS = [(x, y, z) for z in (-0.5, 0.5) for y in (-0.5, 0.5) for x in (-0.5, 0.5)]
+CUBE_QUADS = [0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 0, 4, 6, 2, 1, 3, 7, 5]
+
+
+def test_mesh_colliders_a_hull_on_a_moving_body_and_a_closed_triangle_mesh_that_stays(tmp_path):
+    """A moving mesh with approximation convexHull collides as its hull and weighs as it (a unit
+    cube of 1000 kg/m^3: 1000 kg, exactly); a static closed mesh (approximation none) is a
+    triangle mesh the box lands on (its top at 0.5 m: the box's centre at 0.5 + 0.25 m, to the
+    contact's 1 mm); an open static mesh is refused with the hint."""
+    stage, path = new_stage(tmp_path)
+    _mesh(stage, "/World/table", [(2 * x, 2 * y, z) for x, y, z in CUBE_POINTS], [4] * 6, CUBE_QUADS, body=False,
+          approximation="none")
+    _mesh(stage, "/World/crate", [(0.5 * x, 0.5 * y, 0.5 * z) for x, y, z in CUBE_POINTS], [4] * 6, CUBE_QUADS,
+          at=(0, 0, 1.5), approximation="convexHull")
+    stage.Save()
+    world, scene = load(path)
+    crate, table = scene.bodies["/World/crate"], scene.bodies["/World/table"]
+    assert isinstance(world.shapes[crate.index], tb.Convex) and isinstance(world.shapes[table.index], tb.Mesh)
+    assert crate.mass == pytest.approx(1000 * 0.125, rel=1e-12)
+    tb.Simulator(world, dt=1 / 240).step(480)
+    assert crate.x[2] == pytest.approx(0.75, abs=1e-3)
+    stage2, path2 = new_stage(tmp_path, name="open.usda")
+    _mesh(stage2, "/World/sheet", CUBE_POINTS, [4] * 5, CUBE_QUADS[:20], body=False, approximation="none")
+    stage2.Save()
+    with pytest.raises(InputError, match=r"open.usda: /World/sheet: mesh is not closed .*approximation 'convexHull'"):
+        tb.load_usd(tb.World(), path2)
+
+
+def test_cylinders_and_cones_stand_on_their_bases_where_usd_puts_them(tmp_path):
+    """A USD cone is centred on its bounding box (apex at +height/2 along its axis), tumble's sits
+    on its base: the loader moves it. A cone and a cylinder along Z, dropped onto the plane, stand
+    with their prims' origins half their height up (to the contact's 1 mm); the cone's centre of
+    mass a quarter of its height above its base."""
+    stage, path = new_stage(tmp_path)
+    ground_plane(stage)
+    for kind, x in ((UsdGeom.Cone, 0.0), (UsdGeom.Cylinder, 1.0)):
+        g = kind.Define(stage, f"/World/{kind.__name__.lower()}")
+        g.GetRadiusAttr().Set(0.2)
+        g.GetHeightAttr().Set(0.8)
+        g.GetAxisAttr().Set("Z")
+        g.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0.6))
+        UsdPhysics.CollisionAPI.Apply(g.GetPrim())
+        UsdPhysics.RigidBodyAPI.Apply(g.GetPrim())
+    stage.Save()
+    world, scene = load(path)
+    cone, cyl = scene.bodies["/World/cone"], scene.bodies["/World/cylinder"]
+    assert cone.x[2] == pytest.approx(0.6 - 0.4 + 0.2, abs=1e-12)  # base at 0.2, centre of mass 0.8 / 4 above it
+    tb.Simulator(world, dt=1 / 240).step(480)
+    assert cone.x[2] == pytest.approx(0.2, abs=1e-3)  # its base on the ground, its centre of mass h / 4 up
+    assert cyl.x[2] == pytest.approx(0.4, abs=1e-3)
+    assert cyl.mass == pytest.approx(1000 * math.pi * 0.2**2 * 0.8, rel=1e-12)
+
+
+def test_a_kinematic_body_moves_at_its_velocity_and_carries_what_it_pushes(tmp_path):
+    """kinematicEnabled: infinite mass, moving at its authored velocity whatever it meets (a paddle
+    at 1 m/s along x for 1 s: 1 m, to round-off), pushing a box on the ground ahead of it."""
+    stage, path = new_stage(tmp_path)
+    ground_plane(stage)
+    paddle = cube(stage, "/World/paddle", size=0.2, at=(-0.5, 0, 0.1))
+    rb = UsdPhysics.RigidBodyAPI(paddle)
+    rb.CreateKinematicEnabledAttr(True)
+    rb.CreateVelocityAttr(Gf.Vec3f(1.0, 0, 0))
+    cube(stage, "/World/box", size=0.2, at=(0.0, 0, 0.1))
+    stage.Save()
+    world, scene = load(path)
+    p, box = scene.bodies["/World/paddle"], scene.bodies["/World/box"]
+    assert world.kinematic[p.index] and world.moving[box.index]
+    tb.Simulator(world, dt=1 / 240).step(240)
+    np.testing.assert_allclose(p.x, [0.5, 0, 0.1], atol=1e-12)
+    assert box.x[0] > 0.6  # pushed ahead of the paddle's front face (0.6 m)
+
+
 # ---------------------------------------------------------------- joints
 
 

@@ -405,12 +405,10 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
     bodies = {str(p): d for p, d in r.descs("RigidBody")}
     if not bodies and not shapes:
         raise r.error("no UsdPhysics rigid bodies or colliders on this stage")
-    body_rows = {}
     claimed = set()
     for bpath, d in bodies.items():
         if not d.rigidBodyEnabled:
             continue
-        moving = True
         parts = []
         for cpath in d.collisions:
             cpath = str(cpath)
@@ -422,13 +420,13 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
                 continue
             if kind == "PlaneShape":
                 raise r.error("a plane collider on a moving body (a plane is static)", cpath)
-            shape, pos, q = r.collider_shape(kind, cpath, cd, moving)
+            shape, pos, q = r.collider_shape(kind, cpath, cd, True)
             mat, density = r.material(cd.materials)
             parts.append((cpath, shape, pos, q, density, mat))
             claimed.add(cpath)
-        kw = r.mass_of(bpath, [p[:5] for p in parts])
         if not parts:
             raise r.error("a rigid body without a collider (tumble's bodies have a shape)", bpath)
+        kw = r.mass_of(bpath, [p[:5] for p in parts])
         mats = [p[5] for p in parts]
         material = mats[0] if all(m == mats[0] for m in mats) else None
         if len(parts) == 1 and not parts[0][2].any() and np.array_equal(parts[0][3], [1.0, 0.0, 0.0, 0.0]):
@@ -440,9 +438,8 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         prim = r.stage.GetPrimAtPath(bpath)
         parent = r.UsdGeom.Xformable(prim).ComputeParentToWorldTransform(r.Usd.TimeCode.Default()) if prim else None
         P = np.eye(3)
-        if parent is not None:
-            M = np.array(parent.ExtractRotationMatrix(), dtype=float).T  # Gf row vectors -> columns
-            P = M / np.cbrt(np.linalg.det(M)) if np.linalg.det(M) > 0 else np.eye(3)
+        if parent is not None:  # its rotation, scales and shears taken out; Gf's rows are our columns
+            P = np.array(parent.RemoveScaleShear().ExtractRotationMatrix(), dtype=float).T
         v = r.C @ P @ (_vec(d.linearVelocity) * r.mpu)
         w = r.C @ P @ np.radians(_vec(d.angularVelocity))
         try:
@@ -452,7 +449,6 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         except InputError as err:
             raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
         out.bodies[bpath] = body
-        body_rows[bpath] = body.index
     # colliders of no (enabled) body: static, each a fixed body at its world pose
     for cpath, (kind, cd) in shapes.items():
         if cpath in claimed or not cd.collisionEnabled:
@@ -473,32 +469,28 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         except InputError as err:
             raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, cpath) from None
         out.bodies[cpath] = body
-        body_rows[cpath] = body.index
-    _filters(r, world, out, shapes, bodies)
+    owners = {cpath: str(cd.rigidBody) for cpath, (kind, cd) in shapes.items()}
+    _filters(r, world, out, shapes, owners)
     _joints(r, world, out)
     return out
 
 
-def _owner(r, out, path: str):
-    """The tumble body of a body or collider prim path, or None."""
+def _owner(out, owners: dict, path: str):
+    """The tumble body of a body or collider prim path (``owners``: collider path -> its rigid
+    body's path), or None."""
     if path in out.bodies:
         return out.bodies[path]
-    for kind, items in r.parsed.items():
-        if kind.endswith("Shape"):
-            for p, d in items:
-                if str(p) == path and str(d.rigidBody) in out.bodies:
-                    return out.bodies[str(d.rigidBody)]
-    return None
+    return out.bodies.get(owners.get(path, ""))
 
 
-def _filters(r, world, out, shapes, bodies):
+def _filters(r, world, out, shapes, owners):
     from .collision.filter import CollisionFilter
 
     # pairs: PhysicsFilteredPairsAPI on bodies and on colliders
     for kind, items in r.parsed.items():
         for p, d in items:
             for other in getattr(d, "filteredCollisions", None) or ():
-                a, b = _owner(r, out, str(p)), _owner(r, out, str(other))
+                a, b = _owner(out, owners, str(p)), _owner(out, owners, str(other))
                 if a is not None and b is not None and a.index != b.index:
                     world.exclude_collision(a.index, b.index)
     groups = r.descs("CollisionGroup")
@@ -526,7 +518,7 @@ def _filters(r, world, out, shapes, bodies):
                 blocked[h] |= bit[str(p)]
     membership = {}  # body index -> bits
     for cpath, (kind, cd) in shapes.items():
-        body = _owner(r, out, cpath)
+        body = _owner(out, owners, cpath)
         if body is None:
             continue
         bits = 0
