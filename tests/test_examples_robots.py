@@ -106,3 +106,32 @@ def test_mjcf_turntable_spins_up_with_its_armature_then_sweeps_the_blocks():
     moved = np.linalg.norm(world.x[blocks][:, :2] - start[:, :2], axis=1)
     assert np.all(moved > 0.5) and np.allclose(world.x[blocks][:, 2], 0.05, atol=2e-4)
     assert 0.8 < sim.joint_readings()["rate"][0] < 1.15
+
+
+def test_usd_catapult_throws_the_ball_and_the_hammer_breaks_the_stack():
+    """examples/usd_catapult.toml (the stage examples/usd/catapult.usda: Y up, centimetres): the
+    crate's fall throws the 1 kg ball up: its apex 2.3-2.7 m (measured 2.51 m; the plank's tip
+    speed at the stop, sqrt(2 g h) = 6.9 m/s, sets it); the hammer's head sweeps the stack's two
+    upper crates more than 1 m away while the bottom one stays within 0.3 m; the plank ends
+    tilted with one end on the ground (asin(0.3 / 1.5) = 11.5 deg, within 1 deg: inside its 20
+    deg limit; the crate slides off its low end and the ball, landing back on it, tips it the
+    other way)."""
+    scene = load_scene(EXAMPLES / "usd_catapult.toml")
+    world = scene.world
+    idx = {n: k for k, n in enumerate(world.names)}
+    ball, plank = idx["World/ball"], idx["World/plank"]
+    crates = [idx[f"World/stack/crate{k}"] for k in range(3)]
+    start = world.x[crates].copy()
+    np.testing.assert_allclose(world.x[ball], [-1.35, 0.0, 0.46], atol=1e-9)  # (x, y, z) of the stage -> (x, -z, y) / 100
+    sim = tb.Simulator(world, dt=scene.dt)
+    apex = 0.0
+    for _ in range(int(round(1.5 / scene.dt))):
+        sim.step(1)
+        apex = max(apex, world.x[ball][2])
+    assert 2.3 < apex < 2.7
+    sim.step(int(round(2.5 / scene.dt)))
+    moved = np.linalg.norm(world.x[crates] - start, axis=1)
+    assert moved[1] > 1.0 and moved[2] > 1.0 and moved[0] < 0.3
+    x_axis = world.R[plank][:, 0]
+    tilt = np.degrees(np.arcsin(x_axis[2]))
+    assert abs(tilt) == pytest.approx(np.degrees(np.arcsin(0.3 / 1.5)), abs=1.0)
