@@ -503,7 +503,7 @@ def test_missing_file_and_unknown_suffix(tmp_path):
     other.write_text("bodies: []\n")
     with pytest.raises(InputError) as info:
         load_scene(other)
-    assert str(info.value) == f"{other}: unknown scene file type '.yaml' (expected .toml, .json or an MJCF .xml)"
+    assert str(info.value) == f"{other}: unknown scene file type '.yaml' (expected .toml, .json, an MJCF .xml or a USD stage)"
     folder = tmp_path / "dir.toml"
     folder.mkdir()
     with pytest.raises(InputError) as info:
