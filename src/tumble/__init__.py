@@ -63,9 +63,18 @@ def load_usd(world, path, **options):
     return _load(world, path, **options)
 
 
+def save_usd(world, path):
+    """Write ``world`` (its bodies at their current state, its joints) as a USD stage with physics
+    (the UsdPhysics schema), which ``load_usd``, Omniverse and Isaac Sim read. See
+    tumble.export.usd_scene."""
+    from .export.usd_scene import save_usd as _save
+
+    return _save(world, path)
+
+
 __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "SimState", "Trajectory", "load_trajectory", "load_scene",
-    "load_urdf", "load_mjcf", "load_usd", "Camera", "CameraImage",
+    "load_urdf", "load_mjcf", "load_usd", "save_usd", "Camera", "CameraImage",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Ellipsoid", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield", "decompose", "fracture",
     "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "Explosion", "Blast", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "GearJoint",

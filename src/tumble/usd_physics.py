@@ -216,7 +216,11 @@ class _Reader:
         return _compose(self.qC, _quat(q))
 
     def name(self, prim_path) -> str:
-        base = str(prim_path).lstrip("/") or "root"
+        """A body's name: its prim's ``customData["tumble:name"]`` (what ``save_usd`` writes), else
+        the prim path without its leading slash; after the prefix if one is given."""
+        prim = self.stage.GetPrimAtPath(prim_path)
+        own = prim.GetCustomDataByKey("tumble:name") if prim else None
+        base = str(own) if own else (str(prim_path).lstrip("/") or "root")
         return f"{self.prefix}/{base}" if self.prefix else base
 
     # -- attributes the parser leaves out
@@ -415,8 +419,8 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         raise r.error("no UsdPhysics rigid bodies or colliders on this stage")
     claimed = set()
     for bpath, d in bodies.items():
-        if not d.rigidBodyEnabled:
-            continue
+        # rigidBodyEnabled = false: a static body (PhysX's rule), its colliders one fixed body
+        moving = bool(d.rigidBodyEnabled)
         parts = []
         for cpath in d.collisions:
             cpath = str(cpath)
@@ -427,14 +431,18 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
                 claimed.add(cpath)
                 continue
             if kind == "PlaneShape":
-                raise r.error("a plane collider on a moving body (a plane is static)", cpath)
-            shape, pos, q = r.collider_shape(kind, cpath, cd, True)
+                if moving:
+                    raise r.error("a plane collider on a moving body (a plane is static)", cpath)
+                continue  # a fixed body of its own (below): a plane is a body's only shape
+            shape, pos, q = r.collider_shape(kind, cpath, cd, moving)
             mat, density = r.material(cd.materials)
             parts.append((cpath, shape, pos, q, density, mat))
             claimed.add(cpath)
         if not parts:
+            if not moving:
+                continue
             raise r.error("a rigid body without a collider (tumble's bodies have a shape)", bpath)
-        kw = r.mass_of(bpath, [p[:5] for p in parts])
+        kw = r.mass_of(bpath, [p[:5] for p in parts]) if moving else {}
         mats = [p[5] for p in parts]
         material = mats[0] if all(m == mats[0] for m in mats) else None
         if len(parts) == 1 and not parts[0][2].any() and np.array_equal(parts[0][3], [1.0, 0.0, 0.0, 0.0]):
@@ -448,39 +456,87 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         P = np.eye(3)
         if parent is not None:  # its rotation, scales and shears taken out; Gf's rows are our columns
             P = np.array(parent.RemoveScaleShear().ExtractRotationMatrix(), dtype=float).T
-        v = r.C @ P @ (_vec(d.linearVelocity) * r.mpu)
-        w = r.C @ P @ np.radians(_vec(d.angularVelocity))
+        v = r.C @ P @ (_vec(d.linearVelocity) * r.mpu) if moving else np.zeros(3)
+        w = r.C @ P @ np.radians(_vec(d.angularVelocity)) if moving else np.zeros(3)
         try:
             body = world.add_body(shape, position=r.point(d.position), orientation=r.rotation(d.rotation),
-                                  velocity=v, angular_velocity=w, kinematic=bool(d.kinematicBody),
-                                  material=material, name=r.name(bpath), **kw)
+                                  velocity=v, angular_velocity=w, kinematic=moving and bool(d.kinematicBody),
+                                  fixed=not moving, material=material, name=r.name(bpath), **kw)
         except InputError as err:
             raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
         out.bodies[bpath] = body
-    # colliders of no (enabled) body: static, each a fixed body at its world pose
+    # colliders of no enabled body: static. Those under a prim whose rigid body is disabled
+    # (rigidBodyEnabled = false, what save_usd writes for a fixed body) are one fixed body at that
+    # prim's pose; the others each a fixed body at its own pose (a plane always its own)
+    disabled = {p: d for p, d in bodies.items() if not d.rigidBodyEnabled}
+    groups: dict = {}
     for cpath, (kind, cd) in shapes.items():
         if cpath in claimed or not cd.collisionEnabled:
             continue
-        owner = str(cd.rigidBody)
-        if owner and owner in bodies and bodies[owner].rigidBodyEnabled:
+        if str(cd.rigidBody) in out.bodies and kind != "PlaneShape":
             continue
-        mat, _ = r.material(cd.materials)
-        if kind == "PlaneShape":
-            n = r.C @ _quat_matrix(_quat(cd.localRot))[:, _axis_index(cd.axis)]
-            p = r.point(cd.localPos)
-            shape, pos, q = Plane(normal=tuple(n), offset=float(n @ p)), np.zeros(3), np.array([1.0, 0, 0, 0])
-        else:
-            shape, pos, q = r.collider_shape(kind, cpath, cd, False)
-            pos, q = r.C @ pos, _compose(r.qC, q)
-        try:
-            body = world.add_body(shape, fixed=True, position=pos, orientation=q, material=mat, name=r.name(cpath))
-        except InputError as err:
-            raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, cpath) from None
-        out.bodies[cpath] = body
+        owner = None
+        if kind != "PlaneShape":
+            parent = cpath
+            while parent.count("/") > 1 and owner is None:
+                parent = parent.rsplit("/", 1)[0]
+                owner = parent if parent in disabled else None
+            owner = owner if owner is not None or cpath not in disabled else cpath
+        groups.setdefault(owner or cpath, []).append((cpath, kind, cd))
     owners = {cpath: str(cd.rigidBody) for cpath, (kind, cd) in shapes.items()}
+    for key, members in groups.items():
+        if key in disabled:
+            _static_body(r, world, out, key, disabled[key], members)
+            for cpath, _, _ in members:
+                owners[cpath] = key
+        else:
+            (cpath, kind, cd), = members
+            _static_collider(r, world, out, cpath, kind, cd)
     _filters(r, world, out, shapes, owners)
     _joints(r, world, out)
     return out
+
+
+def _static_collider(r, world, out, cpath: str, kind: str, cd):
+    """A collider of no body: a fixed body of its own at the collider's world pose."""
+    mat, _ = r.material(cd.materials)
+    if kind == "PlaneShape":
+        n = r.C @ _quat_matrix(_quat(cd.localRot))[:, _axis_index(cd.axis)]
+        p = r.point(cd.localPos)
+        shape, pos, q = Plane(normal=tuple(n), offset=float(n @ p)), np.zeros(3), np.array([1.0, 0, 0, 0])
+    else:
+        shape, pos, q = r.collider_shape(kind, cpath, cd, False)
+        pos, q = r.C @ pos, _compose(r.qC, q)
+    try:
+        body = world.add_body(shape, fixed=True, position=pos, orientation=q, material=mat, name=r.name(cpath))
+    except InputError as err:
+        raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, cpath) from None
+    out.bodies[cpath] = body
+
+
+def _static_body(r, world, out, bpath: str, d, members):
+    """The colliders under a disabled rigid body's prim: one fixed body at that prim's pose (the
+    parser gives such colliders their world poses: each is placed relative to the body)."""
+    x_b = _vec(d.position) * r.mpu
+    q_b = _quat(d.rotation)
+    R_b = _quat_matrix(q_b)
+    q_inv = q_b * np.array([1.0, -1.0, -1.0, -1.0])
+    parts, mats = [], []
+    for cpath, kind, cd in members:
+        shape, pos, q = r.collider_shape(kind, cpath, cd, False)  # pos, q: the world's (the stage's axes)
+        parts.append((shape, R_b.T @ (pos - x_b), _compose(q_inv, q)))
+        mats.append(r.material(cd.materials)[0])
+    material = mats[0] if all(m == mats[0] for m in mats) else None
+    if len(parts) == 1 and np.allclose(parts[0][1], 0.0, atol=1e-12) and np.allclose(parts[0][2], [1, 0, 0, 0], atol=1e-12):
+        shape = parts[0][0]
+    else:
+        shape = Compound(parts=parts, materials=None if material is not None or all(m is None for m in mats) else mats)
+    try:
+        body = world.add_body(shape, fixed=True, position=r.point(d.position), orientation=r.rotation(d.rotation),
+                              material=material, name=r.name(bpath))
+    except InputError as err:
+        raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
+    out.bodies[bpath] = body
 
 
 def _owner(out, owners: dict, path: str):
@@ -568,36 +624,63 @@ def _joints(r, world, out):
         if kind.endswith("Joint") and kind not in kinds:
             raise r.error(f"{kind.replace('Joint', ' joint')}s are not supported (revolute, prismatic, "
                           "spherical, fixed and distance joints are)", items[0][0])
-    for kind in kinds:
-        for jpath, d in r.descs(kind):
-            if not d.jointEnabled:
-                continue
-            b0, b1 = str(d.body0), str(d.body1)
-            for b in (b0, b1):
-                if b and b not in out.bodies:
-                    raise r.error(f"its body {b!r} is not a rigid body or collider of this stage", jpath)
-            if not b0 and not b1:
-                raise r.error("a joint needs at least one body", jpath)
-            p0, F0 = _joint_frame(r, out, b0, d.localPose0Position, d.localPose0Orientation)
-            p1, F1 = _joint_frame(r, out, b1, d.localPose1Position, d.localPose1Orientation)
-            common = dict(max_force=_f(d.breakForce) if math.isfinite(d.breakForce) else math.inf,
-                          max_torque=_f(d.breakTorque) if math.isfinite(d.breakTorque) else math.inf,
-                          collide_connected=bool(d.collisionEnabled), name=str(jpath))
-            # tumble's body_a is a body; body_b may be the world. Its coordinate is body_b's motion
-            # relative to body_a's, the schema's body1's relative to body0's: the same but when
-            # body0 is the world (then body1 is tumble's body_a and the coordinate runs the other way)
-            flipped = not b0
-            if flipped:
-                common.update(body_a=out.bodies[b1].index, body_b=None, anchor=p1, anchor_b=p0)
-            else:
-                common.update(body_a=out.bodies[b0].index, body_b=out.bodies[b1].index if b1 else None,
-                              anchor=p0, anchor_b=p1)
-            try:
-                joint = _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped)
-                world.add_joint(joint)
-            except InputError as err:
-                raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, jpath) from None
-            out.joints[str(jpath)] = joint
+    # in the stage's order (its prims depth first, as a file lists them), whatever their kinds
+    rank = {str(p.GetPath()): k for k, p in enumerate(r.stage.Traverse())}
+    found = sorted(((jpath, kind, d) for kind in kinds for jpath, d in r.descs(kind)),
+                   key=lambda item: rank.get(str(item[0]), len(rank)))
+    for jpath, kind, d in found:
+        if not d.jointEnabled:
+            continue
+        b0, b1 = str(d.body0), str(d.body1)
+        for b in (b0, b1):
+            if b and b not in out.bodies:
+                raise r.error(f"its body {b!r} is not a rigid body or collider of this stage", jpath)
+        # a side on a static prim is the world to the parser (its local frame comes in world
+        # coordinates); when that prim became a fixed body, the joint holds on to it
+        s0 = out.bodies.get(str(d.rel0)) if not b0 else out.bodies[b0]
+        s1 = out.bodies.get(str(d.rel1)) if not b1 else out.bodies[b1]
+        if s0 is None and s1 is None:
+            raise r.error("a joint needs at least one body", jpath)
+        p0, F0 = _joint_frame(r, out, b0, d.localPose0Position, d.localPose0Orientation)
+        p1, F1 = _joint_frame(r, out, b1, d.localPose1Position, d.localPose1Orientation)
+        common = dict(max_force=_f(d.breakForce) if math.isfinite(d.breakForce) else math.inf,
+                      max_torque=_f(d.breakTorque) if math.isfinite(d.breakTorque) else math.inf,
+                      collide_connected=bool(d.collisionEnabled), name=str(jpath))
+        # tumble's body_a is a body; body_b may be the world. Its coordinate is body_b's motion
+        # relative to body_a's, the schema's body1's relative to body0's: the same but when
+        # body0 is the world (then body1 is tumble's body_a and the coordinate runs the other way)
+        flipped = s0 is None
+        if flipped:
+            common.update(body_a=s1.index, body_b=None, anchor=p1, anchor_b=p0)
+        else:
+            common.update(body_a=s0.index, body_b=None if s1 is None else s1.index, anchor=p0, anchor_b=p1)
+        try:
+            joint = _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped)
+            world.add_joint(joint)
+        except InputError as err:
+            raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, jpath) from None
+        if kind != "DistanceJoint":
+            _schema_frames(world, joint, F0, F1, _axis_index(getattr(d, "axis", "Z")), flipped)
+        out.joints[str(jpath)] = joint
+
+
+def _schema_frames(world, joint, F0, F1, axis: int, flipped: bool):
+    """Give the bound joint the schema's two frames (world (3, 3) at load, the joint axis in
+    column ``axis``) as its body-fixed frames, the axis as their z (tumble's joint frames): so the
+    joint's coordinate is the schema's from the start, a hinge 30 deg open at load reads 30 deg,
+    and its limits stay the schema's (the way ``load_urdf`` starts a robot at its
+    ``joint_positions``: frames of the zero pose, bodies where they are). ``add_joint`` made both
+    frames equal to the axis' frame now: the solver has not read them yet."""
+    order = [(axis + 1) % 3, (axis + 2) % 3, axis]  # a cyclic turn of the columns: still right-handed
+    Fa, Fb = (F1, F0) if flipped else (F0, F1)
+    b = joint.bound
+    for side, F in ((b.body_a, Fa), (b.body_b, Fb)):
+        R = np.eye(3) if side < 0 else np.asarray(world.R[side])
+        frame = R.T @ F[:, order]
+        if side == b.body_a:
+            b.frame_a = frame
+        else:
+            b.frame_b = frame
 
 
 def _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped: bool):
@@ -625,10 +708,8 @@ def _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped: bool):
             cone = math.radians(lo)
         return BallJoint(axis=tuple(a), cone_limit=cone, **common)
     if kind == "RevoluteJoint":
-        # the angle of frame 1 from frame 0 about the axis at load (tumble's angle starts at 0)
-        u = F0[:, (axis + 1) % 3]
-        v = F1[:, (axis + 1) % 3]
-        start = math.atan2(float(np.cross(u, v) @ a), float(u @ v))
+        # the joint is given the schema's frames (_schema_frames): its angle is the schema's
+        start = 0.0
         scale = math.pi / 180.0
     else:
         # tumble's slider coordinate is (anchor_b - anchor_a) . axis from the anchors as given, apart

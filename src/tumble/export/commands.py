@@ -26,10 +26,39 @@ def add_commands(subparsers) -> dict:
                     "self-contained web page that plays it (.html: no network, no server), chosen by the output "
                     "file's suffix. Each body is a mesh whose transform follows its centre of mass and "
                     "orientation, frame by frame.")
-    p.add_argument("trajectory", metavar="TRAJ", help="trajectory.npz, or a folder written by tumble run / tumble demo")
+    p.add_argument("trajectory", metavar="TRAJ", help="trajectory.npz, or a folder written by tumble run / tumble demo; "
+                   "or a scene file (.toml, .json, MJCF .xml) to write as a USD stage with physics (UsdPhysics)")
     p.add_argument("-o", "--output", metavar="OUT", required=True, help="output file: .glb, .usd, .usda, .usdc or .html")
     p.add_argument("--force", action="store_true", help="overwrite OUT if it exists")
     return {"export": cmd_export}
+
+
+SCENE_SUFFIXES = (".toml", ".json", ".xml")
+
+
+def _export_scene(source: Path, out: Path, suffix: str) -> int:
+    """``tumble export scene.toml -o scene.usda``: the scene's World at its start as a UsdPhysics stage."""
+    from ..scene import load_scene
+
+    if suffix not in (".usd", ".usda", ".usdc"):
+        raise InputError(f"a scene is written as a USD stage with physics (.usd, .usda, .usdc), not {suffix}", None,
+                         str(out))
+    scene = load_scene(source)
+    try:
+        import pxr  # noqa: F401  (usd-core)
+    except ImportError:
+        raise InputError("USD export needs usd-core (pip install 'tumble[export]')", None, str(out)) from None
+    from .usd_scene import save_usd
+
+    try:
+        save_usd(scene.world, out)
+    except OSError as exc:
+        raise InputError(f"cannot write: {exc.strerror or exc}", None, str(exc.filename or out)) from None
+    w = scene.world
+    n, j = w.body_count, len(w.joints)
+    print(f"wrote {out} (USD stage with physics: {n} {'body' if n == 1 else 'bodies'}, {j} "
+          f"{'joint' if j == 1 else 'joints'}; tumble run {out.name} reads it back)")
+    return 0
 
 
 def cmd_export(args) -> int:
@@ -45,6 +74,8 @@ def cmd_export(args) -> int:
     if out.exists() and not args.force:
         raise InputError("exists (pass --force to overwrite)", None, str(out))
     source = Path(args.trajectory)
+    if source.suffix.lower() in SCENE_SUFFIXES:
+        return _export_scene(source, out, suffix)
     if source.is_dir():
         source = source / "trajectory.npz"
     traj = load_trajectory(source)  # InputError for a missing or unreadable file

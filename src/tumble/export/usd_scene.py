@@ -1,0 +1,349 @@
+"""A World written as a USD stage with physics (the UsdPhysics schema): ``save_usd``.
+
+The other direction of ``tumble.usd_physics.load_usd``: what a scene file, a URDF or an MJCF
+model built in tumble becomes for Omniverse, Isaac Sim or PhysX, or for tumble again (``load_usd``
+of the written stage gives back the same bodies, to the schema's single precision). The stage:
+
+* metadata: z up, metres, kilograms; ``/World`` the default prim; a ``PhysicsScene`` with the
+  World's gravity.
+* one Xform per body under ``/World`` (named as ``export.usd.prim_names`` names them; the body's
+  name in ``customData["tumble:name"]``) at its centre of mass and orientation (translate and
+  orient, doubles), with ``PhysicsRigidBodyAPI`` (velocity in m/s and angular velocity in deg/s,
+  both world: ``/World`` is not transformed), ``kinematicEnabled`` for a kinematic body, and
+  ``PhysicsMassAPI``: mass, ``centerOfMass`` (0: the Xform sits on it), ``diagonalInertia`` and
+  ``principalAxes`` (the principal moments and axes of Ibody). A fixed body has
+  ``rigidBodyEnabled = false`` (a static body: its colliders one body, as ``load_usd`` reads it).
+* its colliders under it, where the shape sits in the body frame (``-com_offset``): ``Cube``
+  (size 1, scaled), ``Sphere``, ``Capsule``, ``Cylinder`` (axis Z), ``Cone`` (axis Z, moved half its
+  height: USD's is centred), convex hulls and meshes as ``Mesh`` with ``PhysicsMeshCollisionAPI``
+  (``convexHull`` on a moving body, ``none`` on a fixed one), a compound's parts each its own
+  prim, an ellipsoid as the hull of 642 of its surface points; a plane as a ``Plane`` prim; each
+  with a physics material (``staticFriction`` = ``dynamicFriction`` = the friction, ``restitution``)
+  shared by the colliders that have the same one.
+* joints under ``/World/joints``: hinge -> ``PhysicsRevoluteJoint``, slider -> ``PhysicsPrismaticJoint``,
+  ball -> ``PhysicsSphericalJoint``, fixed -> ``PhysicsFixedJoint``, distance ->
+  ``PhysicsDistanceJoint``, each with its two body frames (``localPos0/1``, ``localRot0/1``: the
+  joint frames fixed in each body at its creation, axis Z), limits (degrees for angles), drives
+  (stiffness and damping per degree; a velocity motor as a drive with a target velocity and a
+  damping of 1e10, PhysX's stiff velocity drive), break force and torque, ``collisionEnabled``;
+  a broken joint with ``jointEnabled = false``.
+* excluded pairs as ``PhysicsFilteredPairsAPI``.
+
+What the schema has no place for is left out with one ``TumbleWarning`` naming it: collision
+filter bits, sensors, surface velocities, rolling resistance and spinning friction, a ball
+joint's twist limits, joint springs of distance joints, applied joint efforts, armature,
+universal and gear joints, keyframed paths, forces other than gravity.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..collision.filter import CollisionFilter
+from ..errors import InputError, TumbleWarning
+from ..joints import (JOINT_BALL, JOINT_DISTANCE, JOINT_FIXED, JOINT_HINGE, JOINT_SLIDER, P_DAMPING, P_LIMIT_ON,
+                      P_LOWER, P_LIMIT2_ON, P_MAX_DRIVE, P_MAX_FORCE, P_MAX_MOTOR, P_MAX_TORQUE, P_MOTOR_ON,
+                      P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_UPPER, P_EFFORT, P_ARMATURE)
+from ..mass import _quat_matrix
+from ..shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere
+from .usd import SUFFIXES, prim_names
+
+# PhysX's velocity drive made stiff: a drive of this damping holds its target velocity (tumble's motor)
+MOTOR_DAMPING = 1e10
+
+
+def _matrix_quat(R):
+    from ..usd_physics import _matrix_quat as mq
+
+    return mq(np.asarray(R, dtype=float))
+
+
+def save_usd(world, path) -> Path:
+    """Write ``world`` (its bodies at their current state, its joints) as a UsdPhysics stage at
+    ``path`` (``.usda`` text, ``.usd`` / ``.usdc`` binary). See the module's docstring.
+
+    Raises:
+        InputError: a body tumble cannot write (particles: the schema's bodies collide with shapes).
+    """
+    from pxr import Usd
+
+    from ..trajectory import atomic_path
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise InputError(f"a USD file name ends in {', '.join(SUFFIXES)}", None, str(path))
+    stage = Usd.Stage.CreateInMemory()
+    build_physics_stage(world, stage)
+    with atomic_path(path, suffix=suffix) as tmp:
+        if not stage.GetRootLayer().Export(tmp):
+            raise OSError(f"USD could not write {path}")
+    return path
+
+
+class _Writer:
+    def __init__(self, world, stage):
+        from pxr import Gf, Sdf, UsdGeom, UsdPhysics, UsdShade, Vt
+
+        self.world, self.stage = world, stage
+        self.Gf, self.Sdf, self.UsdGeom, self.UsdPhysics, self.UsdShade, self.Vt = Gf, Sdf, UsdGeom, UsdPhysics, UsdShade, Vt
+        self.materials = {}
+        self.left_out = set()
+
+    def vec(self, v):
+        return self.Gf.Vec3d(*map(float, v))
+
+    def vecf(self, v):
+        return self.Gf.Vec3f(*map(float, v))
+
+    def quat(self, q):
+        return self.Gf.Quatd(*map(float, q))
+
+    def quatf(self, q):
+        return self.Gf.Quatf(*map(float, q))
+
+    def material(self, mat):
+        if mat is None:
+            return None
+        if mat.rolling_resistance or mat.spinning_friction:
+            self.left_out.add("rolling resistance and spinning friction")
+        key = (float(mat.friction), float(mat.restitution))
+        if key not in self.materials:
+            m = self.UsdShade.Material.Define(self.stage, f"/World/Looks/physics{len(self.materials)}")
+            api = self.UsdPhysics.MaterialAPI.Apply(m.GetPrim())
+            api.CreateStaticFrictionAttr(key[0])
+            api.CreateDynamicFrictionAttr(key[0])
+            api.CreateRestitutionAttr(key[1])
+            self.materials[key] = m
+        return self.materials[key]
+
+    def bind(self, prim, mat):
+        m = self.material(mat)
+        if m is not None:
+            self.UsdShade.MaterialBindingAPI.Apply(prim).Bind(m, self.UsdShade.Tokens.weakerThanDescendants, "physics")
+
+    def place(self, geom, pos, q):
+        geom.AddTranslateOp(self.UsdGeom.XformOp.PrecisionDouble).Set(self.vec(pos))
+        geom.AddOrientOp(self.UsdGeom.XformOp.PrecisionDouble).Set(self.quat(q))
+
+    def collider(self, path, shape, pos, q, moving: bool, material, name: str):
+        """One collider prim at ``path`` (its shape at pos, q in the body frame)."""
+        G, P = self.UsdGeom, self.UsdPhysics
+        pos, q = np.asarray(pos, dtype=float), np.asarray(q, dtype=float)
+        if isinstance(shape, Box):
+            g = G.Cube.Define(self.stage, path)
+            g.GetSizeAttr().Set(1.0)
+            self.place(g, pos, q)
+            g.AddScaleOp(G.XformOp.PrecisionDouble).Set(self.vec(shape.size))
+        elif isinstance(shape, Sphere):
+            g = G.Sphere.Define(self.stage, path)
+            g.GetRadiusAttr().Set(float(shape.radius))
+            self.place(g, pos, q)
+        elif isinstance(shape, (Capsule, Cylinder)):
+            g = (G.Capsule if isinstance(shape, Capsule) else G.Cylinder).Define(self.stage, path)
+            g.GetRadiusAttr().Set(float(shape.radius))
+            g.GetHeightAttr().Set(float(shape.length))
+            g.GetAxisAttr().Set("Z")
+            self.place(g, pos, q)
+        elif isinstance(shape, Cone):
+            g = G.Cone.Define(self.stage, path)
+            g.GetRadiusAttr().Set(float(shape.radius))
+            g.GetHeightAttr().Set(float(shape.height))
+            g.GetAxisAttr().Set("Z")
+            # USD's cone is centred on its bounding box: its centre half the height up tumble's
+            self.place(g, pos + _quat_matrix(q) @ np.array([0.0, 0.0, 0.5 * shape.height]), q)
+        elif isinstance(shape, (Mesh, Ellipsoid)):
+            if isinstance(shape, Ellipsoid):
+                import trimesh
+
+                sphere = trimesh.creation.icosphere(subdivisions=3)
+                vertices, faces = sphere.vertices * np.asarray(shape.radii), sphere.faces
+                hull = True
+                self.left_out.add("ellipsoids (written as the convex hull of 642 surface points)")
+            else:
+                vertices, faces = shape.vertices, shape.faces
+                hull = moving or isinstance(shape, Convex)
+            g = G.Mesh.Define(self.stage, path)
+            g.CreatePointsAttr(self.Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(vertices, dtype=np.float32)))
+            g.CreateFaceVertexCountsAttr(self.Vt.IntArray.FromNumpy(np.full(len(faces), 3, dtype=np.int32)))
+            g.CreateFaceVertexIndicesAttr(self.Vt.IntArray.FromNumpy(np.ascontiguousarray(
+                np.asarray(faces).reshape(-1), dtype=np.int32)))
+            g.CreateSubdivisionSchemeAttr(G.Tokens.none)
+            self.place(g, pos, q)
+            P.MeshCollisionAPI.Apply(g.GetPrim()).CreateApproximationAttr("convexHull" if hull else "none")
+        else:
+            raise InputError(f"a {type(shape).__name__} has no UsdPhysics collider", name)
+        P.CollisionAPI.Apply(g.GetPrim())
+        self.bind(g.GetPrim(), material)
+        return g
+
+    def body(self, i: int, prim_name: str):
+        w, G, P = self.world, self.UsdGeom, self.UsdPhysics
+        name = w.names[i]
+        shape = w.shapes[i]
+        material = w.materials[i]
+        if isinstance(shape, Plane):
+            # the plane n . p = offset of the shape's frame, in the world: a Plane prim (axis Z) there
+            R = np.asarray(w.R[i])
+            origin = np.asarray(w.x[i]) - R @ np.asarray(w.com_offset[i])
+            n = R @ np.asarray(shape.normal)
+            offset = shape.offset + float(n @ origin)
+            g = G.Plane.Define(self.stage, f"/World/{prim_name}")
+            g.GetAxisAttr().Set("Z")
+            helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+            xa = np.cross(helper, n)
+            xa /= np.linalg.norm(xa)
+            frame = np.column_stack([xa, np.cross(n, xa), n])
+            self.place(g, offset * n, _matrix_quat(frame))
+            P.CollisionAPI.Apply(g.GetPrim())
+            self.bind(g.GetPrim(), material)
+            g.GetPrim().SetCustomDataByKey("tumble:name", name)
+            return
+        if isinstance(shape, Particles) or shape is None:
+            raise InputError("a body of particles has no collider to write (UsdPhysics bodies collide by their shapes)",
+                             name)
+        xf = G.Xform.Define(self.stage, f"/World/{prim_name}")
+        prim = xf.GetPrim()
+        prim.SetCustomDataByKey("tumble:name", name)
+        self.place(xf, w.x[i], w.q[i])
+        moving = bool(w.moving[i])
+        kinematic = bool(w.kinematic[i])
+        rb = P.RigidBodyAPI.Apply(prim)
+        if moving or kinematic:
+            rb.CreateVelocityAttr(self.vecf(w.v[i]))
+            rb.CreateAngularVelocityAttr(self.vecf(np.degrees(w.omega[i])))
+            if kinematic:
+                rb.CreateKinematicEnabledAttr(True)
+        else:  # a static body (PhysX's rule): its colliders stay together as one body
+            rb.CreateRigidBodyEnabledAttr(False)
+        if moving:
+            m = P.MassAPI.Apply(prim)
+            m.CreateMassAttr(float(w.mass[i]))
+            m.CreateCenterOfMassAttr(self.vecf((0.0, 0.0, 0.0)))
+            m.CreateDiagonalInertiaAttr(self.vecf(w.principal_moments[i]))
+            m.CreatePrincipalAxesAttr(self.quatf(w.principal_q[i]))
+        if w.sensor[i]:
+            self.left_out.add("sensors (written as ordinary colliders)")
+        if np.any(w.surface_velocity[i]):
+            self.left_out.add("surface velocities (conveyor belts)")
+        shift = -np.asarray(w.com_offset[i], dtype=float)
+        if isinstance(shape, Compound):
+            mats = shape.materials or [None] * len(shape.parts)
+            for k, (part, pos, q) in enumerate(shape.parts):
+                self.collider(f"/World/{prim_name}/part{k}", part, shift + np.asarray(pos), q, moving or kinematic,
+                              mats[k] if mats[k] is not None else material, name)
+        else:
+            self.collider(f"/World/{prim_name}/collider", shape, shift, (1.0, 0.0, 0.0, 0.0), moving or kinematic,
+                          material, name)
+
+    def joint(self, k: int, joint, paths: list[str]):
+        P = self.UsdPhysics
+        b = joint.bound
+        kinds = {JOINT_HINGE: P.RevoluteJoint, JOINT_SLIDER: P.PrismaticJoint, JOINT_BALL: P.SphericalJoint,
+                 JOINT_FIXED: P.FixedJoint, JOINT_DISTANCE: P.DistanceJoint}
+        if b is None or b.type_id not in kinds:
+            self.left_out.add(f"{joint.kind} joints")
+            return
+        j = kinds[b.type_id].Define(self.stage, f"/World/joints/joint{k}")
+        prim = j.GetPrim()
+        if joint.name:
+            prim.SetCustomDataByKey("tumble:name", str(joint.name))
+        p = b.param
+        for side, body, local, frame in ((0, b.body_a, b.local_a, b.frame_a), (1, b.body_b, b.local_b, b.frame_b)):
+            if body >= 0:
+                (j.CreateBody0Rel() if side == 0 else j.CreateBody1Rel()).SetTargets([self.Sdf.Path(paths[body])])
+            (j.CreateLocalPos0Attr if side == 0 else j.CreateLocalPos1Attr)(self.vecf(local))
+            (j.CreateLocalRot0Attr if side == 0 else j.CreateLocalRot1Attr)(self.quatf(_matrix_quat(frame)))
+        j.CreateCollisionEnabledAttr(bool(joint.collide_connected))
+        if math.isfinite(p[P_MAX_FORCE]):
+            j.CreateBreakForceAttr(float(p[P_MAX_FORCE]))
+        if math.isfinite(p[P_MAX_TORQUE]):
+            j.CreateBreakTorqueAttr(float(p[P_MAX_TORQUE]))
+        if joint.broken:
+            j.CreateJointEnabledAttr(False)
+        if p[P_EFFORT] != 0.0 or p[P_ARMATURE] != 0.0:
+            self.left_out.add("applied joint efforts and armature")
+        if b.type_id in (JOINT_HINGE, JOINT_SLIDER):
+            angular = b.type_id == JOINT_HINGE
+            unit = 180.0 / math.pi if angular else 1.0  # the schema's angles are degrees
+            j.CreateAxisAttr("Z")
+            if p[P_LIMIT_ON]:
+                if math.isfinite(p[P_LOWER]):
+                    j.CreateLowerLimitAttr(float(p[P_LOWER] * unit))
+                if math.isfinite(p[P_UPPER]):
+                    j.CreateUpperLimitAttr(float(p[P_UPPER] * unit))
+            pd = p[P_STIFFNESS] > 0.0 or p[P_DAMPING] > 0.0
+            if pd or p[P_MOTOR_ON]:
+                drive = P.DriveAPI.Apply(prim, "angular" if angular else "linear")
+                drive.CreateTypeAttr("force")
+                if pd:  # gains per degree for angles
+                    drive.CreateStiffnessAttr(float(p[P_STIFFNESS] / unit))
+                    drive.CreateDampingAttr(float(p[P_DAMPING] / unit))
+                    drive.CreateTargetPositionAttr(float(p[P_TARGET] * unit))
+                    if math.isfinite(p[P_MAX_DRIVE]):
+                        drive.CreateMaxForceAttr(float(p[P_MAX_DRIVE]))
+                    if p[P_MOTOR_ON]:
+                        self.left_out.add("a velocity motor beside a PD drive on one joint (the drive is written)")
+                else:
+                    drive.CreateDampingAttr(MOTOR_DAMPING)
+                    drive.CreateTargetVelocityAttr(float(p[P_MOTOR_SPEED] * unit))
+                    if math.isfinite(p[P_MAX_MOTOR]):
+                        drive.CreateMaxForceAttr(float(p[P_MAX_MOTOR]))
+        elif b.type_id == JOINT_BALL:
+            j.CreateAxisAttr("Z")
+            if p[P_LIMIT_ON]:
+                cone = float(np.degrees(p[P_UPPER]))
+                j.CreateConeAngle0LimitAttr(cone)
+                j.CreateConeAngle1LimitAttr(cone)
+            if p[P_LIMIT2_ON]:
+                self.left_out.add("ball joints' twist limits")
+        elif b.type_id == JOINT_DISTANCE:
+            if p[P_LOWER] > 0.0:
+                j.CreateMinDistanceAttr(float(p[P_LOWER]))
+            if math.isfinite(p[P_UPPER]):
+                j.CreateMaxDistanceAttr(float(p[P_UPPER]))
+            if p[P_STIFFNESS] > 0.0 or p[P_DAMPING] > 0.0:
+                self.left_out.add("distance joints' springs")
+
+
+def build_physics_stage(world, stage) -> None:
+    """Fill ``stage`` (an empty ``Usd.Stage``) with ``world``: see the module's docstring."""
+    from pxr import Gf, UsdGeom, UsdPhysics
+
+    from .. import __version__
+
+    wr = _Writer(world, stage)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, UsdGeom.LinearUnits.meters)
+    UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)
+    stage.GetRootLayer().documentation = f"tumble {__version__}: a World as a UsdPhysics stage (z up, metres, kilograms)"
+    root = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(root.GetPrim())
+    scene = UsdPhysics.Scene.Define(stage, "/World/physicsScene")
+    g = np.asarray(world.gravity, dtype=float)
+    magnitude = float(np.linalg.norm(g))
+    scene.CreateGravityDirectionAttr(Gf.Vec3f(*map(float, g / magnitude)) if magnitude else Gf.Vec3f(0, 0, -1))
+    scene.CreateGravityMagnitudeAttr(magnitude)
+    names = prim_names(world.names)
+    paths = [f"/World/{n}" for n in names]
+    for i, prim_name in enumerate(names):
+        wr.body(i, prim_name)
+    for k, joint in enumerate(getattr(world, "joints", ()) or ()):
+        wr.joint(k, joint, paths)
+    for a, b in sorted(world.excluded_collisions):
+        api = UsdPhysics.FilteredPairsAPI.Apply(stage.GetPrimAtPath(paths[a]))
+        rel = api.GetFilteredPairsRel() or api.CreateFilteredPairsRel()
+        rel.AddTarget(paths[b])
+    if any(f != CollisionFilter() for f in world.collision_filters):
+        wr.left_out.add("collision filter bits (category, mask, group)")
+    if world.forces:
+        wr.left_out.add("forces other than gravity")
+    if world.paths:
+        wr.left_out.add("keyframed paths of kinematic bodies")
+    if wr.left_out:
+        warnings.warn("the UsdPhysics schema has no place for: " + "; ".join(sorted(wr.left_out)) + " (left out)",
+                      TumbleWarning, stacklevel=3)
