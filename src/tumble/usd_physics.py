@@ -19,8 +19,9 @@ tumble's bodies, shapes, materials and joints:
   about x applied to every world pose, velocity, axis and to gravity); its bodies' names and
   local frames are unchanged.
 - a body: ``add_body`` at the body prim's world pose with its colliders as the shape (a
-  ``Compound`` when there are several or one is offset); colliders of no rigid body (or of
-  a body whose ``rigidBodyEnabled`` is false) are fixed bodies of their own; ``kinematicEnabled``
+  ``Compound`` when there are several or one is offset); a body whose ``rigidBodyEnabled`` is
+  false is a fixed body with its colliders (PhysX's static body); colliders of no rigid body
+  are fixed bodies of their own; ``kinematicEnabled``
   makes a kinematic body (moving at its velocity); velocities as authored (the schema gives
   them in the body's parent space: turned into the world).
 - mass (the schema's precedence, "Mass properties" in its overview): the body's
@@ -38,12 +39,12 @@ tumble's bodies, shapes, materials and joints:
   ``invertFilteredGroups``) become Box2D category and mask bits (up to 31 groups; a body's
   colliders must share their groups, since tumble's filter is per body).
 - joints: anchors and axes from the joint's two local frames (``localPos0/1``, ``localRot0/1``,
-  the joint axis ``X``, ``Y`` or ``Z`` of frame 0) in the world at load time. tumble's hinge
-  angle is 0 at creation, so a revolute joint whose two frames are turned apart about the axis
-  at load has its limits and drive target moved by that angle (a prismatic joint's coordinate
-  is the two anchors' distance along the axis, as the schema's is). When body0 is the world,
-  tumble's joint runs from body1 to the world and its coordinate is the schema's negated
-  (limits, targets and motor speeds are turned round to match). Limits,
+  the joint axis ``X``, ``Y`` or ``Z`` of frame 0) in the world at load time; the two frames
+  become the joint's body-fixed frames (``_schema_frames``), so its coordinate is the schema's
+  from the start (a revolute joint 30 deg open at load reads 30 deg). A side on a static prim
+  is the world to the parser; when that prim is a fixed body here, the joint holds on to it.
+  When body0 is the world, tumble's joint runs from body1 to the world and its coordinate is
+  the schema's negated (limits, targets and motor speeds are turned round to match). Limits,
   ``PhysicsDriveAPI`` (force drives: stiffness and damping per degree for angles; a drive
   with a target velocity and no stiffness becomes a velocity motor with ``maxForce``),
   ``breakForce`` / ``breakTorque``, ``collisionEnabled``, ``jointEnabled`` are read. A
