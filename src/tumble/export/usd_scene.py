@@ -29,8 +29,10 @@ of the written stage gives back the same bodies, to the schema's single precisio
   a broken joint with ``jointEnabled = false``.
 * excluded pairs as ``PhysicsFilteredPairsAPI``.
 
-What the schema has no place for is left out with one ``TumbleWarning`` naming it: collision
-filter bits, sensors, surface velocities, rolling resistance and spinning friction, a ball
+* collision filters (Box2D's category, mask and group) as ``PhysicsCollisionGroup`` prims: one
+  per distinct filter, each filtering the groups its filter does not collide with (exact).
+
+What the schema has no place for is left out with one ``TumbleWarning`` naming it: sensors, surface velocities, rolling resistance and spinning friction, a ball
 joint's twist limits, joint springs of distance joints, applied joint efforts, armature,
 universal and gear joints, keyframed paths, forces other than gravity.
 """
@@ -310,6 +312,36 @@ class _Writer:
                 self.left_out.add("distance joints' springs")
 
 
+# collision groups the schema's filters can hold: tumble's loader gives each group one of 31 bits
+MAX_GROUPS = 31
+
+
+def _collision_groups(world, stage, wr, paths: list[str]) -> None:
+    """Box2D's filters (category, mask, group) as ``PhysicsCollisionGroup`` prims, exactly: one
+    group per distinct filter among the bodies, and group i filters group j (i = j too) when
+    their filters do not collide by Box2D's rule. Nothing when every body has the default."""
+    from pxr import UsdPhysics
+
+    filters = list(world.collision_filters)
+    if all(f == CollisionFilter() for f in filters):
+        return
+    classes = sorted(set(filters), key=lambda f: (f.category, f.mask, f.group))
+    if len(classes) > MAX_GROUPS:
+        wr.left_out.add(f"collision filters of more than {MAX_GROUPS} kinds")
+        return
+    groups = []
+    for k, f in enumerate(classes):
+        g = UsdPhysics.CollisionGroup.Define(stage, f"/World/collision_groups/group{k}")
+        g.GetPrim().SetCustomDataByKey("tumble:filter", {"category": f.category, "mask": f.mask, "group": f.group})
+        groups.append(g)
+    for k, f in enumerate(classes):
+        members = [paths[i] for i, g in enumerate(filters) if g == f]
+        groups[k].GetCollidersCollectionAPI().CreateIncludesRel().SetTargets(members)
+        blocked = [groups[m].GetPath() for m, h in enumerate(classes) if not f.collides_with(h)]
+        if blocked:
+            groups[k].CreateFilteredGroupsRel().SetTargets(blocked)
+
+
 def build_physics_stage(world, stage) -> None:
     """Fill ``stage`` (an empty ``Usd.Stage``) with ``world``: see the module's docstring."""
     from pxr import Gf, UsdGeom, UsdPhysics
@@ -338,8 +370,7 @@ def build_physics_stage(world, stage) -> None:
         api = UsdPhysics.FilteredPairsAPI.Apply(stage.GetPrimAtPath(paths[a]))
         rel = api.GetFilteredPairsRel() or api.CreateFilteredPairsRel()
         rel.AddTarget(paths[b])
-    if any(f != CollisionFilter() for f in world.collision_filters):
-        wr.left_out.add("collision filter bits (category, mask, group)")
+    _collision_groups(world, stage, wr, paths)
     if world.forces:
         wr.left_out.add("forces other than gravity")
     if world.paths:
