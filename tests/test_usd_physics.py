@@ -686,3 +686,41 @@ def test_the_cli_says_what_is_wrong_with_a_usd_file_in_one_line(tmp_path):
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and expected in lines[0] and "Traceback" not in proc.stderr
         assert not out.exists()
+
+
+def test_an_animated_kinematic_body_follows_its_time_samples_and_carries_a_box(tmp_path):
+    """A kinematic platform whose translate is time-sampled at 24 codes a second (key at 0:
+    x = 0; at 24: x = 1; at 48: x = 1, z = 0.5; Omniverse's animated kinematic body): tumble
+    moves it along the keys (a KeyframePath: 1 m in 1 s, then up 0.5 m), to round-off at the
+    keys, and the box resting on it rides along: the platform starts at 1 m/s at once, so the box
+    slides until friction (0.8) brings it to that speed, v^2 / (2 mu g) = 6.4 cm behind, then
+    rides (within 5 mm of that lag; then lifted with the platform, on its top to 2 mm)."""
+    stage, path = new_stage(tmp_path)
+    stage.SetTimeCodesPerSecond(24)
+    stage.SetStartTimeCode(0)
+    stage.SetEndTimeCode(48)
+    c = UsdGeom.Cube.Define(stage, "/World/platform")
+    c.GetSizeAttr().Set(1.0)
+    op = c.AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, 0.5), 0)
+    op.Set(Gf.Vec3d(1, 0, 0.5), 24)
+    op.Set(Gf.Vec3d(1, 0, 1.0), 48)
+    c.AddScaleOp().Set(Gf.Vec3f(1.0, 1.0, 0.2))
+    UsdPhysics.CollisionAPI.Apply(c.GetPrim())
+    UsdPhysics.RigidBodyAPI.Apply(c.GetPrim()).CreateKinematicEnabledAttr(True)
+    box = cube(stage, "/World/box", size=0.2, at=(0, 0, 0.7))
+    mat = UsdShade.Material.Define(stage, "/World/grippy")
+    UsdPhysics.MaterialAPI.Apply(mat.GetPrim()).CreateDynamicFrictionAttr(0.8)
+    for prim in (box, c.GetPrim()):
+        UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat, UsdShade.Tokens.weakerThanDescendants, "physics")
+    stage.Save()
+    world, scene = load(path)
+    p, b = scene.bodies["/World/platform"], scene.bodies["/World/box"]
+    assert world.kinematic[p.index] and len(world.paths) == 1
+    sim = tb.Simulator(world, dt=1 / 240)
+    sim.step(240)
+    np.testing.assert_allclose(p.x, [1.0, 0.0, 0.5], atol=1e-9)
+    assert 1.0 - b.x[0] == pytest.approx(1.0 / (2 * 0.8 * G), abs=0.005)
+    sim.step(240)
+    np.testing.assert_allclose(p.x, [1.0, 0.0, 1.0], atol=1e-9)
+    assert b.x[2] == pytest.approx(1.0 + 0.1 + 0.1, abs=2e-3)  # on the platform's top, lifted with it

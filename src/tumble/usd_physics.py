@@ -22,7 +22,8 @@ tumble's bodies, shapes, materials and joints:
   ``Compound`` when there are several or one is offset); a body whose ``rigidBodyEnabled`` is
   false is a fixed body with its colliders (PhysX's static body); colliders of no rigid body
   are fixed bodies of their own; ``kinematicEnabled``
-  makes a kinematic body (moving at its velocity); velocities as authored (the schema gives
+  makes a kinematic body (moving at its velocity, or along its transform's time samples:
+  ``_animation``); velocities as authored (the schema gives
   them in the body's parent space: turned into the world).
 - mass (the schema's precedence, "Mass properties" in its overview): the body's
   ``physics:mass`` if positive, else the sum over its colliders of each one's mass (its own
@@ -466,6 +467,8 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         except InputError as err:
             raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
         out.bodies[bpath] = body
+        if moving and d.kinematicBody:
+            _animation(r, world, body, bpath)
     # colliders of no enabled body: static. Those under a prim whose rigid body is disabled
     # (rigidBodyEnabled = false, what save_usd writes for a fixed body) are one fixed body at that
     # prim's pose; the others each a fixed body at its own pose (a plane always its own)
@@ -496,6 +499,50 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
     _filters(r, world, out, shapes, owners)
     _joints(r, world, out)
     return out
+
+
+def _animation(r, world, body, bpath: str):
+    """A kinematic body whose transform (or an ancestor's) is animated in the stage: a
+    ``KeyframePath`` through its world poses at the union of the time samples (time code tc at
+    (tc - startTimeCode) / timeCodesPerSecond s; tumble moves it between keys at constant
+    velocities, as ``KeyframePath`` does). PhysX moves an animated kinematic body the same way;
+    a dynamic body's animation is not read (its motion is the simulation's)."""
+    from .kinematic import KeyframePath
+
+    UsdGeom, Usd = r.UsdGeom, r.Usd
+    prim = r.stage.GetPrimAtPath(bpath)
+    codes = set()
+    p = prim
+    while p and p.GetPath() != p.GetPath().absoluteRootPath:
+        xf = UsdGeom.Xformable(p)
+        if xf:
+            codes.update(xf.GetTimeSamples())
+        p = p.GetParent()
+    if len(codes) < 2:
+        return
+    codes = sorted(codes)
+    start = r.stage.GetStartTimeCode() if r.stage.HasAuthoredTimeCodeRange() else codes[0]
+    rate = r.stage.GetTimeCodesPerSecond()
+    xf = UsdGeom.Xformable(prim)
+    positions, orientations = [], []
+    for tc in codes:
+        M = xf.ComputeLocalToWorldTransform(Usd.TimeCode(tc)).RemoveScaleShear()
+        positions.append(r.C @ (_vec(M.ExtractTranslation()) * r.mpu))
+        rot = np.array(M.ExtractRotationMatrix(), dtype=float).T  # Gf's rows are our columns
+        orientations.append(_compose(r.qC, _matrix_quat(rot)))
+    times = (np.array(codes, dtype=float) - start) / rate
+    if times[0] > 0.0:  # before its first key it holds the first pose
+        times = np.concatenate([[0.0], times])
+        positions.insert(0, positions[0])
+        orientations.insert(0, orientations[0])
+    keep = times >= 0.0
+    if keep.sum() < 2:
+        return
+    try:
+        world.add_path(KeyframePath(body.index, times[keep], np.array(positions)[keep],
+                                    orientations=np.array(orientations)[keep]))
+    except InputError as err:
+        raise r.error(f"its animation: {err.problem}", bpath) from None
 
 
 def _static_collider(r, world, out, cpath: str, kind: str, cd):
