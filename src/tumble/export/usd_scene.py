@@ -34,7 +34,9 @@ of the written stage gives back the same bodies, to the schema's single precisio
 
 What the schema has no place for is left out with one ``TumbleWarning`` naming it: sensors, surface velocities, rolling resistance and spinning friction, a ball
 joint's twist limits, joint springs of distance joints, applied joint efforts, armature,
-universal and gear joints, keyframed paths, forces other than gravity.
+universal and gear joints, the repetition of a repeating keyframed path, forces other than
+gravity. A kinematic body's keyframed path is written as time samples of its transform (24
+codes a second), which ``load_usd`` reads back as a path.
 """
 
 from __future__ import annotations
@@ -342,6 +344,38 @@ def _collision_groups(world, stage, wr, paths: list[str]) -> None:
             groups[k].CreateFilteredGroupsRel().SetTargets(blocked)
 
 
+# time codes of the stage's animations (keyframed paths): 24 a second, Blender's and USD's usual
+TIME_CODES_PER_SECOND = 24.0
+
+
+def _animations(world, stage, wr, paths: list[str]) -> None:
+    """Each kinematic body's keyframed path (``World.add_path``) as time samples of its Xform's
+    translate (its centre of mass) and orient, at time code t * 24 (what ``load_usd`` reads back
+    as a path through the same poses). A repeating path is written once round."""
+    from pxr import Gf, Usd, UsdGeom
+
+    if not world.paths:
+        return
+    stage.SetTimeCodesPerSecond(TIME_CODES_PER_SECOND)
+    stage.SetStartTimeCode(0.0)
+    end = 0.0
+    for path in world.paths:
+        i = world.index_of(path.body)
+        ops = {op.GetOpType(): op for op in UsdGeom.Xformable(stage.GetPrimAtPath(paths[i])).GetOrderedXformOps()}
+        translate, orient = ops[UsdGeom.XformOp.TypeTranslate], ops[UsdGeom.XformOp.TypeOrient]
+        offset = np.asarray(world.com_offset[i], dtype=float)
+        for t, p, q in zip(path.times, path.positions,
+                           path.orientations if path.orientations is not None else [world.q[i]] * len(path.times)):
+            code = Usd.TimeCode(float(t) * TIME_CODES_PER_SECOND)
+            R = _quat_matrix(q)
+            translate.Set(Gf.Vec3d(*map(float, np.asarray(p) + R @ offset)), code)
+            orient.Set(Gf.Quatd(*map(float, q)), code)
+        end = max(end, float(path.times[-1]) * TIME_CODES_PER_SECOND)
+        if path.repeat:
+            wr.left_out.add("the repetition of repeating keyframed paths (written once round)")
+    stage.SetEndTimeCode(end)
+
+
 def build_physics_stage(world, stage) -> None:
     """Fill ``stage`` (an empty ``Usd.Stage``) with ``world``: see the module's docstring."""
     from pxr import Gf, UsdGeom, UsdPhysics
@@ -373,8 +407,7 @@ def build_physics_stage(world, stage) -> None:
     _collision_groups(world, stage, wr, paths)
     if world.forces:
         wr.left_out.add("forces other than gravity")
-    if world.paths:
-        wr.left_out.add("keyframed paths of kinematic bodies")
+    _animations(world, stage, wr, paths)
     if wr.left_out:
         warnings.warn("the UsdPhysics schema has no place for: " + "; ".join(sorted(wr.left_out)) + " (left out)",
                       TumbleWarning, stacklevel=3)
