@@ -724,3 +724,19 @@ def test_an_animated_kinematic_body_follows_its_time_samples_and_carries_a_box(t
     sim.step(240)
     np.testing.assert_allclose(p.x, [1.0, 0.0, 1.0], atol=1e-9)
     assert b.x[2] == pytest.approx(1.0 + 0.1 + 0.1, abs=2e-3)  # on the platform's top, lifted with it
+
+
+def test_an_articulation_root_takes_the_exact_tree_solve(tmp_path):
+    """PhysicsArticulationRootAPI (PhysX's reduced-coordinate articulations, exact): the World asks
+    for tumble's exact tree solve by default (``exact_joints``), which the Simulator then takes;
+    the same pendulum without the API keeps Gauss-Seidel."""
+    path = _pendulum_stage(tmp_path)
+    world, _ = load(path)
+    assert not world.exact_joints
+    stage = Usd.Stage.Open(str(path))
+    UsdPhysics.ArticulationRootAPI.Apply(stage.GetPrimAtPath("/World"))
+    stage.Save()
+    world, _ = load(path)
+    assert world.exact_joints
+    # (not stepped: the tree solve's first compilation is a minute, paid by the robot tests)
+    assert tb.Simulator(world, dt=1 / 240).joint_settings.method == "tree"

@@ -35,6 +35,8 @@ tumble's bodies, shapes, materials and joints:
   has one Coulomb coefficient for sticking and sliding: the sliding one is the one a slide
   shows), ``restitution`` as is; the schema's combine modes (PhysX attributes) are not read,
   tumble's rules apply (docs/contact.md).
+- articulations (``PhysicsArticulationRootAPI``): their joints are solved by tumble's exact
+  tree solve by default (``World.exact_joints``), as PhysX solves them in reduced coordinates.
 - collision filters: ``PhysicsFilteredPairsAPI`` between bodies or their colliders: the
   bodies' pair excluded; ``PhysicsCollisionGroup`` prims with ``filteredGroups`` (and
   ``invertFilteredGroups``) become Box2D category and mask bits (up to 31 groups; a body's
@@ -498,6 +500,10 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
             _static_collider(r, world, out, cpath, kind, cd)
     _filters(r, world, out, shapes, owners)
     _joints(r, world, out)
+    if r.descs("Articulation") and world.joints:
+        # PhysX solves an articulation in reduced coordinates, exactly: tumble's exact tree solve
+        # by default (as for MJCF models), not Gauss-Seidel's soft rows
+        world.exact_joints = True
     return out
 
 

@@ -33,7 +33,7 @@ def add_commands(subparsers) -> dict:
     return {"export": cmd_export}
 
 
-SCENE_SUFFIXES = (".toml", ".json", ".xml")
+SCENE_SUFFIXES = (".toml", ".json", ".xml", ".usda")  # a .usda stage in: written again (units, axes made tumble's)
 
 
 def _export_scene(source: Path, out: Path, suffix: str) -> int:

@@ -47,7 +47,8 @@ from .contacts import CONTACT_FORCE_COLOR, CONTACT_KEYS, CONTACT_POINT_COLOR, co
 from ..math3d import quat_to_matrix
 from .meshes import MeshGroup, body_mesh, linear_colors, mesh_key
 
-SCENE_SUFFIXES = (".toml", ".json", ".xml")  # a MuJoCo model (.xml) is a scene of its own, as for tumble run
+# a MuJoCo model (.xml) and a USD stage with physics are scenes of their own, as for tumble run
+SCENE_SUFFIXES = (".toml", ".json", ".xml", ".usd", ".usda", ".usdc", ".usdz")
 TRAJECTORY_SUFFIXES = (".npz",)
 
 PALETTE = visual.PALETTE  # body colours shared with export and video
@@ -66,7 +67,7 @@ def load_input(path, progress: bool | None = None) -> tuple[Trajectory, dict]:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SCENE_SUFFIXES + TRAJECTORY_SUFFIXES:
-        raise InputError(f"unknown file type {path.suffix!r} (expected a trajectory .npz or a scene .toml/.json/.xml)", None, str(path))
+        raise InputError(f"unknown file type {path.suffix!r} (expected a trajectory .npz or a scene .toml/.json/.xml/.usd*)", None, str(path))
     if not path.exists():
         raise InputError("file not found", None, str(path))
     if not path.is_file():

@@ -21,7 +21,7 @@ from ..errors import InputError
 
 def add_commands(subparsers) -> dict:
     p = subparsers.add_parser("view", help="show a scene or a trajectory in the browser viewer (viser)")
-    p.add_argument("target", metavar="SCENE_OR_TRAJ", help="trajectory .npz, or scene .toml/.json or MuJoCo model .xml (run first, or live with --live)")
+    p.add_argument("target", metavar="SCENE_OR_TRAJ", help="trajectory .npz, or scene .toml/.json, MuJoCo model .xml or USD stage (run first, or live with --live)")
     p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=_port, default=8080, help="port (default 8080; the next free one if busy)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser, just print the URL")
