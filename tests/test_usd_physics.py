@@ -57,6 +57,18 @@ def sphere(stage, path, radius=0.5, at=(0, 0, 0), body=True):
     return s.GetPrim()
 
 
+def capsule(stage, path, radius, height, axis="X", at=(0, 0, 0)):
+    """A capsule collider and rigid body (a USD capsule's height is its spine: the caps not in it)."""
+    c = UsdGeom.Capsule.Define(stage, path)
+    c.GetRadiusAttr().Set(radius)
+    c.GetHeightAttr().Set(height)
+    c.GetAxisAttr().Set(axis)
+    c.AddTranslateOp().Set(Gf.Vec3d(*at))
+    UsdPhysics.CollisionAPI.Apply(c.GetPrim())
+    UsdPhysics.RigidBodyAPI.Apply(c.GetPrim())
+    return c.GetPrim()
+
+
 def ground_plane(stage, path="/World/ground"):
     p = UsdGeom.Plane.Define(stage, path)
     p.GetAxisAttr().Set("Z")
@@ -217,13 +229,7 @@ def test_colliders_of_no_body_are_static_and_planes_and_capsules_have_their_axes
     0.1 mm)."""
     stage, path = new_stage(tmp_path)
     ground_plane(stage)
-    c = UsdGeom.Capsule.Define(stage, "/World/pill")
-    c.GetRadiusAttr().Set(0.1)
-    c.GetHeightAttr().Set(0.6)
-    c.GetAxisAttr().Set("X")
-    c.AddTranslateOp().Set(Gf.Vec3d(0, 0, 0.5))
-    UsdPhysics.CollisionAPI.Apply(c.GetPrim())
-    UsdPhysics.RigidBodyAPI.Apply(c.GetPrim())
+    capsule(stage, "/World/pill", 0.1, 0.6, "X", at=(0, 0, 0.5))
     stage.Save()
     world, scene = load(path)
     ground, pill = scene.bodies["/World/ground"], scene.bodies["/World/pill"]
@@ -335,14 +341,8 @@ def _pendulum_stage(tmp_path, upper=None, start_deg=0.0, world_first=True, stiff
     revolute joint about y at the origin. ``start_deg``: the body's joint frame turned by this
     about the axis from the world's at load (the joint's angle starts there)."""
     stage, path = new_stage(tmp_path)
-    c = UsdGeom.Capsule.Define(stage, "/World/rod")
-    c.GetRadiusAttr().Set(0.02)
-    c.GetHeightAttr().Set(0.96)
-    c.GetAxisAttr().Set("X")
-    c.AddTranslateOp().Set(Gf.Vec3d(0.5, 0, 0))
-    UsdPhysics.CollisionAPI.Apply(c.GetPrim())
-    UsdPhysics.RigidBodyAPI.Apply(c.GetPrim())
-    UsdPhysics.MassAPI.Apply(c.GetPrim()).CreateMassAttr(2.0)
+    rod = capsule(stage, "/World/rod", 0.02, 0.96, "X", at=(0.5, 0, 0))
+    UsdPhysics.MassAPI.Apply(rod).CreateMassAttr(2.0)
     j = UsdPhysics.RevoluteJoint.Define(stage, "/World/hinge")
     rod_rel = j.CreateBody1Rel() if world_first else j.CreateBody0Rel()
     rod_rel.SetTargets(["/World/rod"])

@@ -139,15 +139,21 @@ def export_usd(traj, path) -> Path:
     """
     from pxr import Usd
 
-    from ..trajectory import atomic_path
-
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
         raise ValueError(f"USD file name must end in {', '.join(SUFFIXES)}, got {path.name!r}")
     stage = Usd.Stage.CreateInMemory()
     build_stage(traj, stage)
-    with atomic_path(path, suffix=suffix) as tmp:
+    return write_stage(stage, path)
+
+
+def write_stage(stage, path: Path) -> Path:
+    """Export ``stage``'s root layer to ``path`` (its suffix says the format) under a temporary
+    name in the same folder, renamed into place: no reader sees half a file."""
+    from ..trajectory import atomic_path
+
+    with atomic_path(path, suffix=path.suffix.lower()) as tmp:
         if not stage.GetRootLayer().Export(tmp):
             raise OSError(f"USD could not write {path}")
     return path

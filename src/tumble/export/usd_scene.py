@@ -54,7 +54,7 @@ from ..joints import (JOINT_BALL, JOINT_DISTANCE, JOINT_FIXED, JOINT_HINGE, JOIN
                       P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_UPPER, P_EFFORT, P_ARMATURE)
 from ..mass import _quat_matrix
 from ..shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere
-from .usd import SUFFIXES, prim_names
+from .usd import SUFFIXES, prim_names, write_stage
 
 # PhysX's velocity drive made stiff: a drive of this damping holds its target velocity (tumble's motor)
 MOTOR_DAMPING = 1e10
@@ -75,18 +75,12 @@ def save_usd(world, path) -> Path:
     """
     from pxr import Usd
 
-    from ..trajectory import atomic_path
-
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in SUFFIXES:
+    if path.suffix.lower() not in SUFFIXES:
         raise InputError(f"a USD file name ends in {', '.join(SUFFIXES)}", None, str(path))
     stage = Usd.Stage.CreateInMemory()
     build_physics_stage(world, stage)
-    with atomic_path(path, suffix=suffix) as tmp:
-        if not stage.GetRootLayer().Export(tmp):
-            raise OSError(f"USD could not write {path}")
-    return path
+    return write_stage(stage, path)
 
 
 class _Writer:
