@@ -53,7 +53,10 @@ tumble's bodies, shapes, materials and joints:
   ``breakForce`` / ``breakTorque``, ``collisionEnabled``, ``jointEnabled`` are read. A
   spherical joint's two cone angles must be equal (tumble's cone is round).
 
-Refused, with one line naming the prim: D6 and custom joints, acceleration drives, a plane
+D6 joints (``PhysicsJoint`` with a limit per degree of freedom) that are one of those joints
+(fixed, one rotation or one translation left, a free ball) are read as that joint (``_d6_as``).
+
+Refused, with one line naming the prim: other D6 joints and custom joints, acceleration drives, a plane
 or a triangle mesh (``approximation = "none"``) on a moving body... (a moving mesh collider
 of approximation ``convexHull``, ``boundingCube`` or ``boundingSphere`` is its convex hull;
 ``convexDecomposition`` is cut by CoACD, the ``decompose`` extra). Time-sampled values are read
@@ -673,16 +676,18 @@ def _joint_frame(r, out, body_path, pos, rot):
 
 
 def _joints(r, world, out):
-    kinds = ("RevoluteJoint", "PrismaticJoint", "SphericalJoint", "FixedJoint", "DistanceJoint")
+    kinds = ("RevoluteJoint", "PrismaticJoint", "SphericalJoint", "FixedJoint", "DistanceJoint", "D6Joint")
     for kind, items in r.parsed.items():
         if kind.endswith("Joint") and kind not in kinds:
             raise r.error(f"{kind.replace('Joint', ' joint')}s are not supported (revolute, prismatic, "
-                          "spherical, fixed and distance joints are)", items[0][0])
+                          "spherical, fixed, distance and D6 joints that are one of those are)", items[0][0])
     # in the stage's order (its prims depth first, as a file lists them), whatever their kinds
     rank = {str(p.GetPath()): k for k, p in enumerate(r.stage.Traverse())}
     found = sorted(((jpath, kind, d) for kind in kinds for jpath, d in r.descs(kind)),
                    key=lambda item: rank.get(str(item[0]), len(rank)))
     for jpath, kind, d in found:
+        if kind == "D6Joint":
+            kind, d = _d6_as(r, jpath, d)
         if not d.jointEnabled:
             continue
         b0, b1 = str(d.body0), str(d.body1)
@@ -716,6 +721,40 @@ def _joints(r, world, out):
         if kind != "DistanceJoint":
             _schema_frames(world, joint, F0, F1, _axis_index(getattr(d, "axis", "Z")), flipped)
         out.joints[str(jpath)] = joint
+
+
+_DOFS = ("TransX", "TransY", "TransZ", "RotX", "RotY", "RotZ")
+
+
+def _d6_as(r, jpath, d):
+    """A D6 joint (the schema's generic ``PhysicsJoint``: each of its six degrees of freedom free,
+    limited by a ``PhysicsLimitAPI`` or locked by one whose low is above its high) as the joint it
+    is: all locked, fixed; one rotation left, revolute about it; one translation, prismatic
+    along it; the three rotations free, spherical. (kind, a descriptor of that kind's fields.)"""
+    from types import SimpleNamespace
+
+    limits = {str(dof).rsplit(".", 1)[-1]: lim for dof, lim in ((p.first, p.second) for p in d.jointLimits)}
+    drives = {str(dof).rsplit(".", 1)[-1]: drv for dof, drv in ((p.first, p.second) for p in d.jointDrives)}
+    if "Distance" in limits:
+        raise r.error("a D6 joint with a distance limit is not supported", jpath)
+    locked = {k for k, lim in limits.items() if lim.enabled and lim.lower > lim.upper}
+    left = [k for k in _DOFS if k not in locked]
+    fields = {n: getattr(d, n) for n in ("body0", "body1", "rel0", "rel1", "breakForce", "breakTorque", "collisionEnabled",
+                                          "jointEnabled", "localPose0Position", "localPose0Orientation",
+                                          "localPose1Position", "localPose1Orientation")}
+    off = SimpleNamespace(enabled=False, lower=0.0, upper=0.0)
+    no_drive = SimpleNamespace(enabled=False, targetPosition=0.0, targetVelocity=0.0, forceLimit=math.inf, stiffness=0.0,
+                               damping=0.0, acceleration=False)
+    if not left:
+        return "FixedJoint", SimpleNamespace(**fields)
+    if len(left) == 1:
+        dof = left[0]
+        kind = "RevoluteJoint" if dof.startswith("Rot") else "PrismaticJoint"
+        return kind, SimpleNamespace(**fields, axis=dof[-1], limit=limits.get(dof, off), drive=drives.get(dof, no_drive))
+    if left == ["RotX", "RotY", "RotZ"] and not any(k in limits or k in drives for k in left):
+        return "SphericalJoint", SimpleNamespace(**fields, axis="X", limit=off)
+    raise r.error(f"a D6 joint with {', '.join(left)} free is not supported (tumble takes a D6 joint that is fixed, "
+                  "revolute, prismatic or a free ball)", jpath)
 
 
 def _schema_frames(world, joint, F0, F1, axis: int, flipped: bool):
