@@ -56,11 +56,14 @@ tumble's bodies, shapes, materials and joints:
 D6 joints (``PhysicsJoint`` with a limit per degree of freedom) that are one of those joints
 (fixed, one rotation or one translation left, a free ball) are read as that joint (``_d6_as``).
 
-Refused, with one line naming the prim: other D6 joints and custom joints, acceleration drives, a plane
-or a triangle mesh (``approximation = "none"``) on a moving body... (a moving mesh collider
-of approximation ``convexHull``, ``boundingCube`` or ``boundingSphere`` is its convex hull;
-``convexDecomposition`` is cut by CoACD, the ``decompose`` extra). Time-sampled values are read
-at the stage's default time.
+Refused, with one line naming the prim: other D6 joints and custom joints, acceleration drives,
+a drive with both a stiffness and a target velocity, unequal cone angles, a plane on a moving
+body, capsules and cylinders of two radii, a rigid body without a collider, more than one
+PhysicsScene. A triangle mesh (approximation ``none``) on a moving body collides as its convex
+hull, with a warning (PhysX's rule); ``convexHull``, ``boundingCube``, ``boundingSphere`` and
+``meshSimplification`` are the hull; ``convexDecomposition`` is cut by CoACD (the ``decompose``
+extra). Time-sampled values are read at the stage's default time, but for the transforms of
+kinematic bodies (``_animation``).
 """
 
 from __future__ import annotations
