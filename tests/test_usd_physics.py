@@ -782,3 +782,31 @@ def test_a_d6_joint_with_one_degree_of_freedom_left_is_that_joint(tmp_path, kind
     for w in (w1, w2):
         tb.Simulator(w, dt=1 / 240).step(240)
     np.testing.assert_array_equal(w1.x, w2.x)
+
+
+def test_a_stage_without_its_units_is_in_centimetres_with_a_warning(tmp_path):
+    """USD's fallback metersPerUnit is 0.01: a stage that does not author it is read in centimetres
+    (as Omniverse reads it), and a TumbleWarning says so; references and instanceable prims
+    (Isaac Sim's assets) come through OpenUSD's composition: three instances of one referenced
+    crate are three bodies at their own places."""
+    asset = Usd.Stage.CreateNew(str(tmp_path / "crate.usda"))
+    root = UsdGeom.Xform.Define(asset, "/Crate")
+    asset.SetDefaultPrim(root.GetPrim())
+    UsdPhysics.RigidBodyAPI.Apply(root.GetPrim())
+    UsdPhysics.CollisionAPI.Apply(UsdGeom.Cube.Define(asset, "/Crate/geom").GetPrim())
+    asset.Save()
+    stage = Usd.Stage.CreateNew(str(tmp_path / "room.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    for k in range(3):
+        x = UsdGeom.Xform.Define(stage, f"/World/crate{k}")
+        x.GetPrim().GetReferences().AddReference("./crate.usda")
+        x.GetPrim().SetInstanceable(True)
+        x.AddTranslateOp().Set(Gf.Vec3d(100.0 * k, 0, 50.0))
+    stage.Save()
+    world = tb.World()
+    with pytest.warns(tb.TumbleWarning, match="does not give its metersPerUnit: USD's fallback, 0.01"):
+        scene = tb.load_usd(world, tmp_path / "room.usda")
+    assert sorted(scene.bodies) == [f"/World/crate{k}" for k in range(3)]
+    for k in range(3):
+        np.testing.assert_allclose(scene.bodies[f"/World/crate{k}"].x, [1.0 * k, 0, 0.5], atol=1e-12)
+    assert world.shapes[0].size == pytest.approx((0.02, 0.02, 0.02))  # a cube of size 2 (USD's fallback) in cm

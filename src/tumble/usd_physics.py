@@ -13,7 +13,8 @@ hierarchy: each body's world pose, each collider's pose in its body and its size
 scales applied, each joint's two local frames. What this module adds is the mapping onto
 tumble's bodies, shapes, materials and joints:
 
-- units: lengths times the stage's ``metersPerUnit``, masses times ``kilogramsPerUnit``;
+- units: lengths times the stage's ``metersPerUnit`` (USD's fallback when it is not authored is
+  0.01, centimetres: taken, with a warning), masses times ``kilogramsPerUnit``;
   angles of the schema (joint limits, drive targets, angular velocities) are degrees.
 - axes: a stage whose up axis is Y is turned into tumble's z up (a rotation of +90 degrees
   about x applied to every world pose, velocity, axis and to gravity); its bodies' names and
@@ -197,6 +198,11 @@ class _Reader:
             raise self.error("cannot read this USD file")
         self.stage = stage
         self.mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
+        if not stage.HasAuthoredMetadata("metersPerUnit"):
+            # USD's fallback is centimetres: a stage written in metres without saying so comes out
+            # a hundred times too small (found loading a hand-made stage)
+            warnings.warn(f"{self.file}: the stage does not give its metersPerUnit: USD's fallback, 0.01 "
+                          "(centimetres), is taken", TumbleWarning, stacklevel=3)
         self.kpu = float(UsdPhysics.GetStageKilogramsPerUnit(stage))
         for value, what in ((self.mpu, "metersPerUnit"), (self.kpu, "kilogramsPerUnit")):
             if not (math.isfinite(value) and value > 0.0):
