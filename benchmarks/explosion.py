@@ -10,6 +10,8 @@ For each N: the pile is stepped 1 s at Box3D's step (dt = 1/60 s, 4 solver subst
 * blast: the time of one ``collision.explosion.blast`` (the impulses, not applied) with the
   centre at the pile's middle, 1 m above the ground, and a reach (radius + falloff) of 0.5 m,
   1 m and 3 m: the bodies reached, and ms (median of --repeats);
+* shaded: the same blast with ``shaded=True`` (six rays per shape reached), and how many of the
+  shapes reached it spares entirely;
 * step: one step of the pile (median of --repeats), the yardstick.
 
 No peer is measured: PyBullet and MuJoCo have no explosion; Box2D v3 and Box3D have one
@@ -58,14 +60,21 @@ def main(argv=None):
         step_ms = 1e3 * timed(lambda: sim.step(1), args.repeats)
         for reach in (0.5, 1.0, 3.0):
             record = tb.Explosion(position=centre, radius=reach, impulse_per_area=10.0)
+            shaded = tb.Explosion(position=centre, radius=reach, impulse_per_area=10.0, shaded=True)
             reached = len(np.unique(blast(w, record).body))
             ms = 1e3 * timed(lambda: blast(w, record), args.repeats)
-            rows.append({"n": n, "reach_m": reach, "bodies_reached": reached, "blast_ms": ms, "step_ms": step_ms})
+            blast(w, shaded)  # its ray casts' first use
+            shaded_ms = 1e3 * timed(lambda: blast(w, shaded), args.repeats)
+            pushed = blast(w, shaded)
+            spared = int(np.sum(np.linalg.norm(pushed.impulse, axis=1) == 0.0))
+            rows.append({"n": n, "reach_m": reach, "bodies_reached": reached, "blast_ms": ms,
+                         "shaded_ms": shaded_ms, "shapes_spared": spared, "step_ms": step_ms})
             print(rows[-1], flush=True)
     info = machine()
-    table = md_table(["boxes", "reach (m)", "bodies reached", "blast ms", "a step of the pile, ms"],
-                     [[r["n"], r["reach_m"], r["bodies_reached"], f"{r['blast_ms']:.3f}", f"{r['step_ms']:.2f}"]
-                      for r in rows])
+    table = md_table(["boxes", "reach (m)", "bodies reached", "blast ms", "shaded blast ms", "shapes spared (shaded)",
+                      "a step of the pile, ms"],
+                     [[r["n"], r["reach_m"], r["bodies_reached"], f"{r['blast_ms']:.3f}", f"{r['shaded_ms']:.3f}",
+                       r["shapes_spared"], f"{r['step_ms']:.2f}"] for r in rows])
     markdown = (f"machine: {info['cpu']}, {info['nproc']} cores, Python {info['python']}, tumble git {info['tumble_git']}, "
                 f"{info['date']}; pile after 1 s at dt 1/60 s x 4 "
                 f"substeps; median of {args.repeats}\n\nfirst explode in the process (kernel load or compile): "

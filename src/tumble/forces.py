@@ -171,6 +171,9 @@ class Explosion:
     category does not meet ``mask`` are not touched (the filters' bits, ``tb.CollisionFilter``);
     sensors never. Applied once, before the first step that starts at or after ``time``, as an
     ``Impulse`` is (``tumble.collision.explosion`` gives the rules and the shadow areas).
+    ``shaded``: a shape hidden from the centre by other bodies takes only the part of its push
+    that the rays from the centre to a few of its points let through (Box2D's blast is not shaded:
+    the default).
     """
 
     position: Sequence[float]
@@ -179,6 +182,7 @@ class Explosion:
     falloff: float = 0.0
     time: float = 0.0
     mask: int = 0xFFFFFFFF
+    shaded: bool = False
 
     def __post_init__(self):
         from .collision.filter import ALL_CATEGORIES, _int
@@ -197,6 +201,9 @@ class Explosion:
         self.impulse_per_area = impulse
         self.time = _nonnegative(self.time, "time")
         self.mask = _int(self.mask, "mask", 0, ALL_CATEGORIES)
+        if not isinstance(self.shaded, (bool, np.bool_)):
+            raise InputError(f"expected true or false, got {self.shaded!r}", "shaded")
+        self.shaded = bool(self.shaded)
 
 
 @dataclass

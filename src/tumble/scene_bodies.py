@@ -75,7 +75,7 @@ FORCE_KEYS = {
     "point": (("body", "force", "point"), ("frame",)),
     "spring": (("body_a", "stiffness"), ("body_b", "anchor_a", "anchor_b", "damping", "rest_length")),
     "impulse": (("body", "impulse"), ("point", "time")),
-    "explosion": (("position", "radius", "impulse_per_area"), ("falloff", "time", "mask")),
+    "explosion": (("position", "radius", "impulse_per_area"), ("falloff", "time", "mask", "shaded")),
 }
 
 
@@ -421,6 +421,8 @@ class BodyReader(ValueReader):
             kw["impulse_per_area"] = self.number(f["impulse_per_area"], g("impulse_per_area"))
             if "mask" in f:
                 kw["mask"] = f["mask"]  # the record checks it as a filter's bits
+            if "shaded" in f:
+                kw["shaded"] = self.boolean(f["shaded"], g("shaded"))
             record = self.library(key, Explosion, vec("position"), **kw)
         else:  # impulse
             body = self.body_ref(f["body"], g("body"), names)

@@ -491,17 +491,19 @@ class World:
                              euler_deg=euler_deg, strength=strength, min_face=MIN_FACE if min_face is None else min_face,
                              name=name, **body_options)
 
-    def explode(self, position, radius: float, impulse_per_area: float, falloff: float = 0.0, mask=None):
+    def explode(self, position, radius: float, impulse_per_area: float, falloff: float = 0.0, mask=None,
+                shaded: bool = False):
         """A blast now at ``position`` ((3,) m, world), Box2D v3's ``b2World_Explode`` in 3-D: each
         shape of a dynamic body within ``radius + falloff`` m takes ``impulse_per_area`` (N s / m^2)
         times its shadow's area, at its closest point, away from the centre (full within
         ``radius``, fading linearly to nothing over ``falloff``); bodies whose category misses
-        ``mask`` are spared. Sleeping bodies hit wake at the next step. Returns the ``Blast``: the
-        bodies, points, areas and impulses (``collision.explosion``; a timed one is a
-        ``tb.Explosion`` record)."""
+        ``mask`` are spared; with ``shaded``, a shape hidden from the centre by other bodies takes
+        only the part of its push that rays from the centre to six of its points let through.
+        Sleeping bodies hit wake at the next step. Returns the ``Blast``: the bodies, points, areas
+        and impulses (``collision.explosion``; a timed one is a ``tb.Explosion`` record)."""
         from .collision.explosion import explode
 
-        return explode(self, position, radius, impulse_per_area, falloff, mask)
+        return explode(self, position, radius, impulse_per_area, falloff, mask, shaded)
 
     def exclude_collision(self, body_a, body_b):
         """Bodies ``body_a`` and ``body_b`` (``Body``, name or index) never touch each other,

@@ -15,7 +15,10 @@ normal to u, its projected area: the blast's pressure impulse (N s / m^2) times 
 meets, so a box face-on takes more than edge-on and a long rod more side-on than end-on. The
 shadow of the whole shape counts, also where part of it lies beyond the reach, and nothing
 shades anything (a box behind another takes its whole impulse): Box2D's model, a blast's
-first push, not a pressure field.
+first push, not a pressure field. With ``shaded`` (``tb.Explosion(shaded=True)``,
+``World.explode(..., shaded=True)``) each shape's push is scaled by the part of six rays from the
+centre to its points that reach it unblocked (``visible_fraction``): a brick behind a wall is
+spared, one half behind another takes part of its push.
 
 A(u) in the shape's frame, u = (ux, uy, uz) unit (``projected_area``):
 
@@ -235,8 +238,60 @@ def blast(world, explosion, x=None, R=None) -> Blast:
     scale = np.ones(len(touched))
     if explosion.falloff > 0.0:  # (reach - d) / falloff >= 1 exactly when d <= radius: the clip gives both parts
         scale = np.clip((reach - d) / explosion.falloff, 0.0, 1.0)
+    if getattr(explosion, "shaded", False):
+        scale = scale * visible_fraction(world, centre, touched, body, p, inside, pos, aabb, u, x, R)
     impulse = (explosion.impulse_per_area * area * scale)[:, None] * u
     return Blast(body=body, shape=touched.astype(np.int64), distance=d, point=p, area=area, impulse=impulse)
+
+
+# the points of a shape a shaded blast looks for: its closest point, its centre, and its centre
+# moved across the blast's direction by this part of its box's smallest half extent, four ways
+SHADE_OFFSET = 0.5
+
+
+def visible_fraction(world, centre, shapes, body, point, inside, pos, aabb, u, x, R) -> np.ndarray:
+    """(K,) the part of each shape's push a shaded blast lets through: of the rays from the
+    centre to six points of the shape (its closest point, its centre, the centre moved across the
+    blast's direction four ways), those whose first hit is the shape's own body, or nothing short
+    of the point, see it. A shape with the centre inside it (``inside``) is not shaded. The rays
+    are cast at the poses x (N, 3), R (N, 3, 3), through every body but sensors.
+
+    Six points are a coarse shadow (a shape one third hidden takes one third or one half of its
+    push); the aim is that what stands behind a wall, or behind a heavier block, is spared."""
+    from .raycast import _seen, kept_scene, ray_cast_kernel
+
+    K = len(shapes)
+    c = pos[shapes]
+    half = 0.5 * (aabb[shapes, 1] - aabb[shapes, 0])
+    a = SHADE_OFFSET * half.min(axis=1)
+    helper = np.where(np.abs(u[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    e1 = np.cross(u, helper)
+    e1 /= np.maximum(np.linalg.norm(e1, axis=1), 1e-300)[:, None]
+    e2 = np.cross(u, e1)
+    targets = np.stack([point, c, c + a[:, None] * e1, c - a[:, None] * e1, c + a[:, None] * e2,
+                        c - a[:, None] * e2], axis=1)  # (K, 6, 3)
+    o = np.repeat(centre[None, :], 6 * K, axis=0)
+    d = targets.reshape(-1, 3) - o
+    length = np.linalg.norm(d, axis=1)
+    ok = length > CENTRE_TOLERANCE
+    d[ok] /= length[ok, None]
+    d[~ok] = (0.0, 0.0, 1.0)
+    scene = kept_scene(world)
+    spos, srot, planes, items, tree = scene.tree(world, x, R)
+    table = scene.table
+    hit_shape = np.empty(6 * K, dtype=np.int64)
+    distance = np.empty(6 * K)
+    normal = np.empty((6 * K, 3))
+    # each ray looks as far as its point, a hair short of it: what lies beyond does not shade
+    reach = np.maximum(length * (1.0 - 1e-9) - 1e-9, 0.0)
+    ray_cast_kernel(o, d, reach, np.full(6 * K, -1, dtype=np.int64), _seen(world, 0xFFFFFFFF), planes, items, *tree,
+                    table.shape_type, table.shape_body, table.shape_params, spos, srot, table.shape_data,
+                    table.hull_plane, table.mesh_triangle, table.mesh_node_aabb, table.mesh_node_first,
+                    table.mesh_node_count, table.mesh_node_skip, hit_shape, distance, normal)
+    own = np.repeat(body, 6)
+    seen = (hit_shape < 0) | (table.shape_body[np.maximum(hit_shape, 0)] == own) | ~ok
+    fraction = seen.reshape(K, 6).mean(axis=1)
+    return np.where(inside, 1.0, fraction)
 
 
 def apply_blast(result: Blast, x, P, L):
@@ -249,12 +304,13 @@ def apply_blast(result: Blast, x, P, L):
         L[i] += np.cross(result.point[k] - x[i], J)
 
 
-def explode(world, position, radius, impulse_per_area, falloff=0.0, mask=None) -> Blast:
+def explode(world, position, radius, impulse_per_area, falloff=0.0, mask=None, shaded=False) -> Blast:
     """``World.explode``: an explosion now, at the bodies' current poses; returns what it gave."""
     from ..forces import Explosion
 
     kw = {} if mask is None else {"mask": mask}
-    record = Explosion(position=position, radius=radius, impulse_per_area=impulse_per_area, falloff=falloff, **kw)
+    record = Explosion(position=position, radius=radius, impulse_per_area=impulse_per_area, falloff=falloff,
+                       shaded=shaded, **kw)
     result = blast(world, record)
     if len(result):
         apply_blast(result, world.x, world.P, world.L)

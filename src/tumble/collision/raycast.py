@@ -425,10 +425,13 @@ class _RayScene:
         self.built_area = 0.0
         self.builds = self.refits = 0
 
-    def tree(self, world):
+    def tree(self, world, x=None, R=None):
         """(shape_pos (S, 3), shape_rot (S, 3, 3), planes (P,), items (M,), (tree_aabb, tree_first,
-        tree_count, tree_skip)) at the world's current poses."""
-        x, R = np.asarray(world.x), np.asarray(world.R)
+        tree_count, tree_skip)) at the world's current poses, or at the poses ``x`` (N, 3) m and
+        ``R`` (N, 3, 3) given (a state inside a run: a timed explosion's shading)."""
+        # C order: a run's state rows are strided views, and the bounds kernel takes one layout
+        x = np.ascontiguousarray(world.x if x is None else x)
+        R = np.ascontiguousarray(world.R if R is None else R)
         if self.x is not None and np.array_equal(self.x, x) and np.array_equal(self.R, R):
             return self._tree
         table = self.table
