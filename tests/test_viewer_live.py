@@ -269,6 +269,31 @@ def test_a_click_in_blast_mode_sets_off_the_explosion_the_world_would_at_the_hit
     np.testing.assert_array_equal(w.P, P1)
 
 
+
+def test_the_shaded_blast_checkbox_shades_the_click_blast(paused):
+    """With "Shaded blast" ticked, a click's blast is ``World.explode(..., shaded=True)``'s: a
+    click on the box's far side from the ball sets it off there, the box hides (part of) the ball,
+    and the momenta change by the shaded blast's impulses, which differ from the unshaded ones."""
+    v = paused
+    w = v.world
+    v.blast_radius_slider.value, v.blast_strength_slider.value = 0.6, 150.0
+    v.blast_shaded_checkbox.value = True
+    origin, direction = np.array([-3.0, 0.0, 0.55]), np.array([1.0, 0.0, 0.0])  # onto the box, the ball behind it
+    hit = w.ray_cast(origin, direction)
+    assert hit.body[0] == w.index_of("box")
+    from tumble.collision.explosion import blast
+
+    record = dict(position=hit.point[0], radius=0.6, falloff=0.6, impulse_per_area=150.0)
+    expected = blast(w, tb.Explosion(**record, shaded=True))
+    plain = blast(w, tb.Explosion(**record))
+    assert not np.array_equal(expected.impulse, plain.impulse)
+    P0 = w.P.copy()
+    v.click_ray(origin, direction, "blast")
+    dP = np.zeros_like(P0)
+    for k, i in enumerate(expected.body):
+        dP[i] += expected.impulse[k]
+    np.testing.assert_array_equal(w.P, P0 + dP)
+
 def test_back_to_mark_returns_to_the_snapshot_and_cuts_the_take_back(paused, scene_file):
     """Mark after two frames, push the box, grab the ball, run on, Back to mark: the state is the
     mark's, bit for bit, the grab let go, the recording cut back to the mark's frames; running on

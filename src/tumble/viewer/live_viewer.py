@@ -141,7 +141,7 @@ class LiveViewer(Viewer):
         robots: {name: Robot} of the scene's ``[[robots]]`` ({} for a scene function's Simulator).
         out: the folder ``save()`` writes into; saved: the folders written.
         step_button, reset_button, save_button, mark_button, back_button, click_dropdown, push_speed_slider,
-        blast_radius_slider, blast_strength_slider, release_button,
+        blast_radius_slider, blast_strength_slider, blast_shaded_checkbox, release_button,
         control_sliders ({(robot, actuator): slider}), grab_handle: the GUI handles added
         (``grab_handle``: the transform controls, or None).
     """
@@ -297,14 +297,18 @@ class LiveViewer(Viewer):
             b.apply_impulse(float(self.sim.world.mass[b.index]) * speed * d / norm, point)
             self._refresh()
 
-    def blast(self, position, radius: float | None = None, impulse_per_area: float | None = None):
+    def blast(self, position, radius: float | None = None, impulse_per_area: float | None = None,
+              shaded: bool | None = None):
         """An explosion now at ``position`` ((3,) m, world): ``World.explode`` with ``radius`` (m, full
-        strength) and as much again of falloff, ``impulse_per_area`` N s/m^2 (defaults: the "Blast"
-        sliders). Returns its ``Blast`` (the bodies hit and their impulses); they wake."""
+        strength) and as much again of falloff, ``impulse_per_area`` N s/m^2, ``shaded`` (bodies
+        hidden from the centre spared; defaults: the "Blast" sliders and checkbox). Returns its
+        ``Blast`` (the bodies hit and their impulses); they wake."""
         with self._lock:
             radius = float(self.blast_radius_slider.value if radius is None else radius)
             strength = float(self.blast_strength_slider.value if impulse_per_area is None else impulse_per_area)
-            result = self.sim.world.explode(position, radius=radius, impulse_per_area=strength, falloff=radius)
+            shaded = bool(self.blast_shaded_checkbox.value if shaded is None else shaded)
+            result = self.sim.world.explode(position, radius=radius, impulse_per_area=strength, falloff=radius,
+                                            shaded=shaded)
             self._refresh()
             return result
 
@@ -529,6 +533,8 @@ class LiveViewer(Viewer):
             self.blast_strength_slider = gui.add_slider("Blast strength (N s/m^2)", min=10.0, max=5000.0, step=10.0,
                                                         initial_value=BLAST_IMPULSE,
                                                         hint="impulse per m^2 of each shape's shadow")
+            self.blast_shaded_checkbox = gui.add_checkbox("Shaded blast", initial_value=False,
+                                                          hint="bodies hidden from the blast by others are spared")
             self.release_button = gui.add_button("Release", visible=False, hint="let go of the grabbed body")
 
         if self._scene_dt is not None:
