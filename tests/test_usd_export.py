@@ -195,3 +195,20 @@ def test_a_keyframed_path_goes_out_as_time_samples_and_comes_back_a_path(tmp_pat
     for w in (world, back):
         tb.Simulator(w, dt=1 / 240).step(720)
     np.testing.assert_allclose(back.x[k], world.x[i], atol=1e-5)
+
+
+def test_joint_armature_goes_out_as_physx_joint_armature_and_comes_back(tmp_path):
+    """examples/mjcf_turntable.toml's MJCF turntable has joint armature (MuJoCo's), which
+    UsdPhysics has no place for: it is written as PhysX's ``physxJoint:armature`` (the
+    ``PhysxJointAPI`` Isaac Sim reads) and read back, so the World again takes the exact tree
+    solve its armature asks for."""
+    world = load_scene(EXAMPLES / "mjcf_turntable.toml").world
+    armed = [j for j in world.joints if j.bound.param[20] > 0.0]  # P_ARMATURE
+    assert armed
+    back = round_trip(world, tmp_path)
+    text = (tmp_path / "stage.usda").read_text()
+    assert '"PhysxJointAPI"' in text and "float physxJoint:armature" in text
+    for a in armed:
+        b = next(j for j in back.joints if back.names[j.bound.body_b] == world.names[a.bound.body_b])
+        assert b.bound.param[20] == pytest.approx(a.bound.param[20], rel=1e-6)
+    assert back.exact_joints

@@ -844,6 +844,10 @@ def _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped: bool):
             kw["max_motor_torque" if kind == "RevoluteJoint" else "max_motor_force"] = limit
     if flipped:
         kw = _flip(kw)
+    armature = r.attr(jpath, "physxJoint:armature")  # PhysX's joint schema (PhysxJointAPI): what save_usd writes
+    if armature is not None and float(armature) > 0.0:
+        # mass units times distance units squared about an axis, mass units along one
+        kw["armature"] = _f(armature) * r.kpu * (r.mpu ** 2 if kind == "RevoluteJoint" else 1.0)
     cls = HingeJoint if kind == "RevoluteJoint" else SliderJoint
     return cls(axis=tuple(a), **common, **kw)
 

@@ -26,16 +26,17 @@ of the written stage gives back the same bodies, to the schema's single precisio
   joint frames fixed in each body at its creation, axis Z), limits (degrees for angles), drives
   (stiffness and damping per degree; a velocity motor as a drive with a target velocity and a
   damping of 1e10, PhysX's stiff velocity drive), break force and torque, ``collisionEnabled``;
-  a broken joint with ``jointEnabled = false``.
+  a broken joint with ``jointEnabled = false``; joint armature (MuJoCo's) as PhysX's
+  ``physxJoint:armature`` (``PhysxJointAPI``, which Isaac Sim reads and ``load_usd`` reads back).
 * excluded pairs as ``PhysicsFilteredPairsAPI``.
 
 * collision filters (Box2D's category, mask and group) as ``PhysicsCollisionGroup`` prims: one
   per distinct filter, each filtering the groups its filter does not collide with (exact).
 
-What the schema has no place for is left out with one ``TumbleWarning`` naming it: sensors, surface velocities, rolling resistance and spinning friction, a ball
-joint's twist limits, joint springs of distance joints, applied joint efforts, armature,
-universal and gear joints, the repetition of a repeating keyframed path, forces other than
-gravity. A kinematic body's keyframed path is written as time samples of its transform (24
+What the schema has no place for is left out with one ``TumbleWarning`` naming it: sensors,
+surface velocities, rolling resistance and spinning friction, a ball joint's twist limits, joint
+springs of distance joints, applied joint efforts, universal and gear joints, the repetition of
+a repeating keyframed path, forces other than gravity. A kinematic body's keyframed path is written as time samples of its transform (24
 codes a second), which ``load_usd`` reads back as a path.
 """
 
@@ -263,8 +264,13 @@ class _Writer:
             j.CreateBreakTorqueAttr(float(p[P_MAX_TORQUE]))
         if joint.broken:
             j.CreateJointEnabledAttr(False)
-        if p[P_EFFORT] != 0.0 or p[P_ARMATURE] != 0.0:
-            self.left_out.add("applied joint efforts and armature")
+        if p[P_EFFORT] != 0.0:
+            self.left_out.add("applied joint efforts")
+        if p[P_ARMATURE] != 0.0:
+            # not in UsdPhysics: PhysX's own joint schema (PhysxSchema.PhysxJointAPI, which Isaac Sim
+            # reads) has it; applied by name (USD keeps an applied schema it does not know)
+            prim.AddAppliedSchema("PhysxJointAPI")
+            prim.CreateAttribute("physxJoint:armature", self.Sdf.ValueTypeNames.Float).Set(float(p[P_ARMATURE]))
         if b.type_id in (JOINT_HINGE, JOINT_SLIDER):
             angular = b.type_id == JOINT_HINGE
             unit = 180.0 / math.pi if angular else 1.0  # the schema's angles are degrees
