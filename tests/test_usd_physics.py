@@ -653,6 +653,18 @@ def _empty(stage):
     pass
 
 
+def _flat_cube(stage):
+    c = cube(stage, "/World/box")
+    UsdGeom.Cube(c).GetSizeAttr().Set(0.0)
+
+
+def _missing_body(stage):
+    cube(stage, "/World/box")
+    j = UsdPhysics.RevoluteJoint.Define(stage, "/World/hinge")
+    j.CreateBody0Rel().SetTargets(["/World/nowhere"])
+    j.CreateBody1Rel().SetTargets(["/World/box"])
+
+
 @pytest.mark.parametrize("build, prim, problem", [
     (_d6, "/World/d6", "a D6 joint with TransX, TransY, TransZ, RotX, RotY, RotZ free is not supported"),
     (_cone, "/World/shoulder", "tumble's swing cone is round"),
@@ -660,6 +672,8 @@ def _empty(stage):
     (_no_collider, "/World/ghost", "a rigid body without a collider"),
     (_acceleration_drive, "/World/hinge", "acceleration drives are not supported"),
     (_empty, None, "no UsdPhysics rigid bodies or colliders"),
+    (_flat_cube, "/World/box", "size[0]: must be positive, got 0"),
+    (_missing_body, "/World/hinge", "its body0 </World/nowhere> is not on this stage"),
 ])
 def test_what_tumble_cannot_take_is_one_line_naming_the_prim(tmp_path, build, prim, problem):
     stage, path = new_stage(tmp_path)

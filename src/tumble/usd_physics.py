@@ -284,8 +284,17 @@ class _Reader:
 
     # -- shapes
     def collider_shape(self, kind: str, path, d, moving: bool):
+        """``_collider_shape`` with a shape's own complaint (a size of 0, a NaN) on the prim's line."""
+        try:
+            return self._collider_shape(kind, path, d, moving)
+        except InputError as err:
+            if err.file:
+                raise
+            raise self.error(f"{err.key}: {err.problem}" if err.key else err.problem, path) from None
+
+    def _collider_shape(self, kind: str, path, d, moving: bool):
         """(shape, position (3,) m, orientation (4,)) of a collider in its body's frame (or the
-        world's for a collider of no body), or None for a plane (returned apart)."""
+        world.s for a collider of no body; planes are read apart: _static_collider)."""
         s = self.mpu
         pos = _vec(d.localPos) * s
         q = _quat(d.localRot)
@@ -299,6 +308,8 @@ class _Reader:
             turn = _along_z(axis)
             q2 = _compose(q, turn)
             if kind == "CapsuleShape":
+                if half == 0.0:  # a capsule of no spine is a ball (USD allows height 0)
+                    return Sphere(radius=r), pos, q
                 return Capsule(radius=r, length=2.0 * half), pos, q2
             if kind == "CylinderShape":
                 return Cylinder(radius=r, length=2.0 * half), pos, q2
@@ -472,8 +483,9 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         P = np.eye(3)
         if parent is not None:  # its rotation, scales and shears taken out; Gf's rows are our columns
             P = np.array(parent.RemoveScaleShear().ExtractRotationMatrix(), dtype=float).T
-        v = r.C @ P @ (_vec(d.linearVelocity) * r.mpu) if moving else np.zeros(3)
-        w = r.C @ P @ np.radians(_vec(d.angularVelocity)) if moving else np.zeros(3)
+        with np.errstate(invalid="ignore", over="ignore"):  # an inf or NaN authored: add_body's line names it
+            v = r.C @ P @ (_vec(d.linearVelocity) * r.mpu) if moving else np.zeros(3)
+            w = r.C @ P @ np.radians(_vec(d.angularVelocity)) if moving else np.zeros(3)
         try:
             body = world.add_body(shape, position=r.point(d.position), orientation=r.rotation(d.rotation),
                                   velocity=v, angular_velocity=w, kinematic=moving and bool(d.kinematicBody),
@@ -703,6 +715,9 @@ def _joints(r, world, out):
         for b in (b0, b1):
             if b and b not in out.bodies:
                 raise r.error(f"its body {b!r} is not a rigid body or collider of this stage", jpath)
+        for k, rel in ((0, str(d.rel0)), (1, str(d.rel1))):
+            if rel and not r.stage.GetPrimAtPath(rel):  # a target not on the stage, not the world
+                raise r.error(f"its body{k} <{rel}> is not on this stage", jpath)
         # a side on a static prim is the world to the parser (its local frame comes in world
         # coordinates); when that prim became a fixed body, the joint holds on to it
         s0 = out.bodies.get(str(d.rel0)) if not b0 else out.bodies[b0]
