@@ -116,6 +116,14 @@ def _f(x) -> float:
     return float(str(np.float32(x)))
 
 
+def _usd_message(exc) -> str:
+    """The message of a ``Tf.ErrorException`` without its C++ location: "Error in 'pxr...::_Init' at
+    line 142 in file .../xformOp.cpp : 'MESSAGE'" -> MESSAGE (the first, at most 200 characters)."""
+    text = " ".join(str(exc).split())
+    found = re.findall(r" : '(.*?)'(?: Error in|$)", text)
+    return (found[0] if found else text)[:200]
+
+
 def _vec(v) -> np.ndarray:
     return np.array([_f(v[0]), _f(v[1]), _f(v[2])])
 
@@ -190,10 +198,7 @@ class _Reader:
         try:
             stage = Usd.Stage.Open(str(self.path))
         except Tf.ErrorException as exc:
-            # "Error in 'pxr...::_ReadFromAsset' at line 323 in file .../usdaFileFormat.cpp : 'MESSAGE'"
-            text = " ".join(str(exc).split())
-            found = re.findall(r" : '(.*?)'(?: Error in|$)", text)
-            raise self.error(f"cannot read this USD file: {(found[0] if found else text)[:200]}") from None
+            raise self.error(f"cannot read this USD file: {_usd_message(exc)}") from None
         if stage is None:
             raise self.error("cannot read this USD file")
         self.stage = stage
@@ -205,8 +210,9 @@ class _Reader:
                           "(centimetres), is taken", TumbleWarning, stacklevel=3)
         self.kpu = float(UsdPhysics.GetStageKilogramsPerUnit(stage))
         for value, what in ((self.mpu, "metersPerUnit"), (self.kpu, "kilogramsPerUnit")):
-            if not (math.isfinite(value) and value > 0.0):
-                raise self.error(f"the stage's {what} must be a positive number, got {value:g}")
+            # densities go by the unit cubed: a unit past 1e+-9 overflows them (the fuzz test's 1e300)
+            if not (math.isfinite(value) and 1e-9 <= value <= 1e9):
+                raise self.error(f"the stage's {what} must be a number from 1e-9 to 1e9, got {value:g}")
         self.up = str(UsdGeom.GetStageUpAxis(stage)).upper()
         if self.up not in ("Y", "Z"):
             raise self.error(f"the stage's upAxis must be Y or Z, got {self.up!r}")
@@ -432,7 +438,19 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         InputError: one line ``FILE: PRIM: problem``.
     """
     path = Path(path)
+    try:
+        from pxr import Tf
+    except ImportError:  # pragma: no cover - the usd extra (and export, test) bring usd-core
+        raise InputError("reading USD needs usd-core: pip install 'tumble[usd]'", None, str(path)) from None
     r = _Reader(path, name)
+    try:
+        return _load(r, world)
+    except Tf.ErrorException as exc:  # OpenUSD refusing what the stage says (an xform op it cannot read...)
+        raise r.error(f"USD cannot read this stage: {_usd_message(exc)}") from None
+
+
+def _load(r, world) -> UsdScene:
+    """``load_usd``'s work, the reader ``r`` made."""
     r.open()
     out = UsdScene(up_axis=r.up, meters_per_unit=r.mpu, kilograms_per_unit=r.kpu)
     out.gravity = r.scene()
@@ -469,7 +487,12 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
             if not moving:
                 continue
             raise r.error("a rigid body without a collider (tumble's bodies have a shape)", bpath)
-        kw = r.mass_of(bpath, [p[:5] for p in parts]) if moving else {}
+        try:
+            kw = r.mass_of(bpath, [p[:5] for p in parts]) if moving else {}
+        except InputError as err:  # a density or mass past the float range (1e300 g/cm^3)
+            if err.file:
+                raise
+            raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
         mats = [p[5] for p in parts]
         material = mats[0] if all(m == mats[0] for m in mats) else None
         if len(parts) == 1 and not parts[0][2].any() and np.array_equal(parts[0][3], [1.0, 0.0, 0.0, 0.0]):
