@@ -851,3 +851,28 @@ def test_a_moving_mesh_of_approximation_convex_decomposition_is_cut_by_coacd(tmp
     shape = world.shapes[scene.bodies["/World/ring"].index]
     assert isinstance(shape, tb.Compound) and shape.source is not None and len(shape.parts) > 3
     assert scene.bodies["/World/ring"].mass == pytest.approx(1000.0 * abs(ring.volume), rel=1e-5)
+
+
+def test_a_stage_placed_by_position_and_orientation_moves_as_the_stage_turned_and_moved(tmp_path):
+    """``load_usd(position=, euler_deg=)`` (a scene's ``[[robots]]`` entry's keys): every body of the
+    pendulum stage lands at R x + t with orientation R R_body, its hinge's axis turned with it;
+    gravity is the World's. Turned about z (gravity's axis) and moved, the rod swings as the
+    unplaced one turned and moved: after 1 s, x' = R x + t to 1e-9 m (round-off)."""
+    path = _pendulum_stage(tmp_path, upper=45.0, start_deg=30.0)
+    plain, s0 = load(path)
+    world = tb.World()
+    s1 = tb.load_usd(world, path, position=(5.0, -1.0, 2.0), euler_deg=(0.0, 0.0, 90.0))
+    world.gravity[:] = s1.gravity
+    np.testing.assert_allclose(s1.gravity, s0.gravity)
+    Rp = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    t = np.array([5.0, -1.0, 2.0])
+    rod0, rod1 = s0.bodies["/World/rod"], s1.bodies["/World/rod"]
+    np.testing.assert_allclose(rod1.x, Rp @ rod0.x + t, atol=1e-12)
+    np.testing.assert_allclose(rod1.R, Rp @ rod0.R, atol=1e-12)
+    placed = rod1.x.copy()
+    for w in (plain, world):
+        tb.Simulator(w, dt=1 / 240).step(240)
+    np.testing.assert_allclose(rod1.x, Rp @ rod0.x + t, atol=1e-9)
+    (tmp_path / "placed.toml").write_text('[[robots]]\nfile = "stage.usda"\nposition = [5, -1, 2]\neuler_deg = [0, 0, 90]\n')
+    scene = load_scene(tmp_path / "placed.toml")  # the entry's keys reach load_usd
+    np.testing.assert_array_equal(scene.world.x[scene.world.index_of("World/rod")], placed)

@@ -27,7 +27,8 @@ and ``keyframe = "home"`` starts it in a ``<keyframe>`` key (``Robot.reset_to_ke
 
 A USD stage (``.usd``, ``.usda``, ``.usdc``, ``.usdz``) is read by ``usd_physics.load_usd``: its
 rigid bodies, colliders and joints (the UsdPhysics schema), named ``NAME/<prim path>`` when ``name``
-is given; it takes no other key (its bodies' poses, materials and filters are the stage's).
+is given, placed by ``position`` and ``orientation`` or ``euler_deg``; it takes no other key (its
+bodies' materials and filters are the stage's).
 
 A problem inside the URDF file is one line naming both files:
 ``scene.toml: robots[0].file: arm.urdf: joint[elbow].limit.lower: expected 1 number, got 'x'``.
@@ -137,18 +138,26 @@ class RobotReader:
     def _usd(self, world, entry: dict, key: str, names: dict):
         """A ``[[robots]]`` entry holding a USD stage: its bodies and joints added to the world."""
         for k in entry:
-            if k not in ("file", "name"):
-                raise self.error("a robot option: a USD stage takes only file and name", f"{key}.{k}")
+            if k not in ("file", "name", "position", "orientation", "euler_deg"):
+                raise self.error("a robot option: a USD stage takes only file, name, position and orientation "
+                                 "or euler_deg", f"{key}.{k}")
         path = Path(self.data_path(entry["file"], f"{key}.file", "USD"))
-        name = None
+        kw = {}
         if "name" in entry:
-            name = self.string(entry["name"], f"{key}.name")
-            if not name:
+            kw["name"] = self.string(entry["name"], f"{key}.name")
+            if not kw["name"]:
                 raise self.error("must not be empty", f"{key}.name")
+        for k in ("position", "euler_deg"):
+            if k in entry:
+                kw[k] = self.vector(entry[k], f"{key}.{k}")
+        if "orientation" in entry:
+            if "euler_deg" in entry:
+                raise self.error("give orientation or euler_deg, not both", f"{key}.euler_deg")
+            kw["orientation"] = self.vector(entry["orientation"], f"{key}.orientation", 4)
         self.where = key
         before = world.body_count
         try:
-            load_usd(world, path, name=name)
+            load_usd(world, path, **kw)
         except InputError as err:
             if err.file:  # the stage's own problem: both files on the line
                 inner = ": ".join(str(p) for p in (Path(err.file).name, err.key) if p)

@@ -177,10 +177,12 @@ def _compose(q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:
 
 
 class _Reader:
-    def __init__(self, path: Path, name_prefix: str | None):
+    def __init__(self, path: Path, name_prefix: str | None, placement=None):
         self.file = str(path)
         self.path = path
         self.prefix = name_prefix
+        # (rotation (3, 3), translation (3,) m): where the stage's origin and axes go in the World
+        self.placement = placement if placement is not None else (np.eye(3), np.zeros(3))
 
     def error(self, problem: str, prim=None) -> InputError:
         return InputError(problem, str(prim) if prim is not None else None, self.file)
@@ -218,7 +220,10 @@ class _Reader:
             raise self.error(f"the stage's upAxis must be Y or Z, got {self.up!r}")
         # Y up -> z up: +90 deg about x takes y to z (and z to -y)
         self.C = np.eye(3) if self.up == "Z" else np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-        self.qC = _matrix_quat(self.C)
+        # where the stage goes in the World: A = placement rotation after the axes' turn, then + t
+        self.A = self.placement[0] @ self.C
+        self.qA = _matrix_quat(self.A)
+        self.t = self.placement[1]
         # OpenUSD's parser (usd-core 25.05 on); 26.x renamed it and keeps the old name, deprecated
         load = getattr(UsdPhysics, "UsdPhysicsLoadStageFromPrimRange", None) or UsdPhysics.LoadUsdPhysicsFromRange
         parsed = load(stage, ["/"])
@@ -232,10 +237,11 @@ class _Reader:
 
     # -- world frame (tumble's: z up, metres)
     def point(self, p) -> np.ndarray:
-        return self.C @ (_vec(p) * self.mpu)
+        """A stage point (its units, its axes) in the World: metres, z up, placed."""
+        return self.A @ (_vec(p) * self.mpu) + self.t
 
     def rotation(self, q) -> np.ndarray:
-        return _compose(self.qC, _quat(q))
+        return _compose(self.qA, _quat(q))
 
     def name(self, prim_path) -> str:
         """A body's name: its prim's ``customData["tumble:name"]`` (what ``save_usd`` writes), else
@@ -422,7 +428,8 @@ class _Reader:
         return {"mass": mass, "center_of_mass": center, "inertia": inertia}
 
 
-def load_usd(world, path, *, name: str | None = None) -> UsdScene:
+def load_usd(world, path, *, name: str | None = None, position=(0.0, 0.0, 0.0), orientation=None,
+             euler_deg=None) -> UsdScene:
     """Add the rigid bodies, colliders and joints of a USD stage (the UsdPhysics schema) to ``world``.
 
     Args:
@@ -430,6 +437,9 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         path: a ``.usd``, ``.usda``, ``.usdc`` or ``.usdz`` file.
         name: optional prefix of the bodies' names (``"NAME/World/box"``); default none: a body is
             named by its prim path without the leading slash (``"World/box"``).
+        position: (3,) m, where the stage's origin goes in the World; ``orientation`` (w, x, y, z)
+            or ``euler_deg`` (as ``add_body``'s): how its axes (made z up) turn. Gravity is the
+            World's, not turned. Default: the stage as it is.
 
     Returns:
         a ``UsdScene``: the bodies and joints by prim path, the stage's gravity and units.
@@ -442,7 +452,22 @@ def load_usd(world, path, *, name: str | None = None) -> UsdScene:
         from pxr import Tf
     except ImportError:  # pragma: no cover - the usd extra (and export, test) bring usd-core
         raise InputError("reading USD needs usd-core: pip install 'tumble[usd]'", None, str(path)) from None
-    r = _Reader(path, name)
+    from .math3d import quat_from_euler_deg
+    from .shapes import finite_vector
+
+    if orientation is not None and euler_deg is not None:
+        raise InputError("give orientation or euler_deg, not both", "orientation", str(path))
+    try:
+        t = finite_vector(position, "position")
+        if euler_deg is not None:
+            q = quat_from_euler_deg(finite_vector(euler_deg, "euler_deg"))
+        else:
+            from .world import unit_quaternion
+
+            q = unit_quaternion((1.0, 0.0, 0.0, 0.0) if orientation is None else orientation)
+    except InputError as err:
+        raise InputError(err.problem, err.key, str(path)) from None
+    r = _Reader(path, name, (_quat_matrix(q), t))
     try:
         return _load(r, world)
     except Tf.ErrorException as exc:  # OpenUSD refusing what the stage says (an xform op it cannot read...)
@@ -507,8 +532,8 @@ def _load(r, world) -> UsdScene:
         if parent is not None:  # its rotation, scales and shears taken out; Gf's rows are our columns
             P = np.array(parent.RemoveScaleShear().ExtractRotationMatrix(), dtype=float).T
         with np.errstate(invalid="ignore", over="ignore"):  # an inf or NaN authored: add_body's line names it
-            v = r.C @ P @ (_vec(d.linearVelocity) * r.mpu) if moving else np.zeros(3)
-            w = r.C @ P @ np.radians(_vec(d.angularVelocity)) if moving else np.zeros(3)
+            v = r.A @ P @ (_vec(d.linearVelocity) * r.mpu) if moving else np.zeros(3)
+            w = r.A @ P @ np.radians(_vec(d.angularVelocity)) if moving else np.zeros(3)
         try:
             body = world.add_body(shape, position=r.point(d.position), orientation=r.rotation(d.rotation),
                                   velocity=v, angular_velocity=w, kinematic=moving and bool(d.kinematicBody),
@@ -580,9 +605,9 @@ def _animation(r, world, body, bpath: str):
     positions, orientations = [], []
     for tc in codes:
         M = xf.ComputeLocalToWorldTransform(Usd.TimeCode(tc)).RemoveScaleShear()
-        positions.append(r.C @ (_vec(M.ExtractTranslation()) * r.mpu))
+        positions.append(r.point(M.ExtractTranslation()))
         rot = np.array(M.ExtractRotationMatrix(), dtype=float).T  # Gf's rows are our columns
-        orientations.append(_compose(r.qC, _matrix_quat(rot)))
+        orientations.append(_compose(r.qA, _matrix_quat(rot)))
     times = (np.array(codes, dtype=float) - start) / rate
     if times[0] > 0.0:  # before its first key it holds the first pose
         times = np.concatenate([[0.0], times])
@@ -602,12 +627,12 @@ def _static_collider(r, world, out, cpath: str, kind: str, cd):
     """A collider of no body: a fixed body of its own at the collider's world pose."""
     mat, _ = r.material(cd.materials)
     if kind == "PlaneShape":
-        n = r.C @ _quat_matrix(_quat(cd.localRot))[:, _axis_index(cd.axis)]
+        n = r.A @ _quat_matrix(_quat(cd.localRot))[:, _axis_index(cd.axis)]
         p = r.point(cd.localPos)
         shape, pos, q = Plane(normal=tuple(n), offset=float(n @ p)), np.zeros(3), np.array([1.0, 0, 0, 0])
     else:
         shape, pos, q = r.collider_shape(kind, cpath, cd, False)
-        pos, q = r.C @ pos, _compose(r.qC, q)
+        pos, q = r.A @ pos + r.t, _compose(r.qA, q)
     try:
         body = world.add_body(shape, fixed=True, position=pos, orientation=q, material=mat, name=r.name(cpath))
     except InputError as err:
@@ -709,7 +734,7 @@ def _joint_frame(r, out, body_path, pos, rot):
     p = _vec(pos) * r.mpu
     Rl = _quat_matrix(_quat(rot))
     if not body_path:
-        return r.C @ p, r.C @ Rl
+        return r.A @ p + r.t, r.A @ Rl
     if body_path not in out.bodies:
         return None
     body = out.bodies[body_path]
