@@ -73,18 +73,7 @@ class RobotReader:
             if k in entry:
                 table = self.table(entry[k], f"{key}.{k}", entry[k].keys() if isinstance(entry[k], dict) else ())
                 settings[k] = {n: self.number(v, f"{key}.{k}.{n}") for n, v in table.items()}
-        kw = {}
-        if "name" in entry:
-            kw["name"] = self.string(entry["name"], f"{key}.name")
-            if not kw["name"]:
-                raise self.error("must not be empty", f"{key}.name")
-        for k in ("position", "euler_deg"):
-            if k in entry:
-                kw[k] = self.vector(entry[k], f"{key}.{k}")
-        if "orientation" in entry:
-            if "euler_deg" in entry:
-                raise self.error("give orientation or euler_deg, not both", f"{key}.euler_deg")
-            kw["orientation"] = self.vector(entry["orientation"], f"{key}.orientation", 4)
+        kw = self._name_and_pose(entry, key)
         for k in ("fixed_base", "merge_fixed", "self_collision"):
             if k in entry:
                 kw[k] = self.boolean(entry[k], f"{key}.{k}")
@@ -135,13 +124,9 @@ class RobotReader:
         for name, camera in robot.cameras.items():
             self.robot_cameras[f"{robot.name}/{name}"] = camera
 
-    def _usd(self, world, entry: dict, key: str, names: dict):
-        """A ``[[robots]]`` entry holding a USD stage: its bodies and joints added to the world."""
-        for k in entry:
-            if k not in ("file", "name", "position", "orientation", "euler_deg"):
-                raise self.error("a robot option: a USD stage takes only file, name, position and orientation "
-                                 "or euler_deg", f"{key}.{k}")
-        path = Path(self.data_path(entry["file"], f"{key}.file", "USD"))
+    def _name_and_pose(self, entry: dict, key: str) -> dict:
+        """The entry's ``name``, ``position`` and ``orientation`` or ``euler_deg``, as the loaders'
+        keywords."""
         kw = {}
         if "name" in entry:
             kw["name"] = self.string(entry["name"], f"{key}.name")
@@ -154,6 +139,16 @@ class RobotReader:
             if "euler_deg" in entry:
                 raise self.error("give orientation or euler_deg, not both", f"{key}.euler_deg")
             kw["orientation"] = self.vector(entry["orientation"], f"{key}.orientation", 4)
+        return kw
+
+    def _usd(self, world, entry: dict, key: str, names: dict):
+        """A ``[[robots]]`` entry holding a USD stage: its bodies and joints added to the world."""
+        for k in entry:
+            if k not in ("file", "name", "position", "orientation", "euler_deg"):
+                raise self.error("a robot option: a USD stage takes only file, name, position and orientation "
+                                 "or euler_deg", f"{key}.{k}")
+        path = Path(self.data_path(entry["file"], f"{key}.file", "USD"))
+        kw = self._name_and_pose(entry, key)
         self.where = key
         before = world.body_count
         try:
