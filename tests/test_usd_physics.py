@@ -876,3 +876,30 @@ def test_a_stage_placed_by_position_and_orientation_moves_as_the_stage_turned_an
     (tmp_path / "placed.toml").write_text('[[robots]]\nfile = "stage.usda"\nposition = [5, -1, 2]\neuler_deg = [0, 0, 90]\n')
     scene = load_scene(tmp_path / "placed.toml")  # the entry's keys reach load_usd
     np.testing.assert_array_equal(scene.world.x[scene.world.index_of("World/rod")], placed)
+
+
+def test_capsules_and_cylinders_with_two_radii(tmp_path):
+    """Cylinder_1 and Capsule_1 (a radius at each end): equal radii are the plain shapes; a frustum
+    (radii 0.1 and 0.2, height 0.5) is the hull of 64 points on each rim, its mass the frustum's
+    pi h (R^2 + R r + r^2) / 3 times 1000 kg/m^3 within 0.5 % (the polygons' (n / 2 pi) sin(2 pi / n)
+    = 0.9984 of the circles' area); a tapered capsule is a hull too, heavier than its frustum."""
+    stage, path = new_stage(tmp_path)
+    for name, cls, top, bottom in (("can", UsdGeom.Cylinder_1, 0.2, 0.2), ("frustum", UsdGeom.Cylinder_1, 0.1, 0.2),
+                                   ("pill", UsdGeom.Capsule_1, 0.1, 0.2)):
+        g = cls.Define(stage, f"/World/{name}")
+        g.GetRadiusTopAttr().Set(top)
+        g.GetRadiusBottomAttr().Set(bottom)
+        g.GetHeightAttr().Set(0.5)
+        g.GetAxisAttr().Set("Z")
+        UsdPhysics.CollisionAPI.Apply(g.GetPrim())
+        UsdPhysics.RigidBodyAPI.Apply(g.GetPrim())
+    stage.Save()
+    world, scene = load(path)
+    def shape(name):  # along z: the shape itself, not turned into a one-part compound
+        return world.shapes[scene.bodies[f"/World/{name}"].index]
+
+    assert isinstance(shape("can"), tb.Cylinder) and shape("can").radius == pytest.approx(0.2)
+    assert isinstance(shape("frustum"), tb.Convex) and isinstance(shape("pill"), tb.Convex)
+    frustum = 1000 * math.pi * 0.5 * (0.2**2 + 0.2 * 0.1 + 0.1**2) / 3
+    assert scene.bodies["/World/frustum"].mass == pytest.approx(frustum, rel=0.005)
+    assert scene.bodies["/World/pill"].mass > scene.bodies["/World/frustum"].mass
