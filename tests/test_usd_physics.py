@@ -903,3 +903,27 @@ def test_capsules_and_cylinders_with_two_radii(tmp_path):
     frustum = 1000 * math.pi * 0.5 * (0.2**2 + 0.2 * 0.1 + 0.1**2) / 3
     assert scene.bodies["/World/frustum"].mass == pytest.approx(frustum, rel=0.005)
     assert scene.bodies["/World/pill"].mass > scene.bodies["/World/frustum"].mass
+
+
+def test_tumble_sweep_takes_a_usd_stage_as_tumble_run_does(tmp_path):
+    """``run_sweep`` (``tumble sweep``) on a .usda: the document ``tumble run`` makes of it (one
+    ``[[robots]]`` entry, the stage's gravity), varied by its keys: the pendulum run 0.5 and 1 s by
+    ``simulation.duration``, each variant's final state the state hash of the same scene run
+    alone."""
+    from tumble.checks import state_hash
+    from tumble.scene import model_document, parse_scene
+    from tumble.sweep import run_sweep
+
+    path = _pendulum_stage(tmp_path)
+    table = run_sweep(path, vary={"simulation.duration": "[0.5, 1]"}, out=tmp_path / "sweep", workers=0,
+                      progress=False)
+    rows = table.to_pylist()
+    assert len(rows) == 2 and all(r["status"] == "ok" for r in rows)
+    hashes = []
+    for duration in (0.5, 1.0):
+        doc = model_document(path)
+        doc["simulation"]["duration"] = duration
+        scene = parse_scene(doc, str(path), path.parent)
+        scene.run(progress=False)
+        hashes.append(state_hash(scene.world))
+    assert sorted(r["state_hash"] for r in rows) == sorted(hashes) and hashes[0] != hashes[1]

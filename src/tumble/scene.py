@@ -225,26 +225,36 @@ def load_scene(path) -> Scene:
 
 def _model_scene(path: Path) -> Scene:
     """A MuJoCo model file as a scene (``tumble run model.xml``, as MuJoCo's ``simulate`` opens one):
-    one ``[[robots]]`` entry loading it, its ``<option gravity>`` (MuJoCo's default 0 0 -9.81) as
-    the scene's gravity, the other ``[simulation]`` keys at their defaults (dt 1/240 s: the model's
-    ``timestep`` is not taken, the frames must be a whole number of steps)."""
-    from .mjcf import read_mjcf, read_option_gravity
-
-    read_mjcf(path)  # the model's own problems as its own line (FILE: element: problem), not as the entry's
-    data = {"simulation": {"gravity": [float(g) for g in read_option_gravity(path)]},
-            "robots": [{"file": path.name}]}
-    return parse_scene(data, str(path), path.parent, source=path)
+    ``model_document``'s one ``[[robots]]`` entry loading it, its ``<option gravity>`` (MuJoCo's
+    default 0 0 -9.81) as the scene's gravity, the other ``[simulation]`` keys at their defaults
+    (dt 1/240 s: the model's ``timestep`` is not taken, the frames must be a whole number of
+    steps)."""
+    return parse_scene(model_document(path), str(path), path.parent, source=path)
 
 
 def _usd_scene(path: Path) -> Scene:
-    """A USD stage with UsdPhysics prims as a scene (``tumble run stage.usda``): one ``[[robots]]``
-    entry loading it (``usd_physics.load_usd``), the stage's PhysicsScene gravity as the scene's,
-    the other ``[simulation]`` keys at their defaults."""
-    from .usd_physics import load_usd
+    """A USD stage with UsdPhysics prims as a scene (``tumble run stage.usda``): ``model_document``'s
+    one ``[[robots]]`` entry loading it (``usd_physics.load_usd``), the stage's PhysicsScene gravity
+    as the scene's, the other ``[simulation]`` keys at their defaults."""
+    return parse_scene(model_document(path), str(path), path.parent, source=path)
 
-    gravity = load_usd(World(), path).gravity  # the stage's own problems as its own line, before the entry's
-    data = {"simulation": {"gravity": [float(g) for g in gravity]}, "robots": [{"file": path.name}]}
-    return parse_scene(data, str(path), path.parent, source=path)
+
+def model_document(path: Path) -> dict:
+    """The scene document of a model file run as a scene of its own: an MJCF ``.xml`` or a USD
+    stage, one ``[[robots]]`` entry loading it and its gravity as ``[simulation]``'s (what
+    ``tumble run`` and ``tumble sweep`` take such a file as). The file's own problems are its own
+    line (FILE: element or prim: problem), not the entry's."""
+    path = Path(path)
+    if path.suffix.lower() == ".xml":
+        from .mjcf import read_mjcf, read_option_gravity
+
+        read_mjcf(path)
+        gravity = read_option_gravity(path)
+    else:
+        from .usd_physics import load_usd
+
+        gravity = load_usd(World(), path).gravity
+    return {"simulation": {"gravity": [float(g) for g in gravity]}, "robots": [{"file": path.name}]}
 
 
 class _DuplicateKey(Exception):

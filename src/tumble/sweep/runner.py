@@ -44,6 +44,9 @@ TIME_COLUMNS = ("wall_time_s",)
 # ---------------------------------------------------------------------- the scene and its [sweep] table
 
 
+MODEL_SUFFIXES = (".xml", ".usd", ".usda", ".usdc", ".usdz")
+
+
 def read_scene_document(scene):
     """(document without [sweep], the [sweep] table or {}, file label, base folder) of a path or a dict.
 
@@ -57,8 +60,15 @@ def read_scene_document(scene):
         path = Path(scene)
         file, base_dir = str(path), str(path.parent)
         suffix = path.suffix.lower()
+        if suffix in MODEL_SUFFIXES:  # an MJCF model or a USD stage: the document tumble run makes of it
+            from ..scene import model_document
+
+            if not path.is_file():
+                raise InputError("file not found", None, file)
+            return model_document(path), {}, file, base_dir
         if suffix not in (".toml", ".json"):
-            raise InputError(f"unknown scene file type {path.suffix or '(none)'!r} (expected .toml or .json)", None, file)
+            raise InputError(f"unknown scene file type {path.suffix or '(none)'!r} (expected .toml, .json, an MJCF .xml "
+                             "or a USD stage)", None, file)
         try:
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
