@@ -21,7 +21,7 @@ def add_commands(subparsers) -> dict:
         description="Run variants of a scene file, each with some values changed, as independent tasks on local worker "
                     "processes or a Dask cluster, and gather their figures into DIR/results.parquet. "
                     "Running the same command again on the same DIR resumes an interrupted sweep. See docs/sweeps.md.")
-    p.add_argument("scene", metavar="SCENE", help="scene file, .toml or .json (may hold a [sweep] table)")
+    p.add_argument("scene", metavar="SCENE", help="scene file, .toml or .json (may hold a [sweep] table); or an MJCF .xml or a USD stage, as tumble run takes them")
     p.add_argument("--vary", metavar="KEY=SPEC", action="append", default=[],
                    help="a key path and its values, e.g. bodies.box.angular_velocity[0]=linspace(0.001,0.1,100); "
                         "specs: [a,b,c], linspace(a,b,n), range(a,b,step), uniform(a,b), normal(mu,sigma)")
