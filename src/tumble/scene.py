@@ -170,7 +170,7 @@ class Scene:
 def load_scene(path) -> Scene:
     """Read a scene file: ``.toml`` (tomllib) or ``.json``; or a MuJoCo model (``.xml``, MJCF) or a
     USD stage with physics (``.usd``, ``.usda``, ``.usdc``, ``.usdz``) run as a scene of its own
-    (``_model_scene``, ``_usd_scene``).
+    (``_model_scene``).
 
     Mesh paths inside it are relative to the file's folder.
 
@@ -180,10 +180,8 @@ def load_scene(path) -> Scene:
     path = Path(path)
     file = str(path)
     suffix = path.suffix.lower()
-    if suffix == ".xml":
+    if suffix == ".xml" or suffix in USD_SUFFIXES:
         return _model_scene(path)
-    if suffix in USD_SUFFIXES:
-        return _usd_scene(path)
     if suffix not in (".toml", ".json"):
         raise InputError(f"unknown scene file type {path.suffix or '(none)'!r} (expected .toml, .json, an MJCF .xml "
                          "or a USD stage)", None, file)
@@ -224,36 +222,31 @@ def load_scene(path) -> Scene:
 
 
 def _model_scene(path: Path) -> Scene:
-    """A MuJoCo model file as a scene (``tumble run model.xml``, as MuJoCo's ``simulate`` opens one):
-    ``model_document``'s one ``[[robots]]`` entry loading it, its ``<option gravity>`` (MuJoCo's
-    default 0 0 -9.81) as the scene's gravity, the other ``[simulation]`` keys at their defaults
-    (dt 1/240 s: the model's ``timestep`` is not taken, the frames must be a whole number of
-    steps)."""
-    return parse_scene(model_document(path), str(path), path.parent, source=path)
-
-
-def _usd_scene(path: Path) -> Scene:
-    """A USD stage with UsdPhysics prims as a scene (``tumble run stage.usda``): ``model_document``'s
-    one ``[[robots]]`` entry loading it (``usd_physics.load_usd``), the stage's PhysicsScene gravity
-    as the scene's, the other ``[simulation]`` keys at their defaults."""
+    """A MuJoCo model file or a USD stage as a scene of its own (``tumble run model.xml``, as
+    MuJoCo's ``simulate`` opens one; ``tumble run stage.usda``): ``model_document``'s one
+    ``[[robots]]`` entry loading it, the file's gravity (MJCF's ``<option gravity>``, MuJoCo's
+    default 0 0 -9.81; the stage's PhysicsScene) as the scene's, the other ``[simulation]`` keys at
+    their defaults (dt 1/240 s: a model's ``timestep`` is not taken, the frames must be a whole
+    number of steps)."""
     return parse_scene(model_document(path), str(path), path.parent, source=path)
 
 
 def model_document(path: Path) -> dict:
     """The scene document of a model file run as a scene of its own: an MJCF ``.xml`` or a USD
     stage, one ``[[robots]]`` entry loading it and its gravity as ``[simulation]``'s (what
-    ``tumble run`` and ``tumble sweep`` take such a file as). The file's own problems are its own
-    line (FILE: element or prim: problem), not the entry's."""
+    ``tumble run`` and ``tumble sweep`` take such a file as). An MJCF file's own problems are its
+    own line (FILE: element: problem), not the entry's; a stage's are the entry's (both files on
+    the line) but for those of the file itself (not found, not USD, its units)."""
     path = Path(path)
     if path.suffix.lower() == ".xml":
         from .mjcf import read_mjcf, read_option_gravity
 
         read_mjcf(path)
         gravity = read_option_gravity(path)
-    else:
-        from .usd_physics import load_usd
+    else:  # the stage opened and its PhysicsScene read (its bodies are read once, by the entry)
+        from .usd_physics import read_gravity
 
-        gravity = load_usd(World(), path).gravity
+        gravity = read_gravity(path)
     return {"simulation": {"gravity": [float(g) for g in gravity]}, "robots": [{"file": path.name}]}
 
 

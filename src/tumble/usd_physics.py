@@ -459,6 +459,27 @@ class _Reader:
         return {"mass": mass, "center_of_mass": center, "inertia": inertia}
 
 
+def _tf(path):
+    """pxr's Tf module (its ``ErrorException``), or the one line saying usd-core is missing."""
+    try:
+        from pxr import Tf
+    except ImportError:  # pragma: no cover - the usd extra (and export, test) bring usd-core
+        raise InputError("reading USD needs usd-core: pip install 'tumble[usd]'", None, str(path)) from None
+    return Tf
+
+
+def read_gravity(path) -> np.ndarray:
+    """The gravity (3,) m/s^2, world (z up), of the stage at ``path``: its PhysicsScene's, or the
+    schema's default; the stage opened and parsed, no body made (``InputError`` as ``load_usd``)."""
+    Tf = _tf(path)
+    r = _Reader(Path(path), None)
+    try:
+        r.open()
+        return r.scene()
+    except Tf.ErrorException as exc:
+        raise r.error(f"USD cannot read this stage: {_usd_message(exc)}") from None
+
+
 def load_usd(world, path, *, name: str | None = None, position=(0.0, 0.0, 0.0), orientation=None,
              euler_deg=None) -> UsdScene:
     """Add the rigid bodies, colliders and joints of a USD stage (the UsdPhysics schema) to ``world``.
@@ -479,10 +500,7 @@ def load_usd(world, path, *, name: str | None = None, position=(0.0, 0.0, 0.0), 
         InputError: one line ``FILE: PRIM: problem``.
     """
     path = Path(path)
-    try:
-        from pxr import Tf
-    except ImportError:  # pragma: no cover - the usd extra (and export, test) bring usd-core
-        raise InputError("reading USD needs usd-core: pip install 'tumble[usd]'", None, str(path)) from None
+    Tf = _tf(path)
     from .math3d import quat_from_euler_deg
     from .shapes import finite_vector
 
