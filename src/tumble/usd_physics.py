@@ -499,10 +499,11 @@ def load_usd(world, path, *, name: str | None = None, position=(0.0, 0.0, 0.0), 
     Raises:
         InputError: one line ``FILE: PRIM: problem``.
     """
-    path = Path(path)
-    Tf = _tf(path)
     from .math3d import quat_from_euler_deg
     from .shapes import finite_vector
+
+    path = Path(path)
+    Tf = _tf(path)
 
     if orientation is not None and euler_deg is not None:
         raise InputError("give orientation or euler_deg, not both", "orientation", str(path))
