@@ -80,6 +80,7 @@ import numpy as np
 
 from .errors import InputError, TumbleWarning
 from .mass import _quat_matrix, combine_mass_properties, mass_properties
+from .math3d import matrix_to_quat, quat_multiply
 from .material import Material
 from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Mesh, Plane, Sphere
 
@@ -138,22 +139,8 @@ def _quat(q) -> np.ndarray:
 
 
 def _matrix_quat(R: np.ndarray) -> np.ndarray:
-    """(w, x, y, z) of a rotation matrix (Shepperd's method: the largest of the four first)."""
-    t = np.trace(R)
-    if t > 0.0:
-        s = 2.0 * math.sqrt(1.0 + t)
-        q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
-    else:
-        i = int(np.argmax(np.diag(R)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * math.sqrt(max(1.0 + R[i, i] - R[j, j] - R[k, k], 0.0))
-        q = [0.0, 0.0, 0.0, 0.0]
-        q[0] = (R[k, j] - R[j, k]) / s
-        q[1 + i] = 0.25 * s
-        q[1 + j] = (R[j, i] + R[i, j]) / s
-        q[1 + k] = (R[k, i] + R[i, k]) / s
-    q = np.array(q)
-    return q / np.linalg.norm(q)
+    """(w, x, y, z) of a rotation matrix (3, 3): ``math3d.matrix_to_quat`` (Shepperd's method)."""
+    return matrix_to_quat(np.ascontiguousarray(R, dtype=float))
 
 
 _AXES = {"X": 0, "Y": 1, "Z": 2}
@@ -190,11 +177,8 @@ def _tapered_points(bottom: float, top: float, half: float, capsule: bool) -> np
 
 
 def _compose(q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:
-    """The product q_a q_b (w, x, y, z): q_b's rotation, then q_a's."""
-    w1, x1, y1, z1 = q_a
-    w2, x2, y2, z2 = q_b
-    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+    """The product q_a q_b (w, x, y, z): q_b's rotation, then q_a's (``math3d.quat_multiply``)."""
+    return quat_multiply(np.ascontiguousarray(q_a, dtype=float), np.ascontiguousarray(q_b, dtype=float))
 
 
 class _Reader:
@@ -207,6 +191,10 @@ class _Reader:
 
     def error(self, problem: str, prim=None) -> InputError:
         return InputError(problem, str(prim) if prim is not None else None, self.file)
+
+    def on_prim(self, err: InputError, prim) -> InputError:
+        """A tumble record's complaint (key: problem) as the prim's line: FILE: PRIM: key: problem."""
+        return self.error(f"{err.key}: {err.problem}" if err.key else err.problem, prim)
 
     # -- the stage
     def open(self):
@@ -323,7 +311,7 @@ class _Reader:
         except InputError as err:
             if err.file:
                 raise
-            raise self.error(f"{err.key}: {err.problem}" if err.key else err.problem, path) from None
+            raise self.on_prim(err, path) from None
 
     def _collider_shape(self, kind: str, path, d, moving: bool):
         """(shape, position (3,) m, orientation (4,)) of a collider in its body's frame (or the
@@ -567,7 +555,7 @@ def _load(r, world) -> UsdScene:
         except InputError as err:  # a density or mass past the float range (1e300 g/cm^3)
             if err.file:
                 raise
-            raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
+            raise r.on_prim(err, bpath) from None
         mats = [p[5] for p in parts]
         material = mats[0] if all(m == mats[0] for m in mats) else None
         if len(parts) == 1 and not parts[0][2].any() and np.array_equal(parts[0][3], [1.0, 0.0, 0.0, 0.0]):
@@ -589,7 +577,7 @@ def _load(r, world) -> UsdScene:
                                   velocity=v, angular_velocity=w, kinematic=moving and bool(d.kinematicBody),
                                   fixed=not moving, material=material, name=r.name(bpath), **kw)
         except InputError as err:
-            raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
+            raise r.on_prim(err, bpath) from None
         out.bodies[bpath] = body
         if moving and d.kinematicBody:
             _animation(r, world, body, bpath)
@@ -686,7 +674,7 @@ def _static_collider(r, world, out, cpath: str, kind: str, cd):
     try:
         body = world.add_body(shape, fixed=True, position=pos, orientation=q, material=mat, name=r.name(cpath))
     except InputError as err:
-        raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, cpath) from None
+        raise r.on_prim(err, cpath) from None
     out.bodies[cpath] = body
 
 
@@ -711,7 +699,7 @@ def _static_body(r, world, out, bpath: str, d, members):
         body = world.add_body(shape, fixed=True, position=r.point(d.position), orientation=r.rotation(d.rotation),
                               material=material, name=r.name(bpath))
     except InputError as err:
-        raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, bpath) from None
+        raise r.on_prim(err, bpath) from None
     out.bodies[bpath] = body
 
 
@@ -839,7 +827,7 @@ def _joints(r, world, out):
             joint = _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped)
             world.add_joint(joint)
         except InputError as err:
-            raise r.error(f"{err.key}: {err.problem}" if err.key else err.problem, jpath) from None
+            raise r.on_prim(err, jpath) from None
         if kind != "DistanceJoint":
             _schema_frames(world, joint, F0, F1, _axis_index(getattr(d, "axis", "Z")), flipped)
         out.joints[str(jpath)] = joint

@@ -53,7 +53,9 @@ from ..errors import InputError, TumbleWarning
 from ..joints import (JOINT_BALL, JOINT_DISTANCE, JOINT_FIXED, JOINT_HINGE, JOINT_SLIDER, P_DAMPING, P_LIMIT_ON,
                       P_LOWER, P_LIMIT2_ON, P_MAX_DRIVE, P_MAX_FORCE, P_MAX_MOTOR, P_MAX_TORQUE, P_MOTOR_ON,
                       P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_UPPER, P_EFFORT, P_ARMATURE)
+from ..joints import _frame_from_z
 from ..mass import _quat_matrix
+from ..math3d import matrix_to_quat
 from ..shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere
 from .usd import SUFFIXES, prim_names, write_stage
 
@@ -62,9 +64,7 @@ MOTOR_DAMPING = 1e10
 
 
 def _matrix_quat(R):
-    from ..usd_physics import _matrix_quat as mq
-
-    return mq(np.asarray(R, dtype=float))
+    return matrix_to_quat(np.ascontiguousarray(R, dtype=float))
 
 
 def save_usd(world, path) -> Path:
@@ -193,11 +193,7 @@ class _Writer:
             offset = shape.offset + float(n @ origin)
             g = G.Plane.Define(self.stage, f"/World/{prim_name}")
             g.GetAxisAttr().Set("Z")
-            helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-            xa = np.cross(helper, n)
-            xa /= np.linalg.norm(xa)
-            frame = np.column_stack([xa, np.cross(n, xa), n])
-            self.place(g, offset * n, _matrix_quat(frame))
+            self.place(g, offset * n, _matrix_quat(_frame_from_z(n)))
             P.CollisionAPI.Apply(g.GetPrim())
             self.bind(g.GetPrim(), material)
             g.GetPrim().SetCustomDataByKey("tumble:name", name)
