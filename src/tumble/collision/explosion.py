@@ -238,7 +238,7 @@ def blast(world, explosion, x=None, R=None) -> Blast:
     scale = np.ones(len(touched))
     if explosion.falloff > 0.0:  # (reach - d) / falloff >= 1 exactly when d <= radius: the clip gives both parts
         scale = np.clip((reach - d) / explosion.falloff, 0.0, 1.0)
-    if getattr(explosion, "shaded", False):
+    if explosion.shaded:
         scale = scale * visible_fraction(world, centre, touched, body, p, inside, pos, aabb, u, x, R)
     impulse = (explosion.impulse_per_area * area * scale)[:, None] * u
     return Blast(body=body, shape=touched.astype(np.int64), distance=d, point=p, area=area, impulse=impulse)
@@ -258,7 +258,7 @@ def visible_fraction(world, centre, shapes, body, point, inside, pos, aabb, u, x
 
     Six points are a coarse shadow (a shape one third hidden takes one third or one half of its
     push); the aim is that what stands behind a wall, or behind a heavier block, is spared."""
-    from .raycast import _seen, kept_scene, ray_cast_kernel
+    from .raycast import _seen, kept_scene
 
     K = len(shapes)
     c = pos[shapes]
@@ -277,17 +277,11 @@ def visible_fraction(world, centre, shapes, body, point, inside, pos, aabb, u, x
     d[ok] /= length[ok, None]
     d[~ok] = (0.0, 0.0, 1.0)
     scene = kept_scene(world)
-    spos, srot, planes, items, tree = scene.tree(world, x, R)
     table = scene.table
-    hit_shape = np.empty(6 * K, dtype=np.int64)
-    distance = np.empty(6 * K)
-    normal = np.empty((6 * K, 3))
     # each ray looks as far as its point, a hair short of it: what lies beyond does not shade
     reach = np.maximum(length * (1.0 - 1e-9) - 1e-9, 0.0)
-    ray_cast_kernel(o, d, reach, np.full(6 * K, -1, dtype=np.int64), _seen(world, 0xFFFFFFFF), planes, items, *tree,
-                    table.shape_type, table.shape_body, table.shape_params, spos, srot, table.shape_data,
-                    table.hull_plane, table.mesh_triangle, table.mesh_node_aabb, table.mesh_node_first,
-                    table.mesh_node_count, table.mesh_node_skip, hit_shape, distance, normal)
+    hit_shape, _, _ = scene.cast(world, o, d, reach, np.full(6 * K, -1, dtype=np.int64), _seen(world, 0xFFFFFFFF),
+                                 x, R)
     own = np.repeat(body, 6)
     seen = (hit_shape < 0) | (table.shape_body[np.maximum(hit_shape, 0)] == own) | ~ok
     fraction = seen.reshape(K, 6).mean(axis=1)

@@ -458,6 +458,23 @@ class _RayScene:
         return self._tree
 
 
+    def cast(self, world, origin, direction, max_distance, exclude, seen, x=None, R=None):
+        """``ray_cast_kernel`` over this scene's shapes at the world's poses (or ``x``, ``R``):
+        origin, direction (unit) (K, 3), max_distance (K,) m, exclude (K,) int64 body or -1, seen
+        (N,) bool. Returns (shape (K,) int64, -1 for none; distance (K,) m; normal (K, 3))."""
+        pos, rot, planes, items, tree = self.tree(world, x, R)
+        K = len(origin)
+        shape = np.empty(K, dtype=np.int64)
+        distance = np.empty(K)
+        normal = np.empty((K, 3))
+        table = self.table
+        ray_cast_kernel(origin, direction, max_distance, exclude, seen, planes, items, *tree, table.shape_type,
+                        table.shape_body, table.shape_params, pos, rot, table.shape_data, table.hull_plane,
+                        table.mesh_triangle, table.mesh_node_aabb, table.mesh_node_first, table.mesh_node_count,
+                        table.mesh_node_skip, shape, distance, normal)
+        return shape, distance, normal
+
+
 def kept_scene(world) -> _RayScene:
     """The ``_RayScene`` kept on ``world`` between queries (ray casts, area queries), made anew
     when bodies were added."""
@@ -539,14 +556,8 @@ def ray_cast(world, origin, direction, max_distance=np.inf, exclude=None, table=
         scene = kept_scene(world)
     else:
         scene = _RayScene(world, table)
-    pos, rot, planes, items, tree = scene.tree(world)
-    shape = np.empty(R, dtype=np.int64)
-    distance = np.empty(R)
-    normal = np.empty((R, 3))
+    shape, distance, normal = scene.cast(world, o, d, dist, skip, seen)
     table = scene.table
-    ray_cast_kernel(o, d, dist, skip, seen, planes, items, *tree, table.shape_type, table.shape_body, table.shape_params,
-                    pos, rot, table.shape_data, table.hull_plane, table.mesh_triangle, table.mesh_node_aabb,
-                    table.mesh_node_first, table.mesh_node_count, table.mesh_node_skip, shape, distance, normal)
     hit = shape >= 0
     body = np.full(R, -1, dtype=np.int64)
     body[hit] = table.shape_body[shape[hit]]
