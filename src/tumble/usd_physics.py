@@ -556,13 +556,7 @@ def _load(r, world) -> UsdScene:
             if err.file:
                 raise
             raise r.on_prim(err, bpath) from None
-        mats = [p[5] for p in parts]
-        material = mats[0] if all(m == mats[0] for m in mats) else None
-        if len(parts) == 1 and not parts[0][2].any() and np.array_equal(parts[0][3], [1.0, 0.0, 0.0, 0.0]):
-            shape = parts[0][1]
-        else:
-            shape = Compound(parts=[(p[1], p[2], p[3]) for p in parts],
-                             materials=None if material is not None or all(m is None for m in mats) else mats)
+        shape, material = _body_shape([(p[1], p[2], p[3]) for p in parts], [p[5] for p in parts])
         # the schema's velocities are in the body's parent space (angular in degrees per second)
         prim = r.stage.GetPrimAtPath(bpath)
         parent = r.UsdGeom.Xformable(prim).ComputeParentToWorldTransform(r.Usd.TimeCode.Default()) if prim else None
@@ -661,6 +655,20 @@ def _animation(r, world, body, bpath: str):
         raise r.error(f"its animation: {err.problem}", bpath) from None
 
 
+def _body_shape(parts: list, mats: list):
+    """(shape, material) of a body of colliders ``parts`` [(shape, position (3,) m, orientation
+    (4,))] in its frame with materials ``mats``: a lone collider at the body's origin (to 1e-12:
+    a fixed body's colliders are placed by a difference of poses) is the shape itself, others a
+    Compound; one material for all is the body's, different ones the parts'."""
+    material = mats[0] if all(m == mats[0] for m in mats) else None
+    (first, pos, q), = parts[:1]
+    if len(parts) == 1 and np.allclose(pos, 0.0, rtol=0.0, atol=1e-12) and \
+            np.allclose(q, (1.0, 0.0, 0.0, 0.0), rtol=0.0, atol=1e-12):
+        return first, material
+    return Compound(parts=parts, materials=None if material is not None or all(m is None for m in mats) else mats), \
+        material
+
+
 def _static_collider(r, world, out, cpath: str, kind: str, cd):
     """A collider of no body: a fixed body of its own at the collider's world pose."""
     mat, _ = r.material(cd.materials)
@@ -690,11 +698,7 @@ def _static_body(r, world, out, bpath: str, d, members):
         shape, pos, q = r.collider_shape(kind, cpath, cd, False)  # pos, q: the world's (the stage's axes)
         parts.append((shape, R_b.T @ (pos - x_b), _compose(q_inv, q)))
         mats.append(r.material(cd.materials)[0])
-    material = mats[0] if all(m == mats[0] for m in mats) else None
-    if len(parts) == 1 and np.allclose(parts[0][1], 0.0, atol=1e-12) and np.allclose(parts[0][2], [1, 0, 0, 0], atol=1e-12):
-        shape = parts[0][0]
-    else:
-        shape = Compound(parts=parts, materials=None if material is not None or all(m is None for m in mats) else mats)
+    shape, material = _body_shape(parts, mats)
     try:
         body = world.add_body(shape, fixed=True, position=r.point(d.position), orientation=r.rotation(d.rotation),
                               material=material, name=r.name(bpath))
