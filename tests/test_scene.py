@@ -363,7 +363,12 @@ BAD_SCENES = [
     ("inertia-negative-diagonal", body(inertia="[1, 1, -1]"), "bodies[0].inertia[2]", "must be positive, got -1"),
     # meshes
     ("mesh-not-closed", body(shape=f'{{ type = "mesh", vertices = {CUBE_VERTICES}, faces = {OPEN_BOX_FACES} }}'),
-     "bodies[0].shape.vertices", re.escape("mesh is not closed (watertight): ") + r"\d+ boundary edges"),
+     "bodies[0].shape.vertices", re.escape("mesh is not closed (watertight): ") + r"\d+ boundary edges"
+     + re.escape(" (an open surface on a fixed body: closed = false)")),
+    ("mesh-closed-not-bool", body(shape=f'{{ type = "mesh", vertices = {CUBE_VERTICES}, faces = {OPEN_BOX_FACES}, closed = 0 }}'),
+     "bodies[0].shape.closed", "expected true or false, got 0 (a number)"),
+    ("mesh-open-moving", body(shape=f'{{ type = "mesh", vertices = {CUBE_VERTICES}, faces = {OPEN_BOX_FACES}, closed = false }}'),
+     "bodies[0].fixed", re.escape("an open mesh (closed = false) can only be on a fixed body (set fixed = true)")),
     ("mesh-file-missing", body(shape='{ type = "mesh", path = "meshes/nothere.obj" }'), "bodies[0].shape.path",
      "mesh file not found: .*meshes/nothere.obj"),
     ("mesh-no-faces", body(shape=f'{{ type = "mesh", vertices = {CUBE_VERTICES} }}'), "bodies[0].shape",

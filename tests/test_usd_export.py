@@ -212,3 +212,32 @@ def test_joint_armature_goes_out_as_physx_joint_armature_and_comes_back(tmp_path
         b = next(j for j in back.joints if back.names[j.bound.body_b] == world.names[a.bound.body_b])
         assert b.bound.param[20] == pytest.approx(a.bound.param[20], rel=1e-6)
     assert back.exact_joints
+
+
+def test_open_meshes_go_out_double_sided_and_come_back_open(tmp_path):
+    """An open sheet and a closed icosphere held open (closed = false: a hollow shell) are written as
+    double-sided meshes marked ``tumble:closed = false``; read back both are open meshes with their
+    triangles (single precision), so a ball inside the shell stays inside after the load."""
+    import trimesh
+    from pxr import Usd, UsdGeom
+
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+    world = tb.World(gravity=(0, 0, -9.81))
+    V = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], dtype=float)
+    world.add_body(tb.Mesh(vertices=V, faces=[[0, 1, 2], [0, 2, 3]], closed=False), fixed=True, name="sheet",
+                   position=(5, 0, 0))
+    world.add_body(tb.Mesh(vertices=sphere.vertices, faces=sphere.faces, closed=False), fixed=True, name="shell")
+    world.add_body(tb.Sphere(0.2), mass=1.0, position=(0.1, 0, 0), name="ball")
+    back = round_trip(world, tmp_path)
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    meshes = [UsdGeom.Mesh(p) for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
+    assert len(meshes) == 2 and all(m.GetDoubleSidedAttr().Get() for m in meshes)
+    names = list(back.names)
+    for i, name in enumerate(("sheet", "shell")):
+        shape = back.shapes[names.index(name)]
+        assert isinstance(shape, tb.Mesh) and not shape.closed
+        assert np.array_equal(shape.faces, world.shapes[i].faces)
+        assert np.allclose(shape.vertices, world.shapes[i].vertices, atol=1e-6)
+    tb.Simulator(back).step(480)
+    ball = names.index("ball")
+    assert np.linalg.norm(back.x[ball]) < 1.0 - 0.2 + 2e-3 and back.x[ball, 2] < -0.7

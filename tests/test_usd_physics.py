@@ -271,7 +271,9 @@ def test_mesh_colliders_a_hull_on_a_moving_body_and_a_closed_triangle_mesh_that_
     """A moving mesh with approximation convexHull collides as its hull and weighs as it (a unit
     cube of 1000 kg/m^3: 1000 kg, exactly); a static closed mesh (approximation none) is a
     triangle mesh the box lands on (its top at 0.5 m: the box's centre at 0.5 + 0.25 m, to the
-    contact's 1 mm); an open static mesh is refused with the hint."""
+    contact's 1 mm); an open static mesh (a box without its +x side) is tumble's open, two-sided
+    mesh: a ball dropped into it rests on its inside bottom (the faces' backs), its centre r above
+    z = -0.5 m; cut into convex pieces it is refused with the hint."""
     stage, path = new_stage(tmp_path)
     _mesh(stage, "/World/table", [(2 * x, 2 * y, z) for x, y, z in CUBE_POINTS], [4] * 6, CUBE_QUADS, body=False,
           approximation="none")
@@ -286,9 +288,22 @@ def test_mesh_colliders_a_hull_on_a_moving_body_and_a_closed_triangle_mesh_that_
     assert crate.x[2] == pytest.approx(0.75, abs=1e-3)
     stage2, path2 = new_stage(tmp_path, name="open.usda")
     _mesh(stage2, "/World/sheet", CUBE_POINTS, [4] * 5, CUBE_QUADS[:20], body=False, approximation="none")
+    ball = UsdGeom.Sphere.Define(stage2, "/World/ball")
+    ball.GetRadiusAttr().Set(0.1)
+    ball.AddTranslateOp().Set(Gf.Vec3d(0.1, 0.0, 0.2))
+    UsdPhysics.CollisionAPI.Apply(ball.GetPrim())
+    UsdPhysics.RigidBodyAPI.Apply(ball.GetPrim())
     stage2.Save()
-    with pytest.raises(InputError, match=r"open.usda: /World/sheet: mesh is not closed .*approximation 'convexHull'"):
-        tb.load_usd(tb.World(), path2)
+    world2, scene2 = load(path2)
+    sheet = world2.shapes[scene2.bodies["/World/sheet"].index]
+    assert isinstance(sheet, tb.Mesh) and not sheet.closed and len(sheet.faces) == 10
+    tb.Simulator(world2, dt=1 / 240).step(480)
+    assert scene2.bodies["/World/ball"].x[2] == pytest.approx(-0.5 + 0.1, abs=1e-3)
+    stage3, path3 = new_stage(tmp_path, name="open_pieces.usda")
+    _mesh(stage3, "/World/sheet", CUBE_POINTS, [4] * 5, CUBE_QUADS[:20], body=False, approximation="convexDecomposition")
+    stage3.Save()
+    with pytest.raises(InputError, match=r"open_pieces.usda: /World/sheet: mesh is not closed .*approximation 'convexHull'"):
+        tb.load_usd(tb.World(), path3)
 
 
 def test_cylinders_and_cones_stand_on_their_bases_where_usd_puts_them(tmp_path):

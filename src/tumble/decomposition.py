@@ -74,6 +74,8 @@ def decompose(mesh, *, threshold: float = 0.05, max_parts: int | None = None, ma
             mesh = Mesh(path=os.fspath(mesh))
         else:
             raise InputError(f"expected a closed tumble.Mesh or a mesh file's path, got {type(mesh).__name__}", "mesh")
+    if not mesh.closed:
+        raise InputError("an open mesh (closed = false) has no inside to cut into convex pieces", "mesh")
     threshold = _number(threshold, "threshold")
     if not THRESHOLD_RANGE[0] <= threshold <= THRESHOLD_RANGE[1]:
         raise InputError(f"must be between {THRESHOLD_RANGE[0]} and {THRESHOLD_RANGE[1]}, got {threshold!r}", "threshold")

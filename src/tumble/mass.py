@@ -131,6 +131,9 @@ def mass_properties(shape, mass=None, density=None) -> MassProperties:
             return _mesh_mass_properties(shape.source.trimesh, mass, density)
         return _compound_mass_properties(shape, mass, density)
     if isinstance(shape, Mesh):  # Convex is a Mesh
+        if not shape.closed:
+            raise InputError("an open mesh (closed = false) encloses no volume, so it has no mass: make its body fixed "
+                             "and give it no mass or density", "shape")
         return _mesh_mass_properties(shape.trimesh, mass, density)
     volume_of = {
         Sphere: lambda s: 4.0 / 3.0 * math.pi * s.radius**3,
@@ -435,6 +438,48 @@ def load_closed_mesh(path=None, vertices=None, faces=None):
     return mesh
 
 
+def load_open_mesh(path=None, vertices=None, faces=None):
+    """A triangle surface that need not be closed (a terrain sheet, a ramp, a chute, a hollow shell),
+    from a file or inline arrays, for ``Mesh(closed=False)``.
+
+    Returns:
+        ``trimesh.Trimesh`` with duplicate vertices merged and degenerate (zero-area) triangles
+        dropped; its winding is kept as given (an open surface's two sides are both solid, so no
+        side is "outward"; collision/geometry.py's edge flags do not depend on the winding).
+
+    Raises:
+        InputError: as ``load_closed_mesh`` for file and array problems; a surface left with no
+            triangle of non-zero area.
+    """
+    import trimesh
+
+    inline = vertices is not None or faces is not None
+    if path is not None and inline:
+        raise InputError("give either a mesh file path or inline vertices and faces, not both", "path")
+    if path is None and not inline:
+        raise InputError("give a mesh file path or inline vertices and faces", "path")
+    if path is not None:
+        key = "path"
+        mesh = _read_mesh_file(path)
+    else:
+        key = "vertices"
+        if vertices is None:
+            raise InputError("faces were given without vertices", "vertices")
+        if faces is None:
+            raise InputError("vertices were given without faces", "faces")
+        v, f = _inline_arrays(vertices, faces)
+        mesh = trimesh.Trimesh(vertices=v, faces=f, process=True)
+    # NOTE: relative threshold, as load_closed_mesh's volume: a sliver of round-off area is no triangle
+    extent = float(np.max(mesh.extents)) if len(mesh.vertices) else 0.0
+    keep = np.asarray(mesh.area_faces) > 1e-14 * extent**2
+    if not np.all(keep):
+        mesh.update_faces(keep)
+        mesh.remove_unreferenced_vertices()
+    if len(mesh.faces) == 0:
+        raise InputError("mesh has no triangle of non-zero area", key)
+    return mesh
+
+
 def _signed_volumes(mesh, faces=None) -> np.ndarray:
     """(F,) signed volume of the tetrahedron from the bounding-box centre to each face, m^3."""
     origin = 0.5 * (mesh.bounds[0] + mesh.bounds[1])
@@ -496,7 +541,8 @@ def _check_closed(mesh, key: str) -> None:
     edges = mesh.edges_sorted
     boundary = len(trimesh.grouping.group_rows(edges, require_count=1))
     if boundary:
-        raise InputError(f"mesh is not closed (watertight): {boundary} boundary edges", key)
+        raise InputError(f"mesh is not closed (watertight): {boundary} boundary edges (an open surface on a fixed "
+                         "body: closed = false)", key)
     _, counts = np.unique(edges, axis=0, return_counts=True)
     shared = int(np.sum(counts > 2))
     raise InputError(f"mesh is not closed (watertight): {shared} edges shared by more than two faces", key)

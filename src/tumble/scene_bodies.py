@@ -56,7 +56,7 @@ SHAPE_KEYS = {
     "cone": (("radius", "height"), ()),
     "ellipsoid": (("radii",), ()),
     "plane": ((), ("normal", "offset")),
-    "mesh": ((), ("path", "vertices", "faces", "decompose")),
+    "mesh": ((), ("path", "vertices", "faces", "closed", "decompose")),
     "convex": ((), ("path", "points")),
     "particles": (("points", "masses"), ()),
     "compound": (("parts",), ()),
@@ -245,17 +245,19 @@ class BodyReader(ValueReader):
                 masses = self.positive(masses, g("masses"))
             return self.library(key, Particles, points, masses)
         if kind == "mesh":
+            # closed = false: an open, two-sided surface for a fixed body (shapes.Mesh)
+            closed = self.boolean(s["closed"], g("closed")) if "closed" in s else True
             if "path" in s:
                 if "vertices" in s or "faces" in s:
                     raise self.error("give either a mesh file path or inline vertices and faces, not both", g("path"))
-                mesh = self.library(key, Mesh, path=self.mesh_path(s["path"], g("path")))
+                mesh = self.library(key, Mesh, path=self.mesh_path(s["path"], g("path")), closed=closed)
             else:
                 if "vertices" not in s or "faces" not in s:
                     missing = "vertices" if "vertices" not in s else "faces"
                     raise self.error(f"missing key {missing!r} (give a mesh file 'path', or 'vertices' and 'faces')", key)
                 vertices = self.rows(s["vertices"], g("vertices"), 3)
                 faces = self.rows(s["faces"], g("faces"), 3, lambda v, k: self.integer(v, k, 0))
-                mesh = self.library(key, Mesh, vertices=vertices, faces=faces)
+                mesh = self.library(key, Mesh, vertices=vertices, faces=faces, closed=closed)
             return self.decomposed(mesh, s["decompose"], g("decompose")) if "decompose" in s else mesh
         if kind == "compound":
             return self.compound(s["parts"], g("parts"), key)

@@ -200,13 +200,19 @@ class Particles:
 
 @dataclass(frozen=True, eq=False)
 class Mesh:
-    """Closed triangle mesh, from a file (OBJ, STL, PLY... through trimesh) or inline arrays.
+    """Triangle mesh, from a file (OBJ, STL, PLY... through trimesh) or inline arrays: a closed solid,
+    or with ``closed=False`` an open surface for a fixed body.
 
     Args:
         path: mesh file; relative paths are resolved by the caller (the scene
             loader resolves them against the scene file's folder).
         vertices: (V, 3) m, shape frame.
         faces: (F, 3) vertex indices, counter-clockwise seen from outside.
+        closed: True (default): the mesh must be closed (watertight) and is a solid, with a volume,
+            a mass and an inside. False: any triangle surface (a terrain sheet, a ramp, a chute, a
+            hollow shell to hold bodies inside): two-sided, each triangle solid on neither side and
+            pushing a shape back to the side its centre is on (Bullet's triangle meshes, PhysX's
+            double-sided meshes), its winding free; only on a fixed body, with no mass.
     """
 
     path: str | None = None
@@ -214,18 +220,23 @@ class Mesh:
     faces: np.ndarray | None = None
     type_id = SHAPE_MESH
     _mesh: object = field(default=None, repr=False, compare=False)
+    closed: bool = True
 
     def __post_init__(self):
-        from .mass import load_closed_mesh  # trimesh is imported only when a mesh is used
+        from .mass import load_closed_mesh, load_open_mesh  # trimesh is imported only when a mesh is used
 
-        mesh = load_closed_mesh(self.path, self.vertices, self.faces)
+        if not isinstance(self.closed, (bool, np.bool_)):
+            raise InputError(f"expected true or false, got {self.closed!r}", "closed")
+        object.__setattr__(self, "closed", bool(self.closed))
+        mesh = (load_closed_mesh if self.closed else load_open_mesh)(self.path, self.vertices, self.faces)
         object.__setattr__(self, "_mesh", mesh)
         object.__setattr__(self, "vertices", np.asarray(mesh.vertices, dtype=float))
         object.__setattr__(self, "faces", np.asarray(mesh.faces, dtype=np.int64))
 
     @property
     def trimesh(self):
-        """The validated ``trimesh.Trimesh`` (closed, consistently wound)."""
+        """The validated ``trimesh.Trimesh`` (closed and wound outward; with ``closed=False``, the
+        surface as given, duplicate vertices merged, zero-area triangles dropped)."""
         return self._mesh
 
 
@@ -238,6 +249,9 @@ class Convex(Mesh):
 
     def __post_init__(self):
         from .mass import convex_hull_mesh
+
+        if self.closed is not True:
+            raise InputError("a convex hull is always closed", "closed")
 
         mesh = convex_hull_mesh(self.path, self.points if self.points is not None else self.vertices)
         object.__setattr__(self, "_mesh", mesh)
@@ -368,7 +382,10 @@ def shape_to_dict(shape) -> dict:
     else:
         raise InputError(f"not a shape record: {shape!r}", "shape")
     if kind in ("mesh", "convex"):
-        return {"type": kind, "vertices": np.asarray(shape.vertices).tolist(), "faces": np.asarray(shape.faces).tolist()}
+        out = {"type": kind, "vertices": np.asarray(shape.vertices).tolist(), "faces": np.asarray(shape.faces).tolist()}
+        if not shape.closed:
+            out["closed"] = False  # only when open: a closed mesh's description is as it always was
+        return out
     if kind == "particles":
         return {"type": kind, "points": shape.points.tolist(), "masses": shape.masses.tolist()}
     if kind == "compound":

@@ -378,16 +378,29 @@ class _Reader:
             k += c
         if str(self.attr(path, "orientation") or "rightHanded") == "leftHanded":
             faces = [(a, c, b) for a, b, c in faces]
-        try:
-            closed = Mesh(vertices=vertices, faces=np.array(faces, dtype=np.int64).reshape(-1, 3))
-        except InputError as err:
-            raise self.error(f"{err.problem} (tumble's triangle meshes are closed; approximation "
-                             "'convexHull' takes its hull)", path) from None
-        if approximation == "convexdecomposition":
-            from .decomposition import decompose
+        faces = np.array(faces, dtype=np.int64).reshape(-1, 3)
+        decomposed = approximation == "convexdecomposition"
+        # written by tumble (export/usd_scene.py) from an open mesh: open even when its triangles close
+        held_open = mesh.GetPrim().GetCustomDataByKey("tumble:closed") is False and not decomposed
+        if not held_open:
+            try:
+                closed = Mesh(vertices=vertices, faces=faces)
+            except InputError as err:
+                if decomposed or "not closed" not in err.problem:
+                    raise self.error(f"{err.problem} (convex pieces are cut from a closed mesh; approximation "
+                                     "'convexHull' takes its hull)" if decomposed else err.problem, path) from None
+                # an open triangle mesh on a static collider (a terrain sheet, a ramp): tumble's open,
+                # two-sided surface (PhysX collides triangle meshes from both sides too)
+            else:
+                if decomposed:
+                    from .decomposition import decompose
 
-            return decompose(closed)
-        return closed
+                    return decompose(closed)
+                return closed
+        try:
+            return Mesh(vertices=vertices, faces=faces, closed=False)
+        except InputError as err:
+            raise self.error(err.problem, path) from None
 
     # -- materials, mass
     def material(self, paths) -> tuple[Material | None, float | None]:

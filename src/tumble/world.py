@@ -51,7 +51,7 @@ from .forces import (
 from .mass import MassProperties, mass_properties
 from .material import Material
 from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
-from .shapes import Plane, finite_vector
+from .shapes import Mesh, Plane, finite_vector
 
 
 def unit_quaternion(value, key="orientation") -> np.ndarray:
@@ -249,6 +249,14 @@ class World:
             raise InputError("a plane cannot be a sensor (it has no inside to enter)", "sensor")
         if kinematic and isinstance(shape, Plane):
             raise InputError("a plane can only be a fixed body (set fixed = true)", "kinematic")
+        if isinstance(shape, Mesh) and not shape.closed:
+            # an open surface collides as triangles only where the mesh pairs take it as static
+            # (collision/pairs/mesh.py); a moving mesh collides as its hull, which a sheet may not have
+            if sensor:
+                raise InputError("an open mesh (closed = false) cannot be a sensor (it has no inside to enter)", "sensor")
+            if not fixed:
+                raise InputError("an open mesh (closed = false) can only be on a fixed body (set fixed = true)",
+                                 "kinematic" if kinematic else "fixed")
 
         if center_of_mass is not None:
             if isinstance(shape, Plane):

@@ -112,7 +112,9 @@ class ShapeTable:
             seen from outside, in BVH leaf order.
         mesh_edge_active: (T,) int64, bit k set when edge k (corner k to k + 1) is a
             convex edge of the mesh (its neighbour bends away); flat and concave edges
-            are inactive (no edge normals there: internal-edge fix, ``pairs/mesh``).
+            are inactive (no edge normals there: internal-edge fix, ``pairs/mesh``). An open
+            mesh's triangles are two-sided: the ``TWO_SIDED`` bit, and the back's flags in bits
+            3-5 (``mesh_edge_flags``).
         mesh_node_aabb: (B, 2, 3) m, BVH node boxes (min row, max row), shape frame, preorder.
         mesh_node_first, mesh_node_count: (B,) int64, a leaf's triangles (count 0 for inner nodes).
         mesh_node_skip: (B,) int64, the node after this node's subtree (stackless walk).
@@ -282,12 +284,24 @@ def hull_polygons(vertices, faces):
     return np.asarray(planes, dtype=float).reshape(-1, 4), polygons
 
 
-def mesh_edge_flags(vertices, faces, flat_cos: float = 1.0 - 1e-6):
+# mesh_edge_active bit of a two-sided triangle (an open mesh's, ``Mesh(closed=False)``): bits 0-2 hold its
+# edges' activity seen from the front, bits 3-5 seen from the back, numbered as the edges of the turned
+# triangle (corners 0, 2, 1) that collision/pairs/mesh.py collides a shape behind it with
+TWO_SIDED = 64
+BACK_SHIFT = 3
+
+
+def mesh_edge_flags(vertices, faces, flat_cos: float = 1.0 - 1e-6, two_sided: bool = False):
     """(F,) int64: bit k set when edge k of face f (corner k to k + 1) is convex (an active edge).
 
     An edge is inactive when its neighbour face is coplanar (normals closer than
     ``flat_cos``) or bends up (its far corner above this face's plane): contacts
     there take the face normal. Edges without exactly one neighbour stay active.
+    ``two_sided``: also the activity seen from the back (the far corner below the plane), in bits
+    ``BACK_SHIFT + j`` for edge j of the turned triangle (corners 0, 2, 1: its edge j is edge 2 - j),
+    and the ``TWO_SIDED`` bit. Neither test needs the neighbour wound as this face: the far corner's
+    side of this face's plane decides, and a coplanar neighbour wound the other way is neither
+    convex nor concave (inactive, as a flat one).
     """
     v = np.asarray(vertices, dtype=float)
     f = np.asarray(faces, dtype=np.int64)
@@ -307,13 +321,19 @@ def mesh_edge_flags(vertices, faces, flat_cos: float = 1.0 - 1e-6):
             others = [o for o in owner[(min(a, b), max(a, b))] if o[0] != t]
             if len(others) != 1:
                 flags[t] |= 1 << k
+                if two_sided:
+                    flags[t] |= 1 << (BACK_SHIFT + 2 - k)
                 continue
             u = others[0][0]
             far = v[f[u, (others[0][1] + 2) % 3]]
             flat = n[t] @ n[u] > flat_cos
-            convex = n[t] @ (far - tri[t, 0]) < -1e-9 * size
-            if convex and not flat:
+            height = n[t] @ (far - tri[t, 0])
+            if height < -1e-9 * size and not flat:
                 flags[t] |= 1 << k
+            if two_sided and height > 1e-9 * size and not flat:
+                flags[t] |= 1 << (BACK_SHIFT + 2 - k)
+    if two_sided:
+        flags |= TWO_SIDED
     return flags
 
 
@@ -411,7 +431,7 @@ class _Builder:
             self.n_hf += len(planes)
         elif type_id == SHAPE_MESH:
             tri = np.asarray(shape.vertices, dtype=float)[np.asarray(shape.faces)]
-            flags = mesh_edge_flags(shape.vertices, shape.faces)
+            flags = mesh_edge_flags(shape.vertices, shape.faces, two_sided=not shape.closed)
             order, aabb, first, count, skip = build_bvh(tri)
             data = (self.n_t, len(tri), self.n_n, len(aabb))
             self.mt.append(tri[order])

@@ -35,7 +35,7 @@ class VisualMesh:
         vertices: (V, 3) float64, m, body frame (origin at the centre of mass).
         normals: (V, 3) float64 unit vertex normals.
         faces: (T, 3) int64 vertex indices, counter-clockwise seen from outside.
-        double_sided: True for open surfaces (the plane's quad).
+        double_sided: True for open surfaces (the plane's quad, an open mesh: ``Mesh(closed=False)``).
     """
 
     vertices: np.ndarray
@@ -64,7 +64,7 @@ def visual_mesh(mesh, offset=(0.0, 0.0, 0.0), double_sided: bool = False) -> Vis
                            np.asarray(mesh.faces, dtype=np.int64), process=False)
     mesh.update_faces(mesh.nondegenerate_faces())
     mesh.remove_unreferenced_vertices()
-    if double_sided or len(mesh.faces) <= 2:
+    if len(mesh.faces) <= 2:  # a plane's quad, a lone triangle: one flat normal
         normals = np.repeat(mesh.face_normals[:1], len(mesh.vertices), axis=0)
         return VisualMesh(mesh.vertices.copy(), _unit(normals, mesh.face_normals[0]), mesh.faces.copy(), double_sided)
     smooth = trimesh.graph.smooth_shade(mesh, angle=np.radians(SHARP_ANGLE_DEG), facet_minarea=None)
@@ -120,10 +120,11 @@ def body_meshes(traj) -> list[tuple[VisualMesh, str]]:
         d = None if raw is None else json.loads(raw)
         offset = np.asarray(traj.com_offset[i], dtype=float)
         plane = d is not None and d.get("type") == "plane"
+        sheet = d is not None and d.get("type") == "mesh" and d.get("closed") is False  # an open mesh: both sides
         size = plane_size_for(traj, i) if plane else PLANE_MIN_SIZE
         key = json.dumps([raw, offset.tolist(), size if plane else None])
         if key not in cache:
-            cache[key] = visual_mesh(shape_trimesh(d, plane_size=size), offset, double_sided=plane)
+            cache[key] = visual_mesh(shape_trimesh(d, plane_size=size), offset, double_sided=plane or sheet)
         out.append((cache[key], key))
     return out
 

@@ -172,6 +172,11 @@ class _Writer:
             g.CreateFaceVertexIndicesAttr(self.Vt.IntArray.FromNumpy(np.ascontiguousarray(
                 np.asarray(faces).reshape(-1), dtype=np.int32)))
             g.CreateSubdivisionSchemeAttr(G.Tokens.none)
+            if isinstance(shape, Mesh) and not shape.closed:
+                # an open, two-sided surface (Mesh(closed=False)): drawn from both sides, and marked so that
+                # a closed shell held open (bodies inside it) comes back open, not as a solid
+                g.CreateDoubleSidedAttr(True)
+                g.GetPrim().SetCustomDataByKey("tumble:closed", False)
             self.place(g, pos, q)
             P.MeshCollisionAPI.Apply(g.GetPrim()).CreateApproximationAttr("convexHull" if hull else "none")
         else:

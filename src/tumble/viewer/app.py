@@ -344,7 +344,7 @@ class Viewer:
         # Tessellate each distinct (shape record, com_offset) once: a pile of equal boxes is one mesh,
         # not N (trimesh's creation functions cost ~0.1 ms each).
         meshes: dict = {}  # (shape text, com_offset bytes) -> (vertices, faces, digest, radius, is_plane, shape)
-        group_of_key: dict = {}  # (geometry digest, static, sensor) -> list of body indices
+        group_of_key: dict = {}  # (geometry digest, static, sensor, open mesh) -> list of body indices
         self.plane_frames, self.plane_nodes = {}, []
         self._group_of = np.full(N, -1, dtype=np.int64)  # body -> index in mesh_groups (-1: plane)
         self._row_of = np.full(N, -1, dtype=np.int64)  # body -> row in its group's arrays
@@ -382,11 +382,13 @@ class Viewer:
                 continue
             if fixed[i]:
                 self.colors[i] = tuple(int(0.6 * c + 0.4 * 160) for c in self.colors[i])
-            group_of_key.setdefault((digest, bool(static[i]), bool(sensor[i])), []).append(i)
+            # an open mesh (Mesh(closed=False)) collides on both sides: draw both
+            sheet = getattr(shape, "closed", True) is False
+            group_of_key.setdefault((digest, bool(static[i]), bool(sensor[i]), sheet), []).append(i)
 
         self.mesh_groups = []
         colors = np.asarray(self.colors, dtype=np.uint8).reshape(N, 3)
-        for g, ((digest, group_static, group_sensor), members) in enumerate(group_of_key.items()):
+        for g, ((digest, group_static, group_sensor, sheet), members) in enumerate(group_of_key.items()):
             vertices, faces = geometry_of_digest[digest]
             bodies = np.asarray(members, dtype=np.int64)
             self._group_of[bodies] = g
@@ -397,6 +399,7 @@ class Viewer:
             handle = scene.add_batched_meshes_simple(
                 f"/bodies/g{g}", vertices, faces, self.orientation[0, rows], self.position[0, rows],
                 batched_colors=linear_colors(group_colors), flat_shading=len(faces) <= 24,
+                side="double" if sheet else "front",
                 # sensors translucent, so what they hold shows
                 opacity=SENSOR_OPACITY if group_sensor else None)
             # The browser says which instance was clicked: row j of this group is body bodies[j].

@@ -78,7 +78,8 @@ def convex_scratch():
     ids; 10 the kept rows (CLIP_ROWS + 2,) int; 11 the mesh routine's (``mesh.collide_convex_mesh``):
     its box lo, hi (3,), gathered points, normals (MESH_POINTS, 3), separations and features, one
     triangle's normal (3,), points (4, 3), separations and features, the sphere-triangle simplex
-    (3, 3), its weights (3,) and rows (4,) int, the kept rows (MESH_POINTS,) int."""
+    (3, 3), its weights (3,) and rows (4,) int, the kept rows (MESH_POINTS,) int, a two-sided
+    triangle turned to face the shape (3, 3)."""
     return (gjk_scratch(), np.empty((MAX_FACE, 3)), np.empty((MAX_FACE, 3)), np.empty((CLIP_ROWS, 3)),
             np.empty((CLIP_ROWS, 3)), np.empty(CLIP_ROWS, dtype=np.int64), np.empty(CLIP_ROWS, dtype=np.int64),
             np.empty((CLIP_ROWS + 1, 3)), np.empty(CLIP_ROWS + 1), np.empty(CLIP_ROWS + 1, dtype=np.int64),
@@ -86,7 +87,7 @@ def convex_scratch():
             (np.empty(3), np.empty(3), np.empty((MESH_POINTS, 3)), np.empty((MESH_POINTS, 3)), np.empty(MESH_POINTS),
              np.empty(MESH_POINTS, dtype=np.int64), np.empty(3), np.empty((MAX_MANIFOLD_POINTS, 3)),
              np.empty(MAX_MANIFOLD_POINTS), np.empty(MAX_MANIFOLD_POINTS, dtype=np.int64), np.empty((3, 3)),
-             np.empty(3), np.empty(4, dtype=np.int64), np.empty(MESH_POINTS, dtype=np.int64)))
+             np.empty(3), np.empty(4, dtype=np.int64), np.empty(MESH_POINTS, dtype=np.int64), np.empty((3, 3))))
 
 
 @njit(**NO_NRT)

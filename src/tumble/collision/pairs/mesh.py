@@ -43,6 +43,7 @@ from .convex import (
     reduce_points,
     shape_arrays,
 )
+from ..geometry import BACK_SHIFT, TWO_SIDED
 from .gjk import SHAPE_TRIANGLE, _closest_triangle, core_radius, support
 
 # A contact normal within this of the face normal (1 - cos) is a face contact.
@@ -314,7 +315,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
     verts_a, fa0, fna = shape_arrays(ta, a, shape_data, hull_vertex)
     ra = core_radius(ta, params_a)
     # the routine's arrays: the mesh part of the convex scratch (convex.convex_scratch)
-    lo, hi, cand, cand_n, seps, feats, tn, tp, ts, tf, W, lam, sub, keep = scratch[11]
+    lo, hi, cand, cand_n, seps, feats, tn, tp, ts, tf, W, lam, sub, keep, turned = scratch[11]
     _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, speculative, lo, hi)
     count = np.int64(0)  # not a literal (see TRIANGLE)
     n0 = shape_data[b, 2]
@@ -351,6 +352,24 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             c0x = pos_b[0] + rot_b[0, 0] * tri[0, 0] + rot_b[0, 1] * tri[0, 1] + rot_b[0, 2] * tri[0, 2]
             c0y = pos_b[1] + rot_b[1, 0] * tri[0, 0] + rot_b[1, 1] * tri[0, 1] + rot_b[1, 2] * tri[0, 2]
             c0z = pos_b[2] + rot_b[2, 0] * tri[0, 0] + rot_b[2, 1] * tri[0, 1] + rot_b[2, 2] * tri[0, 2]
+            active = mesh_edge_active[t]
+            if active & TWO_SIDED:
+                # an open mesh's triangle (Mesh(closed=False)) is solid on the side the shape's centre is
+                # on: behind it, the triangle is turned (corners 0, 2, 1: the same plane, the other
+                # normal) and its edges take their activity seen from the back (geometry.mesh_edge_flags).
+                # Bullet's triangle meshes and PhysX's double-sided ones decide so too; a centre pushed
+                # through the sheet is then pushed on out the other side (speculative contacts keep a
+                # fast body from getting there: tests/physics/test_open_mesh.py).
+                if Nx * (pos_a[0] - c0x) + Ny * (pos_a[1] - c0y) + Nz * (pos_a[2] - c0z) < 0.0:
+                    for k in range(3):
+                        turned[0, k] = tri[0, k]
+                        turned[1, k] = tri[2, k]
+                        turned[2, k] = tri[1, k]
+                    tri = turned
+                    Nx, Ny, Nz = -Nx, -Ny, -Nz
+                    active = (active >> BACK_SHIFT) & 7
+                else:
+                    active = active & 7
             low = support(ta, pos_a, rot_a, params_a, verts_a, -Nx, -Ny, -Nz)
             depth_sep = Nx * (low[0] - c0x) + Ny * (low[1] - c0y) + Nz * (low[2] - c0z) - ra
             if depth_sep >= speculative:
@@ -358,7 +377,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             high = support(ta, pos_a, rot_a, params_a, verts_a, Nx, Ny, Nz)
             if Nx * (high[0] - c0x) + Ny * (high[1] - c0y) + Nz * (high[2] - c0z) + ra < 0.0:
                 continue  # entirely behind it
-            if ta != SHAPE_SPHERE and mesh_edge_active[t] == 0:
+            if ta != SHAPE_SPHERE and active == 0:
                 # PERF: inside a flat or concave patch (no active edge) the normal is the face's (the
                 # internal-edge rule below would pick it anyway): no GJK/EPA, straight to the face clipping.
                 # The clip keeps the part of the shape over this triangle; a shape beside it gets only the
@@ -385,7 +404,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                                    hull_vertex, speculative, tn, tp, ts, tf, scratch)
             if n == 0:
                 continue
-            n = _fix_internal_edge(tri, mesh_edge_active[t], n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b,
+            n = _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b,
                                    speculative, tn, tp, ts, tf)
             count = _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats)
         i += 1
