@@ -368,7 +368,7 @@ BAD_SCENES = [
     ("mesh-closed-not-bool", body(shape=f'{{ type = "mesh", vertices = {CUBE_VERTICES}, faces = {OPEN_BOX_FACES}, closed = 0 }}'),
      "bodies[0].shape.closed", "expected true or false, got 0 (a number)"),
     ("mesh-open-moving", body(shape=f'{{ type = "mesh", vertices = {CUBE_VERTICES}, faces = {OPEN_BOX_FACES}, closed = false }}'),
-     "bodies[0].fixed", re.escape("an open mesh (closed = false) can only be on a fixed body (set fixed = true)")),
+     "bodies[0].fixed", re.escape("an open mesh (closed = false) can only be on a fixed or kinematic body (set fixed = true)")),
     ("mesh-file-missing", body(shape='{ type = "mesh", path = "meshes/nothere.obj" }'), "bodies[0].shape.path",
      "mesh file not found: .*meshes/nothere.obj"),
     ("mesh-no-faces", body(shape=f'{{ type = "mesh", vertices = {CUBE_VERTICES} }}'), "bodies[0].shape",

@@ -133,7 +133,7 @@ def mass_properties(shape, mass=None, density=None) -> MassProperties:
     if isinstance(shape, Mesh):  # Convex is a Mesh
         if not shape.closed:
             raise InputError("an open mesh (closed = false) encloses no volume, so it has no mass: make its body fixed "
-                             "and give it no mass or density", "shape")
+                             "or kinematic and give it no mass or density", "shape")
         return _mesh_mass_properties(shape.trimesh, mass, density)
     volume_of = {
         Sphere: lambda s: 4.0 / 3.0 * math.pi * s.radius**3,

@@ -212,7 +212,7 @@ class Mesh:
             a mass and an inside. False: any triangle surface (a terrain sheet, a ramp, a chute, a
             hollow shell to hold bodies inside): two-sided, each triangle solid on neither side and
             pushing a shape back to the side its centre is on (Bullet's triangle meshes, PhysX's
-            double-sided meshes), its winding free; only on a fixed body, with no mass.
+            double-sided meshes), its winding free; only on a fixed or kinematic body, with no mass.
     """
 
     path: str | None = None

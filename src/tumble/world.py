@@ -250,13 +250,13 @@ class World:
         if kinematic and isinstance(shape, Plane):
             raise InputError("a plane can only be a fixed body (set fixed = true)", "kinematic")
         if isinstance(shape, Mesh) and not shape.closed:
-            # an open surface collides as triangles only where the mesh pairs take it as static
-            # (collision/pairs/mesh.py); a moving mesh collides as its hull, which a sheet may not have
+            # an open surface collides as triangles only where the mesh pairs take it (a fixed or kinematic
+            # body: collision/pairs/mesh.py); a moving mesh collides as its hull, which a sheet may not have
             if sensor:
                 raise InputError("an open mesh (closed = false) cannot be a sensor (it has no inside to enter)", "sensor")
-            if not fixed:
-                raise InputError("an open mesh (closed = false) can only be on a fixed body (set fixed = true)",
-                                 "kinematic" if kinematic else "fixed")
+            if not (fixed or kinematic):
+                raise InputError("an open mesh (closed = false) can only be on a fixed or kinematic body (set fixed = true)",
+                                 "fixed")
 
         if center_of_mass is not None:
             if isinstance(shape, Plane):
