@@ -1,10 +1,13 @@
 """ShapeTable and update_bounds."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import tumble as tb
 from tumble.collision import SPECULATIVE_DISTANCE, build_shape_table, update_bounds
+from tumble.collision.geometry import mesh_edge_flags
 from tumble.shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONVEX, SHAPE_PLANE, SHAPE_SPHERE
 
 from .helpers import rot
@@ -104,3 +107,60 @@ def test_bodies_sharing_a_hull_share_its_rows():
     assert t.shape_data[0].tolist() == t.shape_data[1].tolist() == t.shape_data[2].tolist()
     assert t.shape_data[3, 0] == t.shape_data[0, 1]  # the other hull's vertices follow the first's
     assert len(t.hull_vertex) == t.shape_data[0, 1] + t.shape_data[3, 1]
+
+
+def _edge_flags_by_loop(vertices, faces, two_sided=False, flat_cos=1.0 - 1e-6):
+    """``mesh_edge_flags`` as it was written first (until session 26): a dict of each edge's owners and a
+    loop over every face's three edges. Kept as the oracle of the sorted version."""
+    from tumble.collision.geometry import BACK_SHIFT, TWO_SIDED
+
+    v = np.asarray(vertices, dtype=float)
+    f = np.asarray(faces, dtype=np.int64)
+    tri = v[f]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    size = float(np.max(np.abs(v))) or 1.0
+    owner = {}
+    for t in range(len(f)):
+        for k in range(3):
+            a, b = int(f[t, k]), int(f[t, (k + 1) % 3])
+            owner.setdefault((min(a, b), max(a, b)), []).append((t, k))
+    flags = np.zeros(len(f), dtype=np.int64)
+    for t in range(len(f)):
+        for k in range(3):
+            a, b = int(f[t, k]), int(f[t, (k + 1) % 3])
+            others = [o for o in owner[(min(a, b), max(a, b))] if o[0] != t]
+            if len(others) != 1:
+                flags[t] |= (1 << k) | ((1 << (BACK_SHIFT + 2 - k)) if two_sided else 0)
+                continue
+            u = others[0][0]
+            far = v[f[u, (others[0][1] + 2) % 3]]
+            flat = n[t] @ n[u] > flat_cos
+            height = n[t] @ (far - tri[t, 0])
+            if height < -1e-9 * size and not flat:
+                flags[t] |= 1 << k
+            if two_sided and height > 1e-9 * size and not flat:
+                flags[t] |= 1 << (BACK_SHIFT + 2 - k)
+    return flags | (TWO_SIDED if two_sided else 0)
+
+
+def test_mesh_edge_flags_by_sorting_equal_the_loop_over_every_edge():
+    """The sorted (vectorised) edge flags equal the per-edge loop's on the examples' meshes (closed
+    bowl, chute and ring, the open half-pipe), an icosphere, a torus, a box, a random heightfield
+    and a sheet with a non-manifold edge (three faces on it: active on both sides), one- and
+    two-sided."""
+    import trimesh
+
+    examples = Path(__file__).resolve().parents[2] / "examples"
+    meshes = [trimesh.load(examples / name, force="mesh", process=True) for name in
+              ("bowl.obj", "chute.obj", "ring.obj", "halfpipe.obj")]
+    meshes += [trimesh.creation.icosphere(3), trimesh.creation.torus(1.0, 0.3), trimesh.creation.box()]
+    meshes.append(tb.heightfield(np.random.default_rng(0).normal(size=(12, 15)), (3.0, 4.0)).trimesh)
+    fin = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], [[0, 1, 2], [0, 3, 1], [0, 1, 4]],
+                          process=False)
+    meshes.append(fin)
+    for mesh in meshes:
+        for two_sided in (False, True):
+            expected = _edge_flags_by_loop(mesh.vertices, mesh.faces, two_sided)
+            assert np.array_equal(mesh_edge_flags(mesh.vertices, mesh.faces, two_sided=two_sided), expected)
+    assert np.all(mesh_edge_flags(fin.vertices, fin.faces) & 1)  # the edge 0 -> 1 of three faces: active

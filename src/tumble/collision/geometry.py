@@ -305,34 +305,40 @@ def mesh_edge_flags(vertices, faces, flat_cos: float = 1.0 - 1e-6, two_sided: bo
     """
     v = np.asarray(vertices, dtype=float)
     f = np.asarray(faces, dtype=np.int64)
+    F = len(f)
     tri = v[f]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     size = float(np.max(np.abs(v))) or 1.0
-    owner: dict[tuple[int, int], list[tuple[int, int]]] = {}
-    for t in range(len(f)):
-        for k in range(3):
-            a, b = int(f[t, k]), int(f[t, (k + 1) % 3])
-            owner.setdefault((min(a, b), max(a, b)), []).append((t, k))
-    flags = np.zeros(len(f), dtype=np.int64)
-    for t in range(len(f)):
-        for k in range(3):
-            a, b = int(f[t, k]), int(f[t, (k + 1) % 3])
-            others = [o for o in owner[(min(a, b), max(a, b))] if o[0] != t]
-            if len(others) != 1:
-                flags[t] |= 1 << k
-                if two_sided:
-                    flags[t] |= 1 << (BACK_SHIFT + 2 - k)
-                continue
-            u = others[0][0]
-            far = v[f[u, (others[0][1] + 2) % 3]]
-            flat = n[t] @ n[u] > flat_cos
-            height = n[t] @ (far - tri[t, 0])
-            if height < -1e-9 * size and not flat:
-                flags[t] |= 1 << k
-            if two_sided and height > 1e-9 * size and not flat:
-                flags[t] |= 1 << (BACK_SHIFT + 2 - k)
+    # every (face, edge) by its undirected edge's key; an edge held by exactly two different faces has
+    # a neighbour, any other (a border, or three faces and more) stays active on both sides.
+    # PERF: by sorting, not a dict of lists (a Python loop: 1.6 s for an 80 000-triangle terrain)
+    a, b = f, np.roll(f, -1, axis=1)  # edge k of face t runs from corner k to k + 1
+    key = (np.minimum(a, b) * (int(f.max()) + 1 if F else 1) + np.maximum(a, b)).ravel()
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
+    counts = np.diff(np.r_[starts, len(key)])
+    pair = starts[counts == 2]
+    first, second = order[pair], order[pair + 1]  # flat indices t * 3 + k
+    distinct = first // 3 != second // 3
+    first, second = first[distinct], second[distinct]
+    this = np.r_[first, second]
+    other = np.r_[second, first]
+    t, k = this // 3, this % 3
+    u, ku = other // 3, other % 3
+    active = np.ones((F, 3), dtype=bool)
+    active[t, k] = False
+    back = active.copy()
+    far = v[f[u, (ku + 2) % 3]]
+    flat = np.einsum("ij,ij->i", n[t], n[u]) > flat_cos
+    height = np.einsum("ij,ij->i", n[t], far - tri[t, 0])
+    active[t, k] = (height < -1e-9 * size) & ~flat
+    back[t, k] = (height > 1e-9 * size) & ~flat
+    flags = (active.astype(np.int64) << np.arange(3)).sum(axis=1)
     if two_sided:
+        # back edge j is edge 2 - j of the face (the turned triangle's numbering)
+        flags |= (back[:, ::-1].astype(np.int64) << (BACK_SHIFT + np.arange(3))).sum(axis=1)
         flags |= TWO_SIDED
     return flags
 
