@@ -33,7 +33,7 @@ import numpy as np
 
 from . import __version__, checks
 from .errors import InputError, SimulationError
-from .forces import ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring
+from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring
 from .joints import G_FOLLOWS, G_JOINT, JOINT_CLASSES, JOINT_TYPES, PARAM_COUNT, PARAM_COUNT_V1, BoundJoint
 from .solver.contact import SoftStepSettings
 from .solver.joint_solve import AXIAL_COUNT_V1
@@ -50,7 +50,8 @@ STATE = ("x", "q", "R", "P", "L")
 # kinematic bodies (World.kinematic, their velocities), surface velocities and sensors: absent
 # from checkpoints written before they existed, which load with none
 KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega", "surface_velocity", "sensor")
-FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, CustomForce)}
+FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy,
+                                          CustomForce)}
 BODY_FIELDS = ("body", "body_a", "body_b")
 
 # The JointSolver (``sim.soft_step.joints``) arrays saved as ``joint_<name>``, by attribute

@@ -73,6 +73,55 @@ def Wind(velocity=(0.0, 0.0, 0.0), linear=0.0, quadratic=0.0, bodies=None) -> Dr
 
 
 @dataclass
+class Buoyancy:
+    """A still body of fluid (water) filling the world below a level surface: Archimedes' buoyancy on
+    the part of each body under it, and drag there (tumble.buoyancy).
+
+    The surface is the plane at height ``level`` along "up" (-gravity), so it is level whatever
+    gravity's direction. On each body it acts on, each step:
+
+    Buoyancy  F_b = density |g| V up, at the centre of buoyancy c (the submerged part's centroid):
+              torque (c - x) x F_b                                                   (N, N m)
+    Drag      F_d = -f (linear + quadratic |u|) u,  u = v - flow
+              tau_d = -f (angular_linear + angular_quadratic |omega|) omega          (N, N m)
+
+    V (m^3) is the volume of the body's shape below the surface, f = V / (its whole volume) the
+    submerged fraction. Evaluated once per step, at the pose the body reaches by mid-step at its
+    velocities (so the step is position Verlet for it: tumble.buoyancy.buoyancy_kernel), and held
+    over the step's substeps.
+
+    Args:
+        density: kg/m^3 of the fluid (1000: water).
+        level: m, the surface's height along up.
+        linear, quadratic, angular_linear, angular_quadratic: the drag coefficients of a body wholly
+            under the surface, as ``Drag``'s (N s/m, N s^2/m^2, N m s, N m s^2).
+        flow: (3,) m/s, world: the fluid's velocity (a current); drag is relative to it.
+        bodies: bodies (or names) it acts on; None: every moving body with a volume.
+    """
+
+    density: float = 1000.0
+    level: float = 0.0
+    linear: float = 0.0
+    quadratic: float = 0.0
+    angular_linear: float = 0.0
+    angular_quadratic: float = 0.0
+    flow: Sequence[float] = (0.0, 0.0, 0.0)
+    bodies: Sequence[Any] | None = None
+
+    def __post_init__(self):
+        for key in ("density", "linear", "quadratic", "angular_linear", "angular_quadratic"):
+            setattr(self, key, _nonnegative(getattr(self, key), key))
+        try:
+            level = float(self.level)
+        except (TypeError, ValueError):
+            raise InputError(f"expected a number, got {self.level!r}", "level") from None
+        if not math.isfinite(level):
+            raise InputError(f"must be a finite number, got {level}", "level")
+        self.level = level
+        self.flow = tuple(finite_vector(self.flow, "flow"))
+
+
+@dataclass
 class ConstantForce:
     """Constant ``force`` (N) through the centre of mass and ``torque`` (N m), both world frame, on ``body``."""
 
@@ -254,6 +303,8 @@ class ForceTables:
     spring_anchor: np.ndarray
     spring_param: np.ndarray
     custom: list = field(default_factory=list)  # (CustomForce, body index array)
+    # (Buoyancy, body index array, uforce row array): constant rows that tumble.buoyancy fills each step
+    buoyancy: list = field(default_factory=list)
 
 
 def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> ForceTables:
@@ -265,7 +316,7 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> 
         moving: (N,) bool, False for fixed bodies (they get no forces).
         resolve: function mapping a body, a name or an index to an index.
     """
-    rows = []  # (body, order, kind, params)
+    rows = []  # (body, order, kind, params[, the Buoyancy record that fills the row])
     springs = []
     custom = []
     all_moving = np.flatnonzero(moving)
@@ -283,6 +334,9 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> 
             a = resolve(f.body_a)
             b = -1 if f.body_b is None else resolve(f.body_b)
             springs.append((a, b, f.anchor_a, f.anchor_b, [f.stiffness, f.damping, f.rest_length]))
+        elif isinstance(f, Buoyancy):
+            targets = all_moving if f.bodies is None else [resolve(b) for b in f.bodies]
+            rows += [(int(i), order, UFORCE_CONSTANT, [0.0] * 6, f) for i in targets]
         elif isinstance(f, CustomForce):
             targets = all_moving if f.bodies is None else np.array([resolve(b) for b in f.bodies], dtype=np.int64)
             custom.append((f, np.asarray(targets, dtype=np.int64)))
@@ -302,8 +356,13 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> 
     counts = np.bincount(np.array([r[0] for r in rows], dtype=np.int64), minlength=body_count) if U else np.zeros(body_count, np.int64)
     start = np.zeros(body_count + 1, dtype=np.int64)
     start[1:] = np.cumsum(counts)
+    buoyancy = []
+    for order, f in enumerate(forces):
+        if isinstance(f, Buoyancy):
+            mine = [k for k, r in enumerate(rows) if len(r) > 4 and r[4] is f]
+            buoyancy.append((f, np.array([rows[k][0] for k in mine], dtype=np.int64), np.array(mine, dtype=np.int64)))
     S = len(springs)
     spring_body = np.array([[s[0], s[1]] for s in springs], dtype=np.int64).reshape(S, 2)
     spring_anchor = np.array([[s[2], s[3]] for s in springs], dtype=float).reshape(S, 2, 3)
     spring_param = np.array([s[4] for s in springs], dtype=float).reshape(S, 3)
-    return ForceTables(kind, param, start, spring_body, spring_anchor, spring_param, custom)
+    return ForceTables(kind, param, start, spring_body, spring_anchor, spring_param, custom, buoyancy)

@@ -15,7 +15,7 @@ from typing import Any
 
 from . import checks
 from .errors import InputError
-from .forces import ConstantForce, Drag, Explosion, Impulse, PointForce, Spring, Wind
+from .forces import Buoyancy, ConstantForce, Drag, Explosion, Impulse, PointForce, Spring, Wind
 from .math3d import quat_from_euler_deg
 from .scene_values import ValueReader, _describe
 from .shapes import (
@@ -76,6 +76,8 @@ FORCE_KEYS = {
     "spring": (("body_a", "stiffness"), ("body_b", "anchor_a", "anchor_b", "damping", "rest_length")),
     "impulse": (("body", "impulse"), ("point", "time")),
     "explosion": (("position", "radius", "impulse_per_area"), ("falloff", "time", "mask", "shaded")),
+    "buoyancy": ((), ("density", "level", "linear", "quadratic", "angular_linear", "angular_quadratic", "flow",
+                      "bodies")),
 }
 
 
@@ -418,6 +420,16 @@ class BodyReader(ValueReader):
             if f.get("rest_length") is not None:
                 kw["rest_length"] = nonneg("rest_length")
             record = self.library(key, Spring, a, b, **kw)
+        elif kind == "buoyancy":
+            kw = {k: nonneg(k) for k in ("density", "linear", "quadratic", "angular_linear", "angular_quadratic")
+                  if k in f}
+            if "level" in f:
+                kw["level"] = self.number(f["level"], g("level"))
+            if "flow" in f:
+                kw["flow"] = vec("flow")
+            if "bodies" in f:
+                kw["bodies"] = self.name_list(f["bodies"], g("bodies"), names)
+            record = self.library(key, Buoyancy, **kw)
         elif kind == "explosion":
             kw = {k: nonneg(k) for k in ("radius", "falloff", "time") if k in f}
             kw["impulse_per_area"] = self.number(f["impulse_per_area"], g("impulse_per_area"))

@@ -25,6 +25,7 @@ from . import checks
 from . import integrators as K
 from .errors import InputError, SimulationError
 from .collision.sensor import SensorLog
+from .buoyancy import apply_buoyancy
 from .forces import Explosion, Impulse
 from .math3d import quat_to_matrix
 from .kinematic import drive_paths, touched_by_kinematic
@@ -186,11 +187,16 @@ class Simulator:
         if check is None and self.validate:
             check = self._validate_stage
         end = self.step_index + count
+        floating = bool(self.world.tables.buoyancy)
         while self.step_index < end:
             self._apply_due_impulses(Y)
             if check is not None:
                 check("apply_impulses", self.step_index * self.dt, Y=Y)
             nxt = min([end] + [k for k in self._impulse_steps() if k > self.step_index])
+            if floating:
+                # buoyancy and drag from this step's start (tumble.buoyancy), held over the step
+                nxt = self.step_index + 1
+                apply_buoyancy(self.world, Y, self.dt)
             n = nxt - self.step_index
             if self._contact_on():
                 Y = self._advance_with_contacts(Y, n, scratch, check)

@@ -58,12 +58,15 @@ def shape_dict(shape) -> dict | None:
     return shape_to_dict(shape)
 
 
-def shape_trimesh(shape, plane_size: float = PLANE_MIN_SIZE):
+def shape_trimesh(shape, plane_size: float = PLANE_MIN_SIZE, sections: int = SECTIONS,
+                  subdivisions: int = SPHERE_SUBDIVISIONS):
     """A ``trimesh.Trimesh`` of ``shape`` in its own frame (metres).
 
     ``shape`` is a record of ``tumble.shapes``, its ``shape_to_dict`` mapping, or
     None (a small marker sphere). A plane becomes a square of side
-    ``plane_size`` centred at the plane's point nearest the origin.
+    ``plane_size`` centred at the plane's point nearest the origin. ``sections`` (round shapes'
+    segments) and ``subdivisions`` (icosphere levels of spheres and ellipsoids): the drawing's by
+    default; finer for buoyancy's submerged volumes (tumble.buoyancy).
     """
     import trimesh
     import trimesh.creation as create
@@ -73,18 +76,18 @@ def shape_trimesh(shape, plane_size: float = PLANE_MIN_SIZE):
         return create.icosphere(subdivisions=2, radius=MARKER_RADIUS)
     kind = d["type"]
     if kind == "sphere":
-        return create.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=float(d["radius"]))
+        return create.icosphere(subdivisions=subdivisions, radius=float(d["radius"]))
     if kind == "box":
         return create.box(extents=np.asarray(d["size"], dtype=float))
     if kind == "cylinder":
-        return create.cylinder(radius=float(d["radius"]), height=float(d["length"]), sections=SECTIONS)
+        return create.cylinder(radius=float(d["radius"]), height=float(d["length"]), sections=sections)
     if kind == "capsule":  # trimesh's height is the distance between the hemisphere centres, as ours
-        return create.capsule(height=float(d["length"]), radius=float(d["radius"]), count=[SECTIONS, SECTIONS // 2])
+        return create.capsule(height=float(d["length"]), radius=float(d["radius"]), count=[sections, sections // 2])
     if kind == "ellipsoid":  # the sphere's mesh, its vertices scaled by the semi-axes
-        mesh = create.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=1.0)
+        mesh = create.icosphere(subdivisions=subdivisions, radius=1.0)
         return trimesh.Trimesh(mesh.vertices * np.asarray(d["radii"], dtype=float), mesh.faces, process=False)
     if kind == "cone":  # base disc on z = 0 centred on the origin, apex at z = height: as tumble.shapes.Cone
-        return create.cone(radius=float(d["radius"]), height=float(d["height"]), sections=SECTIONS)
+        return create.cone(radius=float(d["radius"]), height=float(d["height"]), sections=sections)
     if kind in ("mesh", "convex"):
         return trimesh.Trimesh(np.asarray(d["vertices"], dtype=float), np.asarray(d["faces"], dtype=np.int64), process=False)
     if kind == "particles":
@@ -92,13 +95,13 @@ def shape_trimesh(shape, plane_size: float = PLANE_MIN_SIZE):
     if kind == "plane":
         return _plane_quad(np.asarray(d.get("normal", (0, 0, 1)), dtype=float), float(d.get("offset", 0.0)), plane_size)
     if kind == "compound" and d.get("source") is not None:  # cut from a concave mesh: draw the mesh, not its pieces
-        return shape_trimesh(d["source"], plane_size)
+        return shape_trimesh(d["source"], plane_size, sections, subdivisions)
     if kind == "compound":  # the parts' meshes, each moved to its place in the shape's frame
         from .math3d import quat_to_matrix
 
         meshes = []
         for part in d["parts"]:
-            mesh = shape_trimesh(part["shape"], plane_size).copy()
+            mesh = shape_trimesh(part["shape"], plane_size, sections, subdivisions).copy()
             T = np.eye(4)
             T[:3, :3] = quat_to_matrix(np.asarray(part.get("orientation", (1, 0, 0, 0)), dtype=float))
             T[:3, 3] = np.asarray(part.get("position", (0, 0, 0)), dtype=float)

@@ -39,6 +39,7 @@ from . import integrators as K
 from .errors import InputError
 from .collision.filter import ALL_CATEGORIES, CollisionFilter
 from .forces import (
+    Buoyancy,
     ConstantForce,
     CustomForce,
     Drag,
@@ -331,9 +332,9 @@ class World:
 
     def add_force(self, force):
         """Add a force record of ``tumble.forces`` (Drag, Wind, ConstantForce, PointForce,
-        Spring, Impulse, Explosion, CustomForce). A spring with ``rest_length=None`` takes the
+        Spring, Impulse, Explosion, Buoyancy, CustomForce). A spring with ``rest_length=None`` takes the
         distance between its anchors now."""
-        if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, CustomForce)):
+        if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy, CustomForce)):
             raise InputError(f"not a force record: {force!r}", "forces")
         for attr in ("body", "body_a", "body_b"):
             b = getattr(force, attr, None)

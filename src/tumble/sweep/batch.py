@@ -45,7 +45,7 @@ import numpy as np
 from .. import checks
 from .. import integrators as K
 from ..errors import InputError, SimulationError
-from ..forces import ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring
+from ..forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring
 from ..joints import G_FOLLOWS, G_JOINT, JOINT_GEAR
 from ..simulator import Simulator
 from ..trajectory import Trajectory
@@ -58,7 +58,8 @@ def batch_key(scene):
     w = scene.world
     if K.INTEGRATOR_IDS[scene.integrator] in K.ADAPTIVE:
         return None
-    if any(isinstance(f, (Spring, CustomForce, Explosion)) for f in w.forces):  # an explosion reaches every variant
+    # an explosion reaches every variant; buoyancy's rows are filled step by step for the world's bodies
+    if any(isinstance(f, (Spring, CustomForce, Explosion, Buoyancy)) for f in w.forces):
         return None
     if w.collisions and _can_collide(w):
         return None

@@ -1,0 +1,335 @@
+"""Buoyancy and drag of a still fluid below a level surface (``tb.Buoyancy``): Archimedes' principle on
+each body's submerged part.
+
+The part of a body under the surface is its closed surface clipped by the surface's plane. For a
+closed, outward-wound triangle surface, the volume of the solid below a plane and its centroid are
+sums over the clipped triangles of the tetrahedra they make with one point p0 ON the plane: the cap
+the plane cuts lies in the plane through p0, so its tetrahedra have no volume and it need not be
+built (the divergence theorem; Eberly, "Polyhedral mass properties", with the apex on the cut).
+So each body costs one pass over its triangles; a lone sphere takes the spherical cap's closed form.
+
+Bodies' surfaces in the body frame (origin at the centre of mass, the shape frame's axes): boxes,
+hulls and closed meshes exactly (their own triangles; a decomposed compound its source mesh);
+cylinders, capsules, cones and ellipsoids as fine tessellations (``SECTIONS`` segments round,
+icospheres of ``SUBDIVISIONS`` levels: their volume short of the exact one by 0.1 % at most, the
+mass properties being exact; ``surface_volume`` reports it); compounds part by part. A body of
+particles, with no surface, floats not at all.
+
+``apply_buoyancy`` writes each body's force and torque into its ``UFORCE_CONSTANT`` row of the
+world's force tables (``forces.build_force_tables``) at the start of each step (the Simulator
+steps one step at a time when the world has a Buoyancy record); every integrator and the soft
+step read those rows as they read a ``ConstantForce``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .body_motion import LAYOUT_MATRIX
+from .math3d import JIT
+from .shapes import Compound, Particles, Sphere
+
+SECTIONS = 192  # segments round a cylinder, capsule or cone: volume within 0.02 % (1 - sin(2 pi / n) n / (2 pi))
+SUBDIVISIONS = 5  # icosphere levels of an ellipsoid (or a compound's ball): 10 242 vertices, volume within 0.03 %
+
+
+def _surface(shape) -> tuple[np.ndarray, float]:
+    """((T, 3, 3) outward-wound triangles in the shape frame, m; sphere radius or 0): the closed surface
+    buoyancy clips (module docstring)."""
+    from .visual import shape_trimesh
+
+    if isinstance(shape, Sphere):
+        return np.zeros((0, 3, 3)), float(shape.radius)
+    if isinstance(shape, Particles):
+        return np.zeros((0, 3, 3)), 0.0
+    if isinstance(shape, Compound) and shape.source is None and any(isinstance(p[0], Particles) for p in shape.parts):
+        return np.zeros((0, 3, 3)), 0.0
+    mesh = shape_trimesh(shape, sections=SECTIONS, subdivisions=SUBDIVISIONS)
+    return np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces, dtype=np.int64)], 0.0
+
+
+class BuoyancyGeometry:
+    """Per body of a world, its surface for buoyancy (built when first needed, kept per shape record).
+
+    Attributes (N bodies): ``first``, ``count`` (N,) int64 rows of ``triangles`` (T, 3, 3) m, body
+    frame; ``radius`` (N,) m, a lone sphere's radius (its centre at ``centre`` (N, 3), body frame)
+    or 0; ``volume`` (N,) m^3, the whole surface's volume (0: no surface).
+    """
+
+    def __init__(self, world):
+        n = world.body_count
+        parts, cache = [], {}
+        self.first = np.zeros(n, dtype=np.int64)
+        self.count = np.zeros(n, dtype=np.int64)
+        self.radius = np.zeros(n)
+        self.centre = np.zeros((n, 3))
+        self.volume = np.zeros(n)
+        total = 0
+        for i in range(n):
+            shape = world.shapes[i]
+            key = id(shape)
+            if key not in cache:
+                cache[key] = (shape, *_surface(shape))  # the record kept alive with its id
+            _, tri, radius = cache[key]
+            offset = -np.asarray(world.com_offset[i], dtype=float)  # the shape origin in the body frame
+            self.centre[i] = offset
+            self.radius[i] = radius
+            if radius > 0.0:
+                self.volume[i] = 4.0 / 3.0 * math.pi * radius**3
+                continue
+            if len(tri) == 0:
+                continue
+            tri = tri + offset
+            parts.append(tri)
+            self.first[i], self.count[i] = total, len(tri)
+            total += len(tri)
+            self.volume[i] = float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0
+        self.triangles = np.ascontiguousarray(np.concatenate(parts) if parts else np.zeros((0, 3, 3)))
+        self.body_count = n
+
+
+def geometry(world) -> BuoyancyGeometry:
+    """The world's BuoyancyGeometry, made again when bodies were added."""
+    g = world.__dict__.get("_buoyancy_geometry")
+    if g is None or g.body_count != world.body_count:
+        g = BuoyancyGeometry(world)
+        world.__dict__["_buoyancy_geometry"] = g
+    return g
+
+
+def surface_volume(world, body) -> float:
+    """m^3: the volume of the surface buoyancy sees for ``body`` (an index or a Body): the shape's own
+    for spheres, boxes, hulls and meshes, a tessellation's for round shapes (module docstring)."""
+    i = int(getattr(body, "index", body))
+    return float(geometry(world).volume[i])
+
+
+@njit(**JIT)
+def _clip_add(ax, ay, az, bx, by, bz, cx, cy, cz, p0, acc):
+    """Add the tetrahedron (p0, a, b, c)'s signed volume and volume-weighted centroid to acc (4,)."""
+    ux, uy, uz = ax - p0[0], ay - p0[1], az - p0[2]
+    vx, vy, vz = bx - p0[0], by - p0[1], bz - p0[2]
+    wx, wy, wz = cx - p0[0], cy - p0[1], cz - p0[2]
+    vol = (ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)) / 6.0
+    acc[0] += vol
+    acc[1] += vol * 0.25 * (p0[0] + ax + bx + cx)
+    acc[2] += vol * 0.25 * (p0[1] + ay + by + cy)
+    acc[3] += vol * 0.25 * (p0[2] + az + bz + cz)
+
+
+@njit(**JIT)
+def submerged_part(x, R, first, count, triangles, radius, centre, up, level, acc, poly):
+    """Volume (m^3) of one body's surface below the plane up . p = level, and its centroid (world)
+    times the volume, in acc (4,) = (V, V cx, V cy, V cz). x (3,), R (3, 3): the body's pose;
+    poly (4, 3): scratch."""
+    acc[:] = 0.0
+    if radius > 0.0:  # a sphere: the cap's closed form
+        cx = x[0] + R[0, 0] * centre[0] + R[0, 1] * centre[1] + R[0, 2] * centre[2]
+        cy = x[1] + R[1, 0] * centre[0] + R[1, 1] * centre[1] + R[1, 2] * centre[2]
+        cz = x[2] + R[2, 0] * centre[0] + R[2, 1] * centre[1] + R[2, 2] * centre[2]
+        h = level - (up[0] * cx + up[1] * cy + up[2] * cz - radius)  # depth of its lowest point
+        if h <= 0.0:
+            return
+        h = min(h, 2.0 * radius)
+        vol = math.pi * h * h * (3.0 * radius - h) / 3.0
+        # the cap's centroid lies 3 (2r - h)^2 / (4 (3r - h)) below the centre
+        down = 3.0 * (2.0 * radius - h) ** 2 / (4.0 * (3.0 * radius - h))
+        acc[0] = vol
+        acc[1] = vol * (cx - down * up[0])
+        acc[2] = vol * (cy - down * up[1])
+        acc[3] = vol * (cz - down * up[2])
+        return
+    # p0: the body's centre dropped onto the plane (any point of the plane would do; one near the
+    # body keeps the tetrahedra small, so their sum loses little to rounding)
+    s = up[0] * x[0] + up[1] * x[1] + up[2] * x[2] - level
+    p0 = (x[0] - s * up[0], x[1] - s * up[1], x[2] - s * up[2])
+    for t in range(first, first + count):
+        # the corners in the world and their heights above the surface
+        for k in range(3):
+            lx, ly, lz = triangles[t, k, 0], triangles[t, k, 1], triangles[t, k, 2]
+            poly[k, 0] = x[0] + R[0, 0] * lx + R[0, 1] * ly + R[0, 2] * lz
+            poly[k, 1] = x[1] + R[1, 0] * lx + R[1, 1] * ly + R[1, 2] * lz
+            poly[k, 2] = x[2] + R[2, 0] * lx + R[2, 1] * ly + R[2, 2] * lz
+        d0 = up[0] * poly[0, 0] + up[1] * poly[0, 1] + up[2] * poly[0, 2] - level
+        d1 = up[0] * poly[1, 0] + up[1] * poly[1, 1] + up[2] * poly[1, 2] - level
+        d2 = up[0] * poly[2, 0] + up[1] * poly[2, 1] + up[2] * poly[2, 2] - level
+        under = 0
+        for dk in (d0, d1, d2):
+            if dk <= 0.0:
+                under += 1
+        if under == 0:
+            continue
+        if under == 3:
+            _clip_add(poly[0, 0], poly[0, 1], poly[0, 2], poly[1, 0], poly[1, 1], poly[1, 2],
+                      poly[2, 0], poly[2, 1], poly[2, 2], p0, acc)
+            continue
+        # one or two corners under: turn the corners so that corner 0 is the odd one out (alone
+        # under, or alone above), keeping the winding; then the part under is a triangle or a quad
+        d = (d0, d1, d2)
+        odd = 0
+        for k in range(3):
+            if (d[k] <= 0.0) == (under == 1):
+                odd = k
+        i0, i1, i2 = odd, (odd + 1) % 3, (odd + 2) % 3
+        e0, e1, e2 = d[i0], d[i1], d[i2]
+        ax, ay, az = poly[i0, 0], poly[i0, 1], poly[i0, 2]
+        bx, by, bz = poly[i1, 0], poly[i1, 1], poly[i1, 2]
+        cx, cy, cz = poly[i2, 0], poly[i2, 1], poly[i2, 2]
+        # where the edges from corner 0 cross the surface
+        s1 = e0 / (e0 - e1)
+        s2 = e0 / (e0 - e2)
+        qx, qy, qz = ax + s1 * (bx - ax), ay + s1 * (by - ay), az + s1 * (bz - az)
+        rx, ry, rz = ax + s2 * (cx - ax), ay + s2 * (cy - ay), az + s2 * (cz - az)
+        if under == 1:  # corner 0 alone under: the triangle (a, q, r)
+            _clip_add(ax, ay, az, qx, qy, qz, rx, ry, rz, p0, acc)
+        else:  # corner 0 alone above: the quad (q, b, c, r)
+            _clip_add(qx, qy, qz, bx, by, bz, cx, cy, cz, p0, acc)
+            _clip_add(qx, qy, qz, cx, cy, cz, rx, ry, rz, p0, acc)
+
+
+@njit(**JIT)
+def buoyancy_kernel(layout, Y, bodies, rows, first, count, triangles, radius, centre, volume, inv_mass,
+                    inertia_body_inv, up, level, rho_g, drag, flow, half, uforce_param, submerged):
+    """Fill the constant-force rows ``rows`` of ``bodies`` with their buoyancy and drag (Buoyancy's
+    docstring) from the packed state Y; ``submerged`` (B,) m^3 gets each body's volume under the
+    surface. drag (4,): linear, quadratic, angular_linear, angular_quadratic.
+
+    The buoyancy is taken at the pose the body reaches in ``half`` (s, half the step) at its present
+    velocities: held over the step, a force of the mid-step pose makes the step position Verlet
+    for it (x_n+1 = x_n + h v_n + h^2 / 2 a(x_n+1/2)): symplectic, second order, a floating body's
+    bobbing kept (measured on a slab, omega h = 0.026: its amplitude to 2e-6 over 5 periods, its
+    period short by 2.8e-5 = (omega h)^2 / 24, position Verlet's). DEAD END (session 26): the force of
+    the step's start, held over the step, is explicit Euler's for it: the bobbing grew 23 % in 5
+    periods at dt 1/240 s (tests/physics/test_buoyancy.py caught it)."""
+    R = np.empty((3, 3))
+    Rm = np.empty((3, 3))
+    acc = np.empty(4)
+    poly = np.empty((4, 3))
+    xm = np.empty(3)
+    W = Y.shape[1]
+    for k in range(bodies.shape[0]):
+        i = bodies[k]
+        x = Y[i, 0:3]
+        if layout == LAYOUT_MATRIX:
+            for a in range(3):
+                for b in range(3):
+                    R[a, b] = Y[i, 3 + 3 * a + b]
+        else:
+            q = Y[i, 3:7]
+            nq = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+            w_, x_, y_, z_ = q[0] / nq, q[1] / nq, q[2] / nq, q[3] / nq
+            R[0, 0] = 1.0 - 2.0 * (y_ * y_ + z_ * z_)
+            R[0, 1] = 2.0 * (x_ * y_ - w_ * z_)
+            R[0, 2] = 2.0 * (x_ * z_ + w_ * y_)
+            R[1, 0] = 2.0 * (x_ * y_ + w_ * z_)
+            R[1, 1] = 1.0 - 2.0 * (x_ * x_ + z_ * z_)
+            R[1, 2] = 2.0 * (y_ * z_ - w_ * x_)
+            R[2, 0] = 2.0 * (x_ * z_ - w_ * y_)
+            R[2, 1] = 2.0 * (y_ * z_ + w_ * x_)
+            R[2, 2] = 1.0 - 2.0 * (x_ * x_ + y_ * y_)
+        # v = P / m and omega = R Ibody^-1 R^T L, world
+        P = Y[i, W - 6:W - 3]
+        L = Y[i, W - 3:W]
+        vx, vy, vz = P[0] * inv_mass[i], P[1] * inv_mass[i], P[2] * inv_mass[i]
+        bl0 = R[0, 0] * L[0] + R[1, 0] * L[1] + R[2, 0] * L[2]
+        bl1 = R[0, 1] * L[0] + R[1, 1] * L[1] + R[2, 1] * L[2]
+        bl2 = R[0, 2] * L[0] + R[1, 2] * L[1] + R[2, 2] * L[2]
+        Ib = inertia_body_inv[i]
+        w0 = Ib[0, 0] * bl0 + Ib[0, 1] * bl1 + Ib[0, 2] * bl2
+        w1 = Ib[1, 0] * bl0 + Ib[1, 1] * bl1 + Ib[1, 2] * bl2
+        w2 = Ib[2, 0] * bl0 + Ib[2, 1] * bl1 + Ib[2, 2] * bl2
+        ox = R[0, 0] * w0 + R[0, 1] * w1 + R[0, 2] * w2
+        oy = R[1, 0] * w0 + R[1, 1] * w1 + R[1, 2] * w2
+        oz = R[2, 0] * w0 + R[2, 1] * w1 + R[2, 2] * w2
+        spin = math.sqrt(ox * ox + oy * oy + oz * oz)
+        # the mid-step pose: x + v h/2, R turned by omega h/2 (Rodrigues)
+        xm[0], xm[1], xm[2] = x[0] + half * vx, x[1] + half * vy, x[2] + half * vz
+        angle = spin * half
+        if angle > 0.0:
+            kx, ky, kz = ox / spin, oy / spin, oz / spin
+            sn, cs = math.sin(angle), 1.0 - math.cos(angle)
+            K = ((0.0, -kz, ky), (kz, 0.0, -kx), (-ky, kx, 0.0))
+            for a in range(3):
+                for b in range(3):
+                    kk = K[a][0] * K[0][b] + K[a][1] * K[1][b] + K[a][2] * K[2][b]
+                    turn = (1.0 if a == b else 0.0) + sn * K[a][b] + cs * kk
+                    Rm[a, b] = turn  # the turn itself, applied to R below
+            for a in range(3):
+                r0 = Rm[a, 0] * R[0, 0] + Rm[a, 1] * R[1, 0] + Rm[a, 2] * R[2, 0]
+                r1 = Rm[a, 0] * R[0, 1] + Rm[a, 1] * R[1, 1] + Rm[a, 2] * R[2, 1]
+                r2 = Rm[a, 0] * R[0, 2] + Rm[a, 1] * R[1, 2] + Rm[a, 2] * R[2, 2]
+                poly[a, 0], poly[a, 1], poly[a, 2] = r0, r1, r2
+            for a in range(3):
+                for b in range(3):
+                    Rm[a, b] = poly[a, b]
+        else:
+            for a in range(3):
+                for b in range(3):
+                    Rm[a, b] = R[a, b]
+        submerged_part(xm, Rm, first[i], count[i], triangles, radius[i], centre[i], up, level, acc, poly)
+        V = acc[0]
+        row = rows[k]
+        for c in range(6):
+            uforce_param[row, c] = 0.0
+        submerged[k] = V
+        if V <= 0.0 or volume[i] <= 0.0:
+            continue
+        cbx, cby, cbz = acc[1] / V - xm[0], acc[2] / V - xm[1], acc[3] / V - xm[2]
+        fb = rho_g * V
+        Fx, Fy, Fz = fb * up[0], fb * up[1], fb * up[2]
+        Tx, Ty, Tz = cby * Fz - cbz * Fy, cbz * Fx - cbx * Fz, cbx * Fy - cby * Fx
+        # drag in the fluid, in proportion to the part under it
+        f = min(V / volume[i], 1.0)
+        ux, uy, uz = vx - flow[0], vy - flow[1], vz - flow[2]
+        speed = math.sqrt(ux * ux + uy * uy + uz * uz)
+        kl = f * (drag[0] + drag[1] * speed)
+        ka = f * (drag[2] + drag[3] * spin)
+        uforce_param[row, 0] = Fx - kl * ux
+        uforce_param[row, 1] = Fy - kl * uy
+        uforce_param[row, 2] = Fz - kl * uz
+        uforce_param[row, 3] = Tx - ka * ox
+        uforce_param[row, 4] = Ty - ka * oy
+        uforce_param[row, 5] = Tz - ka * oz
+
+
+def apply_buoyancy(world, Y, dt: float) -> None:
+    """Fill the world's Buoyancy rows from the packed state Y (N, W) for a step of dt (s) (module
+    docstring; ``buoyancy_kernel``)."""
+    tables = world.tables
+    if not tables.buoyancy:
+        return
+    g = geometry(world)
+    gravity = np.asarray(world.gravity, dtype=float)
+    gn = float(np.linalg.norm(gravity))
+    up = -gravity / gn if gn > 0.0 else np.array([0.0, 0.0, 1.0])
+    for record, bodies, rows in tables.buoyancy:
+        drag = np.array([record.linear, record.quadratic, record.angular_linear, record.angular_quadratic])
+        submerged = np.empty(len(bodies))
+        buoyancy_kernel(world.layout_id, Y, bodies, rows, g.first, g.count, g.triangles, g.radius, g.centre,
+                        g.volume, world.inv_mass, world.inertia_body_inv, up, record.level,
+                        record.density * gn, drag, np.asarray(record.flow, dtype=float), 0.5 * float(dt),
+                        tables.uforce_param, submerged)
+
+
+def submerged_volume(world, body=None) -> np.ndarray | float:
+    """m^3 under the surface of the world's first Buoyancy record at the world's current state: for
+    ``body`` (an index or a Body), or (N,) for every body."""
+    tables = world.tables
+    if not tables.buoyancy:
+        raise ValueError("the world has no Buoyancy record")
+    record = tables.buoyancy[0][0]
+    g = geometry(world)
+    gravity = np.asarray(world.gravity, dtype=float)
+    gn = float(np.linalg.norm(gravity))
+    up = -gravity / gn if gn > 0.0 else np.array([0.0, 0.0, 1.0])
+    acc, poly = np.empty(4), np.empty((4, 3))
+    ids = range(world.body_count) if body is None else [int(getattr(body, "index", body))]
+    out = np.zeros(len(ids))
+    for k, i in enumerate(ids):
+        submerged_part(np.ascontiguousarray(world.x[i]), np.ascontiguousarray(world.R[i]), g.first[i], g.count[i],
+                       g.triangles, g.radius[i], np.ascontiguousarray(g.centre[i]), up, record.level, acc, poly)
+        out[k] = acc[0]
+    return out if body is None else float(out[0])
