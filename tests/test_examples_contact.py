@@ -8,6 +8,7 @@ contact substeps, unless the scene sets its own).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -595,3 +596,34 @@ def test_skatepark_bodies_run_across_the_open_half_pipe_and_none_falls_through()
         y = traj.position[:, names.index(name), 1]
         assert np.count_nonzero(np.sign(y[1:]) != np.sign(y[:-1])) >= 3, name
     assert traj.position[-1, names.index("deck_ball"), 2] == pytest.approx(1.6, abs=1e-3)
+
+
+# ---------------------------------------------------------------------- harbour (buoyancy)
+
+def test_harbour_floats_what_is_lighter_than_sea_water_at_its_archimedes_draft():
+    """examples/harbour.toml, 12 s in sea water (1025 kg/m^3) flowing at 0.2 m/s. Checks at the end:
+    each floating body has under the surface the fraction of its volume that its density is of the
+    water's (Archimedes; within 0.01: the barrel still rocks a little); the log that started on end
+    floats on its side (its long axis within 5 degrees of level: upright its metacentre is below its
+    centre of mass); every floater drifts with the current (0.2 m/s along x, 1 mm/s); the anchor lies
+    on the sea bed (its centre 0.15 m above z = -2, 1 mm), at rest.
+    Measured: the barrel 0.007 off, the crate 0.002 (both still bobbing a little), the others within
+    2e-4; every drift 0.200 m/s."""
+    from tumble.buoyancy import submerged_volume, surface_volume
+
+    scene, traj = run("harbour")
+    w = scene.world
+    names = list(traj.names)
+    floaters = ("crate", "barrel", "beach_ball", "plank", "ice", "log")
+    V = submerged_volume(w)
+    for name in floaters:
+        i = names.index(name)
+        whole = surface_volume(w, i)
+        assert V[i] / whole == pytest.approx(w.mass[i] / whole / 1025.0, abs=0.01), name
+        assert w.v[i] == pytest.approx((0.2, 0.0, 0.0), abs=2e-2), name
+        assert w.v[i][0] == pytest.approx(0.2, abs=1e-3), name
+    log = names.index("log")
+    assert abs(w.R[log][2, 2]) < math.sin(math.radians(5.0))
+    anchor = names.index("anchor")
+    assert w.x[anchor, 2] == pytest.approx(-2.0 + 0.15, abs=1e-3)
+    assert np.linalg.norm(w.v[anchor]) < 1e-3
