@@ -56,7 +56,9 @@ class BuoyancyGeometry:
 
     Attributes (N bodies): ``first``, ``count`` (N,) int64 rows of ``triangles`` (T, 3, 3) m, body
     frame; ``radius`` (N,) m, a lone sphere's radius (its centre at ``centre`` (N, 3), body frame)
-    or 0; ``volume`` (N,) m^3, the whole surface's volume (0: no surface).
+    or 0; ``volume`` (N,) m^3, the whole surface's volume (0: no surface); ``reach`` (N,) m, the
+    farthest corner from the centre of mass, and ``centroid`` (N, 3) m, body frame, the whole
+    surface's centroid: a body wholly above or under the surface costs no triangle.
     """
 
     def __init__(self, world):
@@ -67,6 +69,8 @@ class BuoyancyGeometry:
         self.radius = np.zeros(n)
         self.centre = np.zeros((n, 3))
         self.volume = np.zeros(n)
+        self.reach = np.zeros(n)
+        self.centroid = np.zeros((n, 3))
         total = 0
         for i in range(n):
             shape = world.shapes[i]
@@ -79,6 +83,8 @@ class BuoyancyGeometry:
             self.radius[i] = radius
             if radius > 0.0:
                 self.volume[i] = 4.0 / 3.0 * math.pi * radius**3
+                self.centroid[i] = offset
+                self.reach[i] = float(np.linalg.norm(offset)) + radius
                 continue
             if len(tri) == 0:
                 continue
@@ -86,7 +92,10 @@ class BuoyancyGeometry:
             parts.append(tri)
             self.first[i], self.count[i] = total, len(tri)
             total += len(tri)
-            self.volume[i] = float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0
+            tets = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])) / 6.0
+            self.volume[i] = float(tets.sum())
+            self.centroid[i] = (tets[:, None] * tri.sum(axis=1) / 4.0).sum(axis=0) / self.volume[i]
+            self.reach[i] = float(np.linalg.norm(tri.reshape(-1, 3), axis=1).max())
         self.triangles = np.ascontiguousarray(np.concatenate(parts) if parts else np.zeros((0, 3, 3)))
         self.body_count = n
 
@@ -121,11 +130,20 @@ def _clip_add(ax, ay, az, bx, by, bz, cx, cy, cz, p0, acc):
 
 
 @njit(**JIT)
-def submerged_part(x, R, first, count, triangles, radius, centre, up, level, acc, poly):
+def submerged_part(x, R, first, count, triangles, radius, centre, volume, reach, centroid, up, level, acc, poly):
     """Volume (m^3) of one body's surface below the plane up . p = level, and its centroid (world)
     times the volume, in acc (4,) = (V, V cx, V cy, V cz). x (3,), R (3, 3): the body's pose;
-    poly (4, 3): scratch."""
+    poly (4, 3): scratch. The body's volume, reach and centroid (BuoyancyGeometry's) skip the
+    triangles of a body wholly out of the fluid or wholly in it."""
     acc[:] = 0.0
+    height = up[0] * x[0] + up[1] * x[1] + up[2] * x[2] - level
+    if height - reach >= 0.0 or volume <= 0.0:
+        return  # dry
+    if height + reach <= 0.0 and radius == 0.0:  # wholly under: the whole surface's centroid
+        for k in range(3):
+            acc[1 + k] = volume * (x[k] + R[k, 0] * centroid[0] + R[k, 1] * centroid[1] + R[k, 2] * centroid[2])
+        acc[0] = volume
+        return
     if radius > 0.0:  # a sphere: the cap's closed form
         cx = x[0] + R[0, 0] * centre[0] + R[0, 1] * centre[1] + R[0, 2] * centre[2]
         cy = x[1] + R[1, 0] * centre[0] + R[1, 1] * centre[1] + R[1, 2] * centre[2]
@@ -191,7 +209,7 @@ def submerged_part(x, R, first, count, triangles, radius, centre, up, level, acc
 
 
 @njit(**JIT)
-def buoyancy_kernel(layout, Y, bodies, rows, first, count, triangles, radius, centre, volume, inv_mass,
+def buoyancy_kernel(layout, Y, bodies, rows, first, count, triangles, radius, centre, volume, reach, centroid, inv_mass,
                     inertia_body_inv, up, level, rho_g, drag, flow, half, uforce_param, submerged):
     """Fill the constant-force rows ``rows`` of ``bodies`` with their buoyancy and drag (Buoyancy's
     docstring) from the packed state Y; ``submerged`` (B,) m^3 gets each body's volume under the
@@ -269,7 +287,8 @@ def buoyancy_kernel(layout, Y, bodies, rows, first, count, triangles, radius, ce
             for a in range(3):
                 for b in range(3):
                     Rm[a, b] = R[a, b]
-        submerged_part(xm, Rm, first[i], count[i], triangles, radius[i], centre[i], up, level, acc, poly)
+        submerged_part(xm, Rm, first[i], count[i], triangles, radius[i], centre[i], volume[i], reach[i], centroid[i],
+                       up, level, acc, poly)
         V = acc[0]
         row = rows[k]
         for c in range(6):
@@ -309,7 +328,7 @@ def apply_buoyancy(world, Y, dt: float) -> None:
         drag = np.array([record.linear, record.quadratic, record.angular_linear, record.angular_quadratic])
         submerged = np.empty(len(bodies))
         buoyancy_kernel(world.layout_id, Y, bodies, rows, g.first, g.count, g.triangles, g.radius, g.centre,
-                        g.volume, world.inv_mass, world.inertia_body_inv, up, record.level,
+                        g.volume, g.reach, g.centroid, world.inv_mass, world.inertia_body_inv, up, record.level,
                         record.density * gn, drag, np.asarray(record.flow, dtype=float), 0.5 * float(dt),
                         tables.uforce_param, submerged)
 
@@ -330,6 +349,7 @@ def submerged_volume(world, body=None) -> np.ndarray | float:
     out = np.zeros(len(ids))
     for k, i in enumerate(ids):
         submerged_part(np.ascontiguousarray(world.x[i]), np.ascontiguousarray(world.R[i]), g.first[i], g.count[i],
-                       g.triangles, g.radius[i], np.ascontiguousarray(g.centre[i]), up, record.level, acc, poly)
+                       g.triangles, g.radius[i], np.ascontiguousarray(g.centre[i]), g.volume[i], g.reach[i],
+                       np.ascontiguousarray(g.centroid[i]), up, record.level, acc, poly)
         out[k] = acc[0]
     return out if body is None else float(out[0])

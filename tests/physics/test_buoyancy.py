@@ -31,7 +31,8 @@ def _part(world, i, x, R, level=0.0):
     g = geometry(world)
     acc, poly = np.empty(4), np.empty((4, 3))
     submerged_part(np.asarray(x, float), np.ascontiguousarray(R, dtype=float), g.first[i], g.count[i], g.triangles,
-                   g.radius[i], np.ascontiguousarray(g.centre[i]), np.array([0.0, 0.0, 1.0]), level, acc, poly)
+                   g.radius[i], np.ascontiguousarray(g.centre[i]), g.volume[i], g.reach[i],
+                   np.ascontiguousarray(g.centroid[i]), np.array([0.0, 0.0, 1.0]), level, acc, poly)
     return acc[0], (acc[1:] / acc[0] if acc[0] > 0 else np.zeros(3))
 
 
@@ -68,7 +69,9 @@ def test_the_submerged_volume_and_centroid_equal_an_independent_clip_of_convex_p
     """A box, a hull, a compound of a box and a cone on it, a capsule and a concave closed mesh (an L
     prism) at random poses cut by z = 0: the tetrahedra from a point on the cut (no cap built) against
     SciPy's Qhull of each convex piece clipped (_clipped_hull; the L as its two boxes, the compound
-    as its two parts, the round shapes by the same tessellation's points): 1e-9 relative, rounding."""
+    as its two parts, the round shapes by the same tessellation's points): 1e-9 relative, rounding.
+    A quarter of the poses are wholly under (the whole surface's centroid, no triangle visited) and a
+    quarter wholly out."""
     import trimesh
 
     from tumble.buoyancy import SECTIONS
@@ -95,8 +98,9 @@ def test_the_submerged_volume_and_centroid_equal_an_independent_clip_of_convex_p
         w.add_body(shape, mass=1.0)
     for i, (_, pieces) in enumerate(cases):
         offset = -w.com_offset[i]  # the shape frame's origin in the body frame
-        for _ in range(6):
+        for k in range(8):
             x = rng.uniform(-0.2, 0.2, 3)
+            x[2] += {2: 3.0, 3: -3.0}.get(k % 4, 0.0)  # some wholly out of the water, some wholly in
             R = quat_to_matrix(tb.math3d.random_quaternions(1, rng)[0])
             V, c = _part(w, i, x, R)
             parts = [_clipped_hull((p + offset) @ R.T + x) for p in pieces]
