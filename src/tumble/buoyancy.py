@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from .body_motion import LAYOUT_MATRIX
-from .math3d import JIT
+from .math3d import JIT, quat_to_matrix_into
 from .shapes import Compound, Particles, Sphere
 
 SECTIONS = 192  # segments round a cylinder, capsule or cone: volume within 0.02 % (1 - sin(2 pi / n) n / (2 pi))
@@ -236,18 +236,7 @@ def buoyancy_kernel(layout, Y, bodies, rows, first, count, triangles, radius, ce
                 for b in range(3):
                     R[a, b] = Y[i, 3 + 3 * a + b]
         else:
-            q = Y[i, 3:7]
-            nq = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-            w_, x_, y_, z_ = q[0] / nq, q[1] / nq, q[2] / nq, q[3] / nq
-            R[0, 0] = 1.0 - 2.0 * (y_ * y_ + z_ * z_)
-            R[0, 1] = 2.0 * (x_ * y_ - w_ * z_)
-            R[0, 2] = 2.0 * (x_ * z_ + w_ * y_)
-            R[1, 0] = 2.0 * (x_ * y_ + w_ * z_)
-            R[1, 1] = 1.0 - 2.0 * (x_ * x_ + z_ * z_)
-            R[1, 2] = 2.0 * (y_ * z_ - w_ * x_)
-            R[2, 0] = 2.0 * (x_ * z_ - w_ * y_)
-            R[2, 1] = 2.0 * (y_ * z_ + w_ * x_)
-            R[2, 2] = 1.0 - 2.0 * (x_ * x_ + y_ * y_)
+            quat_to_matrix_into(Y[i, 3:7], R)  # the state's quaternion is kept of unit length
         # v = P / m and omega = R Ibody^-1 R^T L, world
         P = Y[i, W - 6:W - 3]
         L = Y[i, W - 3:W]

@@ -389,24 +389,10 @@ def _read_mesh_file(path):
     return mesh
 
 
-def load_closed_mesh(path=None, vertices=None, faces=None):
-    """A closed, consistently and outward wound triangle mesh from a file or inline arrays.
-
-    Args:
-        path: mesh file (OBJ, STL, PLY, ... anything ``trimesh.load`` reads); or
-        vertices: (V, 3) vertex positions, shape frame, m; and
-        faces: (F, 3) vertex indices per triangle.
-
-    Returns:
-        ``trimesh.Trimesh`` with duplicate vertices merged, every edge shared by
-        exactly two faces, faces wound counter-clockwise seen from outside
-        (repaired in place when they are not; see ``_orient_outward``) and volume > 0.
-
-    Raises:
-        InputError: key ``"path"`` for file problems, ``"vertices"``/``"faces"``
-            for inline arrays (a mesh that is not closed or has no volume is
-            reported on ``"path"`` or ``"vertices"``, whichever gave it).
-    """
+def _mesh_source(path, vertices, faces):
+    """(trimesh.Trimesh, key): a mesh file's or inline arrays' triangles, duplicate vertices merged;
+    the key its problems are reported on ("path" or "vertices"). Shared by the closed and the open
+    meshes' loaders."""
     import trimesh
 
     inline = vertices is not None or faces is not None
@@ -427,6 +413,28 @@ def load_closed_mesh(path=None, vertices=None, faces=None):
         mesh = trimesh.Trimesh(vertices=v, faces=f, process=True)
         if len(mesh.faces) == 0:
             raise InputError("mesh has no non-degenerate triangles", "faces")
+    return mesh, key
+
+
+def load_closed_mesh(path=None, vertices=None, faces=None):
+    """A closed, consistently and outward wound triangle mesh from a file or inline arrays.
+
+    Args:
+        path: mesh file (OBJ, STL, PLY, ... anything ``trimesh.load`` reads); or
+        vertices: (V, 3) vertex positions, shape frame, m; and
+        faces: (F, 3) vertex indices per triangle.
+
+    Returns:
+        ``trimesh.Trimesh`` with duplicate vertices merged, every edge shared by
+        exactly two faces, faces wound counter-clockwise seen from outside
+        (repaired in place when they are not; see ``_orient_outward``) and volume > 0.
+
+    Raises:
+        InputError: key ``"path"`` for file problems, ``"vertices"``/``"faces"``
+            for inline arrays (a mesh that is not closed or has no volume is
+            reported on ``"path"`` or ``"vertices"``, whichever gave it).
+    """
+    mesh, key = _mesh_source(path, vertices, faces)
     _check_closed(mesh, key)
     if not _orient_outward(mesh):
         raise InputError("mesh faces cannot be wound consistently (non-orientable surface)", key)
@@ -449,26 +457,9 @@ def load_open_mesh(path=None, vertices=None, faces=None):
 
     Raises:
         InputError: as ``load_closed_mesh`` for file and array problems; a surface left with no
-            triangle of non-zero area.
+            triangle of non-zero area ("mesh has no non-degenerate triangles").
     """
-    import trimesh
-
-    inline = vertices is not None or faces is not None
-    if path is not None and inline:
-        raise InputError("give either a mesh file path or inline vertices and faces, not both", "path")
-    if path is None and not inline:
-        raise InputError("give a mesh file path or inline vertices and faces", "path")
-    if path is not None:
-        key = "path"
-        mesh = _read_mesh_file(path)
-    else:
-        key = "vertices"
-        if vertices is None:
-            raise InputError("faces were given without vertices", "vertices")
-        if faces is None:
-            raise InputError("vertices were given without faces", "faces")
-        v, f = _inline_arrays(vertices, faces)
-        mesh = trimesh.Trimesh(vertices=v, faces=f, process=True)
+    mesh, key = _mesh_source(path, vertices, faces)
     # NOTE: relative threshold, as load_closed_mesh's volume: a sliver of round-off area is no triangle
     extent = float(np.max(mesh.extents)) if len(mesh.vertices) else 0.0
     keep = np.asarray(mesh.area_faces) > 1e-14 * extent**2
@@ -476,7 +467,7 @@ def load_open_mesh(path=None, vertices=None, faces=None):
         mesh.update_faces(keep)
         mesh.remove_unreferenced_vertices()
     if len(mesh.faces) == 0:
-        raise InputError("mesh has no triangle of non-zero area", key)
+        raise InputError("mesh has no non-degenerate triangles", key)
     return mesh
 
 

@@ -270,7 +270,7 @@ def test_an_open_sheets_edge_flags_see_a_ridge_as_convex_from_the_front_and_conc
 def test_open_meshes_are_refused_where_they_cannot_go():
     """Each refusal one InputError with its key: a closed mesh expected (the hint names closed =
     false); an open mesh on a moving or sensor body; with a mass; decomposed; a hull
-    held open; closed not a bool; a surface of only zero-area triangles."""
+    held open; closed not a bool; a surface of only zero-area triangles (one of zero area dropped)."""
     V, F = grid_sheet(n=2)
     with pytest.raises(InputError, match=r"not closed .*closed = false"):
         tb.Mesh(vertices=V, faces=F)
@@ -290,7 +290,7 @@ def test_open_meshes_are_refused_where_they_cannot_go():
     with pytest.raises(InputError, match="true or false") as info:
         tb.Mesh(vertices=V, faces=F, closed="no")
     assert info.value.key == "closed"
-    with pytest.raises(InputError, match="no triangle of non-zero area"):
+    with pytest.raises(InputError, match="no non-degenerate triangles"):
         tb.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [2, 0, 0]], faces=[[0, 1, 2]], closed=False)
     # what is kept: duplicates merged, a zero-area triangle dropped
     kept = tb.Mesh(vertices=np.vstack([V, V[:1]]), faces=np.vstack([F, [[0, 1, 9]]]), closed=False)
