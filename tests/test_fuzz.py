@@ -36,6 +36,8 @@ BASE = {
         {"name": "tet", "shape": {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
                                   "faces": [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]}, "mass": 1.0, "inertia": [1, 1, 1]},
         {"name": "ground", "shape": {"type": "plane", "normal": [0, 0, 1], "offset": 0}, "fixed": True},
+        {"name": "sheet", "shape": {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [1, 1, 0.2], [0, 1, 0]],
+                                    "faces": [[0, 1, 2], [0, 2, 3]], "closed": False}, "fixed": True, "position": [0, -3, 0.5]},
         {"name": "rod", "shape": {"type": "capsule", "radius": 0.1, "length": 1.0}, "mass": 1.0, "orientation": [1, 0, 0, 0]},
         {"name": "belt", "shape": {"type": "box", "size": [2, 1, 0.1]}, "kinematic": True, "velocity": [0.5, 0, 0],
          "angular_velocity": [0, 0, 0.1], "surface_velocity": [0, 1, 0]},
@@ -55,6 +57,8 @@ BASE = {
         {"type": "impulse", "body": "rod", "impulse": [0, 1, 0], "time": 0.1},
         {"type": "explosion", "position": [0, 0, 0.5], "radius": 1.0, "falloff": 0.5, "impulse_per_area": 2.0,
          "time": 0.2, "mask": 3},
+        {"type": "buoyancy", "density": 1000, "level": 0.3, "linear": 1, "quadratic": 0.5, "angular_linear": 0.1,
+         "angular_quadratic": 0.1, "flow": [0.1, 0, 0]},
     ],
     "collision_exclusions": [{"bodies": ["box", "rod"]}],
     "joints": [

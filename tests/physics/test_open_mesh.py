@@ -299,8 +299,8 @@ def test_open_meshes_are_refused_where_they_cannot_go():
 
 def test_an_open_mesh_goes_through_a_scene_file_a_trajectory_and_a_snapshot(tmp_path):
     """A scene's ``closed = false`` makes the open sheet; the trajectory's shape record keeps it open
-    (``shape_to_dict`` writes ``closed = false`` only then); a snapshot restored repeats the run bit
-    for bit."""
+    (``shape_to_dict`` writes ``closed = false`` only then) and its glTF material is double-sided; a
+    snapshot restored repeats the run bit for bit."""
     V, F = grid_sheet(n=2)
     (tmp_path / "sheet.obj").write_text("".join(f"v {x} {y} {z}\n" for x, y, z in V)
                                         + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in F))
@@ -317,6 +317,12 @@ def test_an_open_mesh_goes_through_a_scene_file_a_trajectory_and_a_snapshot(tmp_
     traj.save(tmp_path / "t.npz")
     again = tb.load_trajectory(tmp_path / "t.npz").shape(0)
     assert isinstance(again, tb.Mesh) and not again.closed and np.array_equal(again.faces, sheet.faces)
+    # drawn from both sides: the sheet's glTF material is double-sided, the ball's not
+    from tumble.export.gltf import gltf_document
+
+    doc, _ = gltf_document(traj)
+    sides = [doc["materials"][p["material"]]["doubleSided"] for m in doc["meshes"] for p in m["primitives"]]
+    assert sorted(sides) == [False, True]
     saved = sim.save_state()
     sim.step(60)
     first = scene.world.pack().copy()
