@@ -289,3 +289,23 @@ position = [2, 0, 1.0]
         tb.load_scene(tmp_path / "bad.toml")
     with pytest.raises(InputError, match="flow"):
         tb.Buoyancy(flow=(1, 2))
+
+
+def test_a_body_resting_on_the_sea_bed_weighs_its_weight_less_its_buoyancy():
+    """A 0.3 m cube of 7800 kg/m^3 resting on the bed 2 m under water (the soft step's contacts with
+    buoyancy in their substeps): over 1 s its contacts' normal impulses sum to (rho - rho_water) V g
+    (1 s) within 0.1 % (test_contact's resting box carries m g to that), and it stays at rest."""
+    w = tb.World(gravity=(0, 0, -G))
+    w.sleeping = False  # measured over 1 s of rest
+    w.add_force(tb.Buoyancy(density=RHO, level=0.0, linear=50.0))
+    w.add_body(tb.Plane(normal=(0, 0, 1), offset=-2.0), fixed=True)
+    anchor = w.add_body(tb.Box((0.3, 0.3, 0.3)), density=7800.0, position=(0, 0, -2.0 + 0.15),
+                        material=tb.Material(friction=0.8))
+    sim = tb.Simulator(w)
+    sim.step(240)
+    total = 0.0
+    for _ in range(240):
+        sim.step(1)
+        total += sim.contacts().normal_impulse.sum()
+    assert total == pytest.approx((7800.0 - RHO) * 0.027 * G, rel=1e-3)
+    assert np.linalg.norm(anchor.v) < 1e-6
