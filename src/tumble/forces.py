@@ -357,7 +357,7 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> 
     start = np.zeros(body_count + 1, dtype=np.int64)
     start[1:] = np.cumsum(counts)
     buoyancy = []
-    for order, f in enumerate(forces):
+    for f in forces:
         if isinstance(f, Buoyancy):
             mine = [k for k, r in enumerate(rows) if len(r) > 4 and r[4] is f]
             buoyancy.append((f, np.array([rows[k][0] for k in mine], dtype=np.int64), np.array(mine, dtype=np.int64)))

@@ -194,7 +194,8 @@ class Simulator:
                 check("apply_impulses", self.step_index * self.dt, Y=Y)
             nxt = min([end] + [k for k in self._impulse_steps() if k > self.step_index])
             if floating:
-                # buoyancy and drag from this step's start (tumble.buoyancy), held over the step
+                # buoyancy and drag for this step (at the mid-step pose foreseen from its start:
+                # tumble.buoyancy), held over it; so one step at a time
                 nxt = self.step_index + 1
                 apply_buoyancy(self.world, Y, self.dt)
             n = nxt - self.step_index
