@@ -36,26 +36,27 @@ SECTIONS = 192  # segments round a cylinder, capsule or cone: volume within 0.02
 SUBDIVISIONS = 5  # icosphere levels of an ellipsoid (or a compound's ball): 10 242 vertices, volume within 0.03 %
 
 
-def _surface(shape) -> tuple[np.ndarray, float]:
-    """((T, 3, 3) outward-wound triangles in the shape frame, m; sphere radius or 0): the closed surface
-    buoyancy clips (module docstring)."""
+def _surface(shape) -> tuple[np.ndarray, np.ndarray, float]:
+    """((V, 3) corners in the shape frame, m; (T, 3) int64 outward-wound triangles; sphere radius or 0):
+    the closed surface buoyancy clips (module docstring)."""
     from .visual import shape_trimesh
 
+    none = (np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
     if isinstance(shape, Sphere):
-        return np.zeros((0, 3, 3)), float(shape.radius)
+        return *none, float(shape.radius)
     if isinstance(shape, Particles):
-        return np.zeros((0, 3, 3)), 0.0
+        return *none, 0.0
     if isinstance(shape, Compound) and shape.source is None and any(isinstance(p[0], Particles) for p in shape.parts):
-        return np.zeros((0, 3, 3)), 0.0
+        return *none, 0.0
     mesh = shape_trimesh(shape, sections=SECTIONS, subdivisions=SUBDIVISIONS)
-    return np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces, dtype=np.int64)], 0.0
+    return np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=np.int64), 0.0
 
 
 class BuoyancyGeometry:
     """Per body of a world, its surface for buoyancy (built when first needed, kept per shape record).
 
-    Attributes (N bodies): ``first``, ``count`` (N,) int64 rows of ``triangles`` (T, 3, 3) m, body
-    frame; ``radius`` (N,) m, a lone sphere's radius (its centre at ``centre`` (N, 3), body frame)
+    Attributes (N bodies): ``first``, ``count`` (N,) int64 rows of ``faces`` (T, 3) int64, rows of
+    ``vertices`` (V, 3) m, body frame, whose own rows are ``vfirst``, ``vcount`` (N,); ``radius`` (N,) m, a lone sphere's radius (its centre at ``centre`` (N, 3), body frame)
     or 0; ``volume`` (N,) m^3, the whole surface's volume (0: no surface); ``reach`` (N,) m, the
     farthest corner from the centre of mass, and ``centroid`` (N, 3) m, body frame, the whole
     surface's centroid: a body wholly above or under the surface costs no triangle.
@@ -63,9 +64,12 @@ class BuoyancyGeometry:
 
     def __init__(self, world):
         n = world.body_count
-        parts, cache = [], {}
+        parts, corners, cache = [], [], {}
         self.first = np.zeros(n, dtype=np.int64)
         self.count = np.zeros(n, dtype=np.int64)
+        self.vfirst = np.zeros(n, dtype=np.int64)
+        self.vcount = np.zeros(n, dtype=np.int64)
+        vtotal = 0
         self.radius = np.zeros(n)
         self.centre = np.zeros((n, 3))
         self.volume = np.zeros(n)
@@ -77,7 +81,7 @@ class BuoyancyGeometry:
             key = id(shape)
             if key not in cache:
                 cache[key] = (shape, *_surface(shape))  # the record kept alive with its id
-            _, tri, radius = cache[key]
+            _, points, faces, radius = cache[key]
             offset = -np.asarray(world.com_offset[i], dtype=float)  # the shape origin in the body frame
             self.centre[i] = offset
             self.radius[i] = radius
@@ -86,17 +90,23 @@ class BuoyancyGeometry:
                 self.centroid[i] = offset
                 self.reach[i] = float(np.linalg.norm(offset)) + radius
                 continue
-            if len(tri) == 0:
+            if len(faces) == 0:
                 continue
-            tri = tri + offset
-            parts.append(tri)
-            self.first[i], self.count[i] = total, len(tri)
-            total += len(tri)
+            points = points + offset
+            tri = points[faces]
+            parts.append(faces + vtotal)
+            corners.append(points)
+            self.first[i], self.count[i] = total, len(faces)
+            self.vfirst[i], self.vcount[i] = vtotal, len(points)
+            total += len(faces)
+            vtotal += len(points)
             tets = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])) / 6.0
             self.volume[i] = float(tets.sum())
             self.centroid[i] = (tets[:, None] * tri.sum(axis=1) / 4.0).sum(axis=0) / self.volume[i]
             self.reach[i] = float(np.linalg.norm(tri.reshape(-1, 3), axis=1).max())
-        self.triangles = np.ascontiguousarray(np.concatenate(parts) if parts else np.zeros((0, 3, 3)))
+        self.faces = np.ascontiguousarray(np.concatenate(parts) if parts else np.zeros((0, 3), dtype=np.int64))
+        self.vertices = np.ascontiguousarray(np.concatenate(corners) if corners else np.zeros((0, 3)))
+        self.most_vertices = int(self.vcount.max()) if n else 0
         self.body_count = n
 
 
@@ -130,11 +140,14 @@ def _clip_add(ax, ay, az, bx, by, bz, cx, cy, cz, p0, acc):
 
 
 @njit(**JIT)
-def submerged_part(x, R, first, count, triangles, radius, centre, volume, reach, centroid, up, level, acc, poly):
+def submerged_part(x, R, first, count, faces, vfirst, vcount, vertices, radius, centre, volume, reach, centroid, up,
+                   level, acc, wv, depth):
     """Volume (m^3) of one body's surface below the plane up . p = level, and its centroid (world)
     times the volume, in acc (4,) = (V, V cx, V cy, V cz). x (3,), R (3, 3): the body's pose;
-    poly (4, 3): scratch. The body's volume, reach and centroid (BuoyancyGeometry's) skip the
-    triangles of a body wholly out of the fluid or wholly in it."""
+    wv (>= vcount, 3), depth (>= vcount,): scratch, its corners in the world and their heights over
+    the surface (each corner once: a corner is in about six triangles). The body's volume, reach
+    and centroid (BuoyancyGeometry's) skip the triangles of a body wholly out of the fluid or wholly
+    in it."""
     acc[:] = 0.0
     height = up[0] * x[0] + up[1] * x[1] + up[2] * x[2] - level
     if height - reach >= 0.0 or volume <= 0.0:
@@ -164,16 +177,16 @@ def submerged_part(x, R, first, count, triangles, radius, centre, volume, reach,
     # body keeps the tetrahedra small, so their sum loses little to rounding)
     s = up[0] * x[0] + up[1] * x[1] + up[2] * x[2] - level
     p0 = (x[0] - s * up[0], x[1] - s * up[1], x[2] - s * up[2])
+    # the corners in the world and their heights above the surface
+    for j in range(vcount):
+        lx, ly, lz = vertices[vfirst + j, 0], vertices[vfirst + j, 1], vertices[vfirst + j, 2]
+        wv[j, 0] = x[0] + R[0, 0] * lx + R[0, 1] * ly + R[0, 2] * lz
+        wv[j, 1] = x[1] + R[1, 0] * lx + R[1, 1] * ly + R[1, 2] * lz
+        wv[j, 2] = x[2] + R[2, 0] * lx + R[2, 1] * ly + R[2, 2] * lz
+        depth[j] = up[0] * wv[j, 0] + up[1] * wv[j, 1] + up[2] * wv[j, 2] - level
     for t in range(first, first + count):
-        # the corners in the world and their heights above the surface
-        for k in range(3):
-            lx, ly, lz = triangles[t, k, 0], triangles[t, k, 1], triangles[t, k, 2]
-            poly[k, 0] = x[0] + R[0, 0] * lx + R[0, 1] * ly + R[0, 2] * lz
-            poly[k, 1] = x[1] + R[1, 0] * lx + R[1, 1] * ly + R[1, 2] * lz
-            poly[k, 2] = x[2] + R[2, 0] * lx + R[2, 1] * ly + R[2, 2] * lz
-        d0 = up[0] * poly[0, 0] + up[1] * poly[0, 1] + up[2] * poly[0, 2] - level
-        d1 = up[0] * poly[1, 0] + up[1] * poly[1, 1] + up[2] * poly[1, 2] - level
-        d2 = up[0] * poly[2, 0] + up[1] * poly[2, 1] + up[2] * poly[2, 2] - level
+        c0, c1, c2 = faces[t, 0] - vfirst, faces[t, 1] - vfirst, faces[t, 2] - vfirst
+        d0, d1, d2 = depth[c0], depth[c1], depth[c2]
         under = 0
         for dk in (d0, d1, d2):
             if dk <= 0.0:
@@ -181,8 +194,8 @@ def submerged_part(x, R, first, count, triangles, radius, centre, volume, reach,
         if under == 0:
             continue
         if under == 3:
-            _clip_add(poly[0, 0], poly[0, 1], poly[0, 2], poly[1, 0], poly[1, 1], poly[1, 2],
-                      poly[2, 0], poly[2, 1], poly[2, 2], p0, acc)
+            _clip_add(wv[c0, 0], wv[c0, 1], wv[c0, 2], wv[c1, 0], wv[c1, 1], wv[c1, 2],
+                      wv[c2, 0], wv[c2, 1], wv[c2, 2], p0, acc)
             continue
         # one or two corners under: turn the corners so that corner 0 is the odd one out (alone
         # under, or alone above), keeping the winding; then the part under is a triangle or a quad
@@ -191,11 +204,12 @@ def submerged_part(x, R, first, count, triangles, radius, centre, volume, reach,
         for k in range(3):
             if (d[k] <= 0.0) == (under == 1):
                 odd = k
-        i0, i1, i2 = odd, (odd + 1) % 3, (odd + 2) % 3
-        e0, e1, e2 = d[i0], d[i1], d[i2]
-        ax, ay, az = poly[i0, 0], poly[i0, 1], poly[i0, 2]
-        bx, by, bz = poly[i1, 0], poly[i1, 1], poly[i1, 2]
-        cx, cy, cz = poly[i2, 0], poly[i2, 1], poly[i2, 2]
+        c = (c0, c1, c2)
+        i0, i1, i2 = c[odd], c[(odd + 1) % 3], c[(odd + 2) % 3]
+        e0, e1, e2 = d[odd], d[(odd + 1) % 3], d[(odd + 2) % 3]
+        ax, ay, az = wv[i0, 0], wv[i0, 1], wv[i0, 2]
+        bx, by, bz = wv[i1, 0], wv[i1, 1], wv[i1, 2]
+        cx, cy, cz = wv[i2, 0], wv[i2, 1], wv[i2, 2]
         # where the edges from corner 0 cross the surface
         s1 = e0 / (e0 - e1)
         s2 = e0 / (e0 - e2)
@@ -209,8 +223,9 @@ def submerged_part(x, R, first, count, triangles, radius, centre, volume, reach,
 
 
 @njit(**JIT)
-def buoyancy_kernel(layout, Y, bodies, rows, first, count, triangles, radius, centre, volume, reach, centroid, inv_mass,
-                    inertia_body_inv, up, level, rho_g, drag, flow, half, uforce_param, submerged):
+def buoyancy_kernel(layout, Y, bodies, rows, first, count, faces, vfirst, vcount, vertices, most_vertices, radius, centre,
+                    volume, reach, centroid, inv_mass, inertia_body_inv, up, level, rho_g, drag, flow, half,
+                    uforce_param, submerged):
     """Fill the constant-force rows ``rows`` of ``bodies`` with their buoyancy and drag (Buoyancy's
     docstring) from the packed state Y; ``submerged`` (B,) m^3 gets each body's volume under the
     surface. drag (4,): linear, quadratic, angular_linear, angular_quadratic.
@@ -225,7 +240,9 @@ def buoyancy_kernel(layout, Y, bodies, rows, first, count, triangles, radius, ce
     R = np.empty((3, 3))
     Rm = np.empty((3, 3))
     acc = np.empty(4)
-    poly = np.empty((4, 3))
+    poly = np.empty((3, 3))
+    wv = np.empty((most_vertices, 3))
+    depth = np.empty(most_vertices)
     xm = np.empty(3)
     W = Y.shape[1]
     for k in range(bodies.shape[0]):
@@ -276,8 +293,8 @@ def buoyancy_kernel(layout, Y, bodies, rows, first, count, triangles, radius, ce
             for a in range(3):
                 for b in range(3):
                     Rm[a, b] = R[a, b]
-        submerged_part(xm, Rm, first[i], count[i], triangles, radius[i], centre[i], volume[i], reach[i], centroid[i],
-                       up, level, acc, poly)
+        submerged_part(xm, Rm, first[i], count[i], faces, vfirst[i], vcount[i], vertices, radius[i], centre[i],
+                       volume[i], reach[i], centroid[i], up, level, acc, wv, depth)
         V = acc[0]
         row = rows[k]
         for c in range(6):
@@ -316,8 +333,8 @@ def apply_buoyancy(world, Y, dt: float) -> None:
     for record, bodies, rows in tables.buoyancy:
         drag = np.array([record.linear, record.quadratic, record.angular_linear, record.angular_quadratic])
         submerged = np.empty(len(bodies))
-        buoyancy_kernel(world.layout_id, Y, bodies, rows, g.first, g.count, g.triangles, g.radius, g.centre,
-                        g.volume, g.reach, g.centroid, world.inv_mass, world.inertia_body_inv, up, record.level,
+        buoyancy_kernel(world.layout_id, Y, bodies, rows, g.first, g.count, g.faces, g.vfirst, g.vcount, g.vertices,
+                        g.most_vertices, g.radius, g.centre, g.volume, g.reach, g.centroid, world.inv_mass, world.inertia_body_inv, up, record.level,
                         record.density * gn, drag, np.asarray(record.flow, dtype=float), 0.5 * float(dt),
                         tables.uforce_param, submerged)
 
@@ -333,12 +350,12 @@ def submerged_volume(world, body=None) -> np.ndarray | float:
     gravity = np.asarray(world.gravity, dtype=float)
     gn = float(np.linalg.norm(gravity))
     up = -gravity / gn if gn > 0.0 else np.array([0.0, 0.0, 1.0])
-    acc, poly = np.empty(4), np.empty((4, 3))
+    acc, wv, depth = np.empty(4), np.empty((g.most_vertices, 3)), np.empty(g.most_vertices)
     ids = range(world.body_count) if body is None else [int(getattr(body, "index", body))]
     out = np.zeros(len(ids))
     for k, i in enumerate(ids):
         submerged_part(np.ascontiguousarray(world.x[i]), np.ascontiguousarray(world.R[i]), g.first[i], g.count[i],
-                       g.triangles, g.radius[i], np.ascontiguousarray(g.centre[i]), g.volume[i], g.reach[i],
-                       np.ascontiguousarray(g.centroid[i]), up, record.level, acc, poly)
+                       g.faces, g.vfirst[i], g.vcount[i], g.vertices, g.radius[i], np.ascontiguousarray(g.centre[i]),
+                       g.volume[i], g.reach[i], np.ascontiguousarray(g.centroid[i]), up, record.level, acc, wv, depth)
         out[k] = acc[0]
     return out if body is None else float(out[0])

@@ -29,10 +29,10 @@ RHO = 1000.0
 def _part(world, i, x, R, level=0.0):
     """(V, centroid) of body i's surface below z = level at pose (x, R)."""
     g = geometry(world)
-    acc, poly = np.empty(4), np.empty((4, 3))
-    submerged_part(np.asarray(x, float), np.ascontiguousarray(R, dtype=float), g.first[i], g.count[i], g.triangles,
-                   g.radius[i], np.ascontiguousarray(g.centre[i]), g.volume[i], g.reach[i],
-                   np.ascontiguousarray(g.centroid[i]), np.array([0.0, 0.0, 1.0]), level, acc, poly)
+    acc, wv, depth = np.empty(4), np.empty((g.most_vertices, 3)), np.empty(g.most_vertices)
+    submerged_part(np.asarray(x, float), np.ascontiguousarray(R, dtype=float), g.first[i], g.count[i], g.faces,
+                   g.vfirst[i], g.vcount[i], g.vertices, g.radius[i], np.ascontiguousarray(g.centre[i]), g.volume[i],
+                   g.reach[i], np.ascontiguousarray(g.centroid[i]), np.array([0.0, 0.0, 1.0]), level, acc, wv, depth)
     return acc[0], (acc[1:] / acc[0] if acc[0] > 0 else np.zeros(3))
 
 
