@@ -11,14 +11,15 @@ So each body costs one pass over its triangles; a lone sphere takes the spherica
 Bodies' surfaces in the body frame (origin at the centre of mass, the shape frame's axes): boxes,
 hulls and closed meshes exactly (their own triangles; a decomposed compound its source mesh);
 cylinders, capsules, cones and ellipsoids as fine tessellations (``SECTIONS`` segments round,
-icospheres of ``SUBDIVISIONS`` levels: their volume short of the exact one by 0.1 % at most, the
+icospheres of ``SUBDIVISIONS`` levels: their volume short of the exact one by 0.03 % at most, the
 mass properties being exact; ``surface_volume`` reports it); compounds part by part. A body of
 particles, with no surface, floats not at all.
 
-``apply_buoyancy`` writes each body's force and torque into its ``UFORCE_CONSTANT`` row of the
-world's force tables (``forces.build_force_tables``) at the start of each step (the Simulator
-steps one step at a time when the world has a Buoyancy record); every integrator and the soft
-step read those rows as they read a ``ConstantForce``.
+``apply_buoyancy`` writes each body's force and torque, taken at its mid-step pose
+(``buoyancy_kernel``), into its ``UFORCE_CONSTANT`` row of the world's force tables
+(``forces.build_force_tables``) before each step (the Simulator steps one step at a time when the
+world has a Buoyancy record); every integrator and the soft step read those rows as they read a
+``ConstantForce``.
 """
 
 from __future__ import annotations
@@ -28,8 +29,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .body_motion import LAYOUT_MATRIX
-from .math3d import JIT, quat_to_matrix_into
+from .body_motion import _load, _mat9, _matrix, _rotate, _velocities
+from .math3d import JIT
 from .shapes import Compound, Particles, Sphere
 
 SECTIONS = 192  # segments round a cylinder, capsule or cone: volume within 0.02 % (1 - sin(2 pi / n) n / (2 pi))
@@ -56,8 +57,8 @@ class BuoyancyGeometry:
     """Per body of a world, its surface for buoyancy (built when first needed, kept per shape record).
 
     Attributes (N bodies): ``first``, ``count`` (N,) int64 rows of ``faces`` (T, 3) int64, rows of
-    ``vertices`` (V, 3) m, body frame, whose own rows are ``vfirst``, ``vcount`` (N,); ``radius`` (N,) m, a lone sphere's radius (its centre at ``centre`` (N, 3), body frame)
-    or 0; ``volume`` (N,) m^3, the whole surface's volume (0: no surface); ``reach`` (N,) m, the
+    ``vertices`` (V, 3) m, body frame, whose own rows are ``vfirst``, ``vcount`` (N,); ``radius``
+    (N,) m, a lone sphere's radius (its centre at ``centre`` (N, 3), body frame) or 0; ``volume`` (N,) m^3, the whole surface's volume (0: no surface); ``reach`` (N,) m, the
     farthest corner from the centre of mass, and ``centroid`` (N, 3) m, body frame, the whole
     surface's centroid: a body wholly above or under the surface costs no triangle.
     """
@@ -175,8 +176,7 @@ def submerged_part(x, R, first, count, faces, vfirst, vcount, vertices, radius, 
         return
     # p0: the body's centre dropped onto the plane (any point of the plane would do; one near the
     # body keeps the tetrahedra small, so their sum loses little to rounding)
-    s = up[0] * x[0] + up[1] * x[1] + up[2] * x[2] - level
-    p0 = (x[0] - s * up[0], x[1] - s * up[1], x[2] - s * up[2])
+    p0 = (x[0] - height * up[0], x[1] - height * up[1], x[2] - height * up[2])
     # the corners in the world and their heights above the surface
     for j in range(vcount):
         lx, ly, lz = vertices[vfirst + j, 0], vertices[vfirst + j, 1], vertices[vfirst + j, 2]
@@ -237,62 +237,22 @@ def buoyancy_kernel(layout, Y, bodies, rows, first, count, faces, vfirst, vcount
     period short by 2.8e-5 = (omega h)^2 / 24, position Verlet's). DEAD END (session 26): the force of
     the step's start, held over the step, is explicit Euler's for it: the bobbing grew 23 % in 5
     periods at dt 1/240 s (tests/physics/test_buoyancy.py caught it)."""
-    R = np.empty((3, 3))
     Rm = np.empty((3, 3))
     acc = np.empty(4)
-    poly = np.empty((3, 3))
     wv = np.empty((most_vertices, 3))
     depth = np.empty(most_vertices)
     xm = np.empty(3)
-    W = Y.shape[1]
     for k in range(bodies.shape[0]):
         i = bodies[k]
-        x = Y[i, 0:3]
-        if layout == LAYOUT_MATRIX:
-            for a in range(3):
-                for b in range(3):
-                    R[a, b] = Y[i, 3 + 3 * a + b]
-        else:
-            quat_to_matrix_into(Y[i, 3:7], R)  # the state's quaternion is kept of unit length
-        # v = P / m and omega = R Ibody^-1 R^T L, world
-        P = Y[i, W - 6:W - 3]
-        L = Y[i, W - 3:W]
-        vx, vy, vz = P[0] * inv_mass[i], P[1] * inv_mass[i], P[2] * inv_mass[i]
-        bl0 = R[0, 0] * L[0] + R[1, 0] * L[1] + R[2, 0] * L[2]
-        bl1 = R[0, 1] * L[0] + R[1, 1] * L[1] + R[2, 1] * L[2]
-        bl2 = R[0, 2] * L[0] + R[1, 2] * L[1] + R[2, 2] * L[2]
-        Ib = inertia_body_inv[i]
-        w0 = Ib[0, 0] * bl0 + Ib[0, 1] * bl1 + Ib[0, 2] * bl2
-        w1 = Ib[1, 0] * bl0 + Ib[1, 1] * bl1 + Ib[1, 2] * bl2
-        w2 = Ib[2, 0] * bl0 + Ib[2, 1] * bl1 + Ib[2, 2] * bl2
-        ox = R[0, 0] * w0 + R[0, 1] * w1 + R[0, 2] * w2
-        oy = R[1, 0] * w0 + R[1, 1] * w1 + R[1, 2] * w2
-        oz = R[2, 0] * w0 + R[2, 1] * w1 + R[2, 2] * w2
-        spin = math.sqrt(ox * ox + oy * oy + oz * oz)
-        # the mid-step pose: x + v h/2, R turned by omega h/2 (Rodrigues)
-        xm[0], xm[1], xm[2] = x[0] + half * vx, x[1] + half * vy, x[2] + half * vz
-        angle = spin * half
-        if angle > 0.0:
-            kx, ky, kz = ox / spin, oy / spin, oz / spin
-            sn, cs = math.sin(angle), 1.0 - math.cos(angle)
-            K = ((0.0, -kz, ky), (kz, 0.0, -kx), (-ky, kx, 0.0))
-            for a in range(3):
-                for b in range(3):
-                    kk = K[a][0] * K[0][b] + K[a][1] * K[1][b] + K[a][2] * K[2][b]
-                    turn = (1.0 if a == b else 0.0) + sn * K[a][b] + cs * kk
-                    Rm[a, b] = turn  # the turn itself, applied to R below
-            for a in range(3):
-                r0 = Rm[a, 0] * R[0, 0] + Rm[a, 1] * R[1, 0] + Rm[a, 2] * R[2, 0]
-                r1 = Rm[a, 0] * R[0, 1] + Rm[a, 1] * R[1, 1] + Rm[a, 2] * R[2, 1]
-                r2 = Rm[a, 0] * R[0, 2] + Rm[a, 1] * R[1, 2] + Rm[a, 2] * R[2, 2]
-                poly[a, 0], poly[a, 1], poly[a, 2] = r0, r1, r2
-            for a in range(3):
-                for b in range(3):
-                    Rm[a, b] = poly[a, b]
-        else:
-            for a in range(3):
-                for b in range(3):
-                    Rm[a, b] = R[a, b]
+        # the body's pose and velocities as the integrators derive them (body_motion), and its pose
+        # at mid-step: x + v h/2, the orientation turned by omega h/2
+        x, o, P, L = _load(layout, Y, i)
+        _, v, omega = _velocities(layout, o, P, L, inv_mass[i], _mat9(inertia_body_inv, i))
+        Rt = _matrix(layout, _rotate(layout, o, omega, half))
+        for a in range(3):
+            xm[a] = x[a] + half * v[a]
+            for b in range(3):
+                Rm[a, b] = Rt[3 * a + b]
         submerged_part(xm, Rm, first[i], count[i], faces, vfirst[i], vcount[i], vertices, radius[i], centre[i],
                        volume[i], reach[i], centroid[i], up, level, acc, wv, depth)
         V = acc[0]
@@ -308,7 +268,9 @@ def buoyancy_kernel(layout, Y, bodies, rows, first, count, faces, vfirst, vcount
         Tx, Ty, Tz = cby * Fz - cbz * Fy, cbz * Fx - cbx * Fz, cbx * Fy - cby * Fx
         # drag in the fluid, in proportion to the part under it
         f = min(V / volume[i], 1.0)
-        ux, uy, uz = vx - flow[0], vy - flow[1], vz - flow[2]
+        ox, oy, oz = omega
+        spin = math.sqrt(ox * ox + oy * oy + oz * oz)
+        ux, uy, uz = v[0] - flow[0], v[1] - flow[1], v[2] - flow[2]
         speed = math.sqrt(ux * ux + uy * uy + uz * uz)
         kl = f * (drag[0] + drag[1] * speed)
         ka = f * (drag[2] + drag[3] * spin)
@@ -320,6 +282,13 @@ def buoyancy_kernel(layout, Y, bodies, rows, first, count, faces, vfirst, vcount
         uforce_param[row, 5] = Tz - ka * oz
 
 
+def _up(world) -> tuple[np.ndarray, float]:
+    """(up (3,), |g| m/s^2): the unit vector against gravity (+z without gravity) and gravity's size."""
+    gravity = np.asarray(world.gravity, dtype=float)
+    gn = float(np.linalg.norm(gravity))
+    return (-gravity / gn if gn > 0.0 else np.array([0.0, 0.0, 1.0])), gn
+
+
 def apply_buoyancy(world, Y, dt: float) -> None:
     """Fill the world's Buoyancy rows from the packed state Y (N, W) for a step of dt (s) (module
     docstring; ``buoyancy_kernel``)."""
@@ -327,15 +296,14 @@ def apply_buoyancy(world, Y, dt: float) -> None:
     if not tables.buoyancy:
         return
     g = geometry(world)
-    gravity = np.asarray(world.gravity, dtype=float)
-    gn = float(np.linalg.norm(gravity))
-    up = -gravity / gn if gn > 0.0 else np.array([0.0, 0.0, 1.0])
+    up, gn = _up(world)
     for record, bodies, rows in tables.buoyancy:
         drag = np.array([record.linear, record.quadratic, record.angular_linear, record.angular_quadratic])
         submerged = np.empty(len(bodies))
         buoyancy_kernel(world.layout_id, Y, bodies, rows, g.first, g.count, g.faces, g.vfirst, g.vcount, g.vertices,
-                        g.most_vertices, g.radius, g.centre, g.volume, g.reach, g.centroid, world.inv_mass, world.inertia_body_inv, up, record.level,
-                        record.density * gn, drag, np.asarray(record.flow, dtype=float), 0.5 * float(dt),
+                        g.most_vertices, g.radius, g.centre, g.volume, g.reach, g.centroid, world.inv_mass,
+                        world.inertia_body_inv, up, record.level, record.density * gn, drag,
+                        np.asarray(record.flow, dtype=float), 0.5 * float(dt),
                         tables.uforce_param, submerged)
 
 
@@ -347,9 +315,7 @@ def submerged_volume(world, body=None) -> np.ndarray | float:
         raise ValueError("the world has no Buoyancy record")
     record = tables.buoyancy[0][0]
     g = geometry(world)
-    gravity = np.asarray(world.gravity, dtype=float)
-    gn = float(np.linalg.norm(gravity))
-    up = -gravity / gn if gn > 0.0 else np.array([0.0, 0.0, 1.0])
+    up, _ = _up(world)
     acc, wv, depth = np.empty(4), np.empty((g.most_vertices, 3)), np.empty(g.most_vertices)
     ids = range(world.body_count) if body is None else [int(getattr(body, "index", body))]
     out = np.zeros(len(ids))

@@ -247,7 +247,7 @@ class BodyReader(ValueReader):
                 masses = self.positive(masses, g("masses"))
             return self.library(key, Particles, points, masses)
         if kind == "mesh":
-            # closed = false: an open, two-sided surface for a fixed body (shapes.Mesh)
+            # closed = false: an open, two-sided surface for a fixed or kinematic body (shapes.Mesh)
             closed = self.boolean(s["closed"], g("closed")) if "closed" in s else True
             if "path" in s:
                 if "vertices" in s or "faces" in s:

@@ -201,7 +201,7 @@ class Particles:
 @dataclass(frozen=True, eq=False)
 class Mesh:
     """Triangle mesh, from a file (OBJ, STL, PLY... through trimesh) or inline arrays: a closed solid,
-    or with ``closed=False`` an open surface for a fixed body.
+    or with ``closed=False`` an open surface for a fixed or kinematic body.
 
     Args:
         path: mesh file; relative paths are resolved by the caller (the scene
