@@ -27,8 +27,8 @@ BREAKER = 5  # index of the breakable joint in joint_world()
 
 
 def joint_world():
-    """A hinge chain hung from the world (a motor at the top, a limited hinge, a ball joint at the
-    end) falling onto a box that rests on the ground, a slider on a spring, and a hinge pendulum
+    """A hinge chain hung from the world (a motor at the top, a limited hinge, a driven ball joint at
+    the end) falling onto a box that rests on the ground, a slider on a spring, and a hinge pendulum
     whose joint breaks at about 0.2 s (max_force 15 N; the tension at the bottom would be 3 m g)."""
     w = tb.World(gravity=(0, 0, -9.81))
     w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground", material=tb.Material(friction=0.5))
@@ -41,7 +41,8 @@ def joint_world():
                               max_motor_torque=0.5, name="shoulder"))
     w.add_joint(tb.HingeJoint("link0", "link1", anchor=(0.2, 0, 0.55), axis=(0, 1, 0), lower=-0.3, upper=0.3,
                               name="elbow"))
-    w.add_joint(tb.BallJoint("link1", "link2", anchor=(0.4, 0, 0.55), cone_limit=0.5, name="wrist"))
+    w.add_joint(tb.BallJoint("link1", "link2", anchor=(0.4, 0, 0.55), cone_limit=0.5, stiffness=0.4, damping=0.01,
+                             target=(0.0, 0.3, 0.2), name="wrist"))  # a drive: its impulse is warm started
     w.add_joint(tb.SliderJoint("slider", None, anchor=(-1, 0, 1), axis=(0, 0, 1), stiffness=40.0, damping=0.3,
                                lower=-0.5, upper=0.5, name="spring"))
     w.add_joint(tb.DistanceJoint("link2", "box", anchor=(0.5, 0, 0.55), anchor_b=(0.5, 0, 0.4), min_length=0.0,

@@ -34,9 +34,10 @@ import numpy as np
 from . import __version__, checks
 from .errors import InputError, SimulationError
 from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring
-from .joints import G_FOLLOWS, G_JOINT, JOINT_CLASSES, JOINT_TYPES, PARAM_COUNT, PARAM_COUNT_V1, BoundJoint
+from .joints import (G_FOLLOWS, G_JOINT, JOINT_CLASSES, JOINT_TYPES, OLD_PARAM_COUNTS, P_BALL_MAX_DRIVE, P_BALL_TARGET,
+                     PARAM_COUNT, BoundJoint)
 from .solver.contact import SoftStepSettings
-from .solver.joint_solve import AXIAL_COUNT_V1
+from .solver.joint_solve import OLD_AXIAL_COUNTS
 from .solver.joints import JointSettings
 from .shapes import shape_from_dict, shape_to_dict
 from .trajectory import write_atomic
@@ -162,8 +163,9 @@ def _joint_from_dict(world, record, key: str):
             a = np.array(bound.get(name), dtype=float)
         except (TypeError, ValueError):
             a = None
-        if name == "param" and a is not None and a.shape == (PARAM_COUNT_V1,):
-            a = np.concatenate([a, np.zeros(PARAM_COUNT - PARAM_COUNT_V1)])  # older: no effort, no armature
+        if name == "param" and a is not None and a.ndim == 1 and a.shape[0] in OLD_PARAM_COUNTS:
+            # older: no effort, no armature, no ball drive (its target quaternion the identity)
+            a = _pad_param(a[None, :])[0]
         # param may hold inf (no limit, no force cap); anchors and frames may not
         if a is None or a.shape != shape or np.isnan(a).any() or (name != "param" and not np.isfinite(a).all()):
             raise InputError(f"expected {'x'.join(map(str, shape))} finite numbers", f"{key}.bound.{name}")
@@ -350,14 +352,28 @@ def _restore_joint_solver(sim, state: dict):
     for name in JOINT_SOLVER_STATE:
         target = getattr(solver, name)
         saved = state[name]
-        old_columns = {"param": PARAM_COUNT_V1, "axial_impulse": AXIAL_COUNT_V1}.get(name)
-        if old_columns is not None and saved.ndim == 2 and saved.shape == (target.shape[0], old_columns):
-            # a checkpoint of an older version: its joints had no effort, armature or armature impulse
-            saved = np.concatenate([saved, np.zeros((saved.shape[0], target.shape[1] - old_columns))], axis=1)
+        old_columns = {"param": OLD_PARAM_COUNTS, "axial_impulse": OLD_AXIAL_COUNTS}.get(name, ())
+        if saved.ndim == 2 and saved.shape[0] == target.shape[0] and saved.shape[1] in old_columns:
+            # a checkpoint of an older version: its joints had no effort, armature, armature impulse
+            # or ball drive
+            saved = _pad_param(saved) if name == "param" else np.concatenate(
+                [saved, np.zeros((saved.shape[0], target.shape[1] - saved.shape[1]))], axis=1)
         if saved.shape != target.shape or saved.dtype.kind != target.dtype.kind:
             raise InputError(f"joint solver array {name!r} is {saved.dtype}{list(saved.shape)}, "
                              f"expected {target.dtype}{list(target.shape)}")
         target[...] = saved
+
+
+def _pad_param(rows: np.ndarray) -> np.ndarray:
+    """(J, PARAM_COUNT) parameter rows from a checkpoint's older, shorter (J, k) ones: the columns
+    they lack zero (no effort, no armature, no ball drive), but a ball drive's max torque inf and
+    its target the identity quaternion, as ``bind_joint`` writes them."""
+    out = np.zeros((rows.shape[0], PARAM_COUNT))
+    out[:, :rows.shape[1]] = rows
+    if rows.shape[1] <= P_BALL_MAX_DRIVE:
+        out[:, P_BALL_MAX_DRIVE] = np.inf
+        out[:, P_BALL_TARGET] = 1.0
+    return out
 
 
 def _restore_logs(sim, contact_touching, sensor_pairs):

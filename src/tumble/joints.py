@@ -45,10 +45,18 @@ P_LOWER2, P_UPPER2, P_LIMIT2_ON, P_MOTOR2_ON, P_MOTOR2_SPEED, P_MAX_MOTOR2 = 13,
 # TORQUE_CONTROL, MuJoCo's motor actuator) and its armature (kg m^2 or kg: MuJoCo's joint
 # armature, a rotor's inertia added to the coordinate's own)
 P_EFFORT, P_ARMATURE = 19, 20
-PARAM_COUNT = 21
-# the columns a parameter row had before the effort and armature (checkpoints of older
-# versions: their joints get no effort and no armature)
+# a ball joint's drive (``BallJoint``'s stiffness, damping, max_drive_torque, and its target: the
+# rotation of body_b relative to body_a from their pose at creation, in body_a's axes, as a unit
+# quaternion w, x, y, z in P_BALL_TARGET..P_BALL_TARGET+3): a spring-damper on the whole relative
+# rotation (``solver.joint_solve._solve_ball_drive``); columns of their own, so that the 1-D
+# coordinate's rows (``_solve_axial``) never read a ball joint's drive as a spring on its swing
+P_BALL_STIFFNESS, P_BALL_DAMPING, P_BALL_MAX_DRIVE, P_BALL_TARGET = 21, 22, 23, 24
+PARAM_COUNT = 28
+# the columns a parameter row had in older versions (checkpoints): before the effort and
+# armature (their joints get none), and before the ball joints' drive (none either)
 PARAM_COUNT_V1 = 19
+PARAM_COUNT_V2 = 21
+OLD_PARAM_COUNTS = (PARAM_COUNT_V1, PARAM_COUNT_V2)
 # a gear's parameter row (``GearJoint``): the indices in ``world.joints`` of the joint that follows and of
 # the joint it follows, and the coefficients a0..a4 of q_joint = a0 + a1 q + ... + a4 q^4 (q = q_follows)
 # in columns G_COEF..G_COEF+4 (P_STIFFNESS..P_MAX_FORCE). Columns no other row of a gear is read from (every kernel takes a gear's
@@ -206,12 +214,33 @@ class BallJoint(Joint):
             [-pi, pi], twist_lower <= twist_upper; one left out is -pi or pi (a stop there:
             the twist cannot cross from -pi to pi). Combined with ``cone_limit`` they make
             a ragdoll's shoulder or hip (a swing cone plus a twist range).
+        stiffness: N m/rad, damping: N m s/rad, both >= 0: a drive on the whole relative
+            rotation (MuJoCo's ball joint ``stiffness`` and ``damping``, PyBullet's spherical
+            PD control, PhysX's slerp drive): with E the rotation from the target to body_b's
+            present orientation relative to body_a and theta = log(E) its rotation vector
+            (world, rad), a torque -stiffness theta - damping (omega_b - omega_a) on body_b
+            and its opposite on body_a, at most ``max_drive_torque`` N m (the norm). The spring
+            has the potential stiffness |theta|^2 / 2 (its torque is that potential's exact
+            gradient, at any angle below pi). Solved implicitly, as the hinge's PD drive:
+            stable at any stiffness.
+        target: the orientation the drive pulls body_b to, relative to body_a: a rotation from
+            their relative pose at creation, in body_a's axes (the world's when body_a is the
+            world), as a rotation vector (3,) rad or a unit quaternion (4,) w, x, y, z. Default:
+            the pose at creation. Change it between steps with ``Simulator.set_joint_target``.
+        target_euler_deg: (3,) the same rotation as roll x, pitch y, yaw z in degrees (applied
+            z-y'-x'', as ``World.add_body``'s ``euler_deg``); give it or ``target``.
+        max_drive_torque: N m, the largest drive torque (default inf).
     """
 
     axis: Any = (0.0, 0.0, 1.0)
     cone_limit: float | None = None
     twist_lower: float | None = None
     twist_upper: float | None = None
+    stiffness: float = 0.0
+    damping: float = 0.0
+    target: Any = None
+    target_euler_deg: Any = None
+    max_drive_torque: float = math.inf
     kind: ClassVar[str] = "ball"
 
     def _frame_world(self, axis_to_world):
@@ -228,6 +257,46 @@ class BallJoint(Joint):
             lo, hi, on = _angle_limits(self.twist_lower, self.twist_upper, "twist_lower", "twist_upper")
             if on:
                 p[P_LOWER2], p[P_UPPER2], p[P_LIMIT2_ON] = lo, hi, 1.0
+        p[P_BALL_STIFFNESS] = _number(self.stiffness, "stiffness", minimum=0.0)
+        p[P_BALL_DAMPING] = _number(self.damping, "damping", minimum=0.0)
+        p[P_BALL_MAX_DRIVE] = _number(self.max_drive_torque, "max_drive_torque", minimum=0.0, allow_inf=True)
+        if self.target is not None and self.target_euler_deg is not None:
+            raise InputError("give target or target_euler_deg, not both", "target")
+        if self.target_euler_deg is not None:
+            p[P_BALL_TARGET:P_BALL_TARGET + 4] = ball_target_quaternion(self.target_euler_deg, "target_euler_deg",
+                                                                        euler=True)
+        else:
+            p[P_BALL_TARGET:P_BALL_TARGET + 4] = ball_target_quaternion(self.target, "target")
+
+
+def ball_target_quaternion(value, key: str, euler: bool = False) -> np.ndarray:
+    """A ball joint drive's target (``BallJoint.target``) as a unit quaternion (4,) w, x, y, z
+    with w >= 0: from a rotation vector (3,) rad, a quaternion (4,) (normalised; not zero), roll,
+    pitch, yaw in degrees (``euler``), or None (the identity). InputError keyed ``key``."""
+    if value is None:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise InputError(f"expected {'3' if euler else '3 or 4'} numbers, got {value!r}", key)
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"expected {'3' if euler else '3 or 4'} numbers, got {value!r}", key) from None
+    if a.ndim != 1 or a.shape[0] not in ((3,) if euler else (3, 4)) or not np.isfinite(a).all():
+        raise InputError(f"expected {'3' if euler else '3 or 4'} finite numbers, got {value!r}", key)
+    if euler:
+        from .math3d import quat_from_euler_deg
+
+        q = quat_from_euler_deg(a)
+    elif a.shape[0] == 4:
+        norm = float(np.linalg.norm(a))
+        if norm < 1e-9:
+            raise InputError("a quaternion of length 0 is no rotation", key)
+        q = a / norm
+    else:
+        angle = float(np.linalg.norm(a))
+        q = np.array([1.0, 0.0, 0.0, 0.0]) if angle == 0.0 else np.concatenate(
+            [[math.cos(0.5 * angle)], math.sin(0.5 * angle) / angle * a])
+    return -q if q[0] < 0.0 else q
 
 
 @dataclass(eq=False)
@@ -544,7 +613,8 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
     param = np.zeros(PARAM_COUNT)
     param[P_LOWER], param[P_UPPER] = -math.inf, math.inf
     param[P_LOWER2], param[P_UPPER2] = -math.inf, math.inf
-    param[P_MAX_MOTOR] = param[P_MAX_DRIVE] = param[P_MAX_MOTOR2] = math.inf
+    param[P_MAX_MOTOR] = param[P_MAX_DRIVE] = param[P_MAX_MOTOR2] = param[P_BALL_MAX_DRIVE] = math.inf
+    param[P_BALL_TARGET] = 1.0  # the identity quaternion: read by a ball joint's drive alone
     joint._params(param, float(np.linalg.norm(pb - pa)))
     param[P_MAX_FORCE] = _number(joint.max_force, "max_force", minimum=0.0, allow_inf=True)
     param[P_MAX_TORQUE] = _number(joint.max_torque, "max_torque", minimum=0.0, allow_inf=True)
@@ -615,6 +685,26 @@ def _bind_gear(world, gear: GearJoint) -> BoundJoint:
     bound = BoundJoint(JOINT_GEAR, bodies[0], bodies[1], z, z.copy(), np.eye(3), np.eye(3), param)
     gear.bound = bound
     return bound
+
+
+def set_record_target(joint: Joint, value) -> np.ndarray:
+    """Check ``value`` as a bound joint's drive target and write it into the record and its
+    parameter row (a checkpoint carries both): rad or m (``P_TARGET``) for a hinge, slider or
+    distance joint; a rotation (``ball_target_quaternion``: rotation vector or quaternion) for a
+    ball joint. Returns the row's target column(s). InputError: not a target of that joint."""
+    p = joint.bound.param
+    t = joint.bound.type_id
+    if t == JOINT_BALL:
+        q = ball_target_quaternion(value, "target")
+        joint.target, joint.target_euler_deg = [float(c) for c in q], None
+        p[P_BALL_TARGET:P_BALL_TARGET + 4] = q
+        return q.copy()
+    if t not in (JOINT_HINGE, JOINT_SLIDER, JOINT_DISTANCE):
+        raise InputError(f"a {joint.kind} joint has no drive target", "joint")
+    target = _number(value, "target", minimum=0.0 if t == JOINT_DISTANCE else None)
+    joint.target = target
+    p[P_TARGET] = target
+    return np.array([target])
 
 
 def set_record_effort(joint: Joint, value) -> float:

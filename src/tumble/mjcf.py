@@ -25,7 +25,9 @@ What maps to what:
   "auto" with ``<compiler autolimits>`` on, MuJoCo's default: a given range is a limit), ``damping``,
   ``stiffness`` towards ``springref`` (a spring drive), ``frictionloss`` (a speed-0 motor limited
   to that torque or force) and ``armature`` (the joint's ``armature``: an inertia added to its
-  coordinate's, as MuJoCo adds it to the joint's diagonal of the mass matrix); ``ball`` a ``BallJoint`` whose ``range`` upper value is its swing cone;
+  coordinate's, as MuJoCo adds it to the joint's diagonal of the mass matrix); ``ball`` a ``BallJoint`` whose ``range`` upper value is its swing cone,
+  ``stiffness`` and ``damping`` its drive (a spring to the model's pose: MuJoCo's qpos_spring of a
+  ball is its qpos0);
   ``free`` (or ``<freejoint>``) no joint: the body is free. A body with no joint is welded to
   its parent (merged into its body; a top-level one is fixed). A body with several joints
   (MuJoCo composes them, the first nearest the parent): a chain through virtual links of
@@ -554,7 +556,7 @@ def _joint(reader, a, jname, jkey, kind, parent, child) -> UrdfJoint:
             value = float(_floats(a[attr], f"{jkey}.{attr}", (1,))[0])
             if value < 0:
                 raise InputError(f"must be >= 0, got {value:g}", f"{jkey}.{attr}")
-            if kind == "ball" and value > 0:
+            if kind == "ball" and value > 0 and attr in ("armature", "frictionloss"):
                 if attr == "armature":
                     continue  # not read on a ball joint (module docstring)
                 raise InputError(f"a ball joint's {attr} is not supported", f"{jkey}.{attr}")

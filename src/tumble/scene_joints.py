@@ -26,7 +26,10 @@ q_follows``, or ``polynomial = [a0, a1, a2, a3, a4]``; ``tumble.joints.GearJoint
     ratio = -2.0                   # rad/rad (m/rad for a rack on a pinion)
 
 A ball joint takes ``twist_lower``, ``twist_upper`` (rad, in [-pi, pi]) besides its
-``cone_limit``; a universal joint ``lower``, ``upper`` (its angle about ``axis``) and
+``cone_limit``, and a drive on its whole rotation: ``stiffness`` (N m/rad), ``damping`` (N m s/rad),
+``max_drive_torque`` and ``target`` (body_b's rotation relative to body_a from their pose at
+creation, in body_a's axes: a rotation vector ``[x, y, z]`` rad or a quaternion ``[w, x, y, z]``)
+or ``target_euler_deg = [roll, pitch, yaw]``; a universal joint ``lower``, ``upper`` (its angle about ``axis``) and
 ``lower_b``, ``upper_b`` (about ``axis_b``), each in [-pi, pi], and motors ``motor_speed``,
 ``motor_speed_b`` with ``max_motor_torque``, ``max_motor_torque_b``.
 
@@ -53,7 +56,7 @@ DRIVE_KEYS = ("lower", "upper", "motor_speed", "stiffness", "damping", "target")
 # per type: its own keys besides COMMON_KEYS
 TYPE_KEYS = {
     "ball": ("axis", "cone_limit", "cone_limit_deg", "twist_lower", "twist_upper", "twist_lower_deg",
-             "twist_upper_deg"),
+             "twist_upper_deg", "stiffness", "damping", "target", "target_euler_deg", "max_drive_torque"),
     "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "motor_speed_deg", "max_motor_torque",
               "max_drive_torque", "torque", "armature"),
     "slider": ("axis", *DRIVE_KEYS, "max_motor_force", "max_drive_force", "force", "armature"),
@@ -66,6 +69,9 @@ TYPE_KEYS = {
 # a gear names two joints, not bodies: its keys replace COMMON_KEYS
 GEAR_KEYS = ("type", "name", "joint", "follows", "ratio", "offset", "polynomial", "collide_connected")
 VECTOR_KEYS = ("anchor", "anchor_b", "axis", "axis_b")
+# a ball joint drive's target: a rotation vector (3 numbers, rad) or a quaternion (4: w, x, y, z),
+# or roll, pitch, yaw in degrees (``tumble.joints.ball_target_quaternion`` checks them)
+ROTATION_KEYS = ("target_euler_deg",)
 # keys that may be inf (TOML "inf")
 UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_force", "max_drive_torque",
                   "max_drive_force", "max_motor_torque_b")
@@ -158,6 +164,8 @@ def _parse_one(entry: dict, key: str, world, file, names: set):
             kw["collide_connected"] = v
         elif k in VECTOR_KEYS:
             kw[k] = _vector(v, sub, file)
+        elif k in ROTATION_KEYS or (k == "target" and kind == "ball"):
+            kw[k] = _numbers(v, sub, file)
         elif k in DEGREE_KEYS:
             target = DEGREE_KEYS[k]
             if target in entry:
@@ -171,6 +179,13 @@ def _parse_one(entry: dict, key: str, world, file, names: set):
     except InputError as err:
         raise err.within(key, file) from None
     return record
+
+
+def _numbers(value, key, file) -> list:
+    """A list of numbers (its length is checked by the joint record)."""
+    if not isinstance(value, list) or not all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in value):
+        raise InputError(f"expected a list of numbers, got {_describe(value)}", key, file)
+    return [float(c) for c in value]
 
 
 def _name(value, key, file, names: set):

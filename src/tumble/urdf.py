@@ -441,7 +441,9 @@ def build_robot(world, model: UrdfModel, *, position=(0.0, 0.0, 0.0), orientatio
         if j.kind == "fixed":
             record = FixedJoint(**common)
         elif j.kind == "spherical":  # Bullet's extension (its limit attributes are not read); MJCF's ball
-            record = BallJoint(**common, cone_limit=j.cone_limit)
+            # MJCF's stiffness pulls to the model's pose (MuJoCo's qpos_spring of a ball is its qpos0:
+            # springref is a hinge's and a slide's), the pose the joint is bound at
+            record = BallJoint(**common, cone_limit=j.cone_limit, stiffness=j.stiffness, damping=j.damping)
         else:
             cls = SliderJoint if j.kind == "prismatic" else HingeJoint
             extra = {} if j.friction == 0.0 else {"motor_speed": 0.0,

@@ -17,6 +17,10 @@ from ..joints import (
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
     P_ARMATURE,
+    P_BALL_DAMPING,
+    P_BALL_MAX_DRIVE,
+    P_BALL_STIFFNESS,
+    P_BALL_TARGET,
     P_DAMPING,
     P_EFFORT,
     P_LIMIT2_ON,
@@ -80,8 +84,12 @@ A_SPRING, A_MOTOR, A_LOWER, A_UPPER, A_EQUAL = 0, 1, 2, 3, 4
 A_LOWER2, A_UPPER2, A_MOTOR2 = 5, 6, 7
 A_MOTOR_ANCHOR = 8
 A_ARMATURE = 11
-AXIAL_COUNT = 12
+# a ball joint's drive (``_solve_ball_drive``): its accumulated angular impulse (x, y, z world, N m s)
+A_BALL_DRIVE = 12
+AXIAL_COUNT = 15
 AXIAL_COUNT_V1 = 11  # before the armature column (checkpoints of older versions)
+AXIAL_COUNT_V2 = 12  # before the ball drive's columns
+OLD_AXIAL_COUNTS = (AXIAL_COUNT_V1, AXIAL_COUNT_V2)
 
 
 @njit(**NO_NRT)
@@ -454,6 +462,121 @@ def _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass,
 
 
 @njit(**NO_NRT)
+def ball_drive_error(R, a, b, frame_a, frame_b, param, j):
+    """theta (3,) rad, world: the rotation vector of E = G D_w^T, the rotation from a ball
+    joint drive's target orientation of body_b to its present one (``BallJoint.target``).
+
+    G = Fb Fa^T = xb xa^T + yb ya^T + zb za^T turns body_a's joint frame onto body_b's (the
+    identity at creation, when the two frames coincide); D_w = Ra D Ra^T is the target D (a
+    rotation in body_a's axes, ``P_BALL_TARGET``: quaternion (d_w, d)) in world axes, whose
+    quaternion is (d_w, Ra d). At the target Fb = D_w Fa, so E = 1. With E's quaternion (w, u),
+    w >= 0: theta = 2 atan2(|u|, w) u / |u| (accurate at small angles, where u ~ theta / 2)."""
+    xa, ya, za, xb, yb, zb = _frames(R, a, b, frame_a, frame_b, j)
+    gw, g1, g2, g3 = _matrix_quaternion(
+        xb[0] * xa[0] + yb[0] * ya[0] + zb[0] * za[0], xb[0] * xa[1] + yb[0] * ya[1] + zb[0] * za[1],
+        xb[0] * xa[2] + yb[0] * ya[2] + zb[0] * za[2], xb[1] * xa[0] + yb[1] * ya[0] + zb[1] * za[0],
+        xb[1] * xa[1] + yb[1] * ya[1] + zb[1] * za[1], xb[1] * xa[2] + yb[1] * ya[2] + zb[1] * za[2],
+        xb[2] * xa[0] + yb[2] * ya[0] + zb[2] * za[0], xb[2] * xa[1] + yb[2] * ya[1] + zb[2] * za[1],
+        xb[2] * xa[2] + yb[2] * ya[2] + zb[2] * za[2])
+    dw = param[j, P_BALL_TARGET]
+    d = (param[j, P_BALL_TARGET + 1], param[j, P_BALL_TARGET + 2], param[j, P_BALL_TARGET + 3])
+    if a >= 0:  # (the world's axes are its own: _mat_vec gives 0 for the world)
+        d = _mat_vec(R, a, d)
+    # E = G D_w^T: quaternion (gw, g) (dw, -d)
+    g = (g1, g2, g3)
+    w = gw * dw + _dot(g, d)
+    u = _add(_sub(_scale(dw, g), _scale(gw, d)), _cross(d, g))
+    if w < 0.0:
+        w = -w
+        u = _scale(-1.0, u)
+    s = math.sqrt(_dot(u, u))
+    if s == 0.0:
+        return (0.0, 0.0, 0.0)
+    return _scale(2.0 * math.atan2(s, w) / s, u)
+
+
+@njit(**NO_NRT)
+def _matrix_quaternion(m00, m01, m02, m10, m11, m12, m20, m21, m22):
+    """Unit quaternion (w, x, y, z) of a rotation matrix given by its entries (Shepperd's
+    method, as ``math3d.matrix_to_quat_into``; any sign)."""
+    t = m00 + m11 + m22
+    if t >= m00 and t >= m11 and t >= m22:
+        s = 2.0 * math.sqrt(1.0 + t)
+        q = (0.25 * s, (m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s)
+    elif m00 >= m11 and m00 >= m22:
+        s = 2.0 * math.sqrt(1.0 + m00 - m11 - m22)
+        q = ((m21 - m12) / s, 0.25 * s, (m01 + m10) / s, (m02 + m20) / s)
+    elif m11 >= m22:
+        s = 2.0 * math.sqrt(1.0 + m11 - m00 - m22)
+        q = ((m02 - m20) / s, (m01 + m10) / s, 0.25 * s, (m12 + m21) / s)
+    else:
+        s = 2.0 * math.sqrt(1.0 + m22 - m00 - m11)
+        q = ((m10 - m01) / s, (m02 + m20) / s, (m12 + m21) / s, 0.25 * s)
+    n = 1.0 / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return (q[0] * n, q[1] * n, q[2] * n, q[3] * n)
+
+
+@njit(**NO_NRT)
+def _solve_ball_drive(j, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, v, omega,
+                      axial_impulse):
+    """A ball joint's drive: the spring-damper torque -k theta - c (omega_b - omega_a) on body b
+    (``ball_drive_error``'s theta, world), solved implicitly as one 3x3 block of angular rows
+    (the hinge's PD row, ``_solve_axial``, about three axes at once; Catto, GDC 2011: compliance
+    gamma = 1 / (h (c + h k)), the error fed back at k / (c + h k)). The joint pins its anchor, so
+    the rows turn the bodies about it: each world axis e_i has the anchor block's compensation
+    (``_coupled_row_mass``'s c_i, comp_i), the block's mass K_ij = e_i.(Ia^-1 + Ib^-1) e_j +
+    c_i.comp_j. The accumulated impulse (``axial_impulse[j, A_BALL_DRIVE:+3]``, N m s, world) is
+    capped at ``P_BALL_MAX_DRIVE`` h in norm; the anchor part goes with the motors' (``A_MOTOR_ANCHOR``).
+
+    NOTE: one block, not three rows one after another: a Gauss-Seidel sweep over three coupled rows
+    leaves the cross terms of an unsymmetric body's inertia a sweep behind."""
+    p = param[j]
+    ks = p[P_BALL_STIFFNESS]
+    cs = p[P_BALL_DAMPING]
+    ra, pa = _anchor(x, R, a, local_a, j)
+    rb, pb = _anchor(x, R, b, local_b, j)
+    P = _point_K(inv_mass, I_inv, a, b, ra, rb)
+    c0 = _scale(-1.0, _add(_cross(rb, _mat_vec(I_inv, b, (1.0, 0.0, 0.0))),
+                           _cross(ra, _mat_vec(I_inv, a, (1.0, 0.0, 0.0)))))
+    c1 = _scale(-1.0, _add(_cross(rb, _mat_vec(I_inv, b, (0.0, 1.0, 0.0))),
+                           _cross(ra, _mat_vec(I_inv, a, (0.0, 1.0, 0.0)))))
+    c2 = _scale(-1.0, _add(_cross(rb, _mat_vec(I_inv, b, (0.0, 0.0, 1.0))),
+                           _cross(ra, _mat_vec(I_inv, a, (0.0, 0.0, 1.0)))))
+    q0 = _scale(-1.0, _solve3(P, c0))
+    q1 = _scale(-1.0, _solve3(P, c1))
+    q2 = _scale(-1.0, _solve3(P, c2))
+    k00, k01, k02, k11, k12, k22 = _angular_K(I_inv, a, b)
+    gamma = 1.0 / (h * (cs + h * ks))
+    K = (k00 + _dot(c0, q0) + gamma, k01 + _dot(c0, q1), k02 + _dot(c0, q2),
+         k11 + _dot(c1, q1) + gamma, k12 + _dot(c1, q2), k22 + _dot(c2, q2) + gamma)
+    theta = ball_drive_error(R, a, b, frame_a, frame_b, param, j)
+    beta = ks / (cs + h * ks)
+    wrel = _sub(_angular_velocity(omega, b), _angular_velocity(omega, a))
+    old = (axial_impulse[j, A_BALL_DRIVE], axial_impulse[j, A_BALL_DRIVE + 1], axial_impulse[j, A_BALL_DRIVE + 2])
+    lam = _solve3(K, _add(_add(wrel, _scale(beta, theta)), _scale(gamma, old)))
+    new = _sub(old, lam)
+    norm = math.sqrt(_dot(new, new))
+    cap = p[P_BALL_MAX_DRIVE] * h
+    if norm > cap:
+        new = _scale(cap / norm, new)
+    imp = _sub(new, old)
+    for k in range(3):
+        axial_impulse[j, A_BALL_DRIVE + k] = new[k]
+    _apply_angular(omega, I_inv, a, b, imp)
+    # The anchor's part: the whole drive impulse's at the present arms, not the sum of each solve's
+    # increment at the arms of its time. NOTE: summed (as the hinge's motor and drive do), it kept
+    # a force the arms had turned away from, which only the soft anchor row (a spring of its own)
+    # answered: a reed struck by a ball settled 3 cm off its unstruck neighbours' pose, its anchors
+    # 3-12 mm apart where theirs were 0.4-2.8 mm (examples/joints/reeds.toml, measured).
+    comp = _add(_add(_scale(new[0], q0), _scale(new[1], q1)), _scale(new[2], q2))
+    before = (axial_impulse[j, A_MOTOR_ANCHOR], axial_impulse[j, A_MOTOR_ANCHOR + 1],
+              axial_impulse[j, A_MOTOR_ANCHOR + 2])
+    _apply_linear(v, omega, inv_mass, I_inv, a, b, ra, rb, _sub(comp, before))
+    for k in range(3):
+        axial_impulse[j, A_MOTOR_ANCHOR + k] = comp[k]
+
+
+@njit(**NO_NRT)
 def _sym_mat_vec(K, u):
     """K u for K as 6 numbers."""
     k00, k01, k02, k11, k12, k22 = K
@@ -489,6 +612,9 @@ def _sweep_joints(lo, hi, backward, order, joint_type, joint_a, joint_b, local_a
             # have no such rows; it is inlined now, and the test still skips its set-up
             _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h,
                           soft, v, omega, linear_impulse, axial_impulse)
+        if t == JOINT_BALL and (param[j, P_BALL_STIFFNESS] != 0.0 or param[j, P_BALL_DAMPING] != 0.0):
+            _solve_ball_drive(j, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, v, omega,
+                              axial_impulse)
         if gauss_seidel[j]:
             _solve_rigid(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, inv_mass, I_inv, soft,
                          v, omega, linear_impulse, angular_impulse)
@@ -588,6 +714,11 @@ def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, fra
             has2, n2, _pos2 = _second_row(t, j, a, b, R, frame_a, frame_b)
             if has2:
                 _apply_angular(omega, I_inv, a, b, _scale(total2, n2))
+        if t == JOINT_BALL:
+            drive = (axial_impulse[j, A_BALL_DRIVE], axial_impulse[j, A_BALL_DRIVE + 1],
+                     axial_impulse[j, A_BALL_DRIVE + 2])
+            if drive[0] != 0.0 or drive[1] != 0.0 or drive[2] != 0.0:
+                _apply_angular(omega, I_inv, a, b, drive)
 
 
 @njit(**NO_NRT)

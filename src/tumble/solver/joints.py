@@ -54,6 +54,9 @@ from ..joints import (
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
     P_ARMATURE,
+    P_BALL_DAMPING,
+    P_BALL_STIFFNESS,
+    P_BALL_TARGET,
     P_EFFORT,
     P_LIMIT2_ON,
     P_LIMIT_ON,
@@ -62,9 +65,11 @@ from ..joints import (
     P_MAX_TORQUE,
     P_MOTOR2_SPEED,
     P_MOTOR_SPEED,
+    P_TARGET,
     P_UPPER,
     PARAM_COUNT,
     set_record_effort,
+    set_record_target,
 )
 from ..math3d import (
     JIT,
@@ -92,6 +97,7 @@ from .joint_math import (
     _sub,
 )
 from .joint_solve import (
+    A_BALL_DRIVE,
     A_EQUAL,
     A_LOWER,
     A_LOWER2,
@@ -321,6 +327,9 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
             has2, n2, _pos2 = _second_row(t, j, a, b, R, frame_a, frame_b)
             if has2:
                 tq = _add(tq, _scale(axial2, n2))
+        if t == JOINT_BALL and (param[j, P_BALL_STIFFNESS] != 0.0 or param[j, P_BALL_DAMPING] != 0.0):
+            tq = _add(tq, (axial_impulse[j, A_BALL_DRIVE], axial_impulse[j, A_BALL_DRIVE + 1],
+                           axial_impulse[j, A_BALL_DRIVE + 2]))
         for k in range(3):
             reaction_force[j, k] = f[k] * inv_h
             reaction_torque[j, k] = tq[k] * inv_h
@@ -367,10 +376,11 @@ class JointSolver:
     writable between steps, e.g. ``param[j, P_MOTOR_SPEED]``).
 
     State: ``enabled`` (J,) bool (False once broken), ``linear_impulse``, ``angular_impulse``
-    (J, 3) N s and ``axial_impulse`` (J, AXIAL_COUNT = 12) N s or N m s (the coordinate's
+    (J, 3) N s and ``axial_impulse`` (J, AXIAL_COUNT = 15) N s or N m s (the coordinate's
     spring, motor, lower, upper, equal rows; then the second angular coordinate's lower,
     upper, motor rows: ball twist, universal angle_b; then the motor and drive rows' anchor
-    impulse, (3,) N s world, ``A_MOTOR_ANCHOR``; then the armature row's, ``A_ARMATURE``),
+    impulse, (3,) N s world, ``A_MOTOR_ANCHOR``; then the armature row's, ``A_ARMATURE``; then a
+    ball joint drive's angular impulse, (3,) N m s world, ``A_BALL_DRIVE``),
     world, accumulated over the last substep, carried to the next for warm starting.
     ``rate0`` (J,): the coordinates' rates before the current substep's forces (the armature
     rows' target, ``capture_rates``).
@@ -700,6 +710,17 @@ class JointSolver:
         """Change a motor's target rate (rad/s or m/s) between steps; ``axis_b=True``: a
         universal joint's motor about axis_b (``motor_speed_b``)."""
         self.param[self.index(joint), P_MOTOR2_SPEED if axis_b else P_MOTOR_SPEED] = float(speed)
+
+    def set_target(self, joint, target):
+        """Change a drive's target between steps: rad or m for a hinge, slider or distance joint,
+        a rotation (vector (3,) rad or quaternion (4,) w, x, y, z, in body_a's axes) for a ball
+        joint (``BallJoint.target``); kept in the joint's record too, so a checkpoint carries it."""
+        j = self.index(joint)
+        columns = set_record_target(self._joints[j], target)
+        if self.joint_type[j] == JOINT_BALL:
+            self.param[j, P_BALL_TARGET:P_BALL_TARGET + 4] = columns
+        else:
+            self.param[j, P_TARGET] = columns[0]
 
     def set_effort(self, joint, effort: float):
         """Set the torque (N m, a hinge) or force (N, a slider) a joint applies along its
