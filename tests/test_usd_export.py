@@ -106,11 +106,14 @@ def test_a_pendulum_written_and_read_back_swings_as_before(tmp_path):
 
 def test_what_the_schema_cannot_hold_is_named_in_one_warning(tmp_path):
     """examples/dominoes.toml pushes its first domino with an impulse (a force record): the
-    stage is written without it and one TumbleWarning says so; a world of particles (no
-    collider) is refused."""
+    stage is written without it and one TumbleWarning says so (the reeds' ball joint drives and wind
+    likewise); a world of particles (no collider) is refused."""
     world = load_scene(EXAMPLES / "dominoes.toml").world
     with pytest.warns(tb.TumbleWarning, match="no place for: forces other than gravity"):
         tb.save_usd(world, tmp_path / "d.usda")
+    reeds = load_scene(EXAMPLES / "joints" / "reeds.toml").world  # ball joints with drives, wind
+    with pytest.warns(tb.TumbleWarning, match="ball joints' drives; forces other than gravity"):
+        tb.save_usd(reeds, tmp_path / "reeds.usda")
     w = tb.World()
     w.add_body(tb.Particles(points=[(0, 0, 0), (1, 0, 0), (0, 1, 0)], masses=[1, 1, 1]), name="dumbbell")
     with pytest.raises(tb.InputError, match="dumbbell: a body of particles has no collider"):

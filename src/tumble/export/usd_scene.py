@@ -34,7 +34,7 @@ of the written stage gives back the same bodies, to the schema's single precisio
   per distinct filter, each filtering the groups its filter does not collide with (exact).
 
 What the schema has no place for is left out with one ``TumbleWarning`` naming it: sensors,
-surface velocities, rolling resistance and spinning friction, a ball joint's twist limits, joint
+surface velocities, rolling resistance and spinning friction, a ball joint's twist limits and drive, joint
 springs of distance joints, applied joint efforts, universal and gear joints, the repetition of
 a repeating keyframed path, forces other than gravity. A kinematic body's keyframed path is written as time samples of its transform (24
 codes a second), which ``load_usd`` reads back as a path.
@@ -50,7 +50,8 @@ import numpy as np
 
 from ..collision.filter import CollisionFilter
 from ..errors import InputError, TumbleWarning
-from ..joints import (JOINT_BALL, JOINT_DISTANCE, JOINT_FIXED, JOINT_HINGE, JOINT_SLIDER, P_DAMPING, P_LIMIT_ON,
+from ..joints import (JOINT_BALL, JOINT_DISTANCE, JOINT_FIXED, JOINT_HINGE, JOINT_SLIDER, P_BALL_DAMPING,
+                      P_BALL_STIFFNESS, P_DAMPING, P_LIMIT_ON,
                       P_LOWER, P_LIMIT2_ON, P_MAX_DRIVE, P_MAX_FORCE, P_MAX_MOTOR, P_MAX_TORQUE, P_MOTOR_ON,
                       P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_UPPER, P_EFFORT, P_ARMATURE)
 from ..joints import _frame_from_z
@@ -306,6 +307,10 @@ class _Writer:
                 j.CreateConeAngle1LimitAttr(cone)
             if p[P_LIMIT2_ON]:
                 self.left_out.add("ball joints' twist limits")
+            if p[P_BALL_STIFFNESS] > 0.0 or p[P_BALL_DAMPING] > 0.0:
+                # a spherical joint has no drive in the schema (PhysX drives a D6 joint's rotX/Y/Z or
+                # slerp through its own schema)
+                self.left_out.add("ball joints' drives")
         elif b.type_id == JOINT_DISTANCE:
             if p[P_LOWER] > 0.0:
                 j.CreateMinDistanceAttr(float(p[P_LOWER]))
