@@ -373,7 +373,7 @@ def _pad_param(rows: np.ndarray) -> np.ndarray:
     if rows.shape[1] <= P_BALL_MAX_DRIVE:
         out[:, P_BALL_MAX_DRIVE] = np.inf
         out[:, P_BALL_TARGET] = 1.0
-    return out
+    return out  # (a row of 28 lacks only the ball drive's target velocity: 0)
 
 
 def _restore_logs(sim, contact_touching, sensor_pairs):

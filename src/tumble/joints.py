@@ -51,12 +51,15 @@ P_EFFORT, P_ARMATURE = 19, 20
 # rotation (``solver.joint_solve._solve_ball_drive``); columns of their own, so that the 1-D
 # coordinate's rows (``_solve_axial``) never read a ball joint's drive as a spring on its swing
 P_BALL_STIFFNESS, P_BALL_DAMPING, P_BALL_MAX_DRIVE, P_BALL_TARGET = 21, 22, 23, 24
-PARAM_COUNT = 28
+# and its target velocity: body_b's angular velocity relative to body_a that the damping pulls to,
+# rad/s in body_a's axes (x, y, z in P_BALL_RATE..P_BALL_RATE+2)
+P_BALL_RATE = 28
+PARAM_COUNT = 31
 # the columns a parameter row had in older versions (checkpoints): before the effort and
 # armature (their joints get none), and before the ball joints' drive (none either)
 PARAM_COUNT_V1 = 19
 PARAM_COUNT_V2 = 21
-OLD_PARAM_COUNTS = (PARAM_COUNT_V1, PARAM_COUNT_V2)
+OLD_PARAM_COUNTS = (PARAM_COUNT_V1, PARAM_COUNT_V2, 28)  # 28: the ball drive without its target velocity
 # a gear's parameter row (``GearJoint``): the indices in ``world.joints`` of the joint that follows and of
 # the joint it follows, and the coefficients a0..a4 of q_joint = a0 + a1 q + ... + a4 q^4 (q = q_follows)
 # in columns G_COEF..G_COEF+4 (P_STIFFNESS..P_MAX_FORCE). Columns no other row of a gear is read from (every kernel takes a gear's
@@ -229,6 +232,10 @@ class BallJoint(Joint):
             the pose at creation. Change it between steps with ``Simulator.set_joint_target``.
         target_euler_deg: (3,) the same rotation as roll x, pitch y, yaw z in degrees (applied
             z-y'-x'', as ``World.add_body``'s ``euler_deg``); give it or ``target``.
+        target_velocity: (3,) rad/s, body_b's angular velocity relative to body_a that the
+            damping pulls to (PyBullet's ``targetVelocity``), in body_a's axes: the torque is
+            then -stiffness theta - damping (omega_b - omega_a - target_velocity). Default 0:
+            a motion clip gives both, the pose and its rate.
         max_drive_torque: N m, the largest drive torque (default inf).
     """
 
@@ -240,6 +247,7 @@ class BallJoint(Joint):
     damping: float = 0.0
     target: Any = None
     target_euler_deg: Any = None
+    target_velocity: Any = (0.0, 0.0, 0.0)
     max_drive_torque: float = math.inf
     kind: ClassVar[str] = "ball"
 
@@ -267,6 +275,7 @@ class BallJoint(Joint):
                                                                         euler=True)
         else:
             p[P_BALL_TARGET:P_BALL_TARGET + 4] = ball_target_quaternion(self.target, "target")
+        p[P_BALL_RATE:P_BALL_RATE + 3] = finite_vector(self.target_velocity, "target_velocity")
 
 
 def ball_target_quaternion(value, key: str, euler: bool = False) -> np.ndarray:
@@ -687,18 +696,27 @@ def _bind_gear(world, gear: GearJoint) -> BoundJoint:
     return bound
 
 
-def set_record_target(joint: Joint, value) -> np.ndarray:
+def set_record_target(joint: Joint, value, velocity=None) -> np.ndarray:
     """Check ``value`` as a bound joint's drive target and write it into the record and its
     parameter row (a checkpoint carries both): rad or m (``P_TARGET``) for a hinge, slider or
     distance joint; a rotation (``ball_target_quaternion``: rotation vector or quaternion) for a
-    ball joint. Returns the row's target column(s). InputError: not a target of that joint."""
+    ball joint, and ``velocity`` (3,) rad/s its target velocity (None: left as it is). Returns the
+    row's target column(s) (a ball joint's: quaternion then velocity, (7,)). InputError: not a
+    target of that joint."""
     p = joint.bound.param
     t = joint.bound.type_id
     if t == JOINT_BALL:
         q = ball_target_quaternion(value, "target")
+        if velocity is not None:
+            rate = finite_vector(velocity, "target_velocity")
+            joint.target_velocity = [float(c) for c in rate]
+            p[P_BALL_RATE:P_BALL_RATE + 3] = rate
         joint.target, joint.target_euler_deg = [float(c) for c in q], None
         p[P_BALL_TARGET:P_BALL_TARGET + 4] = q
-        return q.copy()
+        return np.concatenate([q, p[P_BALL_RATE:P_BALL_RATE + 3]])
+    if velocity is not None:
+        raise InputError(f"only a ball joint's drive takes a target velocity, not a {joint.kind} joint's",
+                         "target_velocity")
     if t not in (JOINT_HINGE, JOINT_SLIDER, JOINT_DISTANCE):
         raise InputError(f"a {joint.kind} joint has no drive target", "joint")
     target = _number(value, "target", minimum=0.0 if t == JOINT_DISTANCE else None)

@@ -29,7 +29,7 @@ A ball joint takes ``twist_lower``, ``twist_upper`` (rad, in [-pi, pi]) besides 
 ``cone_limit``, and a drive on its whole rotation: ``stiffness`` (N m/rad), ``damping`` (N m s/rad),
 ``max_drive_torque`` and ``target`` (body_b's rotation relative to body_a from their pose at
 creation, in body_a's axes: a rotation vector ``[x, y, z]`` rad or a quaternion ``[w, x, y, z]``)
-or ``target_euler_deg = [roll, pitch, yaw]``; a universal joint ``lower``, ``upper`` (its angle about ``axis``) and
+or ``target_euler_deg = [roll, pitch, yaw]``, and ``target_velocity`` (rad/s, body_a's axes); a universal joint ``lower``, ``upper`` (its angle about ``axis``) and
 ``lower_b``, ``upper_b`` (about ``axis_b``), each in [-pi, pi], and motors ``motor_speed``,
 ``motor_speed_b`` with ``max_motor_torque``, ``max_motor_torque_b``.
 
@@ -56,7 +56,8 @@ DRIVE_KEYS = ("lower", "upper", "motor_speed", "stiffness", "damping", "target")
 # per type: its own keys besides COMMON_KEYS
 TYPE_KEYS = {
     "ball": ("axis", "cone_limit", "cone_limit_deg", "twist_lower", "twist_upper", "twist_lower_deg",
-             "twist_upper_deg", "stiffness", "damping", "target", "target_euler_deg", "max_drive_torque"),
+             "twist_upper_deg", "stiffness", "damping", "target", "target_euler_deg", "target_velocity",
+             "max_drive_torque"),
     "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "motor_speed_deg", "max_motor_torque",
               "max_drive_torque", "torque", "armature"),
     "slider": ("axis", *DRIVE_KEYS, "max_motor_force", "max_drive_force", "force", "armature"),
@@ -71,7 +72,7 @@ GEAR_KEYS = ("type", "name", "joint", "follows", "ratio", "offset", "polynomial"
 VECTOR_KEYS = ("anchor", "anchor_b", "axis", "axis_b")
 # a ball joint drive's target: a rotation vector (3 numbers, rad) or a quaternion (4: w, x, y, z),
 # or roll, pitch, yaw in degrees (``tumble.joints.ball_target_quaternion`` checks them)
-ROTATION_KEYS = ("target_euler_deg",)
+ROTATION_KEYS = ("target_euler_deg", "target_velocity")
 # keys that may be inf (TOML "inf")
 UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_force", "max_drive_torque",
                   "max_drive_force", "max_motor_torque_b")

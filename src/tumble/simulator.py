@@ -419,22 +419,24 @@ class Simulator:
         if solver is not None and solver.count == len(joints):
             solver.param[solver.index(record), P_EFFORT] = value
 
-    def set_joint_target(self, joint, target):
+    def set_joint_target(self, joint, target, velocity=None):
         """Move a joint's drive target from the next step on (PyBullet's ``targetPosition``, MuJoCo's
         ``springref`` or a position actuator's ctrl): rad or m for a hinge, slider or distance joint;
         for a ball joint a rotation of body_b relative to body_a from their pose at creation, in
         body_a's axes (the world's when body_a is the world): a rotation vector (3,) rad or a unit
-        quaternion (4,) w, x, y, z (``BallJoint.target``). The drive's stiffness and damping are the
-        joint's own. ``joint``: its record, name or index in ``world.joints``. Before the first step too."""
+        quaternion (4,) w, x, y, z (``BallJoint.target``), and ``velocity`` (3,) rad/s its target
+        velocity (``BallJoint.target_velocity``, body_a's axes; None: unchanged). The drive's
+        stiffness and damping are the joint's own. ``joint``: its record, name or index in
+        ``world.joints``. Before the first step too."""
         from .joints import joint_index, set_record_target
 
         joints = self.world.joints
         record = joints[joint_index(self.world, joint, "joint")]
         solver = None if self.soft_step is None else self.soft_step.joints
         if solver is not None and solver.count == len(joints):
-            solver.set_target(record, target)  # the solver's row and the record's
+            solver.set_target(record, target, velocity)  # the solver's row and the record's
         else:
-            set_record_target(record, target)  # read by the solver when it builds its tables
+            set_record_target(record, target, velocity)  # read by the solver when it builds its tables
 
     def joint_frame(self) -> dict:
         """``joint_readings`` under the trajectory's per-frame keys (``trajectory.joint_frame_shapes``)."""

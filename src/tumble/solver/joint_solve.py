@@ -19,6 +19,7 @@ from ..joints import (
     P_ARMATURE,
     P_BALL_DAMPING,
     P_BALL_MAX_DRIVE,
+    P_BALL_RATE,
     P_BALL_STIFFNESS,
     P_BALL_TARGET,
     P_DAMPING,
@@ -552,6 +553,11 @@ def _solve_ball_drive(j, a, b, x, R, local_a, local_b, frame_a, frame_b, param, 
     theta = ball_drive_error(R, a, b, frame_a, frame_b, param, j)
     beta = ks / (cs + h * ks)
     wrel = _sub(_angular_velocity(omega, b), _angular_velocity(omega, a))
+    rate = (p[P_BALL_RATE], p[P_BALL_RATE + 1], p[P_BALL_RATE + 2])  # the target velocity, body_a's axes
+    if rate[0] != 0.0 or rate[1] != 0.0 or rate[2] != 0.0:
+        # the row's velocity error: the relative angular velocity less the target's (in world axes);
+        # the spring's feed-back is in the bias as before, so the damping pulls to the target rate
+        wrel = _sub(wrel, rate if a < 0 else _mat_vec(R, a, rate))
     old = (axial_impulse[j, A_BALL_DRIVE], axial_impulse[j, A_BALL_DRIVE + 1], axial_impulse[j, A_BALL_DRIVE + 2])
     lam = _solve3(K, _add(_add(wrel, _scale(beta, theta)), _scale(gamma, old)))
     new = _sub(old, lam)

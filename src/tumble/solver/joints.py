@@ -711,14 +711,15 @@ class JointSolver:
         universal joint's motor about axis_b (``motor_speed_b``)."""
         self.param[self.index(joint), P_MOTOR2_SPEED if axis_b else P_MOTOR_SPEED] = float(speed)
 
-    def set_target(self, joint, target):
+    def set_target(self, joint, target, velocity=None):
         """Change a drive's target between steps: rad or m for a hinge, slider or distance joint,
         a rotation (vector (3,) rad or quaternion (4,) w, x, y, z, in body_a's axes) for a ball
-        joint (``BallJoint.target``); kept in the joint's record too, so a checkpoint carries it."""
+        joint (``BallJoint.target``) and its ``velocity`` (3,) rad/s (``target_velocity``; None:
+        unchanged); kept in the joint's record too, so a checkpoint carries it."""
         j = self.index(joint)
-        columns = set_record_target(self._joints[j], target)
+        columns = set_record_target(self._joints[j], target, velocity)
         if self.joint_type[j] == JOINT_BALL:
-            self.param[j, P_BALL_TARGET:P_BALL_TARGET + 4] = columns
+            self.param[j, P_BALL_TARGET:P_BALL_TARGET + 7] = columns  # the quaternion, then P_BALL_RATE
         else:
             self.param[j, P_TARGET] = columns[0]
 
