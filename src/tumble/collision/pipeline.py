@@ -91,6 +91,24 @@ class CollisionPipeline:
             self._filter_key = key
         return self._excluded, self._body_filter
 
+    def live_shapes(self):
+        """(S,) bool: the shapes whose body's filter lets it touch something, or None when every
+        body may (default filters). A body of category 0 or mask 0 outside a positive group meets
+        no other body (``filter.filter_allows``): a URDF or MJCF link with no collision shape has a
+        marker sphere of that filter, and a robot of such links needs no collision stages."""
+        self._filters()
+        table = self.refresh()
+        key = (id(table), self._filter_key)
+        if key != getattr(self, "_live_key", None):
+            f = self._user_filter
+            if f.shape[0] == 0:
+                self._live = None
+            else:
+                inert = ((f[:, 0] == 0) | (f[:, 1] == 0)) & (f[:, 2] <= 0)
+                self._live = ~inert[table.shape_body]
+            self._live_key = key
+        return self._live
+
     def user_filters(self):
         """(excluded keys or None, filter table) as the user set them, without the rows that keep
         sensors out of contact: what a sensor's overlaps obey (collision/sensor.py)."""
