@@ -179,3 +179,51 @@ def test_jointed_pairs_and_world_exclusions_are_both_culled():
              zip(sim.contacts().body_a, sim.contacts().body_b)}
     assert pairs == {("a", "ground")}
     assert not w.should_collide(a, b) and not w.should_collide(b, c) and w.should_collide(a, c)
+
+
+def test_bodies_whose_filter_meets_nobody_do_not_switch_the_collision_stages_on():
+    """``SoftStep.has_collisions``: a body of category 0 or mask 0 outside a positive group touches
+    no body (the rule above), so a world of such bodies (a robot whose links have no collision shape,
+    only marker spheres) has nothing for the collision stages to do and skips them; one default body
+    beside them does not change that (it alone touches nothing), two do; a positive group shared by
+    two such bodies makes them touch again. The answer follows filter changes."""
+    from tumble.solver.soft_step import SoftStep
+
+    def world(*filters):
+        w = tb.World()
+        for i, f in enumerate(filters):
+            w.add_body(tb.Sphere(0.1), mass=1.0, position=(0.05 * i, 0, 0), name=f"b{i}", collision_filter=f)
+        return SoftStep(w)
+
+    none = F(category=0, mask=0)
+    assert not world(none, none, none).has_collisions()
+    assert not world(F(mask=0), F(category=0), F()).has_collisions()
+    assert world(none, F(), F()).has_collisions()
+    assert world(F(category=0, mask=0, group=2), F(category=0, mask=0, group=2)).has_collisions()
+    step = world(none, none)
+    assert not step.has_collisions()
+    step.world.body("b1").collision_filter = None
+    step.world.body("b0").collision_filter = None
+    assert step.has_collisions()
+
+
+def test_an_mjcf_model_of_visual_geoms_takes_no_collision_stages(tmp_path):
+    """An MJCF chain whose geoms are all contype = conaffinity = 0 (visual) gets marker spheres that
+    touch nothing: the soft step skips the collision stages (the same motion: the stages found no
+    contact), and with its geoms colliding it takes them."""
+    import tumble as tb
+
+    def chain(contype):
+        body = "".join(f'<body name="l{i}" pos="{0 if i == 0 else 0.1} 0 {1 if i == 0 else 0}"><joint type="ball"/>'
+                       f'<geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.01" contype="{contype}" '
+                       f'conaffinity="{contype}"/>' for i in range(4)) + "</body>" * 4
+        path = tmp_path / f"chain{contype}.xml"
+        path.write_text(f"<mujoco><worldbody>{body}</worldbody></mujoco>")
+        w = tb.World(gravity=(0, 0, -9.81))
+        tb.load_mjcf(w, path)
+        sim = tb.Simulator(w)
+        sim.step(1)
+        return sim
+
+    assert not chain(0).soft_step.has_collisions()
+    assert chain(1).soft_step.has_collisions()
