@@ -394,7 +394,8 @@ class SoftStep:
             return bool(np.any(table.body_moving[table.shape_body])) or bool(w.kinematic.any() and
                                                                             w.kinematic_moving.any())
         # PERF: a robot whose links have no collision shape (marker spheres that touch nothing) ran the
-        # collision stages every step for nothing: a 10-link MJCF cable of visual geoms 248 -> 117 us a step (benchmarks/ball_drive.py)
+        # collision stages every step for nothing: an MJCF cable of visual geoms, minima of
+        # 15 runs each: 10 links 140 -> 113 us a step, 30 links 244 -> 196 (benchmarks/ball_drive.py's cable)
         if np.count_nonzero(live) < 2:
             return False
         return bool(np.any(table.body_moving[table.shape_body[live]])) or bool(w.kinematic.any() and
