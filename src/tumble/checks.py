@@ -134,7 +134,7 @@ def energy_bound(e_ref: float, scale: float, growth: float) -> float:
     """Largest total energy allowed: E_ref + (growth - 1) * scale (J).
 
     ``growth`` is ``[simulation] max_energy_growth`` (default 1e6): a run whose
-    total energy KE + PE (gravity and springs) rises above its start by more
+    total energy KE + PE (gravity, springs and joints' springs) rises above its start by more
     than (growth - 1) times ``energy_scale`` is stopped. Forces that do work
     outside PE (constant, point, wind, user forces) add energy legitimately;
     raise the factor for scenes driven hard by them. Impulses re-base the bound.

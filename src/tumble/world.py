@@ -665,13 +665,18 @@ class World:
         return float(0.5 * np.sum(self.P[m] * self.v[m]) + 0.5 * np.sum(self.L[m] * self.omega[m]))
 
     def potential_energy(self) -> float:
-        """Total -m g.x over moving bodies plus 1/2 k (l - l0)^2 over springs, J."""
+        """Total -m g.x over moving bodies plus 1/2 k (l - l0)^2 over springs and the joints' springs
+        (hinge, slider and distance stiffness, ball joint drives: ``solver.joints.joint_spring_energy``), J."""
         m = self.moving
         e = float(-np.sum(self.mass[m] * (self.x[m] @ self.gravity)))
         for f in self.forces:
             if isinstance(f, Spring):
                 pa, pb = self.spring_endpoints(f)
                 e += 0.5 * f.stiffness * (float(np.linalg.norm(pa - pb)) - f.rest_length) ** 2
+        if self.joints:
+            from .solver.joints import joint_spring_energy
+
+            e += joint_spring_energy(self)
         return e
 
     def linear_momentum(self) -> np.ndarray:

@@ -65,6 +65,7 @@ from ..joints import (
     P_MAX_TORQUE,
     P_MOTOR2_SPEED,
     P_MOTOR_SPEED,
+    P_STIFFNESS,
     P_TARGET,
     P_UPPER,
     PARAM_COUNT,
@@ -110,6 +111,7 @@ from .joint_solve import (
     AXIAL_COUNT,
     _coordinate_row,
     _second_row,
+    ball_drive_error,
     _sym_mat_vec,
     joint_rates_kernel,
     solve_joints_kernel,
@@ -347,6 +349,38 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
                 for k in range(axial_impulse.shape[1]):
                     axial_impulse[j, k] = 0.0
     return count
+
+
+def joint_spring_energy(world) -> float:
+    """J: the energy the joints' springs hold at the world's poses, 1/2 k (q - target)^2 of each
+    hinge, slider and distance joint with a stiffness (q its angle, displacement or length) and
+    1/2 k |theta|^2 of each ball joint drive (``joint_solve.ball_drive_error``: its torque is this
+    potential's gradient); broken joints hold none. A hinge's angle is taken within half a turn of
+    its target (the poses alone do not count turns; the solver's coordinate does): a spring wound
+    more than half a turn from its target is under-counted. Read from the records' bound rows
+    (``tumble.joints.BoundJoint``), so it needs no solver."""
+    x, R = world.x, world.R
+    energy = 0.0
+    for joint in world.joints:
+        b = joint.bound
+        if b is None or joint.broken or b.type_id not in (JOINT_BALL, JOINT_HINGE, JOINT_SLIDER, JOINT_DISTANCE):
+            continue
+        p = b.param
+        if b.type_id == JOINT_BALL:
+            if p[P_BALL_STIFFNESS] == 0.0:
+                continue
+            theta = ball_drive_error(R, b.body_a, b.body_b, b.frame_a[None], b.frame_b[None], p[None], 0)
+            energy += 0.5 * p[P_BALL_STIFFNESS] * (theta[0] ** 2 + theta[1] ** 2 + theta[2] ** 2)
+            continue
+        if p[P_STIFFNESS] == 0.0:
+            continue
+        # the hinge's angle unwrapped around its target: last_position = the target
+        has, _linear, _n, _ra, _rb, q = _coordinate_row(b.type_id, 0, b.body_a, b.body_b, x, R, b.local_a[None],
+                                                        b.local_b[None], b.frame_a[None], b.frame_b[None],
+                                                        np.array([p[P_TARGET]]))
+        if has:
+            energy += 0.5 * p[P_STIFFNESS] * (q - p[P_TARGET]) ** 2
+    return float(energy)
 
 
 # ---------------------------------------------------------------------- the solver object
