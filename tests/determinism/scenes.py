@@ -32,3 +32,23 @@ def final_hash(path) -> str:
     scene = load_scene(path)
     scene.run(progress=False)
     return state_hash(scene.world)
+
+
+def blas_core() -> str | None:
+    """The kernel set NumPy's OpenBLAS runs (``"Haswell"``, ``"SkylakeX"``...; tests/conftest.py
+    pins it), or None when NumPy's BLAS is not the OpenBLAS of its wheel."""
+    import ctypes
+    import glob
+
+    import numpy as np
+
+    libs = Path(np.__file__).resolve().parent.parent / "numpy.libs"
+    for lib in sorted(glob.glob(str(libs / "*openblas*"))):
+        handle = ctypes.CDLL(lib)
+        for name in ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename", "openblas_get_corename64_",
+                     "openblas_get_corename"):
+            fn = getattr(handle, name, None)
+            if fn is not None:
+                fn.restype = ctypes.c_char_p
+                return fn().decode()
+    return None

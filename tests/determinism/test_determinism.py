@@ -19,17 +19,27 @@ from tumble.checks import state_hash
 from tumble.cli import main as cli_main
 from tumble.scene import load_scene
 
+from ..conftest import PINNED_BLAS_CORE, _cpu_has
 from ..threads import numba_threads
-from .scenes import GOLDEN, final_hash, scene_paths
+from .scenes import GOLDEN, blas_core, final_hash, scene_paths
 
 SCENES = scene_paths()
+
+
+@pytest.mark.skipif(not _cpu_has("avx2", "fma"), reason="the golden hashes are those of OpenBLAS's Haswell kernels")
+def test_the_suite_runs_the_pinned_blas_kernels():
+    """The golden hashes were recorded with OpenBLAS's Haswell kernels (tests/conftest.py pins
+    them before NumPy loads): on an AVX-512 machine its own choice rounds NumPy's small matrix
+    products differently and two scenes' hashes change (platforms, wrecking_ball: measured)."""
+    assert blas_core() == PINNED_BLAS_CORE
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_golden_state_hash(name):
     golden = json.loads(GOLDEN.read_text())
     assert final_hash(SCENES[name]) == golden[name], (
-        f"{name}: the final state changed; if meant, run `PYTHONPATH=src python -m tests.determinism.update_golden`")
+        f"{name}: the final state changed (NumPy's OpenBLAS kernels: {blas_core()}); if meant, run "
+        "`PYTHONPATH=src python -m tests.determinism.update_golden`")
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
