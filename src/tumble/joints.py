@@ -21,6 +21,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .errors import InputError
+from .math3d import mat_t_mat, mat_t_vec, mat_vec, norm3
 from .shapes import finite_vector
 
 # joint type ids (the solver's ``joint_type``)
@@ -84,7 +85,7 @@ def _number(value, key, *, minimum=None, allow_inf=False) -> float:
 
 def _unit(value, key) -> np.ndarray:
     a = finite_vector(value, key)
-    n = float(np.linalg.norm(a))
+    n = float(norm3(a))
     if n < 1e-12:
         raise InputError(f"must not be the zero vector, got {a.tolist()}", key)
     return a / n
@@ -94,7 +95,7 @@ def _frame_from_z(z: np.ndarray) -> np.ndarray:
     """A right-handed orthonormal frame (3, 3), columns x, y, z, with z given."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
+    x /= norm3(x)
     return np.column_stack([x, np.cross(z, x), z])
 
 
@@ -599,35 +600,38 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
     Rb, xb = pose(b)
     anchor = finite_vector(joint.anchor, "anchor")
     body_frame = joint.frame == "body"
-    pa = Ra @ anchor + xa if body_frame else anchor
+    # products without BLAS (math3d.mat_vec's note): the same bits on every machine
+    pa = mat_vec(Ra, anchor) + xa if body_frame else anchor
     if joint.anchor_b is None:
         pb = pa
     else:
         ab = finite_vector(joint.anchor_b, "anchor_b")
-        pb = Rb @ ab + xb if body_frame else ab
-    local_a = Ra.T @ (pa - xa)
-    local_b = Rb.T @ (pb - xb)
+        pb = mat_vec(Rb, ab) + xb if body_frame else ab
+    local_a = mat_t_vec(Ra, pa - xa)
+    local_b = mat_t_vec(Rb, pb - xb)
 
     if isinstance(joint, UniversalJoint):
         ua = _unit(joint.axis, "axis")
         ub = _unit(joint.axis_b, "axis_b")
-        ua = Ra @ ua if body_frame else ua
-        ub = Rb @ ub if body_frame else ub
+        ua = mat_vec(Ra, ua) if body_frame else ua
+        ub = mat_vec(Rb, ub) if body_frame else ub
         if abs(float(ua @ ub)) > 1e-6:
             raise InputError(f"axis and axis_b must be perpendicular (cosine {float(ua @ ub):.3g})", "axis_b")
         frame_world = np.column_stack([ua, ub, np.cross(ua, ub)])
     else:
-        frame_world = joint._frame_world(lambda u: Ra @ u if body_frame else u)
+        frame_world = joint._frame_world(lambda u: mat_vec(Ra, np.asarray(u, dtype=float)) if body_frame else u)
 
     param = np.zeros(PARAM_COUNT)
     param[P_LOWER], param[P_UPPER] = -math.inf, math.inf
     param[P_LOWER2], param[P_UPPER2] = -math.inf, math.inf
     param[P_MAX_MOTOR] = param[P_MAX_DRIVE] = param[P_MAX_MOTOR2] = param[P_BALL_MAX_DRIVE] = math.inf
     param[P_BALL_TARGET] = 1.0  # the identity quaternion: read by a ball joint's drive alone
-    joint._params(param, float(np.linalg.norm(pb - pa)))
+    joint._params(param, float(norm3(pb - pa)))
     param[P_MAX_FORCE] = _number(joint.max_force, "max_force", minimum=0.0, allow_inf=True)
     param[P_MAX_TORQUE] = _number(joint.max_torque, "max_torque", minimum=0.0, allow_inf=True)
-    bound = BoundJoint(JOINT_TYPES[joint.kind], a, b, local_a, local_b, Ra.T @ frame_world, Rb.T @ frame_world, param)
+    frame_world = np.ascontiguousarray(frame_world, dtype=float)
+    bound = BoundJoint(JOINT_TYPES[joint.kind], a, b, local_a, local_b, mat_t_mat(Ra, frame_world),
+                       mat_t_mat(Rb, frame_world), param)
     joint.bound = bound
     return bound
 

@@ -116,21 +116,38 @@ def _rows(value, k: int, width: int, key: str) -> np.ndarray:
     return a
 
 
+# The per-step arithmetic of a path is written out (``_dot``, ``_norm``, the matrix-vector product
+# in ``drive_paths``) rather than left to NumPy's ``dot``, ``norm`` and ``@``: those go through
+# OpenBLAS, whose kernels differ by CPU (SkylakeX on AVX-512, Haswell on AVX2) and round
+# differently, so the same scene gave other bits on another machine (examples/platforms.toml's
+# state hash, measured 2026-12-04; tests/conftest.py).
+def _dot(a, b) -> float:
+    """a . b, summed in index order (no BLAS)."""
+    total = 0.0
+    for u, w in zip(a, b):
+        total += float(u) * float(w)
+    return total
+
+
+def _norm(a) -> float:
+    return math.sqrt(_dot(a, a))
+
+
 def _slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
     """Spherical interpolation from q0 (s = 0) to q1 (s = 1), the short way round."""
     if s <= 0.0:
         return q0.copy()
     if s >= 1.0:
         return q1.copy()
-    d = float(np.dot(q0, q1))
+    d = _dot(q0, q1)
     if d < 0.0:
         q1, d = -q1, -d
     if d > 1.0 - 1e-12:
         q = q0 + s * (q1 - q0)
-        return q / np.linalg.norm(q)
+        return q / _norm(q)
     angle = math.acos(d)
     q = (math.sin((1.0 - s) * angle) * q0 + math.sin(s * angle) * q1) / math.sin(angle)
-    return q / np.linalg.norm(q)
+    return q / _norm(q)
 
 
 def velocities_to(x0, q0, x1, q1, time: float):
@@ -140,7 +157,7 @@ def velocities_to(x0, q0, x1, q1, time: float):
     dq = quat_multiply(np.asarray(q1, dtype=float), np.asarray(q0, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0]))
     if dq[0] < 0.0:
         dq = -dq
-    s = float(np.linalg.norm(dq[1:]))
+    s = _norm(dq[1:])
     angle = 2.0 * math.atan2(s, float(dq[0]))
     omega = dq[1:] * (angle / (s * time)) if s > 0.0 else np.zeros(3)
     return v, omega
@@ -164,13 +181,14 @@ def drive_paths(world, Y: np.ndarray, t: float, dt: float):
         i = world.index_of(path.body)
         x0 = Y[i, :3]
         if W == 13:
-            q0 = Y[i, 3:7] / np.linalg.norm(Y[i, 3:7])
+            q0 = Y[i, 3:7] / _norm(Y[i, 3:7])
         else:
             q0 = matrix_to_quat(np.ascontiguousarray(Y[i, 3:12].reshape(3, 3)))
         p, q1 = path.pose(t + dt)
         if q1 is None:
             q1 = q0
-        x1 = p + quat_to_matrix(q1) @ world.com_offset[i]
+        R1 = quat_to_matrix(q1)
+        x1 = p + np.array([_dot(R1[r], world.com_offset[i]) for r in range(3)])
         world.kinematic_v[i], world.kinematic_omega[i] = velocities_to(x0, q0, x1, q1, dt)
 
 

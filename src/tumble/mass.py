@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .math3d import mat_vec, rotate_tensor
 from .shapes import Box, Capsule, Compound, Cone, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere
 
 
@@ -203,8 +204,14 @@ def combine_mass_properties(terms) -> tuple[float, np.ndarray, np.ndarray]:
     inertia = np.zeros((3, 3))
     for m, c, I in terms:
         d = c - center
-        inertia += I + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+        inertia += I + m * (_squared(d) * np.eye(3) - np.outer(d, d))
     return mass, center, inertia
+
+
+# Products written without BLAS (math3d.mat_vec's note): the same mass properties, to the bit, on
+# every machine.
+def _squared(d) -> float:
+    return float(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
 
 
 def _compound_mass_properties(shape, mass: float | None, density: float | None) -> MassProperties:
@@ -227,13 +234,17 @@ def _compound_mass_properties(shape, mass: float | None, density: float | None) 
     if density is None:
         density = mass / volume
     masses = np.array([density * props.mass for props, _, _ in unit])
-    centers = np.array([pos + R @ props.center for props, pos, R in unit])
+    centers = np.array([pos + mat_vec(R, np.asarray(props.center, dtype=float)) for props, pos, R in unit])
     total = float(masses.sum())
-    center = masses @ centers / total
+    moment = np.zeros(3)
+    for m, c in zip(masses, centers):
+        moment += m * c
+    center = moment / total
     inertia = np.zeros((3, 3))
     for (props, _, R), m, c in zip(unit, masses, centers):
         d = c - center
-        inertia += density * (R @ props.inertia @ R.T) + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+        inertia += density * rotate_tensor(R, np.asarray(props.inertia, dtype=float)) + m * (
+            _squared(d) * np.eye(3) - np.outer(d, d))
     return MassProperties(total, center, inertia)
 
 
@@ -273,7 +284,9 @@ def particle_mass_properties(points, masses) -> MassProperties:
     center = (m[:, None] * r).sum(axis=0) / total
     rp = r - center
     # sum m_i (r'_i . r'_i) 1  minus  sum m_i r'_i r'_i^T, each sum over the particles
-    inertia = np.sum(m * np.sum(rp * rp, axis=1)) * np.eye(3) - (m[:, None] * rp).T @ rp
+    # (the second sum element by element, not by ``@``: no BLAS, math3d.mat_vec's note)
+    second = np.array([[np.sum(m * rp[:, i] * rp[:, j]) for j in range(3)] for i in range(3)])
+    inertia = np.sum(m * np.sum(rp * rp, axis=1)) * np.eye(3) - second
     return MassProperties(total, center, inertia)
 
 

@@ -122,6 +122,105 @@ def quat_to_matrix(q):
     return out
 
 
+# ---------------------------------------------------------------------- 3x3 products without BLAS
+# NumPy's ``@``, ``dot``, ``norm`` and ``linalg.inv`` on small arrays go through OpenBLAS, whose
+# kernels are chosen by the CPU (Haswell's on AVX2, SkylakeX's on AVX-512) and round differently in
+# the last bit: the same scene built on two machines started from other bits (a Convex cell's
+# I^-1, measured 2026-12-04, tests/conftest.py). Scene building and the per-step Python use these
+# instead: sums in index order, the same bits on every machine (and Numba's ``@`` calls BLAS too).
+@njit(**JIT)
+def mat_vec(A, v):
+    """A v for A (3, 3), v (3,): (3,)."""
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = A[i, 0] * v[0] + A[i, 1] * v[1] + A[i, 2] * v[2]
+    return out
+
+
+@njit(**JIT)
+def mat_t_vec(A, v):
+    """A^T v for A (3, 3), v (3,): (3,)."""
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = A[0, i] * v[0] + A[1, i] * v[1] + A[2, i] * v[2]
+    return out
+
+
+@njit(**JIT)
+def mat_mat(A, B):
+    """A B for A, B (3, 3): (3, 3)."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+    return out
+
+
+@njit(**JIT)
+def mat_t_mat(A, B):
+    """A^T B for A, B (3, 3): (3, 3)."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[0, i] * B[0, j] + A[1, i] * B[1, j] + A[2, i] * B[2, j]
+    return out
+
+
+@njit(**JIT)
+def rotate_tensor(R, M):
+    """R M R^T for R, M (3, 3): a body-frame tensor (inertia) in the world frame."""
+    RM = mat_mat(R, M)
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = RM[i, 0] * R[j, 0] + RM[i, 1] * R[j, 1] + RM[i, 2] * R[j, 2]
+    return out
+
+
+@njit(**JIT)
+def inverse3(M):
+    """M^-1 for an invertible M (3, 3): the reciprocals of a diagonal M (exact as LAPACK's), else the
+    adjugate over the determinant (an inertia tensor's condition number is at most a few hundred)."""
+    out = np.zeros((3, 3))
+    if M[0, 1] == 0.0 and M[0, 2] == 0.0 and M[1, 0] == 0.0 and M[1, 2] == 0.0 and M[2, 0] == 0.0 and M[2, 1] == 0.0:
+        for i in range(3):
+            out[i, i] = 1.0 / M[i, i]
+        return out
+    c00 = M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]
+    c01 = M[1, 2] * M[2, 0] - M[1, 0] * M[2, 2]
+    c02 = M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0]
+    det = M[0, 0] * c00 + M[0, 1] * c01 + M[0, 2] * c02
+    out[0, 0] = c00 / det
+    out[1, 0] = c01 / det
+    out[2, 0] = c02 / det
+    out[0, 1] = (M[0, 2] * M[2, 1] - M[0, 1] * M[2, 2]) / det
+    out[1, 1] = (M[0, 0] * M[2, 2] - M[0, 2] * M[2, 0]) / det
+    out[2, 1] = (M[0, 1] * M[2, 0] - M[0, 0] * M[2, 1]) / det
+    out[0, 2] = (M[0, 1] * M[1, 2] - M[0, 2] * M[1, 1]) / det
+    out[1, 2] = (M[0, 2] * M[1, 0] - M[0, 0] * M[1, 2]) / det
+    out[2, 2] = (M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]) / det
+    return out
+
+
+@njit(**JIT)
+def norm3(v):
+    """|v| for v (3,) or (4,): the squares summed in index order."""
+    s = 0.0
+    for i in range(v.shape[0]):
+        s += v[i] * v[i]
+    return math.sqrt(s)
+
+
+def rows_dot(points, n):
+    """points . n without BLAS (``mat_vec``'s note): (P,) for points (P, 3) and n (3,); (P, M) for
+    n (M, 3), one column per row of n. Element-wise products and sums, in index order."""
+    points = np.asarray(points, dtype=float)
+    n = np.asarray(n, dtype=float)
+    if n.ndim == 1:
+        return points[:, 0] * n[0] + points[:, 1] * n[1] + points[:, 2] * n[2]
+    return points[:, 0, None] * n[None, :, 0] + points[:, 1, None] * n[None, :, 1] + points[:, 2, None] * n[None, :, 2]
+
+
 @njit(**JIT)
 def matrix_to_quat_into(R, out):
     """Unit quaternion (w >= 0) of rotation matrix R (3, 3), written into out (4,).

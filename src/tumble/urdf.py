@@ -60,7 +60,16 @@ from .joints import BallJoint, FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P
     P_MOTOR_ON, P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
 from .material import Material
 from .mass import combine_mass_properties
-from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
+from .math3d import (
+    mat_mat,
+    mat_t_mat,
+    mat_t_vec,
+    mat_vec,
+    matrix_to_quat,
+    quat_from_euler_deg,
+    quat_to_matrix,
+    rotate_tensor,
+)
 from .shapes import Compound, Plane, Sphere, finite_vector
 from .urdf_read import (  # noqa: F401  (the reader's names, public here too)
     JOINT_KINDS,
@@ -307,14 +316,18 @@ class Robot:
                                  P_MAX_DRIVE: limit})
 
 
+# The frames' products are written without BLAS (math3d.mat_vec's note): a robot is placed with
+# the same bits on every machine.
 def _compose(a, b):
     """Frame b given in frame a, both (position, rotation): b in a's parent."""
-    return a[0] + a[1] @ b[0], a[1] @ b[1]
+    Ra = np.asarray(a[1], dtype=float)
+    return a[0] + mat_vec(Ra, np.asarray(b[0], dtype=float)), mat_mat(Ra, np.asarray(b[1], dtype=float))
 
 
 def _relative(a, b):
     """Frame b seen from frame a (both in one parent)."""
-    return a[1].T @ (b[0] - a[0]), a[1].T @ b[1]
+    Ra = np.asarray(a[1], dtype=float)
+    return mat_t_vec(Ra, np.asarray(b[0] - a[0], dtype=float)), mat_t_mat(Ra, np.asarray(b[1], dtype=float))
 
 
 def _joint_motion(joint: UrdfJoint, q: float):
@@ -437,7 +450,7 @@ def build_robot(world, model: UrdfModel, *, position=(0.0, 0.0, 0.0), orientatio
             continue
         anchor, R_child = zero[j.child]
         common = dict(body_a=links[j.parent], body_b=links[j.child], anchor=anchor, name=f"{prefix}/{j.name}")
-        axis = R_child @ j.axis
+        axis = mat_vec(np.asarray(R_child, dtype=float), np.asarray(j.axis, dtype=float))
         if j.kind == "fixed":
             record = FixedJoint(**common)
         elif j.kind == "spherical":  # Bullet's extension (its limit attributes are not read); MJCF's ball
@@ -621,11 +634,13 @@ def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, 
     for link_name in members:
         link = model.links[link_name]
         p, R = link_frames[link_name]
+        R = np.asarray(R, dtype=float)
         for shape, position, rotation in link.parts:
-            parts.append((shape, p + R @ position, matrix_to_quat(np.ascontiguousarray(R @ rotation)), link.material))
+            parts.append((shape, p + mat_vec(R, np.asarray(position, dtype=float)),
+                          matrix_to_quat(mat_mat(R, np.asarray(rotation, dtype=float))), link.material))
         if link.mass > 0.0:
-            c = p + R @ link.center
-            inertia_terms.append((link.mass, c, R @ link.inertia @ R.T))
+            c = p + mat_vec(R, np.asarray(link.center, dtype=float))
+            inertia_terms.append((link.mass, c, rotate_tensor(R, np.asarray(link.inertia, dtype=float))))
     key = f"link[{members[0]}]"
     filt = collision_filter
     materials = [m for (*_, m) in parts]
@@ -638,8 +653,8 @@ def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, 
         if len(parts) != 1 or not fixed:
             raise InputError("a plane must be the only collision shape of a fixed link", key, model.source)
         plane, p, q, _ = parts[0]
-        n = quat_to_matrix(q) @ np.array(plane.normal)
-        shape = Plane(normal=n, offset=float(n @ p) + plane.offset)
+        n = mat_vec(quat_to_matrix(q), np.asarray(plane.normal, dtype=float))
+        shape = Plane(normal=n, offset=float(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]) + plane.offset)
     elif len(parts) == 1 and np.allclose(parts[0][1], 0.0) and abs(parts[0][2][0]) == 1.0 and parts[0][3] is None:
         shape = parts[0][0]
     else:
@@ -672,5 +687,5 @@ def _place(world, robot: Robot, frames: dict, owner: dict):
         q = matrix_to_quat(np.ascontiguousarray(R))
         world.q[i] = q
         world.R[i] = quat_to_matrix(q)
-        world.x[i] = p + world.R[i] @ world.com_offset[i]
+        world.x[i] = p + mat_vec(world.R[i], world.com_offset[i])
     world.update_derived()

@@ -51,14 +51,14 @@ from .forces import (
 )
 from .mass import MassProperties, mass_properties
 from .material import Material
-from .math3d import matrix_to_quat, quat_from_euler_deg, quat_to_matrix
+from .math3d import inverse3, mat_vec, matrix_to_quat, norm3, quat_from_euler_deg, quat_to_matrix, rotate_tensor
 from .shapes import Mesh, Plane, finite_vector
 
 
 def unit_quaternion(value, key="orientation") -> np.ndarray:
     """(4,) unit quaternion from ``value`` (w, x, y, z); refuses the zero quaternion."""
     q = finite_vector(value, key, 4)
-    n = float(np.linalg.norm(q))
+    n = float(norm3(q))  # no BLAS (math3d.mat_vec's note)
     if n < 1e-12:
         raise InputError("quaternion must not be zero (w, x, y, z = 0, 0, 0, 0)", key)
     return q / n
@@ -285,7 +285,8 @@ class World:
         a = self._arrays
         center = np.zeros(3) if props is None else np.asarray(props.center, dtype=float)
         a["com_offset"][i] = center
-        a["x"][i] = position + R @ center
+        # products without BLAS (math3d.mat_vec's note): the same bits on every machine
+        a["x"][i] = position + mat_vec(R, center)
         a["q"][i] = q
         a["R"][i] = R
         a["moving"][i] = not (fixed or kinematic)
@@ -295,7 +296,7 @@ class World:
         a["kinematic_omega"][i] = 0.0
         a["surface_velocity"][i] = surface_velocity
         if kinematic:
-            omega = angular_velocity if angular_velocity_frame == "world" else R @ angular_velocity
+            omega = angular_velocity if angular_velocity_frame == "world" else mat_vec(R, angular_velocity)
             a["kinematic_v"][i] = velocity
             a["kinematic_omega"][i] = omega
             a["v"][i] = velocity
@@ -311,16 +312,16 @@ class World:
             a["mass"][i] = props.mass
             a["inv_mass"][i] = 1.0 / props.mass
             a["inertia_body"][i] = props.inertia
-            a["inertia_body_inv"][i] = np.linalg.inv(props.inertia)
+            a["inertia_body_inv"][i] = inverse3(np.asarray(props.inertia, dtype=float))
             moments, axes = props.principal()
             a["principal_q"][i] = matrix_to_quat(np.ascontiguousarray(axes))
             a["principal_moments"][i] = moments
-            omega = angular_velocity if angular_velocity_frame == "world" else R @ angular_velocity
+            omega = angular_velocity if angular_velocity_frame == "world" else mat_vec(R, angular_velocity)
             a["P"][i] = props.mass * velocity
-            a["L"][i] = R @ props.inertia @ R.T @ omega
+            a["L"][i] = mat_vec(rotate_tensor(R, np.asarray(props.inertia, dtype=float)), omega)
             a["v"][i] = velocity
             a["omega"][i] = omega
-            a["I_inv"][i] = R @ a["inertia_body_inv"][i] @ R.T
+            a["I_inv"][i] = rotate_tensor(R, a["inertia_body_inv"][i])
         self.names.append(name)
         self._index_by_name[name] = i
         self.shapes.append(shape)
@@ -404,7 +405,7 @@ class World:
             R = quat_to_matrix(q)
             self.q[i] = q
             self.R[i] = R
-            self.x[i] = p + R @ self.com_offset[i]
+            self.x[i] = p + mat_vec(R, self.com_offset[i])
             self.kinematic_v[i] = 0.0
             self.kinematic_omega[i] = 0.0
             self.update_derived()

@@ -9,6 +9,7 @@ After a change meant to alter the bits: ``PYTHONPATH=src python -m tests.determi
 """
 
 import json
+import platform
 
 import numba
 import numpy as np
@@ -55,6 +56,41 @@ def test_two_cli_runs_give_the_same_state_hash_and_bytes(name, tmp_path, capsys)
     assert a["status"] == b["status"] == "completed"
     assert a["state_hash"] == b["state_hash"] == json.loads(GOLDEN.read_text())[name]
     assert files[0] == files[1]
+
+
+# the scenes whose bits once depended on OpenBLAS's kernels (set-up products through ``@``, ``norm``,
+# ``inv``; measured 2026-12-04) and one of each other kind of set-up: a Convex cell, a keyframed
+# path, particles, a URDF robot, compounds, hulls, joints, the demo
+CROSS_KERNEL_SCENES = ("bowling", "demo", "dice", "particles", "platforms", "ring_toss", "robot_arm", "wrecking_ball")
+
+
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64") or blas_core() is None,
+                    reason="OpenBLAS's x86 kernels only")
+def test_golden_scenes_do_not_depend_on_the_blas_kernels():
+    """The golden scenes run in a process whose OpenBLAS runs its oldest x86 kernels (Katmai's, SSE:
+    ``OPENBLAS_CORETYPE=Prescott``) end in the golden hashes, recorded with Haswell's (AVX2, FMA):
+    tumble's set-up and per-step Python do their small products without BLAS (``math3d.mat_vec``),
+    so a scene gives the same bits on an AVX-512 machine (SkylakeX's kernels) as on an AVX2 one.
+    Before that, platforms and wrecking_ball ended elsewhere with SkylakeX's kernels, and six scenes
+    with Katmai's (measured). Would fail if a set-up product went back through BLAS."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    script = ("import json, sys; from tests.determinism.scenes import blas_core, final_hash, scene_paths; "
+              "paths = scene_paths(); names = sys.argv[1:]; "
+              "print(json.dumps({'core': blas_core(), 'hashes': {n: final_hash(paths[n]) for n in names}}))")
+    env = dict(os.environ, OPENBLAS_CORETYPE="Prescott")
+    env["PYTHONPATH"] = os.pathsep.join([str(root / "src"), env.get("PYTHONPATH", "")])
+    done = subprocess.run([sys.executable, "-c", script, *CROSS_KERNEL_SCENES], env=env, cwd=root,
+                          capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["core"] not in (None, PINNED_BLAS_CORE)  # the other kernels really ran
+    golden = json.loads(GOLDEN.read_text())
+    assert result["hashes"] == {name: golden[name] for name in CROSS_KERNEL_SCENES}
 
 
 def _many_free_bodies(n=640):

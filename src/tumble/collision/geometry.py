@@ -29,11 +29,13 @@ Convex hulls and meshes keep their data in flat arrays (kernels take arrays): se
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import TumbleWarning
+from ..math3d import rows_dot
 from ..shapes import (
     SHAPE_BOX,
     SHAPE_CAPSULE,
@@ -268,19 +270,20 @@ def hull_polygons(vertices, faces):
         grouped[g] = True
     groups += [[t] for t in np.flatnonzero(~grouped).tolist()]
     planes, polygons = [], []
+    # products without BLAS (math3d.rows_dot): the planes' last bits are the same on every machine
     for g in groups:
         normal = n[g].mean(axis=0)
-        normal /= np.linalg.norm(normal)
+        normal /= math.sqrt(float(rows_dot(normal[None, :], normal)[0]))
         ids = np.unique(np.asarray(faces)[g].ravel())
         pts = v[ids]
         centre = pts.mean(axis=0)
         t1 = pts[np.argmax(np.linalg.norm(pts - centre, axis=1))] - centre
-        t1 -= (t1 @ normal) * normal
-        t1 /= np.linalg.norm(t1)
+        t1 -= float(rows_dot(t1[None, :], normal)[0]) * normal
+        t1 /= math.sqrt(float(rows_dot(t1[None, :], t1)[0]))
         t2 = np.cross(normal, t1)
-        angle = np.arctan2((pts - centre) @ t2, (pts - centre) @ t1)
+        angle = np.arctan2(rows_dot(pts - centre, t2), rows_dot(pts - centre, t1))
         polygons.append(ids[np.argsort(angle, kind="stable")])
-        planes.append([*normal, float(np.max(pts @ normal))])
+        planes.append([*normal, float(np.max(rows_dot(pts, normal)))])
     return np.asarray(planes, dtype=float).reshape(-1, 4), polygons
 
 
