@@ -336,10 +336,16 @@ class Kinematics:
         """(nv,) the joint rates of the world's present state, from the bodies' velocities."""
         o, R = self._present()
         bodies = self.robot.links
+        w = self.world
 
         def point_velocity(k, p):  # of link k's body at the world point p, and its angular velocity
-            body = bodies[self.links[k]]
-            return body.point_velocity(p), body.omega
+            # v + omega x (p - x) written out: np.cross on 3-vectors was a quarter of a linearization's
+            # time (``transition_jacobians`` reads qvel once a column)
+            i = bodies[self.links[k]].index
+            om, v = w.omega[i], w.v[i]
+            rx, ry, rz = p[0] - w.x[i, 0], p[1] - w.x[i, 1], p[2] - w.x[i, 2]
+            return np.array([v[0] + om[1] * rz - om[2] * ry, v[1] + om[2] * rx - om[0] * rz,
+                             v[2] + om[0] * ry - om[1] * rx]), om
 
         qd = np.zeros(self.nv)
         for c in self.coordinates:
@@ -422,6 +428,25 @@ class Kinematics:
                 qs[3:7] = _quat_mul(qs[3:7], _quat_exp(vs[3:6], h))
                 qs[3:7] /= np.linalg.norm(qs[3:7])
         return q
+
+    def difference(self, qpos1, qpos0, h: float = 1.0) -> np.ndarray:
+        """(nv,) the rates that take ``qpos0`` to ``qpos1`` (nq,) in ``h`` s: ``integrate``'s inverse
+        (MuJoCo's ``mj_differentiatePos``; ``linearize.difference``)."""
+        from .linearize import difference
+
+        return difference(self, qpos1, qpos0, h)
+
+    def transition_jacobians(self, sim, eps: float = 1e-6, centered: bool = True, inputs=None):
+        """The next step as a linear map about the present state, by finite differences (MuJoCo's
+        ``mjd_transitionFD``): a ``linearize.Linearization`` with ``A`` (2 nv, 2 nv) =
+        d(qpos', qvel') / d(qpos, qvel) (positions in the tangent space, ``difference``) and ``B``
+        (2 nv, nu) = d(qpos', qvel') / du, u the MJCF actuators' controls (``inputs="controls"``)
+        or the hinges' and sliders' applied torques and forces (``"torques"``). Each column steps
+        ``sim`` once from a snapshot of the present state moved by ``eps`` (both ways when
+        ``centered``); ``sim`` is left as it was (module docstring of ``linearize``)."""
+        from .linearize import transition_jacobians
+
+        return transition_jacobians(self, sim, eps=eps, centered=centered, inputs=inputs)
 
     # ------------------------------------------------------------------ Jacobians and dynamics
     def _link(self, link) -> int:
