@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
-from .math3d import rows_dot
+from .math3d import norm3, rows_dot
 
 # Two cells share a face when at least 3 of a cell's vertices lie within this fraction of the
 # shape's size of their bisector plane and the polygon they span has at least FACE_AREA_MIN
@@ -92,15 +92,12 @@ def _shape_hull(shape):
     return verts[hull.vertices], hull.equations
 
 
-# The cells' arithmetic is written out column by column (``math3d.rows_dot``) rather than left to
-# ``@``: NumPy's matrix products go through OpenBLAS, whose kernels differ by CPU and round
-# differently, and qhull turned those last bits into other cells: examples/wrecking_ball.toml
+# The cells' arithmetic is written out column by column (``math3d.rows_dot``, ``norm3``) rather
+# than left to ``@``: NumPy's matrix products go through OpenBLAS, whose kernels differ by CPU and
+# round differently, and qhull turned those last bits into other cells: examples/wrecking_ball.toml
 # ended in another state on an AVX-512 machine (measured 2026-12-04; tests/conftest.py).
-_along = rows_dot
-
-
 def _inside(points, halfspaces, margin):
-    return np.all(_along(points, halfspaces[:, :3]) + halfspaces[:, 3] <= -margin, axis=1)
+    return np.all(rows_dot(points, halfspaces[:, :3]) + halfspaces[:, 3] <= -margin, axis=1)
 
 
 def fracture(shape, pieces: int = 16, seed: int = 0, points=None) -> Fractured:
@@ -135,7 +132,7 @@ def fracture(shape, pieces: int = 16, seed: int = 0, points=None) -> Fractured:
     for i in range(K):
         others = np.delete(np.arange(K), i)
         normal = seeds[others] - seeds[i]  # (s_j - s_i) . p - (|s_j|^2 - |s_i|^2) / 2 <= 0
-        offset = -0.5 * (_along(seeds[others] * seeds[others], np.ones(3)) - _along(seeds[i:i + 1], seeds[i])[0])
+        offset = -0.5 * (rows_dot(seeds[others] * seeds[others], np.ones(3)) - rows_dot(seeds[i:i + 1], seeds[i])[0])
         halfspaces = np.vstack([walls, np.column_stack([normal, offset])])
         try:
             cell = HalfspaceIntersection(halfspaces, seeds[i]).intersections
@@ -149,10 +146,10 @@ def fracture(shape, pieces: int = 16, seed: int = 0, points=None) -> Fractured:
     for i in range(K):
         for j in range(i + 1, K):
             n = seeds[j] - seeds[i]
-            length = math.sqrt(float(_along(n[None, :], n)[0]))
+            length = float(norm3(n))
             n = n / length
-            c = float(_along(0.5 * (seeds[i] + seeds[j])[None, :], n)[0])  # the bisector plane: n . p = c
-            on = cells[i][np.abs(_along(cells[i], n) - c) <= PLANE_TOLERANCE * size + 1e-12]
+            c = float(rows_dot(0.5 * (seeds[i] + seeds[j])[None, :], n)[0])  # the bisector plane: n . p = c
+            on = cells[i][np.abs(rows_dot(cells[i], n) - c) <= PLANE_TOLERANCE * size + 1e-12]
             if len(on) < 3:
                 continue
             a, centre = _polygon(on, n)
@@ -172,9 +169,9 @@ def _polygon(points, n):
     from scipy.spatial import ConvexHull, QhullError
 
     e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= math.sqrt(float(_along(e1[None, :], e1)[0]))
+    e1 /= norm3(e1)
     e2 = np.cross(n, e1)
-    flat = np.column_stack([_along(points, e1), _along(points, e2)])
+    flat = np.column_stack([rows_dot(points, e1), rows_dot(points, e2)])
     try:
         hull = ConvexHull(flat)
     except (QhullError, ValueError):  # collinear: an edge, no face
@@ -185,7 +182,7 @@ def _polygon(points, n):
     a = 0.5 * cross.sum()
     cx = ((x + np.roll(x, -1)) * cross).sum() / (6 * a)
     cy = ((y + np.roll(y, -1)) * cross).sum() / (6 * a)
-    level = float(_along(points[:1], n)[0])
+    level = float(rows_dot(points[:1], n)[0])
     return abs(a), cx * e1 + cy * e2 + level * n
 
 
@@ -264,7 +261,7 @@ def add_fractured(world, fractured: Fractured, *, density: float, position=(0.0,
     for (i, j), a, c, keep in zip(fractured.faces, fractured.face_area, fractured.face_centroid, glued):
         if not keep:
             continue
-        joint = FixedJoint(bodies[i], bodies[j], anchor=origin + _along(R, c), max_force=strength * a,
+        joint = FixedJoint(bodies[i], bodies[j], anchor=origin + rows_dot(R, c), max_force=strength * a,
                            max_torque=strength * a ** 1.5 / 6.0, name=f"{name}/glue{i}-{j}")
         joints.append(world.add_joint(joint))
     return bodies, joints

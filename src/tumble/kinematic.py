@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
-from .math3d import matrix_to_quat, quat_from_euler_deg, quat_multiply, quat_to_matrix
+from .math3d import mat_vec, matrix_to_quat, norm3, quat_from_euler_deg, quat_multiply, quat_to_matrix
 
 
 @dataclass(eq=False)
@@ -116,8 +116,8 @@ def _rows(value, k: int, width: int, key: str) -> np.ndarray:
     return a
 
 
-# The per-step arithmetic of a path is written out (``_dot``, ``_norm``, the matrix-vector product
-# in ``drive_paths``) rather than left to NumPy's ``dot``, ``norm`` and ``@``: those go through
+# The per-step arithmetic of a path is written out (``_dot``, ``math3d.norm3`` and ``mat_vec``)
+# rather than left to NumPy's ``dot``, ``norm`` and ``@``: those go through
 # OpenBLAS, whose kernels differ by CPU (SkylakeX on AVX-512, Haswell on AVX2) and round
 # differently, so the same scene gave other bits on another machine (examples/platforms.toml's
 # state hash, measured 2026-12-04; tests/conftest.py).
@@ -127,10 +127,6 @@ def _dot(a, b) -> float:
     for u, w in zip(a, b):
         total += float(u) * float(w)
     return total
-
-
-def _norm(a) -> float:
-    return math.sqrt(_dot(a, a))
 
 
 def _slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
@@ -144,10 +140,10 @@ def _slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
         q1, d = -q1, -d
     if d > 1.0 - 1e-12:
         q = q0 + s * (q1 - q0)
-        return q / _norm(q)
+        return q / norm3(q)
     angle = math.acos(d)
     q = (math.sin((1.0 - s) * angle) * q0 + math.sin(s * angle) * q1) / math.sin(angle)
-    return q / _norm(q)
+    return q / norm3(q)
 
 
 def velocities_to(x0, q0, x1, q1, time: float):
@@ -157,7 +153,7 @@ def velocities_to(x0, q0, x1, q1, time: float):
     dq = quat_multiply(np.asarray(q1, dtype=float), np.asarray(q0, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0]))
     if dq[0] < 0.0:
         dq = -dq
-    s = _norm(dq[1:])
+    s = float(norm3(dq[1:]))
     angle = 2.0 * math.atan2(s, float(dq[0]))
     omega = dq[1:] * (angle / (s * time)) if s > 0.0 else np.zeros(3)
     return v, omega
@@ -181,14 +177,13 @@ def drive_paths(world, Y: np.ndarray, t: float, dt: float):
         i = world.index_of(path.body)
         x0 = Y[i, :3]
         if W == 13:
-            q0 = Y[i, 3:7] / _norm(Y[i, 3:7])
+            q0 = Y[i, 3:7] / norm3(Y[i, 3:7])
         else:
             q0 = matrix_to_quat(np.ascontiguousarray(Y[i, 3:12].reshape(3, 3)))
         p, q1 = path.pose(t + dt)
         if q1 is None:
             q1 = q0
-        R1 = quat_to_matrix(q1)
-        x1 = p + np.array([_dot(R1[r], world.com_offset[i]) for r in range(3)])
+        x1 = p + mat_vec(quat_to_matrix(q1), world.com_offset[i])
         world.kinematic_v[i], world.kinematic_omega[i] = velocities_to(x0, q0, x1, q1, dt)
 
 

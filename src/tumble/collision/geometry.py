@@ -29,13 +29,12 @@ Convex hulls and meshes keep their data in flat arrays (kernels take arrays): se
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import TumbleWarning
-from ..math3d import rows_dot
+from ..math3d import norm3, rows_dot
 from ..shapes import (
     SHAPE_BOX,
     SHAPE_CAPSULE,
@@ -273,13 +272,13 @@ def hull_polygons(vertices, faces):
     # products without BLAS (math3d.rows_dot): the planes' last bits are the same on every machine
     for g in groups:
         normal = n[g].mean(axis=0)
-        normal /= math.sqrt(float(rows_dot(normal[None, :], normal)[0]))
+        normal /= norm3(normal)
         ids = np.unique(np.asarray(faces)[g].ravel())
         pts = v[ids]
         centre = pts.mean(axis=0)
         t1 = pts[np.argmax(np.linalg.norm(pts - centre, axis=1))] - centre
         t1 -= float(rows_dot(t1[None, :], normal)[0]) * normal
-        t1 /= math.sqrt(float(rows_dot(t1[None, :], t1)[0]))
+        t1 /= norm3(t1)
         t2 = np.cross(normal, t1)
         angle = np.arctan2(rows_dot(pts - centre, t2), rows_dot(pts - centre, t1))
         polygons.append(ids[np.argsort(angle, kind="stable")])
