@@ -373,6 +373,13 @@ class Kinematics:
         stays). Takes effect now; with the ``sim`` that steps the world, the joint solver's warm
         start of the robot's joints is cleared (it belonged to the old state) and its hinge
         readings count turns from these angles."""
+        q = self._place(qpos, qvel)
+        self.world.update_derived()
+        self.robot._restart_joints(sim, self.positions(q))
+
+    def _place(self, qpos, qvel) -> np.ndarray:
+        """``set_state`` but for the world's derived quantities and the joint solver (the caller's:
+        ``tumble.envs`` places many copies, then derives once): the checked qpos (nq,)."""
         o, R = self._frames(qpos)
         q = self._check_qpos(qpos)
         qd = np.zeros(self.nv) if qvel is None else np.ascontiguousarray(self._check(qvel, self.nv, "qvel"))
@@ -389,8 +396,7 @@ class Kinematics:
             w.P[i] = w.mass[i] * (J[0:3] @ qd)
             w.L[i] = (w.R[i] @ w.inertia_body[i] @ w.R[i].T) @ (J[3:6] @ qd)
             w.wake_requests.add(int(i))
-        w.update_derived()
-        self.robot._restart_joints(sim, self.positions(q))
+        return q
 
     def neutral(self) -> np.ndarray:
         """(nq,) the zero configuration: hinges and sliders at 0, balls at the identity, a free

@@ -410,6 +410,24 @@ def read_option_gravity(path) -> np.ndarray:
         raise err.within(None, str(path)) from None
 
 
+def read_option_timestep(path) -> float:
+    """The ``<option timestep>`` of an MJCF file, s (MuJoCo's default 0.002). InputError on a bad file
+    or a step that is not one positive number."""
+    path = Path(path)
+    try:
+        root = read_model_xml(path)
+        timestep = 0.002
+        for option in root.findall("option"):
+            if "timestep" in option.attrib:
+                timestep = float(_floats(option.get("timestep"), "option.timestep", (1,))[0])
+                if not timestep > 0.0:
+                    raise InputError(f"expected a positive number of seconds, got {option.get('timestep')!r}",
+                                     "option.timestep")
+        return timestep
+    except InputError as err:
+        raise err.within(None, str(path)) from None
+
+
 def _read(path: Path) -> MjcfModel:
     root = read_model_xml(path)  # includes expanded (MuJoCo Menagerie's scene.xml + robot.xml)
     reader = _Reader(root, path)

@@ -431,6 +431,7 @@ class JointSolver:
         self.settings = settings or JointSettings()
         self.count = 0
         self._joints: list = []
+        self._row_of: dict = {}  # id(record) -> row (``index``)
         self.h = 1.0 / 240.0
         self.last_projection_error = 0.0
         self._soft_key = None
@@ -471,6 +472,9 @@ class JointSolver:
         self.reaction_torque = np.zeros((J, 3))
         self.broke = np.zeros(J, dtype=bool)
         self._joints = list(joints)
+        # record -> row, for ``index`` (a search through the list cost O(J) a lookup: resetting the
+        # copies of a vector environment, tumble.envs, was quadratic in their number)
+        self._row_of = {id(rec): j for j, rec in enumerate(self._joints)}
         self.count = J
         self._tree_key = None
         self.has_gears = bool(np.any(self.joint_type == JOINT_GEAR))
@@ -724,6 +728,9 @@ class JointSolver:
     # -- queries -------------------------------------------------------------------------
     def index(self, joint) -> int:
         """Index of a joint given as its record, its name or an index."""
+        j = self._row_of.get(id(joint))
+        if j is not None and self._joints[j] is joint:
+            return j
         for j, rec in enumerate(self._joints):
             if rec is joint or (isinstance(joint, str) and rec.name == joint):
                 return j

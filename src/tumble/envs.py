@@ -1,0 +1,494 @@
+"""MuJoCo models as Gymnasium environments, stepped by tumble (``pip install 'tumble[rl]'``).
+
+A learning library (Stable-Baselines3, CleanRL, RLlib) talks to an environment through
+Gymnasium's API: ``reset(seed=)`` -> (observation, info), ``step(action)`` -> (observation,
+reward, terminated, truncated, info), an ``action_space`` and an ``observation_space``. MuJoCo's
+models come to it as ``gymnasium.envs.mujoco.MujocoEnv``; PyBullet's as ``pybullet_envs``. Here the
+same model files come to it stepped by tumble, so a policy can be trained on one engine and tried
+on the other (sim-to-sim transfer), or trained on tumble alone.
+
+- ``ModelEnv(model, frame_skip=, timestep=, reset_noise_scale=)``: an MJCF file as an environment
+  (MuJoCo's ``MujocoEnv``): the action is the actuators' controls in the file's order (MuJoCo's
+  ``data.ctrl``, a ``Box`` over their ``ctrlrange``; ``Robot.set_controls``), the observation
+  (qpos, qvel) in MuJoCo's layout (``Robot.kinematics``), one ``step`` is ``frame_skip`` steps of
+  ``timestep`` (the file's ``<option timestep>``, MuJoCo's 0.002 s when it has none). A subclass
+  says what the task is: ``observe`` (the observation) and ``evaluate`` (reward, terminated, info).
+- ``InvertedPendulum``: Gymnasium's ``InvertedPendulum-v5`` task on Gymnasium's own model file
+  (``inverted_pendulum.xml``, read from the installed gymnasium): reward 1 while the pole is
+  within 0.2 rad of upright, terminated past it. Registered as ``tumble/InvertedPendulum-v5``
+  (1000 steps a episode, as Gymnasium's): ``gymnasium.make("tumble/InvertedPendulum-v5")`` once
+  ``tumble.envs`` is imported.
+
+Reset: ``reset(seed=s)`` puts the simulation back to its state when the environment was made
+(``Simulator.restore_state``: the joint solver's warm start too, so an episode does not depend on
+the episodes before it) and then at ``init_qpos`` and ``init_qvel`` plus uniform noise of
+``reset_noise_scale``, drawn as Gymnasium's MuJoCo environments draw it (qpos first, then qvel, from
+``self.np_random``): with the same seed, tumble's environment and Gymnasium's start from the same
+state to the bit. The same seed and the same actions give the same episode, bit for bit
+(tests/test_envs.py).
+
+What differs from MuJoCo's environment is the engine: tumble's step (its joint solve in 4
+substeps, docs/joints.md) against MuJoCo's integrator on the same ``timestep``
+(tests/test_envs.py measures the two on the same actions; docs/robots.md "Gymnasium").
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+
+import numpy as np
+
+try:
+    import gymnasium
+    from gymnasium import spaces
+    from gymnasium.utils import seeding
+    from gymnasium.vector import AutoresetMode, VectorEnv
+    from gymnasium.vector.utils import batch_space
+except ImportError:  # pragma: no cover - the message is the point
+    raise ImportError("tumble.envs needs gymnasium: pip install 'tumble[rl]'") from None
+
+from .errors import InputError
+
+__all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "gymnasium_asset"]
+
+def gymnasium_asset(name: str) -> str:
+    """The path of one of Gymnasium's MuJoCo model files (``gymnasium/envs/mujoco/assets/NAME``),
+    found without importing ``gymnasium.envs.mujoco`` (which needs the mujoco package)."""
+    spec = importlib.util.find_spec("gymnasium")
+    path = os.path.join(os.path.dirname(spec.origin), "envs", "mujoco", "assets", name)
+    if not os.path.isfile(path):
+        raise InputError(f"gymnasium {gymnasium.__version__} has no model file {name!r}", "model")
+    return path
+
+
+class _Copies:
+    """``n`` copies of an MJCF model in one World, stepped by one Simulator (``ModelEnv``: 1,
+    ``ModelVectorEnv``: many), and the model's controls and coordinates for all copies at once.
+
+    Each copy is loaded at the model's own place: copies whose geoms could touch each other are
+    refused (``n`` > 1), so every copy moves as it would alone. The joint solve treats each joint
+    with its own bodies only, so a copy's bits do not depend on the others
+    (tests/test_envs.py::test_vector_env_copies_equal_single_envs_bit_for_bit).
+
+    The fast path (every coordinate a hinge or a slider, every actuator on one joint of its own
+    without a spring or damper: the motors of Gymnasium's models) writes the controls' efforts
+    into the joint solver's rows and reads the coordinates from its readings (``JointSolver.store``,
+    the end of the step) with array operations over all copies; the arithmetic is
+    ``mjcf_control.apply_controls``'s, the same bits. Other models take ``Robot.set_controls`` and
+    ``Kinematics.qpos``/``qvel`` copy by copy.
+    """
+
+    def __init__(self, model, n: int, timestep: float, joint_settings, contact_settings):
+        import tumble as tb
+
+        from .mjcf import read_option_gravity
+
+        gravity = tuple(read_option_gravity(model))
+        probe = tb.World(gravity=gravity)
+        tb.load_mjcf(probe, model)
+        self.touches = _touches_itself(probe)
+        if n > 1 and self.touches:
+            raise InputError("its geoms can touch each other: copies of it in one world would touch each "
+                             "other too; run gymnasium.vector.SyncVectorEnv over ModelEnv instead", "model", str(model))
+        # a model that cannot touch itself touches nothing (the world holds it alone): its bodies are
+        # given a filter that meets no body, so copies pass through each other and the step skips the
+        # collision stages (soft_step.has_collisions); Gymnasium's pendulums (MuJoCo contype 0)
+        nothing = None if self.touches else tb.CollisionFilter(mask=0)
+        self.world = tb.World(gravity=gravity)
+        self.robots = [tb.load_mjcf(self.world, model, name=None if n == 1 else f"env{k}", collision_filter=nothing)
+                       for k in range(n)]
+        self.sim = tb.Simulator(self.world, dt=timestep, joint_settings=joint_settings,
+                                contact_settings=contact_settings)
+        robot = self.robots[0]
+        self.kinematics = [r.kinematics for r in self.robots]
+        kin = self.kinematics[0]
+        self.nq, self.nv = kin.nq, kin.nv
+        self.actuators = list(robot.actuators)
+        self.init_qpos = kin.qpos()
+        self._fast = self._fast_path(robot, kin)
+        self._solver_rows = (None, None)
+
+    def _fast_path(self, robot, kin):
+        """The arrays of the fast path (class docstring), or None when the model does not take it."""
+        from .joints import P_EFFORT
+
+        coordinates = kin.coordinates
+        if not all(c.kind in ("revolute", "continuous", "prismatic") for c in coordinates):
+            return None
+        acts = [robot.actuators[name] for name in self.actuators]
+        driven = [a.joint for a in acts]
+        if any(a.tendon or a.given is not None or a.stiffness != 0.0 or a.damping != 0.0 for a in acts) \
+                or len(set(driven)) != len(driven):
+            return None
+        inf = np.inf
+        fast = {
+            "ctrl_lo": np.array([-inf if a.ctrlrange is None else a.ctrlrange[0] for a in acts]),
+            "ctrl_hi": np.array([inf if a.ctrlrange is None else a.ctrlrange[1] for a in acts]),
+            "force_lo": np.array([-inf if a.forcerange is None else a.forcerange[0] for a in acts]),
+            "force_hi": np.array([inf if a.forcerange is None else a.forcerange[1] for a in acts]),
+            "gain": np.array([a.gain for a in acts]), "b0": np.array([a.bias[0] for a in acts]),
+            "gear": np.array([a.gear for a in acts]),
+            # (n, nu) the joint records the actuators drive, (n, nq) those of the coordinates
+            "driven": [[r.joints[j] for j in driven] for r in self.robots],
+            "coordinate": [[r.joints[c.name] for c in coordinates] for r in self.robots],
+            "column": P_EFFORT,
+        }
+        fast["records"] = [rec.bound.param for row in fast["driven"] for rec in row]
+        fast["actuators"] = [r.actuators[name] for r in self.robots for name in self.actuators]
+        return fast
+
+    def _rows(self):
+        """((n, nu), (n, nq)) the joint solver's rows of the driven joints and of the coordinates (None
+        before the first step after a restore: the solver is made by the step, from the records)."""
+        solver = self.robots[0]._solver(self.sim)
+        if solver is None:
+            return None, None
+        if self._solver_rows[0] is not solver:
+            row = {id(rec): j for j, rec in enumerate(solver._joints)}
+            fast = self._fast
+            self._solver_rows = (solver, (np.array([[row[id(rec)] for rec in r] for r in fast["driven"]], dtype=np.int64),
+                                          np.array([[row[id(rec)] for rec in r] for r in fast["coordinate"]], dtype=np.int64)))
+        return solver, self._solver_rows[1]
+
+    def set_controls(self, u: np.ndarray):
+        """The controls ``u`` (n, nu) of every copy (MuJoCo's ``data.ctrl``), from the next step on."""
+        fast = self._fast
+        if fast is None:
+            for robot, row in zip(self.robots, u.tolist()):
+                robot.set_controls(self.sim, dict(zip(self.actuators, row)))
+            return
+        # mjcf_control.apply_controls's arithmetic: ctrl clipped to its range, gear (gain ctrl + b0)
+        # with the force clipped to its range; + 0.0 as its sum starting from 0 (-0.0 becomes 0.0)
+        ctrl = np.minimum(np.maximum(u, fast["ctrl_lo"]), fast["ctrl_hi"])
+        force = np.minimum(np.maximum(fast["gain"] * ctrl + fast["b0"], fast["force_lo"]), fast["force_hi"])
+        effort = fast["gear"] * force + 0.0
+        column = fast["column"]
+        for param, value in zip(fast["records"], effort.ravel().tolist()):
+            param[column] = value
+        for actuator, value in zip(fast["actuators"], ctrl.ravel().tolist()):
+            actuator.ctrl = value
+        solver, rows = self._rows()
+        if solver is not None:
+            solver.param[rows[0], column] = effort
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(qpos (n, nq), qvel (n, nv)) of every copy now."""
+        solver, rows = self._rows() if self._fast is not None else (None, None)
+        if solver is not None:
+            return solver.position[rows[1]], solver.rate[rows[1]]
+        return (np.array([k.qpos(self.sim) for k in self.kinematics]),
+                np.array([k.qvel() for k in self.kinematics]))
+
+    def set_states(self, copies, qpos: np.ndarray, qvel: np.ndarray):
+        """Put the ``copies`` (K indices) at ``qpos`` (K, nq) moving at ``qvel`` (K, nv)
+        (``Kinematics.set_state`` for each: its joints' warm start cleared, their readings set; the
+        world's derived quantities made once for all)."""
+        placed = [self.kinematics[k]._place(qp, qv) for k, qp, qv in zip(copies, qpos, qvel)]
+        self.world.update_derived()
+        for k, q in zip(copies, placed):
+            self.robots[k]._restart_joints(self.sim, self.kinematics[k].positions(q))
+        solver, rows = self._rows() if self._fast is not None else (None, None)
+        if solver is not None:  # the readings a step would leave, for ``state``
+            solver.position[rows[1][copies]] = qpos
+            solver.rate[rows[1][copies]] = qvel
+
+
+def _touches_itself(world) -> bool:
+    """Whether two bodies of ``world`` (one model, ``load_mjcf``) with shapes, one of them moving,
+    may touch (``World.should_collide``: filters, exclusions, MuJoCo's contype/conaffinity)."""
+    shaped = [i for i in range(world.body_count) if world.shapes[i] is not None]
+    return any((world.moving[a] or world.moving[b]) and world.should_collide(a, b)
+               for k, a in enumerate(shaped) for b in shaped[k + 1:])
+
+
+def _check_settings(frame_skip, timestep, reset_noise_scale, model):
+    from .mjcf import read_option_timestep
+
+    if isinstance(frame_skip, bool) or not isinstance(frame_skip, (int, np.integer)) or frame_skip < 1:
+        raise InputError(f"must be a whole number of steps >= 1, got {frame_skip!r}", "frame_skip")
+    timestep = read_option_timestep(model) if timestep is None else timestep
+    if isinstance(timestep, bool) or not isinstance(timestep, (int, float)) or not (0.0 < timestep < np.inf):
+        raise InputError(f"must be a positive number of seconds, got {timestep!r}", "timestep")
+    if isinstance(reset_noise_scale, bool) or not isinstance(reset_noise_scale, (int, float)) \
+            or not (0.0 <= reset_noise_scale < np.inf):
+        raise InputError(f"must be a number >= 0, got {reset_noise_scale!r}", "reset_noise_scale")
+    return int(frame_skip), float(timestep), float(reset_noise_scale)
+
+
+def _check_actions(a, n: int, nu: int):
+    u = np.asarray(a, dtype=np.float64)
+    if u.shape != (n, nu) or not np.all(np.isfinite(u)):
+        want = f"({nu},)" if n == 1 else f"({n}, {nu})"
+        raise InputError(f"expected finite controls of shape {want}, got {np.asarray(a)!r}", "action")
+    return u
+
+
+class ModelEnv(gymnasium.Env):
+    """An MJCF model as a Gymnasium environment stepped by tumble (module docstring).
+
+    Args:
+        model: the MJCF file.
+        frame_skip: simulator steps per ``step`` (MuJoCo's ``MujocoEnv`` ``frame_skip``).
+        timestep: s, the simulator's dt (default: the file's ``<option timestep>``).
+        reset_noise_scale: the half-width of the uniform noise added to ``init_qpos`` and
+            ``init_qvel`` at each reset (0: none).
+        joint_settings, contact_settings: the Simulator's (``tumble.solver``'s settings).
+        render_mode: None or ``"rgb_array"`` (``render()`` returns a (H, W, 3) uint8 image from
+            ``camera``, a ``tb.Camera``; default one looking at the model's start from the side).
+
+    Attributes:
+        world, sim, robot: the World, its Simulator and the model (``urdf.Robot``).
+        init_qpos (nq,), init_qvel (nv,): the start before noise (the model's pose, at rest).
+        actuators: the actuators' names, in the action's order.
+
+    A task (a subclass) gives ``observe`` and ``evaluate`` over a batch of copies (arrays with a
+    leading axis), so that ``ModelVectorEnv`` runs it for all its copies at once.
+    """
+
+    metadata = {"render_modes": ["rgb_array"]}
+
+    def __init__(self, model, *, frame_skip: int = 1, timestep: float | None = None,
+                 reset_noise_scale: float = 0.0, joint_settings=None, contact_settings=None,
+                 render_mode: str | None = None, camera=None):
+        import tumble as tb
+
+        self.frame_skip, self.timestep, self.reset_noise_scale = _check_settings(
+            frame_skip, timestep, reset_noise_scale, model)
+        if render_mode not in (None, "rgb_array"):
+            raise InputError(f"expected None or 'rgb_array', got {render_mode!r}", "render_mode")
+        self.model = str(model)
+        self.render_mode = render_mode
+        self._copies = _Copies(model, 1, self.timestep, joint_settings, contact_settings)
+        self.world, self.sim, self.robot = self._copies.world, self._copies.sim, self._copies.robots[0]
+        self.actuators = self._copies.actuators
+        self.init_qpos = self._copies.init_qpos
+        self.init_qvel = np.zeros(self._copies.nv)
+        self.action_space, self.observation_space = _spaces(self)
+        if camera is None:
+            camera = tb.Camera(position=(0.0, -3.0, 1.0), target=(0.0, 0.0, 0.3), width=320, height=240)
+        self.camera = camera
+
+    @property
+    def dt(self) -> float:
+        """s, the time one ``step`` covers: ``timestep`` x ``frame_skip`` (MujocoEnv's ``dt``)."""
+        return self.timestep * self.frame_skip
+
+    # ------------------------------------------------------------------ the task (subclasses)
+    def observe(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+        """The observations (n, d) of n copies at ``qpos`` (n, nq) moving at ``qvel`` (n, nv):
+        here (qpos, qvel) side by side."""
+        return np.concatenate([qpos, qvel], axis=1)
+
+    def evaluate(self, observation: np.ndarray, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+        """(reward (n,), terminated (n,) bool, info {key: (n,)}) of n copies after a step that took
+        ``action`` (n, nu) to ``observation`` (n, d): no task here (zeros, False, {})."""
+        n = len(observation)
+        return np.zeros(n), np.zeros(n, dtype=bool), {}
+
+    # ------------------------------------------------------------------ Gymnasium's API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """The model at ``init_qpos`` and ``init_qvel`` plus the reset noise (module docstring
+        "Reset"): (observation, info)."""
+        super().reset(seed=seed)
+        qpos, qvel = _draw_start(self, self.np_random)
+        self._copies.set_states([0], qpos[None], qvel[None])
+        return self.observe(qpos[None], qvel[None])[0], {}
+
+    def set_state(self, qpos, qvel):
+        """Put the model at ``qpos`` (nq,) moving at ``qvel`` (nv,) (MujocoEnv's ``set_state``)."""
+        self._copies.set_states([0], np.asarray(qpos, dtype=float)[None], np.asarray(qvel, dtype=float)[None])
+
+    def step(self, action):
+        """``frame_skip`` steps with the controls ``action`` (nu,): (observation, reward,
+        terminated, truncated (always False: a ``TimeLimit`` wrapper truncates), info)."""
+        u = _check_actions(np.asarray(action)[None], 1, len(self.actuators))
+        self._copies.set_controls(u)
+        self.sim.step(self.frame_skip)
+        obs = self.observe(*self._copies.state())
+        reward, terminated, info = self.evaluate(obs, u)
+        return obs[0], reward[0].item(), bool(terminated[0]), False, {k: v[0].item() for k, v in info.items()}
+
+    def render(self):
+        """A (H, W, 3) uint8 image of the present state from ``camera`` (``render_mode="rgb_array"``),
+        else None."""
+        if self.render_mode != "rgb_array":
+            return None
+        return self.camera.capture(self.world).rgb
+
+
+def _draw_start(env, rng):
+    """(qpos, qvel) of a reset: the start plus uniform noise, drawn qpos first, then qvel (as
+    Gymnasium's MuJoCo environments' ``reset_model``)."""
+    s = env.reset_noise_scale
+    qpos = env.init_qpos + rng.uniform(low=-s, high=s, size=len(env.init_qpos))
+    qvel = env.init_qvel + rng.uniform(low=-s, high=s, size=len(env.init_qvel))
+    return qpos, qvel
+
+
+def _spaces(env):
+    """(action space, observation space) of one copy: the controls' ranges (float32, as MuJoCo's
+    environments make theirs, ``MujocoEnv._set_action_space``), the observation unbounded."""
+    low, high = [], []
+    for name in env.actuators:
+        r = env.robot.actuators[name].ctrlrange
+        low.append(-np.inf if r is None else r[0])
+        high.append(np.inf if r is None else r[1])
+    action = spaces.Box(np.array(low, dtype=np.float32), np.array(high, dtype=np.float32), dtype=np.float32)
+    size = env.observe(env.init_qpos[None], env.init_qvel[None]).shape[1]
+    return action, spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+
+
+class InvertedPendulum(ModelEnv):
+    """Gymnasium's ``InvertedPendulum-v5`` stepped by tumble: a cart on a rail (a slide joint,
+    -1..1 m) pushed by a motor (gear 100, control in [-3, 3]) with a pole on a hinge, on Gymnasium's
+    own ``inverted_pendulum.xml``. Observation (cart x, pole angle, their rates) (4,); reward 1
+    while the pole is within 0.2 rad of upright and the observation finite, terminated
+    otherwise (with reward 0, as v5 gives it); ``info["reward_survive"]`` the reward. Timestep
+    0.02 s (the file's), ``frame_skip`` 2 (``dt`` 0.04 s), reset noise 0.01: Gymnasium's defaults.
+    """
+
+    def __init__(self, *, frame_skip: int = 2, timestep: float | None = None, reset_noise_scale: float = 0.01,
+                 **kwargs):
+        super().__init__(gymnasium_asset("inverted_pendulum.xml"), frame_skip=frame_skip, timestep=timestep,
+                         reset_noise_scale=reset_noise_scale, **kwargs)
+
+    def evaluate(self, observation, action):
+        terminated = ~np.all(np.isfinite(observation), axis=1) | (np.abs(observation[:, 1]) > 0.2)
+        reward = (~terminated).astype(np.float64)
+        return reward, terminated, {"reward_survive": reward}
+
+
+class ModelVectorEnv(VectorEnv):
+    """``num_envs`` copies of a ``ModelEnv`` task in one World, stepped together by one Simulator:
+    Gymnasium's vector API (observations (num_envs, d), actions (num_envs, nu), rewards,
+    terminations and truncations (num_envs,)) with Gymnasium's default autoreset (``NEXT_STEP``:
+    the step after a copy's episode ended resets it, ignoring its action, and reports its start
+    with reward 0). Brax's and MuJoCo's MJX way, on the CPU: one compiled step for all copies
+    instead of a Python loop over environments (``gymnasium.vector.SyncVectorEnv``).
+
+    Each copy is the single environment of its seed, bit for bit: ``reset(seed=s)`` seeds copy i
+    with s + i (SyncVectorEnv's rule), so copy i's episodes are those of ``env(**kwargs)`` reset
+    with seed s + i and given copy i's actions (tests/test_envs.py). Models whose geoms can touch
+    are refused (the copies share one world).
+
+    Args:
+        env: the ``ModelEnv`` class (its task: model file, observation, reward, termination).
+        num_envs: how many copies.
+        max_episode_steps: a copy's episode is truncated after this many steps (None: never;
+            ``gymnasium.make_vec`` passes the registered limit).
+        **kwargs: the ``env`` class's arguments (``frame_skip``, ``timestep``,
+            ``reset_noise_scale``, ``joint_settings``, ``contact_settings``).
+    """
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, env, num_envs: int, *, max_episode_steps: int | None = None, **kwargs):
+        if not (isinstance(env, type) and issubclass(env, ModelEnv)):
+            raise InputError(f"expected a ModelEnv class, got {env!r}", "env")
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise InputError(f"must be a whole number >= 1, got {num_envs!r}", "num_envs")
+        if max_episode_steps is not None and (isinstance(max_episode_steps, bool) or
+                                              not isinstance(max_episode_steps, (int, np.integer)) or
+                                              max_episode_steps < 1):
+            raise InputError(f"must be a whole number >= 1 or None, got {max_episode_steps!r}", "max_episode_steps")
+        # the task's settings, spaces and methods, from one copy made alone (never stepped)
+        self.template = env(**kwargs)
+        t = self.template
+        self.num_envs = int(num_envs)
+        self.max_episode_steps = max_episode_steps
+        self.frame_skip, self.timestep = t.frame_skip, t.timestep
+        self._copies = _Copies(t.model, self.num_envs, t.timestep, kwargs.get("joint_settings"),
+                               kwargs.get("contact_settings"))
+        self.world, self.sim = self._copies.world, self._copies.sim
+        self.single_action_space, self.single_observation_space = t.action_space, t.observation_space
+        self.action_space = batch_space(t.action_space, self.num_envs)
+        self.observation_space = batch_space(t.observation_space, self.num_envs)
+        self._rngs = [None] * self.num_envs
+        self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
+        self._ended = np.zeros(self.num_envs, dtype=bool)
+
+    @property
+    def dt(self) -> float:
+        """s, the time one ``step`` covers (each copy's)."""
+        return self.timestep * self.frame_skip
+
+    def _reset_copies(self, copies: list):
+        """Each of ``copies`` to its start drawn from its own generator: (qpos (K, nq), qvel (K, nv))."""
+        starts = [_draw_start(self.template, self._rngs[i]) for i in copies]
+        qpos = np.array([q for q, _ in starts]).reshape(len(copies), -1)
+        qvel = np.array([v for _, v in starts]).reshape(len(copies), -1)
+        self._copies.set_states(copies, qpos, qvel)
+        self._elapsed[copies] = 0
+        self._ended[copies] = False
+        return qpos, qvel
+
+    def reset(self, *, seed=None, options: dict | None = None):
+        """Every copy back to its start: (observations (num_envs, d), info {}). ``seed``: an int (copy
+        i gets seed + i), a list of num_envs ints or Nones, or None (each copy's generator goes on;
+        seeded from the OS the first time, as a single environment's)."""
+        super().reset(seed=seed)
+        n = self.num_envs
+        if seed is None:
+            seeds = [None] * n
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise InputError(f"expected {n} seeds, got {len(seeds)}", "seed")
+        for i, s in enumerate(seeds):
+            if s is not None or self._rngs[i] is None:
+                self._rngs[i], _ = seeding.np_random(s)
+        qpos, qvel = self._reset_copies(list(range(n)))
+        return self.template.observe(qpos, qvel), {}
+
+    def step(self, actions):
+        """One step of every copy (``frame_skip`` simulator steps of the one world) with ``actions``
+        (num_envs, nu); the copies whose episode ended at the last step are reset instead (their
+        action ignored, reward 0, neither terminated nor truncated): (observations, rewards,
+        terminations, truncations, info {key: (num_envs,)}, with ``"_key"`` masks of the copies
+        that report it)."""
+        n = self.num_envs
+        u = _check_actions(actions, n, len(self.template.actuators))
+        restart = np.flatnonzero(self._ended)
+        self._copies.set_controls(u)
+        self.sim.step(self.frame_skip)
+        # the copies to restart moved with the others (one world); their start is put back now
+        if len(restart):
+            self._reset_copies(restart.tolist())
+        qpos, qvel = self._copies.state()
+        obs = self.template.observe(qpos, qvel)
+        reward, terminated, info = self.template.evaluate(obs, u)
+        reward, terminated = np.array(reward, dtype=np.float64), np.array(terminated, dtype=bool)
+        stepped = np.ones(n, dtype=bool)
+        stepped[restart] = False
+        self._elapsed[stepped] += 1
+        truncated = np.zeros(n, dtype=bool) if self.max_episode_steps is None else \
+            stepped & (self._elapsed >= self.max_episode_steps)
+        reward[~stepped] = 0.0
+        terminated &= stepped
+        self._ended = terminated | truncated
+        out = {}
+        for key, value in info.items():
+            value = np.array(value)
+            value[~stepped] = 0
+            out[key], out["_" + key] = value, stepped.copy()
+        return obs, reward, terminated, truncated, out
+
+
+def inverted_pendulum_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
+    """``gymnasium.make_vec("tumble/InvertedPendulum-v5", num_envs, vectorization_mode="vector_entry_point")``."""
+    return ModelVectorEnv(InvertedPendulum, num_envs, **kwargs)
+
+
+def _register():
+    """``gymnasium.make("tumble/InvertedPendulum-v5")``: the ids tumble adds (1000 steps an
+    episode and a reward threshold of 950, as Gymnasium registers ``InvertedPendulum-v5``)."""
+    if "tumble/InvertedPendulum-v5" not in gymnasium.registry:
+        gymnasium.register("tumble/InvertedPendulum-v5", entry_point="tumble.envs:InvertedPendulum",
+                           vector_entry_point="tumble.envs:inverted_pendulum_vector",
+                           max_episode_steps=1000, reward_threshold=950.0)
+
+
+_register()
