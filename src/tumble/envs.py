@@ -92,10 +92,14 @@ class _Copies:
             raise InputError("its geoms can touch each other: copies of it in one world would touch each "
                              "other too; run gymnasium.vector.SyncVectorEnv over ModelEnv instead", "model", str(model))
         # a model that cannot touch itself touches nothing (the world holds it alone): its bodies are
-        # given a filter that meets no body, so copies pass through each other and the step skips the
-        # collision stages (soft_step.has_collisions); Gymnasium's pendulums (MuJoCo contype 0)
-        nothing = None if self.touches else tb.CollisionFilter(mask=0)
+        # given a filter that meets no body's, so copies pass through each other and the step skips
+        # the collision stages (``collision.filter.live_filters``); Gymnasium's pendulums (MuJoCo
+        # contype 0). Category and mask not 0: rays (the camera's) still see them.
+        nothing = None if self.touches else tb.CollisionFilter(category=1 << 31, mask=1 << 30)
         self.world = tb.World(gravity=gravity)
+        # no sleeping, as MuJoCo: a body at rest short of where its drives pull it would stay there
+        # (measured: a position servo holding a pendulum against gravity fell asleep 1.3 mrad short)
+        self.world.sleeping = False
         self.robots = [tb.load_mjcf(self.world, model, name=None if n == 1 else f"env{k}", collision_filter=nothing)
                        for k in range(n)]
         self.sim = tb.Simulator(self.world, dt=timestep, joint_settings=joint_settings,
@@ -427,16 +431,18 @@ class ModelVectorEnv(VectorEnv):
         """Every copy back to its start: (observations (num_envs, d), info {}). ``seed``: an int (copy
         i gets seed + i), a list of num_envs ints or Nones, or None (each copy's generator goes on;
         seeded from the OS the first time, as a single environment's)."""
-        super().reset(seed=seed)
         n = self.num_envs
         if seed is None:
             seeds = [None] * n
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:
             seeds = [int(seed) + i for i in range(n)]
         else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise InputError(f"expected {n} seeds, got {len(seeds)}", "seed")
+            seeds = list(seed) if isinstance(seed, (list, tuple)) else None
+            if seeds is None or len(seeds) != n or not all(
+                    s is None or (isinstance(s, (int, np.integer)) and not isinstance(s, bool) and s >= 0) for s in seeds):
+                raise InputError(f"expected an int, None or a list of {n} ints or Nones, got {seed!r}", "seed")
+            seeds = [None if s is None else int(s) for s in seeds]
+        super().reset(seed=seeds[0] if seeds else None)
         for i, s in enumerate(seeds):
             if s is not None or self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(s)
@@ -455,9 +461,10 @@ class ModelVectorEnv(VectorEnv):
         self._copies.set_controls(u)
         self.sim.step(self.frame_skip)
         # the copies to restart moved with the others (one world); their start is put back now
-        if len(restart):
-            self._reset_copies(restart.tolist())
+        starts = self._reset_copies(restart.tolist()) if len(restart) else None
         qpos, qvel = self._copies.state()
+        if starts is not None:  # their observation is the start as drawn (a single env's reset's)
+            qpos[restart], qvel[restart] = starts
         obs = self.template.observe(qpos, qvel)
         reward, terminated, info = self.template.evaluate(obs, u)
         reward, terminated = np.array(reward, dtype=np.float64), np.array(terminated, dtype=bool)

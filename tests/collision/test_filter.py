@@ -207,6 +207,32 @@ def test_bodies_whose_filter_meets_nobody_do_not_switch_the_collision_stages_on(
     assert step.has_collisions()
 
 
+@given(st.lists(filters, min_size=1, max_size=12))
+def test_live_filters_are_the_bodies_that_some_other_body_may_touch(fs):
+    """``filter.live_filters`` (decided over the distinct rows at once) against the rule applied to
+    every pair of bodies: a body is live when some other body's filter and its own allow contact."""
+    from tumble.collision.filter import live_filters
+
+    table = np.array([(f.category, f.mask, f.group) for f in fs], dtype=np.int64).reshape(-1, 3)
+    expected = [any(a.collides_with(b) for j, b in enumerate(fs) if j != i) for i, a in enumerate(fs)]
+    assert live_filters(table).tolist() == expected
+
+
+def test_copies_in_disjoint_categories_skip_the_collision_stages_and_stay_visible_to_rays():
+    """Bodies whose category no body's mask holds (tumble.envs gives a model that touches nothing
+    category 1 << 31, mask 1 << 30) touch nothing, so the stages are skipped, as for mask 0; unlike
+    mask 0 a ray with the default filter still sees them (a camera draws them)."""
+    from tumble.solver.soft_step import SoftStep
+
+    w = tb.World()
+    for i in range(3):
+        w.add_body(tb.Sphere(0.1), mass=1.0, position=(0, 0, 0.05 * i), name=f"b{i}",
+                   collision_filter=F(category=1 << 31, mask=1 << 30))
+    assert not SoftStep(w).has_collisions()
+    hit = w.ray_cast(origin=(0, 0, 5), direction=(0, 0, -1))
+    assert hit.body[0] == 2
+
+
 def test_an_mjcf_model_of_visual_geoms_takes_no_collision_stages(tmp_path):
     """An MJCF chain whose geoms are all contype = conaffinity = 0 (visual) gets marker spheres that
     touch nothing: the soft step skips the collision stages (the same motion: the stages found no

@@ -100,6 +100,19 @@ def filter_table(filters) -> np.ndarray:
     return np.array([(f.category, f.mask, f.group) for f in filters], dtype=np.int64).reshape(-1, 3)
 
 
+def live_filters(body_filter: np.ndarray) -> np.ndarray:
+    """(N,) bool per row of ``filter_table`` (N, 3): whether the body's filter meets some other
+    body's (``filter_allows``). Decided over the distinct rows (a world has few), all pairs of
+    them at once; a row meets itself only when two bodies hold it."""
+    rows, inverse, counts = np.unique(body_filter, axis=0, return_inverse=True, return_counts=True)
+    cat, mask, group = rows[:, 0], rows[:, 1], rows[:, 2]
+    same_group = (group[:, None] == group[None, :]) & (group[:, None] != 0)
+    bits = ((cat[:, None] & mask[None, :]) != 0) & ((cat[None, :] & mask[:, None]) != 0)
+    allows = np.where(same_group, group[:, None] > 0, bits)
+    allows[np.diag_indices(len(rows))] &= counts > 1
+    return allows.any(axis=1)[inverse.ravel()]
+
+
 def exclusion_keys(pairs, body_count: int) -> np.ndarray:
     """Sorted unique (K,) int64 keys lo * N + hi of the body index pairs ``pairs``."""
     keys = [min(a, b) * body_count + max(a, b) for a, b in pairs]

@@ -10,7 +10,7 @@ import numpy as np
 from .bounds import update_bounds
 from .broadphase import PairBuffer, find_pairs
 from .constants import SPECULATIVE_DISTANCE
-from .filter import NO_FILTER, exclusion_keys, filter_table
+from .filter import NO_FILTER, exclusion_keys, filter_table, live_filters
 from .geometry import build_shape_table
 from .manifold import ContactManifolds
 from .narrowphase import collide_pairs
@@ -93,19 +93,16 @@ class CollisionPipeline:
 
     def live_shapes(self):
         """(S,) bool: the shapes whose body's filter lets it touch something, or None when every
-        body may (default filters). A body of category 0 or mask 0 outside a positive group meets
-        no other body (``filter.filter_allows``): a URDF or MJCF link with no collision shape has a
-        marker sphere of that filter, and a robot of such links needs no collision stages."""
+        body may (default filters). A body whose filter meets no other body's (``filter.
+        filter_allows``) is not live: a URDF or MJCF link with no collision shape (a marker sphere
+        of category 0), and the copies of a model that touches nothing (``tumble.envs``: a category
+        no body's mask holds), need no collision stages."""
         self._filters()
         table = self.refresh()
         key = (id(table), self._filter_key)
         if key != getattr(self, "_live_key", None):
             f = self._user_filter
-            if f.shape[0] == 0:
-                self._live = None
-            else:
-                inert = ((f[:, 0] == 0) | (f[:, 1] == 0)) & (f[:, 2] <= 0)
-                self._live = ~inert[table.shape_body]
+            self._live = None if f.shape[0] == 0 else live_filters(f)[table.shape_body]
             self._live_key = key
         return self._live
 

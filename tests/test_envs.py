@@ -1,0 +1,270 @@
+"""tumble.envs: MJCF models as Gymnasium environments and vector environments.
+
+Compared with: Gymnasium's own ``InvertedPendulum-v5`` stepped by MuJoCo on the same model file
+(its start, its motion at a converged step, and a controller's episode), Gymnasium's env checker,
+and single environments (a vector environment's copies must be them, bit for bit)."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium")
+
+import tumble as tb  # noqa: E402
+import tumble.envs as te  # noqa: E402
+
+# a pendulum held by a position servo (kp, kv: MuJoCo's spring and damper in the actuator): the
+# model takes the copy-by-copy path of tumble.envs._Copies (set_controls, Kinematics.qpos/qvel)
+SERVO = """<mujoco model="servo"><option timestep="0.005"/><worldbody>
+  <body name="arm" pos="0 0 2"><joint name="hinge" type="hinge" axis="0 1 0" damping="0.1"/>
+  <geom name="bob" type="sphere" size="0.05" pos="0 0 -0.5" mass="1" contype="0"/></body></worldbody>
+  <actuator><position name="servo" joint="hinge" kp="20" kv="1" ctrlrange="-1 1"/></actuator></mujoco>"""
+
+
+class ServoPendulum(te.ModelEnv):
+    """A task on SERVO (written next to the test): reward -angle^2, never terminated."""
+
+    path = None
+
+    def __init__(self, **kwargs):
+        super().__init__(self.path, frame_skip=4, reset_noise_scale=0.1, **kwargs)
+
+    def evaluate(self, observation, action):
+        return -observation[:, 0] ** 2, np.zeros(len(observation), dtype=bool), {}
+
+
+@pytest.fixture(scope="module")
+def servo_model(tmp_path_factory):
+    path = tmp_path_factory.mktemp("envs") / "servo.xml"
+    path.write_text(SERVO)
+    ServoPendulum.path = str(path)
+    return ServoPendulum
+
+
+def mujoco_env(timestep=None):
+    pytest.importorskip("mujoco")
+    env = gym.make("InvertedPendulum-v5").unwrapped
+    if timestep is not None:  # the same env dt (0.04 s) in finer steps
+        env.model.opt.timestep = timestep
+        env.frame_skip = int(round(0.04 / timestep))
+    return env
+
+
+def test_reset_starts_where_gymnasiums_mujoco_env_starts():
+    """Same seed, same start: the noise is drawn as Gymnasium's MuJoCo environments draw it (qpos,
+    then qvel, uniform in +-0.01 from the env's generator), and the observation is (qpos, qvel)
+    as set. Exact: the same numbers pass through no arithmetic."""
+    ours, theirs = te.InvertedPendulum(), mujoco_env()
+    for seed in (0, 3, 12345):
+        o1, _ = ours.reset(seed=seed)
+        o2, _ = theirs.reset(seed=seed)
+        assert np.array_equal(o1, o2)
+        assert 0 < np.abs(o1).max() <= 0.01
+
+
+def test_episode_converges_to_mujoco_rk4_at_first_order():
+    """Open loop (control 0.5 for 8 steps of 0.04 s, the pole falling to 0.5 rad) from the same
+    start: tumble at timesteps 0.02 (the file's) to 0.0025 s against MuJoCo's RK4 at 0.0005 s,
+    which is converged (its own change from 0.005 s is 1.6e-8). tumble's step is first order
+    (docs/joints.md): each halving of the step halves the largest difference (measured ratios
+    1.92-1.99; the bounds 1.7-2.3 admit first order only), and at 0.0025 s it is 2.4e-3. Were
+    the two engines' models different (mass, inertia, gear, damping, the pole's 1 mm lean), the
+    difference would stop shrinking."""
+    action = np.array([0.5], dtype=np.float32)
+
+    def run(env):
+        out = [env.reset(seed=3)[0]]
+        out += [env.step(action)[0] for _ in range(8)]
+        return np.array(out)
+
+    reference = run(mujoco_env(0.0005))
+    assert abs(reference[-1, 1]) > 0.4  # the pole fell well past the task's 0.2 rad
+    errors = [np.abs(run(te.InvertedPendulum(timestep=h, frame_skip=int(round(0.04 / h)))) - reference).max()
+              for h in (0.02, 0.01, 0.005, 0.0025)]
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+    assert errors[-1] < 3e-3
+
+
+def test_lqr_from_the_linearized_step_balances_on_tumble_and_on_mujoco():
+    """A controller designed on tumble's linearized step (``transition_jacobians``: A, B of one
+    0.02 s step about upright, composed into the env's 0.04 s step, then discrete LQR) earns the
+    whole episode (1000 of 1000; Gymnasium's threshold is 950) on tumble's environment and on
+    Gymnasium's MuJoCo one (sim-to-sim transfer), from three seeds. Both come to rest at the same
+    state to 1e-6: the cart 11.75 mm aside, the pole leaning 1.67 mrad, set by the model's pole,
+    whose top is 1 mm off its axis (``fromto="0 0 0 0.001 0 0.6"``)."""
+    scipy_linalg = pytest.importorskip("scipy.linalg")
+    env = te.InvertedPendulum()
+    env.reset(seed=0)
+    env.set_state(np.zeros(2), np.zeros(2))
+    lin = env.robot.kinematics.transition_jacobians(env.sim, inputs="controls")
+    A2, B2 = lin.A @ lin.A, (lin.A + np.eye(4)) @ lin.B
+    Q, R = np.diag([1.0, 10.0, 0.1, 0.1]), np.array([[0.1]])
+    P = scipy_linalg.solve_discrete_are(A2, B2, Q, R)
+    K = np.linalg.solve(R + B2.T @ P @ B2, B2.T @ P @ A2)
+    ends = {}
+    for name in ("tumble/InvertedPendulum-v5", "InvertedPendulum-v5"):
+        if name == "InvertedPendulum-v5":
+            pytest.importorskip("mujoco")
+        for seed in range(3):
+            e = gym.make(name)
+            o, _ = e.reset(seed=seed)
+            total, done = 0.0, False
+            while not done:
+                o, r, terminated, truncated, _ = e.step(np.clip(-K @ o, -3, 3).astype(np.float32))
+                total += r
+                done = terminated or truncated
+            assert total == 1000 and not terminated
+            ends[name, seed] = o
+    for seed in range(3):
+        assert np.abs(ends["tumble/InvertedPendulum-v5", seed] - ends["InvertedPendulum-v5", seed]).max() < 1e-6
+    assert abs(ends["InvertedPendulum-v5", 0][0] - 0.01175) < 1e-4
+
+
+def test_same_seed_and_actions_give_the_same_episode_whatever_came_before():
+    """Reproducible episodes: an environment reset with a seed and given the same actions repeats
+    the episode bit for bit, fresh or after other episodes (the reset clears the joints' warm start
+    and readings: ``Kinematics.set_state``)."""
+    actions = np.random.default_rng(5).uniform(-3, 3, size=(30, 1)).astype(np.float32)
+
+    def episode(env):
+        out = [env.reset(seed=11)[0]]
+        for a in actions:
+            o, r, terminated, _, _ = env.step(a)
+            out.append(np.append(o, [r, terminated]))
+            if terminated:
+                break
+        return out
+
+    fresh = te.InvertedPendulum()
+    used = te.InvertedPendulum()
+    used.reset(seed=99)
+    for a in actions[::-1][:12]:
+        used.step(a)
+    first, second = episode(fresh), episode(used)
+    assert len(first) == len(second) > 3
+    assert all(np.array_equal(a, b) for a, b in zip(first, second))
+    again = episode(fresh)
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
+def _compare_vector_with_singles(venv, make_single, n, steps, max_steps, seed, nu, rng):
+    """Step ``venv`` and ``n`` single environments (``make_single()``, each in a TimeLimit of
+    ``max_steps``, reset by hand on the step after their episode ended: Gymnasium's NEXT_STEP
+    autoreset) with the same random actions; return how many copies' episodes ended."""
+    singles = [gym.wrappers.TimeLimit(make_single(), max_steps) for _ in range(n)]
+    v_obs, _ = venv.reset(seed=seed)
+    s_obs = np.array([e.reset(seed=seed + i)[0] for i, e in enumerate(singles)])
+    assert np.array_equal(v_obs, s_obs)
+    low, high = venv.single_action_space.low, venv.single_action_space.high
+    ended, episodes = [False] * n, 0
+    for _ in range(steps):
+        actions = rng.uniform(low, high, size=(n, nu))
+        v_obs, v_rew, v_term, v_trunc, _ = venv.step(actions)
+        for i, e in enumerate(singles):
+            if ended[i]:
+                o, r, term, trunc = e.reset()[0], 0.0, False, False
+            else:
+                o, r, term, trunc, _ = e.step(actions[i])
+            ended[i] = term or trunc
+            episodes += ended[i]
+            assert np.array_equal(v_obs[i], o)
+            assert (v_rew[i], v_term[i], v_trunc[i]) == (r, term, trunc)
+    return episodes
+
+
+def test_vector_env_copies_equal_single_envs_bit_for_bit():
+    """``ModelVectorEnv``'s copy i is the single environment seeded seed + i, bit for bit, through
+    terminations, truncations (a limit of 25 steps) and the autoresets after them: the copies share
+    one world and one step, and nothing of one reaches another. Random actions make the poles
+    fall, so episodes end often (counted). Made through ``gymnasium.make_vec`` too."""
+    rng = np.random.default_rng(1)
+    venv = gym.make_vec("tumble/InvertedPendulum-v5", num_envs=4, vectorization_mode="vector_entry_point",
+                        max_episode_steps=25)
+    assert isinstance(venv.unwrapped, te.ModelVectorEnv)
+    assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
+    episodes = _compare_vector_with_singles(venv, te.InvertedPendulum, 4, 60, 25, 7, 1, rng)
+    assert episodes >= 8
+    assert venv.observation_space.shape == (4, 4) and venv.action_space.shape == (4, 1)
+
+
+def test_vector_env_of_a_servo_model_takes_the_copy_by_copy_path_with_the_same_bits(servo_model):
+    """A model whose actuator is a position servo (a spring and damper in the actuator) does not
+    take the array path (``_Copies._fast`` is None): its controls go through ``Robot.set_controls``
+    and its observations through ``Kinematics.qpos``/``qvel``, copy by copy; the copies are still
+    the single environments, bit for bit (3 copies, truncated every 10 steps)."""
+    venv = te.ModelVectorEnv(servo_model, 3, max_episode_steps=10)
+    assert venv._copies._fast is None
+    episodes = _compare_vector_with_singles(venv, servo_model, 3, 35, 10, 21, 1, np.random.default_rng(2))
+    assert episodes == 9
+    # the servo holds the arm where its spring kp (0.5 - q) balances gravity's m g l sin q (1 kg
+    # on 0.5 m): the root by brentq; the environment does not sleep (a sleeping world froze the
+    # arm 1.3 mrad short of it, creeping slower than the sleep threshold: measured)
+    from scipy.optimize import brentq
+
+    env = servo_model()
+    env.reset(seed=0)
+    for _ in range(1000):
+        o, *_ = env.step(np.array([0.5], dtype=np.float32))
+    rest = brentq(lambda q: 20.0 * (0.5 - q) - 9.81 * 0.5 * np.sin(q), 0.0, 0.5)
+    assert abs(o[0] - rest) < 1e-6 and abs(o[1]) < 1e-6
+
+
+def test_gymnasium_env_checker_passes():
+    """Gymnasium's own checks of the API (spaces, seeding determinism, reset and step returns,
+    render) pass on tumble's environment."""
+    from gymnasium.utils.env_checker import check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # its advice on unbounded and unnormalised boxes
+        check_env(te.InvertedPendulum(render_mode="rgb_array"))
+
+
+def test_render_draws_the_pendulum():
+    """``render_mode="rgb_array"``: a (240, 320, 3) uint8 image from the default camera (side view,
+    ``tb.Camera``), in which the pole and cart are drawn (pixels of a body: the segmentation)."""
+    env = te.InvertedPendulum(render_mode="rgb_array")
+    env.reset(seed=0)
+    image = env.render()
+    assert image.shape == (240, 320, 3) and image.dtype == np.uint8
+    seen = env.camera.capture(env.world).body
+    assert {int(env.robot.links["pole"].index), int(env.robot.links["cart"].index)} <= set(np.unique(seen).tolist())
+    assert te.InvertedPendulum().render() is None
+
+
+def test_models_that_touch_themselves_are_refused_for_copies_in_one_world():
+    """Copies share one world: a model whose geoms can touch each other (Gymnasium's hopper on its
+    floor) would touch the other copies; refused with one line naming the file. A single
+    environment takes it."""
+    hopper = te.gymnasium_asset("hopper.xml")
+    with pytest.raises(tb.InputError) as err:
+        te.ModelVectorEnv(te.ModelEnv, 2, model=hopper)
+    assert "hopper.xml: model: its geoms can touch each other" in str(err.value)
+    assert "\n" not in str(err.value)
+    env = te.ModelEnv(hopper, frame_skip=4)
+    o, _ = env.reset(seed=0)
+    assert o.shape == (env.robot.kinematics.nq + env.robot.kinematics.nv,)
+    assert env.action_space.shape == (3,)
+    env.step(np.zeros(3, dtype=np.float32))
+
+
+@pytest.mark.parametrize("make, key", [
+    (lambda: te.InvertedPendulum(frame_skip=0), "frame_skip"),
+    (lambda: te.InvertedPendulum(timestep=-0.01), "timestep"),
+    (lambda: te.InvertedPendulum(reset_noise_scale=float("nan")), "reset_noise_scale"),
+    (lambda: te.InvertedPendulum(render_mode="human"), "render_mode"),
+    (lambda: te.ModelVectorEnv(te.InvertedPendulum, 0), "num_envs"),
+    (lambda: te.ModelVectorEnv(object, 2), "env"),
+    (lambda: te.ModelVectorEnv(te.InvertedPendulum, 2, max_episode_steps=0), "max_episode_steps"),
+    (lambda: te.InvertedPendulum().step(np.zeros(2)), "action"),
+    (lambda: te.InvertedPendulum().step(np.array([np.nan])), "action"),
+    (lambda: te.ModelVectorEnv(te.InvertedPendulum, 2).step(np.zeros((3, 1))), "action"),
+    (lambda: te.ModelVectorEnv(te.InvertedPendulum, 2).reset(seed=[1, 2, 3]), "seed"),
+    (lambda: te.ModelVectorEnv(te.InvertedPendulum, 2).reset(seed="x"), "seed"),
+])
+def test_bad_input_is_one_line(make, key):
+    """Bad arguments and actions: ``tb.InputError`` with one line naming the key."""
+    with pytest.raises(tb.InputError) as err:
+        make()
+    assert f"{key}: " in str(err.value) and "\n" not in str(err.value)
