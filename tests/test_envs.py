@@ -268,3 +268,25 @@ def test_bad_input_is_one_line(make, key):
     with pytest.raises(tb.InputError) as err:
         make()
     assert f"{key}: " in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.slow
+def test_the_cem_example_learns_to_balance_and_the_policy_balances_on_mujoco_too(tmp_path):
+    """examples/control/cem_pendulum.py: the cross-entropy method over linear policies, 48
+    candidates a generation run as the copies of one vector environment, reaches a mean return of
+    950 of 1000 within 12 generations (measured: 8, about 8 s), from returns of about 25 for the
+    first random policies; the policy found earns the whole episode on tumble and on Gymnasium's
+    MuJoCo environment (mujoco installed: the test extra)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "control" / "cem_pendulum.py"
+    spec = importlib.util.spec_from_file_location("cem_pendulum", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    summary = example.main(["--out", str(tmp_path / "cem")])
+    history = summary["history"]
+    assert history[0][0] < 100 and history[-1][0] >= 950 and len(history) <= 12
+    assert summary["tumble_returns"] == [1000.0] * 3
+    assert summary["mujoco_returns"] == [1000.0] * 3
+    assert (tmp_path / "cem" / "summary.json").is_file()

@@ -102,6 +102,14 @@ class _Copies:
         self.world.sleeping = False
         self.robots = [tb.load_mjcf(self.world, model, name=None if n == 1 else f"env{k}", collision_filter=nothing)
                        for k in range(n)]
+        if joint_settings is None:
+            # the joints swept in one order on one thread, whatever their number: a copy's joints then
+            # go in the single model's order (spatial slabs, JointSettings.partitions, would put some
+            # of a chain's joints after the seam's, and the copies' bits would differ from a single
+            # environment's); measured faster here too (1024 pendulums: 21.2 against 23.2 ms a step)
+            from .solver.joints import JointSettings
+
+            joint_settings = JointSettings(partitions=1)
         self.sim = tb.Simulator(self.world, dt=timestep, joint_settings=joint_settings,
                                 contact_settings=contact_settings)
         robot = self.robots[0]
