@@ -386,16 +386,16 @@ class Kinematics:
         w = self.world
         _mass, com, _I = self._bodies(o, R)
         cols = self._columns(o, R)
-        for b, k in enumerate(self.body_link):
-            i = self.link_body[k]
-            Rb = R[k] @ self.link_Rl[k].T
-            w.q[i] = matrix_to_quat(np.ascontiguousarray(Rb))
-            w.R[i] = quat_to_matrix(w.q[i])
-            w.x[i] = com[b]
-            J = self._jacobian_at(cols, k, com[b])
-            w.P[i] = w.mass[i] * (J[0:3] @ qd)
-            w.L[i] = (w.R[i] @ w.inertia_body[i] @ w.R[i].T) @ (J[3:6] @ qd)
-            w.wake_requests.add(int(i))
+        i = self.body_index
+        B = len(i)
+        q_b, R_b, P_b, L_b = np.empty((B, 4)), np.empty((B, 3, 3)), np.empty((B, 3)), np.empty((B, 3))
+        # PERF: one kernel for the bodies (a loop of 3x3 products here cost 50 us of a 116 us reset
+        # of a cart-pole, tumble.envs), and sums in index order: the same bits on every BLAS
+        KK.place_bodies_kernel(R, self.body_link, self.link_Rl[self.body_link], com, np.ascontiguousarray(w.mass[i]),
+                               np.ascontiguousarray(w.inertia_body[i]), qd, self.ancestor, self.dof_link, *cols,
+                               q_b, R_b, P_b, L_b)
+        w.q[i], w.R[i], w.x[i], w.P[i], w.L[i] = q_b, R_b, com, P_b, L_b
+        w.wake_requests.update(int(k) for k in i)
         return q
 
     def neutral(self) -> np.ndarray:

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .math3d import JIT, quat_to_matrix_into
+from .math3d import JIT, matrix_to_quat_into, quat_to_matrix_into
 
 FIXED, HINGE, SLIDE, BALL, FREE = 0, 1, 2, 3, 4
 
@@ -333,3 +333,43 @@ def inverse_dynamics_kernel(qvel, qacc, gravity, o, R, parent, kind, axis, vadr,
                 moment[P, i] += N[i] + rF[i]
     for k in range(tau.shape[0]):
         tau[k] += armature[k] * qacc[k]
+
+
+@njit(**JIT)
+def place_bodies_kernel(R, body_link, link_Rl, com, mass, inertia_body, qd, ancestor, dof_link, col_rot, col_o,
+                        col_d,
+                        # outputs
+                        q_out, R_out, P_out, L_out):
+    """The moving bodies' state at link frames R (L, 3, 3) and joint rates qd (nv,) (``Kinematics.
+    set_state``): each body's rotation R_link Rl^T as a unit quaternion q_out (B, 4) and its
+    matrix R_out (B, 3, 3) (from q, as the World keeps them), its momentum P_out = m J_v qd (B, 3)
+    kg m/s and angular momentum L_out = R I_body R^T J_w qd (B, 3) kg m^2/s, J (6, nv) at its
+    centre of mass com (B, 3) m. The sums in index order: the same bits on every BLAS (NumPy's
+    ``@`` on these 3x3 products went through it, so their last bits followed its kernel)."""
+    nv = qd.shape[0]
+    J = np.empty((6, nv))
+    Rb = np.empty((3, 3))
+    tmp = np.empty((3, 3))
+    Iw = np.empty((3, 3))
+    for b in range(body_link.shape[0]):
+        link = body_link[b]
+        for i in range(3):
+            for j in range(3):
+                Rb[i, j] = R[link, i, 0] * link_Rl[b, j, 0] + R[link, i, 1] * link_Rl[b, j, 1] \
+                    + R[link, i, 2] * link_Rl[b, j, 2]
+        matrix_to_quat_into(Rb, q_out[b])
+        quat_to_matrix_into(q_out[b], R_out[b])
+        jacobian_kernel(link, com[b], ancestor, dof_link, col_rot, col_o, col_d, J)
+        w = np.zeros(3)
+        for i in range(3):
+            v = 0.0
+            for k in range(nv):
+                v += J[i, k] * qd[k]
+                w[i] += J[3 + i, k] * qd[k]
+            P_out[b, i] = mass[b] * v
+        _mat_mat_into(R_out[b], inertia_body[b], tmp)
+        for i in range(3):
+            for j in range(3):
+                Iw[i, j] = tmp[i, 0] * R_out[b, j, 0] + tmp[i, 1] * R_out[b, j, 1] + tmp[i, 2] * R_out[b, j, 2]
+        for i in range(3):
+            L_out[b, i] = Iw[i, 0] * w[0] + Iw[i, 1] * w[1] + Iw[i, 2] * w[2]
