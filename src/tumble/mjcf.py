@@ -36,7 +36,7 @@ What maps to what:
   that the Simulator solves joints exactly by default (the tree method: Gauss-Seidel's soft
   rows go wrong by tenths of a radian on such light links, measured against MuJoCo). Joint angles and ``euler`` and
   ``axisangle`` angles are degrees unless ``<compiler angle="radian">`` (MuJoCo's default).
-  The joint's coordinate is MuJoCo's qpos: zero at the model's pose.
+  The joint's coordinate is MuJoCo's qpos: its ``ref`` (default 0) at the model's pose (qpos0).
 - ``<compiler inertiafromgeom>``: "auto" (the default: the ``<inertial>`` where there is one),
   "true" (the geoms' where the body has any), "false" (never).
 - ``<equality>``: ``connect`` (``body1``, ``body2`` or the world, ``anchor`` in body1's frame) a
@@ -172,6 +172,7 @@ class MjcfModel:
     sensors: list = field(default_factory=list)  # mjcf_sensors.MjcfSensor, the file's order
     sensors_left_off: list = field(default_factory=list)  # names of the sensors not read
     ctrl_names: list = field(default_factory=list)  # per actuator element (MuJoCo's ctrl order): its name, None if left off
+    refs: dict = field(default_factory=dict)  # hinge or slide joint name: its ``ref`` (rad or m), where not 0
 
 
 # ---------------------------------------------------------------------- numbers and frames
@@ -526,6 +527,18 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
         if jframe is not None:  # the axis, given in the frame
             joint.axis = jframe[1] @ joint.axis
         joint.origin = (position + R @ at, R) if previous_anchor is None else (at - previous_anchor, np.eye(3))
+        ref = _joint_ref(reader, a, jkey, kind)
+        if ref != 0.0:
+            # MuJoCo's ``ref``: the file's pose is the joint at q = ref (qpos0), so the joint's zero is
+            # the child moved by -ref from it: the origin T0 becomes T0 T_joint(-ref), and T(q) = T0
+            # T_joint(-ref) T_joint(q) is the file's pose at q = ref. tumble's coordinate is then
+            # MuJoCo's qpos itself (limits, springref, servos' targets, keyframes, sensors), and the
+            # model starts at q = ref (``_build``). Read as 0 before, the target of Gymnasium's
+            # reacher read 0 where MuJoCo reads its ref (0.1, -0.1), and its range sat 0.1 m aside.
+            p0, R0 = joint.origin
+            joint.origin = ((p0 - ref * (R0 @ joint.axis), R0) if kind == "slide"
+                            else (p0, R0 @ _axis_rotation(joint.axis, -ref)))
+            out.refs[jname] = ref
         out.model.joints.append(joint)
         if child != name:
             if link.mass <= 0.0:
@@ -583,6 +596,14 @@ def _joint(reader, a, jname, jkey, kind, parent, child) -> UrdfJoint:
         j.target = float(_floats(a["springref"], f"{jkey}.springref", (1,))[0]) * (
             reader.angle if kind == "hinge" else 1.0)
     return j
+
+
+def _joint_ref(reader, a, jkey, kind) -> float:
+    """A hinge's or slide's ``ref`` (rad or m; MuJoCo reads it on those two kinds only): the joint's
+    value at the model's pose, MuJoCo's qpos0."""
+    if kind not in ("hinge", "slide") or "ref" not in a:
+        return 0.0
+    return float(_floats(a["ref"], f"{jkey}.ref", (1,))[0]) * (reader.angle if kind == "hinge" else 1.0)
 
 
 def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: MjcfModel, meshes):
@@ -652,7 +673,8 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         position, orientation | euler_deg: where the model's world frame goes.
         self_collision: the model's bodies touch each other except jointed ones (default, MuJoCo's
             rule); False: none of them touch each other.
-        joint_positions: {joint: rad or m}, the start (MuJoCo's qpos; 0 is the model's pose).
+        joint_positions: {joint: rad or m}, the start (MuJoCo's qpos; the joints' ``ref``, 0 unless
+            given, is the model's pose).
         joint_motors, joint_targets: as ``load_urdf``'s (``joint_targets`` add to and override the
             file's actuators' drives; the actuators on those joints are left at the caller's drive).
         material: the bodies' material (default: friction from the geoms, MuJoCo's 1 where unset).
@@ -697,18 +719,21 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     from .urdf import build_robot
 
     model = parsed.model
+    # the model's pose is its joints at their ``ref`` (MuJoCo's qpos0; 0 where not given)
+    start = {**parsed.refs, **(joint_positions or {})}
     robot = build_robot(world, model, position=position, orientation=orientation, euler_deg=euler_deg,
                         fixed_base=True, merge_fixed=True, self_collision=self_collision,
-                        joint_positions=None if parsed.equalities else joint_positions, material=material,
+                        joint_positions=(parsed.refs or None) if parsed.equalities else (start or None),
+                        material=material,
                         collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors,
                         joint_targets=targets or None)
     if parsed.equalities:
-        _add_equalities(world, robot, parsed.equalities)
+        _add_equalities(world, robot, parsed.equalities, parsed.refs)
         # a loop closed by a joint: Gauss-Seidel's soft rows left a four-bar 0.047 rad off MuJoCo's
         # stiff loop in 1 s (and more at a finer dt), the tree solve 6e-3, first order (measured)
         world.exact_joints = True
         if joint_positions:  # placed after the equality joints took their anchors at the model's pose (MuJoCo's qpos0)
-            robot.reset_joint_positions(None, joint_positions)
+            robot.reset_joint_positions(None, start)
     if parsed.virtual:  # light links between the joints of one body: the Simulator solves joints exactly
         world.exact_joints = True
     base_p, base_R = robot.link_pose("world")
@@ -736,5 +761,9 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     # MuJoCo's qpos0: the model's pose (hinges and slides at 0, balls at the identity, free joints
     # where the file puts them, as they are now), the default of a key without qpos
     robot.qpos0 = robot.kinematics.neutral()
+    robot.joint_refs = dict(parsed.refs)
+    for c in robot.kinematics.coordinates:
+        if c.name in parsed.refs:
+            robot.qpos0[c.qpos] = parsed.refs[c.name]
     robot.cameras = {name: _camera(robot, *spec) for name, spec in parsed.cameras.items()}
     return robot

@@ -400,11 +400,26 @@ def _joint_equality(a, key: str, out: MjcfModel):
     return ends[0], ends[1], coef
 
 
-def _add_equalities(world, robot, equalities):
+def ref_polynomial(coef, ref1: float, ref2: float) -> tuple:
+    """MuJoCo's joint equality q1 - ref1 = sum a_j (q2 - ref2)^j (its polycoef ``coef`` (5,), about
+    the joints' qpos0) as a polynomial in q2 itself, q1 = sum c_k q2^k (``GearJoint``'s, whose
+    coordinates are MuJoCo's qpos): c_k = sum_{j >= k} a_j C(j, k) (-ref2)^(j - k), plus ref1 in c_0.
+    The coefficients as given when both refs are 0."""
+    a = [float(v) for v in coef]
+    if ref1 == 0.0 and ref2 == 0.0:
+        return tuple(a)
+    c = [sum(a[j] * math.comb(j, k) * (-ref2) ** (j - k) for j in range(k, len(a))) for k in range(len(a))]
+    c[0] += ref1
+    return tuple(c)
+
+
+def _add_equalities(world, robot, equalities, refs=None):
     """The equality constraints as joints at the model's pose: ``connect`` a ``BallJoint`` at its anchor
     (body1's frame), ``weld`` a ``FixedJoint``, ``joint`` a ``GearJoint`` (joint1 following joint2 by
-    polycoef); named "MODEL/NAME", in ``robot.equalities``. The two bodies of a connect or weld do not
-    touch (``collide_connected`` False: a loop's links overlap where they meet)."""
+    polycoef, about their ``refs``: ``ref_polynomial``); named "MODEL/NAME", in ``robot.equalities``.
+    The two bodies of a connect or weld do not touch (``collide_connected`` False: a loop's links
+    overlap where they meet)."""
+    refs = refs or {}
     from .joints import BallJoint, FixedJoint, GearJoint
 
     def body(link):
@@ -414,7 +429,9 @@ def _add_equalities(world, robot, equalities):
         key = f"equality.{kind}[{name}]"
         if kind == "joint":  # body1, body2, anchor: joint1, joint2, polycoef
             record = GearJoint(joint=robot.joints[body1], follows=None if body2 is None else robot.joints[body2],
-                               polynomial=tuple(anchor), name=f"{robot.name}/{name}")
+                               polynomial=ref_polynomial(anchor, refs.get(body1, 0.0),
+                                                         0.0 if body2 is None else refs.get(body2, 0.0)),
+                               name=f"{robot.name}/{name}")
         elif body1 != "world" and body2 != "world" and robot.links[body1] is robot.links[body2]:
             continue  # both welded into one body: nothing left to hold
         elif kind == "connect":

@@ -1719,3 +1719,85 @@ def test_replicates_make_the_copies_mujoco_makes(tmp_path):
     sim = tb.Simulator(world, dt=1 / 240)
     robot.reset_joint_positions(sim, {"hingey1x0": 0.25})
     assert robot.sensor_data(sim)["q"] == pytest.approx(0.25, abs=1e-12)
+
+
+REFS = """
+<mujoco model="refs">
+  <compiler angle="radian"/>
+  <option timestep="0.00025" integrator="RK4" gravity="0 0 -9.81"/>
+  <default><geom type="capsule" size="0.03" contype="0" conaffinity="0"/></default>
+  <worldbody>
+    <body name="arm" pos="0 0 2">
+      <joint name="swing" type="hinge" axis="0 1 0" ref="0.4" range="-0.3 1.2" stiffness="5" springref="0.1"
+             damping="0.2"/>
+      <geom fromto="0 0 0 0.3 0 -0.6"/>
+    </body>
+    <body name="cart" pos="2 0 1">
+      <joint name="rail" type="slide" axis="1 0 0" ref="0.3" range="0 0.5"/>
+      <geom type="box" size="0.1 0.1 0.1" mass="1"/>
+    </body>
+    <body name="lead" pos="4 0 2">
+      <joint name="a" type="hinge" axis="0 1 0" ref="0.2" damping="0.5"/>
+      <geom fromto="0 0 0 0 0 -0.5"/>
+    </body>
+    <body name="mirror" pos="5 0 2">
+      <joint name="b" type="hinge" axis="0 1 0" ref="-0.1"/>
+      <geom fromto="0 0 0 0 0 -0.5"/>
+    </body>
+  </worldbody>
+  <equality><joint joint1="b" joint2="a" polycoef="0 -1 0 0 0"/></equality>
+  <actuator>
+    <position name="servo" joint="rail" kp="50" kv="5"/>
+    <motor name="push" joint="a" gear="1"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_joint_refs_are_mujocos_qpos0_and_the_model_moves_as_mujoco_rk4_says(tmp_path):
+    """MuJoCo's joint ``ref``: the joint's value at the file's pose (qpos0). A hinge with ref 0.4 rad,
+    a range and a spring to springref 0.1, a slide with ref 0.3 m and a range driven by a position
+    servo to 0.45, and a joint equality (b - ref_b = -(a - ref_a)) between two hinges with refs,
+    one pushed by a motor: qpos0 and the bodies' places equal MuJoCo's compiled model's (exactly:
+    the file's numbers), and the motion over 1 s follows MuJoCo's RK4 at 1/4000 s (converged) to
+    first order (measured 1.5e-3 at dt 1/240, 3.9e-4 at 1/960; tolerance 3e-3). With the refs read
+    as 0 (tumble before: the attribute was not read) the readings are off by the refs (0.1 and
+    more), the springs pull elsewhere and the limits sit aside."""
+    path = write(tmp_path, REFS)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    np.testing.assert_array_equal(robot.qpos0, m.qpos0)
+    np.testing.assert_allclose(robot.kinematics.qpos(), m.qpos0, rtol=0, atol=1e-15)  # read back from the bodies
+    for i in range(1, m.nbody):
+        np.testing.assert_allclose(robot.link_pose(m.body(i).name)[0], d.xpos[i], rtol=0, atol=1e-15)
+    controls = {"servo": 0.45, "push": 0.3}
+    names, ref = mujoco_motion(path, controls=controls)
+    q, _, _ = tumble_motion(path, names, controls=controls)
+    assert np.abs(q - ref).max() < 3e-3
+    # the servo near its target (in qpos: 0.15 m from the file's pose) and b mirroring a about their
+    # refs: MuJoCo's soft equality to 1.1e-4 (measured), tumble's (the tree solve) closer
+    assert abs(ref[-1, 1] - 0.45) < 0.02 and abs((ref[-1, 3] + 0.1) + (ref[-1, 2] - 0.2)) < 1e-3
+    assert np.abs((q[:, 3] + 0.1) + (q[:, 2] - 0.2)).max() < 1e-5
+    stripped = write(tmp_path, REFS.replace(' ref="0.4"', "").replace(' ref="0.3"', "").replace(' ref="0.2"', "")
+                     .replace(' ref="-0.1"', ""), "stripped.xml")
+    q0, _, _ = tumble_motion(stripped, names, controls=controls)
+    assert np.abs(q0 - ref).max() > 0.1
+
+
+def test_ref_polynomial_shifts_mujocos_joint_equality_to_the_coordinates():
+    """``mjcf_control.ref_polynomial``: q1 - r1 = sum a_j (q2 - r2)^j rewritten as q1 = sum c_k q2^k
+    agrees with the definition at random points (a quartic), and leaves the coefficients as they
+    are without refs."""
+    from tumble.mjcf_control import ref_polynomial
+
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=5)
+    r1, r2 = 0.3, -0.7
+    c = ref_polynomial(a, r1, r2)
+    for q2 in rng.uniform(-2, 2, size=7):
+        assert sum(ck * q2**k for k, ck in enumerate(c)) == pytest.approx(
+            r1 + sum(aj * (q2 - r2) ** j for j, aj in enumerate(a)), rel=1e-12, abs=1e-12)
+    assert ref_polynomial(a, 0.0, 0.0) == tuple(a)
