@@ -6,7 +6,8 @@ steps of 0.02 s), with two policies: the LQR of tests/test_envs.py (the pole sta
 resets) and uniform random controls (the pole falls within about 8 steps: resets are part of the
 cost). Vector environments: tumble's ``ModelVectorEnv`` (all copies in one World, one step)
 against Gymnasium's ``SyncVectorEnv`` over MuJoCo environments (a Python loop over them), microseconds
-per vector step and per environment step. Median of ``--repeats`` timings of ``--steps`` steps
+per vector step and per environment step. Then Gymnasium's ``Reacher-v5`` (a two-link arm with
+armature: tumble's tree solve) the same way, with random controls. Median of ``--repeats`` timings of ``--steps`` steps
 each, after a warm-up (compilation apart: the first step's time is given on its own line).
 
     PYTHONPATH=src python benchmarks/envs.py --repeats 5
@@ -72,6 +73,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--steps", type=int, default=1000, help="steps per timing of a single environment")
     ap.add_argument("--sizes", type=int, nargs="+", default=[16, 256, 1024])
+    ap.add_argument("--reacher-sizes", type=int, nargs="+", default=[1, 256])
     args = ap.parse_args()
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     import mujoco
@@ -107,6 +109,39 @@ def main():
             for pname, policy in (("LQR", lqr), ("random", random_controls)):
                 us, ended = time_vector(make(), policy, steps, args.repeats)
                 print(f"| {name} | {n} | {pname} | {us:.0f} | {us / n:.1f} | {1e6 * n / us:.0f} | {ended:.0f} |")
+    reacher(args)
+
+
+
+
+def reacher(args):
+    """Gymnasium's Reacher-v5 (two links with armature: tumble's tree solve) with random controls (no
+    terminations; truncated at 50 steps): single environments and vector environments side by side."""
+    import gymnasium as gym
+
+    import tumble.envs  # noqa: F401
+
+    def random2(obs, rng):
+        return rng.uniform(-1.0, 1.0, size=obs.shape[:-1] + (2,)).astype(np.float32)
+
+    print()
+    print("| Reacher-v5, random controls | copies | us per step | us per environment step | environment steps/s |")
+    print("|---|---|---|---|---|")
+    for n in args.reacher_sizes:
+        if n == 1:
+            for name, make in (("tumble Reacher", lambda: gym.make("tumble/Reacher-v5")),
+                               ("Gymnasium Reacher-v5 (MuJoCo)", lambda: gym.make("Reacher-v5"))):
+                us, _ = time_single(make(), random2, args.steps, args.repeats)
+                print(f"| {name} | 1 | {us:.1f} | {us:.1f} | {1e6 / us:.0f} |")
+            continue
+        steps = max(20, 20000 // n)
+        for name, make in (
+                ("tumble ModelVectorEnv", lambda: gym.make_vec("tumble/Reacher-v5", num_envs=n,
+                                                               vectorization_mode="vector_entry_point")),
+                ("Gymnasium SyncVectorEnv (MuJoCo)", lambda: gym.make_vec("Reacher-v5", num_envs=n,
+                                                                          vectorization_mode="sync"))):
+            us, _ = time_vector(make(), random2, steps, args.repeats)
+            print(f"| {name} | {n} | {us:.0f} | {us / n:.1f} | {1e6 * n / us:.0f} |")
 
 
 if __name__ == "__main__":

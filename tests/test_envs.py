@@ -122,6 +122,40 @@ def test_lqr_from_the_linearized_step_balances_on_tumble_and_on_mujoco():
     assert abs(ends["InvertedPendulum-v5", 0][0] - 0.01175) < 1e-4
 
 
+def test_reacher_starts_as_gymnasiums_and_converges_to_mujoco_rk4_at_first_order():
+    """Gymnasium's ``Reacher-v5`` on its own file (two hinges with armature 1 and damping 1, motors of
+    gear 200, a target on two slides with ``ref``): the same seed gives the same start (the angles,
+    the target's goal drawn by rejection, the rates: the observation's fingertip-less-target part
+    read from the bodies, to 1e-16), and 10 steps of random controls converge to MuJoCo's RK4 at
+    0.0002 s (converged: its own change from 0.002 s is 3e-8) at first order: measured 9.1e-3,
+    4.5e-3, 2.3e-3, 1.1e-3 at timesteps 0.01 (the file's) to 0.00125 s, each halving halving it.
+    Were the target's ``ref`` not read, its qpos would be off by 0.1 at the start."""
+    actions = np.random.default_rng(3).uniform(-1, 1, size=(10, 2)).astype(np.float32)
+
+    def run(env):
+        out = [env.reset(seed=2)[0]]
+        out += [env.step(a)[0] for a in actions]
+        return np.array(out)
+
+    def mujoco_reacher(timestep):
+        pytest.importorskip("mujoco")
+        env = gym.make("Reacher-v5").unwrapped
+        env.model.opt.timestep = timestep
+        env.frame_skip = int(round(0.02 / timestep))
+        return env
+
+    for seed in (0, 7):
+        o1, _ = te.Reacher().reset(seed=seed)
+        o2, _ = mujoco_reacher(0.01).reset(seed=seed)
+        assert np.abs(o1 - o2).max() < 1e-15
+    reference = run(mujoco_reacher(0.0002))
+    errors = [np.abs(run(te.Reacher(timestep=h, frame_skip=int(round(0.02 / h)))) - reference).max()
+              for h in (0.01, 0.005, 0.0025, 0.00125)]
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+    assert errors[0] < 0.02
+
+
 def test_same_seed_and_actions_give_the_same_episode_whatever_came_before():
     """Reproducible episodes: an environment reset with a seed and given the same actions repeats
     the episode bit for bit, fresh or after other episodes (the reset clears the joints' warm start
@@ -189,6 +223,15 @@ def test_vector_env_copies_equal_single_envs_bit_for_bit():
     assert venv.observation_space.shape == (4, 4) and venv.action_space.shape == (4, 1)
 
 
+def test_vector_reacher_copies_equal_single_envs_bit_for_bit():
+    """The same for ``Reacher`` (the tree solve, two motors, the task's own reset and the fingertip
+    read from each copy's bodies): 5 copies for 60 steps, each episode truncated at 50."""
+    venv = gym.make_vec("tumble/Reacher-v5", num_envs=5, vectorization_mode="vector_entry_point")
+    assert venv.unwrapped.sim.joint_settings.method == "tree"
+    episodes = _compare_vector_with_singles(venv, te.Reacher, 5, 60, 50, 3, 2, np.random.default_rng(8))
+    assert episodes == 5
+
+
 def test_vector_env_of_a_servo_model_takes_the_copy_by_copy_path_with_the_same_bits(servo_model):
     """A model whose actuator is a position servo (a spring and damper in the actuator) does not
     take the array path (``_Copies._fast`` is None): its controls go through ``Robot.set_controls``
@@ -219,6 +262,7 @@ def test_gymnasium_env_checker_passes():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # its advice on unbounded and unnormalised boxes
         check_env(te.InvertedPendulum(render_mode="rgb_array"))
+        check_env(te.Reacher())
 
 
 def test_render_draws_the_pendulum():

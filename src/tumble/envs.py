@@ -50,7 +50,7 @@ except ImportError:  # pragma: no cover - the message is the point
 
 from .errors import InputError
 
-__all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "gymnasium_asset"]
+__all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "Reacher", "gymnasium_asset"]
 
 def gymnasium_asset(name: str) -> str:
     """The path of one of Gymnasium's MuJoCo model files (``gymnasium/envs/mujoco/assets/NAME``),
@@ -107,9 +107,15 @@ class _Copies:
             # go in the single model's order (spatial slabs, JointSettings.partitions, would put some
             # of a chain's joints after the seam's, and the copies' bits would differ from a single
             # environment's); measured faster here too (1024 pendulums: 21.2 against 23.2 ms a step)
-            from .solver.joints import JointSettings
+            import dataclasses
 
-            joint_settings = JointSettings(partitions=1)
+            from .solver.joints import ACCURATE, JointSettings
+
+            # the Simulator's own default otherwise: the tree solve (ACCURATE) for a model with
+            # armature, several joints in a body or equalities (Gymnasium's reacher: Gauss-Seidel's
+            # soft rows let its target, on two slides through a 3e-6 kg virtual link, run away)
+            base = ACCURATE if self.world.exact_joints else JointSettings()
+            joint_settings = dataclasses.replace(base, partitions=1)
         self.sim = tb.Simulator(self.world, dt=timestep, joint_settings=joint_settings,
                                 contact_settings=contact_settings)
         robot = self.robots[0]
@@ -120,6 +126,7 @@ class _Copies:
         self.init_qpos = kin.qpos()
         self._fast = self._fast_path(robot, kin)
         self._solver_rows = (None, None)
+        self._links = {}  # link name: (its body in each copy (n,), its origin in the body (3,)), for link_origins
 
     def _fast_path(self, robot, kin):
         """The arrays of the fast path (class docstring), or None when the model does not take it."""
@@ -191,6 +198,22 @@ class _Copies:
             return solver.position[rows[1]], solver.rate[rows[1]]
         return (np.array([k.qpos(self.sim) for k in self.kinematics]),
                 np.array([k.qvel() for k in self.kinematics]))
+
+    def link_origins(self, link: str) -> np.ndarray:
+        """(n, 3) m, world: the origin of ``link``'s frame in each copy now (``Kinematics._present``'s
+        arithmetic, for one link of all copies)."""
+        cached = self._links.get(link)
+        if cached is None:
+            kin = self.kinematics[0]
+            if link not in kin.index:
+                raise InputError(f"unknown link {link!r} of the model", "link")
+            k = kin.index[link]
+            cached = (np.array([kn.link_body[k] for kn in self.kinematics], dtype=np.int64), kin.link_p[k].copy())
+            self._links[link] = cached
+        b, p = cached
+        w = self.world
+        Rb = w.R[b]
+        return w.x[b] - np.einsum("nij,nj->ni", Rb, w.com_offset[b]) + np.einsum("nij,j->ni", Rb, p)
 
     def set_states(self, copies, qpos: np.ndarray, qvel: np.ndarray):
         """Put the ``copies`` (K indices) at ``qpos`` (K, nq) moving at ``qvel`` (K, nv)
@@ -287,10 +310,21 @@ class ModelEnv(gymnasium.Env):
         return self.timestep * self.frame_skip
 
     # ------------------------------------------------------------------ the task (subclasses)
-    def observe(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+    def observe(self, qpos: np.ndarray, qvel: np.ndarray, links=None) -> np.ndarray:
         """The observations (n, d) of n copies at ``qpos`` (n, nq) moving at ``qvel`` (n, nv):
-        here (qpos, qvel) side by side."""
+        here (qpos, qvel) side by side. ``links(name)``: the world positions (n, 3) m of a link's
+        frame origin in each copy now (a task's fingertip, MuJoCo's ``get_body_com`` where the
+        body's centre of mass is its origin)."""
         return np.concatenate([qpos, qvel], axis=1)
+
+    def draw_start(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """(qpos (nq,), qvel (nv,)) of a reset: ``init_qpos`` and ``init_qvel`` plus uniform noise of
+        ``reset_noise_scale``, drawn qpos first, then qvel (as Gymnasium's MuJoCo environments'
+        ``reset_model``: the same draws from the same generator)."""
+        s = self.reset_noise_scale
+        qpos = self.init_qpos + rng.uniform(low=-s, high=s, size=len(self.init_qpos))
+        qvel = self.init_qvel + rng.uniform(low=-s, high=s, size=len(self.init_qvel))
+        return qpos, qvel
 
     def evaluate(self, observation: np.ndarray, action: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
         """(reward (n,), terminated (n,) bool, info {key: (n,)}) of n copies after a step that took
@@ -303,9 +337,9 @@ class ModelEnv(gymnasium.Env):
         """The model at ``init_qpos`` and ``init_qvel`` plus the reset noise (module docstring
         "Reset"): (observation, info)."""
         super().reset(seed=seed)
-        qpos, qvel = _draw_start(self, self.np_random)
+        qpos, qvel = self.draw_start(self.np_random)
         self._copies.set_states([0], qpos[None], qvel[None])
-        return self.observe(qpos[None], qvel[None])[0], {}
+        return self.observe(qpos[None], qvel[None], self._copies.link_origins)[0], {}
 
     def set_state(self, qpos, qvel):
         """Put the model at ``qpos`` (nq,) moving at ``qvel`` (nv,) (MujocoEnv's ``set_state``)."""
@@ -317,7 +351,7 @@ class ModelEnv(gymnasium.Env):
         u = _check_actions(np.asarray(action)[None], 1, len(self.actuators))
         self._copies.set_controls(u)
         self.sim.step(self.frame_skip)
-        obs = self.observe(*self._copies.state())
+        obs = self.observe(*self._copies.state(), self._copies.link_origins)
         reward, terminated, info = self.evaluate(obs, u)
         return obs[0], reward[0].item(), bool(terminated[0]), False, {k: v[0].item() for k, v in info.items()}
 
@@ -329,15 +363,6 @@ class ModelEnv(gymnasium.Env):
         return self.camera.capture(self.world).rgb
 
 
-def _draw_start(env, rng):
-    """(qpos, qvel) of a reset: the start plus uniform noise, drawn qpos first, then qvel (as
-    Gymnasium's MuJoCo environments' ``reset_model``)."""
-    s = env.reset_noise_scale
-    qpos = env.init_qpos + rng.uniform(low=-s, high=s, size=len(env.init_qpos))
-    qvel = env.init_qvel + rng.uniform(low=-s, high=s, size=len(env.init_qvel))
-    return qpos, qvel
-
-
 def _spaces(env):
     """(action space, observation space) of one copy: the controls' ranges (float32, as MuJoCo's
     environments make theirs, ``MujocoEnv._set_action_space``), the observation unbounded."""
@@ -347,7 +372,7 @@ def _spaces(env):
         low.append(-np.inf if r is None else r[0])
         high.append(np.inf if r is None else r[1])
     action = spaces.Box(np.array(low, dtype=np.float32), np.array(high, dtype=np.float32), dtype=np.float32)
-    size = env.observe(env.init_qpos[None], env.init_qvel[None]).shape[1]
+    size = env.observe(env.init_qpos[None], env.init_qvel[None], env._copies.link_origins).shape[1]
     return action, spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
 
 
@@ -369,6 +394,44 @@ class InvertedPendulum(ModelEnv):
         terminated = ~np.all(np.isfinite(observation), axis=1) | (np.abs(observation[:, 1]) > 0.2)
         reward = (~terminated).astype(np.float64)
         return reward, terminated, {"reward_survive": reward}
+
+
+class Reacher(ModelEnv):
+    """Gymnasium's ``Reacher-v5`` stepped by tumble: a two-link arm on a table (two hinges, armature
+    1 and damping 1, motors of gear 200 with controls in [-1, 1]) reaching for a target (a body on
+    two slides, ``ref`` 0.1 and -0.1 m), on Gymnasium's own ``reacher.xml``. Observation (10,):
+    cos and sin of the two angles, the target's x and y (qpos), the arm's two rates, the fingertip
+    less the target (x, y); reward -|fingertip - target| - |action|^2 (v5's weights 1 and 1;
+    ``info["reward_dist"]``, ``info["reward_ctrl"]``); never terminated (50 steps an episode).
+    Reset as v5's: the angles and the target's coordinates +-0.1 about ``init_qpos``, then the
+    target put at a goal drawn uniformly in the square of half-side 0.2 until it lies within 0.2 m
+    of the centre, the rates +-0.005 with the target's zero. Timestep 0.01 s (the file's),
+    ``frame_skip`` 2."""
+
+    def __init__(self, *, frame_skip: int = 2, timestep: float | None = None, **kwargs):
+        super().__init__(gymnasium_asset("reacher.xml"), frame_skip=frame_skip, timestep=timestep, **kwargs)
+
+    def draw_start(self, rng):
+        qpos = rng.uniform(low=-0.1, high=0.1, size=len(self.init_qpos)) + self.init_qpos
+        while True:
+            goal = rng.uniform(low=-0.2, high=0.2, size=2)
+            if np.linalg.norm(goal) < 0.2:
+                break
+        qpos[-2:] = goal
+        qvel = self.init_qvel + rng.uniform(low=-0.005, high=0.005, size=len(self.init_qvel))
+        qvel[-2:] = 0.0
+        return qpos, qvel
+
+    def observe(self, qpos, qvel, links=None):
+        theta = qpos[:, :2]
+        self._reach = links("fingertip") - links("target")  # (n, 3), for evaluate
+        return np.concatenate([np.cos(theta), np.sin(theta), qpos[:, 2:], qvel[:, :2], self._reach[:, :2]], axis=1)
+
+    def evaluate(self, observation, action):
+        reward_dist = -np.linalg.norm(self._reach, axis=1)
+        reward_ctrl = -np.square(action).sum(axis=1)
+        return reward_dist + reward_ctrl, np.zeros(len(observation), dtype=bool), \
+            {"reward_dist": reward_dist, "reward_ctrl": reward_ctrl}
 
 
 class ModelVectorEnv(VectorEnv):
@@ -427,7 +490,7 @@ class ModelVectorEnv(VectorEnv):
 
     def _reset_copies(self, copies: list):
         """Each of ``copies`` to its start drawn from its own generator: (qpos (K, nq), qvel (K, nv))."""
-        starts = [_draw_start(self.template, self._rngs[i]) for i in copies]
+        starts = [self.template.draw_start(self._rngs[i]) for i in copies]
         qpos = np.array([q for q, _ in starts]).reshape(len(copies), -1)
         qvel = np.array([v for _, v in starts]).reshape(len(copies), -1)
         self._copies.set_states(copies, qpos, qvel)
@@ -455,7 +518,7 @@ class ModelVectorEnv(VectorEnv):
             if s is not None or self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(s)
         qpos, qvel = self._reset_copies(list(range(n)))
-        return self.template.observe(qpos, qvel), {}
+        return self.template.observe(qpos, qvel, self._copies.link_origins), {}
 
     def step(self, actions):
         """One step of every copy (``frame_skip`` simulator steps of the one world) with ``actions``
@@ -473,7 +536,7 @@ class ModelVectorEnv(VectorEnv):
         qpos, qvel = self._copies.state()
         if starts is not None:  # their observation is the start as drawn (a single env's reset's)
             qpos[restart], qvel[restart] = starts
-        obs = self.template.observe(qpos, qvel)
+        obs = self.template.observe(qpos, qvel, self._copies.link_origins)
         reward, terminated, info = self.template.evaluate(obs, u)
         reward, terminated = np.array(reward, dtype=np.float64), np.array(terminated, dtype=bool)
         stepped = np.ones(n, dtype=bool)
@@ -497,6 +560,11 @@ def inverted_pendulum_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
     return ModelVectorEnv(InvertedPendulum, num_envs, **kwargs)
 
 
+def reacher_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
+    """``gymnasium.make_vec("tumble/Reacher-v5", num_envs, vectorization_mode="vector_entry_point")``."""
+    return ModelVectorEnv(Reacher, num_envs, **kwargs)
+
+
 def _register():
     """``gymnasium.make("tumble/InvertedPendulum-v5")``: the ids tumble adds (1000 steps an
     episode and a reward threshold of 950, as Gymnasium registers ``InvertedPendulum-v5``)."""
@@ -504,6 +572,10 @@ def _register():
         gymnasium.register("tumble/InvertedPendulum-v5", entry_point="tumble.envs:InvertedPendulum",
                            vector_entry_point="tumble.envs:inverted_pendulum_vector",
                            max_episode_steps=1000, reward_threshold=950.0)
+    if "tumble/Reacher-v5" not in gymnasium.registry:
+        gymnasium.register("tumble/Reacher-v5", entry_point="tumble.envs:Reacher",
+                           vector_entry_point="tumble.envs:reacher_vector", max_episode_steps=50,
+                           reward_threshold=-3.75)
 
 
 _register()

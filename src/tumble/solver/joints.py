@@ -550,12 +550,52 @@ class JointSolver:
         self.gauss_seidel = ~in_tree
         # gears are solved by the tree sweeps themselves, each on tree-consistent velocities (tree_sweeps_kernel)
         self.gauss_seidel[self.joint_type == JOINT_GEAR] = False
+        self._groups(moving)
         self._scratch = {
             "Ja": np.zeros((J, 6, 6)), "Jb": np.zeros((J, 6, 6)), "C": np.zeros((J, 6)),
             "nrow": np.zeros(J, dtype=np.int64), "D": np.zeros((n, 6, 6)), "Dinv": np.zeros((n, 6, 6)),
             "H_up": np.zeros((n, 6, 6)), "W": np.zeros((n, 6, 6)), "y": np.zeros((n, 6)), "sol": np.zeros((n, 6)),
             "work": np.zeros((6, 6)),
         }
+
+    def _groups(self, moving: np.ndarray):
+        """The joints' groups for the tree sweeps' settling test (``joint_tree.tree_sweeps_kernel``):
+        joints that share a moving body, directly or through others, are one group (the world and
+        fixed bodies join nothing: two robots on one floor are two groups). ``joint_group`` (J,) and
+        ``body_group`` (N,) int64, -1 outside any, and the scratch of the test. A world with a gear
+        is one group (a gear's four bodies)."""
+        J, nb = self.count, moving.shape[0]
+        parent = list(range(nb))
+
+        def find(i):
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        ends = []
+        for j in range(J):
+            a, b = self.joint_a[j], self.joint_b[j]
+            pair = [i for i in (a, b) if i >= 0 and moving[i]]
+            ends.append(pair)
+            if len(pair) == 2:
+                parent[find(pair[0])] = find(pair[1])
+        body_group = np.full(nb, -1, dtype=np.int64)
+        joint_group = np.full(J, -1, dtype=np.int64)
+        label: dict = {}
+        for j, pair in enumerate(ends):
+            if pair:
+                joint_group[j] = label.setdefault(find(pair[0]), len(label))
+                for i in pair:
+                    body_group[i] = joint_group[j]
+        if self.has_gears:
+            joint_group[joint_group >= 0] = 0
+            body_group[body_group >= 0] = 0
+            label = {0: 0} if len(label) else {}
+        G = len(label)
+        self.joint_group, self.body_group = joint_group, body_group
+        self._group_scratch = (np.zeros(G), np.zeros(G), np.zeros(G, dtype=bool), np.zeros((nb, 3)),
+                               np.zeros((nb, 3)), np.zeros((J, 3)), np.zeros((J, 3)), np.zeros((J, AXIAL_COUNT)))
 
     # -- stages --------------------------------------------------------------------------
     def prepare(self, world, h: float, inv_mass: np.ndarray | None = None, I_inv: np.ndarray | None = None,
@@ -662,7 +702,8 @@ class JointSolver:
     def tree_parts(self) -> tuple:
         """The tree method's arrays for ``tree_sweeps_kernel``: (limit columns, TREE_LIMIT_SWEEPS,
         LIMIT_TOLERANCE, node_order, node_joint, node_body, node_parent, then its scratch: Ja, Jb,
-        C, nrow, D, Dinv, H_up, W, y, sol, work, before). Empty arrays of the same types when the
+        C, nrow, D, Dinv, H_up, W, y, sol, work, before, then the settling groups: joint_group,
+        body_group and their scratch, ``_groups``). Empty arrays of the same types when the
         method is not the tree's (``soft_step.substeps_kernel`` takes them either way)."""
         if self.settings.method != "tree":
             if self.__dict__.get("_no_tree") is None:
@@ -670,7 +711,9 @@ class JointSolver:
                 i64 = np.int64
                 self._no_tree = (z(0, i64), TREE_LIMIT_SWEEPS, LIMIT_TOLERANCE, z(0, i64), z(0, i64), z(0, i64),
                                  z(0, i64), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z(0, i64), z((0, 6, 6)),
-                                 z((0, 6, 6)), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z((0, 6)), z((6, 6)), z((0, 0)))
+                                 z((0, 6, 6)), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z((0, 6)), z((6, 6)), z((0, 0)),
+                                 z(0, i64), z(0, i64), z(0), z(0), z(0, dtype=bool), z((0, 3)), z((0, 3)), z((0, 3)),
+                                 z((0, 3)), z((0, AXIAL_COUNT)))
             return self._no_tree
         if self._parts is not None:
             return self._parts  # PERF: once a step (prepare clears it): it was 10 us a solve, 8 solves a step
@@ -681,7 +724,8 @@ class JointSolver:
             before = sc["before"] = np.zeros((self.count, len(limits)))
         self._parts = (limits, TREE_LIMIT_SWEEPS, LIMIT_TOLERANCE, self.node_order, self.node_joint, self.node_body,
                        self.node_parent, sc["Ja"], sc["Jb"], sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"],
-                       sc["W"], sc["y"], sc["sol"], sc["work"], before)
+                       sc["W"], sc["y"], sc["sol"], sc["work"], before, self.joint_group, self.body_group,
+                       *self._group_scratch)
         return self._parts
 
     def _limit_columns(self) -> np.ndarray:
