@@ -157,6 +157,15 @@ def jacobian_kernel(link, p, ancestor, dof_link, col_rot, col_o, col_d,
 
 
 @njit(**JIT)
+def _body_rotation_into(R_link, Rl, out):
+    """out (3, 3) = R_link Rl^T: a body's rotation from its link's R_link (3, 3) and the link's
+    rotation Rl (3, 3) in the body (sums in index order)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = R_link[i, 0] * Rl[j, 0] + R_link[i, 1] * Rl[j, 1] + R_link[i, 2] * Rl[j, 2]
+
+
+@njit(**JIT)
 def body_frames_kernel(o, R, body_link, body_p, body_Rl, com_offset, inertia_body,
                        # outputs
                        com, I_world):
@@ -166,10 +175,7 @@ def body_frames_kernel(o, R, body_link, body_p, body_Rl, com_offset, inertia_bod
     tmp = np.empty((3, 3))
     for b in range(body_link.shape[0]):
         link = body_link[b]
-        for i in range(3):
-            for j in range(3):
-                Rb[i, j] = R[link, i, 0] * body_Rl[b, j, 0] + R[link, i, 1] * body_Rl[b, j, 1] \
-                    + R[link, i, 2] * body_Rl[b, j, 2]
+        _body_rotation_into(R[link], body_Rl[b], Rb)
         p = _mat_vec(Rb, body_p[b])
         c = _mat_vec(Rb, com_offset[b])
         for i in range(3):
@@ -353,10 +359,7 @@ def place_bodies_kernel(R, body_link, link_Rl, com, mass, inertia_body, qd, ance
     Iw = np.empty((3, 3))
     for b in range(body_link.shape[0]):
         link = body_link[b]
-        for i in range(3):
-            for j in range(3):
-                Rb[i, j] = R[link, i, 0] * link_Rl[b, j, 0] + R[link, i, 1] * link_Rl[b, j, 1] \
-                    + R[link, i, 2] * link_Rl[b, j, 2]
+        _body_rotation_into(R[link], link_Rl[b], Rb)
         matrix_to_quat_into(Rb, q_out[b])
         quat_to_matrix_into(q_out[b], R_out[b])
         jacobian_kernel(link, com[b], ancestor, dof_link, col_rot, col_o, col_d, J)
