@@ -330,14 +330,15 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
 
 
 @njit(**NO_NRT)
-def _substitute(order, node_parent, Dinv, H_up, W, y, sol, work):
-    """sol = H^-1 y on the factors (n, 6, 6) of ``tree_factor_kernel``; y (n, 6) is overwritten."""
+def _substitute(order, node_parent, Dinv, H_up, W, y, sol, work, skip):
+    """sol = H^-1 y on the factors (n, 6, 6) of ``tree_factor_kernel``; y (n, 6) is overwritten.
+    Nodes with ``skip`` (n,) set are left out (whole trees: a node's parent is in its tree)."""
     n_nodes = order.shape[0]
     # forward substitution, leaves first: y_p -= W_k^T y_k
     for kk in range(n_nodes):
         k = order[kk]
         p = node_parent[k]
-        if p < 0:
+        if p < 0 or skip[k]:
             continue
         for r in range(6):
             s = 0.0
@@ -347,6 +348,8 @@ def _substitute(order, node_parent, Dinv, H_up, W, y, sol, work):
     # back substitution, roots first: sol_k = D_k^-1 (y_k - H_kp sol_p)
     for kk in range(n_nodes - 1, -1, -1):
         k = order[kk]
+        if skip[k]:
+            continue
         p = node_parent[k]
         for r in range(6):
             s = y[k, r]
@@ -365,23 +368,26 @@ def _substitute(order, node_parent, Dinv, H_up, W, y, sol, work):
 def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                            param, rate0, x, R, inv_mass, I_inv, bias_rate, Ja, Jb, C, nrow, Dinv, H_up, W,
                            # scratch
-                           y, sol, work,
+                           y, sol, work, skip,
                            # outputs
                            v, omega, linear_impulse, angular_impulse, axial_impulse):
     """One exact solve of the rigid rows of the tree joints on the factors of ``tree_factor_kernel``:
     J (u + du) = -bias_rate C, M du = J^T lambda (and the armature rows), by forward and back
-    substitution in ``order``. Adds lambda to the joints' accumulated impulses."""
+    substitution in ``order``. Adds lambda to the joints' accumulated impulses. The nodes with
+    ``skip`` (n,) set (trees whose sweeps have settled, ``tree_sweeps_kernel``) are left as they are."""
     n_nodes = order.shape[0]
     # the accumulated impulses put back in the span of the current rows (all joints first: the
     # undo changes velocities the right-hand sides read)
     for k in range(n_nodes):
         j = node_joint[k]
-        if j >= 0:
+        if j >= 0 and not skip[k]:
             _project_accumulated(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, nrow[j], Jb,
                                  inv_mass, I_inv, v, omega, linear_impulse, angular_impulse)
     # right-hand sides
     for k in range(n_nodes):
         j = node_joint[k]
+        if skip[k]:
+            continue
         for r in range(6):
             y[k, r] = 0.0
         if j < 0:
@@ -401,10 +407,12 @@ def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type
         if armature:
             inv_arm = 1.0 / param[j, P_ARMATURE]
             y[k, m] += rate0[j] - inv_arm * axial_impulse[j, A_ARMATURE]
-    _substitute(order, node_parent, Dinv, H_up, W, y, sol, work)
+    _substitute(order, node_parent, Dinv, H_up, W, y, sol, work, skip)
     # apply: body nodes take du; joint nodes give lambda = -mu
     for k in range(n_nodes):
         j = node_joint[k]
+        if skip[k]:
+            continue
         if j < 0:
             i = node_body[k]
             for c in range(3):
@@ -448,7 +456,7 @@ def _gear_response(i, bodies, scale, lins, angs, inv_mass, I_inv):
 @njit(**NO_NRT)
 def tree_gear_masses(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                      frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow, Dinv, H_up, W,
-                     y, sol, work):
+                     y, sol, work, skip):
     """Each acting gear's J M^-1 J^T through the tree into ``param[g, G_MASS]``: the rate of the gear
     row after a unit impulse along it and the exact tree solve that follows (the response of the
     articulated bodies, not of the free ones). The gear is a Gauss-Seidel row around the tree solve;
@@ -483,7 +491,7 @@ def tree_gear_masses(order, node_joint, node_body, node_parent, joint_type, join
                     acc += (Ja[j, r, c] * dva[c] + Ja[j, r, 3 + c] * dwa[c] + Jb[j, r, c] * dvb[c]
                             + Jb[j, r, 3 + c] * dwb[c])
                 y[kk, r] = -acc
-        _substitute(order, node_parent, Dinv, H_up, W, y, sol, work)
+        _substitute(order, node_parent, Dinv, H_up, W, y, sol, work, skip)
         for kk in range(n_nodes):
             i = node_body[kk]
             if i < 0:
@@ -496,48 +504,13 @@ def tree_gear_masses(order, node_joint, node_body, node_parent, joint_type, join
 
 
 @njit(**NO_NRT)
-def _keep_groups(group_change, joint_group, body_group, v, omega, linear_impulse, angular_impulse, axial_impulse,
-                 keep_v, keep_omega, keep_linear, keep_angular, keep_axial, store):
-    """``store``: copy the bodies' v, omega and the joints' impulses of the groups marked -1 in
-    ``group_change`` (those settling now) into ``keep_*``; else copy ``keep_*`` back for the groups
-    marked 1 (``tree_sweeps_kernel``: the groups that settled)."""
-    for i in range(body_group.shape[0]):
-        g = body_group[i]
-        if g < 0 or group_change[g] != (-1.0 if store else 1.0):
-            continue
-        for c in range(3):
-            if store:
-                keep_v[i, c] = v[i, c]
-                keep_omega[i, c] = omega[i, c]
-            else:
-                v[i, c] = keep_v[i, c]
-                omega[i, c] = keep_omega[i, c]
-    for j in range(joint_group.shape[0]):
-        g = joint_group[j]
-        if g < 0 or group_change[g] != (-1.0 if store else 1.0):
-            continue
-        for c in range(3):
-            if store:
-                keep_linear[j, c] = linear_impulse[j, c]
-                keep_angular[j, c] = angular_impulse[j, c]
-            else:
-                linear_impulse[j, c] = keep_linear[j, c]
-                angular_impulse[j, c] = keep_angular[j, c]
-        for c in range(axial_impulse.shape[1]):
-            if store:
-                keep_axial[j, c] = axial_impulse[j, c]
-            else:
-                axial_impulse[j, c] = keep_axial[j, c]
-
-
-@njit(**NO_NRT)
 def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
                        local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
                        inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent,
                        # scratch
                        Ja, Jb, C, nrow, D, Dinv, H_up, W, y, sol, work, before,
-                       joint_group, body_group, group_change, group_largest, group_done, keep_v, keep_omega,
-                       keep_linear, keep_angular, keep_axial,
+                       joint_group, body_group, group_change, group_largest, group_done, node_skip, sub_order,
+                       sub_bounds,
                        # outputs
                        v, omega, linear_impulse, angular_impulse, axial_impulse):
     """One solve of the tree method: ``iterations`` sweeps, each the Gauss-Seidel rows (the
@@ -557,13 +530,14 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
     ``solve_joints_kernel``'s, its bias rate the tree solve's.
 
     The test is made per group of joints that share moving bodies (``joint_group`` (J,),
-    ``body_group`` (N,): ``JointSolver._groups``; -1 outside any): a group that has settled is left
-    as it was then (its bodies' v, omega and its joints' impulses kept in ``keep_*`` and put back at
-    the end; the other groups' sweeps touch nothing of it), so each robot of a world ends as it
-    would alone. With one test over the world, a robot's sweep count, and so its last bits,
-    followed the other robots' limits (the copies of a vector environment, ``tumble.envs``, drifted
-    1e-7 from their single environments in one step, measured). ``group_change``,
-    ``group_largest`` (G,) float and ``group_done`` (G,) bool scratch.
+    ``body_group`` (N,): ``JointSolver._groups``; -1 outside any): the sweeps after a group has
+    settled leave it out (its joints out of the Gauss-Seidel order ``sub_order`` (J,) cut by
+    ``sub_bounds`` (as ``bounds``), its tree's nodes ``node_skip`` (n,) in the substitution), so
+    each robot of a world ends as it would alone, and a robot that settled costs nothing more.
+    With one test over the world, a robot's sweep count, and so its last bits, followed the other
+    robots' limits (the copies of a vector environment, ``tumble.envs``, drifted 1e-7 from their
+    single environments in one step, measured), and every robot was swept as long as the slowest.
+    ``group_change``, ``group_largest`` (G,) float and ``group_done`` (G,) bool scratch.
     """
     L = limits.shape[0]
     G = group_done.shape[0]
@@ -572,6 +546,13 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
         sweeps = max(iterations, max_sweeps)
     for g in range(G):
         group_done[g] = False
+    n_nodes = node_order.shape[0]
+    for k in range(n_nodes):
+        node_skip[k] = False
+    for idx in range(order.shape[0]):
+        sub_order[idx] = order[idx]
+    for p in range(bounds.shape[0]):
+        sub_bounds[p] = bounds[p]
     for sweep in range(sweeps):
         if sweep >= iterations:
             for g in range(G):
@@ -590,15 +571,25 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
                 if not group_done[g]:
                     if group_change[g] <= tolerance * max(group_largest[g], 1e-9):
                         group_done[g] = True
-                        group_change[g] = -1.0  # marks the groups that settle at this sweep
                         newly = True
                     else:
                         settled = False
-            if newly and G > 1:  # kept as they are now: as they would end alone
-                _keep_groups(group_change, joint_group, body_group, v, omega, linear_impulse, angular_impulse,
-                             axial_impulse, keep_v, keep_omega, keep_linear, keep_angular, keep_axial, True)
             if settled:
                 break
+            if newly:  # the groups settled so far leave the sweeps (the order of the others kept)
+                for k in range(n_nodes):
+                    j = node_joint[k]
+                    g = joint_group[j] if j >= 0 else body_group[node_body[k]]
+                    node_skip[k] = g >= 0 and group_done[g]
+                count = 0
+                for p in range(bounds.shape[0] - 1):
+                    for idx in range(bounds[p], bounds[p + 1]):
+                        j = order[idx]
+                        g = joint_group[j]
+                        if g < 0 or not group_done[g]:
+                            sub_order[count] = j
+                            count += 1
+                    sub_bounds[p + 1] = count
         if L > 0 and sweep >= iterations - 1:
             for j in range(before.shape[0]):
                 for c in range(L):
@@ -611,13 +602,13 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
                                Dinv, H_up, W, work)
             tree_gear_masses(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
                              local_b, frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow,
-                             Dinv, H_up, W, y, sol, work)
+                             Dinv, H_up, W, y, sol, work, node_skip)
         # COMPILE: one sweep as an int64, not the literal 1: the literal compiled the joint sweeps a
         # second time beside the Gauss-Seidel solve's (their compile 27.8 -> 13.9 s in robot_arm's
         # first run; docs/benchmarks.md "compile time")
-        solve_joints_serial_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
-                                   param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft,
-                                   np.int64(1), v, omega, linear_impulse, angular_impulse, axial_impulse)
+        solve_joints_serial_kernel(sub_order, sub_bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a,
+                                   frame_b, param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h,
+                                   soft, np.int64(1), v, omega, linear_impulse, angular_impulse, axial_impulse)
         for g in range(joint_type.shape[0]):
             # each gear on velocities the tree solve has just made consistent, with its mass through the
             # tree: block Gauss-Seidel on the gears' Schur complement, which converges. Solved beside the
@@ -627,16 +618,10 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             if joint_type[g] == JOINT_GEAR and gear_on(g, param, enabled):
                 tree_substitute_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b,
                                        local_a, local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow,
-                                       Dinv, H_up, W, y, sol, work, v, omega, linear_impulse, angular_impulse,
-                                       axial_impulse)
+                                       Dinv, H_up, W, y, sol, work, node_skip, v, omega, linear_impulse,
+                                       angular_impulse, axial_impulse)
                 solve_gear(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R,
                            inv_mass, I_inv, soft, v, omega, axial_impulse)
         tree_substitute_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
                                local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow, Dinv, H_up, W,
-                               y, sol, work, v, omega, linear_impulse, angular_impulse, axial_impulse)
-    # the groups that settled, back as they were then (one group: it ended the loop as it settled)
-    if G > 1:
-        for g in range(G):
-            group_change[g] = 1.0 if group_done[g] else 0.0
-        _keep_groups(group_change, joint_group, body_group, v, omega, linear_impulse, angular_impulse,
-                     axial_impulse, keep_v, keep_omega, keep_linear, keep_angular, keep_axial, False)
+                               y, sol, work, node_skip, v, omega, linear_impulse, angular_impulse, axial_impulse)

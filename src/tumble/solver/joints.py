@@ -555,7 +555,7 @@ class JointSolver:
             "Ja": np.zeros((J, 6, 6)), "Jb": np.zeros((J, 6, 6)), "C": np.zeros((J, 6)),
             "nrow": np.zeros(J, dtype=np.int64), "D": np.zeros((n, 6, 6)), "Dinv": np.zeros((n, 6, 6)),
             "H_up": np.zeros((n, 6, 6)), "W": np.zeros((n, 6, 6)), "y": np.zeros((n, 6)), "sol": np.zeros((n, 6)),
-            "work": np.zeros((6, 6)),
+            "work": np.zeros((6, 6)), "node_skip": np.zeros(n, dtype=bool), "sub_order": np.zeros(J, dtype=np.int64),
         }
 
     def _groups(self, moving: np.ndarray):
@@ -594,8 +594,7 @@ class JointSolver:
             label = {0: 0} if len(label) else {}
         G = len(label)
         self.joint_group, self.body_group = joint_group, body_group
-        self._group_scratch = (np.zeros(G), np.zeros(G), np.zeros(G, dtype=bool), np.zeros((nb, 3)),
-                               np.zeros((nb, 3)), np.zeros((J, 3)), np.zeros((J, 3)), np.zeros((J, AXIAL_COUNT)))
+        self._group_scratch = (np.zeros(G), np.zeros(G), np.zeros(G, dtype=bool))
 
     # -- stages --------------------------------------------------------------------------
     def prepare(self, world, h: float, inv_mass: np.ndarray | None = None, I_inv: np.ndarray | None = None,
@@ -703,7 +702,7 @@ class JointSolver:
         """The tree method's arrays for ``tree_sweeps_kernel``: (limit columns, TREE_LIMIT_SWEEPS,
         LIMIT_TOLERANCE, node_order, node_joint, node_body, node_parent, then its scratch: Ja, Jb,
         C, nrow, D, Dinv, H_up, W, y, sol, work, before, then the settling groups: joint_group,
-        body_group and their scratch, ``_groups``). Empty arrays of the same types when the
+        body_group and their scratch (``_groups``), node_skip, sub_order, sub_bounds). Empty arrays of the same types when the
         method is not the tree's (``soft_step.substeps_kernel`` takes them either way)."""
         if self.settings.method != "tree":
             if self.__dict__.get("_no_tree") is None:
@@ -712,8 +711,8 @@ class JointSolver:
                 self._no_tree = (z(0, i64), TREE_LIMIT_SWEEPS, LIMIT_TOLERANCE, z(0, i64), z(0, i64), z(0, i64),
                                  z(0, i64), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z(0, i64), z((0, 6, 6)),
                                  z((0, 6, 6)), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z((0, 6)), z((6, 6)), z((0, 0)),
-                                 z(0, i64), z(0, i64), z(0), z(0), z(0, dtype=bool), z((0, 3)), z((0, 3)), z((0, 3)),
-                                 z((0, 3)), z((0, AXIAL_COUNT)))
+                                 z(0, i64), z(0, i64), z(0), z(0), z(0, dtype=bool), z(0, dtype=bool), z(0, i64),
+                                 z(2, i64))
             return self._no_tree
         if self._parts is not None:
             return self._parts  # PERF: once a step (prepare clears it): it was 10 us a solve, 8 solves a step
@@ -725,7 +724,8 @@ class JointSolver:
         self._parts = (limits, TREE_LIMIT_SWEEPS, LIMIT_TOLERANCE, self.node_order, self.node_joint, self.node_body,
                        self.node_parent, sc["Ja"], sc["Jb"], sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"],
                        sc["W"], sc["y"], sc["sol"], sc["work"], before, self.joint_group, self.body_group,
-                       *self._group_scratch)
+                       *self._group_scratch, sc["node_skip"], sc["sub_order"],
+                       np.zeros(len(self.sweep.bounds), dtype=np.int64))
         return self._parts
 
     def _limit_columns(self) -> np.ndarray:
