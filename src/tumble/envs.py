@@ -12,19 +12,20 @@ on the other (sim-to-sim transfer), or trained on tumble alone.
   ``data.ctrl``, a ``Box`` over their ``ctrlrange``; ``Robot.set_controls``), the observation
   (qpos, qvel) in MuJoCo's layout (``Robot.kinematics``), one ``step`` is ``frame_skip`` steps of
   ``timestep`` (the file's ``<option timestep>``, MuJoCo's 0.002 s when it has none). A subclass
-  says what the task is: ``observe`` (the observation) and ``evaluate`` (reward, terminated, info).
-- ``InvertedPendulum``: Gymnasium's ``InvertedPendulum-v5`` task on Gymnasium's own model file
-  (``inverted_pendulum.xml``, read from the installed gymnasium): reward 1 while the pole is
-  within 0.2 rad of upright, terminated past it. Registered as ``tumble/InvertedPendulum-v5``
-  (1000 steps a episode, as Gymnasium's): ``gymnasium.make("tumble/InvertedPendulum-v5")`` once
-  ``tumble.envs`` is imported.
+  says what the task is: ``observe`` (the observation), ``evaluate`` (reward, terminated, info)
+  and, if it resets otherwise, ``draw_start``.
+- ``InvertedPendulum`` and ``Reacher``: Gymnasium's ``InvertedPendulum-v5`` and ``Reacher-v5``
+  tasks on Gymnasium's own model files (read from the installed gymnasium), registered as
+  ``tumble/InvertedPendulum-v5`` and ``tumble/Reacher-v5`` with Gymnasium's episode limits:
+  ``gymnasium.make("tumble/Reacher-v5")`` once ``tumble.envs`` is imported.
+- ``ModelVectorEnv(env_class, num_envs)``: the copies in one World, one step for all
+  (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``).
 
-Reset: ``reset(seed=s)`` puts the simulation back to its state when the environment was made
-(``Simulator.restore_state``: the joint solver's warm start too, so an episode does not depend on
-the episodes before it) and then at ``init_qpos`` and ``init_qvel`` plus uniform noise of
+Reset: ``reset(seed=s)`` puts the model at ``init_qpos`` and ``init_qvel`` plus uniform noise of
 ``reset_noise_scale``, drawn as Gymnasium's MuJoCo environments draw it (qpos first, then qvel, from
 ``self.np_random``): with the same seed, tumble's environment and Gymnasium's start from the same
-state to the bit. The same seed and the same actions give the same episode, bit for bit
+state. ``Kinematics.set_state`` clears the joint solver's warm start of the model's joints, so the
+same seed and the same actions give the same episode, bit for bit, whatever episodes came before
 (tests/test_envs.py).
 
 What differs from MuJoCo's environment is the engine: tumble's step (its joint solve in 4
@@ -51,6 +52,7 @@ except ImportError:  # pragma: no cover - the message is the point
 from .errors import InputError
 
 __all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "Reacher", "gymnasium_asset"]
+
 
 def gymnasium_asset(name: str) -> str:
     """The path of one of Gymnasium's MuJoCo model files (``gymnasium/envs/mujoco/assets/NAME``),
@@ -84,24 +86,25 @@ class _Copies:
 
         from .mjcf import read_option_gravity
 
-        gravity = tuple(read_option_gravity(model))
-        probe = tb.World(gravity=gravity)
-        tb.load_mjcf(probe, model)
-        self.touches = _touches_itself(probe)
-        if n > 1 and self.touches:
-            raise InputError("its geoms can touch each other: copies of it in one world would touch each "
-                             "other too; run gymnasium.vector.SyncVectorEnv over ModelEnv instead", "model", str(model))
-        # a model that cannot touch itself touches nothing (the world holds it alone): its bodies are
-        # given a filter that meets no body's, so copies pass through each other and the step skips
-        # the collision stages (``collision.filter.live_filters``); Gymnasium's pendulums (MuJoCo
-        # contype 0). Category and mask not 0: rays (the camera's) still see them.
-        nothing = None if self.touches else tb.CollisionFilter(category=1 << 31, mask=1 << 30)
-        self.world = tb.World(gravity=gravity)
+        self.world = tb.World(gravity=tuple(read_option_gravity(model)))
         # no sleeping, as MuJoCo: a body at rest short of where its drives pull it would stay there
         # (measured: a position servo holding a pendulum against gravity fell asleep 1.3 mrad short)
         self.world.sleeping = False
-        self.robots = [tb.load_mjcf(self.world, model, name=None if n == 1 else f"env{k}", collision_filter=nothing)
-                       for k in range(n)]
+        self.robots = [tb.load_mjcf(self.world, model, name=None if n == 1 else "env0")]
+        self.touches = _touches_itself(self.world)  # the world holds the first copy alone
+        if n > 1 and self.touches:
+            raise InputError("its geoms can touch each other: copies of it in one world would touch each "
+                             "other too; run gymnasium.vector.SyncVectorEnv over ModelEnv instead", "model", str(model))
+        if not self.touches:
+            # a model that cannot touch itself touches nothing (the world holds it alone): its bodies
+            # get a filter that meets no body's, so copies pass through each other and the step skips
+            # the collision stages (``collision.filter.live_filters``); Gymnasium's pendulums (MuJoCo
+            # contype 0). Category and mask not 0: rays (the camera's) still see them.
+            nothing = tb.CollisionFilter(category=1 << 31, mask=1 << 30)
+            for i in range(self.world.body_count):
+                self.world.body(i).collision_filter = nothing
+            self.robots += [tb.load_mjcf(self.world, model, name=f"env{k}", collision_filter=nothing)
+                            for k in range(1, n)]
         if joint_settings is None:
             # the joints swept in one order on one thread, whatever their number: a copy's joints then
             # go in the single model's order (spatial slabs, JointSettings.partitions, would put some
@@ -131,9 +134,10 @@ class _Copies:
     def _fast_path(self, robot, kin):
         """The arrays of the fast path (class docstring), or None when the model does not take it."""
         from .joints import P_EFFORT
+        from .kinematics import ONE_DOF
 
         coordinates = kin.coordinates
-        if not all(c.kind in ("revolute", "continuous", "prismatic") for c in coordinates):
+        if not all(c.kind in ONE_DOF for c in coordinates):
             return None
         acts = [robot.actuators[name] for name in self.actuators]
         driven = [a.joint for a in acts]
@@ -164,10 +168,9 @@ class _Copies:
         if solver is None:
             return None, None
         if self._solver_rows[0] is not solver:
-            row = {id(rec): j for j, rec in enumerate(solver._joints)}
             fast = self._fast
-            self._solver_rows = (solver, (np.array([[row[id(rec)] for rec in r] for r in fast["driven"]], dtype=np.int64),
-                                          np.array([[row[id(rec)] for rec in r] for r in fast["coordinate"]], dtype=np.int64)))
+            self._solver_rows = (solver, tuple(np.array([[solver.index(rec) for rec in r] for r in fast[part]],
+                                                        dtype=np.int64) for part in ("driven", "coordinate")))
         return solver, self._solver_rows[1]
 
     def set_controls(self, u: np.ndarray):

@@ -400,6 +400,14 @@ TREE_LIMIT_SWEEPS = 32
 LIMIT_TOLERANCE = 1e-2
 
 
+def _root(parent: list, i: int) -> int:
+    """The root of ``i`` in the union-find forest ``parent`` (halving the path as it goes)."""
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
 class JointSolver:
     """The joints of one World as arrays, and the accumulated impulses between steps.
 
@@ -489,10 +497,7 @@ class JointSolver:
         parent = list(range(nb + 1))
 
         def find(i):
-            while parent[i] != i:
-                parent[i] = parent[parent[i]]
-                i = parent[i]
-            return i
+            return _root(parent, i)
 
         def node_of(i):
             return i if i >= 0 and moving[i] else ground
@@ -568,10 +573,7 @@ class JointSolver:
         parent = list(range(nb))
 
         def find(i):
-            while parent[i] != i:
-                parent[i] = parent[parent[i]]
-                i = parent[i]
-            return i
+            return _root(parent, i)
 
         ends = []
         for j in range(J):
@@ -702,8 +704,9 @@ class JointSolver:
         """The tree method's arrays for ``tree_sweeps_kernel``: (limit columns, TREE_LIMIT_SWEEPS,
         LIMIT_TOLERANCE, node_order, node_joint, node_body, node_parent, then its scratch: Ja, Jb,
         C, nrow, D, Dinv, H_up, W, y, sol, work, before, then the settling groups: joint_group,
-        body_group and their scratch (``_groups``), node_skip, sub_order, sub_bounds). Empty arrays of the same types when the
-        method is not the tree's (``soft_step.substeps_kernel`` takes them either way)."""
+        body_group and their scratch (``_groups``), node_skip, sub_order, sub_bounds). Empty arrays
+        of the same types when the method is not the tree's (``soft_step.substeps_kernel`` takes
+        them either way)."""
         if self.settings.method != "tree":
             if self.__dict__.get("_no_tree") is None:
                 z = np.zeros
