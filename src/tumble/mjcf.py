@@ -38,7 +38,9 @@ What maps to what:
   ``axisangle`` angles are degrees unless ``<compiler angle="radian">`` (MuJoCo's default).
   The joint's coordinate is MuJoCo's qpos: its ``ref`` (default 0) at the model's pose (qpos0).
 - ``<compiler inertiafromgeom>``: "auto" (the default: the ``<inertial>`` where there is one),
-  "true" (the geoms' where the body has any), "false" (never).
+  "true" (the geoms' where the body has any), "false" (never). ``<compiler settotalmass>``
+  (positive): every body's mass and inertia scaled by one factor to that total (Gymnasium's
+  half cheetah: 14 kg; read since session 30, the cheetah weighed 21.2 kg before).
 - ``<equality>``: ``connect`` (``body1``, ``body2`` or the world, ``anchor`` in body1's frame) a
   ``BallJoint`` closing a loop, ``weld`` a ``FixedJoint`` keeping the model's relative pose, both
   taken at the model's pose (MuJoCo's qpos0) before ``joint_positions`` places the bodies;
@@ -220,6 +222,8 @@ class _Reader:
         self.inertiafromgeom = c.get("inertiafromgeom", "auto")
         if self.inertiafromgeom not in ("auto", "true", "false"):
             raise InputError(f"expected auto, true or false, got {self.inertiafromgeom!r}", "compiler.inertiafromgeom")
+        # MuJoCo's settotalmass: when positive, every body's mass and inertia scaled so that they add up to it
+        self.settotalmass = float(_floats(c.get("settotalmass", "-1"), "compiler.settotalmass", (1,))[0])
         self.meshdir = path.parent / c.get("meshdir", c.get("assetdir", ""))
         self.hfields: dict = {}  # name: (heights, size, base) of <asset><hfield> (mjcf_hfield.read_hfields)
         self.classes: dict[str, tuple] = {}  # name: (parent name or None, {tag: attributes})
@@ -457,6 +461,8 @@ def _read(path: Path) -> MjcfModel:
     counter = [0]
     for b, cls, frame in framed(reader, worldbody, ("body",), "main", "worldbody"):
         _body(reader, b, "world", cls, np.zeros(3), out, meshes, names, joint_names, counter, frame)
+    if reader.settotalmass > 0.0:
+        _set_total_mass(out, reader.settotalmass)
     _tendons(reader, root, out, joint_names)
     _actuators(reader, root, out, joint_names)
     _equalities(reader, root, out, names)
@@ -473,6 +479,20 @@ def _read(path: Path) -> MjcfModel:
                     raise InputError(f"unknown body {body!r}", f"contact.exclude.{role}")
             out.excluded.append(pair)
     return out
+
+
+def _set_total_mass(out: MjcfModel, total: float):
+    """``<compiler settotalmass>``: every link's mass and inertia times one factor, so that the model's
+    bodies weigh ``total`` kg (MuJoCo's ``mj_setTotalmass``; the virtual links between the joints
+    of one body are not MuJoCo's bodies: left out of the sum, scaled with their body)."""
+    links = out.model.links
+    present = sum(link.mass for name, link in links.items() if name != "world" and name not in out.virtual)
+    if not present > 0.0:
+        raise InputError("the model has no mass to scale", "compiler.settotalmass")
+    factor = total / present
+    for link in links.values():
+        link.mass *= factor
+        link.inertia = link.inertia * factor
 
 
 def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfModel, meshes, names, joint_names,
