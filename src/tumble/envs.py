@@ -51,7 +51,8 @@ except ImportError:  # pragma: no cover - the message is the point
 
 from .errors import InputError
 
-__all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "Reacher", "gymnasium_asset"]
+__all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "Reacher", "HalfCheetah", "Hopper", "Walker2d",
+           "gymnasium_asset"]
 
 
 def gymnasium_asset(name: str) -> str:
@@ -335,6 +336,16 @@ class ModelEnv(gymnasium.Env):
         n = len(observation)
         return np.zeros(n), np.zeros(n, dtype=bool), {}
 
+    def remember(self, qpos: np.ndarray, qvel: np.ndarray):
+        """Called with the copies' ``qpos`` (n, nq) and ``qvel`` (n, nv) before each step, for a task
+        whose reward compares the step's start with its end (a runner's forward speed, as
+        Gymnasium's locomotion tasks measure it: the root's x moved over ``dt``): nothing here."""
+
+    def reset_info(self, qpos: np.ndarray, qvel: np.ndarray) -> dict:
+        """The info {key: (n,)} that ``reset`` returns for copies starting at ``qpos`` (n, nq),
+        ``qvel`` (n, nv): none here."""
+        return {}
+
     # ------------------------------------------------------------------ Gymnasium's API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """The model at ``init_qpos`` and ``init_qvel`` plus the reset noise (module docstring
@@ -342,7 +353,8 @@ class ModelEnv(gymnasium.Env):
         super().reset(seed=seed)
         qpos, qvel = self.draw_start(self.np_random)
         self._copies.set_states([0], qpos[None], qvel[None])
-        return self.observe(qpos[None], qvel[None], self._copies.link_origins)[0], {}
+        info = {k: v[0].item() for k, v in self.reset_info(qpos[None], qvel[None]).items()}
+        return self.observe(qpos[None], qvel[None], self._copies.link_origins)[0], info
 
     def set_state(self, qpos, qvel):
         """Put the model at ``qpos`` (nq,) moving at ``qvel`` (nv,) (MujocoEnv's ``set_state``)."""
@@ -353,6 +365,7 @@ class ModelEnv(gymnasium.Env):
         terminated, truncated (always False: a ``TimeLimit`` wrapper truncates), info)."""
         u = _check_actions(np.asarray(action)[None], 1, len(self.actuators))
         self._copies.set_controls(u)
+        self.remember(*self._copies.state())
         self.sim.step(self.frame_skip)
         obs = self.observe(*self._copies.state(), self._copies.link_origins)
         reward, terminated, info = self.evaluate(obs, u)
@@ -435,6 +448,148 @@ class Reacher(ModelEnv):
         reward_ctrl = -np.square(action).sum(axis=1)
         return reward_dist + reward_ctrl, np.zeros(len(observation), dtype=bool), \
             {"reward_dist": reward_dist, "reward_ctrl": reward_ctrl}
+
+
+class _Runner(ModelEnv):
+    """Gymnasium's planar runners (``HalfCheetah-v5``, ``Hopper-v5``, ``Walker2d-v5``): a body on
+    the file's root joints (a slide along x, a slide along z, a hinge about y) and legs of hinges
+    driven by motors, running along x on the floor. Observation: qpos without the root's x (v5's
+    ``exclude_current_positions_from_observation=True``; False keeps it) then qvel, clipped to
+    +-``velocity_clip`` (Hopper and Walker2d: 10; HalfCheetah: none). Reward: ``forward_reward_weight``
+    x the root's x speed over the step ((x after - x before) / dt, as Gymnasium measures it), less
+    ``ctrl_cost_weight`` x |action|^2, plus ``healthy_reward`` while healthy; a runner with a
+    ``healthy_z_range`` is healthy while the root's z and pitch (qpos[1], qpos[2]) lie strictly
+    within their ranges (and, with ``healthy_state_range``, qpos[2:] and qvel within it: the
+    hopper's), and is terminated when not (``terminate_when_unhealthy``). ``info``: v5's keys."""
+
+    velocity_clip = None
+    noise = "uniform"  # the reset's qvel noise: "uniform" +-scale, or "normal" scale x N(0, 1) (the cheetah's)
+
+    def __init__(self, asset: str, *, frame_skip: int, forward_reward_weight: float = 1.0,
+                 ctrl_cost_weight: float, healthy_reward: float = 1.0, terminate_when_unhealthy: bool = True,
+                 healthy_z_range=None, healthy_angle_range=None, healthy_state_range=None,
+                 reset_noise_scale: float, exclude_current_positions_from_observation: bool = True, **kwargs):
+        for key, value in (("forward_reward_weight", forward_reward_weight), ("ctrl_cost_weight", ctrl_cost_weight),
+                           ("healthy_reward", healthy_reward)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
+                raise InputError(f"must be a finite number, got {value!r}", key)
+        self.forward_reward_weight = float(forward_reward_weight)
+        self.ctrl_cost_weight = float(ctrl_cost_weight)
+        self.healthy_reward = float(healthy_reward)
+        self.terminate_when_unhealthy = bool(terminate_when_unhealthy)
+        self.healthy_z_range = _range(healthy_z_range, "healthy_z_range")
+        self.healthy_angle_range = _range(healthy_angle_range, "healthy_angle_range")
+        self.healthy_state_range = _range(healthy_state_range, "healthy_state_range")
+        self.exclude_current_positions = bool(exclude_current_positions_from_observation)
+        self._x_before = None
+        super().__init__(gymnasium_asset(asset), frame_skip=frame_skip, reset_noise_scale=reset_noise_scale, **kwargs)
+
+    def draw_start(self, rng):
+        s = self.reset_noise_scale
+        qpos = self.init_qpos + rng.uniform(low=-s, high=s, size=len(self.init_qpos))
+        if self.noise == "normal":
+            qvel = self.init_qvel + s * rng.standard_normal(len(self.init_qvel))
+        else:
+            qvel = self.init_qvel + rng.uniform(low=-s, high=s, size=len(self.init_qvel))
+        return qpos, qvel
+
+    def observe(self, qpos, qvel, links=None):
+        self._state = (qpos, qvel)  # for evaluate: the root's x and z are not all in the observation
+        position = qpos[:, 1:] if self.exclude_current_positions else qpos
+        velocity = qvel if self.velocity_clip is None else np.clip(qvel, -self.velocity_clip, self.velocity_clip)
+        return np.concatenate([position, velocity], axis=1)
+
+    def remember(self, qpos, qvel):
+        self._x_before = qpos[:, 0].copy()
+
+    def healthy(self, qpos, qvel) -> np.ndarray:
+        """(n,) bool: whether each copy is healthy (class docstring)."""
+        ok = np.ones(len(qpos), dtype=bool)
+        for values, bounds in ((qpos[:, 1:2], self.healthy_z_range), (qpos[:, 2:3], self.healthy_angle_range),
+                               (np.concatenate([qpos[:, 2:], qvel], axis=1), self.healthy_state_range)):
+            if bounds is not None:
+                ok &= np.all((bounds[0] < values) & (values < bounds[1]), axis=1)
+        return ok
+
+    def evaluate(self, observation, action):
+        qpos, qvel = self._state
+        x_velocity = (qpos[:, 0] - self._x_before) / self.dt
+        forward = self.forward_reward_weight * x_velocity
+        ctrl = self.ctrl_cost_weight * np.square(action).sum(axis=1)
+        info = {"x_position": qpos[:, 0].copy(), "x_velocity": x_velocity, "reward_forward": forward,
+                "reward_ctrl": -ctrl}
+        if self.healthy_z_range is None:
+            return forward - ctrl, np.zeros(len(qpos), dtype=bool), info
+        healthy = self.healthy(qpos, qvel)
+        survive = healthy * self.healthy_reward
+        info.update(reward_survive=survive, z_distance_from_origin=qpos[:, 1] - self.init_qpos[1])
+        terminated = ~healthy if self.terminate_when_unhealthy else np.zeros(len(qpos), dtype=bool)
+        return forward + survive - ctrl, terminated, info
+
+    def reset_info(self, qpos, qvel):
+        info = {"x_position": qpos[:, 0].copy()}
+        if self.healthy_z_range is not None:
+            info["z_distance_from_origin"] = qpos[:, 1] - self.init_qpos[1]
+        return info
+
+
+def _range(value, key: str):
+    """None, or (low, high) of two numbers with low < high (+-inf allowed)."""
+    if value is None:
+        return None
+    try:
+        low, high = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise InputError(f"expected (low, high), got {value!r}", key) from None
+    if np.isnan(low) or np.isnan(high) or not low < high:
+        raise InputError(f"expected low < high, got {value!r}", key)
+    return low, high
+
+
+class HalfCheetah(_Runner):
+    """Gymnasium's ``HalfCheetah-v5`` stepped by tumble, on its ``half_cheetah.xml`` (14 kg, six
+    motors of gear 120 to 30 on sprung, damped hinges with armature 0.1; timestep 0.01 s,
+    ``frame_skip`` 5): reward the forward speed less 0.1 |action|^2, never terminated (1000 steps an
+    episode); reset noise 0.1 (qvel's normal). Observation (17,). ``_Runner`` says the rest."""
+
+    noise = "normal"
+
+    def __init__(self, *, frame_skip: int = 5, ctrl_cost_weight: float = 0.1, reset_noise_scale: float = 0.1,
+                 **kwargs):
+        super().__init__("half_cheetah.xml", frame_skip=frame_skip, ctrl_cost_weight=ctrl_cost_weight,
+                         reset_noise_scale=reset_noise_scale, **kwargs)
+
+
+class Hopper(_Runner):
+    """Gymnasium's ``Hopper-v5`` stepped by tumble, on its ``hopper.xml`` (one leg of three hinges,
+    timestep 0.002 s, ``frame_skip`` 4): reward the forward speed + 1 while healthy - 1e-3
+    |action|^2; healthy while z > 0.7 m, |pitch| < 0.2 rad and every other coordinate and rate
+    within +-100; observation (11,), rates clipped to +-10; reset noise 5e-3. ``_Runner`` says the
+    rest."""
+
+    velocity_clip = 10.0
+
+    def __init__(self, *, frame_skip: int = 4, ctrl_cost_weight: float = 1e-3, healthy_z_range=(0.7, np.inf),
+                 healthy_angle_range=(-0.2, 0.2), healthy_state_range=(-100.0, 100.0),
+                 reset_noise_scale: float = 5e-3, **kwargs):
+        super().__init__("hopper.xml", frame_skip=frame_skip, ctrl_cost_weight=ctrl_cost_weight,
+                         healthy_z_range=healthy_z_range, healthy_angle_range=healthy_angle_range,
+                         healthy_state_range=healthy_state_range, reset_noise_scale=reset_noise_scale, **kwargs)
+
+
+class Walker2d(_Runner):
+    """Gymnasium's ``Walker2d-v5`` stepped by tumble, on its ``walker2d_v5.xml`` (two legs of three
+    hinges, timestep 0.002 s, ``frame_skip`` 4): reward the forward speed + 1 while healthy - 1e-3
+    |action|^2; healthy while 0.8 < z < 2 m and |pitch| < 1 rad; observation (17,), rates clipped
+    to +-10; reset noise 5e-3. ``_Runner`` says the rest."""
+
+    velocity_clip = 10.0
+
+    def __init__(self, *, frame_skip: int = 4, ctrl_cost_weight: float = 1e-3, healthy_z_range=(0.8, 2.0),
+                 healthy_angle_range=(-1.0, 1.0), reset_noise_scale: float = 5e-3, **kwargs):
+        super().__init__("walker2d_v5.xml", frame_skip=frame_skip, ctrl_cost_weight=ctrl_cost_weight,
+                         healthy_z_range=healthy_z_range, healthy_angle_range=healthy_angle_range,
+                         reset_noise_scale=reset_noise_scale, **kwargs)
 
 
 class ModelVectorEnv(VectorEnv):
@@ -521,7 +676,10 @@ class ModelVectorEnv(VectorEnv):
             if s is not None or self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(s)
         qpos, qvel = self._reset_copies(list(range(n)))
-        return self.template.observe(qpos, qvel, self._copies.link_origins), {}
+        info = {}
+        for key, value in self.template.reset_info(qpos, qvel).items():
+            info[key], info["_" + key] = np.asarray(value), np.ones(n, dtype=bool)
+        return self.template.observe(qpos, qvel, self._copies.link_origins), info
 
     def step(self, actions):
         """One step of every copy (``frame_skip`` simulator steps of the one world) with ``actions``
@@ -533,6 +691,7 @@ class ModelVectorEnv(VectorEnv):
         u = _check_actions(actions, n, len(self.template.actuators))
         restart = np.flatnonzero(self._ended)
         self._copies.set_controls(u)
+        self.template.remember(*self._copies.state())
         self.sim.step(self.frame_skip)
         # the copies to restart moved with the others (one world); their start is put back now
         starts = self._reset_copies(restart.tolist()) if len(restart) else None
@@ -568,6 +727,21 @@ def reacher_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
     return ModelVectorEnv(Reacher, num_envs, **kwargs)
 
 
+def half_cheetah_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
+    """``gymnasium.make_vec("tumble/HalfCheetah-v5", num_envs, vectorization_mode="vector_entry_point")``."""
+    return ModelVectorEnv(HalfCheetah, num_envs, **kwargs)
+
+
+def hopper_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
+    """``gymnasium.make_vec("tumble/Hopper-v5", num_envs, vectorization_mode="vector_entry_point")``."""
+    return ModelVectorEnv(Hopper, num_envs, **kwargs)
+
+
+def walker2d_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
+    """``gymnasium.make_vec("tumble/Walker2d-v5", num_envs, vectorization_mode="vector_entry_point")``."""
+    return ModelVectorEnv(Walker2d, num_envs, **kwargs)
+
+
 def _register():
     """``gymnasium.make("tumble/InvertedPendulum-v5")``: the ids tumble adds (1000 steps an
     episode and a reward threshold of 950, as Gymnasium registers ``InvertedPendulum-v5``)."""
@@ -579,6 +753,13 @@ def _register():
         gymnasium.register("tumble/Reacher-v5", entry_point="tumble.envs:Reacher",
                            vector_entry_point="tumble.envs:reacher_vector", max_episode_steps=50,
                            reward_threshold=-3.75)
+    # the runners, with Gymnasium's limits and thresholds for them
+    for name, entry, threshold in (("HalfCheetah", "half_cheetah", 4800.0), ("Hopper", "hopper", 3800.0),
+                                   ("Walker2d", "walker2d", None)):
+        if f"tumble/{name}-v5" not in gymnasium.registry:
+            gymnasium.register(f"tumble/{name}-v5", entry_point=f"tumble.envs:{name}",
+                               vector_entry_point=f"tumble.envs:{entry}_vector", max_episode_steps=1000,
+                               reward_threshold=threshold)
 
 
 _register()

@@ -1,0 +1,187 @@
+"""tumble.envs' runners: Gymnasium's ``HalfCheetah-v5``, ``Hopper-v5`` and ``Walker2d-v5`` stepped by tumble.
+
+Compared with: Gymnasium's own environments stepped by MuJoCo on the same model files (the start
+drawn from a seed, the observation, reward, termination and info of a given state, the motion in
+the air at a converged step), and statics (a cheetah at rest stands on contacts that carry its
+weight)."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium")
+
+import tumble as tb  # noqa: E402
+import tumble.envs as te  # noqa: E402
+
+RUNNERS = [("HalfCheetah", te.HalfCheetah), ("Hopper", te.Hopper), ("Walker2d", te.Walker2d)]
+
+
+def mujoco_runner(name, timestep=None, frame_skip=None):
+    pytest.importorskip("mujoco")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # MuJoCo's deprecation of settotalmass (the cheetah's file)
+        env = gym.make(f"{name}-v5").unwrapped
+    if timestep is not None:
+        env.model.opt.timestep = timestep
+        env.frame_skip = frame_skip
+    return env
+
+
+@pytest.mark.parametrize("name, make", RUNNERS)
+def test_runners_start_where_gymnasiums_start(name, make):
+    """Same seed, same start (qpos uniform, qvel uniform or, for the cheetah, normal, drawn from the
+    env's generator as Gymnasium draws them) and the same reset info. Exact: the same numbers pass
+    through no arithmetic but one subtraction."""
+    ours, theirs = make(), mujoco_runner(name)
+    for seed in (0, 5, 999):
+        o1, i1 = ours.reset(seed=seed)
+        o2, i2 = theirs.reset(seed=seed)
+        assert o1.shape == o2.shape == ours.observation_space.shape
+        assert np.array_equal(o1, o2)
+        assert i1.keys() == i2.keys() and all(i1[k] == i2[k] for k in i1)
+
+
+@pytest.mark.parametrize("name, make", RUNNERS)
+def test_runner_rewards_terminations_and_info_are_gymnasiums(name, make):
+    """The task's arithmetic against Gymnasium's own on the same states: random states before and
+    after a step (some unhealthy: the hopper and walker fallen, tilted, too high, the hopper's
+    rates past 100), random actions; Gymnasium's side is its environment set to the state after
+    (``set_state``) and asked its observation (``_get_obs``), reward (``_get_rew`` of the x speed
+    over ``dt``) and health (``is_healthy``). Equal to 1e-6 relative: Gymnasium squares the float32
+    action in float32 (the control cost), tumble in float64; everything else is the same formula."""
+    ours, theirs = make(), mujoco_runner(name)
+    ours.reset(seed=0)
+    theirs.reset(seed=0)
+    rng = np.random.default_rng(4)
+    nq, nv = len(ours.init_qpos), len(ours.init_qvel)
+    unhealthy = 0
+    for k in range(40):
+        before = ours.init_qpos + rng.normal(0, 0.3, nq)
+        qpos = before + rng.normal(0, 0.1, nq)
+        qvel = rng.normal(0, 4, nv)
+        if k % 4 == 1:
+            qpos[1] = rng.choice([0.5, 2.5, 0.79])
+        if k % 4 == 2:
+            qpos[2] = rng.choice([-1.2, 0.3, 1.1])
+        if k % 8 == 3:
+            qvel[3] = 150.0
+        action = rng.uniform(-1, 1, len(ours.actuators)).astype(np.float32)
+        ours.remember(before[None], qvel[None])
+        obs = ours.observe(qpos[None], qvel[None])
+        reward, terminated, info = ours.evaluate(obs, action[None].astype(np.float64))
+        theirs.set_state(qpos, qvel)
+        expected_obs = theirs._get_obs()
+        x_velocity = (qpos[0] - before[0]) / theirs.dt
+        expected_reward, reward_info = theirs._get_rew(x_velocity, action)
+        healthy = getattr(theirs, "is_healthy", True)
+        unhealthy += not healthy
+        assert np.array_equal(obs[0], expected_obs)
+        assert reward[0] == pytest.approx(expected_reward, rel=1e-6, abs=1e-9)
+        assert bool(terminated[0]) == (not healthy)
+        expected_info = {"x_position": qpos[0], "x_velocity": x_velocity, **reward_info}
+        if name != "HalfCheetah":
+            expected_info["z_distance_from_origin"] = qpos[1] - theirs.init_qpos[1]
+        assert info.keys() == expected_info.keys()
+        for key, value in expected_info.items():
+            assert info[key][0] == pytest.approx(float(value), rel=1e-6, abs=1e-9), key
+    assert unhealthy >= (0 if name == "HalfCheetah" else 10)
+
+
+# the legs' start in the air: the hopper's and walker's hinges rest at their ranges' upper ends
+# (0) in the model's pose, where MuJoCo's soft limits and tumble's rigid ones part at once (a
+# modelling difference no step size removes: measured 0.015 rad in the first 0.02 s); bent
+# halfway they stay clear of the limits for the run
+LEGS = {"HalfCheetah": None, "Hopper": [-0.6, -0.6, 0.0], "Walker2d": [-0.6, -0.6, 0.0, -0.4, -0.8, 0.2]}
+
+
+@pytest.mark.parametrize("name, make", RUNNERS)
+def test_runners_in_the_air_converge_to_mujoco_rk4_at_first_order(name, make):
+    """The model's dynamics without contact: the runner lifted 1 m (its root's z), its legs bent
+    (``LEGS``), moving at random rates, given 0.1 s of random controls (controls within +-0.3: it
+    falls 5 cm, its legs swing short of their ranges on their motors, springs, dampers and armature) against MuJoCo's RK4 at a step of 1e-4 s
+    (converged: its change from 1e-3 s is under 1e-6). tumble's step is first order
+    (docs/joints.md): each halving of the step halves the largest difference of qpos (ratios
+    1.7-2.3 admit first order only). Were a mass, inertia (settotalmass), gear, armature, spring or
+    damper read differently, the difference would stop shrinking. Measured at 0.004 to 0.0005 s:
+    cheetah 2.4e-3 to 3.6e-4 (ratios 1.85-1.91), hopper 8.6e-4 to 1.1e-4 (2.00), walker 4.9e-3 to
+    6.0e-4 (2.00-2.01)."""
+    env_dt = 0.02
+    env = make()
+    actions = np.random.default_rng(6).uniform(-0.3, 0.3, size=(5, len(env.actuators)))
+
+    def run(env, h):
+        env.reset(seed=1)
+        qpos = env.init_qpos.copy()
+        qpos[1] += 1.0
+        if LEGS[name] is not None:
+            qpos[3:] = LEGS[name]
+        env.set_state(qpos, np.random.default_rng(2).normal(0, 0.5, len(env.init_qvel)))
+        out = []
+        for a in actions:
+            env.step(a.astype(np.float32))
+            out.append(env.data.qpos.copy() if hasattr(env, "data") else env._copies.state()[0][0].copy())
+        return np.array(out)
+
+    reference = run(mujoco_runner(name, 1e-4, int(round(env_dt / 1e-4))), 1e-4)
+    # no leg reaches its range (MuJoCo's limits are soft, tumble's rigid: not what this compares)
+    for k, c in enumerate(env.robot.kinematics.coordinates):
+        joint = env.robot.joints[c.name]
+        if joint.lower is not None:
+            assert np.all((reference[:, k] > joint.lower + 0.05) & (reference[:, k] < joint.upper - 0.05)), c.name
+    errors = []
+    for h in (0.004, 0.002, 0.001, 0.0005):
+        errors.append(np.abs(run(make(timestep=h, frame_skip=int(round(env_dt / h))), h) - reference).max())
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+
+
+def test_a_cheetah_at_rest_stands_on_contacts_that_carry_its_weight():
+    """Statics: the cheetah (14 kg by ``settotalmass``) left with zero controls comes to rest on its
+    feet (every rate under 1e-5 after 10 s: measured 4e-7), and the vertical contact forces of
+    the last step carry the weight of every moving body but one: the virtual link between the
+    root's two slides (``mjcf.VIRTUAL_FRACTION`` of the torso, 6.25 g) hangs on the world's x
+    slide, which holds its weight. To 1e-6 relative (at rest the step's impulses balance gravity
+    to the rates' change); and to 0.1 % of MuJoCo's m g (137.34 N: measured 137.40, the virtual
+    links' 0.09 % of mass). Only its feet touch: its legs do not touch each other (MuJoCo's
+    contype/conaffinity)."""
+    env = te.HalfCheetah()
+    env.reset(seed=0)
+    for _ in range(200):
+        obs, *_ = env.step(np.zeros(6, dtype=np.float32))
+    assert np.abs(obs[8:]).max() < 1e-5
+    w = env.world
+    held = w.mass[w.moving].sum() - w.mass[env.robot.links["torso/rootx"].index]
+    contacts = env.sim.contacts()
+    assert contacts.force[:, 2].sum() == pytest.approx(held * 9.81, rel=1e-6)
+    assert contacts.force[:, 2].sum() == pytest.approx(14.0 * 9.81, rel=1e-3)
+    touching = set(contacts.names_a.tolist()) | set(contacts.names_b.tolist())
+    assert touching == {"cheetah/world/floor", "cheetah/bfoot", "cheetah/ffoot"}
+
+
+@pytest.mark.parametrize("make, key", [
+    (lambda: te.Hopper(healthy_z_range=(1.0, 0.5)), "healthy_z_range"),
+    (lambda: te.Walker2d(healthy_angle_range="wide"), "healthy_angle_range"),
+    (lambda: te.HalfCheetah(ctrl_cost_weight=float("nan")), "ctrl_cost_weight"),
+    (lambda: te.HalfCheetah(forward_reward_weight=True), "forward_reward_weight"),
+    (lambda: te.Hopper(frame_skip=0), "frame_skip"),
+])
+def test_bad_runner_settings_are_one_line(make, key):
+    """Bad task settings: ``tb.InputError`` with one line naming the key."""
+    with pytest.raises(tb.InputError) as err:
+        make()
+    assert f"{key}: " in str(err.value) and "\n" not in str(err.value)
+
+
+def test_runners_pass_gymnasiums_env_checker_and_register():
+    """Gymnasium's own checks of the API pass, and ``gymnasium.make("tumble/NAME-v5")`` makes each
+    with Gymnasium's episode limit (1000 steps)."""
+    from gymnasium.utils.env_checker import check_env
+
+    for name, make in RUNNERS:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            check_env(make())
+        env = gym.make(f"tumble/{name}-v5")
+        assert isinstance(env.unwrapped, make) and env.spec.max_episode_steps == 1000
