@@ -277,15 +277,22 @@ def test_render_draws_the_pendulum():
     assert te.InvertedPendulum().render() is None
 
 
-def test_models_that_touch_themselves_are_refused_for_copies_in_one_world():
-    """Copies share one world: a model whose geoms can touch each other (Gymnasium's hopper on its
-    floor) would touch the other copies; refused with one line naming the file. A single
-    environment takes it."""
+def test_copies_of_a_model_that_touches_get_envs_of_their_own_over_one_floor():
+    """Copies share one world: a model whose geoms touch (Gymnasium's hopper: its foot and the
+    floor, its links each other) gets each copy's bodies in an env of their own (``CollisionFilter.
+    env`` k + 1: copies pass through each other) over the first copy's floor (env 0, the others
+    load without theirs: ``load_mjcf(world_geoms=False)``), so each touches the floor and itself
+    as alone (bit for bit: tests/test_envs_runners.py). A single environment takes it as it is."""
     hopper = te.gymnasium_asset("hopper.xml")
-    with pytest.raises(tb.InputError) as err:
-        te.ModelVectorEnv(te.ModelEnv, 2, model=hopper)
-    assert "hopper.xml: model: its geoms can touch each other" in str(err.value)
-    assert "\n" not in str(err.value)
+    venv = te.ModelVectorEnv(te.ModelEnv, 3, model=hopper)
+    w = venv.world
+    floors = [i for i in range(w.body_count) if w.names[i].endswith("world/floor")]
+    assert [w.names[i] for i in floors] == ["env0/world/floor"] and w.collision_filters[floors[0]].env == 0
+    for k, robot in enumerate(venv._copies.robots):
+        assert {w.collision_filters[link.index].env for key, link in robot.links.items()
+                if not key.startswith("world") and w.shapes[link.index] is not None} == {k + 1}
+    a, b = venv._copies.robots[1].links["foot"], venv._copies.robots[2].links["foot"]
+    assert not w.should_collide(a, b) and w.should_collide(a, floors[0])
     env = te.ModelEnv(hopper, frame_skip=4)
     o, _ = env.reset(seed=0)
     assert o.shape == (env.robot.kinematics.nq + env.robot.kinematics.nv,)

@@ -185,3 +185,45 @@ def test_runners_pass_gymnasiums_env_checker_and_register():
             check_env(make())
         env = gym.make(f"tumble/{name}-v5")
         assert isinstance(env.unwrapped, make) and env.spec.max_episode_steps == 1000
+
+
+@pytest.mark.parametrize("name, make", RUNNERS)
+def test_vector_runner_copies_equal_single_envs_bit_for_bit(name, make):
+    """``ModelVectorEnv``'s copy i of a runner is the single environment seeded seed + i, bit for bit,
+    through terminations (the hopper and walker fall under random controls), truncations (30 steps)
+    and autoresets: 4 copies stacked in one spot of one world, each in an env of its own over one
+    floor (tests/test_envs.py), touching only the floor and themselves. A reset copy's contacts
+    start without the warm start of its last episode, in the vector env as in the single one
+    (``Robot._restart_warm_starts``: resetting the copy that owns the shared floor once dropped the
+    floor contacts of every copy, and copy 1 parted from its single env at step 16)."""
+    from tests import test_envs
+
+    venv = gym.make_vec(f"tumble/{name}-v5", num_envs=4, vectorization_mode="vector_entry_point",
+                        max_episode_steps=30)
+    nu = venv.single_action_space.shape[0]
+    episodes = test_envs._compare_vector_with_singles(venv, make, 4, 70, 30, 3, nu, np.random.default_rng(0))
+    assert episodes >= 8
+
+
+def test_an_episode_with_contacts_is_the_same_whatever_came_before():
+    """Reproducible episodes with contacts: a cheetah put on its feet (``set_state`` at a rest pose,
+    touching the floor) and given the same actions repeats its episode bit for bit whether it
+    stood there before or not. The contacts it had before the reset are dropped
+    (``ContactSolver.forget``): kept, they warm-started the new episode's first step with their
+    old impulses (which match the same feet on the same floor), and the episode parted by 3.7
+    (measured, with ``forget`` a no-op)."""
+    env = te.HalfCheetah()
+    env.reset(seed=0)
+    for _ in range(100):
+        env.step(np.zeros(6, dtype=np.float32))
+    rest = env._copies.state()[0][0].copy()
+    actions = np.random.default_rng(5).uniform(-1, 1, size=(20, 6)).astype(np.float32)
+
+    def episode(env):
+        env.reset(seed=11)
+        env.set_state(rest, np.zeros(9))
+        return np.array([env.step(a)[0] for a in actions])
+
+    fresh = episode(te.HalfCheetah())
+    assert env.sim.contacts().body_a.size == 2  # it stood on both feet, at that pose
+    assert np.array_equal(episode(env), fresh)

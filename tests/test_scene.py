@@ -328,7 +328,7 @@ BAD_SCENES = [
     ("negative-stiffness", BODY + '[[forces]]\ntype = "spring"\nbody_a = "a"\nstiffness = -3\n', "forces[0].stiffness", "must be >= 0, got -3"),
     # collision filters and exclusions (collision/filter.py)
     ("filter-unknown-key", body(collision_filter="{ layer = 2 }"), "bodies[0].collision_filter.layer",
-     "unknown key (expected one of category, mask, group)"),
+     "unknown key (expected one of category, mask, group, env)"),
     ("filter-not-table", body(collision_filter="2"), "bodies[0].collision_filter", "expected a table, got 2 (a number)"),
     ("filter-float-mask", body(collision_filter="{ mask = 1.5 }"), "bodies[0].collision_filter.mask", "expected an integer, got 1.5"),
     ("filter-bool-category", body(collision_filter="{ category = true }"), "bodies[0].collision_filter.category",

@@ -14,12 +14,14 @@ on the other (sim-to-sim transfer), or trained on tumble alone.
   ``timestep`` (the file's ``<option timestep>``, MuJoCo's 0.002 s when it has none). A subclass
   says what the task is: ``observe`` (the observation), ``evaluate`` (reward, terminated, info)
   and, if it resets otherwise, ``draw_start``.
-- ``InvertedPendulum`` and ``Reacher``: Gymnasium's ``InvertedPendulum-v5`` and ``Reacher-v5``
-  tasks on Gymnasium's own model files (read from the installed gymnasium), registered as
-  ``tumble/InvertedPendulum-v5`` and ``tumble/Reacher-v5`` with Gymnasium's episode limits:
-  ``gymnasium.make("tumble/Reacher-v5")`` once ``tumble.envs`` is imported.
+- ``InvertedPendulum``, ``Reacher``, ``HalfCheetah``, ``Hopper`` and ``Walker2d``: Gymnasium's
+  ``...-v5`` tasks on Gymnasium's own model files (read from the installed gymnasium), registered
+  as ``tumble/InvertedPendulum-v5`` and so on with Gymnasium's episode limits:
+  ``gymnasium.make("tumble/HalfCheetah-v5")`` once ``tumble.envs`` is imported. The runners
+  (``_Runner``) stand, fall and run on the floor: contacts, in every step.
 - ``ModelVectorEnv(env_class, num_envs)``: the copies in one World, one step for all
-  (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``).
+  (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``); copies that touch
+  things each get an env of their own (``CollisionFilter.env``) over one floor.
 
 Reset: ``reset(seed=s)`` puts the model at ``init_qpos`` and ``init_qvel`` plus uniform noise of
 ``reset_noise_scale``, drawn as Gymnasium's MuJoCo environments draw it (qpos first, then qvel, from
@@ -35,6 +37,7 @@ substeps, docs/joints.md) against MuJoCo's integrator on the same ``timestep``
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import os
 
@@ -69,10 +72,11 @@ class _Copies:
     """``n`` copies of an MJCF model in one World, stepped by one Simulator (``ModelEnv``: 1,
     ``ModelVectorEnv``: many), and the model's controls and coordinates for all copies at once.
 
-    Each copy is loaded at the model's own place: copies whose geoms could touch each other are
-    refused (``n`` > 1), so every copy moves as it would alone. The joint solve treats each joint
-    with its own bodies only, so a copy's bits do not depend on the others
-    (tests/test_envs.py::test_vector_env_copies_equal_single_envs_bit_for_bit).
+    Each copy is loaded at the model's own place. A model that touches nothing gets a filter that
+    meets no body; one that touches (its floor, itself) gets each copy's bodies in an env of their
+    own over the first copy's floor, so every copy moves as it would alone. The joint and contact
+    solves treat each row with its own bodies only, in one order, so a copy's bits do not depend on
+    the others (tests/test_envs.py, tests/test_envs_runners.py: copies equal single environments).
 
     The fast path (every coordinate a hinge or a slider, every actuator on one joint of its own
     without a spring or damper: the motors of Gymnasium's models) writes the controls' efforts
@@ -93,26 +97,45 @@ class _Copies:
         self.world.sleeping = False
         self.robots = [tb.load_mjcf(self.world, model, name=None if n == 1 else "env0")]
         self.touches = _touches_itself(self.world)  # the world holds the first copy alone
-        if n > 1 and self.touches:
-            raise InputError("its geoms can touch each other: copies of it in one world would touch each "
-                             "other too; run gymnasium.vector.SyncVectorEnv over ModelEnv instead", "model", str(model))
+        w = self.world
         if not self.touches:
             # a model that cannot touch itself touches nothing (the world holds it alone): its bodies
             # get a filter that meets no body's, so copies pass through each other and the step skips
             # the collision stages (``collision.filter.live_filters``); Gymnasium's pendulums (MuJoCo
             # contype 0). Category and mask not 0: rays (the camera's) still see them.
             nothing = tb.CollisionFilter(category=1 << 31, mask=1 << 30)
-            for i in range(self.world.body_count):
-                self.world.body(i).collision_filter = nothing
-            self.robots += [tb.load_mjcf(self.world, model, name=f"env{k}", collision_filter=nothing)
-                            for k in range(1, n)]
+            for i in range(w.body_count):
+                w.body(i).collision_filter = nothing
+            self.robots += [tb.load_mjcf(w, model, name=f"env{k}", collision_filter=nothing) for k in range(1, n)]
+        elif n > 1:
+            # copies that touch: each in an env of its own (``CollisionFilter.env``: copy k's bodies
+            # k + 1), over the first copy's floor and other <worldbody> geoms (env 0, met by every
+            # copy; the others load without them). So each copy touches itself and the floor as it
+            # would alone, and the broadphase keeps the copies in lanes (``broadphase.lane_bounds``).
+            first = self.robots[0]
+            statics = {link.index for key, link in first.links.items() if key.startswith("world/")}
+            for i in range(w.body_count):
+                if i not in statics:
+                    w.body(i).collision_filter = dataclasses.replace(w.collision_filters[i], env=1)
+            # the first copy's exclusions between its links and the floor (MuJoCo's contype and
+            # conaffinity): the same pairs for every copy's links
+            names = {link.index: key for key, link in first.links.items()}
+            floor_pairs = [(names[a], names[b]) for a, b in w.excluded_collisions
+                           if (a in statics) != (b in statics) and a in names and b in names]
+            for k in range(1, n):
+                before = w.body_count
+                robot = tb.load_mjcf(w, model, name=f"env{k}", world_geoms=False,
+                                     collision_filter=tb.CollisionFilter(env=k + 1))
+                for i in range(before, w.body_count):  # its links without geoms too (their filter meets nothing)
+                    w.body(i).collision_filter = dataclasses.replace(w.collision_filters[i], env=k + 1)
+                for a, b in floor_pairs:
+                    w.exclude_collision(*(first.links[x] if x.startswith("world/") else robot.links[x] for x in (a, b)))
+                self.robots.append(robot)
         if joint_settings is None:
             # the joints swept in one order on one thread, whatever their number: a copy's joints then
             # go in the single model's order (spatial slabs, JointSettings.partitions, would put some
             # of a chain's joints after the seam's, and the copies' bits would differ from a single
             # environment's); measured faster here too (1024 pendulums: 21.2 against 23.2 ms a step)
-            import dataclasses
-
             from .solver.joints import ACCURATE, JointSettings
 
             # the Simulator's own default otherwise: the tree solve (ACCURATE) for a model with
@@ -120,6 +143,11 @@ class _Copies:
             # soft rows let its target, on two slides through a 3e-6 kg virtual link, run away)
             base = ACCURATE if self.world.exact_joints else JointSettings()
             joint_settings = dataclasses.replace(base, partitions=1)
+        if contact_settings is None:
+            # the contacts too: in one order (slabs would reorder a copy's contacts past a seam)
+            from .solver.contact import SoftStepSettings
+
+            contact_settings = SoftStepSettings(partitions=1)
         self.sim = tb.Simulator(self.world, dt=timestep, joint_settings=joint_settings,
                                 contact_settings=contact_settings)
         robot = self.robots[0]
@@ -226,7 +254,7 @@ class _Copies:
         placed = [self.kinematics[k]._place(qp, qv) for k, qp, qv in zip(copies, qpos, qvel)]
         self.world.update_derived()
         for k, q in zip(copies, placed):
-            self.robots[k]._restart_joints(self.sim, self.kinematics[k].positions(q))
+            self.robots[k]._restart_warm_starts(self.sim, self.kinematics[k].positions(q))
         solver, rows = self._rows() if self._fast is not None else (None, None)
         if solver is not None:  # the readings a step would leave, for ``state``
             solver.position[rows[1][copies]] = qpos
@@ -602,8 +630,9 @@ class ModelVectorEnv(VectorEnv):
 
     Each copy is the single environment of its seed, bit for bit: ``reset(seed=s)`` seeds copy i
     with s + i (SyncVectorEnv's rule), so copy i's episodes are those of ``env(**kwargs)`` reset
-    with seed s + i and given copy i's actions (tests/test_envs.py). Models whose geoms can touch
-    are refused (the copies share one world).
+    with seed s + i and given copy i's actions (tests/test_envs.py). The copies share one world,
+    stacked in one spot: those of a model that touches are kept apart by envs
+    (``CollisionFilter.env``), each touching itself and the one floor.
 
     Args:
         env: the ``ModelEnv`` class (its task: model file, observation, reward, termination).

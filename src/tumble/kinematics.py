@@ -375,7 +375,7 @@ class Kinematics:
         readings count turns from these angles."""
         q = self._place(qpos, qvel)
         self.world.update_derived()
-        self.robot._restart_joints(sim, self.positions(q))
+        self.robot._restart_warm_starts(sim, self.positions(q))
 
     def _place(self, qpos, qvel) -> np.ndarray:
         """``set_state`` but for the world's derived quantities and the joint solver (the caller's:

@@ -683,7 +683,7 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
 # ---------------------------------------------------------------------- loading
 def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, self_collision=True,
               joint_positions=None, material=None, collision_filter=None, name=None, inertia="file",
-              joint_motors=None, joint_targets=None, keyframe=None):
+              joint_motors=None, joint_targets=None, keyframe=None, world_geoms=True):
     """Add the model of an MJCF file to ``world`` (module docstring) and return it as a ``urdf.Robot``
     (links by body name, joints by joint name; bodies named "MODEL/BODY", the worldbody's geoms
     "MODEL/world/GEOM").
@@ -701,6 +701,8 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         collision_filter, name, inertia: as ``load_urdf``'s.
         keyframe: the name of a ``<keyframe>`` key to start in (``Robot.reset_to_keyframe``), after
             ``joint_positions``.
+        world_geoms: False leaves off the ``<worldbody>``'s own geoms (the file's floor): for a scene
+            that has its own ground, or a model loaded many times over one floor (``tumble.envs``).
 
     Raises:
         InputError: a bad file or argument, one line (file, element, problem).
@@ -721,7 +723,8 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     try:
         robot = _build(world, parsed, material, targets, position=position, orientation=orientation,
                        euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
-                       collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors)
+                       collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors,
+                       world_geoms=world_geoms)
         resolve_dampratios(robot)
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
@@ -734,7 +737,7 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
 
 
 def _build(world, parsed: MjcfModel, material, targets, *, position, orientation, euler_deg, self_collision,
-           joint_positions, collision_filter, name, inertia, joint_motors):
+           joint_positions, collision_filter, name, inertia, joint_motors, world_geoms=True):
     from .material import Material
     from .urdf import build_robot
 
@@ -757,7 +760,9 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     if parsed.virtual:  # light links between the joints of one body: the Simulator solves joints exactly
         world.exact_joints = True
     base_p, base_R = robot.link_pose("world")
-    for s in parsed.statics:
+    statics = parsed.statics if world_geoms else []
+    masks = parsed.masks if world_geoms else {k: v for k, v in parsed.masks.items() if not k.startswith("world/")}
+    for s in statics:
         body_material = material if material is not None else Material(friction=s.friction)
         body = world.add_body(s.shape, fixed=True, position=base_p + base_R @ s.position,
                               orientation=matrix_to_quat(np.ascontiguousarray(base_R @ s.R)), material=body_material,
@@ -766,7 +771,7 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
         robot.links[f"world/{s.name}"] = body
     for a, b in parsed.excluded:
         world.exclude_collision(robot.links[a], robot.links[b])
-    _exclude_by_masks(world, robot, parsed.masks)
+    _exclude_by_masks(world, robot, masks)
     robot.actuators = dict(parsed.actuators)
     robot.sites = dict(parsed.sites)
     robot.sensors = {sensor.name: sensor for sensor in parsed.sensors}

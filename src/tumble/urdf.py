@@ -240,12 +240,23 @@ class Robot:
                 world.L[body.index] = 0.0
             world.wake_requests.add(body.index)
         world.update_derived()
-        self._restart_joints(sim, current)
+        self._restart_warm_starts(sim, current)
 
-    def _restart_joints(self, sim, positions: dict):
+    def _restart_warm_starts(self, sim, positions: dict):
         """After the robot was put in a new state: clear the joint solver's warm-start impulses of its
-        joints (they belonged to the old state) and set the readings of those in ``positions``
-        ({joint: rad or m}: a hinge's angle is unwrapped around it). Nothing before the first step."""
+        joints and the contact solver's of the contacts its bodies had (they belonged to the old
+        state: a contact kept from the last step would start the next one with its old impulse, so
+        an episode's bits would depend on the episode before), and set the readings of the joints in
+        ``positions`` ({joint: rad or m}: a hinge's angle is unwrapped around it). Nothing before
+        the first step."""
+        soft = None if sim is None else sim.soft_step
+        if soft is not None and soft.solver.old_count:
+            # its moving bodies: its fixed ones (the floor of an MJCF file) may be shared (tumble.envs'
+            # copies over one floor), their contacts with other robots not its to drop
+            bodies = np.zeros(self.world.body_count, dtype=bool)
+            bodies[[link.index for link in self.links.values()]] = True
+            bodies &= self.world.inv_mass > 0.0
+            soft.solver.forget(bodies, soft.pipeline.refresh().shape_body)
         solver = self._solver(sim)
         if solver is not None:
             for name, record in self.joints.items():

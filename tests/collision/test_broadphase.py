@@ -82,3 +82,41 @@ def test_big_shapes_and_mixed_sizes(seed):
     assert len(got) == len(set(got))
     assert set(got) == brute_force(aabb, body, moving)
     assert any(p[0] == 50 for p in got) and any(51 in p for p in got)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_lanes_keep_every_pair_of_one_env_and_the_shared_ones(seed):
+    """``lane_bounds``: 40 copies of one random cluster of 30 boxes stacked in one spot, each copy in
+    an env of its own, and 20 shared boxes (env 0) among them. The pairs found on the lane boxes,
+    less those whose true boxes do not overlap (``keep_overlapping``), are exactly the brute-force
+    pairs of the true boxes whose envs may meet: none of two envs, no pair of one env lost (moving
+    both bounds by one number keeps their order), and the sweep no longer pairs copy with copy: it
+    finds 12-13 % of the stacked sweep's pairs here (measured), nearly all of them the stretched
+    shared boxes beside the copies' in y and z (a floor plane, the usual shared shape, is not in
+    the sweep at all)."""
+    from tumble.collision.broadphase import keep_overlapping, lane_bounds
+
+    rng = np.random.default_rng(seed)
+    copies, per, shared = 40, 30, 20
+    cluster = random_aabbs(rng, per, spread=2.0)
+    aabb = np.concatenate([np.tile(cluster, (copies, 1, 1)), random_aabbs(rng, shared, spread=2.0)])
+    aabb[: copies * per] += rng.normal(0, 1e-3, (copies * per, 1, 3))  # the copies a little apart
+    env = np.concatenate([np.repeat(np.arange(1, copies + 1), per), np.zeros(shared, dtype=np.int64)])
+    n = len(aabb)
+    types = np.full(n, SHAPE_BOX, dtype=np.int64)
+    body = np.arange(n, dtype=np.int64)
+    moving = np.ones(n, dtype=bool)
+    moving[-shared:] = False
+    lanes = np.empty_like(aabb)
+    lane_bounds(aabb, env, lanes)
+    a, b = find_pairs(lanes, types, body, moving, PairBuffer(4))
+    a, b = a.copy(), b.copy()
+    found = len(a)
+    kept = keep_overlapping(a, b, aabb)  # the shared boxes, stretched, met every copy's beside them
+    a, b = a[:kept], b[:kept]
+    assert np.all((env[a] == env[b]) | (env[a] == 0) | (env[b] == 0))  # no pair of two envs
+    got = set(zip(a.tolist(), b.tolist()))
+    expected = {(i, j) for i, j in brute_force(aabb, body, moving) if env[i] == env[j] or 0 in (env[i], env[j])}
+    assert got == expected and len(expected) > copies * 10
+    stacked, _ = find_pairs(aabb, types, body, moving, PairBuffer(4))
+    assert found < 0.2 * len(stacked)

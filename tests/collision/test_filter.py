@@ -44,7 +44,8 @@ def test_rule_is_box2ds(a, b, expected):
     assert b.collides_with(a) is expected
 
 
-filters = st.builds(F, category=st.integers(0, 15), mask=st.integers(0, 15), group=st.integers(-2, 2))
+filters = st.builds(F, category=st.integers(0, 15), mask=st.integers(0, 15), group=st.integers(-2, 2),
+                    env=st.sampled_from([0, 0, 1, 2]))
 
 
 @given(filters, filters)
@@ -53,9 +54,20 @@ def test_rule_is_symmetric(a, b):
 
 
 def test_default_filters_give_an_empty_table_so_the_kernels_skip_the_test():
-    assert filter_table([F(), F(), F()]).shape == (0, 3)
-    table = filter_table([F(), F(category=2, mask=5, group=-1)])
-    assert table.tolist() == [[1, ALL_CATEGORIES, 0], [2, 5, -1]]
+    assert filter_table([F(), F(), F()]).shape == (0, 4)
+    table = filter_table([F(), F(category=2, mask=5, group=-1), F(env=3)])
+    assert table.tolist() == [[1, ALL_CATEGORIES, 0, 0], [2, 5, -1, 0], [1, ALL_CATEGORIES, 0, 3]]
+
+
+def test_bodies_of_two_envs_never_collide_and_env_0_meets_every_env():
+    """``env``: two different non-zero envs never collide, whatever the bits and a shared positive
+    group; the same env, or env 0 on either side, leaves it to the bits and group."""
+    assert not F(env=1).collides_with(F(env=2))
+    assert not F(env=1, group=3).collides_with(F(env=2, group=3))
+    assert F(env=1).collides_with(F(env=1)) and F(env=1).collides_with(F()) and F().collides_with(F(env=7))
+    assert not F(env=1, mask=0).collides_with(F())
+    with pytest.raises(InputError, match="env: must be between 0 and 2147483647, got -1"):
+        F(env=-1)
 
 
 def test_filter_values_are_checked():
@@ -213,7 +225,7 @@ def test_live_filters_are_the_bodies_that_some_other_body_may_touch(fs):
     every pair of bodies: a body is live when some other body's filter and its own allow contact."""
     from tumble.collision.filter import live_filters
 
-    table = np.array([(f.category, f.mask, f.group) for f in fs], dtype=np.int64).reshape(-1, 3)
+    table = np.array([(f.category, f.mask, f.group, f.env) for f in fs], dtype=np.int64).reshape(-1, 4)
     expected = [any(a.collides_with(b) for j, b in enumerate(fs) if j != i) for i, a in enumerate(fs)]
     assert live_filters(table).tolist() == expected
 

@@ -426,6 +426,30 @@ def test_a_scene_file_loads_an_mjcf_robot_and_refuses_urdf_options(tmp_path):
     assert "robots[0].fixed_base" in str(info.value) and "MJCF" in str(info.value)
 
 
+def test_world_geoms_false_leaves_the_files_floor_off_and_the_scene_key_takes_it(tmp_path):
+    """``load_mjcf(world_geoms=False)``: the model without its ``<worldbody>`` geoms (its floor), for a
+    scene with its own ground; the bodies, joints and masses as with them. The scene key
+    ``world_geoms = false`` does the same; a URDF refuses it with one line."""
+    from tumble.scene import load_scene
+
+    path = write(tmp_path, MODEL)
+    full_world, bare_world = tb.World(), tb.World()
+    full = tb.load_mjcf(full_world, path)
+    bare = tb.load_mjcf(bare_world, path, world_geoms=False)
+    assert "world/floor" in full.links and "world/floor" not in bare.links
+    assert full_world.body_count == bare_world.body_count + 1 and "parts/world/floor" not in bare_world.names
+    for name in ("a", "b", "c", "d"):
+        assert bare.links[name].mass == full.links[name].mass
+    assert bare_world.ray_cast((3, 3, 1), (0, 0, -1)).body[0] == -1  # nothing under it: no floor
+    (tmp_path / "s.toml").write_text('[[robots]]\nfile = "model.xml"\nworld_geoms = false\n')
+    assert "parts/world/floor" not in load_scene(tmp_path / "s.toml").world.names
+    (tmp_path / "arm.urdf").write_text(Path("examples/robots/arm.urdf").read_text())
+    (tmp_path / "s.toml").write_text('[[robots]]\nfile = "arm.urdf"\nworld_geoms = false\n')
+    with pytest.raises(tb.InputError) as info:
+        load_scene(tmp_path / "s.toml")
+    assert "robots[0].world_geoms" in str(info.value) and "\n" not in str(info.value)
+
+
 def test_a_scene_sets_mjcf_controls_and_the_run_follows_them(tmp_path):
     # [[robots]] controls = {...}: MuJoCo's ctrl for the run, clipped as set_controls clips it; the
     # cart's 1.5 N (ctrl 0.5, gear 3) on 1 kg + armature 2 moves it by F t^2 / 2 (m + a) in 1 s

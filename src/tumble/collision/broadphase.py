@@ -202,6 +202,60 @@ def _find_pairs_kernel(aabb, shape_type, shape_body, body_moving,
     return count
 
 
+@njit(**JIT)
+def lane_bounds(aabb, shape_lane, out):
+    """The boxes the broadphase sorts when bodies belong to envs (``filter.CollisionFilter.env``):
+    ``aabb`` (S, 2, 3) m with each shape of env e > 0 moved along x by e lane widths (the span of
+    all the finite boxes along x, plus 1 m), and each finite shape of env 0 (shared: a static
+    ramp) stretched along x over every lane, written to ``out`` (S, 2, 3).
+
+    Why: copies of a robot placed in one spot (``tumble.envs``: each copy where the model puts it,
+    so that it computes what it would alone) overlap each other, and a sweep over them tests every
+    pair of copies: quadratic in their number (256 cheetahs: 2304 shapes in one column). In lanes
+    a copy's shapes meet only their own and the shared ones. Only the pairs change, not the
+    contacts: moving two bounds by the same number keeps their order (rounding is monotone), so
+    every overlapping pair of one env still overlaps, and pairs of two envs are culled anyway
+    (``filter_allows``). Shapes without bounds (planes) are left as they are: the narrowphase
+    tests each plane against every shape."""
+    S = aabb.shape[0]
+    lo = np.inf
+    hi = -np.inf
+    top = 0
+    for s in range(S):
+        out[s] = aabb[s]
+        if np.isfinite(aabb[s, 0, 0]) and np.isfinite(aabb[s, 1, 0]):
+            lo = min(lo, aabb[s, 0, 0])
+            hi = max(hi, aabb[s, 1, 0])
+            top = max(top, shape_lane[s])
+    if not lo < np.inf:
+        return
+    width = hi - lo + 1.0
+    for s in range(S):
+        if not (np.isfinite(aabb[s, 0, 0]) and np.isfinite(aabb[s, 1, 0])):
+            continue
+        e = shape_lane[s]
+        if e > 0:
+            out[s, 0, 0] = aabb[s, 0, 0] + e * width
+            out[s, 1, 0] = aabb[s, 1, 0] + e * width
+        else:
+            out[s, 0, 0] = lo - 1.0
+            out[s, 1, 0] = hi + (top + 1) * width
+
+
+@njit(**JIT)
+def keep_overlapping(pair_a, pair_b, aabb):
+    """Compact the pairs (P,) in place to those whose true boxes ``aabb`` (S, 2, 3) overlap (a
+    shared shape stretched over the lanes by ``lane_bounds`` pairs with every copy beside it);
+    returns how many are kept, in their order."""
+    kept = 0
+    for k in range(pair_a.shape[0]):
+        if _overlap(aabb, pair_a[k], pair_b[k]):
+            pair_a[kept] = pair_a[k]
+            pair_b[kept] = pair_b[k]
+            kept += 1
+    return kept
+
+
 class PairBuffer:
     """Growing storage for the pair arrays (doubling, never shrinking)."""
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .bounds import update_bounds
-from .broadphase import PairBuffer, find_pairs
+from .broadphase import PairBuffer, find_pairs, keep_overlapping, lane_bounds
 from .constants import SPECULATIVE_DISTANCE
 from .filter import NO_FILTER, exclusion_keys, filter_table, live_filters
 from .geometry import build_shape_table
@@ -91,6 +91,24 @@ class CollisionPipeline:
             self._filter_key = key
         return self._excluded, self._body_filter
 
+    def _lanes(self, table, body_filter):
+        """(S,) int64 each shape's env (``CollisionFilter.env``), or None when no body has one."""
+        if body_filter.shape[0] == 0:
+            return None
+        key = (id(table), self._filter_key)
+        if key != getattr(self, "_lanes_key", None):
+            env = body_filter[:, 3]
+            lanes = None
+            if env.any():
+                lanes = env[table.shape_body].copy()
+                # shapes that meet nothing (a link's marker, category 0) in a lane of their own, beyond
+                # the others: in lane 0 they would be stretched over every lane and paired with every copy
+                lanes[~live_filters(body_filter)[table.shape_body]] = env.max() + 1
+            self._lane_of_shape = lanes
+            self._lane_aabb = np.empty((0, 2, 3))
+            self._lanes_key = key
+        return self._lane_of_shape
+
     def live_shapes(self):
         """(S,) bool: the shapes whose body's filter lets it touch something, or None when every
         body may (default filters). A body whose filter meets no other body's (``filter.
@@ -127,9 +145,18 @@ class CollisionPipeline:
             x, R = world.x, world.R
         update_bounds(x, R, table, self.speculative, self.shape_pos, self.shape_rot, self.shape_aabb,
                       v=v, omega=omega, dt=dt, shape_margin=self.shape_margin)
-        self.pair_a, self.pair_b = find_pairs(self.shape_aabb, table.shape_type, table.shape_body,
-                                              table.body_moving, self.pairs)
         excluded, body_filter = self._filters()
+        aabb = self.shape_aabb
+        lanes = self._lanes(table, body_filter)
+        if lanes is not None:  # copies in envs of their own: each in its lane (broadphase.lane_bounds)
+            if self._lane_aabb.shape != aabb.shape:
+                self._lane_aabb = np.empty_like(aabb)
+            lane_bounds(aabb, lanes, self._lane_aabb)
+        self.pair_a, self.pair_b = find_pairs(aabb if lanes is None else self._lane_aabb, table.shape_type,
+                                              table.shape_body, table.body_moving, self.pairs)
+        if lanes is not None:  # a shared shape stretched over the lanes met every copy beside it
+            kept = keep_overlapping(self.pair_a, self.pair_b, aabb)
+            self.pair_a, self.pair_b = self.pair_a[:kept], self.pair_b[:kept]
         return collide_pairs(self.pair_a, self.pair_b, table, self.shape_pos, self.shape_rot, self.shape_aabb,
                              self.speculative, self.contacts, shape_margin=self.shape_margin,
                              excluded_pairs=excluded, body_filter=body_filter)

@@ -40,13 +40,13 @@ MAX_PASS_SAMPLES = 256
 
 
 def sensor_filter_table(filters, sensor: np.ndarray) -> np.ndarray:
-    """``filter.filter_table`` of the bodies with each sensor's row (category, mask, group) =
-    (0, 0, 0): it meets no mask and shares no group, so the narrowphase gives it no contact."""
+    """``filter.filter_table`` of the bodies with each sensor's row (category, mask, group, env) =
+    (0, 0, 0, 0): it meets no mask and shares no group, so the narrowphase gives it no contact."""
     table = filter_table(filters)
     if not sensor.any():
         return table
     if table.shape[0] == 0:
-        table = np.array([(1, 0xFFFFFFFF, 0)] * len(filters), dtype=np.int64).reshape(-1, 3)
+        table = np.array([(1, 0xFFFFFFFF, 0, 0)] * len(filters), dtype=np.int64).reshape(-1, 4)
     table = table.copy()
     table[sensor] = 0
     return table

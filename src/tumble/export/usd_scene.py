@@ -333,14 +333,15 @@ def _collision_groups(world, stage, wr, paths: list[str]) -> None:
     filters = list(world.collision_filters)
     if all(f == CollisionFilter() for f in filters):
         return
-    classes = sorted(set(filters), key=lambda f: (f.category, f.mask, f.group))
+    classes = sorted(set(filters), key=lambda f: (f.category, f.mask, f.group, f.env))
     if len(classes) > MAX_GROUPS:
         wr.left_out.add(f"collision filters of more than {MAX_GROUPS} kinds")
         return
     groups = []
     for k, f in enumerate(classes):
         g = UsdPhysics.CollisionGroup.Define(stage, f"/World/collision_groups/group{k}")
-        g.GetPrim().SetCustomDataByKey("tumble:filter", {"category": f.category, "mask": f.mask, "group": f.group})
+        g.GetPrim().SetCustomDataByKey("tumble:filter", {"category": f.category, "mask": f.mask, "group": f.group,
+                                                                 "env": f.env})
         groups.append(g)
     for k, f in enumerate(classes):
         members = [paths[i] for i, g in enumerate(filters) if g == f]

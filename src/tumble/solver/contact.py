@@ -446,6 +446,20 @@ class ContactSolver:
         self.old_key = key.copy()
         self.old_count = k
 
+    def forget(self, bodies: np.ndarray, shape_body: np.ndarray):
+        """Drop the warm start of the stored contacts (last step's) that touch ``bodies`` (N,) bool,
+        ``shape_body`` (S,) the shapes' bodies: bodies put in a new state (``Kinematics.set_state``).
+        Their keys are made negative (each its own: keys stay unique), so they match no contact of
+        the next step, which starts from zero impulses as a first step does."""
+        k = self.old_count
+        keys = self.old_key[:k]
+        live = np.flatnonzero(keys >= 0)
+        shape_mask = (1 << 21) - 1  # manifold.py's key: (shape_a << 42) | (shape_b << 21) | feature
+        a = shape_body[keys[live] >> 42]
+        b = shape_body[(keys[live] >> 21) & shape_mask]
+        hit = live[bodies[a] | bodies[b]]
+        keys[hit] = -1 - hit
+
     def store_impulses(self):
         """Keep this step's impulses by ``contact_key``: normal as a number, friction as a world vector."""
         n = self.count
