@@ -7,7 +7,8 @@ resets) and uniform random controls (the pole falls within about 8 steps: resets
 cost). Vector environments: tumble's ``ModelVectorEnv`` (all copies in one World, one step)
 against Gymnasium's ``SyncVectorEnv`` over MuJoCo environments (a Python loop over them), microseconds
 per vector step and per environment step. Then Gymnasium's ``Reacher-v5`` (a two-link arm with
-armature: tumble's tree solve) the same way, with random controls. Median of ``--repeats`` timings of ``--steps`` steps
+armature: tumble's tree solve) and the runners (HalfCheetah-v5, Hopper-v5, Walker2d-v5: contacts
+with the floor) the same way, with random controls. Median of ``--repeats`` timings of ``--steps`` steps
 each, after a warm-up (compilation apart: the first step's time is given on its own line).
 
     PYTHONPATH=src python benchmarks/envs.py --repeats 5
@@ -74,6 +75,9 @@ def main():
     ap.add_argument("--steps", type=int, default=1000, help="steps per timing of a single environment")
     ap.add_argument("--sizes", type=int, nargs="+", default=[16, 256, 1024])
     ap.add_argument("--reacher-sizes", type=int, nargs="+", default=[1, 256])
+    ap.add_argument("--runner-sizes", type=int, nargs="+", default=[1, 64, 256])
+    ap.add_argument("--sections", nargs="+", default=["pendulum", "reacher", "runners"],
+                    choices=["pendulum", "reacher", "runners"])
     args = ap.parse_args()
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     import mujoco
@@ -81,6 +85,17 @@ def main():
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, tumble git "
           f"{rev}, gymnasium {gym.__version__}, mujoco {mujoco.__version__}; median of {args.repeats}")
     print()
+    if "pendulum" in args.sections:
+        pendulum(args, gym, te)
+    if "reacher" in args.sections:
+        random_task(args, "Reacher", 2, args.reacher_sizes)
+    if "runners" in args.sections:
+        for task, nu in (("HalfCheetah", 6), ("Hopper", 3), ("Walker2d", 6)):
+            random_task(args, task, nu, args.runner_sizes)
+
+
+def pendulum(args, gym, te):
+    """InvertedPendulum-v5: single environments (LQR and random controls) and vector ones."""
     t0 = time.perf_counter()
     env = te.InvertedPendulum()
     env.reset(seed=0)
@@ -109,39 +124,42 @@ def main():
             for pname, policy in (("LQR", lqr), ("random", random_controls)):
                 us, ended = time_vector(make(), policy, steps, args.repeats)
                 print(f"| {name} | {n} | {pname} | {us:.0f} | {us / n:.1f} | {1e6 * n / us:.0f} | {ended:.0f} |")
-    reacher(args)
 
 
 
 
-def reacher(args):
-    """Gymnasium's Reacher-v5 (two links with armature: tumble's tree solve) with random controls (no
-    terminations; truncated at 50 steps): single environments and vector environments side by side."""
+def random_task(args, task: str, nu: int, sizes):
+    """Gymnasium's ``TASK-v5`` and tumble's ``tumble/TASK-v5`` with uniform random controls in [-1, 1]
+    (``nu`` of them): single environments (size 1) and vector environments side by side. The
+    reacher (two links with armature: tumble's tree solve) is truncated at 50 steps; the runners
+    (contacts with the floor in every step; each vector copy in an env of its own) at 1000, the
+    hopper and walker terminated when they fall."""
     import gymnasium as gym
 
     import tumble.envs  # noqa: F401
 
-    def random2(obs, rng):
-        return rng.uniform(-1.0, 1.0, size=obs.shape[:-1] + (2,)).astype(np.float32)
+    def controls(obs, rng):
+        return rng.uniform(-1.0, 1.0, size=obs.shape[:-1] + (nu,)).astype(np.float32)
 
     print()
-    print("| Reacher-v5, random controls | copies | us per step | us per environment step | environment steps/s |")
-    print("|---|---|---|---|---|")
-    for n in args.reacher_sizes:
+    print(f"| {task}-v5, random controls | copies | us per step | us per environment step | environment steps/s | "
+          "episodes ended per round |")
+    print("|---|---|---|---|---|---|")
+    for n in sizes:
         if n == 1:
-            for name, make in (("tumble Reacher", lambda: gym.make("tumble/Reacher-v5")),
-                               ("Gymnasium Reacher-v5 (MuJoCo)", lambda: gym.make("Reacher-v5"))):
-                us, _ = time_single(make(), random2, args.steps, args.repeats)
-                print(f"| {name} | 1 | {us:.1f} | {us:.1f} | {1e6 / us:.0f} |")
+            for name, make in ((f"tumble {task}", lambda: gym.make(f"tumble/{task}-v5")),
+                               (f"Gymnasium {task}-v5 (MuJoCo)", lambda: gym.make(f"{task}-v5"))):
+                us, resets = time_single(make(), controls, args.steps, args.repeats)
+                print(f"| {name} | 1 | {us:.1f} | {us:.1f} | {1e6 / us:.0f} | {resets:.0f} |")
             continue
         steps = max(20, 20000 // n)
         for name, make in (
-                ("tumble ModelVectorEnv", lambda: gym.make_vec("tumble/Reacher-v5", num_envs=n,
+                ("tumble ModelVectorEnv", lambda: gym.make_vec(f"tumble/{task}-v5", num_envs=n,
                                                                vectorization_mode="vector_entry_point")),
-                ("Gymnasium SyncVectorEnv (MuJoCo)", lambda: gym.make_vec("Reacher-v5", num_envs=n,
+                ("Gymnasium SyncVectorEnv (MuJoCo)", lambda: gym.make_vec(f"{task}-v5", num_envs=n,
                                                                           vectorization_mode="sync"))):
-            us, _ = time_vector(make(), random2, steps, args.repeats)
-            print(f"| {name} | {n} | {us:.0f} | {us / n:.1f} | {1e6 * n / us:.0f} |")
+            us, ended = time_vector(make(), controls, steps, args.repeats)
+            print(f"| {name} | {n} | {us:.0f} | {us / n:.1f} | {1e6 * n / us:.0f} | {ended:.0f} |")
 
 
 if __name__ == "__main__":
