@@ -205,9 +205,10 @@ def _find_pairs_kernel(aabb, shape_type, shape_body, body_moving,
 @njit(**JIT)
 def lane_bounds(aabb, shape_lane, out):
     """The boxes the broadphase sorts when bodies belong to envs (``filter.CollisionFilter.env``):
-    ``aabb`` (S, 2, 3) m with each shape of env e > 0 moved along x by e lane widths (the span of
-    all the finite boxes along x, plus 1 m), and each finite shape of env 0 (shared: a static
-    ramp) stretched along x over every lane, written to ``out`` (S, 2, 3).
+    ``aabb`` (S, 2, 3) m with each shape of env e > 0 (``shape_lane`` (S,) int64) moved along x by
+    e lane widths (the span of all the finite boxes along x, plus 1 m), each finite shape of env 0
+    (shared: a static ramp) stretched along x over every lane, and each shape of lane -1 (one that
+    meets nothing: a link's marker) left out (no bounds), written to ``out`` (S, 2, 3).
 
     Why: copies of a robot placed in one spot (``tumble.envs``: each copy where the model puts it,
     so that it computes what it would alone) overlap each other, and a sweep over them tests every
@@ -223,6 +224,9 @@ def lane_bounds(aabb, shape_lane, out):
     top = 0
     for s in range(S):
         out[s] = aabb[s]
+        if shape_lane[s] < 0:
+            out[s, 0, 0] = np.inf  # the sweep skips a shape without finite bounds
+            continue
         if np.isfinite(aabb[s, 0, 0]) and np.isfinite(aabb[s, 1, 0]):
             lo = min(lo, aabb[s, 0, 0])
             hi = max(hi, aabb[s, 1, 0])
@@ -231,9 +235,9 @@ def lane_bounds(aabb, shape_lane, out):
         return
     width = hi - lo + 1.0
     for s in range(S):
-        if not (np.isfinite(aabb[s, 0, 0]) and np.isfinite(aabb[s, 1, 0])):
-            continue
         e = shape_lane[s]
+        if e < 0 or not (np.isfinite(aabb[s, 0, 0]) and np.isfinite(aabb[s, 1, 0])):
+            continue
         if e > 0:
             out[s, 0, 0] = aabb[s, 0, 0] + e * width
             out[s, 1, 0] = aabb[s, 1, 0] + e * width
