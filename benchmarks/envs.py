@@ -7,7 +7,7 @@ resets) and uniform random controls (the pole falls within about 8 steps: resets
 cost). Vector environments: tumble's ``ModelVectorEnv`` (all copies in one World, one step)
 against Gymnasium's ``SyncVectorEnv`` over MuJoCo environments (a Python loop over them), microseconds
 per vector step and per environment step. Then Gymnasium's ``Reacher-v5`` (a two-link arm with
-armature: tumble's tree solve) and the runners (HalfCheetah-v5, Hopper-v5, Walker2d-v5: contacts
+armature: tumble's tree solve), the double pendulum (InvertedDoublePendulum-v5) and the runners (HalfCheetah-v5, Hopper-v5, Walker2d-v5: contacts
 with the floor) the same way, with random controls. Median of ``--repeats`` timings of ``--steps`` steps
 each, after a warm-up (compilation apart: the first step's time is given on its own line).
 
@@ -76,8 +76,8 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[16, 256, 1024])
     ap.add_argument("--reacher-sizes", type=int, nargs="+", default=[1, 256])
     ap.add_argument("--runner-sizes", type=int, nargs="+", default=[1, 64, 256])
-    ap.add_argument("--sections", nargs="+", default=["pendulum", "reacher", "runners"],
-                    choices=["pendulum", "reacher", "runners"])
+    ap.add_argument("--sections", nargs="+", default=["pendulum", "reacher", "double", "runners"],
+                    choices=["pendulum", "reacher", "double", "runners"])
     args = ap.parse_args()
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     import mujoco
@@ -89,6 +89,8 @@ def main():
         pendulum(args, gym, te)
     if "reacher" in args.sections:
         random_task(args, "Reacher", 2, args.reacher_sizes)
+    if "double" in args.sections:
+        random_task(args, "InvertedDoublePendulum", 1, args.reacher_sizes)
     if "runners" in args.sections:
         for task, nu in (("HalfCheetah", 6), ("Hopper", 3), ("Walker2d", 6)):
             random_task(args, task, nu, args.runner_sizes)

@@ -263,6 +263,7 @@ def test_gymnasium_env_checker_passes():
         warnings.simplefilter("ignore", UserWarning)  # its advice on unbounded and unnormalised boxes
         check_env(te.InvertedPendulum(render_mode="rgb_array"))
         check_env(te.Reacher())
+        check_env(te.InvertedDoublePendulum())
 
 
 def test_render_draws_the_pendulum():
@@ -313,6 +314,7 @@ def test_copies_of_a_model_that_touches_get_envs_of_their_own_over_one_floor():
     (lambda: te.ModelVectorEnv(te.InvertedPendulum, 2).step(np.zeros((3, 1))), "action"),
     (lambda: te.ModelVectorEnv(te.InvertedPendulum, 2).reset(seed=[1, 2, 3]), "seed"),
     (lambda: te.ModelVectorEnv(te.InvertedPendulum, 2).reset(seed="x"), "seed"),
+    (lambda: te.InvertedDoublePendulum(healthy_reward=None), "healthy_reward"),
 ])
 def test_bad_input_is_one_line(make, key):
     """Bad arguments and actions: ``tb.InputError`` with one line naming the key."""
@@ -341,3 +343,97 @@ def test_the_cem_example_learns_to_balance_and_the_policy_balances_on_mujoco_too
     assert summary["tumble_returns"] == [1000.0] * 3
     assert summary["mujoco_returns"] == [1000.0] * 3
     assert (tmp_path / "cem" / "summary.json").is_file()
+
+
+# ---------------------------------------------------------------------- the double pendulum
+
+
+def mujoco_double(timestep=None):
+    pytest.importorskip("mujoco")
+    env = gym.make("InvertedDoublePendulum-v5").unwrapped
+    if timestep is not None:  # the same env dt (0.05 s) in finer steps
+        env.model.opt.timestep = timestep
+        env.frame_skip = int(round(0.05 / timestep))
+    return env
+
+
+def test_double_pendulum_starts_and_scores_as_gymnasiums():
+    """Gymnasium's ``InvertedDoublePendulum-v5``: the same seed gives the same start (exact), and on
+    the same states (random angles and rates, the cart clear of the rail's ends) the observation
+    (sines, cosines, clipped rates, no limit force) equals Gymnasium's to 1e-12 and the reward,
+    termination and info (the tip site's height against 1 m) to 1e-12: the tip is read from the
+    bodies (``links(link, point)``) where MuJoCo reads ``site_xpos``."""
+    ours, theirs = te.InvertedDoublePendulum(), mujoco_double()
+    for seed in (0, 4):
+        o1, _ = ours.reset(seed=seed)
+        o2, _ = theirs.reset(seed=seed)
+        assert o1.shape == (9,) and np.array_equal(o1, o2)
+    rng = np.random.default_rng(3)
+    fallen = 0
+    for _ in range(30):
+        qpos = np.array([rng.uniform(-0.8, 0.8), rng.uniform(-2, 2), rng.uniform(-2, 2)])
+        qvel = rng.normal(0, 6, 3)
+        ours.set_state(qpos, qvel)
+        theirs.set_state(qpos, qvel)
+        obs = ours.observe(qpos[None], qvel[None], ours._copies.view)
+        np.testing.assert_allclose(obs[0], theirs._get_obs(), rtol=0, atol=1e-12)
+        reward, terminated, info = ours.evaluate(obs, np.zeros((1, 1)))
+        x, _, y = theirs.data.site_xpos[0]
+        expected, expected_info = theirs._get_rew(x, y, bool(y <= 1))
+        fallen += bool(y <= 1)
+        assert bool(terminated[0]) == bool(y <= 1)
+        assert reward[0] == pytest.approx(expected, abs=1e-12)
+        assert info.keys() == expected_info.keys()
+        for key, value in expected_info.items():
+            assert info[key][0] == pytest.approx(value, abs=1e-12), key
+    assert 5 <= fallen <= 25
+
+
+def test_double_pendulum_converges_to_mujoco_rk4_at_first_order():
+    """Open loop (control 0.3 for 5 steps of 0.05 s: the poles fall, the episode ends at the fifth)
+    from the same start: tumble at timesteps 0.01 (the file's) to 0.00125 s against MuJoCo's RK4 at
+    0.0002 s (converged: its change from 0.001 s is below 1e-7); each halving of tumble's step
+    halves the largest difference of the observation (first order: ratios 1.7-2.3). The
+    observation's limit force stays 0 on both (the cart never reaches the rail's ends)."""
+    action = np.array([0.3], dtype=np.float32)
+
+    def run(env):
+        out = [env.reset(seed=3)[0]]
+        out += [env.step(action)[0] for _ in range(5)]
+        return np.array(out)
+
+    reference = run(mujoco_double(0.0002))
+    assert np.all(reference[:, 8] == 0.0)
+    errors = [np.abs(run(te.InvertedDoublePendulum(timestep=h, frame_skip=int(round(0.05 / h)))) - reference).max()
+              for h in (0.01, 0.005, 0.0025, 0.00125)]
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+
+
+def test_double_pendulum_observes_the_rails_limit_force():
+    """The observation's last entry is the rail's limit force on the cart (MuJoCo's
+    ``qfrc_constraint[0]``): the cart at the rail's end (x = 1 m), the poles hanging at rest, the
+    motor pushing it outward with 500 N (control 1, gear 500): the limit holds the cart with
+    -500 N (``limit_force``, unclipped), and the observation reads it clipped to -10 as
+    Gymnasium's does. To 5e-4 relative: the soft limit lets the cart 0.34 mm into it, which sets
+    the hanging poles swinging at some 5 mrad/s, and their pull on the cart moves the force by up
+    to 0.06 N (measured over 40 steps). Pushed inward, the cart leaves the end: force 0."""
+    env = te.InvertedDoublePendulum()
+    env.reset(seed=0)
+    env.set_state(np.array([1.0, np.pi, 0.0]), np.zeros(3))
+    assert env.observe(*env._copies.state(), env._copies.view)[0, 8] == 0.0  # not stepped yet
+    for _ in range(3):
+        obs, *_ = env.step(np.array([1.0], dtype=np.float32))
+    assert env._copies.limit_force("slider")[0] == pytest.approx(-500.0, rel=5e-4)
+    assert obs[8] == -10.0 and 0.0 < obs[0] - 1.0 < 5e-4  # the soft limit: the cart 0.34 mm into it
+    obs, *_ = env.step(np.array([-1.0], dtype=np.float32))
+    assert obs[8] == 0.0 and obs[0] < 1.0
+
+
+def test_vector_double_pendulum_copies_equal_single_envs_bit_for_bit():
+    """The double pendulum's vector copies are its single environments, bit for bit (the tip and
+    the limit force read per copy), through terminations and autoresets: 4 copies, 40 steps."""
+    venv = gym.make_vec("tumble/InvertedDoublePendulum-v5", num_envs=4, vectorization_mode="vector_entry_point")
+    episodes = _compare_vector_with_singles(venv, te.InvertedDoublePendulum, 4, 40, 1000, 5, 1,
+                                            np.random.default_rng(4))
+    assert episodes >= 8

@@ -54,8 +54,8 @@ except ImportError:  # pragma: no cover - the message is the point
 
 from .errors import InputError
 
-__all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "Reacher", "HalfCheetah", "Hopper", "Walker2d",
-           "gymnasium_asset"]
+__all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "InvertedDoublePendulum", "Reacher", "HalfCheetah",
+           "Hopper", "Walker2d", "gymnasium_asset"]
 
 
 def gymnasium_asset(name: str) -> str:
@@ -158,7 +158,9 @@ class _Copies:
         self.init_qpos = kin.qpos()
         self._fast = self._fast_path(robot, kin)
         self._solver_rows = (None, None)
-        self._links = {}  # link name: (its body in each copy (n,), its origin in the body (3,)), for link_origins
+        self._links = {}  # (link, point): (its body in each copy (n,), the point in the body (3,)), for link_origins
+        self.fresh = np.ones(n, dtype=bool)  # copies not stepped since put at a start: no constraint forces yet
+        self.view = _View(self)
 
     def _fast_path(self, robot, kin):
         """The arrays of the fast path (class docstring), or None when the model does not take it."""
@@ -231,26 +233,47 @@ class _Copies:
         return (np.array([k.qpos(self.sim) for k in self.kinematics]),
                 np.array([k.qvel() for k in self.kinematics]))
 
-    def link_origins(self, link: str) -> np.ndarray:
-        """(n, 3) m, world: the origin of ``link``'s frame in each copy now (``Kinematics._present``'s
+    def link_origins(self, link: str, point=None) -> np.ndarray:
+        """(n, 3) m, world: the origin of ``link``'s frame in each copy now, or the ``point`` (3,) m
+        given in that frame (a site: ``robot.sites[name]``'s position) (``Kinematics._present``'s
         arithmetic, for one link of all copies)."""
-        cached = self._links.get(link)
+        key = (link, None if point is None else tuple(float(c) for c in point))
+        cached = self._links.get(key)
         if cached is None:
             kin = self.kinematics[0]
             if link not in kin.index:
                 raise InputError(f"unknown link {link!r} of the model", "link")
             k = kin.index[link]
-            cached = (np.array([kn.link_body[k] for kn in self.kinematics], dtype=np.int64), kin.link_p[k].copy())
-            self._links[link] = cached
+            p = kin.link_p[k].copy() if point is None else kin.link_p[k] + kin.link_Rl[k] @ np.asarray(key[1])
+            cached = (np.array([kn.link_body[k] for kn in self.kinematics], dtype=np.int64), p)
+            self._links[key] = cached
         b, p = cached
         w = self.world
         Rb = w.R[b]
         return w.x[b] - np.einsum("nij,nj->ni", Rb, w.com_offset[b]) + np.einsum("nij,j->ni", Rb, p)
 
+    def limit_force(self, joint: str) -> np.ndarray:
+        """(n,) N or N m: the force (torque) ``joint``'s limits applied along its coordinate in each
+        copy over the last substep of the last step (lower limit +, upper -): MuJoCo's
+        ``qfrc_constraint`` of a hinge or slide coordinate with no other constraint on it. 0 for
+        copies not stepped since their start (MuJoCo's reset computes none for a joint within its
+        range)."""
+        from .solver.joint_solve import A_LOWER, A_UPPER
+
+        solver = self.robots[0]._solver(self.sim)
+        out = np.zeros(len(self.robots))
+        if solver is None:
+            return out
+        rows = np.array([solver.index(r.joints[joint]) for r in self.robots], dtype=np.int64)
+        out[:] = (solver.axial_impulse[rows, A_LOWER] - solver.axial_impulse[rows, A_UPPER]) / solver.h
+        out[self.fresh] = 0.0
+        return out
+
     def set_states(self, copies, qpos: np.ndarray, qvel: np.ndarray):
         """Put the ``copies`` (K indices) at ``qpos`` (K, nq) moving at ``qvel`` (K, nv)
         (``Kinematics.set_state`` for each: its joints' warm start cleared, their readings set; the
         world's derived quantities made once for all)."""
+        self.fresh[copies] = True
         placed = [self.kinematics[k]._place(qp, qv) for k, qp, qv in zip(copies, qpos, qvel)]
         self.world.update_derived()
         for k, q in zip(copies, placed):
@@ -259,6 +282,22 @@ class _Copies:
         if solver is not None:  # the readings a step would leave, for ``state``
             solver.position[rows[1][copies]] = qpos
             solver.rate[rows[1][copies]] = qvel
+
+
+class _View:
+    """What a task's ``observe`` may read of the copies besides qpos and qvel (its ``links``
+    argument): ``links(name, point=None)`` (n, 3) m, the origin of a link's frame (or a point in
+    it: a site) in each copy now; ``links.limit_force(joint)`` (n,) the force of a joint's limits
+    (``_Copies.limit_force``)."""
+
+    def __init__(self, copies):
+        self._copies = copies
+
+    def __call__(self, link: str, point=None) -> np.ndarray:
+        return self._copies.link_origins(link, point)
+
+    def limit_force(self, joint: str) -> np.ndarray:
+        return self._copies.limit_force(joint)
 
 
 def _touches_itself(world) -> bool:
@@ -382,7 +421,7 @@ class ModelEnv(gymnasium.Env):
         qpos, qvel = self.draw_start(self.np_random)
         self._copies.set_states([0], qpos[None], qvel[None])
         info = {k: v[0].item() for k, v in self.reset_info(qpos[None], qvel[None]).items()}
-        return self.observe(qpos[None], qvel[None], self._copies.link_origins)[0], info
+        return self.observe(qpos[None], qvel[None], self._copies.view)[0], info
 
     def set_state(self, qpos, qvel):
         """Put the model at ``qpos`` (nq,) moving at ``qvel`` (nv,) (MujocoEnv's ``set_state``)."""
@@ -395,7 +434,8 @@ class ModelEnv(gymnasium.Env):
         self._copies.set_controls(u)
         self.remember(*self._copies.state())
         self.sim.step(self.frame_skip)
-        obs = self.observe(*self._copies.state(), self._copies.link_origins)
+        self._copies.fresh[:] = False
+        obs = self.observe(*self._copies.state(), self._copies.view)
         reward, terminated, info = self.evaluate(obs, u)
         return obs[0], reward[0].item(), bool(terminated[0]), False, {k: v[0].item() for k, v in info.items()}
 
@@ -416,7 +456,7 @@ def _spaces(env):
         low.append(-np.inf if r is None else r[0])
         high.append(np.inf if r is None else r[1])
     action = spaces.Box(np.array(low, dtype=np.float32), np.array(high, dtype=np.float32), dtype=np.float32)
-    size = env.observe(env.init_qpos[None], env.init_qvel[None], env._copies.link_origins).shape[1]
+    size = env.observe(env.init_qpos[None], env.init_qvel[None], env._copies.view).shape[1]
     return action, spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
 
 
@@ -476,6 +516,56 @@ class Reacher(ModelEnv):
         reward_ctrl = -np.square(action).sum(axis=1)
         return reward_dist + reward_ctrl, np.zeros(len(observation), dtype=bool), \
             {"reward_dist": reward_dist, "reward_ctrl": reward_ctrl}
+
+
+class InvertedDoublePendulum(ModelEnv):
+    """Gymnasium's ``InvertedDoublePendulum-v5`` stepped by tumble, on its own
+    ``inverted_double_pendulum.xml``: a cart on a rail (a slide, -1..1 m, pushed by a motor of gear
+    500, control in [-1, 1]) with two poles on hinges; timestep 0.01 s, ``frame_skip`` 5. Observation
+    (9,): the cart's x, the sines then cosines of the two angles, the three rates clipped to +-10,
+    and the rail's limit force on the cart clipped to +-10 (MuJoCo's ``qfrc_constraint[0]``:
+    ``_Copies.limit_force``; 0 while the cart is clear of the rail's ends). Reward: 10 while the
+    tip (the file's site, world height y) is above 1 m, less 0.01 x_tip^2 + (y_tip - 2)^2 less
+    1e-3 w1^2 + 5e-3 w2^2 (the hinges' rates); terminated when y_tip <= 1 m. Reset noise 0.1
+    (qpos uniform, qvel normal), ``healthy_reward`` 10: v5's defaults. MuJoCo's rail limit is soft,
+    with a margin of 1 cm; tumble's is rigid, at the range: the force observed near the ends
+    differs (the rest is the same arithmetic: tests/test_envs_runners.py)."""
+
+    def __init__(self, *, frame_skip: int = 5, healthy_reward: float = 10.0, reset_noise_scale: float = 0.1,
+                 **kwargs):
+        if isinstance(healthy_reward, bool) or not isinstance(healthy_reward, (int, float, np.number)) \
+                or not np.isfinite(healthy_reward):
+            raise InputError(f"must be a finite number, got {healthy_reward!r}", "healthy_reward")
+        self.healthy_reward = float(healthy_reward)
+        super().__init__(gymnasium_asset("inverted_double_pendulum.xml"), frame_skip=frame_skip,
+                         reset_noise_scale=reset_noise_scale, **kwargs)
+        self._tip = self.robot.sites["tip"][:2]  # (link, position in its frame)
+
+    def draw_start(self, rng):
+        s = self.reset_noise_scale
+        qpos = self.init_qpos + rng.uniform(low=-s, high=s, size=len(self.init_qpos))
+        qvel = self.init_qvel + rng.standard_normal(len(self.init_qvel)) * s
+        return qpos, qvel
+
+    def observe(self, qpos, qvel, links=None):
+        n = len(qpos)
+        if links is None or not hasattr(self, "_tip"):  # the spaces, made before the site is known
+            self._tip_xyz, force = np.zeros((n, 3)), np.zeros(n)
+        else:
+            self._tip_xyz, force = links(*self._tip), links.limit_force("slider")
+        self._rates = qvel
+        return np.concatenate([qpos[:, :1], np.sin(qpos[:, 1:]), np.cos(qpos[:, 1:]), np.clip(qvel, -10, 10),
+                               np.clip(force, -10, 10)[:, None]], axis=1)
+
+    def evaluate(self, observation, action):
+        x, y = self._tip_xyz[:, 0], self._tip_xyz[:, 2]
+        terminated = y <= 1
+        v1, v2 = self._rates[:, 1], self._rates[:, 2]
+        distance = 0.01 * x ** 2 + (y - 2) ** 2
+        velocity = 1e-3 * v1 ** 2 + 5e-3 * v2 ** 2
+        alive = self.healthy_reward * (~terminated)
+        return alive - distance - velocity, terminated, {"reward_survive": alive, "distance_penalty": -distance,
+                                                         "velocity_penalty": -velocity}
 
 
 class _Runner(ModelEnv):
@@ -708,7 +798,7 @@ class ModelVectorEnv(VectorEnv):
         info = {}
         for key, value in self.template.reset_info(qpos, qvel).items():
             info[key], info["_" + key] = np.asarray(value), np.ones(n, dtype=bool)
-        return self.template.observe(qpos, qvel, self._copies.link_origins), info
+        return self.template.observe(qpos, qvel, self._copies.view), info
 
     def step(self, actions):
         """One step of every copy (``frame_skip`` simulator steps of the one world) with ``actions``
@@ -722,12 +812,13 @@ class ModelVectorEnv(VectorEnv):
         self._copies.set_controls(u)
         self.template.remember(*self._copies.state())
         self.sim.step(self.frame_skip)
+        self._copies.fresh[:] = False
         # the copies to restart moved with the others (one world); their start is put back now
         starts = self._reset_copies(restart.tolist()) if len(restart) else None
         qpos, qvel = self._copies.state()
         if starts is not None:  # their observation is the start as drawn (a single env's reset's)
             qpos[restart], qvel[restart] = starts
-        obs = self.template.observe(qpos, qvel, self._copies.link_origins)
+        obs = self.template.observe(qpos, qvel, self._copies.view)
         reward, terminated, info = self.template.evaluate(obs, u)
         reward, terminated = np.array(reward, dtype=np.float64), np.array(terminated, dtype=bool)
         stepped = np.ones(n, dtype=bool)
@@ -756,6 +847,11 @@ def reacher_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
     return ModelVectorEnv(Reacher, num_envs, **kwargs)
 
 
+def inverted_double_pendulum_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
+    """``gymnasium.make_vec("tumble/InvertedDoublePendulum-v5", num_envs, vectorization_mode="vector_entry_point")``."""
+    return ModelVectorEnv(InvertedDoublePendulum, num_envs, **kwargs)
+
+
 def half_cheetah_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
     """``gymnasium.make_vec("tumble/HalfCheetah-v5", num_envs, vectorization_mode="vector_entry_point")``."""
     return ModelVectorEnv(HalfCheetah, num_envs, **kwargs)
@@ -782,6 +878,10 @@ def _register():
         gymnasium.register("tumble/Reacher-v5", entry_point="tumble.envs:Reacher",
                            vector_entry_point="tumble.envs:reacher_vector", max_episode_steps=50,
                            reward_threshold=-3.75)
+    if "tumble/InvertedDoublePendulum-v5" not in gymnasium.registry:
+        gymnasium.register("tumble/InvertedDoublePendulum-v5", entry_point="tumble.envs:InvertedDoublePendulum",
+                           vector_entry_point="tumble.envs:inverted_double_pendulum_vector", max_episode_steps=1000,
+                           reward_threshold=9100.0)
     # the runners, with Gymnasium's limits and thresholds for them
     for name, entry, threshold in (("HalfCheetah", "half_cheetah", 4800.0), ("Hopper", "hopper", 3800.0),
                                    ("Walker2d", "walker2d", None)):
