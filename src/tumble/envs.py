@@ -14,7 +14,8 @@ on the other (sim-to-sim transfer), or trained on tumble alone.
   ``timestep`` (the file's ``<option timestep>``, MuJoCo's 0.002 s when it has none). A subclass
   says what the task is: ``observe`` (the observation), ``evaluate`` (reward, terminated, info)
   and, if it resets otherwise, ``draw_start``.
-- ``InvertedPendulum``, ``Reacher``, ``HalfCheetah``, ``Hopper`` and ``Walker2d``: Gymnasium's
+- ``InvertedPendulum``, ``InvertedDoublePendulum``, ``Reacher``, ``HalfCheetah``, ``Hopper`` and
+  ``Walker2d``: Gymnasium's
   ``...-v5`` tasks on Gymnasium's own model files (read from the installed gymnasium), registered
   as ``tumble/InvertedPendulum-v5`` and so on with Gymnasium's episode limits:
   ``gymnasium.make("tumble/HalfCheetah-v5")`` once ``tumble.envs`` is imported. The runners
