@@ -42,13 +42,20 @@ def servo_model(tmp_path_factory):
     return ServoPendulum
 
 
-def mujoco_env(timestep=None):
+def mujoco_gym(env_id, timestep=None):
+    """Gymnasium's own ``env_id`` stepped by MuJoCo (the unwrapped environment); with ``timestep``,
+    the same environment dt in finer steps."""
     pytest.importorskip("mujoco")
-    env = gym.make("InvertedPendulum-v5").unwrapped
-    if timestep is not None:  # the same env dt (0.04 s) in finer steps
+    env = gym.make(env_id).unwrapped
+    if timestep is not None:
+        env_dt = env.dt
         env.model.opt.timestep = timestep
-        env.frame_skip = int(round(0.04 / timestep))
+        env.frame_skip = int(round(env_dt / timestep))
     return env
+
+
+def mujoco_env(timestep=None):
+    return mujoco_gym("InvertedPendulum-v5", timestep)
 
 
 def test_reset_starts_where_gymnasiums_mujoco_env_starts():
@@ -138,11 +145,7 @@ def test_reacher_starts_as_gymnasiums_and_converges_to_mujoco_rk4_at_first_order
         return np.array(out)
 
     def mujoco_reacher(timestep):
-        pytest.importorskip("mujoco")
-        env = gym.make("Reacher-v5").unwrapped
-        env.model.opt.timestep = timestep
-        env.frame_skip = int(round(0.02 / timestep))
-        return env
+        return mujoco_gym("Reacher-v5", timestep)
 
     for seed in (0, 7):
         o1, _ = te.Reacher().reset(seed=seed)
@@ -349,12 +352,7 @@ def test_the_cem_example_learns_to_balance_and_the_policy_balances_on_mujoco_too
 
 
 def mujoco_double(timestep=None):
-    pytest.importorskip("mujoco")
-    env = gym.make("InvertedDoublePendulum-v5").unwrapped
-    if timestep is not None:  # the same env dt (0.05 s) in finer steps
-        env.model.opt.timestep = timestep
-        env.frame_skip = int(round(0.05 / timestep))
-    return env
+    return mujoco_gym("InvertedDoublePendulum-v5", timestep)
 
 
 def test_double_pendulum_starts_and_scores_as_gymnasiums():
