@@ -58,6 +58,16 @@ def mujoco_env(timestep=None):
     return mujoco_gym("InvertedPendulum-v5", timestep)
 
 
+def first_order_errors(run, reference, make, env_dt, steps):
+    """The largest differences from ``reference`` of ``run`` on ``make(timestep=h, frame_skip=)``
+    (the same environment dt ``env_dt``) for each step h of ``steps``, each half the last: they
+    must halve with it (ratios 1.7-2.3 admit first order only). Returns them."""
+    errors = [np.abs(run(make(timestep=h, frame_skip=int(round(env_dt / h)))) - reference).max() for h in steps]
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+    return errors
+
+
 def test_reset_starts_where_gymnasiums_mujoco_env_starts():
     """Same seed, same start: the noise is drawn as Gymnasium's MuJoCo environments draw it (qpos,
     then qvel, uniform in +-0.01 from the env's generator), and the observation is (qpos, qvel)
@@ -87,10 +97,7 @@ def test_episode_converges_to_mujoco_rk4_at_first_order():
 
     reference = run(mujoco_env(0.0005))
     assert abs(reference[-1, 1]) > 0.4  # the pole fell well past the task's 0.2 rad
-    errors = [np.abs(run(te.InvertedPendulum(timestep=h, frame_skip=int(round(0.04 / h)))) - reference).max()
-              for h in (0.02, 0.01, 0.005, 0.0025)]
-    ratios = np.array(errors[:-1]) / np.array(errors[1:])
-    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+    errors = first_order_errors(run, reference, te.InvertedPendulum, 0.04, (0.02, 0.01, 0.005, 0.0025))
     assert errors[-1] < 3e-3
 
 
@@ -152,10 +159,7 @@ def test_reacher_starts_as_gymnasiums_and_converges_to_mujoco_rk4_at_first_order
         o2, _ = mujoco_reacher(0.01).reset(seed=seed)
         assert np.abs(o1 - o2).max() < 1e-15
     reference = run(mujoco_reacher(0.0002))
-    errors = [np.abs(run(te.Reacher(timestep=h, frame_skip=int(round(0.02 / h)))) - reference).max()
-              for h in (0.01, 0.005, 0.0025, 0.00125)]
-    ratios = np.array(errors[:-1]) / np.array(errors[1:])
-    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+    errors = first_order_errors(run, reference, te.Reacher, 0.02, (0.01, 0.005, 0.0025, 0.00125))
     assert errors[0] < 0.02
 
 
@@ -402,10 +406,7 @@ def test_double_pendulum_converges_to_mujoco_rk4_at_first_order():
 
     reference = run(mujoco_double(0.0002))
     assert np.all(reference[:, 8] == 0.0)
-    errors = [np.abs(run(te.InvertedDoublePendulum(timestep=h, frame_skip=int(round(0.05 / h)))) - reference).max()
-              for h in (0.01, 0.005, 0.0025, 0.00125)]
-    ratios = np.array(errors[:-1]) / np.array(errors[1:])
-    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+    first_order_errors(run, reference, te.InvertedDoublePendulum, 0.05, (0.01, 0.005, 0.0025, 0.00125))
 
 
 def test_double_pendulum_observes_the_rails_limit_force():
