@@ -39,6 +39,7 @@ substeps, docs/joints.md) against MuJoCo's integrator on the same ``timestep``
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib.util
 import os
 
@@ -838,58 +839,19 @@ class ModelVectorEnv(VectorEnv):
         return obs, reward, terminated, truncated, out
 
 
-def inverted_pendulum_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
-    """``gymnasium.make_vec("tumble/InvertedPendulum-v5", num_envs, vectorization_mode="vector_entry_point")``."""
-    return ModelVectorEnv(InvertedPendulum, num_envs, **kwargs)
-
-
-def reacher_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
-    """``gymnasium.make_vec("tumble/Reacher-v5", num_envs, vectorization_mode="vector_entry_point")``."""
-    return ModelVectorEnv(Reacher, num_envs, **kwargs)
-
-
-def inverted_double_pendulum_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
-    """``gymnasium.make_vec("tumble/InvertedDoublePendulum-v5", num_envs, vectorization_mode="vector_entry_point")``."""
-    return ModelVectorEnv(InvertedDoublePendulum, num_envs, **kwargs)
-
-
-def half_cheetah_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
-    """``gymnasium.make_vec("tumble/HalfCheetah-v5", num_envs, vectorization_mode="vector_entry_point")``."""
-    return ModelVectorEnv(HalfCheetah, num_envs, **kwargs)
-
-
-def hopper_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
-    """``gymnasium.make_vec("tumble/Hopper-v5", num_envs, vectorization_mode="vector_entry_point")``."""
-    return ModelVectorEnv(Hopper, num_envs, **kwargs)
-
-
-def walker2d_vector(num_envs: int, **kwargs) -> ModelVectorEnv:
-    """``gymnasium.make_vec("tumble/Walker2d-v5", num_envs, vectorization_mode="vector_entry_point")``."""
-    return ModelVectorEnv(Walker2d, num_envs, **kwargs)
+# the ids tumble adds, with Gymnasium's episode limits and reward thresholds for its own v5 tasks
+TASKS = (("InvertedPendulum", 1000, 950.0), ("Reacher", 50, -3.75), ("InvertedDoublePendulum", 1000, 9100.0),
+         ("HalfCheetah", 1000, 4800.0), ("Hopper", 1000, 3800.0), ("Walker2d", 1000, None))
 
 
 def _register():
-    """``gymnasium.make("tumble/InvertedPendulum-v5")``: the ids tumble adds (1000 steps an
-    episode and a reward threshold of 950, as Gymnasium registers ``InvertedPendulum-v5``)."""
-    if "tumble/InvertedPendulum-v5" not in gymnasium.registry:
-        gymnasium.register("tumble/InvertedPendulum-v5", entry_point="tumble.envs:InvertedPendulum",
-                           vector_entry_point="tumble.envs:inverted_pendulum_vector",
-                           max_episode_steps=1000, reward_threshold=950.0)
-    if "tumble/Reacher-v5" not in gymnasium.registry:
-        gymnasium.register("tumble/Reacher-v5", entry_point="tumble.envs:Reacher",
-                           vector_entry_point="tumble.envs:reacher_vector", max_episode_steps=50,
-                           reward_threshold=-3.75)
-    if "tumble/InvertedDoublePendulum-v5" not in gymnasium.registry:
-        gymnasium.register("tumble/InvertedDoublePendulum-v5", entry_point="tumble.envs:InvertedDoublePendulum",
-                           vector_entry_point="tumble.envs:inverted_double_pendulum_vector", max_episode_steps=1000,
-                           reward_threshold=9100.0)
-    # the runners, with Gymnasium's limits and thresholds for them
-    for name, entry, threshold in (("HalfCheetah", "half_cheetah", 4800.0), ("Hopper", "hopper", 3800.0),
-                                   ("Walker2d", "walker2d", None)):
+    """``gymnasium.make("tumble/NAME-v5")`` and ``gymnasium.make_vec(..., vectorization_mode=
+    "vector_entry_point")`` (a ``ModelVectorEnv`` of the task) for each of ``TASKS``."""
+    for name, steps, threshold in TASKS:
         if f"tumble/{name}-v5" not in gymnasium.registry:
             gymnasium.register(f"tumble/{name}-v5", entry_point=f"tumble.envs:{name}",
-                               vector_entry_point=f"tumble.envs:{entry}_vector", max_episode_steps=1000,
-                               reward_threshold=threshold)
+                               vector_entry_point=functools.partial(ModelVectorEnv, globals()[name]),
+                               max_episode_steps=steps, reward_threshold=threshold)
 
 
 _register()

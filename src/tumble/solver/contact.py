@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..collision.constants import SPECULATIVE_DISTANCE
-from ..collision.manifold import match_contacts
+from ..collision.manifold import KEY_BITS, match_contacts
 from .contact_anchor import anchor_offsets_kernel, anchor_offsets_serial_kernel
 from .contact_rolling import (
     prepare_rolling_kernel,
@@ -454,9 +454,9 @@ class ContactSolver:
         k = self.old_count
         keys = self.old_key[:k]
         live = np.flatnonzero(keys >= 0)
-        shape_mask = (1 << 21) - 1  # manifold.py's key: (shape_a << 42) | (shape_b << 21) | feature
-        a = shape_body[keys[live] >> 42]
-        b = shape_body[(keys[live] >> 21) & shape_mask]
+        shape_mask = (1 << KEY_BITS) - 1  # manifold.py's key: (shape_a << 42) | (shape_b << 21) | feature
+        a = shape_body[keys[live] >> (2 * KEY_BITS)]
+        b = shape_body[(keys[live] >> KEY_BITS) & shape_mask]
         hit = live[bodies[a] | bodies[b]]
         keys[hit] = -1 - hit
 
