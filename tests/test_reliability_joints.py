@@ -81,7 +81,8 @@ def resumed_after_half(tmp_path, method):
     resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
     assert same_state(resumed.world, first.world) and same_readings(resumed, first)
     for name in checkpoint.JOINT_SOLVER_STATE:
-        assert np.array_equal(getattr(resumed.soft_step.joints, name), getattr(first.soft_step.joints, name)), name
+        assert np.array_equal(getattr(resumed.soft_step.joints, name), getattr(first.soft_step.joints, name),
+                              equal_nan=True), name  # armature_rate: NaN for the joints without armature
     return whole, resumed
 
 
@@ -110,6 +111,46 @@ def test_without_the_joint_warm_start_the_continuation_differs(tmp_path):
         getattr(solver, name)[...] = 0.0
     resumed.step(STEPS - STEPS // 2)
     assert not same_state(resumed.world, whole.world)
+
+
+def test_armature_rates_are_carried_by_checkpoints_and_snapshots(tmp_path):
+    """A wrist of three hinges with armature on turning parents (tests/physics/test_mjcf.py's
+    ``WRIST``; the armature rows' first substep takes the rates the last step ended with,
+    ``JointSolver.armature_rate``): resumed from a checkpoint, or from a snapshot after other
+    steps, it continues with the straight run's bits; forgetting those rates after the load
+    changes the bits (its first substep then takes the rates derived from the momenta), so the
+    resume checks that they are carried."""
+    from .physics.test_mjcf import WRIST
+
+    path = tmp_path / "wrist.xml"
+    path.write_text(WRIST)
+
+    def start():
+        world = tb.World(gravity=(0, 0, 0))
+        robot = tb.load_mjcf(world, path)
+        sim = tb.Simulator(world, dt=0.002)
+        robot.kinematics.set_state([0.3, -0.4, 0.7], [2.0, 1.0, -3.0], sim)
+        return sim
+
+    whole = start()
+    whole.step(40)
+    first = start()
+    first.step(20)
+    saved = first.save_state()
+    first.save_checkpoint(tmp_path / "c.npz")
+    rates = first.soft_step.joints.armature_rate
+    assert np.isfinite(rates[[1, 2]]).all() and np.isnan(rates[0])  # the pan has no armature
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    resumed.step(20)
+    assert same_state(resumed.world, whole.world)
+    first.step(7)
+    first.restore_state(saved)
+    first.step(20)
+    assert same_state(first.world, whole.world)
+    forgetful = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    forgetful.soft_step.joints.armature_rate[:] = np.nan
+    forgetful.step(20)
+    assert not same_state(forgetful.world, whole.world)
 
 
 def test_joint_added_after_the_last_step_resumes_bit_for_bit(tmp_path):

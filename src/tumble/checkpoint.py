@@ -62,9 +62,12 @@ BODY_FIELDS = ("body", "body_a", "body_b")
 # it); ``param`` (J, PARAM_COUNT) (writable between steps, e.g. ``set_motor_speed``); and
 # the readings of the last step, ``rate`` (J,), ``reaction_force`` (J, 3) N,
 # ``reaction_torque`` (J, 3) N m, ``broke`` (J,) bool, so ``joint_readings()`` after a
-# load is what it was at the save.
+# load is what it was at the save; ``armature_rate`` (J,) and ``armature_state`` (J, 2, 18): the
+# rates the next step's first substep takes as its armature rows' target and the bodies' state
+# they were taken at (absent from checkpoints written before session 31: none known, NaN).
 JOINT_SOLVER_STATE = ("enabled", "linear_impulse", "angular_impulse", "axial_impulse", "position", "param",
-                      "rate", "reaction_force", "reaction_torque", "broke")
+                      "rate", "reaction_force", "reaction_torque", "broke", "armature_rate", "armature_state")
+JOINT_SOLVER_OPTIONAL = ("armature_rate", "armature_state")
 # Its other arrays, not saved because the next step rebuilds them: the tables read from the
 # bound joint records (types, bodies, anchors, frames), the tree solve's forest (from
 # ``world.moving`` and ``enabled``) and scratch (refilled in every solve: no factorization
@@ -335,7 +338,7 @@ def _restore_joint_solver(sim, state: dict):
     were added after the last step; the first step's ``prepare`` then appends the others and
     keeps the state of the first k, as it would have in the run that saved.
     """
-    missing = [name for name in JOINT_SOLVER_STATE if name not in state]
+    missing = [name for name in JOINT_SOLVER_STATE if name not in state and name not in JOINT_SOLVER_OPTIONAL]
     unknown = sorted(set(state) - set(JOINT_SOLVER_STATE))
     if missing or unknown:
         raise InputError(f"joint solver arrays do not match this version (missing {missing}, unknown {unknown})")
@@ -352,6 +355,8 @@ def _restore_joint_solver(sim, state: dict):
     solver._build(list(joints[:k]))
     for name in JOINT_SOLVER_STATE:
         target = getattr(solver, name)
+        if name not in state:
+            continue  # JOINT_SOLVER_OPTIONAL: an older checkpoint; as a new solver has it
         saved = state[name]
         old_columns = {"param": OLD_PARAM_COUNTS, "axial_impulse": OLD_AXIAL_COUNTS}.get(name, ())
         if saved.ndim == 2 and saved.shape[0] == target.shape[0] and saved.shape[1] in old_columns:

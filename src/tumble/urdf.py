@@ -264,6 +264,7 @@ class Robot:
                 solver.linear_impulse[j] = 0.0
                 solver.angular_impulse[j] = 0.0
                 solver.axial_impulse[j] = 0.0
+                solver.armature_rate[j] = np.nan  # the new state's rates are those derived from its momenta
                 if name in positions:
                     solver.position[j] = positions[name]
 

@@ -746,3 +746,65 @@ def joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
         has, linear, n, ra, rb, _pos = _coordinate_row(joint_type[j], j, joint_a[j], joint_b[j], x, R, local_a,
                                                        local_b, frame_a, frame_b, position)
         rate0[j] = _row_velocity(v, omega, joint_a[j], joint_b[j], linear, n, ra, rb) if has else 0.0
+
+
+# numbers kept per body in ``JointSolver.armature_state``: the widest state row (the matrix
+# layout's 18; the quaternion layout's 13 leave the rest zero)
+ARMATURE_STATE_WIDTH = 18
+
+
+@njit(**NO_NRT)
+def first_substep_rates_kernel(armature_rate, rate0):
+    """rate0[j] = armature_rate[j] where it is known (not NaN): the step's first substep.
+
+    Why: the armature a of a coordinate adds to its inertia (MuJoCo: M + diag(a)), so it must
+    resist every change of the coordinate's rate over a substep, the velocity-product
+    (centrifugal, gyroscopic) part too. In the soft step that part enters when a substep derives
+    omega again from L at the orientation the last substep reached (omega = I(R)^-1 L): a target
+    taken after that derivation never sees it. Later substeps take their target before it
+    (``substeps_kernel``); the first takes the rates the last step ended with, kept by
+    ``JointSolver.store``. Measured (tests/physics/test_mjcf.py, a roll joint of armature 0.04
+    on a turning parent): the roll's acceleration -1.934 rad/s^2 = -c/I with the target taken
+    after, MuJoCo's -c/(I + a) = -0.0459 before."""
+    for j in range(rate0.shape[0]):
+        r = armature_rate[j]
+        if r == r:
+            rate0[j] = r
+
+
+@njit(**NO_NRT)
+def keep_armature_state_kernel(joint_a, joint_b, param, enabled, Y,
+                               # outputs
+                               armature_state, armature_rate):
+    """After a step: armature_state[j] = the state rows (Y (N, 13 or 18)) of the two bodies of
+    each enabled joint with armature (zeros for the world), which ``armature_rates_current_kernel``
+    compares before the next step; armature_rate[j] NaN for the joints without armature."""
+    width = Y.shape[1]
+    for j in range(joint_a.shape[0]):
+        if not enabled[j] or param[j, P_ARMATURE] == 0.0:
+            armature_rate[j] = math.nan
+            continue
+        for side in range(2):
+            body = joint_a[j] if side == 0 else joint_b[j]
+            for c in range(armature_state.shape[2]):
+                armature_state[j, side, c] = Y[body, c] if body >= 0 and c < width else 0.0
+
+
+@njit(**NO_NRT)
+def armature_rates_current_kernel(joint_a, joint_b, Y, armature_state,
+                                  # outputs
+                                  armature_rate):
+    """armature_rate[j] = NaN where a state row of the joint's bodies in Y (N, 13 or 18) is no
+    longer the one kept by ``keep_armature_state_kernel`` (bit for bit: anything that moved the
+    body between the steps)."""
+    width = Y.shape[1]
+    for j in range(joint_a.shape[0]):
+        if armature_rate[j] != armature_rate[j]:
+            continue
+        for side in range(2):
+            body = joint_a[j] if side == 0 else joint_b[j]
+            if body < 0:
+                continue
+            for c in range(width):
+                if Y[body, c] != armature_state[j, side, c]:
+                    armature_rate[j] = math.nan

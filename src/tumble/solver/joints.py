@@ -108,12 +108,16 @@ from .joint_solve import (
     A_SPRING,
     A_UPPER,
     A_UPPER2,
+    ARMATURE_STATE_WIDTH,
     AXIAL_COUNT,
     _coordinate_row,
     _second_row,
     ball_drive_error,
     _sym_mat_vec,
+    armature_rates_current_kernel,
+    first_substep_rates_kernel,
     joint_rates_kernel,
+    keep_armature_state_kernel,
     solve_joints_kernel,
     twist_angle,  # noqa: F401  (public here, as before the split)
     warm_start_joints_kernel,
@@ -425,7 +429,12 @@ class JointSolver:
     ball joint drive's angular impulse, (3,) N m s world, ``A_BALL_DRIVE``),
     world, accumulated over the last substep, carried to the next for warm starting.
     ``rate0`` (J,): the coordinates' rates before the current substep's forces (the armature
-    rows' target, ``capture_rates``).
+    rows' target, ``capture_rates``). ``armature_rate`` (J,) rad/s or m/s: the rates of the
+    joints with armature at the end of the last step, from its solved velocities (NaN: none, or
+    no longer current), the first substep's target; ``armature_state`` (J, 2, 18): the rows of
+    the state of the joint's two bodies (``World.state()``'s numbers, zeros past the layout's
+    width and for the world) when they were taken, to tell whether anything moved the bodies
+    since (``check_armature_rates``).
 
     Read after each step (``store``): ``position`` (J,) joint coordinate (hinge angle rad,
     slider displacement m, distance m, ball swing angle rad, universal angle about ``axis``
@@ -450,7 +459,8 @@ class JointSolver:
     def _build(self, joints):
         J = len(joints)
         old = {name: getattr(self, name, None) for name in ("enabled", "linear_impulse", "angular_impulse",
-                                                              "axial_impulse", "position")}
+                                                              "axial_impulse", "position", "armature_rate",
+                                                              "armature_state")}
         self.joint_type = np.array([j.bound.type_id for j in joints], dtype=np.int64)
         self.joint_a = np.array([j.bound.body_a for j in joints], dtype=np.int64)
         self.joint_b = np.array([j.bound.body_b for j in joints], dtype=np.int64)
@@ -469,6 +479,8 @@ class JointSolver:
         self.angular_impulse = np.zeros((J, 3))
         self.axial_impulse = np.zeros((J, AXIAL_COUNT))
         self.position = np.zeros(J)
+        self.armature_rate = np.full(J, np.nan)  # the first substep's target (store, check_armature_rates)
+        self.armature_state = np.zeros((J, 2, ARMATURE_STATE_WIDTH))
         # joints kept from before (a joint added later goes at the end): keep their state
         k = self.count
         if k and old["enabled"] is not None and self._joints == joints[:k]:
@@ -674,12 +686,24 @@ class JointSolver:
             mask[ends[ends >= 0]] = True
         return mask
 
-    def capture_rates(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray):
+    def capture_rates(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray, first: bool = False):
         """``rate0`` (J,) = the coordinates' rates of the joints with armature from v, omega (N, 3)
-        at poses x, R: each substep, before its forces (the armature rows' target)."""
+        at poses x, R: each substep, before its forces (the armature rows' target). ``first``: the
+        step's first substep, whose v, omega were derived again from the momenta: the joints whose
+        ``armature_rate`` is current take it instead (``first_substep_rates_kernel``)."""
         if self.count:
             joint_rates_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a,
                                self.frame_b, self.param, self.enabled, self.position, x, R, v, omega, self.rate0)
+            if first:
+                first_substep_rates_kernel(self.armature_rate, self.rate0)
+
+    def check_armature_rates(self, Y: np.ndarray):
+        """Before a step with armature: forget (NaN) ``armature_rate`` of the joints one of whose
+        bodies' state rows in Y (N, 13 or 18) is not what it was at the end of the last step (the
+        user moved, pushed or placed it, a reset, a restored snapshot of another time): their first
+        substep takes its target from the velocities derived from the momenta, as before."""
+        if self.count:
+            armature_rates_current_kernel(self.joint_a, self.joint_b, Y, self.armature_state, self.armature_rate)
 
     def solve(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray, use_bias: bool):
         """Sweeps over the joints on v, omega (N, 3) at poses x (N, 3), R (N, 3, 3):
@@ -762,6 +786,14 @@ class JointSolver:
         records get ``broken = True``). Returns how many broke in this step."""
         if not self.count:
             return 0
+        if self.has_armature():
+            # the first substep of the next step resists from these rates, not from those derived again
+            # from the momenta at the new orientation (see first_substep_rates_kernel)
+            joint_rates_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a,
+                               self.frame_b, self.param, self.enabled, self.position, x, R, v, omega,
+                               self.armature_rate)
+            keep_armature_state_kernel(self.joint_a, self.joint_b, self.param, self.enabled, x, self.armature_state,
+                                       self.armature_rate)
         broke = store_joints_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,
                                     self.frame_a, self.frame_b, self.param, x, R, v, omega, 1.0 / self.h,
                                     self.linear_impulse, self.angular_impulse, self.axial_impulse,

@@ -44,7 +44,8 @@ from ..integrators import accumulate_forces_kernel
 from ..math3d import JIT
 from ..world import Scratch
 from . import contact as C
-from .joint_solve import joint_rates_kernel, solve_joints_serial_kernel, warm_start_joints_kernel
+from .joint_solve import (first_substep_rates_kernel, joint_rates_kernel, solve_joints_serial_kernel,
+                          warm_start_joints_kernel)
 from .joint_tree import tree_sweeps_kernel
 from .contact_rolling import solve_rolling_kernel, warm_start_rolling_kernel
 from .contact_solve import solve_contacts_kernel, warm_start_kernel
@@ -200,7 +201,7 @@ def _substeps_kernel(with_joints: bool):
     def substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_body, inertia_body_inv, moving,
                         gravity, forces, kinematic_v, kinematic_omega, h, substeps,
                         joints, tree, tree_parts, soft_bias, soft_relax, velocity_iterations, relax_iterations, armature,
-                        contacts, rolling, contact_speed,
+                        armature_rate, contacts, rolling, contact_speed,
                         # outputs and scratch
                         R, v, omega, F, T, I_inv, I_world, impulses):
         """The substeps of a step, in one call: ``SoftStep.step``'s loop, the same kernels in the
@@ -217,7 +218,7 @@ def _substeps_kernel(with_joints: bool):
         ``_solve_joints`` unpacks it; empty arrays for a world without joints), ``tree``: its method
         is the tree's, whose arrays are ``tree_parts``; ``impulses``: its accumulated impulses
         (linear, angular, axial); ``armature``: some joint has armature (take the rates before each
-        substep's forces). ``contacts``: ``ContactSolver``'s per-contact arrays as
+        substep's forces; the first substep's from ``armature_rate`` (J,) where known). ``contacts``: ``ContactSolver``'s per-contact arrays as
         ``contact_solve.solve_contacts_kernel`` takes them, then the step's impulse totals (C rows;
         C = 0: none), ``rolling``: its rolling-resistance rows.
         """
@@ -234,13 +235,16 @@ def _substeps_kernel(with_joints: bool):
         n_rolling = rolling_rows.shape[0]
         inv_h = 1.0 / h
         for k in range(substeps):
+            if with_joints and armature:
+                # before the forces derive omega again from L (first_substep_rates_kernel says why)
+                joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                                   position, Y, R, v, omega, rate0)
+                if k == 0:
+                    first_substep_rates_kernel(armature_rate, rate0)
             if k > 0:
                 accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind,
                                          uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
                                          R, v, omega, F, T)
-            if with_joints and armature:
-                joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
-                                   position, Y, R, v, omega, rate0)
             integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inertia_body_inv, F, T, h,
                                         kinematic_v, kinematic_omega, R, v, omega, I_inv, I_world)
             if with_joints and n_joints:
@@ -475,16 +479,20 @@ class SoftStep:
         if joints is not None:
             joints.prepare(w, h, w.inv_mass, self.I_inv, x=Y)
         armature = joints is not None and joints.has_armature()
+        if armature:
+            joints.check_armature_rates(Y)  # the last step's rates, unless something moved the bodies since
         if self.fuse and check is None and not w.tables.custom and (joints is None or joints.fusable()):
             self._fused_substeps(Y, h, substeps, kinematic, joints, armature)
             substeps = 0  # done: the same stages as the loop below, compiled together
         for k in range(substeps):
+            if armature:
+                # the armature rows' target: before the forces derive omega again from L
+                # (joint_solve.first_substep_rates_kernel says why)
+                joints.capture_rates(s.v, s.omega, Y, s.R, first=k == 0)
             if k > 0:
                 w.evaluate_forces(t + k * h, Y, s)
             if check is not None:
                 check("accumulate_forces", t + k * h, F=s.F, T=s.T)
-            if armature:
-                joints.capture_rates(s.v, s.omega, Y, s.R)  # before the forces: the armature rows' target
             integrate_velocities_kernel(layout, Y, active, w.inv_mass, w.inertia_body, w.inertia_body_inv, s.F, s.T, h,
                                         w.kinematic_v, w.kinematic_omega, s.R, s.v, s.omega, self.I_inv, self.I_world)
             if joints is not None:
@@ -545,7 +553,7 @@ class SoftStep:
             w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
                                   tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
             tables, st.method == "tree", joints.tree_parts(), joints.soft_bias, joints.soft_relax,
-            int(st.velocity_iterations), int(st.relax_iterations), armature, contacts, rolling,
+            int(st.velocity_iterations), int(st.relax_iterations), armature, joints.armature_rate, contacts, rolling,
             float(self.settings.contact_speed), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
             (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
 
