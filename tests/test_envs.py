@@ -44,12 +44,15 @@ def servo_model(tmp_path_factory):
 
 def mujoco_gym(env_id, timestep=None):
     """Gymnasium's own ``env_id`` stepped by MuJoCo (the unwrapped environment); with ``timestep``,
-    the same environment dt in finer steps."""
-    pytest.importorskip("mujoco")
+    a reference: the same environment dt in finer steps of MuJoCo's RK4 (some files, the
+    pusher's, leave MuJoCo's semi-implicit Euler on, whose first-order error at 2e-4 s, 1.9e-4,
+    was as large as tumble's at 0.001 s)."""
+    mujoco = pytest.importorskip("mujoco")
     env = gym.make(env_id).unwrapped
     if timestep is not None:
         env_dt = env.dt
         env.model.opt.timestep = timestep
+        env.model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
         env.frame_skip = int(round(env_dt / timestep))
     return env
 
@@ -271,6 +274,7 @@ def test_gymnasium_env_checker_passes():
         check_env(te.InvertedPendulum(render_mode="rgb_array"))
         check_env(te.Reacher())
         check_env(te.InvertedDoublePendulum())
+        check_env(te.Pusher())
 
 
 def test_render_draws_the_pendulum():
@@ -436,3 +440,86 @@ def test_vector_double_pendulum_copies_equal_single_envs_bit_for_bit():
     episodes = _compare_vector_with_singles(venv, te.InvertedDoublePendulum, 4, 40, 1000, 5, 1,
                                             np.random.default_rng(4))
     assert episodes >= 8
+
+
+# ---------------------------------------------------------------------------------------- the pusher
+
+
+def test_pusher_starts_and_scores_as_gymnasiums():
+    """Gymnasium's ``Pusher-v5``: the same seed gives the same start (the object's place drawn by
+    rejection, the rates; exact), and on the same states (random arm angles and rates, object and
+    goal places) the observation (the fingertip, object and goal read from the bodies) equals
+    Gymnasium's to 1e-12 and the reward and info to 1e-6 (the control cost in float32 there)."""
+    ours, theirs = te.Pusher(), mujoco_gym("Pusher-v5")
+    for seed in (0, 6):
+        o1, _ = ours.reset(seed=seed)
+        o2, _ = theirs.reset(seed=seed)
+        assert o1.shape == (23,) and np.array_equal(o1, o2)
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        qpos = ours.init_qpos + np.concatenate([rng.uniform(-0.5, 0.5, 7), rng.uniform(-0.3, 0.3, 4)])
+        qvel = rng.normal(0, 1, 11)
+        ours.set_state(qpos, qvel)
+        theirs.set_state(qpos, qvel)
+        obs = ours.observe(qpos[None], qvel[None], ours._copies.view)
+        np.testing.assert_allclose(obs[0], theirs._get_obs(), rtol=0, atol=1e-12)
+        action = rng.uniform(-2, 2, 7).astype(np.float32)
+        reward, terminated, info = ours.evaluate(obs, action[None].astype(np.float64))
+        expected, expected_info = theirs._get_rew(action)
+        assert not terminated[0] and reward[0] == pytest.approx(expected, rel=1e-6)
+        assert info.keys() == expected_info.keys()
+        for key, value in expected_info.items():
+            assert info[key][0] == pytest.approx(float(value), rel=1e-6), key
+
+
+def test_pusher_converges_to_mujoco_rk4_at_first_order():
+    """The arm's dynamics (seven joints with armature 0.04 and damping, motors; a wrist of three
+    joints on turning parents, where the armature must resist the velocity-product accelerations:
+    tests/physics/test_mjcf.py's wrist tests): from the middle of its joints' ranges (the model's
+    pose has the elbow at its range's end, where MuJoCo's soft limits and tumble's rigid ones part
+    at once), 5 steps of small random controls, the arm swinging clear of the object and of its
+    ranges, against MuJoCo's RK4 at 1e-3 s (converged: 1.3e-10 from 1e-4 s); each halving of
+    tumble's step halves the largest difference of the observation (first order: ratios 1.7-2.3;
+    measured 2.00, 2.4e-3 at 0.01 s to 2.9e-4 at 0.00125 s). Before session 31's armature fix the
+    difference did not shrink with the step."""
+    actions = np.random.default_rng(5).uniform(-0.5, 0.5, size=(5, 7)).astype(np.float32)
+    env = te.Pusher()
+    start = env.init_qpos.copy()
+    start[-4:] = [-0.2, 0.1, 0.0, 0.0]
+    for k, c in enumerate(env.robot.kinematics.coordinates[:7]):
+        joint = env.robot.joints[c.name]
+        if joint.lower is not None and np.isfinite(joint.lower) and np.isfinite(joint.upper):
+            start[k] = 0.5 * (joint.lower + joint.upper)
+
+    def run(env):
+        env.reset(seed=2)
+        env.set_state(start, np.zeros(11))
+        return np.array([env.step(a)[0] for a in actions])
+
+    reference = run(mujoco_gym("Pusher-v5", 0.001))
+    for k, c in enumerate(env.robot.kinematics.coordinates[:7]):
+        joint = env.robot.joints[c.name]
+        if joint.lower is not None:
+            assert np.all((reference[:, k] > joint.lower + 0.02) & (reference[:, k] < joint.upper - 0.02)), c.name
+    first_order_errors(run, reference, te.Pusher, 0.05, (0.01, 0.005, 0.0025, 0.00125))
+
+
+def test_pusher_registered_with_gymnasiums_limits_and_bad_weights_rejected():
+    """``gym.make("tumble/Pusher-v5")`` is the pusher with Gymnasium's 100-step limit, and
+    ``make_vec`` its vector environment; a weight that is not a finite number is one line."""
+    env = gym.make("tumble/Pusher-v5")
+    assert isinstance(env.unwrapped, te.Pusher) and env.spec.max_episode_steps == 100
+    venv = gym.make_vec("tumble/Pusher-v5", 2, vectorization_mode="vector_entry_point")
+    assert isinstance(venv, te.ModelVectorEnv) and venv.num_envs == 2
+    for key in ("reward_near_weight", "reward_dist_weight", "reward_control_weight"):
+        with pytest.raises(tb.InputError, match=f"{key}: must be a finite number"):
+            te.Pusher(**{key: float("nan")})
+
+
+def test_vector_pusher_copies_equal_single_envs_bit_for_bit():
+    """The pusher's vector copies (each in an env of its own over one table: the arm, the object
+    and the table touch) are its single environments, bit for bit, through truncations (10 steps)
+    and autoresets: 3 copies, 25 steps of random controls."""
+    venv = te.ModelVectorEnv(te.Pusher, 3, max_episode_steps=10)
+    episodes = _compare_vector_with_singles(venv, te.Pusher, 3, 25, 10, 8, 7, np.random.default_rng(6))
+    assert episodes == 6

@@ -14,8 +14,8 @@ on the other (sim-to-sim transfer), or trained on tumble alone.
   ``timestep`` (the file's ``<option timestep>``, MuJoCo's 0.002 s when it has none). A subclass
   says what the task is: ``observe`` (the observation), ``evaluate`` (reward, terminated, info)
   and, if it resets otherwise, ``draw_start``.
-- ``InvertedPendulum``, ``InvertedDoublePendulum``, ``Reacher``, ``HalfCheetah``, ``Hopper`` and
-  ``Walker2d``: Gymnasium's
+- ``InvertedPendulum``, ``InvertedDoublePendulum``, ``Reacher``, ``Pusher``, ``HalfCheetah``,
+  ``Hopper`` and ``Walker2d``: Gymnasium's
   ``...-v5`` tasks on Gymnasium's own model files (read from the installed gymnasium), registered
   as ``tumble/InvertedPendulum-v5`` and so on with Gymnasium's episode limits:
   ``gymnasium.make("tumble/HalfCheetah-v5")`` once ``tumble.envs`` is imported. The runners
@@ -57,7 +57,7 @@ except ImportError:  # pragma: no cover - the message is the point
 from .errors import InputError
 
 __all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "InvertedDoublePendulum", "Reacher", "HalfCheetah",
-           "Hopper", "Walker2d", "gymnasium_asset"]
+           "Hopper", "Walker2d", "Pusher", "gymnasium_asset"]
 
 
 def gymnasium_asset(name: str) -> str:
@@ -570,6 +570,59 @@ class InvertedDoublePendulum(ModelEnv):
                                                          "velocity_penalty": -velocity}
 
 
+class Pusher(ModelEnv):
+    """Gymnasium's ``Pusher-v5`` stepped by tumble, on its ``pusher_v5.xml``: a seven-joint arm
+    (motors, controls in [-2, 2]) pushing a cylinder (a body on two slides) over a table towards
+    a goal (a body on two slides it never touches); timestep 0.01 s, ``frame_skip`` 5.
+    Observation (23,): the arm's 7 angles and 7 rates, then the world positions of the fingertip
+    (``tips_arm``), the object and the goal (their frames' origins: MuJoCo's ``get_body_com``,
+    which reads ``xpos``). Reward: -``reward_near_weight`` |object - tip| -
+    ``reward_dist_weight`` |object - goal| - ``reward_control_weight`` |action|^2 (0.5, 1, 0.1);
+    never terminated (100 steps an episode). Reset as v5's: the arm at its pose, the goal at the
+    origin of its slides, the object's two slide coordinates drawn uniform in [-0.3, 0] and
+    [-0.2, 0.2] until they lie more than 0.17 from the goal's, the rates +-0.005 but the object's
+    and the goal's 0. The object slides and is pushed on tumble's contacts (the arm's, the table's)."""
+
+    def __init__(self, *, frame_skip: int = 5, reward_near_weight: float = 0.5, reward_dist_weight: float = 1.0,
+                 reward_control_weight: float = 0.1, **kwargs):
+        for key, value in (("reward_near_weight", reward_near_weight), ("reward_dist_weight", reward_dist_weight),
+                           ("reward_control_weight", reward_control_weight)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
+                raise InputError(f"must be a finite number, got {value!r}", key)
+        self.weights = (float(reward_near_weight), float(reward_dist_weight), float(reward_control_weight))
+        super().__init__(gymnasium_asset("pusher_v5.xml"), frame_skip=frame_skip, **kwargs)
+
+    def draw_start(self, rng):
+        qpos = self.init_qpos.copy()
+        goal = np.zeros(2)
+        while True:
+            cylinder = np.concatenate([rng.uniform(low=-0.3, high=0, size=1), rng.uniform(low=-0.2, high=0.2, size=1)])
+            if np.linalg.norm(cylinder - goal) > 0.17:
+                break
+        qpos[-4:-2] = cylinder
+        qpos[-2:] = goal
+        qvel = self.init_qvel + rng.uniform(low=-0.005, high=0.005, size=len(self.init_qvel))
+        qvel[-4:] = 0.0
+        return qpos, qvel
+
+    def observe(self, qpos, qvel, links=None):
+        n = len(qpos)
+        if links is None:
+            self._places = np.zeros((3, n, 3))
+        else:
+            self._places = np.array([links(name) for name in ("tips_arm", "object", "goal")])
+        return np.concatenate([qpos[:, :7], qvel[:, :7], *self._places], axis=1)
+
+    def evaluate(self, observation, action):
+        tip, obj, goal = self._places
+        near_w, dist_w, ctrl_w = self.weights
+        near = -np.linalg.norm(obj - tip, axis=1) * near_w
+        dist = -np.linalg.norm(obj - goal, axis=1) * dist_w
+        ctrl = -np.square(action).sum(axis=1) * ctrl_w
+        return dist + ctrl + near, np.zeros(len(observation), dtype=bool), \
+            {"reward_dist": dist, "reward_ctrl": ctrl, "reward_near": near}
+
+
 class _Runner(ModelEnv):
     """Gymnasium's planar runners (``HalfCheetah-v5``, ``Hopper-v5``, ``Walker2d-v5``): a body on
     the file's root joints (a slide along x, a slide along z, a hinge about y) and legs of hinges
@@ -841,7 +894,7 @@ class ModelVectorEnv(VectorEnv):
 
 # the ids tumble adds, with Gymnasium's episode limits and reward thresholds for its own v5 tasks
 TASKS = (("InvertedPendulum", 1000, 950.0), ("Reacher", 50, -3.75), ("InvertedDoublePendulum", 1000, 9100.0),
-         ("HalfCheetah", 1000, 4800.0), ("Hopper", 1000, 3800.0), ("Walker2d", 1000, None))
+         ("Pusher", 100, 0.0), ("HalfCheetah", 1000, 4800.0), ("Hopper", 1000, 3800.0), ("Walker2d", 1000, None))
 
 
 def _register():
