@@ -275,6 +275,7 @@ def test_gymnasium_env_checker_passes():
         check_env(te.Reacher())
         check_env(te.InvertedDoublePendulum())
         check_env(te.Pusher())
+        check_env(te.Swimmer())
 
 
 def test_render_draws_the_pendulum():
@@ -523,3 +524,82 @@ def test_vector_pusher_copies_equal_single_envs_bit_for_bit():
     venv = te.ModelVectorEnv(te.Pusher, 3, max_episode_steps=10)
     episodes = _compare_vector_with_singles(venv, te.Pusher, 3, 25, 10, 8, 7, np.random.default_rng(6))
     assert episodes == 6
+
+
+# ---------------------------------------------------------------------------------------- the swimmer
+
+
+def test_swimmer_starts_and_scores_as_gymnasiums():
+    """Gymnasium's ``Swimmer-v5``: the same seed gives the same start and reset info (exact), and on
+    the same states the observation equals Gymnasium's (exact: the same numbers), the speeds and
+    distance to 1e-12 and the reward and its parts to 1e-6 (Gymnasium's control cost is summed in
+    float32: 5e-8 apart, measured); never terminated."""
+    ours, theirs = te.Swimmer(), mujoco_gym("Swimmer-v5")
+    for seed in (0, 5):
+        o1, i1 = ours.reset(seed=seed)
+        o2, i2 = theirs.reset(seed=seed)
+        assert o1.shape == (8,) and np.array_equal(o1, o2)
+        assert i1.keys() == i2.keys() and all(i1[k] == i2[k] for k in i2)
+    rng = np.random.default_rng(2)
+    for _ in range(10):
+        before = ours.init_qpos + rng.uniform(-0.5, 0.5, 5)
+        qpos, qvel = before + rng.uniform(-0.05, 0.05, 5), rng.normal(0, 1, 5)
+        theirs.set_state(qpos, qvel)
+        obs = ours.observe(qpos[None], qvel[None])
+        assert np.array_equal(obs[0], theirs._get_obs())
+        action = rng.uniform(-1, 1, 2).astype(np.float32)
+        ours.remember(before[None], qvel[None])
+        reward, terminated, info = ours.evaluate(obs, action[None].astype(np.float64))
+        velocity = (qpos[:2] - before[:2]) / theirs.dt
+        expected, expected_info = theirs._get_rew(velocity[0], action)
+        assert not terminated[0] and reward[0] == pytest.approx(expected, rel=1e-6)
+        assert info["x_velocity"][0] == pytest.approx(velocity[0], rel=1e-12)
+        assert info["y_velocity"][0] == pytest.approx(velocity[1], rel=1e-12)
+        assert info["distance_from_origin"][0] == pytest.approx(np.linalg.norm(qpos[:2]), rel=1e-12)
+        for key, value in expected_info.items():
+            assert info[key][0] == pytest.approx(float(value), rel=1e-6), key
+
+
+def test_swimmer_swims_as_mujocos_but_for_its_virtual_links(monkeypatch):
+    """The swimmer's episode against MuJoCo's RK4 at 1e-3 s (converged: 3e-8 from 5e-4 s), 10 steps of
+    random controls from the same start. Its root (two slides and a hinge on one body) is a chain
+    through two virtual links of 0.1 % of the torso's mass each (``mjcf.VIRTUAL_FRACTION``), which
+    MuJoCo does not have: with them tumble's difference stops shrinking at about 4e-3 (measured 7.3e-3,
+    4.4e-3, 5.1e-3 at steps 0.005, 0.0025, 0.00125 s; 1.7e-2 at the file's 0.01 s, bound 2x). With the
+    virtual links made 1000 times lighter it converges at first order (each halving of the step
+    halves it: ratios 1.7-2.3; measured 2.00): the fluid, the armature and the motors are MuJoCo's."""
+    actions = np.random.default_rng(3).uniform(-1, 1, size=(10, 2)).astype(np.float32)
+
+    def run(env):
+        env.reset(seed=2)
+        return np.array([np.concatenate([o, [r]]) for o, r, *_ in (env.step(a) for a in actions)])
+
+    reference = run(mujoco_gym("Swimmer-v5", 0.001))
+    assert np.abs(run(te.Swimmer()) - reference).max() < 0.035
+    from tumble import mjcf
+
+    monkeypatch.setattr(mjcf, "VIRTUAL_FRACTION", 1e-6)
+    first_order_errors(run, reference, te.Swimmer, 0.04, (0.01, 0.005, 0.0025))
+
+
+def test_vector_swimmer_copies_equal_single_envs_bit_for_bit():
+    """The swimmer's vector copies (its geoms touch nothing: no collision stage; each copy's fluid
+    record on its own bodies) are its single environments, bit for bit, through truncations (12
+    steps) and autoresets: 3 copies, 30 steps of random controls."""
+    venv = te.ModelVectorEnv(te.Swimmer, 3, max_episode_steps=12)
+    assert sum(isinstance(f, tb.Fluid) for f in venv.world.forces) == 3
+    episodes = _compare_vector_with_singles(venv, te.Swimmer, 3, 30, 12, 9, 2, np.random.default_rng(7))
+    assert episodes == 6
+
+
+def test_swimmer_registered_with_gymnasiums_limits_and_bad_weights_rejected():
+    env = gym.make("tumble/Swimmer-v5")
+    assert isinstance(env.unwrapped, te.Swimmer) and env.spec.max_episode_steps == 1000
+    assert env.spec.reward_threshold == 360.0
+    venv = gym.make_vec("tumble/Swimmer-v5", 2, vectorization_mode="vector_entry_point")
+    assert isinstance(venv, te.ModelVectorEnv) and venv.num_envs == 2
+    for key in ("forward_reward_weight", "ctrl_cost_weight"):
+        with pytest.raises(tb.InputError, match=f"{key}: must be a finite number"):
+            te.Swimmer(**{key: "fast"})
+    obs, _ = te.Swimmer(exclude_current_positions_from_observation=False).reset(seed=0)
+    assert obs.shape == (10,)

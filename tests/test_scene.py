@@ -407,7 +407,7 @@ BAD_SCENES = [
     ("unknown-layout", '[simulation]\nlayout = "euler"\n' + BODY, "simulation.layout", "must be one of 'quaternion', 'matrix', got 'euler'"),
     ("unknown-shape-type", body(shape='{ type = "blob" }'), "bodies[0].shape.type", re.escape(f"unknown shape type 'blob' (expected one of {SHAPES})")),
     ("unknown-force-type", BODY + '[[forces]]\ntype = "magnet"\n', "forces[0].type",
-     "unknown force type 'magnet' \\(expected one of drag, wind, constant, point, spring, impulse, explosion, buoyancy\\)"),
+     "unknown force type 'magnet' \\(expected one of drag, wind, constant, point, spring, impulse, explosion, fluid, buoyancy\\)"),
     ("force-missing-type", BODY + "[[forces]]\nlinear = 1\n", "forces[0]", "missing key 'type'"),
     ("unknown-body-in-force", BODY + '[[forces]]\ntype = "constant"\nbody = "boxx"\nforce = [1, 0, 0]\n', "forces[0].body", "unknown body 'boxx'"),
     ("unknown-body-in-list", BODY + '[[forces]]\ntype = "drag"\nbodies = ["a", "b"]\n', "forces[0].bodies[1]", "unknown body 'b'"),

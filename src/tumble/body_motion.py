@@ -23,7 +23,7 @@ import math
 
 from numba import njit
 
-from .forces import UFORCE_CONSTANT, UFORCE_DRAG, UFORCE_POINT_WORLD
+from .forces import UFORCE_CONSTANT, UFORCE_DRAG, UFORCE_FLUID, UFORCE_POINT_WORLD
 from .math3d import JIT
 
 LAYOUT_QUATERNION, LAYOUT_MATRIX = 0, 1
@@ -108,6 +108,46 @@ def _velocities(layout, o, P, L, inv_mass, ib):
     return R, v, omega
 
 
+@njit(**JIT, inline="always")
+def _fluid_force(R, v, omega, p):
+    """``forces.Fluid`` on one body: (F (3,) N, T (3,) N m), world, at the centre of mass, from R (9,)
+    row-major body-to-world, v, omega (3,) world and its table row p (``ForceTables``: box sides,
+    density, viscosity, wind, the box's axes in the body frame as a quaternion). MuJoCo's
+    inertia-box model (``mj_inertiaBoxFluidModel``: engine_passive.c), in the box's axes."""
+    b0, b1, b2, rho, beta = p[0], p[1], p[2], p[3], p[4]
+    qw, qx, qy, qz = p[8], p[9], p[10], p[11]
+    # A: the box's axes in the body frame (columns); E = R A: in the world
+    A = (1.0 - 2.0 * (qy * qy + qz * qz), 2.0 * (qx * qy - qw * qz), 2.0 * (qx * qz + qw * qy),
+         2.0 * (qx * qy + qw * qz), 1.0 - 2.0 * (qx * qx + qz * qz), 2.0 * (qy * qz - qw * qx),
+         2.0 * (qx * qz - qw * qy), 2.0 * (qy * qz + qw * qx), 1.0 - 2.0 * (qx * qx + qy * qy))
+    E = (R[0] * A[0] + R[1] * A[3] + R[2] * A[6], R[0] * A[1] + R[1] * A[4] + R[2] * A[7],
+         R[0] * A[2] + R[1] * A[5] + R[2] * A[8],
+         R[3] * A[0] + R[4] * A[3] + R[5] * A[6], R[3] * A[1] + R[4] * A[4] + R[5] * A[7],
+         R[3] * A[2] + R[4] * A[5] + R[5] * A[8],
+         R[6] * A[0] + R[7] * A[3] + R[8] * A[6], R[6] * A[1] + R[7] * A[4] + R[8] * A[7],
+         R[6] * A[2] + R[7] * A[5] + R[8] * A[8])
+    w0, w1, w2 = v[0] - p[5], v[1] - p[6], v[2] - p[7]
+    # in the box's axes: u = E^T (v - wind), w = E^T omega
+    u = (E[0] * w0 + E[3] * w1 + E[6] * w2, E[1] * w0 + E[4] * w1 + E[7] * w2, E[2] * w0 + E[5] * w1 + E[8] * w2)
+    w = (E[0] * omega[0] + E[3] * omega[1] + E[6] * omega[2], E[1] * omega[0] + E[4] * omega[1] + E[7] * omega[2],
+         E[2] * omega[0] + E[5] * omega[1] + E[8] * omega[2])
+    d = (b0 + b1 + b2) / 3.0
+    lin = 3.0 * math.pi * d * beta
+    ang = math.pi * d * d * d * beta
+    b04, b14, b24 = b0 * b0 * b0 * b0, b1 * b1 * b1 * b1, b2 * b2 * b2 * b2
+    f = (-lin * u[0] - 0.5 * rho * b1 * b2 * abs(u[0]) * u[0],
+         -lin * u[1] - 0.5 * rho * b0 * b2 * abs(u[1]) * u[1],
+         -lin * u[2] - 0.5 * rho * b0 * b1 * abs(u[2]) * u[2])
+    t = (-ang * w[0] - rho * b0 * (b14 + b24) * abs(w[0]) * w[0] / 64.0,
+         -ang * w[1] - rho * b1 * (b04 + b24) * abs(w[1]) * w[1] / 64.0,
+         -ang * w[2] - rho * b2 * (b04 + b14) * abs(w[2]) * w[2] / 64.0)
+    F = (E[0] * f[0] + E[1] * f[1] + E[2] * f[2], E[3] * f[0] + E[4] * f[1] + E[5] * f[2],
+         E[6] * f[0] + E[7] * f[1] + E[8] * f[2])
+    T = (E[0] * t[0] + E[1] * t[1] + E[2] * t[2], E[3] * t[0] + E[4] * t[1] + E[5] * t[2],
+         E[6] * t[0] + E[7] * t[1] + E[8] * t[2])
+    return F, T
+
+
 @njit(**JIT)
 def _unary_forces(i, x, R, v, omega, mass, gravity, uforce_kind, uforce_param, uforce_start):
     """Force F (3,) N and torque T (3,) N m on body i from gravity and its own rows, world frame.
@@ -136,6 +176,14 @@ def _unary_forces(i, x, R, v, omega, mass, gravity, uforce_kind, uforce_param, u
             T0 -= ca * omega[0]
             T1 -= ca * omega[1]
             T2 -= ca * omega[2]
+        elif kind == UFORCE_FLUID:
+            f, t = _fluid_force(R, v, omega, p)
+            F0 += f[0]
+            F1 += f[1]
+            F2 += f[2]
+            T0 += t[0]
+            T1 += t[1]
+            T2 += t[2]
         elif kind == UFORCE_CONSTANT:
             F0 += p[0]
             F1 += p[1]

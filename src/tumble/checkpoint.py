@@ -33,7 +33,7 @@ import numpy as np
 
 from . import __version__, checks
 from .errors import InputError, SimulationError
-from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring
+from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring
 from .joints import (G_FOLLOWS, G_JOINT, JOINT_CLASSES, JOINT_TYPES, OLD_PARAM_COUNTS, P_BALL_MAX_DRIVE, P_BALL_TARGET,
                      PARAM_COUNT, BoundJoint)
 from .solver.contact import SoftStepSettings
@@ -51,7 +51,7 @@ STATE = ("x", "q", "R", "P", "L")
 # kinematic bodies (World.kinematic, their velocities), surface velocities and sensors: absent
 # from checkpoints written before they existed, which load with none
 KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega", "surface_velocity", "sensor")
-FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy,
+FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy, Fluid,
                                           CustomForce)}
 BODY_FIELDS = ("body", "body_a", "body_b")
 

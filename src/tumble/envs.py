@@ -14,8 +14,8 @@ on the other (sim-to-sim transfer), or trained on tumble alone.
   ``timestep`` (the file's ``<option timestep>``, MuJoCo's 0.002 s when it has none). A subclass
   says what the task is: ``observe`` (the observation), ``evaluate`` (reward, terminated, info)
   and, if it resets otherwise, ``draw_start``.
-- ``InvertedPendulum``, ``InvertedDoublePendulum``, ``Reacher``, ``Pusher``, ``HalfCheetah``,
-  ``Hopper`` and ``Walker2d``: Gymnasium's
+- ``InvertedPendulum``, ``InvertedDoublePendulum``, ``Reacher``, ``Pusher``, ``Swimmer``,
+  ``HalfCheetah``, ``Hopper`` and ``Walker2d``: Gymnasium's
   ``...-v5`` tasks on Gymnasium's own model files (read from the installed gymnasium), registered
   as ``tumble/InvertedPendulum-v5`` and so on with Gymnasium's episode limits:
   ``gymnasium.make("tumble/HalfCheetah-v5")`` once ``tumble.envs`` is imported. The runners
@@ -57,7 +57,7 @@ except ImportError:  # pragma: no cover - the message is the point
 from .errors import InputError
 
 __all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "InvertedDoublePendulum", "Reacher", "HalfCheetah",
-           "Hopper", "Walker2d", "Pusher", "gymnasium_asset"]
+           "Hopper", "Walker2d", "Pusher", "Swimmer", "gymnasium_asset"]
 
 
 def gymnasium_asset(name: str) -> str:
@@ -623,6 +623,53 @@ class Pusher(ModelEnv):
             {"reward_dist": dist, "reward_ctrl": ctrl, "reward_near": near}
 
 
+class Swimmer(ModelEnv):
+    """Gymnasium's ``Swimmer-v5`` stepped by tumble, on its ``swimmer.xml``: three capsules joined by
+    two hinges with motors (gear 150, controls in [-1, 1]), the first on two slides and a hinge in
+    the plane, swimming in the file's fluid (``<option density="4000" viscosity="0.1">``: MuJoCo's
+    inertia-box model, ``tumble.Fluid``, which ``load_mjcf`` reads); timestep 0.01 s, ``frame_skip``
+    4. Observation (8,): qpos without the two slides (v5's ``exclude_current_positions_from_
+    observation=True``; False keeps them), then qvel. Reward: ``forward_reward_weight`` x the x speed
+    over the step ((x after - x before) / dt) less ``ctrl_cost_weight`` x |action|^2 (1, 1e-4); never
+    terminated (1000 steps an episode). Reset: qpos and qvel uniform within +-``reset_noise_scale``
+    (0.1). ``info``: v5's (x and y positions and speeds, distance from the origin, the reward's two
+    parts); the reset's: the positions and distance."""
+
+    def __init__(self, *, frame_skip: int = 4, forward_reward_weight: float = 1.0, ctrl_cost_weight: float = 1e-4,
+                 reset_noise_scale: float = 0.1, exclude_current_positions_from_observation: bool = True, **kwargs):
+        for key, value in (("forward_reward_weight", forward_reward_weight), ("ctrl_cost_weight", ctrl_cost_weight)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
+                raise InputError(f"must be a finite number, got {value!r}", key)
+        self.forward_reward_weight = float(forward_reward_weight)
+        self.ctrl_cost_weight = float(ctrl_cost_weight)
+        self.exclude_current_positions = bool(exclude_current_positions_from_observation)
+        self._xy_before = None
+        super().__init__(gymnasium_asset("swimmer.xml"), frame_skip=frame_skip, reset_noise_scale=reset_noise_scale,
+                         **kwargs)
+
+    def observe(self, qpos, qvel, links=None):
+        self._xy = qpos[:, :2].copy()
+        position = qpos[:, 2:] if self.exclude_current_positions else qpos
+        return np.concatenate([position, qvel], axis=1)
+
+    def remember(self, qpos, qvel):
+        self._xy_before = qpos[:, :2].copy()
+
+    def evaluate(self, observation, action):
+        xy = self._xy
+        velocity = (xy - self._xy_before) / self.dt
+        forward = self.forward_reward_weight * velocity[:, 0]
+        ctrl = self.ctrl_cost_weight * np.square(action).sum(axis=1)
+        info = {"x_position": xy[:, 0].copy(), "y_position": xy[:, 1].copy(),
+                "distance_from_origin": np.linalg.norm(xy, axis=1), "x_velocity": velocity[:, 0].copy(),
+                "y_velocity": velocity[:, 1].copy(), "reward_forward": forward, "reward_ctrl": -ctrl}
+        return forward - ctrl, np.zeros(len(xy), dtype=bool), info
+
+    def reset_info(self, qpos, qvel):
+        return {"x_position": qpos[:, 0].copy(), "y_position": qpos[:, 1].copy(),
+                "distance_from_origin": np.linalg.norm(qpos[:, :2], axis=1)}
+
+
 class _Runner(ModelEnv):
     """Gymnasium's planar runners (``HalfCheetah-v5``, ``Hopper-v5``, ``Walker2d-v5``): a body on
     the file's root joints (a slide along x, a slide along z, a hinge about y) and legs of hinges
@@ -894,7 +941,7 @@ class ModelVectorEnv(VectorEnv):
 
 # the ids tumble adds, with Gymnasium's episode limits and reward thresholds for its own v5 tasks
 TASKS = (("InvertedPendulum", 1000, 950.0), ("Reacher", 50, -3.75), ("InvertedDoublePendulum", 1000, 9100.0),
-         ("Pusher", 100, 0.0), ("HalfCheetah", 1000, 4800.0), ("Hopper", 1000, 3800.0), ("Walker2d", 1000, None))
+         ("Pusher", 100, 0.0), ("Swimmer", 1000, 360.0), ("HalfCheetah", 1000, 4800.0), ("Hopper", 1000, 3800.0), ("Walker2d", 1000, None))
 
 
 def _register():

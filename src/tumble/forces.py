@@ -24,11 +24,14 @@ import math
 import numpy as np
 
 from .errors import InputError
+from .math3d import matrix_to_quat
 from .shapes import finite_vector
 
 # Unary force kinds (column 0 of the table is the kind, the rest parameters).
-UFORCE_DRAG, UFORCE_CONSTANT, UFORCE_POINT_WORLD, UFORCE_POINT_BODY = range(4)
-UFORCE_PARAMS = 10
+UFORCE_DRAG, UFORCE_CONSTANT, UFORCE_POINT_WORLD, UFORCE_POINT_BODY, UFORCE_FLUID = range(5)
+UFORCE_PARAMS = 12
+# MuJoCo's mjMINVAL: the floor of an equivalent box's squared side (times m / 6)
+FLUID_MINVAL = 1e-15
 
 
 def _nonnegative(value, key):
@@ -119,6 +122,79 @@ class Buoyancy:
             raise InputError(f"must be a finite number, got {level}", "level")
         self.level = level
         self.flow = tuple(finite_vector(self.flow, "flow"))
+
+
+@dataclass
+class Fluid:
+    """A fluid filling the world, as MuJoCo's inertia-box model (``<option density viscosity wind>``;
+    MuJoCo's documentation, "Fluid forces"): Gymnasium's swimmer swims in it.
+
+    Each body it acts on is taken, for the fluid, as its equivalent inertia box: the uniform box of
+    its mass m with its principal moments (I0, I1, I2) about its principal axes, of sides
+    b0 = sqrt(6 max(I1 + I2 - I0, 1e-15) / m), b1, b2 likewise. With u = the centre of mass's
+    velocity relative to the wind and omega the angular velocity, both in the box's axes, the
+    force and torque at the centre of mass are, per axis i (j, k the other two):
+
+    viscous (Stokes)   F_i = -3 pi beta d u_i,    tau_i = -pi beta d^3 omega_i,   d = (b0+b1+b2)/3
+    quadratic drag     F_i = -1/2 rho b_j b_k |u_i| u_i,
+                       tau_i = -rho b_i (b_j^4 + b_k^4) |omega_i| omega_i / 64
+
+    Args:
+        density: rho, kg/m^3 (MuJoCo's ``density``; water 1000, the swimmer's 4000).
+        viscosity: beta, Pa s (MuJoCo's ``viscosity``; water 0.0009, the swimmer's 0.1).
+        wind: (3,) m/s, world: the fluid's velocity.
+        bodies: bodies (or names) it acts on; None: every moving body.
+        frames: None, or for each of ``bodies`` a (3, 3) rotation whose columns are the box's axes
+            in the body's frame. None: the principal axes of the body's inertia (``numpy.linalg.
+            eigh``). The quadratic terms are not invariant under a turn of the axes, so a body whose
+            moments are equal (a capsule, a cylinder) needs its axes given to meet another engine's:
+            ``load_mjcf`` gives MuJoCo's (a single geom's frame, as MuJoCo's compiler takes it).
+
+    The box is made from the body's mass and inertia when the world's force tables are built.
+    """
+
+    density: float = 0.0
+    viscosity: float = 0.0
+    wind: Sequence[float] = (0.0, 0.0, 0.0)
+    bodies: Sequence[Any] | None = None
+    frames: Sequence[Any] | None = None
+
+    def __post_init__(self):
+        for key in ("density", "viscosity"):
+            setattr(self, key, _nonnegative(getattr(self, key), key))
+        self.wind = tuple(finite_vector(self.wind, "wind"))
+        if self.frames is not None:
+            if self.bodies is None:
+                raise InputError("frames need the bodies they belong to", "frames")
+            frames = []
+            for k, frame in enumerate(self.frames):
+                try:
+                    M = np.array(frame, dtype=float).reshape(3, 3)
+                except (TypeError, ValueError):
+                    raise InputError(f"expected a 3x3 rotation, got {frame!r}", f"frames[{k}]") from None
+                if not np.all(np.isfinite(M)) or np.abs(M @ M.T - np.eye(3)).max() > 1e-9 or np.linalg.det(M) < 0:
+                    raise InputError("expected a 3x3 rotation (orthonormal, determinant 1)", f"frames[{k}]")
+                frames.append(M.tolist())
+            if len(frames) != len(self.bodies):
+                raise InputError(f"{len(frames)} frames for {len(self.bodies)} bodies", "frames")
+            self.frames = frames
+
+
+def fluid_box(mass: float, inertia_body, frame=None):
+    """(sides (3,) m, axes (3, 3)) of a body's equivalent inertia box (``Fluid``): the axes' columns
+    in the body frame (``frame``, or the principal axes of ``inertia_body`` (3, 3) kg m^2, body
+    frame), the sides from the moments about them and ``mass`` kg."""
+    I = np.asarray(inertia_body, dtype=float)
+    if frame is None:
+        _moments, axes = np.linalg.eigh(0.5 * (I + I.T))
+        if np.linalg.det(axes) < 0:
+            axes[:, 2] = -axes[:, 2]
+    else:
+        axes = np.asarray(frame, dtype=float)
+    moments = np.array([axes[:, i] @ I @ axes[:, i] for i in range(3)])
+    sides = np.array([math.sqrt(max(FLUID_MINVAL, moments[(i + 1) % 3] + moments[(i + 2) % 3] - moments[i])
+                                / mass * 6.0) for i in range(3)])
+    return sides, axes
 
 
 @dataclass
@@ -288,9 +364,11 @@ FORCE_TYPES = {
 class ForceTables:
     """Flat arrays the kernels read. U unary rows, S springs; N bodies.
 
-    uforce_kind: (U,) int64 kind ids. uforce_param: (U, 10) parameters:
+    uforce_kind: (U,) int64 kind ids. uforce_param: (U, UFORCE_PARAMS = 12) parameters:
       drag [linear, quadratic, angular_linear, angular_quadratic, wind xyz];
-      constant [F xyz, tau xyz]; point [F xyz, p xyz].
+      constant [F xyz, tau xyz]; point [F xyz, p xyz];
+      fluid [box sides (3,) m, density, viscosity, wind xyz, the box's axes in the body frame as a
+      unit quaternion (w, x, y, z)].
     uforce_start: (N+1,) int64: rows of body i are uforce_start[i]:uforce_start[i+1].
     spring_body: (S, 2) int64 (-1: world). spring_anchor: (S, 2, 3) m.
     spring_param: (S, 3) [stiffness, damping, rest_length].
@@ -307,7 +385,8 @@ class ForceTables:
     buoyancy: list = field(default_factory=list)
 
 
-def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> ForceTables:
+def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mass=None,
+                       inertia_body=None) -> ForceTables:
     """Turn force records into ``ForceTables``.
 
     Args:
@@ -315,6 +394,8 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> 
         body_count: N.
         moving: (N,) bool, False for fixed bodies (they get no forces).
         resolve: function mapping a body, a name or an index to an index.
+        mass: (N,) kg and inertia_body: (N, 3, 3) kg m^2, body frame: ``Fluid``'s boxes (needed
+            only with a Fluid).
     """
     rows = []  # (body, order, kind, params[, the Buoyancy record that fills the row])
     springs = []
@@ -325,6 +406,15 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve) -> 
             targets = all_moving if f.bodies is None else [resolve(b) for b in f.bodies]
             params = [f.linear, f.quadratic, f.angular_linear, f.angular_quadratic, *f.wind]
             rows += [(int(i), order, UFORCE_DRAG, params) for i in targets]
+        elif isinstance(f, Fluid):
+            targets = all_moving if f.bodies is None else [resolve(b) for b in f.bodies]
+            for k, i in enumerate(targets):
+                i = int(i)
+                if not moving[i] or mass[i] <= 0.0:
+                    continue
+                sides, axes = fluid_box(float(mass[i]), inertia_body[i], None if f.frames is None else f.frames[k])
+                q = matrix_to_quat(np.ascontiguousarray(axes))
+                rows.append((i, order, UFORCE_FLUID, [*sides, f.density, f.viscosity, *f.wind, *q]))
         elif isinstance(f, ConstantForce):
             rows.append((resolve(f.body), order, UFORCE_CONSTANT, [*f.force, *f.torque]))
         elif isinstance(f, PointForce):

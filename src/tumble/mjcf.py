@@ -173,6 +173,10 @@ class MjcfModel:
     anchors: dict = field(default_factory=dict)  # body name: its link frame's origin in the body frame (m)
     sensors: list = field(default_factory=list)  # mjcf_sensors.MjcfSensor, the file's order
     sensors_left_off: list = field(default_factory=list)  # names of the sensors not read
+    # link name: (3, 3) its inertia's axes (columns) in the link frame where MuJoCo's compiler takes
+    # them from the file (a single geom's frame, an <inertial>'s diaginertia frame): Fluid's boxes
+    principal: dict = field(default_factory=dict)
+    fluid: tuple | None = None  # <option density viscosity wind>: (kg/m^3, Pa s, (3,) m/s), when either > 0
     ctrl_names: list = field(default_factory=list)  # per actuator element (MuJoCo's ctrl order): its name, None if left off
     refs: dict = field(default_factory=dict)  # hinge or slide joint name: its ``ref`` (rad or m), where not 0
 
@@ -433,6 +437,24 @@ def read_option_timestep(path) -> float:
         raise err.within(None, str(path)) from None
 
 
+def _read_fluid(root):
+    """``<option density viscosity wind>``: (density kg/m^3, viscosity Pa s, wind (3,) m/s) when the
+    density or the viscosity is above 0 (MuJoCo's fluid forces on), else None."""
+    values = {"density": 0.0, "viscosity": 0.0, "wind": np.zeros(3)}
+    for option in root.findall("option"):
+        for name in ("density", "viscosity"):
+            if name in option.attrib:
+                value = float(_floats(option.get(name), f"option.{name}", (1,))[0])
+                if value < 0.0:
+                    raise InputError(f"must be >= 0, got {option.get(name)!r}", f"option.{name}")
+                values[name] = value
+        if "wind" in option.attrib:
+            values["wind"] = _floats(option.get("wind"), "option.wind", (3,))
+    if values["density"] > 0.0 or values["viscosity"] > 0.0:
+        return values["density"], values["viscosity"], tuple(float(w) for w in values["wind"])
+    return None
+
+
 def _read(path: Path) -> MjcfModel:
     root = read_model_xml(path)  # includes expanded (MuJoCo Menagerie's scene.xml + robot.xml)
     reader = _Reader(root, path)
@@ -463,6 +485,7 @@ def _read(path: Path) -> MjcfModel:
         _body(reader, b, "world", cls, np.zeros(3), out, meshes, names, joint_names, counter, frame)
     if reader.settotalmass > 0.0:
         _set_total_mass(out, reader.settotalmass)
+    out.fluid = _read_fluid(root)
     _tendons(reader, root, out, joint_names)
     _actuators(reader, root, out, joint_names)
     _equalities(reader, root, out, names)
@@ -631,6 +654,7 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
     from .mass import combine_mass_properties, mass_properties
 
     terms = []  # (mass, centre, inertia about the centre) in the link frame
+    geom_frames = []  # each term's geom frame in the link frame
     frictions = []
     for k, (g, gcls, frame) in enumerate(framed(reader, element, ("geom",), cls, key)):
         a = reader.attributes(g, gcls)
@@ -653,6 +677,7 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
         except InputError as err:
             raise err.within(gkey) from None
         terms.append((props.mass, position + R @ np.asarray(props.center), R @ np.asarray(props.inertia) @ R.T))
+        geom_frames.append(R)
     if frictions:
         out.frictions[link.name] = frictions[0]
     inertial = element.find("inertial")
@@ -672,18 +697,22 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
             raise InputError("missing diaginertia or fullinertia", ikey)
         link.center = position - anchor
         link.inertia = R @ I @ R.T
+        if "diaginertia" in a:
+            out.principal[link.name] = R
         return
     if reader.inertiafromgeom == "false":
         return  # massless: welded into its parent, or an error if it moves (the builder's)
     mass, center, inertia = combine_mass_properties(terms)
     if mass > 0.0:
         link.mass, link.center, link.inertia = float(mass), center, inertia
+        if len(terms) == 1:  # MuJoCo's compiler takes a lone geom's frame as the body's inertial frame
+            out.principal[link.name] = geom_frames[0]
 
 
 # ---------------------------------------------------------------------- loading
 def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, self_collision=True,
               joint_positions=None, material=None, collision_filter=None, name=None, inertia="file",
-              joint_motors=None, joint_targets=None, keyframe=None, world_geoms=True):
+              joint_motors=None, joint_targets=None, keyframe=None, world_geoms=True, fluid=True):
     """Add the model of an MJCF file to ``world`` (module docstring) and return it as a ``urdf.Robot``
     (links by body name, joints by joint name; bodies named "MODEL/BODY", the worldbody's geoms
     "MODEL/world/GEOM").
@@ -703,6 +732,9 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
             ``joint_positions``.
         world_geoms: False leaves off the ``<worldbody>``'s own geoms (the file's floor): for a scene
             that has its own ground, or a model loaded many times over one floor (``tumble.envs``).
+        fluid: the file's ``<option density viscosity wind>`` (MuJoCo's fluid forces, its inertia-box
+            model) as a ``tumble.Fluid`` on the model's moving bodies (``robot.fluid``; default); False
+            leaves it off.
 
     Raises:
         InputError: a bad file or argument, one line (file, element, problem).
@@ -724,7 +756,7 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         robot = _build(world, parsed, material, targets, position=position, orientation=orientation,
                        euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
                        collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors,
-                       world_geoms=world_geoms)
+                       world_geoms=world_geoms, fluid=fluid)
         resolve_dampratios(robot)
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
@@ -737,7 +769,7 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
 
 
 def _build(world, parsed: MjcfModel, material, targets, *, position, orientation, euler_deg, self_collision,
-           joint_positions, collision_filter, name, inertia, joint_motors, world_geoms=True):
+           joint_positions, collision_filter, name, inertia, joint_motors, world_geoms=True, fluid=True):
     from .material import Material
     from .urdf import build_robot
 
@@ -791,4 +823,32 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
         if c.name in parsed.refs:
             robot.qpos0[c.qpos] = parsed.refs[c.name]
     robot.cameras = {name: _camera(robot, *spec) for name, spec in parsed.cameras.items()}
+    if parsed.fluid is not None and fluid:
+        robot.fluid = _add_fluid(world, robot, parsed, inertia)
     return robot
+
+
+def _add_fluid(world, robot, parsed: MjcfModel, inertia: str):
+    """The file's fluid (``<option density viscosity wind>``) as a ``forces.Fluid`` on the model's
+    moving bodies (not the virtual links between the joints of one body: MuJoCo has none), each box
+    along MuJoCo's inertial frame where the file gives it (``MjcfModel.principal``), else along the
+    principal axes of the body's inertia. Returns the record (added to ``world``)."""
+    from .forces import Fluid, fluid_box
+
+    density, viscosity, wind = parsed.fluid
+    bodies, frames = [], []
+    for link, body in robot.links.items():
+        if link in robot.virtual_links or link.startswith("world") or robot.owners.get(link) != link:
+            continue
+        i = body.index
+        if not world.moving[i] or world.mass[i] <= 0.0:
+            continue
+        merged = sum(1 for owner in robot.owners.values() if owner == link) > 1
+        frame = parsed.principal.get(link) if inertia == "file" and not merged else None
+        if frame is None:
+            frame = fluid_box(float(world.mass[i]), world.inertia_body[i])[1]
+        bodies.append(body)
+        frames.append(np.asarray(frame, dtype=float))
+    record = Fluid(density=density, viscosity=viscosity, wind=wind, bodies=bodies, frames=frames)
+    world.add_force(record)
+    return record

@@ -30,7 +30,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .errors import InputError
-from .forces import ConstantForce, CustomForce, Drag, Impulse, PointForce, Spring
+from .forces import ConstantForce, CustomForce, Drag, Fluid, Impulse, PointForce, Spring, fluid_box
 
 # Algorithm 2: "#define StateSize 18" = x (3) + R (9) + P (3) + L (3) (ERRATA 6).
 STATE_SIZE = 18
@@ -291,6 +291,25 @@ def spring_force(spring: Spring, bodies: Sequence[RigidBody]):
     return F_a, p_a, p_b
 
 
+def fluid_force(fluid: Fluid, body: RigidBody, frame=None):
+    """(F, tau) (3,) N, N m, world, at the centre of mass: ``Fluid`` (MuJoCo's inertia-box model) on
+    one body, written with matrices: the box's axes E = R A (A its axes in the body frame), the
+    velocities in them, the per-axis terms of ``Fluid``'s docstring, and back to the world."""
+    sides, A = fluid_box(body.mass, body.Ibody, frame)
+    E = body.R @ A
+    u = E.T @ (body.v - _vec(fluid.wind))
+    w = E.T @ body.omega
+    d = sides.mean()
+    rho, beta = fluid.density, fluid.viscosity
+    area = np.array([sides[1] * sides[2], sides[0] * sides[2], sides[0] * sides[1]])
+    fourth = sides**4
+    arm = np.array([sides[0] * (fourth[1] + fourth[2]), sides[1] * (fourth[0] + fourth[2]),
+                    sides[2] * (fourth[0] + fourth[1])])
+    f = -3.0 * math.pi * d * beta * u - 0.5 * rho * area * np.abs(u) * u
+    t = -math.pi * d**3 * beta * w - rho * arm * np.abs(w) * w / 64.0
+    return E @ f, E @ t
+
+
 def compute_force_and_torque(t: float, body: RigidBody, bodies: Sequence[RigidBody], forces, gravity) -> None:
     """Sum the force and torque on ONE body (Algorithm 3 "ComputeForceAndTorque"; Baraff 2001 §2.7).
 
@@ -322,6 +341,12 @@ def compute_force_and_torque(t: float, body: RigidBody, bodies: Sequence[RigidBo
                 if i == me:
                     F = F + -(f.linear + f.quadratic * math.sqrt(_dot(u, u))) * u
                     tau = tau + -(f.angular_linear + f.angular_quadratic * math.sqrt(_dot(omega, omega))) * omega
+        elif isinstance(f, Fluid):
+            for k, i in enumerate(_targets(f.bodies, bodies)):
+                if i == me:
+                    Fi, taui = fluid_force(f, body, None if f.frames is None else f.frames[k])
+                    F = F + Fi
+                    tau = tau + taui
         elif isinstance(f, ConstantForce):
             if resolve_body(f.body, bodies) == me:
                 F = F + _vec(f.force)

@@ -15,7 +15,7 @@ from typing import Any
 
 from . import checks
 from .errors import InputError
-from .forces import Buoyancy, ConstantForce, Drag, Explosion, Impulse, PointForce, Spring, Wind
+from .forces import Buoyancy, ConstantForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring, Wind
 from .math3d import quat_from_euler_deg
 from .scene_values import ValueReader, _describe
 from .shapes import (
@@ -76,6 +76,7 @@ FORCE_KEYS = {
     "spring": (("body_a", "stiffness"), ("body_b", "anchor_a", "anchor_b", "damping", "rest_length")),
     "impulse": (("body", "impulse"), ("point", "time")),
     "explosion": (("position", "radius", "impulse_per_area"), ("falloff", "time", "mask", "shaded")),
+    "fluid": ((), ("density", "viscosity", "wind", "bodies")),
     "buoyancy": ((), ("density", "level", "linear", "quadratic", "angular_linear", "angular_quadratic", "flow",
                       "bodies")),
 }
@@ -420,6 +421,13 @@ class BodyReader(ValueReader):
             if f.get("rest_length") is not None:
                 kw["rest_length"] = nonneg("rest_length")
             record = self.library(key, Spring, a, b, **kw)
+        elif kind == "fluid":
+            kw = {k: nonneg(k) for k in ("density", "viscosity") if k in f}
+            if "wind" in f:
+                kw["wind"] = vec("wind")
+            if "bodies" in f:
+                kw["bodies"] = self.name_list(f["bodies"], g("bodies"), names)
+            record = self.library(key, Fluid, **kw)
         elif kind == "buoyancy":
             kw = {k: nonneg(k) for k in ("density", "linear", "quadratic", "angular_linear", "angular_quadratic")
                   if k in f}

@@ -120,6 +120,8 @@ class Robot:
             (type, size (3,))}, each body's link frame origin in its body frame {body: (3,) m}, the
             virtual links between joints of one body, the actuators' names in MuJoCo's ctrl order
             (None: left off), and MuJoCo's qpos0 (nq,) (the model's pose, world); empty (None) for a URDF.
+        fluid: the ``forces.Fluid`` an MJCF model's ``<option density viscosity wind>`` added to the
+            world for its bodies (None: none).
     """
 
     name: str
@@ -143,6 +145,7 @@ class Robot:
     virtual_links: list = field(default_factory=list)
     ctrl_names: list = field(default_factory=list)
     qpos0: np.ndarray | None = None
+    fluid: object = None
 
     @property
     def kinematics(self):

@@ -40,6 +40,7 @@ from .errors import InputError
 from .collision.filter import ALL_CATEGORIES, CollisionFilter
 from .forces import (
     Buoyancy,
+    Fluid,
     ConstantForce,
     CustomForce,
     Drag,
@@ -333,9 +334,10 @@ class World:
 
     def add_force(self, force):
         """Add a force record of ``tumble.forces`` (Drag, Wind, ConstantForce, PointForce,
-        Spring, Impulse, Explosion, Buoyancy, CustomForce). A spring with ``rest_length=None`` takes the
-        distance between its anchors now."""
-        if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy, CustomForce)):
+        Spring, Impulse, Explosion, Buoyancy, Fluid, CustomForce). A spring with ``rest_length=None`` takes
+        the distance between its anchors now."""
+        if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy, Fluid,
+                                  CustomForce)):
             raise InputError(f"not a force record: {force!r}", "forces")
         for attr in ("body", "body_a", "body_b"):
             b = getattr(force, attr, None)
@@ -556,7 +558,8 @@ class World:
     def tables(self):
         """The force tables the kernels read (rebuilt when forces or bodies change)."""
         if self._tables is None:
-            self._tables = build_force_tables(self.forces, self.body_count, self.moving, self.index_of)
+            self._tables = build_force_tables(self.forces, self.body_count, self.moving, self.index_of, self.mass,
+                                              self.inertia_body)
         return self._tables
 
     @property
