@@ -1913,24 +1913,35 @@ def test_a_wrist_with_armature_converges_to_mujoco_rk4_at_first_order(tmp_path):
     31 the difference stalled at 0.065 rad whatever the step (the armature did not resist the
     velocity-product acceleration: the test above); it found the bug through Gymnasium's Pusher."""
     path = write(tmp_path, WRIST)
-    q0, v0, controls = np.array([0.3, -0.4, 0.7]), np.array([2.0, 1.0, -3.0]), np.array([0.05, -0.02, 0.01])
+    errors = converges_to_mujoco(path, [0.3, -0.4, 0.7], [2.0, 1.0, -3.0], [0.05, -0.02, 0.01], 0.25,
+                                 (0.005, 0.0025, 0.00125), lambda q, ref: np.abs(q - ref).max(),
+                                 joint_settings=ACCURATE)
+    assert errors[-1] < 5e-5
+
+
+def converges_to_mujoco(path, q0, v0, controls, duration, steps, difference, **settings):
+    """The model at ``path`` (no gravity: the file's own option) from qpos ``q0``, qvel ``v0`` under
+    constant ``controls`` (the actuators' ctrl, MuJoCo's order) for ``duration`` s: MuJoCo's run at
+    the file's timestep (the reference) against tumble's at each step of ``steps``, each half the
+    last, compared by ``difference(qpos, reference)``. They must halve with the step (ratios
+    1.7-2.3 admit first order only). Returns the differences."""
     m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:], d.ctrl[:] = q0, v0, controls
-    for _ in range(2500):
+    for _ in range(int(round(duration / m.opt.timestep))):
         mujoco.mj_step(m, d)
     errors = []
-    for dt in (0.005, 0.0025, 0.00125):
+    for dt in steps:
         world = tb.World(gravity=(0, 0, 0))
         robot = tb.load_mjcf(world, path)
-        sim = tb.Simulator(world, dt=dt, joint_settings=ACCURATE)
-        robot.kinematics.set_state(q0, v0, sim)
-        robot.set_controls(sim, dict(zip(("pan", "flex", "roll"), controls)))
-        sim.step(int(round(0.25 / dt)))
-        errors.append(np.abs(robot.kinematics.qpos() - d.qpos).max())
+        sim = tb.Simulator(world, dt=dt, **settings)
+        robot.kinematics.set_state(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), sim)
+        robot.set_controls(sim, dict(zip(robot.ctrl_names, controls)))
+        sim.step(int(round(duration / dt)))
+        errors.append(difference(robot.kinematics.qpos(), d.qpos))
     ratios = np.array(errors[:-1]) / np.array(errors[1:])
     assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
-    assert errors[-1] < 5e-5
+    return errors
 
 
 def swimmer_path():
@@ -1986,28 +1997,14 @@ def test_a_free_swimmer_converges_to_mujoco_rk4_at_first_order(tmp_path):
     text = text.replace('timestep="0.01"', 'timestep="0.0005" gravity="0 0 0"')
     assert "<freejoint" in text and "gravity" in text
     path = write(tmp_path, text)
-    q0 = np.array([0, 0, 0, np.cos(0.15), 0, 0, np.sin(0.15), 0.5, -0.4])
-    v0 = np.array([0.3, -0.2, 0, 0, 0, 0.5, 0.5, -0.6])
-    controls = np.array([0.1, -0.15])
-    m = mujoco.MjModel.from_xml_path(str(path))
-    d = mujoco.MjData(m)
-    d.qpos[:], d.qvel[:], d.ctrl[:] = q0, v0, controls
-    for _ in range(1000):
-        mujoco.mj_step(m, d)
-    errors = []
-    for dt in (0.01, 0.005, 0.0025):
-        world = tb.World(gravity=(0, 0, 0))
-        robot = tb.load_mjcf(world, path)
-        sim = tb.Simulator(world, dt=dt)
-        robot.kinematics.set_state(q0, v0, sim)
-        robot.set_controls(sim, dict(zip(robot.ctrl_names, controls)))
-        sim.step(int(round(0.5 / dt)))
-        qpos = robot.kinematics.qpos()
-        difference = np.abs(qpos - d.qpos)
-        difference[3:7] = abs(abs(qpos[3:7] @ d.qpos[3:7]) - 1.0)  # the root's turn, sign-free
-        errors.append(difference.max())
-    ratios = np.array(errors[:-1]) / np.array(errors[1:])
-    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+
+    def difference(qpos, reference):
+        out = np.abs(qpos - reference)
+        out[3:7] = abs(abs(qpos[3:7] @ reference[3:7]) - 1.0)  # the root's turn, sign-free
+        return out.max()
+
+    converges_to_mujoco(path, [0, 0, 0, np.cos(0.15), 0, 0, np.sin(0.15), 0.5, -0.4],
+                        [0.3, -0.2, 0, 0, 0, 0.5, 0.5, -0.6], [0.1, -0.15], 0.5, (0.01, 0.005, 0.0025), difference)
 
 
 def test_a_bad_fluid_option_is_one_line(tmp_path):
