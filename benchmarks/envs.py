@@ -76,8 +76,8 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[16, 256, 1024])
     ap.add_argument("--reacher-sizes", type=int, nargs="+", default=[1, 256])
     ap.add_argument("--runner-sizes", type=int, nargs="+", default=[1, 64, 256])
-    ap.add_argument("--sections", nargs="+", default=["pendulum", "reacher", "double", "pusher", "runners"],
-                    choices=["pendulum", "reacher", "double", "pusher", "runners"])
+    ap.add_argument("--sections", nargs="+", default=["pendulum", "reacher", "double", "pusher", "swimmer", "runners"],
+                    choices=["pendulum", "reacher", "double", "pusher", "swimmer", "runners"])
     args = ap.parse_args()
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     import mujoco
@@ -93,6 +93,8 @@ def main():
         random_task(args, "InvertedDoublePendulum", 1, args.reacher_sizes)
     if "pusher" in args.sections:
         random_task(args, "Pusher", 7, args.reacher_sizes)
+    if "swimmer" in args.sections:
+        random_task(args, "Swimmer", 2, args.reacher_sizes)
     if "runners" in args.sections:
         for task, nu in (("HalfCheetah", 6), ("Hopper", 3), ("Walker2d", 6)):
             random_task(args, task, nu, args.runner_sizes)
@@ -136,7 +138,8 @@ def random_task(args, task: str, nu: int, sizes):
     """Gymnasium's ``TASK-v5`` and tumble's ``tumble/TASK-v5`` with uniform random controls in [-1, 1]
     (``nu`` of them): single environments (size 1) and vector environments side by side. The
     reacher (two links with armature: tumble's tree solve) is truncated at 50 steps, the pusher
-    (seven joints with armature, an object on the table) at 100; the runners
+    (seven joints with armature, an object on the table) at 100, the swimmer (in MuJoCo's fluid,
+    tumble.Fluid) at 1000; the runners
     (contacts with the floor in every step; each vector copy in an env of its own) at 1000, the
     hopper and walker terminated when they fall."""
     import gymnasium as gym
