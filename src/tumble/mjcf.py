@@ -31,7 +31,8 @@ What maps to what:
   ``free`` (or ``<freejoint>``) no joint: the body is free. A body with no joint is welded to
   its parent (merged into its body; a top-level one is fixed). A body with several joints
   (MuJoCo composes them, the first nearest the parent): a chain through virtual links of
-  ``VIRTUAL_FRACTION`` of the body's mass and inertia (bodies "MODEL/BODY/JOINT", touching
+  ``VIRTUAL_FRACTION`` of the body's mass and inertia (``LIGHT_VIRTUAL_FRACTION`` where no
+  Gauss-Seidel row acts on their joints: ``_lighten_virtual_links``; bodies "MODEL/BODY/JOINT", touching
   nothing; the parent and the body still do not touch), and ``world.exact_joints`` is set so
   that the Simulator solves joints exactly by default (the tree method: Gauss-Seidel's soft
   rows go wrong by tenths of a radian on such light links, measured against MuJoCo). Joint angles and ``euler`` and
@@ -134,6 +135,14 @@ DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
 # the mass and inertia of the virtual link between two joints of one body, as a fraction of the
 # body's (MuJoCo has nothing there; a moving body needs a mass in maximal coordinates)
 VIRTUAL_FRACTION = 1e-3
+# ... and where no Gauss-Seidel row acts on the joints beside the virtual link (no limit, spring,
+# damper, friction, drive, equality or tendon: the chains the tree solve alone holds, the roots of
+# Gymnasium's runners and swimmer), LIGHT_VIRTUAL_FRACTION: their mass is a difference from MuJoCo
+# (the swimmer's episode stayed 4e-3 from MuJoCo's however fine the step, its two virtual links
+# weighing 0.1 % of it each; 1e-6 converges, tests/test_envs.py). Not everywhere: on a chain with
+# stiff slide springs (GS rows) links 1e-6 as heavy left a cart 0.041 off MuJoCo at dt 1/240 s
+# where 1e-3 left it 0.01 (tests/physics/test_mjcf.py, the planar cart; measured session 31).
+LIGHT_VIRTUAL_FRACTION = 1e-6
 GEOM_TYPES = ("plane", "sphere", "capsule", "cylinder", "box", "ellipsoid", "mesh", "hfield")
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
 
@@ -437,6 +446,25 @@ def read_option_timestep(path) -> float:
         raise err.within(None, str(path)) from None
 
 
+def _lighten_virtual_links(out: MjcfModel):
+    """Make the virtual links that no Gauss-Seidel row touches ``LIGHT_VIRTUAL_FRACTION`` of their
+    body's mass and inertia instead of ``VIRTUAL_FRACTION`` (the constants say why): those whose two
+    joints have no limit, spring, damper, friction, actuator drive, joint equality or tendon.
+    (Armature is a row of the joint's own tree block, and motors apply efforts: they do not count.)"""
+    coupled = {name for eq in out.equalities if eq[0] == "joint" for name in eq[2:4]}
+    for terms in out.tendons.values():
+        coupled.update(joint for joint, _coef in terms)
+    for name in out.virtual:
+        beside = [j for j in out.model.joints if name in (j.parent, j.child)]
+        if any(j.lower is not None or j.upper is not None or j.damping != 0.0 or j.stiffness != 0.0
+               or j.friction != 0.0 or j.name in out.drives or j.name in coupled for j in beside):
+            continue
+        link = out.model.links[name]
+        scale = LIGHT_VIRTUAL_FRACTION / VIRTUAL_FRACTION
+        link.mass *= scale
+        link.inertia = link.inertia * scale
+
+
 def _read_fluid(root):
     """``<option density viscosity wind>``: (density kg/m^3, viscosity Pa s, wind (3,) m/s) when the
     density or the viscosity is above 0 (MuJoCo's fluid forces on), else None."""
@@ -491,6 +519,7 @@ def _read(path: Path) -> MjcfModel:
     _equalities(reader, root, out, names)
     _tendon_servos(out)
     _keyframes(root, out)
+    _lighten_virtual_links(out)
     read_sensors(root, out)
     for contact in root.findall("contact"):
         if contact.find("pair") is not None:
