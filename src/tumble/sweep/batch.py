@@ -15,7 +15,7 @@ touched by nobody else's) and, with the tree method, no joint has a limit and no
 gear (its extra sweeps stop on a test over every joint: that would couple the variants); a world
 whose joints default to the tree method (``world.exact_joints``) batches only with the scene's own
 ``[joint_solver]``; a URDF robot in free space batches. Their bodies may differ in anything else (shape,
-mass, inertia, state, material) and so may their per-body forces (drag, wind,
+mass, inertia, state, material) and so may their per-body forces (drag, wind, fluid,
 constant, point forces, impulses).
 
 ``merge_worlds`` copies the variants' already-built worlds (each from
@@ -45,7 +45,7 @@ import numpy as np
 from .. import checks
 from .. import integrators as K
 from ..errors import InputError, SimulationError
-from ..forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Impulse, PointForce, Spring
+from ..forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring
 from ..joints import G_FOLLOWS, G_JOINT, JOINT_GEAR
 from ..simulator import Simulator
 from ..trajectory import Trajectory
@@ -154,7 +154,7 @@ def merge_worlds(worlds: list[World]) -> World:
 
 def _moved(rec, w: World, offset: int):
     row = lambda b: offset + w.index_of(b)
-    if isinstance(rec, Drag):
+    if isinstance(rec, (Drag, Fluid)):  # a fluid's frames stay with their bodies (the same order)
         bodies = np.flatnonzero(w.moving) if rec.bodies is None else [w.index_of(b) for b in rec.bodies]
         return dataclasses.replace(rec, bodies=[offset + int(i) for i in bodies])
     if isinstance(rec, (ConstantForce, PointForce, Impulse)):
