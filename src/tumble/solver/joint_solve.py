@@ -736,10 +736,10 @@ def joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
     v, omega (N, 3) at poses x, R: taken before a substep's forces, the target of its
     armature row (``_solve_axial``, ``joint_tree.tree_factor_kernel``).
 
-    NOTE: v, omega are those the last substep solved (or the step's start): the next
-    substep derives omega again from L at the new orientation, which turns it by the
-    gyroscopic term of the body's own inertia; the armature row resists that change too
-    (O(h) per substep, as the order of the step)."""
+    NOTE: v, omega must be those the last substep solved, taken before this substep derives
+    omega again from L at the new orientation: that derivation carries the velocity-product
+    (gyroscopic, centrifugal) change of the coordinate's rate, which the armature must resist
+    too (``first_substep_rates_kernel`` says what went wrong when it was taken after)."""
     for j in range(joint_type.shape[0]):
         if not enabled[j] or param[j, P_ARMATURE] == 0.0:
             continue

@@ -218,7 +218,8 @@ def _substeps_kernel(with_joints: bool):
         ``_solve_joints`` unpacks it; empty arrays for a world without joints), ``tree``: its method
         is the tree's, whose arrays are ``tree_parts``; ``impulses``: its accumulated impulses
         (linear, angular, axial); ``armature``: some joint has armature (take the rates before each
-        substep's forces; the first substep's from ``armature_rate`` (J,) where known). ``contacts``: ``ContactSolver``'s per-contact arrays as
+        substep's forces; the first substep's from ``armature_rate`` (J,) where known).
+        ``contacts``: ``ContactSolver``'s per-contact arrays as
         ``contact_solve.solve_contacts_kernel`` takes them, then the step's impulse totals (C rows;
         C = 0: none), ``rolling``: its rolling-resistance rows.
         """
