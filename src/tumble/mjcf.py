@@ -76,8 +76,9 @@ Collisions: the model's bodies touch each other except bodies a joint links (MuJ
 rule, ``self_collision=True`` by default here, unlike ``load_urdf``) and those none of whose geoms
 may touch by MuJoCo's ``contype``/``conaffinity`` rule (``mjcf_control._exclude_by_masks``: per body pair; the
 masks are not read against the scene's own bodies). Not read, on purpose and documented (docs/robots.md):
-``<option>`` (set the World's gravity and the Simulator's dt yourself; ``tumble run model.xml``
-takes its ``gravity``), ``condim``, ``solref``,
+``<option>`` but its fluid (set the World's gravity and the Simulator's dt yourself; ``tumble run
+model.xml`` takes its ``gravity``; ``density``, ``viscosity`` and ``wind`` are read as a
+``tumble.Fluid``: ``load_mjcf(fluid=)``), ``condim``, ``solref``,
 ``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
 cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` leaves off, visual settings.
 ``<sensor>``: read by ``mjcf_sensors`` (``Robot.sensor_data``). ``<keyframe>`` keys become
