@@ -71,6 +71,15 @@ def first_order_errors(run, reference, make, env_dt, steps):
     return errors
 
 
+def open_loop(seed, actions):
+    """An environment's open-loop episode: ``run(env)`` resets it with ``seed`` and steps it through
+    ``actions``; (len(actions) + 1, d) the observations, the start's first."""
+    def run(env):
+        return np.array([env.reset(seed=seed)[0]] + [env.step(a)[0] for a in actions])
+
+    return run
+
+
 def test_reset_starts_where_gymnasiums_mujoco_env_starts():
     """Same seed, same start: the noise is drawn as Gymnasium's MuJoCo environments draw it (qpos,
     then qvel, uniform in +-0.01 from the env's generator), and the observation is (qpos, qvel)
@@ -91,13 +100,7 @@ def test_episode_converges_to_mujoco_rk4_at_first_order():
     1.92-1.99; the bounds 1.7-2.3 admit first order only), and at 0.0025 s it is 2.4e-3. Were
     the two engines' models different (mass, inertia, gear, damping, the pole's 1 mm lean), the
     difference would stop shrinking."""
-    action = np.array([0.5], dtype=np.float32)
-
-    def run(env):
-        out = [env.reset(seed=3)[0]]
-        out += [env.step(action)[0] for _ in range(8)]
-        return np.array(out)
-
+    run = open_loop(3, [np.array([0.5], dtype=np.float32)] * 8)
     reference = run(mujoco_env(0.0005))
     assert abs(reference[-1, 1]) > 0.4  # the pole fell well past the task's 0.2 rad
     errors = first_order_errors(run, reference, te.InvertedPendulum, 0.04, (0.02, 0.01, 0.005, 0.0025))
@@ -149,10 +152,7 @@ def test_reacher_starts_as_gymnasiums_and_converges_to_mujoco_rk4_at_first_order
     Were the target's ``ref`` not read, its qpos would be off by 0.1 at the start."""
     actions = np.random.default_rng(3).uniform(-1, 1, size=(10, 2)).astype(np.float32)
 
-    def run(env):
-        out = [env.reset(seed=2)[0]]
-        out += [env.step(a)[0] for a in actions]
-        return np.array(out)
+    run = open_loop(2, actions)
 
     def mujoco_reacher(timestep):
         return mujoco_gym("Reacher-v5", timestep)
@@ -402,13 +402,7 @@ def test_double_pendulum_converges_to_mujoco_rk4_at_first_order():
     0.0002 s (converged: its change from 0.001 s is below 1e-7); each halving of tumble's step
     halves the largest difference of the observation (first order: ratios 1.7-2.3). The
     observation's limit force stays 0 on both (the cart never reaches the rail's ends)."""
-    action = np.array([0.3], dtype=np.float32)
-
-    def run(env):
-        out = [env.reset(seed=3)[0]]
-        out += [env.step(action)[0] for _ in range(5)]
-        return np.array(out)
-
+    run = open_loop(3, [np.array([0.3], dtype=np.float32)] * 5)
     reference = run(mujoco_double(0.0002))
     assert np.all(reference[:, 8] == 0.0)
     first_order_errors(run, reference, te.InvertedDoublePendulum, 0.05, (0.01, 0.005, 0.0025, 0.00125))

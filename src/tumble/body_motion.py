@@ -98,13 +98,7 @@ def _velocities(layout, o, P, L, inv_mass, ib):
     """
     R = _matrix(layout, o)
     v = (P[0] * inv_mass, P[1] * inv_mass, P[2] * inv_mass)
-    l0 = R[0] * L[0] + R[3] * L[1] + R[6] * L[2]
-    l1 = R[1] * L[0] + R[4] * L[1] + R[7] * L[2]
-    l2 = R[2] * L[0] + R[5] * L[1] + R[8] * L[2]
-    w0 = ib[0] * l0 + ib[1] * l1 + ib[2] * l2
-    w1 = ib[3] * l0 + ib[4] * l1 + ib[5] * l2
-    w2 = ib[6] * l0 + ib[7] * l1 + ib[8] * l2
-    omega = (R[0] * w0 + R[1] * w1 + R[2] * w2, R[3] * w0 + R[4] * w1 + R[5] * w2, R[6] * w0 + R[7] * w1 + R[8] * w2)
+    omega = _mat_vec9(R, _mat_vec9(ib, _mat_t_vec9(R, L)))
     return R, v, omega
 
 
@@ -115,22 +109,11 @@ def _fluid_force(R, v, omega, p):
     density, viscosity, wind, the box's axes in the body frame as a quaternion). MuJoCo's
     inertia-box model (``mj_inertiaBoxFluidModel``: engine_passive.c), in the box's axes."""
     b0, b1, b2, rho, beta = p[0], p[1], p[2], p[3], p[4]
-    qw, qx, qy, qz = p[8], p[9], p[10], p[11]
-    # A: the box's axes in the body frame (columns); E = R A: in the world
-    A = (1.0 - 2.0 * (qy * qy + qz * qz), 2.0 * (qx * qy - qw * qz), 2.0 * (qx * qz + qw * qy),
-         2.0 * (qx * qy + qw * qz), 1.0 - 2.0 * (qx * qx + qz * qz), 2.0 * (qy * qz - qw * qx),
-         2.0 * (qx * qz - qw * qy), 2.0 * (qy * qz + qw * qx), 1.0 - 2.0 * (qx * qx + qy * qy))
-    E = (R[0] * A[0] + R[1] * A[3] + R[2] * A[6], R[0] * A[1] + R[1] * A[4] + R[2] * A[7],
-         R[0] * A[2] + R[1] * A[5] + R[2] * A[8],
-         R[3] * A[0] + R[4] * A[3] + R[5] * A[6], R[3] * A[1] + R[4] * A[4] + R[5] * A[7],
-         R[3] * A[2] + R[4] * A[5] + R[5] * A[8],
-         R[6] * A[0] + R[7] * A[3] + R[8] * A[6], R[6] * A[1] + R[7] * A[4] + R[8] * A[7],
-         R[6] * A[2] + R[7] * A[5] + R[8] * A[8])
-    w0, w1, w2 = v[0] - p[5], v[1] - p[6], v[2] - p[7]
+    # E: the box's axes (columns) in the world, R A (A: in the body frame, from its quaternion)
+    E = _matmul9(R, _quat_matrix(p[8], p[9], p[10], p[11], 2.0))
     # in the box's axes: u = E^T (v - wind), w = E^T omega
-    u = (E[0] * w0 + E[3] * w1 + E[6] * w2, E[1] * w0 + E[4] * w1 + E[7] * w2, E[2] * w0 + E[5] * w1 + E[8] * w2)
-    w = (E[0] * omega[0] + E[3] * omega[1] + E[6] * omega[2], E[1] * omega[0] + E[4] * omega[1] + E[7] * omega[2],
-         E[2] * omega[0] + E[5] * omega[1] + E[8] * omega[2])
+    u = _mat_t_vec9(E, (v[0] - p[5], v[1] - p[6], v[2] - p[7]))
+    w = _mat_t_vec9(E, omega)
     d = (b0 + b1 + b2) / 3.0
     lin = 3.0 * math.pi * d * beta
     ang = math.pi * d * d * d * beta
@@ -141,11 +124,21 @@ def _fluid_force(R, v, omega, p):
     t = (-ang * w[0] - rho * b0 * (b14 + b24) * abs(w[0]) * w[0] / 64.0,
          -ang * w[1] - rho * b1 * (b04 + b24) * abs(w[1]) * w[1] / 64.0,
          -ang * w[2] - rho * b2 * (b04 + b14) * abs(w[2]) * w[2] / 64.0)
-    F = (E[0] * f[0] + E[1] * f[1] + E[2] * f[2], E[3] * f[0] + E[4] * f[1] + E[5] * f[2],
-         E[6] * f[0] + E[7] * f[1] + E[8] * f[2])
-    T = (E[0] * t[0] + E[1] * t[1] + E[2] * t[2], E[3] * t[0] + E[4] * t[1] + E[5] * t[2],
-         E[6] * t[0] + E[7] * t[1] + E[8] * t[2])
-    return F, T
+    return _mat_vec9(E, f), _mat_vec9(E, t)
+
+
+@njit(**JIT, inline="always")
+def _mat_vec9(M, a):
+    """M a for a row-major 9-tuple M and a 3-vector a."""
+    return (M[0] * a[0] + M[1] * a[1] + M[2] * a[2], M[3] * a[0] + M[4] * a[1] + M[5] * a[2],
+            M[6] * a[0] + M[7] * a[1] + M[8] * a[2])
+
+
+@njit(**JIT, inline="always")
+def _mat_t_vec9(M, a):
+    """M^T a for a row-major 9-tuple M and a 3-vector a."""
+    return (M[0] * a[0] + M[3] * a[1] + M[6] * a[2], M[1] * a[0] + M[4] * a[1] + M[7] * a[2],
+            M[2] * a[0] + M[5] * a[1] + M[8] * a[2])
 
 
 @njit(**JIT)
@@ -198,9 +191,7 @@ def _unary_forces(i, x, R, v, omega, mass, gravity, uforce_kind, uforce_param, u
                 r1 = p[4] - x[1]
                 r2 = p[5] - x[2]
             else:  # UFORCE_POINT_BODY: the world point is R p_body + x, so r = R p_body
-                r0 = R[0] * p[3] + R[1] * p[4] + R[2] * p[5]
-                r1 = R[3] * p[3] + R[4] * p[4] + R[5] * p[5]
-                r2 = R[6] * p[3] + R[7] * p[4] + R[8] * p[5]
+                r0, r1, r2 = _mat_vec9(R, (p[3], p[4], p[5]))
             F0 += p[0]
             F1 += p[1]
             F2 += p[2]
@@ -376,12 +367,7 @@ def _split_rotation(layout, o, L, pq, pm, h):
     pw, px, py, pz = pq[0], pq[1], pq[2], pq[3]
     Q = _quat_matrix(pw, px, py, pz, 2.0)
     # L in the principal frame: Q^T R^T L
-    b0 = R[0] * L[0] + R[3] * L[1] + R[6] * L[2]
-    b1 = R[1] * L[0] + R[4] * L[1] + R[7] * L[2]
-    b2 = R[2] * L[0] + R[5] * L[1] + R[8] * L[2]
-    l0 = Q[0] * b0 + Q[3] * b1 + Q[6] * b2
-    l1 = Q[1] * b0 + Q[4] * b1 + Q[7] * b2
-    l2 = Q[2] * b0 + Q[5] * b1 + Q[8] * b2
+    l0, l1, l2 = _mat_t_vec9(Q, _mat_t_vec9(R, L))
     # d: the turn of the principal frame over h, as a quaternion, from the five flows
     d = (1.0, 0.0, 0.0, 0.0)
     l0, l1, l2, d = _principal_flow(0, 0.5 * h, pm[0], l0, l1, l2, d)
