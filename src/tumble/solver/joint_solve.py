@@ -313,7 +313,7 @@ def _solve_armature(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param,
                     v, omega, axial_impulse):
     """MuJoCo's armature a on the 1-D coordinate q: (I_q + a) q'' = tau adds a q'' to its
     equation, over a substep the impulse -a (q' - q'_0) along the row, with q'_0 = ``rate0[j]``
-    the rate before the substep's forces (``joint_rates_kernel``): a soft row of compliance
+    the armature's own rate before the substep's forces (``flywheel_rates_kernel``): a soft row of compliance
     1/a and target q'_0, solved implicitly (as the PD drive's row; a hinge's with the anchor
     block, ``_coupled_row_mass``), accumulated in ``axial_impulse[j, A_ARMATURE]``.
 
@@ -640,8 +640,8 @@ def solve_joints_kernel(order, bounds, joint_type, joint_a, joint_b, local_a, lo
     (Box2D ``b2Softness``; (0, 1, 0) in relax). Joints between two immovable bodies are skipped.
     ``gauss_seidel`` (J,) bool: whose rigid rows this sweep solves (the others are left to
     ``joint_tree.tree_substitute_kernel``, with their armature rows); the other 1-D coordinate
-    rows of every joint are solved here. rate0 (J,) rad/s or m/s: the coordinates' rates before this
-    substep's forces (``joint_rates_kernel``; read by the armature rows only).
+    rows of every joint are solved here. rate0 (J,) rad/s or m/s: the armatures' rates before this
+    substep's forces (``flywheel_rates_kernel``; read by the armature rows only).
 
     The joints are taken in the order ``order`` (J,), cut by ``bounds`` (P + 2,) into P
     partitions that share no moving body (``contact.partition_pairs_kernel``), swept side by
@@ -733,8 +733,10 @@ def joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
                        # outputs
                        rate0):
     """rate0[j] = the 1-D coordinate's rate (rad/s or m/s) of each joint with armature, from
-    v, omega (N, 3) at poses x, R: taken before a substep's forces, the target of its
-    armature row (``_solve_axial``, ``joint_tree.tree_factor_kernel``).
+    v, omega (N, 3) at poses x, R: taken before a step's first substep's forces, the target of
+    its armature row (``_solve_axial``, ``joint_tree.tree_factor_kernel``) where the last step's
+    armature rate is not known (later substeps carry the armature's own rate,
+    ``flywheel_rates_kernel``).
 
     NOTE: v, omega must be those the last substep solved, taken before this substep derives
     omega again from L at the new orientation: that derivation carries the velocity-product
@@ -746,6 +748,35 @@ def joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
         has, linear, n, ra, rb, _pos = _coordinate_row(joint_type[j], j, joint_a[j], joint_b[j], x, R, local_a,
                                                        local_b, frame_a, frame_b, position)
         rate0[j] = _row_velocity(v, omega, joint_a[j], joint_b[j], linear, n, ra, rb) if has else 0.0
+
+
+@njit(**NO_NRT)
+def flywheel_rates_kernel(param, enabled, axial_impulse, rate0,
+                          # outputs
+                          rate):
+    """rate[j] = rate0[j] - axial_impulse[j, A_ARMATURE] / a (rad/s or m/s), for each enabled joint
+    with armature a: the armature's own rate after a substep, the next substep's target (and, kept
+    by ``JointSolver.store``, the next step's first). rate0 (J,) the substep's target,
+    axial_impulse (J, AXIAL_COUNT) N s or N m s its accumulated impulses; rate (J,) may be rate0.
+
+    Why: the armature is an inertia a on the coordinate, a flywheel whose momentum a q' changes
+    only by the impulses of its row (-lambda: the row gives the bodies J^T lambda). Its rate was
+    taken again each substep from the bodies' solved velocities (J u), which is the flywheel's rate
+    only if nothing moved the bodies after the row's last solve; the contacts do (they are solved
+    after the joints, with the free bodies' masses). Every change a contact made to q' was then
+    the flywheel's too, momentum a dq' from nothing: Gymnasium's ant (armature 1 kg m^2, about 1000
+    times its legs' inertia about their hinges) let go on friction 3 turned its legs at 81 rad/s
+    within 1 s and leapt 20 m; a ball striking a hinged bar with armature 1 (no gravity) left the
+    angular momentum about the hinge 4.67 N m s off its 2.4 (measured; tests/physics/
+    test_joints_actuation.py, test_mjcf.py). Carried, a contact's change of q' is resisted by the
+    flywheel at the next solve of its row, as an impulse exchanged with the bodies: the momentum
+    about the hinge keeps to 2e-4, and the ant falls to the floor as MuJoCo's does. The soft step
+    also ends each substep with the joints' relax solve after the contacts', so that the bodies'
+    rates are the flywheel's when stored (soft_step.substeps_kernel)."""
+    for j in range(param.shape[0]):
+        if not enabled[j] or param[j, P_ARMATURE] == 0.0:
+            continue
+        rate[j] = rate0[j] - axial_impulse[j, A_ARMATURE] / param[j, P_ARMATURE]
 
 
 # numbers kept per body in ``JointSolver.armature_state``: the widest state row (the matrix

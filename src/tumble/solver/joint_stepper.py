@@ -117,9 +117,10 @@ def step_with_joints(world, joints: JointSolver, dt: float, substeps: int = 4):
     v, omega, x, q, R, I_inv = world.v, world.omega, world.x, world.q, world.R, world.I_inv
     joints.prepare(world, h)
     armature = joints.has_armature()
-    for _ in range(substeps):
+    for k in range(substeps):
         if armature:
-            joints.capture_rates(v, omega, x, R)  # before the forces: the armature rows' target
+            # before the forces: the armature rows' target
+            joints.capture_rates(v, omega, x, R, first=k == 0, carried=False)
         integrate_velocities_kernel(moving, world.inv_mass, I_inv, R, world.inertia_body, world.force, world.torque, h,
                                     v, omega)
         joints.warm_start(v, omega, x, R)

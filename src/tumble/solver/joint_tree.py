@@ -236,8 +236,8 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
     changes (``tree_substitute_kernel``).
 
     A hinge or slider with armature a (``param[:, P_ARMATURE]``) gets one more row in its block,
-    its coordinate's rate, soft: J (u + du) + lambda_total / a = rate0 (the rate before this
-    substep's forces, ``joint_solve.joint_rates_kernel``), i.e. the impulse -a (q' - q'_0) of the
+    its coordinate's rate, soft: J (u + du) + lambda_total / a = rate0 (the armature's own rate
+    before this substep's forces, ``joint_solve.flywheel_rates_kernel``), i.e. the impulse -a (q' - q'_0) of the
     inertia a added to the coordinate (MuJoCo's armature), solved exactly with the chain: a
     compliance 1/a on the KKT matrix's diagonal (the soft constraint's form, Catto GDC 2011). Its
     rigid rows are at most 5, so the 6x6 block has room.

@@ -116,6 +116,7 @@ from .joint_solve import (
     _sym_mat_vec,
     armature_rates_current_kernel,
     first_substep_rates_kernel,
+    flywheel_rates_kernel,
     joint_rates_kernel,
     keep_armature_state_kernel,
     solve_joints_kernel,
@@ -428,10 +429,10 @@ class JointSolver:
     impulse, (3,) N s world, ``A_MOTOR_ANCHOR``; then the armature row's, ``A_ARMATURE``; then a
     ball joint drive's angular impulse, (3,) N m s world, ``A_BALL_DRIVE``),
     world, accumulated over the last substep, carried to the next for warm starting.
-    ``rate0`` (J,): the coordinates' rates before the current substep's forces (the armature
-    rows' target, ``capture_rates``). ``armature_rate`` (J,) rad/s or m/s: the rates of the
-    joints with armature at the end of the last step, from its solved velocities (NaN: none, or
-    no longer current), the first substep's target; ``armature_state`` (J, 2, 18): the rows of
+    ``rate0`` (J,): the armature rows' target, the armatures' own rates before the current
+    substep's forces (``capture_rates``). ``armature_rate`` (J,) rad/s or m/s: the armatures'
+    rates at the end of the last step (``joint_solve.flywheel_rates_kernel``; NaN: none, or no
+    longer current), the first substep's target; ``armature_state`` (J, 2, 18): the rows of
     the state of the joint's two bodies (``World.state()``'s numbers, zeros past the layout's
     width and for the world) when they were taken, to tell whether anything moved the bodies
     since (``check_armature_rates``).
@@ -686,16 +687,22 @@ class JointSolver:
             mask[ends[ends >= 0]] = True
         return mask
 
-    def capture_rates(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray, first: bool = False):
-        """``rate0`` (J,) = the coordinates' rates of the joints with armature from v, omega (N, 3)
-        at poses x, R: each substep, before its forces (the armature rows' target). ``first``: the
-        step's first substep, whose v, omega were derived again from the momenta: the joints whose
-        ``armature_rate`` is current take it instead (``first_substep_rates_kernel``)."""
+    def capture_rates(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray, first: bool = False,
+                      carried: bool = True):
+        """``rate0`` (J,): the armature rows' target, each substep before its forces. ``first``: the
+        step's first substep: the coordinates' rates of the joints with armature from v, omega (N, 3)
+        at poses x, R, or where ``carried`` and ``armature_rate`` is current, those
+        (``first_substep_rates_kernel``); later substeps: the armature's own rate after the last
+        substep (``flywheel_rates_kernel``)."""
         if self.count:
-            joint_rates_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a,
-                               self.frame_b, self.param, self.enabled, self.position, x, R, v, omega, self.rate0)
             if first:
-                first_substep_rates_kernel(self.armature_rate, self.rate0)
+                joint_rates_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,
+                                   self.frame_a, self.frame_b, self.param, self.enabled, self.position, x, R, v, omega,
+                                   self.rate0)
+                if carried:
+                    first_substep_rates_kernel(self.armature_rate, self.rate0)
+            else:
+                flywheel_rates_kernel(self.param, self.enabled, self.axial_impulse, self.rate0, self.rate0)
 
     def check_armature_rates(self, Y: np.ndarray):
         """Before a step with armature: forget (NaN) ``armature_rate`` of the joints one of whose
@@ -787,11 +794,9 @@ class JointSolver:
         if not self.count:
             return 0
         if self.has_armature():
-            # the first substep of the next step resists from these rates, not from those derived again
-            # from the momenta at the new orientation (see first_substep_rates_kernel)
-            joint_rates_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b, self.frame_a,
-                               self.frame_b, self.param, self.enabled, self.position, x, R, v, omega,
-                               self.armature_rate)
+            # the first substep of the next step resists from the flywheels' rates, not from those derived
+            # again from the momenta at the new orientation (see first_substep_rates_kernel)
+            flywheel_rates_kernel(self.param, self.enabled, self.axial_impulse, self.rate0, self.armature_rate)
             keep_armature_state_kernel(self.joint_a, self.joint_b, self.param, self.enabled, x, self.armature_state,
                                        self.armature_rate)
         broke = store_joints_kernel(self.joint_type, self.joint_a, self.joint_b, self.local_a, self.local_b,

@@ -14,6 +14,8 @@ per step of dt made of ``substeps`` substeps h (``Simulator.substeps * SoftStepS
         solve_contacts(bias)     soft non-penetration, Coulomb friction
         integrate_positions      x += h v, the orientation by the exact rotation of omega h
         relax_contacts           solve without bias: the push-out speed leaves again
+        relax_joints             again, when a joint has armature: the rates its flywheel has
+                                 (joint_solve.flywheel_rates_kernel)
         store_momenta            P = m v, L = I omega (I at the substep's start, the
                                  inverse of the I^-1 the solve used)
     apply_restitution
@@ -44,8 +46,8 @@ from ..integrators import accumulate_forces_kernel
 from ..math3d import JIT
 from ..world import Scratch
 from . import contact as C
-from .joint_solve import (first_substep_rates_kernel, joint_rates_kernel, solve_joints_serial_kernel,
-                          warm_start_joints_kernel)
+from .joint_solve import (first_substep_rates_kernel, flywheel_rates_kernel, joint_rates_kernel,
+                          solve_joints_serial_kernel, warm_start_joints_kernel)
 from .joint_tree import tree_sweeps_kernel
 from .contact_rolling import solve_rolling_kernel, warm_start_rolling_kernel
 from .contact_solve import solve_contacts_kernel, warm_start_kernel
@@ -238,10 +240,12 @@ def _substeps_kernel(with_joints: bool):
         for k in range(substeps):
             if with_joints and armature:
                 # before the forces derive omega again from L (first_substep_rates_kernel says why)
-                joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
-                                   position, Y, R, v, omega, rate0)
                 if k == 0:
+                    joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                                       position, Y, R, v, omega, rate0)
                     first_substep_rates_kernel(armature_rate, rate0)
+                else:
+                    flywheel_rates_kernel(param, enabled, axial_impulse, rate0, rate0)  # the last substep's
             if k > 0:
                 accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind,
                                          uforce_param, uforce_start, spring_body, spring_anchor, spring_param,
@@ -270,6 +274,16 @@ def _substeps_kernel(with_joints: bool):
                               impulses)
             if n_contacts:
                 _solve_contacts(False, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
+            if with_joints and armature:
+                # the joints last, so that each coordinate with armature ends the substep at its flywheel's rate
+                # (joint_solve.flywheel_rates_kernel). Without it (the flywheel carried) the ant's legs kicked
+                # 1 rad/s for a step at each contact change, where the rates were the contacts' (0.1 rad/s
+                # before and after, 2.5 J of 5 J in and out); with the contacts solved after the joints'
+                # velocity pass and before their relax pass instead (no solve more), the landing threw the
+                # ant up again, 2 J a bounce (measured). Every substep, contacts or not: a copy of a vector
+                # environment must take the same solves as the single one.
+                _solve_joints(tree, relax_iterations, soft_relax, Y, R, inv_mass, I_inv, h, joints, tree_parts, v,
+                              omega, impulses)
             store_momenta_kernel(layout, Y, active, mass, v, omega, I_world)
             for c in range(n_contacts):  # ``ContactSolver.accumulate_step_impulses``
                 step_normal_impulse[c] += normal_impulse[c]
@@ -506,6 +520,8 @@ class SoftStep:
             if joints is not None:
                 joints.solve(s.v, s.omega, Y, s.R, False)
             solver.solve_contacts(False)
+            if armature:  # the joints last (substeps_kernel says why)
+                joints.solve(s.v, s.omega, Y, s.R, False)
             store_momenta_kernel(layout, Y, active, w.mass, s.v, s.omega, self.I_world)
             solver.accumulate_step_impulses()
             if check is not None:
