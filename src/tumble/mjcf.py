@@ -415,36 +415,40 @@ def read_mjcf(path) -> MjcfModel:
         raise err.within(None, str(path)) from None
 
 
-def read_option_gravity(path) -> np.ndarray:
-    """The ``<option gravity>`` of an MJCF file (3,) m/s^2 (MuJoCo's default 0 0 -9.81). InputError on a bad file."""
+def _option(root, name: str, shape: tuple, default, check=None):
+    """The ``<option name>`` of a model's root (the last ``<option>`` that gives it, as MuJoCo's
+    parser leaves it): an array of ``shape``, else ``default``. ``check(value) -> problem`` (None:
+    fine) refuses a bad one with an InputError at ``option.name``."""
+    value = default
+    for option in root.findall("option"):
+        if name in option.attrib:
+            value = _floats(option.get(name), f"option.{name}", shape)
+            problem = check(value) if check is not None else None
+            if problem is not None:
+                raise InputError(f"{problem}, got {option.get(name)!r}", f"option.{name}")
+    return value
+
+
+def _read_option(path, name: str, shape: tuple, default, check=None):
+    """``_option`` of the MJCF file ``path``; InputError on a bad file or value."""
     path = Path(path)
     try:
-        root = read_model_xml(path)
-        gravity = np.array([0.0, 0.0, -9.81])
-        for option in root.findall("option"):
-            if "gravity" in option.attrib:
-                gravity = _floats(option.get("gravity"), "option.gravity", (3,))
-        return gravity
+        return _option(read_model_xml(path), name, shape, default, check)
     except InputError as err:
         raise err.within(None, str(path)) from None
+
+
+def read_option_gravity(path) -> np.ndarray:
+    """The ``<option gravity>`` of an MJCF file (3,) m/s^2 (MuJoCo's default 0 0 -9.81). InputError on a bad file."""
+    return _read_option(path, "gravity", (3,), np.array([0.0, 0.0, -9.81]))
 
 
 def read_option_timestep(path) -> float:
     """The ``<option timestep>`` of an MJCF file, s (MuJoCo's default 0.002). InputError on a bad file
     or a step that is not one positive number."""
-    path = Path(path)
-    try:
-        root = read_model_xml(path)
-        timestep = 0.002
-        for option in root.findall("option"):
-            if "timestep" in option.attrib:
-                timestep = float(_floats(option.get("timestep"), "option.timestep", (1,))[0])
-                if not timestep > 0.0:
-                    raise InputError(f"expected a positive number of seconds, got {option.get('timestep')!r}",
-                                     "option.timestep")
-        return timestep
-    except InputError as err:
-        raise err.within(None, str(path)) from None
+    value = _read_option(path, "timestep", (1,), np.array([0.002]),
+                         lambda v: None if v[0] > 0.0 else "expected a positive number of seconds")
+    return float(value[0])
 
 
 def _lighten_virtual_links(out: MjcfModel):
@@ -469,18 +473,14 @@ def _lighten_virtual_links(out: MjcfModel):
 def _read_fluid(root):
     """``<option density viscosity wind>``: (density kg/m^3, viscosity Pa s, wind (3,) m/s) when the
     density or the viscosity is above 0 (MuJoCo's fluid forces on), else None."""
-    values = {"density": 0.0, "viscosity": 0.0, "wind": np.zeros(3)}
-    for option in root.findall("option"):
-        for name in ("density", "viscosity"):
-            if name in option.attrib:
-                value = float(_floats(option.get(name), f"option.{name}", (1,))[0])
-                if value < 0.0:
-                    raise InputError(f"must be >= 0, got {option.get(name)!r}", f"option.{name}")
-                values[name] = value
-        if "wind" in option.attrib:
-            values["wind"] = _floats(option.get("wind"), "option.wind", (3,))
-    if values["density"] > 0.0 or values["viscosity"] > 0.0:
-        return values["density"], values["viscosity"], tuple(float(w) for w in values["wind"])
+    def non_negative(value):
+        return None if value[0] >= 0.0 else "must be >= 0"
+
+    density = float(_option(root, "density", (1,), np.zeros(1), non_negative)[0])
+    viscosity = float(_option(root, "viscosity", (1,), np.zeros(1), non_negative)[0])
+    wind = _option(root, "wind", (3,), np.zeros(3))
+    if density > 0.0 or viscosity > 0.0:
+        return density, viscosity, tuple(float(w) for w in wind)
     return None
 
 
