@@ -506,7 +506,7 @@ def tree_gear_masses(order, node_joint, node_body, node_parent, joint_type, join
 @njit(**NO_NRT)
 def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
                        local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
-                       inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent,
+                       inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, factor,
                        # scratch
                        Ja, Jb, C, nrow, D, Dinv, H_up, W, y, sol, work, before,
                        joint_group, body_group, group_change, group_largest, group_done, node_skip, sub_order,
@@ -527,7 +527,10 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
     that arm pressing on its limit costs 1.3 ms a step against 0.5 ms with two sweeps and
     rebounds at -0.004 rad/s; a 0.1 % tolerance costs 3.0 ms for 0.003 rad/s). Worlds whose
     limits are idle keep their bits. ``before`` (J, L) scratch; soft (3,) as
-    ``solve_joints_kernel``'s, its bias rate the tree solve's.
+    ``solve_joints_kernel``'s, its bias rate the tree solve's. ``factor`` (int64): 1 to factor the
+    tree at the current poses, 0 to solve on the factors (and gear masses) the last call made,
+    when nothing they depend on (poses, masses, inertias, parameters) has changed since: the same
+    numbers, so the same bits (the soft step's last relax solve of a substep with armature).
 
     The test is made per group of joints that share moving bodies (``joint_group`` (J,),
     ``body_group`` (N,): ``JointSolver._groups``; -1 outside any): the sweeps after a group has
@@ -594,7 +597,7 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             for j in range(before.shape[0]):
                 for c in range(L):
                     before[j, c] = axial_impulse[j, limits[c]]
-        if sweep == 0:
+        if sweep == 0 and factor:
             # PERF: the factors depend on the poses, masses and inertias, fixed over the sweeps: once
             # per solve (it was once per sweep: the same numbers, so the same bits)
             tree_factor_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,

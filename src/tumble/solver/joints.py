@@ -712,10 +712,12 @@ class JointSolver:
         if self.count:
             armature_rates_current_kernel(self.joint_a, self.joint_b, Y, self.armature_state, self.armature_rate)
 
-    def solve(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray, use_bias: bool):
+    def solve(self, v: np.ndarray, omega: np.ndarray, x: np.ndarray, R: np.ndarray, use_bias: bool,
+              factor: bool = True):
         """Sweeps over the joints on v, omega (N, 3) at poses x (N, 3), R (N, 3, 3):
         ``use_bias=True`` before the positions move (soft rows, ``velocity_iterations``),
-        False after (relax: rigid rows without bias, ``relax_iterations``)."""
+        False after (relax: rigid rows without bias, ``relax_iterations``). ``factor=False``: the
+        tree method solves on the last solve's factors (nothing they depend on has moved since)."""
         if self.count:
             st = self.settings
             iterations = st.velocity_iterations if use_bias else st.relax_iterations
@@ -729,7 +731,9 @@ class JointSolver:
                 solve_joints_kernel(*args, int(iterations), *out)
                 return
             limits, max_sweeps, tolerance, *tree = self.tree_parts()
-            tree_sweeps_kernel(int(iterations), limits, max_sweeps, tolerance, *args, *tree, *out)
+            node_order, node_joint, node_body, node_parent, *scratch = tree
+            tree_sweeps_kernel(int(iterations), limits, max_sweeps, tolerance, *args, node_order, node_joint, node_body,
+                               node_parent, np.int64(1 if factor else 0), *scratch, *out)
 
     def tree_parts(self) -> tuple:
         """The tree method's arrays for ``tree_sweeps_kernel``: (limit columns, TREE_LIMIT_SWEEPS,
