@@ -717,7 +717,8 @@ class JointSolver:
         """Sweeps over the joints on v, omega (N, 3) at poses x (N, 3), R (N, 3, 3):
         ``use_bias=True`` before the positions move (soft rows, ``velocity_iterations``),
         False after (relax: rigid rows without bias, ``relax_iterations``). ``factor=False``: the
-        tree method solves on the last solve's factors (nothing they depend on has moved since)."""
+        tree method sweeps on the last solve's factors (nothing they depend on has moved since), with
+        no limit re-sweeps."""
         if self.count:
             st = self.settings
             iterations = st.velocity_iterations if use_bias else st.relax_iterations
@@ -732,6 +733,8 @@ class JointSolver:
                 return
             limits, max_sweeps, tolerance, *tree = self.tree_parts()
             node_order, node_joint, node_body, node_parent, *scratch = tree
+            if not factor:  # no limit re-sweeps (soft_step._solve_joints: the same)
+                max_sweeps = 1
             tree_sweeps_kernel(int(iterations), limits, max_sweeps, tolerance, *args, node_order, node_joint, node_body,
                                node_parent, np.int64(1 if factor else 0), *scratch, *out)
 
