@@ -288,8 +288,8 @@ def _substeps_kernel(with_joints: bool):
                 # environment must take the same solves as the single one.
                 # PERF: on the relax solve's factors (the poses have not moved since), the relax's sweeps but no
                 # limit re-sweeps (the relax has just converged them: _solve_joints). Measured against the
-                # step without this solve (docs/benchmarks.md, "the armature's flywheel"): with the limit
-                # re-sweeps +19-23 % a runner or pusher environment step, without them MEASURED; one sweep
+                # step without this solve (docs/benchmarks.md, "the armature's flywheel"): +17-23 % a runner
+                # or pusher environment step (with the limit re-sweeps +19-23 %: not the cost); one sweep
                 # +6-12 %, but the ant of test_mjcf.py then moved its legs at up to 0.54 rad/s against 0.47
                 # with two (MuJoCo's 0.24)
                 _solve_joints(tree, relax_iterations, soft_relax, Y, R, inv_mass, I_inv, h, joints, tree_parts, v,
