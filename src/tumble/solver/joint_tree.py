@@ -237,10 +237,10 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
 
     A hinge or slider with armature a (``param[:, P_ARMATURE]``) gets one more row in its block,
     its coordinate's rate, soft: J (u + du) + lambda_total / a = rate0 (the armature's own rate
-    before this substep's forces, ``joint_solve.flywheel_rates_kernel``), i.e. the impulse -a (q' - q'_0) of the
-    inertia a added to the coordinate (MuJoCo's armature), solved exactly with the chain: a
-    compliance 1/a on the KKT matrix's diagonal (the soft constraint's form, Catto GDC 2011). Its
-    rigid rows are at most 5, so the 6x6 block has room.
+    before this substep's forces, ``joint_solve.flywheel_rates_kernel``), i.e. the impulse
+    -a (q' - q'_0) of the inertia a added to the coordinate (MuJoCo's armature), solved exactly
+    with the chain: a compliance 1/a on the KKT matrix's diagonal (the soft constraint's form,
+    Catto GDC 2011). Its rigid rows are at most 5, so the 6x6 block has room.
     """
     n_nodes = order.shape[0]
     for k in range(n_nodes):
@@ -530,7 +530,8 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
     ``solve_joints_kernel``'s, its bias rate the tree solve's. ``factor`` (int64): 1 to factor the
     tree at the current poses, 0 to solve on the factors (and gear masses) the last call made,
     when nothing they depend on (poses, masses, inertias, parameters) has changed since: the same
-    numbers, so the same bits (the soft step's last relax solve of a substep with armature).
+    numbers, so the same bits (the soft step's last relax solve of a substep with armature), and
+    then with no limit re-sweeps (that last call has just converged them).
 
     The test is made per group of joints that share moving bodies (``joint_group`` (J,),
     ``body_group`` (N,): ``JointSolver._groups``; -1 outside any): the sweeps after a group has
@@ -545,7 +546,7 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
     L = limits.shape[0]
     G = group_done.shape[0]
     sweeps = iterations
-    if L > 0 and iterations > 0:
+    if L > 0 and iterations > 0 and factor:
         sweeps = max(iterations, max_sweeps)
     for g in range(G):
         group_done[g] = False

@@ -733,8 +733,6 @@ class JointSolver:
                 return
             limits, max_sweeps, tolerance, *tree = self.tree_parts()
             node_order, node_joint, node_body, node_parent, *scratch = tree
-            if not factor:  # no limit re-sweeps (soft_step._solve_joints: the same)
-                max_sweeps = 1
             tree_sweeps_kernel(int(iterations), limits, max_sweeps, tolerance, *args, node_order, node_joint, node_body,
                                node_parent, np.int64(1 if factor else 0), *scratch, *out)
 

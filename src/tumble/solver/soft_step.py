@@ -172,8 +172,6 @@ def _solve_joints(tree, iterations, soft, x, R, inv_mass, I_inv, h, joints, tree
     (limits, max_sweeps, tolerance, node_order, node_joint, node_body, node_parent, Ja, Jb, C, nrow, D, Dinv, H_up,
      W, y, sol, work, before, joint_group, body_group, group_change, group_largest, group_done, node_skip, sub_order,
      sub_bounds) = tree_parts
-    if not factor:  # the last relax solve of a substep with armature: no limit re-sweeps (substeps_kernel says why)
-        max_sweeps = 1
     tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
                        local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
                        inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, factor, Ja, Jb, C, nrow,
@@ -287,7 +285,7 @@ def _substeps_kernel(with_joints: bool):
                 # ant up again, 2 J a bounce (measured). Every substep, contacts or not: a copy of a vector
                 # environment must take the same solves as the single one.
                 # PERF: on the relax solve's factors (the poses have not moved since), the relax's sweeps but no
-                # limit re-sweeps (the relax has just converged them: _solve_joints). Measured against the
+                # limit re-sweeps (the relax has just converged them: tree_sweeps_kernel). Measured against the
                 # step without this solve (docs/benchmarks.md, "the armature's flywheel"): +17-23 % a runner
                 # or pusher environment step (with the limit re-sweeps +19-23 %: not the cost); one sweep
                 # +6-12 %, but the ant of test_mjcf.py then moved its legs at up to 0.54 rad/s against 0.47
