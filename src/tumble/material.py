@@ -10,7 +10,17 @@ from dataclasses import dataclass
 from .errors import InputError, coerce_record
 
 
-MATERIAL_KEYS = ("friction", "restitution", "rolling_resistance", "spinning_friction")
+MATERIAL_KEYS = ("friction", "restitution", "rolling_resistance", "spinning_friction", "margin",
+                 "friction_combine", "restitution_combine")
+NUMBER_KEYS = MATERIAL_KEYS[:5]
+#: how two bodies' frictions or restitutions make a contact's, in the order of precedence of
+#: PhysX's ``PxCombineMode`` (a pair takes the later of its two bodies' modes), after tumble's own
+#: "geometric" (Box2D's sqrt(a b)): MuJoCo's frictions combine by "max", Bullet's by "multiply",
+#: PhysX's by "average" by default
+COMBINE_MODES = ("geometric", "average", "min", "multiply", "max")
+COMBINE_UNSET = -1  # a body that sets no mode: the pair's is the other's, else the default
+FRICTION_DEFAULT_MODE = COMBINE_MODES.index("geometric")
+RESTITUTION_DEFAULT_MODE = COMBINE_MODES.index("max")
 
 
 @dataclass(frozen=True)
@@ -27,15 +37,32 @@ class Material:
         spinning_friction: m (>= 0, MuJoCo's torsional friction): a torque of at most
             ``spinning_friction * N`` against turning about the contact normal (a ball or a top
             spinning in place); per contact max(sa, sb).
+        margin: m (>= 0, MuJoCo's geom ``margin``, PhysX's rest offset): two bodies come to rest
+            this much further apart, the sum of their margins (MuJoCo sums a pair's margins:
+            measured, MuJoCo 3 and 4); their contacts start that much earlier. 0: surfaces
+            touch.
+        friction_combine, restitution_combine: None (the default) or one of ``COMBINE_MODES``:
+            how a contact's friction (restitution) is made from its two bodies' (PhysX's combine
+            modes): "geometric" sqrt(a b), "average" (a + b) / 2, "min", "multiply" a b, "max".
+            A pair takes the mode later in that list of its two bodies' (PhysX's precedence); a
+            body without one defers to the other; neither: "geometric" for friction (Box2D's),
+            "max" for restitution. MuJoCo models load with "max" friction (MuJoCo's rule).
     """
 
     friction: float = 0.5
     restitution: float = 0.0
     rolling_resistance: float = 0.0
     spinning_friction: float = 0.0
+    margin: float = 0.0
+    friction_combine: str | None = None
+    restitution_combine: str | None = None
 
     def __post_init__(self):
-        for key in MATERIAL_KEYS:
+        for key in ("friction_combine", "restitution_combine"):
+            mode = getattr(self, key)
+            if mode is not None and (not isinstance(mode, str) or mode not in COMBINE_MODES):
+                raise InputError(f"expected one of {', '.join(COMBINE_MODES)}, got {mode!r}", key)
+        for key in NUMBER_KEYS:
             raw = getattr(self, key)
             if isinstance(raw, bool):
                 raise InputError(f"expected a number, got {raw}", key)
@@ -56,8 +83,21 @@ class Material:
         (``solver.contact_rolling``)."""
         return self.rolling_resistance > 0.0 or self.spinning_friction > 0.0
 
+    def combine_codes(self) -> tuple[int, int]:
+        """(friction, restitution) modes as indices of ``COMBINE_MODES`` (``COMBINE_UNSET``: none)."""
+        return tuple(COMBINE_UNSET if m is None else COMBINE_MODES.index(m)
+                     for m in (self.friction_combine, self.restitution_combine))
+
     def to_dict(self) -> dict:
-        return {key: getattr(self, key) for key in MATERIAL_KEYS}
+        """Its keys, but those of the margin and combine modes only when set (a scene or checkpoint
+        written without them reads as before)."""
+        out = {key: getattr(self, key) for key in NUMBER_KEYS[:4]}
+        if self.margin:
+            out["margin"] = self.margin
+        for key in ("friction_combine", "restitution_combine"):
+            if getattr(self, key) is not None:
+                out[key] = getattr(self, key)
+        return out
 
     @classmethod
     def coerce(cls, value) -> "Material":

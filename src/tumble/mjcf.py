@@ -17,7 +17,10 @@ What maps to what:
 - ``<geom>``: ``sphere``, ``capsule``, ``cylinder`` (``size`` radius and half-length, or ``fromto``),
   ``box`` (half-sizes), ``ellipsoid`` (semi-axes: ``tb.Ellipsoid``), ``mesh`` (an ``<asset><mesh file scale>``, or
   inline ``vertex`` points: its convex hull, as MuJoCo collides meshes), ``plane`` (in ``<worldbody>``). ``friction``'s first number is the body's
-  friction (default 1, MuJoCo's; the first colliding geom's when several differ). A geom with
+  friction (default 1, MuJoCo's; the first colliding geom's when several differ), combined
+  with another body's by the larger of the two (MuJoCo's rule: ``Material.friction_combine``
+  "max"); ``margin`` the body's ``Material.margin`` with ``load_mjcf(margins=True)`` (MuJoCo's pair rests its
+  two margins apart; off by default: ``load_mjcf`` says why). A geom with
   ``contype = conaffinity = 0`` (a visual geom) has mass but no collision shape. The
   ``<worldbody>``'s own geoms become fixed bodies of their own (the floor).
 - ``<joint>``: ``hinge`` a ``HingeJoint`` and ``slide`` a ``SliderJoint`` about
@@ -79,7 +82,7 @@ masks are not read against the scene's own bodies). Not read, on purpose and doc
 ``<option>`` but its fluid (set the World's gravity and the Simulator's dt yourself; ``tumble run
 model.xml`` takes its ``gravity``; ``density``, ``viscosity`` and ``wind`` are read as a
 ``tumble.Fluid``: ``load_mjcf(fluid=)``), ``condim``, ``solref``,
-``solimp``, ``margin``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
+``solimp``, ``margin`` unless ``load_mjcf(margins=True)``, ``gap``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
 cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` leaves off, visual settings.
 ``<sensor>``: read by ``mjcf_sensors`` (``Robot.sensor_data``). ``<keyframe>`` keys become
 ``Robot.keyframes`` (``Robot.reset_to_keyframe``, ``load_mjcf(keyframe=)``: MuJoCo's
@@ -101,7 +104,7 @@ stiffness, damping or friction loss, position, velocity and biased actuators on 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -156,7 +159,7 @@ class MjcfStatic:
     shape: object
     position: np.ndarray
     R: np.ndarray
-    friction: float
+    material: object  # its Material (``_geom``'s surface)
 
 
 @dataclass
@@ -168,7 +171,7 @@ class MjcfModel:
     statics: list = field(default_factory=list)
     drives: dict = field(default_factory=dict)
     excluded: list = field(default_factory=list)
-    frictions: dict = field(default_factory=dict)  # link name: friction of its colliding geoms
+    materials: dict = field(default_factory=dict)  # link name: Material of its (first) colliding geom
     virtual: list = field(default_factory=list)  # the links between two joints of one body
     actuators: dict = field(default_factory=dict)  # name: MjcfActuator, the file's order
     # (kind "connect" | "weld", name, body1, body2, anchor (3,)); ("joint", name, joint1, joint2, polycoef (5,))
@@ -308,7 +311,9 @@ class _Reader:
 
 # ---------------------------------------------------------------------- geoms
 def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
-    """(shape, position (3,), R (3, 3), collides, friction) of a geom's attributes."""
+    """(shape, position (3,), R (3, 3), collides, surface) of a geom's attributes; surface: its
+    ``Material``: ``friction``'s first number, ``margin``, and MuJoCo's rule for a pair's friction,
+    the larger of the two ("max")."""
     kind = a.get("type", "sphere")
     if kind not in GEOM_TYPES:
         raise InputError(f"unsupported geom type {kind!r} (expected one of {', '.join(GEOM_TYPES)})", f"{key}.type")
@@ -361,7 +366,12 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
     friction = float(_floats(a["friction"], f"{key}.friction", (1, 2, 3))[0]) if "friction" in a else DEFAULT_FRICTION
     if friction < 0:
         raise InputError(f"must be >= 0, got {friction:g}", f"{key}.friction")
-    return shape, position, R, collides, friction
+    margin = float(_floats(a["margin"], f"{key}.margin", (1,))[0]) if "margin" in a else 0.0
+    if not margin >= 0:
+        raise InputError(f"must be >= 0, got {margin:g}", f"{key}.margin")
+    from .material import Material
+
+    return shape, position, R, collides, Material(friction=friction, margin=margin, friction_combine="max")
 
 
 def _masks(a: dict, key: str) -> tuple:
@@ -501,10 +511,10 @@ def _read(path: Path) -> MjcfModel:
         name = a.get("name", f"geom{k}")
         if any(s.name == name for s in out.statics):
             raise InputError("duplicate geom name", f"worldbody.geom[{name}]")
-        shape, position, R, collides, friction = _geom(reader, a, f"worldbody.geom[{name}]", meshes)
+        shape, position, R, collides, surface = _geom(reader, a, f"worldbody.geom[{name}]", meshes)
         position, R = place(frame, position, R)
         if collides:
-            out.statics.append(MjcfStatic(name, shape, position, R, friction))
+            out.statics.append(MjcfStatic(name, shape, position, R, surface))
             out.masks[f"world/{name}"] = [_masks(a, f"worldbody.geom[{name}]")]
     for child in worldbody:
         _check_tag(child, "worldbody")
@@ -685,18 +695,18 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
 
     terms = []  # (mass, centre, inertia about the centre) in the link frame
     geom_frames = []  # each term's geom frame in the link frame
-    frictions = []
+    surfaces = []
     for k, (g, gcls, frame) in enumerate(framed(reader, element, ("geom",), cls, key)):
         a = reader.attributes(g, gcls)
         gkey = f"{key}.geom[{a.get('name', k)}]"
-        shape, position, R, collides, friction = _geom(reader, a, gkey, meshes)
+        shape, position, R, collides, surface = _geom(reader, a, gkey, meshes)
         if isinstance(shape, Plane) or a.get("type") == "hfield":
             raise InputError(f"a {a.get('type')} must be a <worldbody> geom (tumble's are static)", gkey)
         position, R = place(frame, position, R)
         position = position - anchor
         if collides:
             link.parts.append((shape, position, R))
-            frictions.append(friction)
+            surfaces.append(surface)
             out.masks.setdefault(link.name, []).append(_masks(a, gkey))
         try:
             if "mass" in a:
@@ -708,8 +718,8 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
             raise err.within(gkey) from None
         terms.append((props.mass, position + R @ np.asarray(props.center), R @ np.asarray(props.inertia) @ R.T))
         geom_frames.append(R)
-    if frictions:
-        out.frictions[link.name] = frictions[0]
+    if surfaces:
+        out.materials[link.name] = surfaces[0]
     inertial = element.find("inertial")
     if inertial is not None and not (reader.inertiafromgeom == "true" and terms):
         ikey = f"{key}.inertial"
@@ -742,7 +752,7 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
 # ---------------------------------------------------------------------- loading
 def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_deg=None, self_collision=True,
               joint_positions=None, material=None, collision_filter=None, name=None, inertia="file",
-              joint_motors=None, joint_targets=None, keyframe=None, world_geoms=True, fluid=True):
+              joint_motors=None, joint_targets=None, keyframe=None, world_geoms=True, fluid=True, margins=False):
     """Add the model of an MJCF file to ``world`` (module docstring) and return it as a ``urdf.Robot``
     (links by body name, joints by joint name; bodies named "MODEL/BODY", the worldbody's geoms
     "MODEL/world/GEOM").
@@ -765,17 +775,23 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         fluid: the file's ``<option density viscosity wind>`` (MuJoCo's fluid forces, its inertia-box
             model) as a ``tumble.Fluid`` on the model's moving bodies (``robot.fluid``; default); False
             leaves it off.
+        margins: True reads the geoms' ``margin`` as the bodies' ``Material.margin`` (a pair rests its
+            two margins apart, as in MuJoCo: Gymnasium's ant stands 2 cm higher, its torso at
+            MuJoCo's height to 0.2 mm). Off by default: a body whose joints keep it from leaving a
+            contact within its margins is pushed against them (Gymnasium's pusher's object, held in
+            z on its table, rises 2.2 mm out of its joints; MuJoCo's reduced coordinates cannot),
+            and PyBullet's thrower (links of 1e-9 kg) blows up when its hand meets the ball within
+            them (measured). The file's values are checked either way.
 
     Raises:
         InputError: a bad file or argument, one line (file, element, problem).
     """
-    from .material import Material
 
     parsed = read_mjcf(path)
     model = parsed.model
     if material is None:
-        for link_name, friction in parsed.frictions.items():
-            model.links[link_name].material = Material(friction=friction)
+        for link_name, surface in parsed.materials.items():
+            model.links[link_name].material = surface if margins else replace(surface, margin=0.0)
     # the actuators' springs and dampers, per joint: a PD drive (its target and the applied efforts are
     # the controls': set for ctrl = 0 once the robot is built)
     targets = {j: {"position": 0.0, "stiffness": kp, "damping": kv,
@@ -786,7 +802,7 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         robot = _build(world, parsed, material, targets, position=position, orientation=orientation,
                        euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
                        collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors,
-                       world_geoms=world_geoms, fluid=fluid)
+                       world_geoms=world_geoms, fluid=fluid, margins=margins)
         resolve_dampratios(robot)
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
@@ -799,8 +815,8 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
 
 
 def _build(world, parsed: MjcfModel, material, targets, *, position, orientation, euler_deg, self_collision,
-           joint_positions, collision_filter, name, inertia, joint_motors, world_geoms=True, fluid=True):
-    from .material import Material
+           joint_positions, collision_filter, name, inertia, joint_motors, world_geoms=True, fluid=True,
+           margins=False):
     from .urdf import build_robot
 
     model = parsed.model
@@ -825,7 +841,7 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     statics = parsed.statics if world_geoms else []
     masks = parsed.masks if world_geoms else {k: v for k, v in parsed.masks.items() if not k.startswith("world/")}
     for s in statics:
-        body_material = material if material is not None else Material(friction=s.friction)
+        body_material = material if material is not None else s.material if margins else replace(s.material, margin=0.0)
         body = world.add_body(s.shape, fixed=True, position=base_p + base_R @ s.position,
                               orientation=matrix_to_quat(np.ascontiguousarray(base_R @ s.R)), material=body_material,
                               name=f"{robot.name}/world/{s.name}",

@@ -33,7 +33,7 @@ from .shapes import (
     heightfield,
 )
 from .collision.filter import FILTER_KEYS, CollisionFilter
-from .material import MATERIAL_KEYS, Material
+from .material import COMBINE_MODES, MATERIAL_KEYS, Material
 from .world import World
 
 BODY_KEYS = (
@@ -355,7 +355,8 @@ class BodyReader(ValueReader):
         """A ``Material`` from a table of its keys (a body's or a compound part's ``material``);
         built here, not in add_body or Compound, so that its errors are keyed ``KEY.friction``."""
         m = self.table(value, key, MATERIAL_KEYS)
-        return self.library(key, Material, **{k: self.number(v, f"{key}.{k}") for k, v in m.items()})
+        return self.library(key, Material, **{k: self.string(v, f"{key}.{k}", COMBINE_MODES) if k.endswith("_combine")
+                                              else self.number(v, f"{key}.{k}") for k, v in m.items()})
 
     def mesh_path(self, value, key: str) -> str:
         return self.data_path(value, key, "mesh")

@@ -24,7 +24,8 @@ An ``.xml`` file is read as MJCF (``load_mjcf``): ``fixed_base``, ``merge_fixed`
 do not apply to it, and ``self_collision`` defaults to true (MuJoCo's rule); ``controls = { name =
 ctrl }`` sets its actuators' controls (MuJoCo's ``data.ctrl``, ``Robot.set_controls``) for the run,
 and ``keyframe = "home"`` starts it in a ``<keyframe>`` key (``Robot.reset_to_keyframe``);
-``world_geoms = false`` leaves off the file's ``<worldbody>`` geoms (its floor, when the scene has a ground).
+``world_geoms = false`` leaves off the file's ``<worldbody>`` geoms (its floor, when the scene has a ground);
+``margins = true`` reads its geoms' ``margin`` (``load_mjcf(margins=)``).
 
 A USD stage (``.usd``, ``.usda``, ``.usdc``, ``.usdz``) is read by ``usd_physics.load_usd``: its
 rigid bodies, colliders and joints (the UsdPhysics schema), named ``NAME/<prim path>`` when ``name``
@@ -49,7 +50,7 @@ URDF_ONLY = ("fixed_base", "merge_fixed", "package_dirs")
 
 ROBOT_KEYS = ("file", "name", "position", "orientation", "euler_deg", "fixed_base", "merge_fixed", "self_collision",
               "inertia", "joint_positions", "joint_motors", "joint_targets", "joint_torques", "controls",
-              "keyframe", "package_dirs", "material", "collision_filter", "world_geoms")
+              "keyframe", "package_dirs", "material", "collision_filter", "world_geoms", "margins")
 
 
 class RobotReader:
@@ -71,13 +72,15 @@ class RobotReader:
             raise self.error("an MJCF option (a <keyframe> key): a URDF has no keyframes", f"{key}.keyframe")
         elif "world_geoms" in entry:
             raise self.error("an MJCF option (the <worldbody>'s own geoms): a URDF has none", f"{key}.world_geoms")
+        elif "margins" in entry:
+            raise self.error("an MJCF option (its geoms' margins): a URDF has none", f"{key}.margins")
         settings = {}  # applied to the loaded robot: {option: {name: number}}
         for k in ("joint_torques", "controls"):
             if k in entry:
                 table = self.table(entry[k], f"{key}.{k}", entry[k].keys() if isinstance(entry[k], dict) else ())
                 settings[k] = {n: self.number(v, f"{key}.{k}.{n}") for n, v in table.items()}
         kw = self._name_and_pose(entry, key)
-        for k in ("fixed_base", "merge_fixed", "self_collision", "world_geoms"):
+        for k in ("fixed_base", "merge_fixed", "self_collision", "world_geoms", "margins"):
             if k in entry:
                 kw[k] = self.boolean(entry[k], f"{key}.{k}")
         if "inertia" in entry:

@@ -271,8 +271,8 @@ class Compound:
             may also be a mapping with keys ``shape`` (a record or its ``shape_to_dict``
             form), ``position`` (default 0), ``orientation`` (default identity) and
             ``material``, as scene files give it.
-        A part's ``material`` (a ``tumble.Material`` or a mapping of its keys; friction and
-        restitution) is the one its contacts use (MuJoCo's per-geom friction, Box2D's per-shape
+        A part's ``material`` (a ``tumble.Material`` or a mapping of its keys; friction,
+        restitution and their combine modes; its body's ``margin``, not its own) is the one its contacts use (MuJoCo's per-geom friction, Box2D's per-shape
         material); a part without one takes the body's. Kept in ``materials`` (a tuple with one
         Material or None per part; None when no part has one).
         source: optional closed ``Mesh`` the parts were cut from (``tumble.decompose``: a concave
@@ -341,6 +341,9 @@ class Compound:
                 materials.append(None if m is None else Material.coerce(m))
             except InputError as err:
                 raise err.within(f"parts[{k}].material") from None
+            if materials[-1] is not None and materials[-1].margin:  # the margin is a body's (Material.margin)
+                raise InputError("a part has no margin of its own: set it on the body's material",
+                                 f"parts[{k}].material.margin")
         object.__setattr__(self, "materials", tuple(materials) if any(m is not None for m in materials) else None)
         if self.source is not None:
             source = self.source

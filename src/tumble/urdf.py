@@ -50,7 +50,7 @@ URDF's ``<robot name>``. A file's problems are ``InputError`` lines keyed by the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -659,9 +659,14 @@ def _add_link_body(world, model, members, link_frames, frame, fixed, body_name, 
     key = f"link[{members[0]}]"
     filt = collision_filter
     materials = [m for (*_, m) in parts]
-    if materials and all(m is materials[0] for m in materials):  # one material (or none) for all: the body's
+    if materials and all(m == materials[0] for m in materials):  # one material (or none) for all: the body's
         material = material if materials[0] is None else materials[0]
         parts = [(shape, p, q, None) for shape, p, q, _ in parts]
+    elif any(m is not None and m.margin for m in materials):
+        # a margin is the body's (Material.margin), not a part's: the first part's that has a material
+        margin = next(m.margin for m in materials if m is not None)
+        material = replace(material if material is not None else Material(), margin=margin)
+        parts = [(shape, p, q, None if m is None else replace(m, margin=0.0)) for shape, p, q, m in parts]
     if not parts:
         shape, filt = Sphere(radius=MARKER_RADIUS), NO_CONTACT
     elif any(isinstance(part[0], Plane) for part in parts):

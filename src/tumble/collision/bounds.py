@@ -25,10 +25,11 @@ from ..shapes import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_C
 
 @njit(**JIT)
 def _update_bounds_kernel(x, R, v, omega, dt, shape_type, shape_body, shape_params, shape_local_pos, shape_local_q,
-                          margin,
+                          margin, shape_rest,
                           # outputs
                           shape_pos, shape_rot, shape_aabb, shape_margin):
-    """x may be any (N, >= 3) array whose first three columns are the centres of mass (the packed state Y)."""
+    """x may be any (N, >= 3) array whose first three columns are the centres of mass (the packed state Y);
+    ``shape_rest`` (S,) m or (0,): each shape's body's ``Material.margin`` (none: 0)."""
     local = np.empty((3, 3))
     extent = np.empty(3)
     for s in range(shape_type.shape[0]):
@@ -77,13 +78,15 @@ def _update_bounds_kernel(x, R, v, omega, dt, shape_type, shape_body, shape_para
                 (shape_pos[s, 0] - x[b, 0]) ** 2 + (shape_pos[s, 1] - x[b, 1]) ** 2 + (shape_pos[s, 2] - x[b, 2]) ** 2)
             sweep = dt * (speed + spin * r)
         shape_margin[s] = margin + sweep
+        if shape_rest.shape[0]:  # its contacts rest the margins apart: they start that much earlier
+            shape_margin[s] += shape_rest[s]
         for i in range(3):
             shape_aabb[s, 0, i] = shape_pos[s, i] - extent[i] - shape_margin[s]
             shape_aabb[s, 1, i] = shape_pos[s, i] + extent[i] + shape_margin[s]
 
 
 def update_bounds(x, R, table, margin, shape_pos=None, shape_rot=None, shape_aabb=None, v=None, omega=None,
-                  dt: float = 0.0, shape_margin=None):
+                  dt: float = 0.0, shape_margin=None, shape_rest=None):
     """World poses, AABBs and speculative margins of all shapes of ``table``.
 
     Args:
@@ -97,6 +100,8 @@ def update_bounds(x, R, table, margin, shape_pos=None, shape_rot=None, shape_aab
             is slack for motion within a step).
         shape_pos, shape_rot, shape_aabb, shape_margin: optional output buffers (S, 3),
             (S, 3, 3), (S, 2, 3), (S,), reused when given (no allocation in the step).
+        shape_rest: (S,) m, each shape's body's ``Material.margin``, added to its margin (a
+            contact that rests that far apart must be found there); None: none.
 
     Returns:
         ``(shape_pos, shape_rot, shape_aabb)``: shape origins (world), shape-to-world
@@ -120,8 +125,12 @@ def update_bounds(x, R, table, margin, shape_pos=None, shape_rot=None, shape_aab
     _update_bounds_kernel(x, np.ascontiguousarray(R, dtype=np.float64),
                           np.ascontiguousarray(v, dtype=np.float64), np.ascontiguousarray(omega, dtype=np.float64),
                           float(dt), table.shape_type, table.shape_body, table.shape_params, table.shape_local_pos,
-                          table.shape_local_q, float(margin), shape_pos, shape_rot, shape_aabb, shape_margin)
+                          table.shape_local_q, float(margin), _NO_REST if shape_rest is None else shape_rest, shape_pos,
+                          shape_rot, shape_aabb, shape_margin)
     return shape_pos, shape_rot, shape_aabb
+
+
+_NO_REST = np.zeros(0)
 
 
 def update_bounds_rows(x, R, table, rows, shape_pos, shape_rot, shape_aabb, shape_margin):

@@ -38,7 +38,7 @@ class CollisionPipeline:
         self._body_count = -1
         self.pairs = PairBuffer()
         self.contacts = ContactManifolds()
-        self.shape_pos = self.shape_rot = self.shape_aabb = self.shape_margin = None
+        self.shape_pos = self.shape_rot = self.shape_aabb = self.shape_margin = self.shape_rest = None
         self.pair_a = self.pair_b = None
         # sorted int64 keys lo * N + hi of jointed body pairs that must not collide (set by the
         # soft step), or None; the World's own exclusions are added to them (``_filters``)
@@ -60,6 +60,9 @@ class CollisionPipeline:
             self.shape_rot = np.empty((S, 3, 3))
             self.shape_aabb = np.empty((S, 2, 3))
             self.shape_margin = np.empty(S)
+            # each shape's body's Material.margin (None: no body has one), a constant per body
+            rest = np.array([m.margin for m in world.materials[: world.body_count]], dtype=float)
+            self.shape_rest = rest[self.table.shape_body] if rest.any() else None
         return self.table
 
     def take_table(self, other: "CollisionPipeline"):
@@ -71,6 +74,7 @@ class CollisionPipeline:
             self.table, self._body_count = other.table, other._body_count
             self.shape_pos, self.shape_rot = other.shape_pos, other.shape_rot
             self.shape_aabb, self.shape_margin = other.shape_aabb, other.shape_margin
+            self.shape_rest = other.shape_rest
 
     def _filters(self):
         """(excluded keys or None, body filter table): the World's filters and exclusions
@@ -145,7 +149,7 @@ class CollisionPipeline:
         if x is None:
             x, R = world.x, world.R
         update_bounds(x, R, table, self.speculative, self.shape_pos, self.shape_rot, self.shape_aabb,
-                      v=v, omega=omega, dt=dt, shape_margin=self.shape_margin)
+                      v=v, omega=omega, dt=dt, shape_margin=self.shape_margin, shape_rest=self.shape_rest)
         excluded, body_filter = self._filters()
         aabb = self.shape_aabb
         lanes = self._lanes(table, body_filter)

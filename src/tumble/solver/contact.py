@@ -40,6 +40,7 @@ from .contact_rolling import (
 )
 from .contact_solve import (
     apply_restitution_kernel,
+    combine_materials_kernel,
     prepare_contacts_kernel,
     prepare_contacts_serial_kernel,
     solve_contacts_kernel,
@@ -274,6 +275,8 @@ class ContactSolver:
             self.body_restitution = np.array([m.restitution for m in world.materials[:nb]], dtype=float)
             self.body_rolling = np.array([m.rolling_resistance for m in world.materials[:nb]], dtype=float)
             self.body_spinning = np.array([m.spinning_friction for m in world.materials[:nb]], dtype=float)
+            self.body_combine = np.array([m.combine_codes() for m in world.materials[:nb]], dtype=np.int64).reshape(nb, 2)
+            self.body_margin = np.array([m.margin for m in world.materials[:nb]], dtype=float)
             self.body_resists_rolling = np.array([m.resists_rolling for m in world.materials[:nb]], dtype=bool)
             self.any_resists_rolling = bool(self.body_resists_rolling.any())
             self._material_bodies = nb
@@ -297,7 +300,8 @@ class ContactSolver:
             contacts.contact_body_a, contacts.contact_body_b, contacts.contact_point, contacts.contact_normal,
             contacts.contact_separation, match, b["old_normal_impulse"][: self.old_count],
             b["old_friction_impulse"][: self.old_count], self.x, self.R, v, omega, world.inv_mass, self.I_inv,
-            world.moving, self.body_friction, self.body_restitution, self.soft_dynamic, self.soft_static,
+            world.moving, self.body_friction, self.body_restitution, self.body_combine, self.body_margin,
+            self.soft_dynamic, self.soft_static,
             self.anchor_offset, self.anchor_a, self.anchor_b, self.local_a, self.local_b, self.separation_base,
             self.tangent1, self.tangent2, self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
@@ -312,18 +316,18 @@ class ContactSolver:
                           st.partition_min_contacts)
 
     def _mix_part_materials(self, world, contacts, table):
-        """Friction sqrt(f_a f_b) and restitution max(e_a, e_b) of each contact from its two
-        shapes' materials (a compound part's own, else its body's), in place of the bodies'
-        that ``prepare_contacts_kernel`` mixed: the same formulas, so a part without its own
-        material gives the same numbers. Keeps the contacts' shapes for ``_prepare_rolling``."""
+        """Friction and restitution of each contact from its two shapes' materials (a compound
+        part's own, else its body's) by their combine modes, in place of the bodies' that
+        ``prepare_contacts_kernel`` mixed: the same function (``combine_material``), so a part
+        without its own material gives the same numbers. Keeps the contacts' shapes for ``_prepare_rolling``."""
         if self._part_material_key != (id(table), world.body_count):
             self._shape_material = table.shape_materials(world.materials)
             self._part_material_key = (id(table), world.body_count)
         m = contacts.contact_manifold
         sa, sb = contacts.manifold_shape_a[m], contacts.manifold_shape_b[m]
-        f, e = self._shape_material["friction"], self._shape_material["restitution"]
-        self.friction[:] = np.sqrt(f[sa] * f[sb])
-        self.restitution[:] = np.maximum(e[sa], e[sb])
+        mat = self._shape_material
+        combine_materials_kernel(sa, sb, mat["friction"], mat["restitution"], mat["combine"], self.friction,
+                                 self.restitution)
         self._contact_shapes = (sa, sb)
 
     def _prepare_surface(self, world, contacts):

@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..collision.constants import DEEP_OVERLAP
+from ..material import FRICTION_DEFAULT_MODE, RESTITUTION_DEFAULT_MODE
 from ..math3d import JIT, serial_twin
 from .contact_anchor import _arms
 
@@ -97,10 +98,46 @@ def _effective_mass(inv_mass, I_inv, a, b, ra, rb, d0, d1, d2):
 
 
 # ---------------------------------------------------------------------- kernels
+@njit(**JIT, inline="always")
+def combine_material(value_a, value_b, mode_a, mode_b, default):
+    """A contact's friction or restitution from its two bodies' (or parts'): by the mode later in
+    ``material.COMBINE_MODES`` of ``mode_a`` and ``mode_b`` (-1: the body sets none), ``default``
+    when neither sets one (PhysX's precedence of combine modes)."""
+    mode = max(mode_a, mode_b)
+    if mode < 0:
+        mode = default
+    if mode == 0:
+        return math.sqrt(value_a * value_b)
+    if mode == 1:
+        return 0.5 * (value_a + value_b)
+    if mode == 2:
+        return min(value_a, value_b)
+    if mode == 3:
+        return value_a * value_b
+    return max(value_a, value_b)
+
+
+@njit(**JIT)
+def combine_materials_kernel(index_a, index_b, friction_of, restitution_of, combine_of,
+                             # outputs
+                             friction, restitution):
+    """Per contact c, friction[c] and restitution[c] (C,) from the rows index_a[c], index_b[c] of
+    ``friction_of``, ``restitution_of`` (K,) and ``combine_of`` (K, 2) int64 modes (friction,
+    restitution): ``combine_material`` of each (bodies' or compound parts' materials)."""
+    for c in range(index_a.shape[0]):
+        a = index_a[c]
+        b = index_b[c]
+        friction[c] = combine_material(friction_of[a], friction_of[b], combine_of[a, 0], combine_of[b, 0],
+                                       FRICTION_DEFAULT_MODE)
+        restitution[c] = combine_material(restitution_of[a], restitution_of[b], combine_of[a, 1], combine_of[b, 1],
+                                          RESTITUTION_DEFAULT_MODE)
+
+
 @njit(**JIT, parallel=True)
 def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
                             old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
-                            body_friction, body_restitution, soft_dynamic, soft_static, anchor_offset,
+                            body_friction, body_restitution, body_combine, body_margin, soft_dynamic, soft_static,
+                            anchor_offset,
                             # outputs
                             anchor_a, anchor_b, local_a, local_b, separation_base, tangent1, tangent2, normal_mass,
                             tangent_mass, soft, friction, restitution, relative_velocity,
@@ -167,7 +204,9 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         for k in range(3):
             local_a[c, k] = R[a, 0, k] * sa0 + R[a, 1, k] * sa1 + R[a, 2, k] * sa2
             local_b[c, k] = R[b, 0, k] * sb0 + R[b, 1, k] * sb1 + R[b, 2, k] * sb2
-        separation_base[c] = separation[c]
+        # the solver keeps the surfaces the two margins apart (Material.margin): a contact's
+        # separation as the solver sees it is the gap less them
+        separation_base[c] = separation[c] - (body_margin[a] + body_margin[b])
         if half < 0.0 or round_a or round_b:  # the anchors no longer coincide: d0 = pb - pa at these poses
             # prange's c is unsigned: np.int64 for one compile of _arms
             ra, rb, d = _arms(x, R, a, b, local_a, local_b, anchor_offset, np.int64(c))
@@ -184,8 +223,10 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
         src = soft_static if not (moving[a] and moving[b]) else soft_dynamic
         soft[c, 0], soft[c, 1], soft[c, 2] = src[0], src[1], src[2]
-        friction[c] = math.sqrt(body_friction[a] * body_friction[b])
-        restitution[c] = max(body_restitution[a], body_restitution[b])
+        friction[c] = combine_material(body_friction[a], body_friction[b], body_combine[a, 0], body_combine[b, 0],
+                                       FRICTION_DEFAULT_MODE)
+        restitution[c] = combine_material(body_restitution[a], body_restitution[b], body_combine[a, 1],
+                                          body_combine[b, 1], RESTITUTION_DEFAULT_MODE)
         va0, va1, va2 = _point_velocity(v, omega, a, ra)
         vb0, vb1, vb2 = _point_velocity(v, omega, b, rb)
         relative_velocity[c] = n0 * (vb0 - va0) + n1 * (vb1 - va1) + n2 * (vb2 - va2)

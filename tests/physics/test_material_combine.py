@@ -1,0 +1,182 @@
+"""Materials' combine modes (``Material.friction_combine``, ``restitution_combine``: PhysX's modes
+and precedence) and margins (``Material.margin``: MuJoCo's geom margin, PhysX's rest offset).
+
+Compared with: Coulomb's law for a block sliding to rest (deceleration mu g, mu the pair's
+friction by the mode: sqrt(a b), (a + b) / 2, min, a b, max), the textbook bounce (apex e^2 h,
+e the pair's restitution by the mode), and for margins the same body's rest without margins,
+lifted by the margins' sum (the solver sees the gap less the margins, nothing else changes).
+A world that sets neither keeps its bits (the golden hashes of tests/determinism).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import tumble as tb
+from tumble.errors import InputError
+
+DT = 1.0 / 240.0
+G = 9.81
+
+
+def _slide(block, ground, v0=2.0):
+    """(times (F,), block x speed (F,)) of a 0.4 m cube thrown at v0 along x on the ground."""
+    w = tb.World(gravity=(0, 0, -G))
+    w.add_body(tb.Plane(), fixed=True, material=ground)
+    box = w.add_body(tb.Box((0.4, 0.4, 0.4)), mass=3.0, position=(0, 0, 0.2), velocity=(v0, 0, 0), material=block)
+    sim = tb.Simulator(w, dt=DT)
+    traj = sim.run(0.3, frame_rate=240)
+    return traj.time, traj.velocity[:, box.index, 0]
+
+
+@pytest.mark.parametrize("mode_block, mode_ground, mu", [
+    (None, None, math.sqrt(0.8 * 0.2)),  # neither sets one: Box2D's geometric mean, as before
+    ("geometric", None, math.sqrt(0.8 * 0.2)),
+    ("average", None, 0.5),
+    (None, "min", 0.2),
+    ("multiply", None, 0.16),  # Bullet's
+    ("max", None, 0.8),  # MuJoCo's
+    ("average", "max", 0.8),  # the later mode of PhysX's order wins, whichever body sets it
+    ("max", "average", 0.8),
+    ("min", "average", 0.2),
+    ("multiply", "min", 0.16),
+])
+def test_a_sliding_block_decelerates_by_the_pairs_combined_friction(mode_block, mode_ground, mu):
+    """A cube (friction 0.8) thrown at 2 m/s on ground of friction 0.2 decelerates at mu g while
+    it slides, mu by the pair's mode (the later in "geometric, average, min, multiply, max" of the
+    two; neither: geometric). Tolerance 1e-4 m/s: the sled's of test_part_materials.py (the
+    soft step's Coulomb friction is exact while sliding; what is left is the landing frame)."""
+    block = tb.Material(friction=0.8, friction_combine=mode_block)
+    ground = tb.Material(friction=0.2, friction_combine=mode_ground)
+    t, vx = _slide(block, ground)
+    sliding = (t > 0.02) & (t < 0.9 * min(0.3, 2.0 / (mu * G)))
+    np.testing.assert_allclose(vx[sliding], 2.0 - mu * G * t[sliding], rtol=0, atol=1e-4)
+
+
+@pytest.mark.parametrize("mode, e", [(None, 0.9), ("max", 0.9), ("min", 0.5), ("average", 0.7),
+                                     ("multiply", 0.45), ("geometric", math.sqrt(0.45))])
+def test_a_ball_bounces_by_the_pairs_combined_restitution(mode, e):
+    """A ball (restitution 0.9) dropped 1 m onto ground of 0.5 (the ground sets the mode)
+    bounces to e^2 h, e by the mode (none set: the larger, as before). 2 % as the sled's bounce
+    (test_part_materials.py): the apex is read from 240 frames a second."""
+    w = tb.World(gravity=(0, 0, -G))
+    w.add_body(tb.Plane(), fixed=True, material=tb.Material(restitution=0.5, restitution_combine=mode))
+    ball = w.add_body(tb.Sphere(0.1), mass=1.0, position=(0, 0, 1.1), material=tb.Material(restitution=0.9))
+    traj = tb.Simulator(w, dt=DT).run(1.4, frame_rate=240)
+    vz = traj.velocity[:, ball.index, 2]
+    land = np.argmax(vz > 0)
+    apex = traj.position[land:, ball.index, 2].max() - 0.1
+    assert apex == pytest.approx(e * e * 1.0, rel=0.02)
+
+
+def test_a_parts_combine_mode_is_its_own():
+    """A compound's part with its own material mixes by its own mode: a rubber part (0.8, "max")
+    on ground of 0.5 slides at mu = 0.8 where the body's material (0.3, no mode) would give
+    sqrt(0.3 0.5)."""
+    rubber = tb.Material(friction=0.8, friction_combine="max")
+    parts = [(tb.Box((0.6, 0.6, 0.1)), (0, 0, -0.05), (1, 0, 0, 0), rubber),
+             (tb.Box((0.6, 0.6, 0.1)), (0, 0, 0.05), (1, 0, 0, 0), None)]
+    w = tb.World(gravity=(0, 0, -G))
+    w.add_body(tb.Plane(), fixed=True, material=tb.Material(friction=0.5))
+    sled = w.add_body(tb.Compound(parts), mass=2.0, position=(0, 0, 0.1), velocity=(2.0, 0, 0),
+                      material=tb.Material(friction=0.3))
+    traj = tb.Simulator(w, dt=DT).run(0.2, frame_rate=240)
+    t, vx = traj.time, traj.velocity[:, sled.index, 0]
+    sliding = t > 0.02
+    np.testing.assert_allclose(vx[sliding], 2.0 - 0.8 * G * t[sliding], rtol=0, atol=1e-4)
+
+
+# ---------------------------------------------------------------------------------------- margins
+def _rest(shape, margin_body, margin_ground, half_height, seconds=2.0):
+    """(height of the body's lowest point above the ground, its speed, the contacts) after
+    ``seconds`` on the ground, sleeping off (so that every run takes the same steps)."""
+    w = tb.World(gravity=(0, 0, -G))
+    w.sleeping = False
+    w.add_body(tb.Plane(), fixed=True, material=tb.Material(margin=margin_ground))
+    body = w.add_body(shape, mass=1.0, position=(0, 0, 0.3), euler_deg=(0, 0, 20),
+                      material=tb.Material(margin=margin_body))
+    sim = tb.Simulator(w, dt=DT)
+    sim.run(seconds)
+    return body.x[2] - half_height, float(np.linalg.norm(body.v)), sim.contacts()
+
+
+@pytest.mark.parametrize("shape, half_height", [(tb.Sphere(0.1), 0.1), (tb.Box((0.2, 0.2, 0.2)), 0.1),
+                                                (tb.Capsule(radius=0.1, length=0.2), 0.2)],  # upright
+                         ids=["sphere", "box", "capsule"])
+def test_bodies_rest_their_two_margins_apart(shape, half_height):
+    """A body rests the sum of its and the ground's margins higher than without them, to 5e-6 m:
+    the solver sees the gap less the margins, and rests either just in it (the soft contact's
+    sag under its weight, 4.3e-6 m) or, landing on the speculative side, on it (no sag: the
+    ball with margins, measured); at rest (1e-6 m/s); its contacts carry its weight (1e-6) and
+    report the geometric gap."""
+    base, _, _ = _rest(shape, 0.0, 0.0, half_height)
+    for mb, mg in ((0.01, 0.0), (0.0, 0.02), (0.01, 0.02)):
+        h, speed, contacts = _rest(shape, mb, mg, half_height)
+        assert abs(base) < 5e-6
+        assert h == pytest.approx(mb + mg, abs=5e-6)
+        assert speed < 1e-6
+        assert len(contacts) > 0
+        np.testing.assert_allclose(contacts.separation, mb + mg, atol=5e-6)
+        np.testing.assert_allclose(contacts.normal_impulse.sum() / DT, G, rtol=1e-6)
+
+
+def test_a_fast_ball_stops_at_the_margin_without_passing_a_thin_wall():
+    """Continuous collision with margins: a 1 cm ball at 100 m/s at a 1 cm thick wall (#3's
+    acceptance case) with margins 5 mm each stops short of it (never closer than the margins
+    less 1 mm: the speculative contact closes the gap less the margins in the substep it reaches
+    them) and never passes."""
+    w = tb.World(gravity=(0, 0, 0))
+    w.add_body(tb.Box((0.01, 1.0, 1.0)), fixed=True, position=(1.0, 0, 0), material=tb.Material(margin=0.005))
+    ball = w.add_body(tb.Sphere(0.005), mass=0.01, position=(0, 0, 0), velocity=(100.0, 0, 0),
+                      material=tb.Material(margin=0.005))
+    traj = tb.Simulator(w, dt=DT).run(0.1, frame_rate=240)
+    x = traj.position[:, ball.index, 0]
+    closest = (1.0 - 0.005) - (x.max() + 0.005)
+    assert closest > 0.01 - 1e-3
+    assert np.all(x < 1.0)
+
+
+@pytest.mark.parametrize("make, key", [
+    (lambda: tb.Material(margin=-0.01), "margin"),
+    (lambda: tb.Material(margin=float("nan")), "margin"),
+    (lambda: tb.Material(friction_combine="maximum"), "friction_combine"),
+    (lambda: tb.Material(restitution_combine=1), "restitution_combine"),
+    (lambda: tb.Compound([(tb.Sphere(0.1), (0, 0, 0), (1, 0, 0, 0), tb.Material(margin=0.01))]),
+     "parts[0].material.margin"),
+])
+def test_bad_margins_and_modes_are_one_line(make, key):
+    with pytest.raises(InputError) as err:
+        make()
+    assert err.value.key == key and "\n" not in str(err.value)
+
+
+def test_a_scene_file_sets_margins_and_modes_and_refuses_bad_ones(tmp_path):
+    """Scene keys ``material.margin``, ``material.friction_combine``: the same bodies as the API's;
+    a bad mode is one line naming the key."""
+    from tumble.scene import load_scene
+
+    text = """
+[simulation]
+gravity = [0, 0, -9.81]
+[[bodies]]
+name = "ground"
+shape = { type = "plane" }
+fixed = true
+material = { friction = 0.2, margin = 0.02 }
+[[bodies]]
+name = "box"
+shape = { type = "box", size = [0.4, 0.4, 0.4] }
+mass = 3.0
+position = [0, 0, 0.25]
+material = { friction = 0.8, friction_combine = "MODE" }
+"""
+    path = tmp_path / "scene.toml"
+    path.write_text(text.replace("MODE", "max"))
+    scene = load_scene(path)
+    assert scene.world.materials[0].margin == 0.02
+    assert scene.world.materials[1].friction_combine == "max"
+    path.write_text(text.replace("MODE", "largest"))
+    with pytest.raises(InputError) as err:
+        load_scene(path)
+    assert "bodies[1].material.friction_combine" in str(err.value) and "\n" not in str(err.value)

@@ -1,0 +1,135 @@
+"""MJCF geoms' surfaces against MuJoCo itself: the pair's friction is the larger of the two geoms'
+(MuJoCo's rule, ``Material.friction_combine = "max"``), and with ``load_mjcf(margins=True)`` a
+pair rests its two ``margin``s apart (MuJoCo sums them: measured on MuJoCo 3 and 4).
+
+Compared with: the same file stepped by MuJoCo (its contacts are soft: it sinks about 1e-4 m
+under a 1 kg ball with its default solref, and its friction cone is pyramidal, so the figures
+are compared to those sizes), and Coulomb's law (a block sliding at the pair's friction
+decelerates at mu g).
+"""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+import tumble as tb
+from tumble.errors import InputError
+
+mujoco = pytest.importorskip("mujoco")
+
+G = 9.81
+
+BALL = """<mujoco><option timestep="0.002"/>
+<worldbody><geom name="floor" type="plane" size="5 5 .1" margin="FLOOR"/>
+<body name="ball" pos="0 0 0.3"><freejoint/><geom type="sphere" size="0.1" mass="1" margin="BALL"/></body>
+</worldbody></mujoco>"""
+
+
+def _ball(tmp_path, ball, floor):
+    path = tmp_path / "ball.xml"
+    path.write_text(BALL.replace("FLOOR", str(floor)).replace("BALL", str(ball)))
+    return path
+
+
+def _mujoco_rest(path, seconds=3.0):
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_step(m, d, nstep=int(seconds / m.opt.timestep))
+    return d.qpos.copy(), d.qvel.copy()
+
+
+@pytest.mark.parametrize("ball, floor", [(0.01, 0.0), (0.0, 0.02), (0.01, 0.02)])
+def test_a_ball_rests_its_margins_above_the_floor_as_in_mujoco(tmp_path, ball, floor):
+    """A 0.1 m ball on the file's floor rests the two margins' sum above it, as in MuJoCo, to 2e-4 m
+    (MuJoCo's soft contact sinks 3.7e-4 m under it, measured; tumble's 4e-6 m): to 5e-4 m. Without
+    ``margins=True`` (the default) the file's margins are not read: it rests on the floor."""
+    path = _ball(tmp_path, ball, floor)
+    qpos, qvel = _mujoco_rest(path)
+    for margins, expected in ((True, ball + floor), (False, 0.0)):
+        world = tb.World(gravity=(0, 0, -G))
+        robot = tb.load_mjcf(world, path, margins=margins)
+        sim = tb.Simulator(world, dt=1 / 240)
+        sim.run(3.0)
+        z = robot.links["ball"].x[2] - 0.1
+        assert z == pytest.approx(expected, abs=2e-5)
+        if margins:
+            assert z == pytest.approx(qpos[2] - 0.1, abs=5e-4)
+    assert qpos[2] - 0.1 == pytest.approx(ball + floor, abs=5e-4)  # MuJoCo sums the two
+    assert np.abs(qvel).max() < 1e-6
+
+
+BLOCK = """<mujoco><option timestep="0.0005" cone="elliptic"/>
+<worldbody><geom name="floor" type="plane" size="5 5 .1" friction="0.9"/>
+<body name="block" pos="0 0 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="1" friction="0.3"/></body>
+</worldbody></mujoco>"""
+
+
+def test_a_block_slides_at_the_larger_of_the_two_frictions_as_in_mujoco(tmp_path):
+    """A block of friction 0.3 thrown at 2 m/s on a floor of 0.9 decelerates at 0.9 g in both
+    engines (MuJoCo's max rule; tumble's own sqrt(0.3 0.9) = 0.52 would let it slide 74 % further):
+    tumble's speed while sliding to 1e-4 m/s of Coulomb's (the soft step's friction is exact while
+    sliding), MuJoCo's (its elliptic cone: the pyramidal default slows it at 0.79 g, not the
+    cone's 0.9 g) to 2 %."""
+    path = tmp_path / "block.xml"
+    path.write_text(BLOCK)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.qvel[0] = 2.0
+    mujoco.mj_step(m, d, nstep=int(0.1 / m.opt.timestep))
+    v1 = d.qvel[0]
+    mujoco.mj_step(m, d, nstep=int(0.1 / m.opt.timestep))
+    assert (v1 - d.qvel[0]) / 0.1 == pytest.approx(0.9 * G, rel=0.02)
+
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    block = robot.links["block"]
+    block.v = (2.0, 0.0, 0.0)
+    sim = tb.Simulator(world, dt=1 / 240)
+    traj = sim.run(0.2, frame_rate=240)
+    t = traj.time
+    vx = traj.velocity[:, block.index, 0]
+    sliding = t > 0.02
+    np.testing.assert_allclose(vx[sliding], 2.0 - 0.9 * G * t[sliding], rtol=0, atol=1e-4)
+
+
+def test_gymnasiums_ant_stands_at_mujocos_height_with_its_margins(tmp_path):
+    """Gymnasium's ant (margin 0.01 on every geom, the floor's too) let go from its model pose
+    stands with its torso at MuJoCo's height to 1 mm with ``margins=True`` (measured 0.38261
+    against 0.38248 m: MuJoCo's soft contacts sink a little); 2 cm lower without them (its feet
+    on the floor where MuJoCo's stand 0.02 m above it)."""
+    gymnasium = pytest.importorskip("gymnasium")
+    path = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "ant.xml"
+    qpos, _ = _mujoco_rest(path, seconds=15.0)
+    for margins, offset in ((True, 0.0), (False, 0.02)):
+        world = tb.World(gravity=(0, 0, -G))
+        robot = tb.load_mjcf(world, path, margins=margins)
+        sim = tb.Simulator(world, dt=0.01)
+        sim.step(300)
+        z = robot.kinematics.qpos()[2]
+        assert z == pytest.approx(qpos[2] - offset, abs=1e-3)
+
+
+def test_a_bad_margin_is_one_line(tmp_path):
+    path = _ball(tmp_path, -0.01, 0.0)
+    with pytest.raises(InputError) as err:
+        tb.load_mjcf(tb.World(), path)
+    message = str(err.value)
+    assert "margin" in message and "must be >= 0" in message and "\n" not in message
+
+
+def test_a_scene_reads_an_mjcf_robots_margins_and_refuses_them_for_a_urdf(tmp_path):
+    """``[[robots]] margins = true`` is ``load_mjcf(margins=True)``; on a URDF, one line naming the key."""
+    from tumble.scene import load_scene
+
+    _ball(tmp_path, 0.01, 0.02)
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[[robots]]\nfile = "ball.xml"\nmargins = true\n')
+    world = load_scene(scene).world
+    margins = {name.split("/")[-1]: m.margin for name, m in zip(world.names, world.materials)}
+    assert margins["ball"] == 0.01 and margins["floor"] == 0.02
+    (tmp_path / "arm.urdf").write_text('<robot name="r"><link name="a"/></robot>')
+    scene.write_text('[[robots]]\nfile = "arm.urdf"\nmargins = true\n')
+    with pytest.raises(InputError) as err:
+        load_scene(scene)
+    assert "robots[0].margins" in str(err.value) and "\n" not in str(err.value)
