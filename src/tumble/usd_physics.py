@@ -34,8 +34,10 @@ tumble's bodies, shapes, materials and joints:
   (tumble's ``add_body(mass, inertia, center_of_mass)``).
 - materials: ``dynamicFriction`` becomes the body's (or the collider's) ``friction`` (tumble
   has one Coulomb coefficient for sticking and sliding: the sliding one is the one a slide
-  shows), ``restitution`` as is; the schema's combine modes (PhysX attributes) are not read,
-  tumble's rules apply (docs/contact.md).
+  shows), ``restitution`` as is; PhysX's ``physxMaterial:frictionCombineMode`` and
+  ``restitutionCombineMode`` (average, min, multiply, max) as the material's combine modes
+  (``Material.friction_combine``; unset: tumble's rules, docs/contact.md). ``physxCollision:
+  restOffset`` is not read (``Material.margin`` is its kin).
 - articulations (``PhysicsArticulationRootAPI``): their joints are solved by tumble's exact
   tree solve by default (``World.exact_joints``), as PhysX solves them in reduced coordinates.
 - collision filters: ``PhysicsFilteredPairsAPI`` between bodies or their colliders: the
@@ -408,8 +410,13 @@ class _Reader:
         for p in paths or ():
             for mpath, d in self.descs("RigidBodyMaterial"):
                 if str(mpath) == str(p):
+                    # PhysX's combine modes (PhysxSchema's PhysxMaterialAPI): tumble's modes of the same names
+                    modes = {key: self.attr(mpath, f"physxMaterial:{attr}")
+                             for key, attr in (("friction_combine", "frictionCombineMode"),
+                                               ("restitution_combine", "restitutionCombineMode"))}
                     try:
-                        mat = Material(friction=_f(d.dynamicFriction), restitution=_f(d.restitution))
+                        mat = Material(friction=_f(d.dynamicFriction), restitution=_f(d.restitution),
+                                       **{k: (str(v) if v is not None else None) for k, v in modes.items()})
                     except InputError as err:
                         raise self.error(f"{err.key}: {err.problem}", mpath) from None
                     density = _f(d.density) * self.kpu / self.mpu ** 3 if d.density > 0 else None

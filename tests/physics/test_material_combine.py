@@ -180,3 +180,66 @@ material = { friction = 0.8, friction_combine = "MODE" }
     with pytest.raises(InputError) as err:
         load_scene(path)
     assert "bodies[1].material.friction_combine" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_checkpoint_keeps_margins_and_modes_bit_for_bit(tmp_path):
+    """A run resumed from a checkpoint (``Simulator.save_checkpoint``) keeps the bodies' margins and
+    combine modes: the same bits as the straight run (which a ground without its margin and mode
+    does not give)."""
+    from tumble.checks import state_hash
+
+    def world():
+        w = tb.World(gravity=(0, 0, -G))
+        w.add_body(tb.Plane(), fixed=True, material=tb.Material(friction=0.2, margin=0.01, friction_combine="max"))
+        w.add_body(tb.Box((0.4, 0.4, 0.4)), mass=3.0, position=(0, 0, 0.25), velocity=(2, 0, 0),
+                   material=tb.Material(friction=0.8, restitution=0.3, restitution_combine="min", margin=0.005))
+        return w
+
+    straight = tb.Simulator(world(), dt=DT)
+    straight.step(60)
+    first = tb.Simulator(world(), dt=DT)
+    first.step(30)
+    first.save_checkpoint(tmp_path / "c.npz")
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    assert resumed.world.materials[0] == first.world.materials[0]
+    assert resumed.world.materials[1] == first.world.materials[1]
+    resumed.step(30)
+    assert state_hash(resumed.world) == state_hash(straight.world)
+    plain = world()  # the same scene without the ground's margin and mode: other bits
+    plain.materials[0] = tb.Material(friction=0.2)
+    other = tb.Simulator(plain, dt=DT)
+    other.step(60)
+    assert state_hash(other.world) != state_hash(straight.world)
+
+
+def test_combine_modes_go_to_usd_and_back_as_physx_attributes(tmp_path):
+    """``tb.save_usd`` writes a material's modes as PhysX's ``physxMaterial:frictionCombineMode`` /
+    ``restitutionCombineMode`` tokens and ``tb.load_usd`` reads them back: the reloaded block slides
+    at the max rule's deceleration (0.8 g; tumble's default rule would give sqrt(0.16) g), as the
+    original does. A bad token in a file is one line naming the material."""
+    pxr = pytest.importorskip("pxr")
+    w = tb.World(gravity=(0, 0, -G))
+    w.add_body(tb.Plane(), fixed=True, material=tb.Material(friction=0.2), name="ground")
+    w.add_body(tb.Box((0.4, 0.4, 0.4)), mass=3.0, position=(0, 0, 0.2), velocity=(2, 0, 0), name="block",
+               material=tb.Material(friction=0.8, friction_combine="max", restitution_combine="min"))
+    path = tmp_path / "blocks.usda"
+    tb.save_usd(w, path)
+    back = tb.World(gravity=(0, 0, -G))
+    tb.load_usd(back, path)
+    block = next(i for i, n in enumerate(back.names) if n.endswith("block"))
+    assert back.materials[block].friction_combine == "max"
+    assert back.materials[block].restitution_combine == "min"
+    traj = tb.Simulator(back, dt=DT).run(0.2, frame_rate=240)
+    t, vx = traj.time, traj.velocity[:, block, 0]
+    sliding = t > 0.02
+    np.testing.assert_allclose(vx[sliding], 2.0 - 0.8 * G * t[sliding], rtol=0, atol=1e-4)
+
+    stage = pxr.Usd.Stage.Open(str(path))
+    for prim in stage.Traverse():
+        attr = prim.GetAttribute("physxMaterial:frictionCombineMode")
+        if attr and attr.HasAuthoredValue():
+            attr.Set("largest")
+    stage.GetRootLayer().Export(str(tmp_path / "bad.usda"))
+    with pytest.raises(InputError) as err:
+        tb.load_usd(tb.World(), tmp_path / "bad.usda")
+    assert "friction_combine" in str(err.value) and "largest" in str(err.value) and "\n" not in str(err.value)

@@ -111,13 +111,20 @@ class _Writer:
             return None
         if mat.rolling_resistance or mat.spinning_friction:
             self.left_out.add("rolling resistance and spinning friction")
-        key = (float(mat.friction), float(mat.restitution))
+        if mat.margin:
+            self.left_out.add("margins")
+        key = (float(mat.friction), float(mat.restitution), mat.friction_combine, mat.restitution_combine)
         if key not in self.materials:
             m = self.UsdShade.Material.Define(self.stage, f"/World/Looks/physics{len(self.materials)}")
             api = self.UsdPhysics.MaterialAPI.Apply(m.GetPrim())
             api.CreateStaticFrictionAttr(key[0])
             api.CreateDynamicFrictionAttr(key[0])
             api.CreateRestitutionAttr(key[1])
+            for mode, attr in zip(key[2:], ("frictionCombineMode", "restitutionCombineMode")):
+                if mode == "geometric":  # tumble's own, not one of PhysX's
+                    self.left_out.add("the geometric combine mode")
+                elif mode is not None:  # PhysX's attribute (PhysxSchema's PhysxMaterialAPI), as a token
+                    m.GetPrim().CreateAttribute(f"physxMaterial:{attr}", self.Sdf.ValueTypeNames.Token).Set(mode)
             self.materials[key] = m
         return self.materials[key]
 
