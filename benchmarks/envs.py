@@ -76,8 +76,9 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[16, 256, 1024])
     ap.add_argument("--reacher-sizes", type=int, nargs="+", default=[1, 256])
     ap.add_argument("--runner-sizes", type=int, nargs="+", default=[1, 64, 256])
-    ap.add_argument("--sections", nargs="+", default=["pendulum", "reacher", "double", "pusher", "swimmer", "runners"],
-                    choices=["pendulum", "reacher", "double", "pusher", "swimmer", "runners"])
+    ap.add_argument("--sections", nargs="+", default=["pendulum", "reacher", "double", "pusher", "swimmer", "runners",
+                                                      "ant"],
+                    choices=["pendulum", "reacher", "double", "pusher", "swimmer", "runners", "ant"])
     args = ap.parse_args()
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     import mujoco
@@ -98,6 +99,8 @@ def main():
     if "runners" in args.sections:
         for task, nu in (("HalfCheetah", 6), ("Hopper", 3), ("Walker2d", 6)):
             random_task(args, task, nu, args.runner_sizes)
+    if "ant" in args.sections:  # Ant-v5: four legs on the floor, its observation's contact forces
+        random_task(args, "Ant", 8, args.runner_sizes)
 
 
 def pendulum(args, gym, te):

@@ -16,6 +16,7 @@ import tumble as tb  # noqa: E402
 import tumble.envs as te  # noqa: E402
 
 RUNNERS = [("HalfCheetah", te.HalfCheetah), ("Hopper", te.Hopper), ("Walker2d", te.Walker2d)]
+EVERY = RUNNERS + [("Ant", te.Ant)]
 
 
 def mujoco_runner(name, timestep=None, frame_skip=None):
@@ -171,6 +172,8 @@ def test_a_cheetah_at_rest_stands_on_contacts_that_carry_its_weight():
     (lambda: te.HalfCheetah(ctrl_cost_weight=float("nan")), "ctrl_cost_weight"),
     (lambda: te.HalfCheetah(forward_reward_weight=True), "forward_reward_weight"),
     (lambda: te.Hopper(frame_skip=0), "frame_skip"),
+    (lambda: te.Ant(contact_force_range=(1.0, -1.0)), "contact_force_range"),
+    (lambda: te.Ant(contact_cost_weight="small"), "contact_cost_weight"),
 ])
 def test_bad_runner_settings_are_one_line(make, key):
     """Bad task settings: ``tb.InputError`` with one line naming the key."""
@@ -184,7 +187,7 @@ def test_runners_pass_gymnasiums_env_checker_and_register():
     with Gymnasium's episode limit (1000 steps)."""
     from gymnasium.utils.env_checker import check_env
 
-    for name, make in RUNNERS:
+    for name, make in EVERY:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
             check_env(make())
@@ -192,7 +195,7 @@ def test_runners_pass_gymnasiums_env_checker_and_register():
         assert isinstance(env.unwrapped, make) and env.spec.max_episode_steps == 1000
 
 
-@pytest.mark.parametrize("name, make", RUNNERS)
+@pytest.mark.parametrize("name, make", EVERY)
 def test_vector_runner_copies_equal_single_envs_bit_for_bit(name, make):
     """``ModelVectorEnv``'s copy i of a runner is the single environment seeded seed + i, bit for bit,
     through terminations (the hopper and walker fall under random controls), truncations (30 steps)
@@ -232,3 +235,154 @@ def test_an_episode_with_contacts_is_the_same_whatever_came_before():
     fresh = episode(te.HalfCheetah())
     assert env.sim.contacts().body_a.size == 2  # it stood on both feet, at that pose
     assert np.array_equal(episode(env), fresh)
+
+
+# ---------------------------------------------------------------------------------------- the ant
+
+
+def test_ant_starts_where_gymnasiums_starts():
+    """Same seed, same start (qpos uniform +-0.1, quaternion included, as drawn; qvel 0.1 N(0, 1)),
+    the same reset info, and no contact forces in the observation yet (MuJoCo's reset zeroes
+    ``cfrc_ext``; tumble's copy has had no step), even after an episode that ended on its feet."""
+    ours, theirs = te.Ant(), mujoco_runner("Ant")
+    for seed in (0, 5):
+        o1, i1 = ours.reset(seed=seed)
+        o2, i2 = theirs.reset(seed=seed)
+        assert o1.shape == o2.shape == (105,) and np.array_equal(o1, o2)
+        assert i1.keys() == i2.keys() and all(i1[k] == i2[k] for k in i1)
+        for _ in range(30):
+            ours.step(np.zeros(8, dtype=np.float32))
+        assert np.abs(ours._copies.external_forces()).max() > 0.5  # standing: its feet carry it
+
+
+class _Forces:
+    """A task's ``links`` stand-in giving chosen external forces (the arithmetic test below)."""
+
+    def __init__(self, forces):
+        self.forces = forces
+
+    def external_forces(self):
+        return self.forces[None]
+
+
+def test_ant_reward_termination_and_info_are_gymnasiums():
+    """The ant's arithmetic against Gymnasium's own on the same states and the same external forces
+    (random states, some fallen (z < 0.2) or thrown (z > 1), random forces of up to 3 N and N m,
+    many past the +-1 clip): Gymnasium's environment set to the state and its ``cfrc_ext`` set to
+    the forces, asked its observation, reward and health. Equal to 1e-6 relative (the control cost
+    squared in float32 there, float64 here)."""
+    ours, theirs = te.Ant(), mujoco_runner("Ant")
+    ours.reset(seed=0)
+    theirs.reset(seed=0)
+    rng = np.random.default_rng(9)
+    unhealthy = 0
+    for k in range(30):
+        before = ours.init_qpos + rng.normal(0, 0.2, 15)
+        qpos = before + rng.normal(0, 0.05, 15)
+        qpos[2] = rng.choice([0.1, 0.5, 0.6, 1.2]) if k % 3 == 0 else qpos[2]
+        qvel = rng.normal(0, 2, 14)
+        forces = rng.uniform(-3, 3, (13, 6))
+        action = rng.uniform(-1, 1, 8).astype(np.float32)
+        ours.remember(before[None], qvel[None])
+        obs = ours.observe(qpos[None], qvel[None], _Forces(forces))
+        reward, terminated, info = ours.evaluate(obs, action[None].astype(np.float64))
+        theirs.set_state(qpos, qvel)
+        theirs.data.cfrc_ext[1:] = forces
+        velocity = (qpos[:2] - before[:2]) / theirs.dt
+        expected_reward, reward_info = theirs._get_rew(velocity[0], action)
+        unhealthy += not theirs.is_healthy
+        np.testing.assert_allclose(obs[0], theirs._get_obs(), rtol=0, atol=0)
+        assert reward[0] == pytest.approx(expected_reward, rel=1e-6)
+        assert bool(terminated[0]) == (not theirs.is_healthy)
+        expected = {"x_position": qpos[0], "y_position": qpos[1], "distance_from_origin": np.linalg.norm(qpos[:2]),
+                    "x_velocity": velocity[0], "y_velocity": velocity[1], **reward_info}
+        assert info.keys() == expected.keys()
+        for key, value in expected.items():
+            assert info[key][0] == pytest.approx(float(value), rel=1e-6, abs=1e-12), key
+    assert unhealthy >= 5
+
+
+def test_ant_in_the_air_converges_to_mujoco_rk4_at_first_order():
+    """The ant's dynamics without contact (a free root, MuJoCo's quaternion and body-frame angular
+    velocity in its qpos and qvel): lifted to z = 2 m, tilted, spinning, its ankles set inside
+    their ranges (the model's pose has them at 0, outside: MuJoCo's soft limits and tumble's rigid
+    ones part there), 0.1 s of random controls within +-0.3 against MuJoCo's RK4 at 1e-4 s; each
+    halving of tumble's step halves the largest qpos difference (first order: ratios 1.7-2.3)."""
+    env_dt = 0.02
+    env = te.Ant()
+    actions = np.random.default_rng(6).uniform(-0.3, 0.3, size=(5, 8))
+    start = env.init_qpos.copy()
+    start[2] = 2.0
+    start[3:7] = [0.99, 0.05, -0.1, 0.02]
+    start[3:7] /= np.linalg.norm(start[3:7])
+    start[7:] = np.radians([10, 50, -10, -50, 5, -50, -5, 50])
+    rate = np.random.default_rng(2).normal(0, 0.5, 14)
+
+    def run(env):
+        env.reset(seed=1)
+        env.set_state(start, rate)
+        out = []
+        for a in actions:
+            env.step(a.astype(np.float32))
+            out.append(env.data.qpos.copy() if hasattr(env, "data") else env._copies.state()[0][0].copy())
+        return np.array(out)
+
+    reference = run(mujoco_runner("Ant", 1e-4, int(round(env_dt / 1e-4))))
+    for k, c in enumerate(env.robot.kinematics.coordinates):
+        joint = env.robot.joints.get(c.name)
+        if getattr(joint, "lower", None) is not None:
+            q = reference[:, c.qpos]
+            assert np.all((q > joint.lower + 0.05) & (q < joint.upper - 0.05)), c.name
+    errors = [np.abs(run(te.Ant(timestep=h, frame_skip=int(round(env_dt / h)))) - reference).max()
+              for h in (0.004, 0.002, 0.001, 0.0005)]
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+
+
+def test_an_ants_external_forces_obey_newtons_law_and_carry_its_weight():
+    """``cfrc_ext`` by Newton's second law: over each simulator step the ant's linear momentum
+    (sum of m v over its bodies; the joints' impulses, armature's included, are internal and
+    cancel) changes by dt (sum of its bodies' external forces - m g), to 1e-9 of m g dt (the
+    forces are the step's contact impulses over dt: an identity up to rounding). Left with zero
+    controls it stands: over a second after 10 s the mean vertical force is its weight to 1e-3
+    (its hips keep a 0.017 rad/s oscillation, docs/robots.md; the bound on the rates, 0.05 rad/s,
+    guards that gap from growing). MuJoCo's ant, the same mean of its ``cfrc_ext`` (its total
+    weight, 8.94 N: tumble's masses are MuJoCo's; it too still moves at 10 s, 0.04 rad/s)."""
+    env = te.Ant(reset_noise_scale=0.0)
+    env.reset(seed=0)
+    w = env.world
+    moving = np.flatnonzero(w.moving)
+    weight = w.mass[moving].sum() * 9.81
+    dt = env.sim.dt
+    def step_and_check():
+        """One simulator step; its momentum change against its external forces; their vertical sum."""
+        before = (w.mass[moving, None] * w.v[moving]).sum(axis=0)
+        env.sim.step(1)
+        after = (w.mass[moving, None] * w.v[moving]).sum(axis=0)
+        forces = env._copies.external_forces()[0]  # unclipped (13, 6): torque, force
+        total = forces[:, 3:].sum(axis=0) - (0.0, 0.0, weight)
+        np.testing.assert_allclose((after - before) / dt, total, rtol=0, atol=1e-9 * weight)
+        return forces[:, 5].sum()
+
+    for k in range(200):
+        obs, *_ = env.step(np.zeros(8, dtype=np.float32))
+        if k % 25 == 24:  # landing, settling
+            step_and_check()
+    assert np.abs(obs[13:27]).max() < 0.05
+    vertical = [step_and_check() for _ in range(int(round(1.0 / dt)))]  # its last second, every step
+    assert np.mean(vertical) == pytest.approx(weight, rel=1e-3)
+    theirs = mujoco_runner("Ant")
+    theirs.reset(seed=0)
+    theirs.set_state(theirs.init_qpos, theirs.init_qvel)
+    for _ in range(200):
+        theirs.step(np.zeros(8))
+    import mujoco
+
+    m, d = theirs.model, theirs.data
+    assert m.body_mass.sum() * 9.81 == pytest.approx(weight, rel=1e-12)
+    theirs_vertical = []
+    for _ in range(int(round(1.0 / m.opt.timestep))):  # its last second, every step (still moving: 0.04 rad/s)
+        mujoco.mj_step(m, d)
+        mujoco.mj_rnePostConstraint(m, d)
+        theirs_vertical.append(d.cfrc_ext[1:, 5].sum())
+    assert np.mean(theirs_vertical) == pytest.approx(weight, rel=1e-3)

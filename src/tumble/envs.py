@@ -57,7 +57,7 @@ except ImportError:  # pragma: no cover - the message is the point
 from .errors import InputError
 
 __all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "InvertedDoublePendulum", "Reacher", "HalfCheetah",
-           "Hopper", "Walker2d", "Pusher", "Swimmer", "gymnasium_asset"]
+           "Hopper", "Walker2d", "Ant", "Pusher", "Swimmer", "gymnasium_asset"]
 
 
 def gymnasium_asset(name: str) -> str:
@@ -88,7 +88,7 @@ class _Copies:
     ``Kinematics.qpos``/``qvel`` copy by copy.
     """
 
-    def __init__(self, model, n: int, timestep: float, joint_settings, contact_settings):
+    def __init__(self, model, n: int, timestep: float, joint_settings, contact_settings, margins: bool = False):
         import tumble as tb
 
         from .mjcf import read_option_gravity
@@ -97,7 +97,7 @@ class _Copies:
         # no sleeping, as MuJoCo: a body at rest short of where its drives pull it would stay there
         # (measured: a position servo holding a pendulum against gravity fell asleep 1.3 mrad short)
         self.world.sleeping = False
-        self.robots = [tb.load_mjcf(self.world, model, name=None if n == 1 else "env0")]
+        self.robots = [tb.load_mjcf(self.world, model, name=None if n == 1 else "env0", margins=margins)]
         self.touches = _touches_itself(self.world)  # the world holds the first copy alone
         w = self.world
         if not self.touches:
@@ -108,7 +108,8 @@ class _Copies:
             nothing = tb.CollisionFilter(category=1 << 31, mask=1 << 30)
             for i in range(w.body_count):
                 w.body(i).collision_filter = nothing
-            self.robots += [tb.load_mjcf(w, model, name=f"env{k}", collision_filter=nothing) for k in range(1, n)]
+            self.robots += [tb.load_mjcf(w, model, name=f"env{k}", collision_filter=nothing, margins=margins)
+                            for k in range(1, n)]
         elif n > 1:
             # copies that touch: each in an env of its own (``CollisionFilter.env``: copy k's bodies
             # k + 1), over the first copy's floor and other <worldbody> geoms (env 0, met by every
@@ -126,7 +127,7 @@ class _Copies:
                            if (a in statics) != (b in statics) and a in names and b in names]
             for k in range(1, n):
                 before = w.body_count
-                robot = tb.load_mjcf(w, model, name=f"env{k}", world_geoms=False,
+                robot = tb.load_mjcf(w, model, name=f"env{k}", world_geoms=False, margins=margins,
                                      collision_filter=tb.CollisionFilter(env=k + 1))
                 for i in range(before, w.body_count):  # its links without geoms too (their filter meets nothing)
                     w.body(i).collision_filter = dataclasses.replace(w.collision_filters[i], env=k + 1)
@@ -161,6 +162,7 @@ class _Copies:
         self._fast = self._fast_path(robot, kin)
         self._solver_rows = (None, None)
         self._links = {}  # (link, point): (its body in each copy (n,), the point in the body (3,)), for link_origins
+        self._bodies = None  # (rows of each world body, moving bodies of each copy), for external_forces
         self.fresh = np.ones(n, dtype=bool)  # copies not stepped since put at a start: no constraint forces yet
         self.view = _View(self)
 
@@ -271,6 +273,42 @@ class _Copies:
         out[self.fresh] = 0.0
         return out
 
+    def external_forces(self) -> np.ndarray:
+        """(n, B, 6) each copy's MuJoCo ``cfrc_ext[1:]`` after the last step: per body of the file (B,
+        in the file's order, the world left out), the contacts' forces on it over the step (N) and
+        their torque (N m) about the copy's centre of mass (MuJoCo's ``subtree_com`` of the root),
+        torque first, world axes. A body welded into its parent (MuJoCo's body, tumble's part of
+        one) has its contacts counted on the first body of the file that tumble's body holds."""
+        if self._bodies is None:
+            robot, w = self.robots[0], self.world
+            names = [k for k in robot.model.links if k != "world" and k not in robot.virtual_links]
+            row_of_body = -np.ones(w.body_count, dtype=np.int64)  # -1: not a copy's body
+            copy_of_body = -np.ones(w.body_count, dtype=np.int64)
+            for c, r in enumerate(self.robots):
+                for k, name in enumerate(names):
+                    i = r.links[name].index
+                    if row_of_body[i] < 0:
+                        row_of_body[i], copy_of_body[i] = k, c
+            moving = np.array([sorted({link.index for link in r.links.values() if w.inv_mass[link.index] > 0.0})
+                               for r in self.robots], dtype=np.int64)
+            self._bodies = (row_of_body, copy_of_body, moving, len(names))
+        row_of_body, copy_of_body, moving, B = self._bodies
+        if self.fresh.all():
+            return np.zeros((len(self.robots), B, 6))
+        w = self.world
+        m = w.mass[moving]  # (n, k)
+        com = np.einsum("nk,nkj->nj", m, w.x[moving]) / m.sum(axis=1)[:, None]
+        out = np.zeros((len(self.robots), B, 6))
+        c = self.sim.contacts()
+        for body, sign in ((c.body_a, -1.0), (c.body_b, 1.0)):
+            row = row_of_body[body]
+            ok = row >= 0
+            copy = copy_of_body[body[ok]]
+            f = sign * c.force[ok]
+            np.add.at(out, (copy, row[ok]), np.concatenate([np.cross(c.point[ok] - com[copy], f), f], axis=1))
+        out[self.fresh] = 0.0  # a copy just reset has had no step (MuJoCo's reset zeroes cfrc_ext)
+        return out
+
     def set_states(self, copies, qpos: np.ndarray, qvel: np.ndarray):
         """Put the ``copies`` (K indices) at ``qpos`` (K, nq) moving at ``qvel`` (K, nv)
         (``Kinematics.set_state`` for each: its joints' warm start cleared, their readings set; the
@@ -290,7 +328,8 @@ class _View:
     """What a task's ``observe`` may read of the copies besides qpos and qvel (its ``links``
     argument): ``links(name, point=None)`` (n, 3) m, the origin of a link's frame (or a point in
     it: a site) in each copy now; ``links.limit_force(joint)`` (n,) the force of a joint's limits
-    (``_Copies.limit_force``)."""
+    (``_Copies.limit_force``); ``links.external_forces()`` (n, B, 6) MuJoCo's ``cfrc_ext[1:]``
+    (``_Copies.external_forces``)."""
 
     def __init__(self, copies):
         self._copies = copies
@@ -300,6 +339,9 @@ class _View:
 
     def limit_force(self, joint: str) -> np.ndarray:
         return self._copies.limit_force(joint)
+
+    def external_forces(self) -> np.ndarray:
+        return self._copies.external_forces()
 
 
 def _touches_itself(world) -> bool:
@@ -355,6 +397,8 @@ class ModelEnv(gymnasium.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"]}
+    #: the file's geom margins read (``load_mjcf(margins=)``): a task whose model rests on them in MuJoCo
+    margins = False
 
     def __init__(self, model, *, frame_skip: int = 1, timestep: float | None = None,
                  reset_noise_scale: float = 0.0, joint_settings=None, contact_settings=None,
@@ -367,7 +411,7 @@ class ModelEnv(gymnasium.Env):
             raise InputError(f"expected None or 'rgb_array', got {render_mode!r}", "render_mode")
         self.model = str(model)
         self.render_mode = render_mode
-        self._copies = _Copies(model, 1, self.timestep, joint_settings, contact_settings)
+        self._copies = _Copies(model, 1, self.timestep, joint_settings, contact_settings, self.margins)
         self.world, self.sim, self.robot = self._copies.world, self._copies.sim, self._copies.robots[0]
         self.actuators = self._copies.actuators
         self.init_qpos = self._copies.init_qpos
@@ -812,6 +856,76 @@ class Walker2d(_Runner):
                          reset_noise_scale=reset_noise_scale, **kwargs)
 
 
+class Ant(_Runner):
+    """Gymnasium's ``Ant-v5`` stepped by tumble, on its ``ant.xml`` (a sphere on a free joint with
+    four legs of two hinges each, eight motors of gear 150; timestep 0.01 s, ``frame_skip`` 5).
+    Observation (105,): qpos without x and y (the root's z, its quaternion w x y z, the hinges),
+    qvel (MuJoCo's free-joint layout: the root's linear velocity in the world, its angular
+    velocity in its own frame), then each body's external forces (``cfrc_ext[1:]``: 13 bodies x
+    (torque, force) of their contacts, about the ant's centre of mass, clipped to
+    ``contact_force_range``; ``include_cfrc_ext_in_observation=False`` leaves them off: (27,)).
+    Reward: the root's x speed over the step + 1 while healthy - 0.5 |action|^2 - 5e-4 |clipped
+    forces|^2; healthy while every coordinate and rate is finite and 0.2 <= z <= 1 (v5's closed
+    range); reset noise 0.1 (qvel's normal). The forces are tumble's contacts' (its feet's soft
+    contacts against MuJoCo's): the same definition, not the same numbers (tests/test_envs_runners.py).
+    The file's margins are read (``margins``): it stands at MuJoCo's height; standing, its hips keep
+    a 0.01-0.02 rad/s oscillation that MuJoCo's has not (docs/robots.md, "The ant")."""
+
+    noise = "normal"
+    # its geoms' and floor's margins (0.01 each): MuJoCo's ant stands on them, its feet 2 cm above the
+    # floor (torso 0.3825 m; tumble's without them 0.3626)
+    margins = True
+
+    def __init__(self, *, frame_skip: int = 5, ctrl_cost_weight: float = 0.5, contact_cost_weight: float = 5e-4,
+                 healthy_z_range=(0.2, 1.0), contact_force_range=(-1.0, 1.0), reset_noise_scale: float = 0.1,
+                 include_cfrc_ext_in_observation: bool = True, **kwargs):
+        if isinstance(contact_cost_weight, bool) or not isinstance(contact_cost_weight, (int, float, np.number)) \
+                or not np.isfinite(contact_cost_weight):
+            raise InputError(f"must be a finite number, got {contact_cost_weight!r}", "contact_cost_weight")
+        self.contact_cost_weight = float(contact_cost_weight)
+        self.contact_force_range = _range(contact_force_range, "contact_force_range")
+        self.include_cfrc_ext = bool(include_cfrc_ext_in_observation)
+        super().__init__("ant.xml", frame_skip=frame_skip, ctrl_cost_weight=ctrl_cost_weight,
+                         healthy_z_range=healthy_z_range, reset_noise_scale=reset_noise_scale, **kwargs)
+
+    def observe(self, qpos, qvel, links=None):
+        self._state = (qpos, qvel)
+        lo, hi = self.contact_force_range
+        n = len(qpos)
+        forces = np.zeros((n, 13, 6)) if links is None else links.external_forces()
+        self._forces = np.clip(forces, lo, hi).reshape(n, -1)
+        position = qpos[:, 2:] if self.exclude_current_positions else qpos
+        parts = [position, qvel] + ([self._forces] if self.include_cfrc_ext else [])
+        return np.concatenate(parts, axis=1)
+
+    def remember(self, qpos, qvel):
+        self._xy_before = qpos[:, :2].copy()
+
+    def healthy(self, qpos, qvel):
+        low, high = self.healthy_z_range
+        finite = np.all(np.isfinite(qpos), axis=1) & np.all(np.isfinite(qvel), axis=1)
+        return finite & (low <= qpos[:, 2]) & (qpos[:, 2] <= high)
+
+    def evaluate(self, observation, action):
+        qpos, qvel = self._state
+        xy_velocity = (qpos[:, :2] - self._xy_before) / self.dt
+        forward = self.forward_reward_weight * xy_velocity[:, 0]
+        healthy = self.healthy(qpos, qvel)
+        survive = healthy * self.healthy_reward
+        ctrl = self.ctrl_cost_weight * np.square(action).sum(axis=1)
+        contact = self.contact_cost_weight * np.square(self._forces).sum(axis=1)
+        info = {"x_position": qpos[:, 0].copy(), "y_position": qpos[:, 1].copy(),
+                "distance_from_origin": np.linalg.norm(qpos[:, :2], axis=1), "x_velocity": xy_velocity[:, 0],
+                "y_velocity": xy_velocity[:, 1], "reward_forward": forward, "reward_ctrl": -ctrl,
+                "reward_contact": -contact, "reward_survive": survive}
+        terminated = ~healthy if self.terminate_when_unhealthy else np.zeros(len(qpos), dtype=bool)
+        return forward + survive - ctrl - contact, terminated, info
+
+    def reset_info(self, qpos, qvel):
+        return {"x_position": qpos[:, 0].copy(), "y_position": qpos[:, 1].copy(),
+                "distance_from_origin": np.linalg.norm(qpos[:, :2], axis=1)}
+
+
 class ModelVectorEnv(VectorEnv):
     """``num_envs`` copies of a ``ModelEnv`` task in one World, stepped together by one Simulator:
     Gymnasium's vector API (observations (num_envs, d), actions (num_envs, nu), rewards,
@@ -853,7 +967,7 @@ class ModelVectorEnv(VectorEnv):
         self.max_episode_steps = max_episode_steps
         self.frame_skip, self.timestep = t.frame_skip, t.timestep
         self._copies = _Copies(t.model, self.num_envs, t.timestep, kwargs.get("joint_settings"),
-                               kwargs.get("contact_settings"))
+                               kwargs.get("contact_settings"), t.margins)
         self.world, self.sim = self._copies.world, self._copies.sim
         self.single_action_space, self.single_observation_space = t.action_space, t.observation_space
         self.action_space = batch_space(t.action_space, self.num_envs)
@@ -941,7 +1055,8 @@ class ModelVectorEnv(VectorEnv):
 
 # the ids tumble adds, with Gymnasium's episode limits and reward thresholds for its own v5 tasks
 TASKS = (("InvertedPendulum", 1000, 950.0), ("Reacher", 50, -3.75), ("InvertedDoublePendulum", 1000, 9100.0),
-         ("Pusher", 100, 0.0), ("Swimmer", 1000, 360.0), ("HalfCheetah", 1000, 4800.0), ("Hopper", 1000, 3800.0), ("Walker2d", 1000, None))
+         ("Pusher", 100, 0.0), ("Swimmer", 1000, 360.0), ("HalfCheetah", 1000, 4800.0), ("Hopper", 1000, 3800.0),
+         ("Walker2d", 1000, None), ("Ant", 1000, 6000.0))
 
 
 def _register():
