@@ -271,7 +271,7 @@ BAD_SCENES = [
      "collisions, record_contacts, record_joints, sleeping)"),
     ("unknown-body", body(colour='"red"'), "bodies[0].colour", f"unknown key (expected one of {BODY_KEYS})"),
     ("unknown-shape", body(shape='{ type = "sphere", radius = 1, size = 2 }'), "bodies[0].shape.size", "unknown key (expected one of type, radius)"),
-    ("unknown-material", body(material="{ friction = 0.5, bounce = 1 }"), "bodies[0].material.bounce", "unknown key (expected one of friction, restitution, rolling_resistance, spinning_friction, margin, friction_combine, restitution_combine)"),
+    ("unknown-material", body(material="{ friction = 0.5, bounce = 1 }"), "bodies[0].material.bounce", "unknown key (expected one of friction, restitution, rolling_resistance, spinning_friction, margin, friction_combine, restitution_combine, condim)"),
     ("unknown-force", BODY + '[[forces]]\ntype = "drag"\nlinear = 0.1\nstrength = 2\n', "forces[0].strength",
      "unknown key (expected one of type, linear, quadratic, angular_linear, angular_quadratic, wind, bodies)"),
     # wrong types

@@ -11,7 +11,7 @@ from .errors import InputError, coerce_record
 
 
 MATERIAL_KEYS = ("friction", "restitution", "rolling_resistance", "spinning_friction", "margin",
-                 "friction_combine", "restitution_combine")
+                 "friction_combine", "restitution_combine", "condim")
 NUMBER_KEYS = MATERIAL_KEYS[:5]
 #: how two bodies' frictions or restitutions make a contact's, in the order of precedence of
 #: PhysX's ``PxCombineMode`` (a pair takes the later of its two bodies' modes), after tumble's own
@@ -21,6 +21,8 @@ COMBINE_MODES = ("geometric", "average", "min", "multiply", "max")
 COMBINE_UNSET = -1  # a body that sets no mode: the pair's is the other's, else the default
 FRICTION_DEFAULT_MODE = COMBINE_MODES.index("geometric")
 RESTITUTION_DEFAULT_MODE = COMBINE_MODES.index("max")
+#: MuJoCo's contact dimensions (``Material.condim``); a body without one counts as the largest
+CONDIMS = (1, 3, 4, 6)
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,11 @@ class Material:
             A pair takes the mode later in that list of its two bodies' (PhysX's precedence); a
             body without one defers to the other; neither: "geometric" for friction (Box2D's),
             "max" for restitution. MuJoCo models load with "max" friction (MuJoCo's rule).
+        condim: None (the default: every term its coefficients give) or MuJoCo's contact
+            dimensions, 1, 3, 4 or 6; a pair takes the larger of its two bodies' (MuJoCo's rule;
+            None counts as 6): 1 a frictionless contact (no sliding, spinning or rolling
+            friction), 3 sliding friction only, 4 and spinning friction, 6 and rolling
+            resistance. MuJoCo models load with their geoms' ``condim``.
     """
 
     friction: float = 0.5
@@ -56,8 +63,13 @@ class Material:
     margin: float = 0.0
     friction_combine: str | None = None
     restitution_combine: str | None = None
+    condim: int | None = None
 
     def __post_init__(self):
+        if self.condim is not None and (isinstance(self.condim, bool) or self.condim not in CONDIMS):
+            raise InputError(f"expected one of 1, 3, 4, 6, got {self.condim!r}", "condim")
+        if self.condim is not None:
+            object.__setattr__(self, "condim", int(self.condim))
         for key in ("friction_combine", "restitution_combine"):
             mode = getattr(self, key)
             if mode is not None and (not isinstance(mode, str) or mode not in COMBINE_MODES):
@@ -83,10 +95,12 @@ class Material:
         (``solver.contact_rolling``)."""
         return self.rolling_resistance > 0.0 or self.spinning_friction > 0.0
 
-    def combine_codes(self) -> tuple[int, int]:
-        """(friction, restitution) modes as indices of ``COMBINE_MODES`` (``COMBINE_UNSET``: none)."""
+    def combine_codes(self) -> tuple[int, int, int]:
+        """(friction mode, restitution mode, condim): the modes as indices of ``COMBINE_MODES``
+        (``COMBINE_UNSET``: none), the condim 6 when not set (``contact_solve.combine_material``)."""
         return tuple(COMBINE_UNSET if m is None else COMBINE_MODES.index(m)
-                     for m in (self.friction_combine, self.restitution_combine))
+                     for m in (self.friction_combine, self.restitution_combine)) + (
+            6 if self.condim is None else self.condim,)
 
     def to_dict(self) -> dict:
         """Its keys, but those of the margin and combine modes only when set (a scene or checkpoint
@@ -94,7 +108,7 @@ class Material:
         out = {key: getattr(self, key) for key in NUMBER_KEYS[:4]}
         if self.margin:
             out["margin"] = self.margin
-        for key in ("friction_combine", "restitution_combine"):
+        for key in ("friction_combine", "restitution_combine", "condim"):
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)
         return out

@@ -81,7 +81,7 @@ may touch by MuJoCo's ``contype``/``conaffinity`` rule (``mjcf_control._exclude_
 masks are not read against the scene's own bodies). Not read, on purpose and documented (docs/robots.md):
 ``<option>`` but its fluid (set the World's gravity and the Simulator's dt yourself; ``tumble run
 model.xml`` takes its ``gravity``; ``density``, ``viscosity`` and ``wind`` are read as a
-``tumble.Fluid``: ``load_mjcf(fluid=)``), ``condim``, ``solref``,
+``tumble.Fluid``: ``load_mjcf(fluid=)``), condim 6's rolling friction, ``solref``,
 ``solimp``, ``margin`` unless ``load_mjcf(margins=True)``, ``gap``, a ball or free joint's ``armature`` (a hinge's and a slide's are read),
 cameras whose ``mode`` is not ``fixed``, lights, the sensors ``mjcf_sensors`` leaves off, visual settings.
 ``<sensor>``: read by ``mjcf_sensors`` (``Robot.sensor_data``). ``<keyframe>`` keys become
@@ -136,6 +136,7 @@ from .urdf_read import UrdfJoint, UrdfLink, UrdfModel
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, MuJoCo's geom density
 DEFAULT_FRICTION = 1.0  # MuJoCo's geom friction (sliding)
+DEFAULT_FRICTIONS = (DEFAULT_FRICTION, 0.005, 0.0001)  # MuJoCo's: sliding, torsional (m), rolling (m)
 # the mass and inertia of the virtual link between two joints of one body, as a fraction of the
 # body's (MuJoCo has nothing there; a moving body needs a mass in maximal coordinates)
 VIRTUAL_FRACTION = 1e-3
@@ -363,15 +364,25 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
         raise err.within(key) from None
     contype, conaffinity = _masks(a, key)
     collides = not (contype == 0 and conaffinity == 0)
-    friction = float(_floats(a["friction"], f"{key}.friction", (1, 2, 3))[0]) if "friction" in a else DEFAULT_FRICTION
+    frictions = _floats(a["friction"], f"{key}.friction", (1, 2, 3)) if "friction" in a else DEFAULT_FRICTIONS
+    friction = float(frictions[0])
     if friction < 0:
         raise InputError(f"must be >= 0, got {friction:g}", f"{key}.friction")
+    condim = int(_floats(a["condim"], f"{key}.condim", (1,))[0]) if "condim" in a else 3
+    if condim not in (1, 3, 4, 6):
+        raise InputError(f"expected 1, 3, 4 or 6, got {a['condim']}", f"{key}.condim")
+    # the torsional friction (m) with condim 4 or 6: tumble's spinning friction, MuJoCo's the same torque
+    # limit (s N); the rolling one (condim 6) is not read: tumble's is per radius (docs/robots.md)
+    spinning = float((list(frictions) + list(DEFAULT_FRICTIONS[len(frictions):]))[1]) if condim >= 4 else 0.0
+    if spinning < 0:
+        raise InputError(f"must be >= 0, got {spinning:g}", f"{key}.friction")
     margin = float(_floats(a["margin"], f"{key}.margin", (1,))[0]) if "margin" in a else 0.0
     if not margin >= 0:
         raise InputError(f"must be >= 0, got {margin:g}", f"{key}.margin")
     from .material import Material
 
-    return shape, position, R, collides, Material(friction=friction, margin=margin, friction_combine="max")
+    return shape, position, R, collides, Material(friction=friction, margin=margin, friction_combine="max",
+                                                  condim=condim, spinning_friction=spinning)
 
 
 def _masks(a: dict, key: str) -> tuple:

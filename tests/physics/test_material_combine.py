@@ -142,6 +142,8 @@ def test_a_fast_ball_stops_at_the_margin_without_passing_a_thin_wall():
     (lambda: tb.Material(margin=float("nan")), "margin"),
     (lambda: tb.Material(friction_combine="maximum"), "friction_combine"),
     (lambda: tb.Material(restitution_combine=1), "restitution_combine"),
+    (lambda: tb.Material(condim=2), "condim"),
+    (lambda: tb.Material(condim=True), "condim"),
     (lambda: tb.Compound([(tb.Sphere(0.1), (0, 0, 0), (1, 0, 0, 0), tb.Material(margin=0.01))]),
      "parts[0].material.margin"),
 ])
@@ -243,3 +245,41 @@ def test_combine_modes_go_to_usd_and_back_as_physx_attributes(tmp_path):
     with pytest.raises(InputError) as err:
         tb.load_usd(tb.World(), tmp_path / "bad.usda")
     assert "friction_combine" in str(err.value) and "largest" in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("condim_block, condim_ground, mu", [
+    (1, 1, 0.0),  # MuJoCo's condim 1 on both: a frictionless contact
+    (1, None, math.sqrt(0.8 * 0.2)),  # a body without one counts as 6: the pair has friction
+    (1, 3, math.sqrt(0.8 * 0.2)),  # the larger of the two
+    (3, 4, math.sqrt(0.8 * 0.2)),
+])
+def test_a_pairs_condim_is_the_larger_and_1_slides_without_friction(condim_block, condim_ground, mu):
+    """MuJoCo's rule for a pair's contact dimensions (``Material.condim``): the larger of its two
+    bodies'; 1 is frictionless (the block glides on at 2 m/s to 1e-9), above it Coulomb's mu g."""
+    block = tb.Material(friction=0.8, condim=condim_block)
+    ground = tb.Material(friction=0.2, condim=condim_ground)
+    t, vx = _slide(block, ground)
+    if mu == 0.0:
+        np.testing.assert_allclose(vx, 2.0, rtol=0, atol=1e-9)
+        return
+    sliding = (t > 0.02) & (t < 0.3)
+    np.testing.assert_allclose(vx[sliding], 2.0 - mu * G * t[sliding], rtol=0, atol=1e-4)
+
+
+@pytest.mark.parametrize("condim, brakes", [(3, False), (4, True), (None, True)])
+def test_spinning_friction_needs_a_condim_of_4(condim, brakes):
+    """A ball spinning in place about the vertical (10 rad/s) with spinning friction 0.001 m on
+    both sides: braked by the torque s N (its spin falls by s m g / I per second, as
+    test_contact_rolling_resistance.py checks) unless the pair's condim is below 4 (MuJoCo's
+    torsional friction comes with condim 4), where it spins on to 1e-9."""
+    w = tb.World(gravity=(0, 0, -G))
+    w.add_body(tb.Plane(), fixed=True, material=tb.Material(spinning_friction=0.001, condim=condim))
+    ball = w.add_body(tb.Sphere(0.1), mass=1.0, position=(0, 0, 0.1), angular_velocity=(0, 0, 10.0),
+                      material=tb.Material(spinning_friction=0.001, condim=condim))
+    tb.Simulator(w, dt=DT).run(0.5)
+    spin = ball.omega[2]
+    if brakes:
+        inertia = 0.4 * 1.0 * 0.1 ** 2
+        assert spin == pytest.approx(10.0 - 0.001 * G / inertia * 0.5, abs=1e-9)
+    else:
+        assert spin == pytest.approx(10.0, abs=1e-9)

@@ -60,26 +60,29 @@ def test_a_ball_rests_its_margins_above_the_floor_as_in_mujoco(tmp_path, ball, f
 
 
 BLOCK = """<mujoco><option timestep="0.0005" cone="elliptic"/>
-<worldbody><geom name="floor" type="plane" size="5 5 .1" friction="0.9"/>
-<body name="block" pos="0 0 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="1" friction="0.3"/></body>
+<worldbody><geom name="floor" type="plane" size="5 5 .1" friction="0.9" condim="FLOOR"/>
+<body name="block" pos="0 0 0.1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="1" friction="0.3"
+ condim="BLOCK"/></body>
 </worldbody></mujoco>"""
 
 
-def test_a_block_slides_at_the_larger_of_the_two_frictions_as_in_mujoco(tmp_path):
+@pytest.mark.parametrize("block_condim, floor_condim, mu", [(3, 3, 0.9), (1, 3, 0.9), (1, 1, 0.0)])
+def test_a_block_slides_at_the_larger_of_the_two_frictions_as_in_mujoco(tmp_path, block_condim, floor_condim, mu):
     """A block of friction 0.3 thrown at 2 m/s on a floor of 0.9 decelerates at 0.9 g in both
-    engines (MuJoCo's max rule; tumble's own sqrt(0.3 0.9) = 0.52 would let it slide 74 % further):
-    tumble's speed while sliding to 1e-4 m/s of Coulomb's (the soft step's friction is exact while
-    sliding), MuJoCo's (its elliptic cone: the pyramidal default slows it at 0.79 g, not the
-    cone's 0.9 g) to 2 %."""
+    engines (MuJoCo's max rule; tumble's own sqrt(0.3 0.9) = 0.52 would let it slide 74 % further),
+    the pair's condim being the larger of the two geoms'; with condim 1 on both it glides without
+    friction in both. tumble's speed while sliding to 1e-4 m/s of Coulomb's (the soft step's
+    friction is exact while sliding), MuJoCo's (its elliptic cone: the pyramidal default slows it
+    at 0.79 g, not the cone's 0.9 g) to 2 % of 0.9 g."""
     path = tmp_path / "block.xml"
-    path.write_text(BLOCK)
+    path.write_text(BLOCK.replace("FLOOR", str(floor_condim)).replace("BLOCK", str(block_condim)))
     m = mujoco.MjModel.from_xml_path(str(path))
     d = mujoco.MjData(m)
     d.qvel[0] = 2.0
     mujoco.mj_step(m, d, nstep=int(0.1 / m.opt.timestep))
     v1 = d.qvel[0]
     mujoco.mj_step(m, d, nstep=int(0.1 / m.opt.timestep))
-    assert (v1 - d.qvel[0]) / 0.1 == pytest.approx(0.9 * G, rel=0.02)
+    assert (v1 - d.qvel[0]) / 0.1 == pytest.approx(mu * G, abs=0.02 * 0.9 * G)
 
     world = tb.World(gravity=(0, 0, -G))
     robot = tb.load_mjcf(world, path)
@@ -90,7 +93,7 @@ def test_a_block_slides_at_the_larger_of_the_two_frictions_as_in_mujoco(tmp_path
     t = traj.time
     vx = traj.velocity[:, block.index, 0]
     sliding = t > 0.02
-    np.testing.assert_allclose(vx[sliding], 2.0 - 0.9 * G * t[sliding], rtol=0, atol=1e-4)
+    np.testing.assert_allclose(vx[sliding], 2.0 - mu * G * t[sliding], rtol=0, atol=1e-4)
 
 
 def test_gymnasiums_ant_stands_at_mujocos_height_with_its_margins(tmp_path):
@@ -110,12 +113,16 @@ def test_gymnasiums_ant_stands_at_mujocos_height_with_its_margins(tmp_path):
         assert z == pytest.approx(qpos[2] - offset, abs=1e-3)
 
 
-def test_a_bad_margin_is_one_line(tmp_path):
-    path = _ball(tmp_path, -0.01, 0.0)
+@pytest.mark.parametrize("edit, problem", [(("margin=\"0.0\"", "margin=\"-0.01\""), "margin: must be >= 0"),
+                                           (("<geom type=\"sphere\"", "<geom condim=\"2\" type=\"sphere\""),
+                                            "condim: expected 1, 3, 4 or 6")])
+def test_a_bad_margin_or_condim_is_one_line(tmp_path, edit, problem):
+    path = _ball(tmp_path, 0.0, 0.0)
+    path.write_text(path.read_text().replace(*edit))
     with pytest.raises(InputError) as err:
         tb.load_mjcf(tb.World(), path)
     message = str(err.value)
-    assert "margin" in message and "must be >= 0" in message and "\n" not in message
+    assert problem in message and "\n" not in message
 
 
 def test_a_scene_reads_an_mjcf_robots_margins_and_refuses_them_for_a_urdf(tmp_path):
@@ -133,3 +140,19 @@ def test_a_scene_reads_an_mjcf_robots_margins_and_refuses_them_for_a_urdf(tmp_pa
     with pytest.raises(InputError) as err:
         load_scene(scene)
     assert "robots[0].margins" in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("condim, spinning", [(3, 0.0), (4, 0.02), (6, 0.02)])
+def test_a_geoms_condim_and_torsional_friction_are_its_bodys(tmp_path, condim, spinning):
+    """A geom's ``condim`` is its body's ``Material.condim`` (MuJoCo's default 3 where unset), and
+    its torsional friction (``friction``'s second number, m) its spinning friction from condim 4
+    on (MuJoCo's torque limit s N, the same as tumble's); below it MuJoCo ignores the number."""
+    path = _ball(tmp_path, 0.0, 0.0)
+    text = path.read_text().replace('mass="1"', f'mass="1" condim="{condim}" friction="1 0.02 0.001"')
+    path.write_text(text)
+    world = tb.World()
+    robot = tb.load_mjcf(world, path)
+    mat = world.materials[robot.links["ball"].index]
+    assert mat.condim == condim and mat.spinning_friction == spinning
+    floor = world.materials[robot.links["world/floor"].index]
+    assert floor.condim == 3 and floor.spinning_friction == 0.0

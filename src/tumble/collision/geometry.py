@@ -160,14 +160,14 @@ class ShapeTable:
 
     def shape_materials(self, body_materials) -> dict[str, np.ndarray]:
         """{field: (S,) values} of each shape row's material (friction, restitution,
-        rolling_resistance, spinning_friction; "combine": (S, 2) int64, its friction and restitution
-        combine modes, ``Material.combine_codes``): its part's own, else its body's
+        rolling_resistance, spinning_friction; "combine": (S, 3) int64, its friction and restitution
+        combine modes and condim, ``Material.combine_codes``): its part's own, else its body's
         (``body_materials``: the World's per-body list)."""
         mats = [own if own is not None else body_materials[b]
                 for own, b in zip(self.shape_material or (None,) * self.shape_count, self.shape_body.tolist())]
         out = {f: np.array([getattr(m, f) for m in mats], dtype=float).reshape(-1)
                for f in ("friction", "restitution", "rolling_resistance", "spinning_friction")}
-        out["combine"] = np.array([m.combine_codes() for m in mats], dtype=np.int64).reshape(-1, 2)
+        out["combine"] = np.array([m.combine_codes() for m in mats], dtype=np.int64).reshape(-1, 3)
         return out
 
     @property

@@ -275,7 +275,7 @@ class ContactSolver:
             self.body_restitution = np.array([m.restitution for m in world.materials[:nb]], dtype=float)
             self.body_rolling = np.array([m.rolling_resistance for m in world.materials[:nb]], dtype=float)
             self.body_spinning = np.array([m.spinning_friction for m in world.materials[:nb]], dtype=float)
-            self.body_combine = np.array([m.combine_codes() for m in world.materials[:nb]], dtype=np.int64).reshape(nb, 2)
+            self.body_combine = np.array([m.combine_codes() for m in world.materials[:nb]], dtype=np.int64).reshape(nb, 3)
             self.body_margin = np.array([m.margin for m in world.materials[:nb]], dtype=float)
             self.body_resists_rolling = np.array([m.resists_rolling for m in world.materials[:nb]], dtype=bool)
             self.any_resists_rolling = bool(self.body_resists_rolling.any())
@@ -375,6 +375,15 @@ class ContactSolver:
             r = np.maximum(np.linalg.norm(off[:, 0:3], axis=1), np.linalg.norm(off[:, 3:6], axis=1))
             self.rolling_limit[rows, 0] = np.maximum(roll[sa[rows]], roll[sb[rows]]) * r
             self.rolling_limit[rows, 1] = np.maximum(spin[sa[rows]], spin[sb[rows]])
+        # MuJoCo's condim (Material.condim), the larger of the pair's: below 6 no rolling, below 4 no
+        # spinning friction (a world that sets none: every condim 6, nothing changes)
+        rows = self.rolling_rows
+        condim = self._shape_material["combine"][:, 2] if parts else self.body_combine[:, 2]
+        ia, ib = (sa[rows], sb[rows]) if parts else (contacts.contact_body_a[rows], contacts.contact_body_b[rows])
+        pair = np.maximum(condim[ia], condim[ib])
+        if (pair < 6).any():
+            self.rolling_limit[rows[pair < 6], 0] = 0.0
+            self.rolling_limit[rows[pair < 4], 1] = 0.0
 
     def warm_start(self, fresh: bool = True):
         """Apply the accumulated impulses; ``fresh=False`` when the poses are those of the last

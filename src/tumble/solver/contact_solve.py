@@ -122,13 +122,14 @@ def combine_materials_kernel(index_a, index_b, friction_of, restitution_of, comb
                              # outputs
                              friction, restitution):
     """Per contact c, friction[c] and restitution[c] (C,) from the rows index_a[c], index_b[c] of
-    ``friction_of``, ``restitution_of`` (K,) and ``combine_of`` (K, 2) int64 modes (friction,
-    restitution): ``combine_material`` of each (bodies' or compound parts' materials)."""
+    ``friction_of``, ``restitution_of`` (K,) and ``combine_of`` (K, 3) int64 (friction mode,
+    restitution mode, condim): ``combine_material`` of each (bodies' or compound parts'
+    materials); no friction where the pair's condim, the larger of the two, is 1."""
     for c in range(index_a.shape[0]):
         a = index_a[c]
         b = index_b[c]
         friction[c] = combine_material(friction_of[a], friction_of[b], combine_of[a, 0], combine_of[b, 0],
-                                       FRICTION_DEFAULT_MODE)
+                                       FRICTION_DEFAULT_MODE) if max(combine_of[a, 2], combine_of[b, 2]) > 1 else 0.0
         restitution[c] = combine_material(restitution_of[a], restitution_of[b], combine_of[a, 1], combine_of[b, 1],
                                           RESTITUTION_DEFAULT_MODE)
 
@@ -223,8 +224,9 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
         src = soft_static if not (moving[a] and moving[b]) else soft_dynamic
         soft[c, 0], soft[c, 1], soft[c, 2] = src[0], src[1], src[2]
+        # MuJoCo's condim (Material.condim), the larger of the pair's: 1 is a frictionless contact
         friction[c] = combine_material(body_friction[a], body_friction[b], body_combine[a, 0], body_combine[b, 0],
-                                       FRICTION_DEFAULT_MODE)
+                                       FRICTION_DEFAULT_MODE) if max(body_combine[a, 2], body_combine[b, 2]) > 1 else 0.0
         restitution[c] = combine_material(body_restitution[a], body_restitution[b], body_combine[a, 1],
                                           body_combine[b, 1], RESTITUTION_DEFAULT_MODE)
         va0, va1, va2 = _point_velocity(v, omega, a, ra)
