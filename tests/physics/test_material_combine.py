@@ -283,3 +283,15 @@ def test_spinning_friction_needs_a_condim_of_4(condim, brakes):
         assert spin == pytest.approx(10.0 - 0.001 * G / inertia * 0.5, abs=1e-9)
     else:
         assert spin == pytest.approx(10.0, abs=1e-9)
+
+
+def test_save_usd_says_what_it_leaves_out_of_a_material(tmp_path):
+    """Margins, MuJoCo's condim and the geometric mode have no place in UsdPhysics nor PhysX's
+    material: ``tb.save_usd`` warns that it left them out, naming each."""
+    pytest.importorskip("pxr")
+    w = tb.World()
+    w.add_body(tb.Sphere(0.1), mass=1.0, material=tb.Material(margin=0.01, condim=1, friction_combine="geometric"))
+    with pytest.warns(UserWarning) as caught:
+        tb.save_usd(w, tmp_path / "a.usda")
+    message = " ".join(str(c.message) for c in caught)
+    assert "margins" in message and "condim" in message and "geometric combine mode" in message

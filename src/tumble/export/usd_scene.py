@@ -113,6 +113,8 @@ class _Writer:
             self.left_out.add("rolling resistance and spinning friction")
         if mat.margin:
             self.left_out.add("margins")
+        if mat.condim is not None:
+            self.left_out.add("MuJoCo's condim")
         key = (float(mat.friction), float(mat.restitution), mat.friction_combine, mat.restitution_combine)
         if key not in self.materials:
             m = self.UsdShade.Material.Define(self.stage, f"/World/Looks/physics{len(self.materials)}")
