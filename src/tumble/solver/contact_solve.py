@@ -145,7 +145,10 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
                             normal_impulse, tangent_impulse, max_normal_impulse):
     """Per contact: arms, tangent basis, effective masses, softness, mixed material, the
     pre-step normal speed (for restitution) and the warm-start impulses carried over by ``match``.
-    Each contact writes only its own rows: the bits do not depend on the threads.
+    Each contact writes only its own rows: the bits do not depend on the threads. The material:
+    ``body_friction``, ``body_restitution`` (N,), ``body_combine`` (N, 3) int64 (friction mode,
+    restitution mode, condim: ``Material.combine_codes``), ``body_margin`` (N,) m
+    (``Material.margin``: the separation the solver sees is the gap less the pair's two).
 
     The anchors that follow the bodies through the step (``local_a``, ``local_b``, body frames,
     less each round surface's world offset ``anchor_offset``: ``contact_anchor``) start at the
