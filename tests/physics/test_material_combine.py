@@ -295,3 +295,33 @@ def test_save_usd_says_what_it_leaves_out_of_a_material(tmp_path):
         tb.save_usd(w, tmp_path / "a.usda")
     message = " ".join(str(c.message) for c in caught)
     assert "margins" in message and "condim" in message and "geometric combine mode" in message
+
+
+def test_combining_is_symmetric_and_each_mode_is_its_formula():
+    """``contact_solve.combine_material`` on random coefficients and every pair of modes (unset
+    included): the pair's order does not matter (a contact's normal may point either way), and
+    the value is the formula of the later mode (or the default), against NumPy's."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from tumble.material import COMBINE_MODES, FRICTION_DEFAULT_MODE
+    from tumble.solver.contact_solve import combine_materials_kernel
+
+    formulas = {"geometric": lambda a, b: np.sqrt(a * b), "average": lambda a, b: 0.5 * (a + b),
+                "min": np.minimum, "multiply": lambda a, b: a * b, "max": np.maximum}
+    modes = st.sampled_from([None, *COMBINE_MODES])
+
+    @settings(max_examples=200, deadline=None)
+    @given(st.floats(0, 2), st.floats(0, 2), modes, modes)
+    def check(a, b, mode_a, mode_b):
+        codes = np.array([tb.Material(friction_combine=mode_a).combine_codes(),
+                          tb.Material(friction_combine=mode_b).combine_codes()], dtype=np.int64)
+        values = np.array([a, b])
+        out, out2 = np.zeros(2), np.zeros(2)
+        combine_materials_kernel(np.array([0, 1]), np.array([1, 0]), values, values, codes, out, out2)
+        assert out[0] == out[1]
+        chosen = [COMBINE_MODES.index(m) for m in (mode_a, mode_b) if m is not None]
+        mode = COMBINE_MODES[max(chosen)] if chosen else COMBINE_MODES[FRICTION_DEFAULT_MODE]
+        assert out[0] == pytest.approx(float(formulas[mode](a, b)), rel=1e-15, abs=0)
+
+    check()
