@@ -265,7 +265,7 @@ OPEN_BOX_FACES = CUBE_FACES[:10]  # two triangles short of closed
 
 BAD_SCENES = [
     # unknown keys, everywhere
-    ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, robots, forces, contact, joints, joint_solver, collision_exclusions, cameras)"),
+    ("unknown-top", 'title = "x"\n' + BODY, "title", "unknown key (expected one of simulation, bodies, robots, forces, contact, joints, joint_solver, collision_exclusions, contact_pairs, cameras)"),
     ("unknown-simulation", "[simulation]\nspeed = 2\n" + BODY, "simulation.speed",
      "unknown key (expected one of duration, frame_rate, dt, integrator, substeps, gravity, layout, rtol, atol, max_energy_growth, "
      "collisions, record_contacts, record_joints, sleeping)"),
@@ -569,7 +569,7 @@ def test_a_key_with_control_characters_still_gives_one_line():
 
     with pytest.raises(InputError) as err:
         parse_scene({"\n": None}, "f.toml")
-    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, robots, forces, contact, joints, joint_solver, collision_exclusions, cameras)"
+    assert str(err.value) == "f.toml: \\n: unknown key (expected one of simulation, bodies, robots, forces, contact, joints, joint_solver, collision_exclusions, contact_pairs, cameras)"
 
 
 # ---------------------------------------------------------------------- compounds

@@ -204,6 +204,8 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "materials": [m.to_dict() for m in w.materials],
         "collision_filters": [asdict(f) for f in w.collision_filters],
         "collision_exclusions": sorted([int(a), int(b)] for a, b in w.excluded_collisions),
+        # body pairs with a material of their own (World.set_pair_material; absent from older checkpoints)
+        "pair_materials": [[int(a), int(b), m.to_dict()] for (a, b), m in sorted(w.pair_materials.items())],
         # keyframed paths of kinematic bodies (tumble.kinematic), by body row
         "kinematic_paths": [{"body": w.index_of(p.body), **p.to_dict()} for p in w.paths],
         # the (sensor, visitor) pairs overlapping after the last step: the resumed run's events go on
@@ -419,6 +421,8 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
                    collision_filter=filters[i], **kw)
     for a, b in meta.get("collision_exclusions") or ():
         w.exclude_collision(int(a), int(b))
+    for a, b, material in meta.get("pair_materials") or ():
+        w.set_pair_material(int(a), int(b), Material(**material))
     for k, record in enumerate(meta.get("kinematic_paths") or ()):
         try:
             # placed already: the saved state holds the body's pose and velocities

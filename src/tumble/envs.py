@@ -125,6 +125,9 @@ class _Copies:
             names = {link.index: key for key, link in first.links.items()}
             floor_pairs = [(names[a], names[b]) for a, b in w.excluded_collisions
                            if (a in statics) != (b in statics) and a in names and b in names]
+            # and its explicit pairs' materials with the floor (MJCF <contact><pair>)
+            floor_materials = [(names[a], names[b], m) for (a, b), m in w.pair_materials.items()
+                               if (a in statics) != (b in statics) and a in names and b in names]
             for k in range(1, n):
                 before = w.body_count
                 robot = tb.load_mjcf(w, model, name=f"env{k}", world_geoms=False, margins=margins,
@@ -133,6 +136,8 @@ class _Copies:
                     w.body(i).collision_filter = dataclasses.replace(w.collision_filters[i], env=k + 1)
                 for a, b in floor_pairs:
                     w.exclude_collision(*(first.links[x] if x.startswith("world/") else robot.links[x] for x in (a, b)))
+                for a, b, m in floor_materials:
+                    w.set_pair_material(*(first.links[x] if x.startswith("world/") else robot.links[x] for x in (a, b)), m)
                 self.robots.append(robot)
         if joint_settings is None:
             # the joints swept in one order on one thread, whatever their number: a copy's joints then

@@ -53,7 +53,9 @@ What maps to what:
   (MuJoCo's are soft: ``solref``/``solimp`` are not read); a model with one gets the tree solve
   by default. ``active="false"`` ones are left off.
 - ``<default>`` classes (nested, ``class`` and ``childclass``) give geoms, joints and actuators
-  their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair.
+  their attributes, as in MuJoCo. ``<contact><exclude body1 body2>`` excludes a pair;
+  ``<contact><pair geom1 geom2 friction condim>`` is a pair material between the two geoms'
+  bodies (``World.set_pair_material``), which then collide whatever their masks.
 - ``<actuator>`` on joints, in ``Robot.actuators`` by name, driven by ``Robot.set_controls(sim,
   {name: ctrl})`` (MuJoCo's ``data.ctrl``; ctrl starts at 0), in MuJoCo's general form (``mjcf_control.MjcfActuator``:
   force = gain ctrl + b0 + b1 l + b2 l' on l = gear q, the joint's torque gear x force):
@@ -97,7 +99,6 @@ MuJoCo makes them (``mjcf_xml.expand_replicates``: frames in the poses T^i, name
 Refused with one line: ``<equality>`` other than connect, weld and joint (tendon,
 flex; between sites; a weld's ``relpose``), spatial tendons and fixed ones with a range,
 stiffness, damping or friction loss, position, velocity and biased actuators on tendons,
-``<contact><pair>``,
 ``<composite>``, ``<flexcomp>``, ``<attach>``, sdf geoms, hfield geoms on bodies, a free joint beside another joint, and unknown joint or geom types.
 """
 
@@ -178,6 +179,8 @@ class MjcfModel:
     # (kind "connect" | "weld", name, body1, body2, anchor (3,)); ("joint", name, joint1, joint2, polycoef (5,))
     equalities: list = field(default_factory=list)
     masks: dict = field(default_factory=dict)  # link name: [(contype, conaffinity)] of its colliding geoms
+    geom_links: dict = field(default_factory=dict)  # geom name: its link ("world/NAME" for a worldbody geom)
+    pairs: list = field(default_factory=list)  # <contact><pair>: (link1, link2, Material)
     sites: dict = field(default_factory=dict)  # name: (link, position (3,), rotation (3, 3)) in the link frame
     cameras: dict = field(default_factory=dict)  # name: (link, position, rotation, fovy deg, (width, height))
     keyframes: dict = field(default_factory=dict)  # name: (qpos | None, qvel | None, ctrl | None)
@@ -226,6 +229,7 @@ class _Reader:
 
     def __init__(self, root, path: Path):
         self.path = path
+        self.pair_geoms: set = set()  # the geoms a <contact><pair> names (``_pairs``): they collide
         compiler = root.find("compiler")
         c = {} if compiler is None else compiler.attrib
         angle = c.get("angle", "degree")
@@ -363,7 +367,8 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
     except InputError as err:
         raise err.within(key) from None
     contype, conaffinity = _masks(a, key)
-    collides = not (contype == 0 and conaffinity == 0)
+    # a geom named in a <contact><pair> collides whatever its masks (MuJoCo's explicit pairs)
+    collides = not (contype == 0 and conaffinity == 0) or a.get("name") in reader.pair_geoms
     frictions = _floats(a["friction"], f"{key}.friction", (1, 2, 3)) if "friction" in a else DEFAULT_FRICTIONS
     friction = float(frictions[0])
     if friction < 0:
@@ -511,6 +516,8 @@ def _read(path: Path) -> MjcfModel:
     expand_replicates(root, reader)
     meshes = _meshes(reader, root)
     reader.hfields = read_hfields(reader, root)
+    pairs = _pairs(reader, root)
+    reader.pair_geoms = {g for _, g1, g2, _ in pairs for g in (g1, g2)}
     out = MjcfModel(UrdfModel(root.get("model") or path.stem, {"world": UrdfLink("world")}, [], "world", str(path)))
     worldbody = root.find("worldbody")
     if worldbody is None:
@@ -524,6 +531,7 @@ def _read(path: Path) -> MjcfModel:
             raise InputError("duplicate geom name", f"worldbody.geom[{name}]")
         shape, position, R, collides, surface = _geom(reader, a, f"worldbody.geom[{name}]", meshes)
         position, R = place(frame, position, R)
+        out.geom_links[name] = f"world/{name}"
         if collides:
             out.statics.append(MjcfStatic(name, shape, position, R, surface))
             out.masks[f"world/{name}"] = [_masks(a, f"worldbody.geom[{name}]")]
@@ -543,15 +551,42 @@ def _read(path: Path) -> MjcfModel:
     _keyframes(root, out)
     _lighten_virtual_links(out)
     read_sensors(root, out)
+    for key, g1, g2, material in pairs:
+        for role, geom in (("geom1", g1), ("geom2", g2)):
+            if geom not in out.geom_links:
+                raise InputError(f"unknown geom {geom!r}", f"{key}.{role}")
+        out.pairs.append((out.geom_links[g1], out.geom_links[g2], material))
     for contact in root.findall("contact"):
-        if contact.find("pair") is not None:
-            raise InputError("<contact><pair> is not supported (only <exclude>)", "contact.pair")
         for e in contact.findall("exclude"):
             pair = (e.get("body1"), e.get("body2"))
             for role, body in zip(("body1", "body2"), pair):
                 if body not in names:
                     raise InputError(f"unknown body {body!r}", f"contact.exclude.{role}")
             out.excluded.append(pair)
+    return out
+
+
+def _pairs(reader: _Reader, root) -> list:
+    """``<contact><pair geom1 geom2 friction condim>``: [(key, geom1, geom2, Material)], the pair's
+    sliding friction (``friction``'s first number; MuJoCo's default 1, not the geoms') and condim
+    (default 3) as a pair material (``World.set_pair_material``)."""
+    from .material import Material
+
+    out = []
+    for contact in root.findall("contact"):
+        for k, p in enumerate(contact.findall("pair")):
+            a = reader.attributes(p, "main")
+            key = f"contact.pair[{a.get('name', k)}]"
+            for role in ("geom1", "geom2"):
+                if role not in a:
+                    raise InputError("missing (a geom's name)", f"{key}.{role}")
+            friction = float(_floats(a["friction"], f"{key}.friction", (1, 2, 3, 4, 5))[0]) if "friction" in a else 1.0
+            if not friction >= 0:
+                raise InputError(f"must be >= 0, got {friction:g}", f"{key}.friction")
+            condim = int(_floats(a["condim"], f"{key}.condim", (1,))[0]) if "condim" in a else 3
+            if condim not in (1, 3, 4, 6):
+                raise InputError(f"expected 1, 3, 4 or 6, got {a['condim']}", f"{key}.condim")
+            out.append((key, a["geom1"], a["geom2"], Material(friction=friction, condim=condim)))
     return out
 
 
@@ -711,6 +746,8 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
         a = reader.attributes(g, gcls)
         gkey = f"{key}.geom[{a.get('name', k)}]"
         shape, position, R, collides, surface = _geom(reader, a, gkey, meshes)
+        if "name" in a:
+            out.geom_links[a["name"]] = link.name
         if isinstance(shape, Plane) or a.get("type") == "hfield":
             raise InputError(f"a {a.get('type')} must be a <worldbody> geom (tumble's are static)", gkey)
         position, R = place(frame, position, R)
@@ -858,9 +895,17 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
                               name=f"{robot.name}/world/{s.name}",
                               **({} if collision_filter is None else {"collision_filter": collision_filter}))
         robot.links[f"world/{s.name}"] = body
+    # explicit pairs (<contact><pair>) collide whatever the masks and <exclude>s say, as in MuJoCo
+    pairs = [(robot.links[a], robot.links[b], m) for a, b, m in parsed.pairs if a in robot.links and b in robot.links]
+    paired = {(min(a.index, b.index), max(a.index, b.index)) for a, b, _ in pairs}
     for a, b in parsed.excluded:
-        world.exclude_collision(robot.links[a], robot.links[b])
-    _exclude_by_masks(world, robot, masks)
+        ia, ib = robot.links[a].index, robot.links[b].index
+        if (min(ia, ib), max(ia, ib)) not in paired:
+            world.exclude_collision(ia, ib)
+    _exclude_by_masks(world, robot, masks, keep=paired)
+    for a, b, m in pairs:
+        if a.index != b.index:  # two geoms of one tumble body (welded bodies) never touch
+            world.set_pair_material(a, b, m)
     robot.actuators = dict(parsed.actuators)
     robot.sites = dict(parsed.sites)
     robot.sensors = {sensor.name: sensor for sensor in parsed.sensors}

@@ -447,19 +447,21 @@ def _add_equalities(world, robot, equalities, refs=None):
         robot.equalities[name] = record
 
 
-def _exclude_by_masks(world, robot, masks: dict):
+def _exclude_by_masks(world, robot, masks: dict, keep=frozenset()):
     """MuJoCo's contype/conaffinity rule between the model's own bodies: two geoms may touch when
     (contype1 & conaffinity2) or (contype2 & conaffinity1); a pair of bodies none of whose geoms
     may touch is excluded (``world.exclude_collision``). Per body pair, not per geom: two bodies
     of which some geoms may touch collide with all their geoms (a compound collides whole). The
     model's bodies against the scene's: left to the bodies' filters (MuJoCo's default masks 1
-    and 1 meet any nonzero mask)."""
+    and 1 meet any nonzero mask). ``keep``: (lo, hi) body pairs never excluded (explicit pairs)."""
     per_body: dict = {}
     for link, pairs in masks.items():
         per_body.setdefault(robot.links[link].index, []).extend(pairs)
     bodies = sorted(per_body)
     for i, a in enumerate(bodies):
         for b in bodies[i + 1:]:
+            if (a, b) in keep:
+                continue
             if not any((ta & cb) or (tb & ca) for ta, ca in per_body[a] for tb, cb in per_body[b]):
                 world.exclude_collision(a, b)
 

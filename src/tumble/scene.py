@@ -21,6 +21,8 @@ The format is DESIGN.md's "Scene file" contract::
     [[robots]]              file = "robot.urdf", name, position, euler_deg, fixed_base,
                             joint_positions ...: a URDF's links and joints (tumble.scene_robots)
     [[collision_exclusions]] bodies = [NAME, NAME]: a pair that never touches
+    [[contact_pairs]]       bodies = [NAME, NAME], material = {...}: the pair's contacts take
+                            that material (World.set_pair_material)
     [[forces]]              type = drag | wind | constant | point | spring | impulse | explosion,
                             with that type's keys; bodies are referred to by name
                             (tumble.scene_bodies).
@@ -79,7 +81,7 @@ DEFAULTS = {
 }
 
 TOP_KEYS = ("simulation", "bodies", "robots", "forces", "contact", "joints", "joint_solver", "collision_exclusions",
-            "cameras")
+            "contact_pairs", "cameras")
 # [contact]: the soft step's settings (tumble.solver.contact.SoftStepSettings), all optional.
 CONTACT_KEYS = tuple(f.name for f in dataclasses.fields(SoftStepSettings))
 SIMULATION_KEYS = tuple(DEFAULTS)
@@ -364,6 +366,14 @@ class _Parser(BodyReader, RobotReader):
                              "collision_exclusions")
         for i, entry in enumerate(exclusions):
             self.exclusion(world, entry, f"collision_exclusions[{i}]", names)
+        pairs = doc.get("contact_pairs", [])
+        if not isinstance(pairs, list) or not all(isinstance(e, dict) for e in pairs):
+            raise self.error(f"expected a list of tables ([[contact_pairs]]), got {_describe(pairs)}", "contact_pairs")
+        for i, entry in enumerate(pairs):
+            key = f"contact_pairs[{i}]"
+            self.table(entry, key, ("bodies", "material"), required=("bodies", "material"))
+            a, b = self.body_pair(entry, key, names, "a body has no contacts with itself")
+            self.library(key, world.set_pair_material, a, b, self.material(entry["material"], f"{key}.material"))
 
         from .scene_joints import parse_joint_settings, parse_joints
 
@@ -391,6 +401,11 @@ class _Parser(BodyReader, RobotReader):
     def exclusion(self, world: World, entry: dict, key: str, names: dict):
         """One [[collision_exclusions]] entry: ``bodies = [NAME, NAME]``, two different bodies."""
         self.table(entry, key, ("bodies",), required=("bodies",))
+        pair = self.body_pair(entry, key, names, "a body cannot be excluded from itself")
+        self.library(key, world.exclude_collision, pair[0], pair[1])
+
+    def body_pair(self, entry: dict, key: str, names: dict, same: str) -> list:
+        """``entry["bodies"]``: two names of different bodies (``same``: the problem if equal)."""
         pair = entry["bodies"]
         if not isinstance(pair, list) or len(pair) != 2 or not all(isinstance(n, str) for n in pair):
             raise self.error(f"expected a list of two body names, got {_describe(pair)}", f"{key}.bodies")
@@ -398,8 +413,8 @@ class _Parser(BodyReader, RobotReader):
             if n not in names:
                 raise self.error(f"unknown body {n!r}", f"{key}.bodies[{j}]")
         if pair[0] == pair[1]:
-            raise self.error(f"a body cannot be excluded from itself ({pair[0]!r})", f"{key}.bodies")
-        self.library(key, world.exclude_collision, pair[0], pair[1])
+            raise self.error(f"{same} ({pair[0]!r})", f"{key}.bodies")
+        return pair
 
     def contact(self, value) -> SoftStepSettings:
         t = self.table(value, "contact", CONTACT_KEYS)

@@ -104,6 +104,7 @@ class World:
         self.materials: list[Material] = []
         self.collision_filters: list[CollisionFilter] = []  # per body (collision/filter.py)
         self.excluded_collisions: set[tuple[int, int]] = set()  # (lo, hi) body rows that never touch
+        self.pair_materials: dict[tuple[int, int], Material] = {}  # (lo, hi) body rows: their contacts' material
         # True when a body hangs between two joints with next to no mass (an MJCF body with several
         # joints, tumble.mjcf) or a joint has armature (add_joint): the Simulator then solves joints
         # exactly by default (the tree method)
@@ -525,6 +526,24 @@ class World:
             raise InputError(f"a body cannot be excluded from itself ({self.names[a]!r})", "body_b")
         self.excluded_collisions.add((min(a, b), max(a, b)))
         self.filter_version += 1
+
+    def set_pair_material(self, body_a, body_b, material):
+        """The contacts between ``body_a`` and ``body_b`` (``Body``, name or index) take
+        ``material``'s friction, restitution and condim instead of mixing the two bodies' (MuJoCo's
+        ``<contact><pair>``, Box2D's and PhysX's per-pair contact modification): its friction and
+        restitution as they are, no friction where its condim is 1, no spinning friction below 4
+        and no rolling resistance below 6 (its own rolling and spinning coefficients are not read:
+        the bodies' mix). Its margin is not read (the bodies' margins apply). ``material``: a
+        ``Material`` or a mapping of its keys; None removes the pair's."""
+        a, b = self.index_of(body_a), self.index_of(body_b)
+        if a == b:
+            raise InputError(f"a body has no contacts with itself ({self.names[a]!r})", "body_b")
+        pair = (min(a, b), max(a, b))
+        if material is None:
+            self.pair_materials.pop(pair, None)
+        else:
+            self.pair_materials[pair] = Material.coerce(material)
+        self.filter_version += 1  # the contact solver rereads the pairs
 
     def should_collide(self, body_a, body_b) -> bool:
         """Whether contact between two bodies is allowed: their filters meet, the pair is not

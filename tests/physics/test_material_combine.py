@@ -325,3 +325,76 @@ def test_combining_is_symmetric_and_each_mode_is_its_formula():
         assert out[0] == pytest.approx(float(formulas[mode](a, b)), rel=1e-15, abs=0)
 
     check()
+
+
+def test_a_pair_material_replaces_the_mix_and_survives_a_checkpoint(tmp_path):
+    """``World.set_pair_material``: the contacts of that body pair take its friction (the block
+    slides at 0.05 g where its material and the ground's mix to sqrt(0.8 0.2) g), condim 1 makes
+    them frictionless, None gives the mix back; a body with itself is one line; a checkpoint keeps
+    the pair (the resumed run's bits are the straight run's)."""
+    from tumble.checks import state_hash
+
+    def world(pair):
+        w = tb.World(gravity=(0, 0, -G))
+        ground = w.add_body(tb.Plane(), fixed=True, material=tb.Material(friction=0.2))
+        box = w.add_body(tb.Box((0.4, 0.4, 0.4)), mass=3.0, position=(0, 0, 0.2), velocity=(2, 0, 0),
+                         material=tb.Material(friction=0.8))
+        if pair is not None:
+            w.set_pair_material(box, ground, pair)
+        return w, box
+
+    for pair, mu in ((tb.Material(friction=0.05), 0.05), ({"friction": 0.9, "condim": 1}, 0.0),
+                     (None, math.sqrt(0.8 * 0.2))):
+        w, box = world(pair)
+        traj = tb.Simulator(w, dt=DT).run(0.2, frame_rate=240)
+        t, vx = traj.time, traj.velocity[:, box.index, 0]
+        sliding = t > 0.02
+        np.testing.assert_allclose(vx[sliding], 2.0 - mu * G * t[sliding], rtol=0, atol=1e-4)
+    w, box = world(tb.Material(friction=0.05))
+    w.set_pair_material(0, 1, None)
+    assert not w.pair_materials
+    with pytest.raises(InputError) as err:
+        w.set_pair_material(box, box, tb.Material())
+    assert err.value.key == "body_b" and "\n" not in str(err.value)
+
+    straight = tb.Simulator(world(tb.Material(friction=0.05))[0], dt=DT)
+    straight.step(48)
+    first = tb.Simulator(world(tb.Material(friction=0.05))[0], dt=DT)
+    first.step(24)
+    first.save_checkpoint(tmp_path / "c.npz")
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    assert resumed.world.pair_materials == first.world.pair_materials
+    resumed.step(24)
+    assert state_hash(resumed.world) == state_hash(straight.world)
+
+
+def test_a_scene_file_gives_contact_pairs_and_refuses_bad_ones(tmp_path):
+    """``[[contact_pairs]] bodies = [A, B], material = {...}`` is ``World.set_pair_material``; an
+    unknown body, one body twice or a bad material key is one line naming the key."""
+    from tumble.scene import load_scene
+
+    text = """
+[[bodies]]
+name = "ground"
+shape = { type = "plane" }
+fixed = true
+[[bodies]]
+name = "box"
+shape = { type = "box", size = [0.4, 0.4, 0.4] }
+mass = 3.0
+position = [0, 0, 0.25]
+[[contact_pairs]]
+bodies = ["box", "OTHER"]
+material = { friction = 0.05, MATERIAL }
+"""
+    path = tmp_path / "scene.toml"
+    path.write_text(text.replace("OTHER", "ground").replace("MATERIAL", "condim = 3"))
+    world = load_scene(path).world
+    assert world.pair_materials == {(0, 1): tb.Material(friction=0.05, condim=3)}
+    for other, material, key in (("floor", "condim = 3", "contact_pairs[0].bodies[1]"),
+                                 ("box", "condim = 3", "contact_pairs[0].bodies"),
+                                 ("ground", "condim = 2", "contact_pairs[0].material.condim")):
+        path.write_text(text.replace("OTHER", other).replace("MATERIAL", material))
+        with pytest.raises(InputError) as err:
+            load_scene(path)
+        assert key in str(err.value) and "\n" not in str(err.value)

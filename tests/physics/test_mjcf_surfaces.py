@@ -156,3 +156,60 @@ def test_a_geoms_condim_and_torsional_friction_are_its_bodys(tmp_path, condim, s
     assert mat.condim == condim and mat.spinning_friction == spinning
     floor = world.materials[robot.links["world/floor"].index]
     assert floor.condim == 3 and floor.spinning_friction == 0.0
+
+
+PAIR = """<mujoco><option timestep="0.0005" cone="elliptic"/>
+<worldbody><geom name="floor" type="plane" size="5 5 .1" friction="0.3"/>
+<body name="b" pos="0 0 0.05"><freejoint/>
+<geom name="box" type="box" size="0.2 0.2 0.05" mass="1" friction="0.7" contype="0" conaffinity="0"/></body>
+</worldbody><contact>PAIRS</contact></mujoco>"""
+
+
+@pytest.mark.parametrize("pairs, mu", [('<pair geom1="floor" geom2="box" friction="0.2 0.2"/>', 0.2),
+                                       ('<pair geom1="box" geom2="floor" condim="1"/>', 0.0),
+                                       ('<pair geom1="floor" geom2="box"/>', 1.0),  # MuJoCo's default, not the geoms'
+                                       ("", None)])
+def test_an_explicit_pair_collides_with_its_own_friction_as_in_mujoco(tmp_path, pairs, mu):
+    """``<contact><pair>``: a slab (0.4 x 0.4 x 0.1 m: it does not tip at friction 1) whose geom
+    touches nothing by its masks (contype = conaffinity = 0) slides on the floor through an explicit pair, at the pair's friction (default 1, MuJoCo's),
+    frictionless with the pair's condim 1; without the pair it falls through the floor, in both
+    engines. tumble's deceleration to 1e-4 m/s of Coulomb's; MuJoCo's to 10 % (its soft contacts'
+    friction falls short of Coulomb's: 0.194 g for 0.2, 0.906 g for 1, measured). The pair is
+    ``World.set_pair_material``."""
+    path = tmp_path / "pair.xml"
+    path.write_text(PAIR.replace("PAIRS", pairs))
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.qvel[0] = 2.0
+    mujoco.mj_step(m, d, nstep=int(0.05 / m.opt.timestep))
+    v1 = d.qvel[0]
+    mujoco.mj_step(m, d, nstep=int(0.05 / m.opt.timestep))
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    box = robot.links["b"]
+    box.v = (2.0, 0.0, 0.0)
+    traj = tb.Simulator(world, dt=1 / 240).run(0.1, frame_rate=240)
+    if mu is None:
+        free_fall = 0.05 - 0.5 * G * 0.1 ** 2  # through the floor, in both
+        assert d.qpos[2] == pytest.approx(free_fall, abs=1e-3) and box.x[2] == pytest.approx(free_fall, abs=1e-3)
+        assert not world.pair_materials
+        return
+    assert (v1 - d.qvel[0]) / 0.05 == pytest.approx(mu * G, abs=0.1 * max(mu, 0.2) * G)
+    t, vx = traj.time, traj.velocity[:, box.index, 0]
+    sliding = (t > 0.02) & (vx > 0.05)
+    np.testing.assert_allclose(vx[sliding], 2.0 - mu * G * t[sliding], rtol=0, atol=1e-4)
+    assert abs(box.x[2] - 0.05) < 1e-4
+
+
+@pytest.mark.parametrize("pairs, problem", [
+    ('<pair geom1="floor" geom2="lid"/>', "contact.pair[0].geom2: unknown geom 'lid'"),
+    ('<pair geom1="floor"/>', "contact.pair[0].geom2: missing"),
+    ('<pair name="p" geom1="floor" geom2="box" condim="5"/>', "contact.pair[p].condim: expected 1, 3, 4 or 6"),
+    ('<pair geom1="floor" geom2="box" friction="-1"/>', "contact.pair[0].friction: must be >= 0"),
+])
+def test_bad_pairs_are_one_line(tmp_path, pairs, problem):
+    path = tmp_path / "pair.xml"
+    path.write_text(PAIR.replace("PAIRS", pairs))
+    with pytest.raises(InputError) as err:
+        tb.load_mjcf(tb.World(), path)
+    assert problem in str(err.value) and "\n" not in str(err.value)

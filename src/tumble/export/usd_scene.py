@@ -416,6 +416,8 @@ def build_physics_stage(world, stage) -> None:
         wr.body(i, prim_name)
     for k, joint in enumerate(getattr(world, "joints", ()) or ()):
         wr.joint(k, joint, paths)
+    if world.pair_materials:
+        wr.left_out.add("pair materials (World.set_pair_material)")
     for a, b in sorted(world.excluded_collisions):
         api = UsdPhysics.FilteredPairsAPI.Apply(stage.GetPrimAtPath(paths[a]))
         rel = api.GetFilteredPairsRel() or api.CreateFilteredPairsRel()

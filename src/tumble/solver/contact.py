@@ -171,6 +171,7 @@ class ContactSolver:
         self.old_key = np.zeros(0, dtype=np.int64)
         self.contacts = None
         self._material_bodies = -1
+        self._pair_rows = None  # (rows, condims) of the contacts whose body pair has its own material
         self.rolling_rows = _NO_ROWS  # contacts with rolling and spinning rows this step
         self._surface_written = False  # whether surface_target holds anything but zeros
         self._part_material_key = None  # (table, body count) of the per-shape materials below
@@ -310,6 +311,7 @@ class ContactSolver:
         self._contact_shapes = None
         if table.has_part_materials:
             self._mix_part_materials(world, contacts, table)
+        self._pair_rows = self._apply_pair_materials(world, contacts) if world.pair_materials else None
         self._prepare_surface(world, contacts)
         self._prepare_rolling(contacts, match)
         self.sweep.update(contacts.contact_body_a, contacts.contact_body_b, world.moving, self.x, int(st.partitions),
@@ -329,6 +331,30 @@ class ContactSolver:
         combine_materials_kernel(sa, sb, mat["friction"], mat["restitution"], mat["combine"], self.friction,
                                  self.restitution)
         self._contact_shapes = (sa, sb)
+
+    def _apply_pair_materials(self, world, contacts):
+        """The contacts of body pairs that have a material of their own (``World.set_pair_material``)
+        take its friction (0 where its condim is 1) and restitution. Returns (rows (K,), their
+        pairs' condims (K,)) for ``_prepare_rolling``."""
+        nb = world.body_count
+        key = (world.filter_version, nb)
+        if key != getattr(self, "_pair_key", None):
+            items = sorted(world.pair_materials.items())
+            self._pair_table = (np.array([lo * nb + hi for (lo, hi), _ in items], dtype=np.int64),
+                                np.array([m.friction for _, m in items], dtype=float),
+                                np.array([m.restitution for _, m in items], dtype=float),
+                                np.array([m.combine_codes()[2] for _, m in items], dtype=np.int64))
+            self._pair_key = key
+        keys, friction, restitution, condim = self._pair_table
+        n = self.count
+        a, b = contacts.contact_body_a[:n], contacts.contact_body_b[:n]
+        k = np.minimum(a, b) * nb + np.maximum(a, b)
+        i = np.minimum(np.searchsorted(keys, k), len(keys) - 1)
+        rows = np.flatnonzero(keys[i] == k)
+        which = i[rows]
+        self.friction[rows] = np.where(condim[which] > 1, friction[which], 0.0)
+        self.restitution[rows] = restitution[which]
+        return rows, condim[which]
 
     def _prepare_surface(self, world, contacts):
         """``surface_target`` (C, 2) m/s: t . (R_a s_a - R_b s_b) along the two tangents, s the
@@ -381,6 +407,10 @@ class ContactSolver:
         condim = self._shape_material["combine"][:, 2] if parts else self.body_combine[:, 2]
         ia, ib = (sa[rows], sb[rows]) if parts else (contacts.contact_body_a[rows], contacts.contact_body_b[rows])
         pair = np.maximum(condim[ia], condim[ib])
+        if self._pair_rows is not None and len(self._pair_rows[0]):  # a pair's own condim instead
+            own = np.zeros(n, dtype=np.int64)
+            own[self._pair_rows[0]] = self._pair_rows[1]
+            pair = np.where(own[rows] > 0, own[rows], pair)
         if (pair < 6).any():
             self.rolling_limit[rows[pair < 6], 0] = 0.0
             self.rolling_limit[rows[pair < 4], 1] = 0.0

@@ -142,6 +142,7 @@ def merge_worlds(worlds: list[World]) -> World:
         merged.materials.extend(w.materials)
         merged.collision_filters.extend(w.collision_filters)
         merged.excluded_collisions.update((offset + a, offset + b) for a, b in w.excluded_collisions)
+        merged.pair_materials.update({(offset + a, offset + b): m for (a, b), m in w.pair_materials.items()})
         for rec in w.forces:
             merged.add_force(_moved(rec, w, offset))
         first_joint = len(merged.joints)
