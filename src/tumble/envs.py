@@ -15,7 +15,7 @@ on the other (sim-to-sim transfer), or trained on tumble alone.
   says what the task is: ``observe`` (the observation), ``evaluate`` (reward, terminated, info)
   and, if it resets otherwise, ``draw_start``.
 - ``InvertedPendulum``, ``InvertedDoublePendulum``, ``Reacher``, ``Pusher``, ``Swimmer``,
-  ``HalfCheetah``, ``Hopper`` and ``Walker2d``: Gymnasium's
+  ``HalfCheetah``, ``Hopper``, ``Walker2d`` and ``Ant``: Gymnasium's
   ``...-v5`` tasks on Gymnasium's own model files (read from the installed gymnasium), registered
   as ``tumble/InvertedPendulum-v5`` and so on with Gymnasium's episode limits:
   ``gymnasium.make("tumble/HalfCheetah-v5")`` once ``tumble.envs`` is imported. The runners
