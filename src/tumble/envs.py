@@ -584,10 +584,7 @@ class InvertedDoublePendulum(ModelEnv):
 
     def __init__(self, *, frame_skip: int = 5, healthy_reward: float = 10.0, reset_noise_scale: float = 0.1,
                  **kwargs):
-        if isinstance(healthy_reward, bool) or not isinstance(healthy_reward, (int, float, np.number)) \
-                or not np.isfinite(healthy_reward):
-            raise InputError(f"must be a finite number, got {healthy_reward!r}", "healthy_reward")
-        self.healthy_reward = float(healthy_reward)
+        self.healthy_reward = _weight(healthy_reward, "healthy_reward")
         super().__init__(gymnasium_asset("inverted_double_pendulum.xml"), frame_skip=frame_skip,
                          reset_noise_scale=reset_noise_scale, **kwargs)
         self._tip = self.robot.sites["tip"][:2]  # (link, position in its frame)
@@ -634,11 +631,9 @@ class Pusher(ModelEnv):
 
     def __init__(self, *, frame_skip: int = 5, reward_near_weight: float = 0.5, reward_dist_weight: float = 1.0,
                  reward_control_weight: float = 0.1, **kwargs):
-        for key, value in (("reward_near_weight", reward_near_weight), ("reward_dist_weight", reward_dist_weight),
-                           ("reward_control_weight", reward_control_weight)):
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
-                raise InputError(f"must be a finite number, got {value!r}", key)
-        self.weights = (float(reward_near_weight), float(reward_dist_weight), float(reward_control_weight))
+        self.weights = (_weight(reward_near_weight, "reward_near_weight"),
+                        _weight(reward_dist_weight, "reward_dist_weight"),
+                        _weight(reward_control_weight, "reward_control_weight"))
         super().__init__(gymnasium_asset("pusher_v5.xml"), frame_skip=frame_skip, **kwargs)
 
     def draw_start(self, rng):
@@ -686,11 +681,8 @@ class Swimmer(ModelEnv):
 
     def __init__(self, *, frame_skip: int = 4, forward_reward_weight: float = 1.0, ctrl_cost_weight: float = 1e-4,
                  reset_noise_scale: float = 0.1, exclude_current_positions_from_observation: bool = True, **kwargs):
-        for key, value in (("forward_reward_weight", forward_reward_weight), ("ctrl_cost_weight", ctrl_cost_weight)):
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
-                raise InputError(f"must be a finite number, got {value!r}", key)
-        self.forward_reward_weight = float(forward_reward_weight)
-        self.ctrl_cost_weight = float(ctrl_cost_weight)
+        self.forward_reward_weight = _weight(forward_reward_weight, "forward_reward_weight")
+        self.ctrl_cost_weight = _weight(ctrl_cost_weight, "ctrl_cost_weight")
         self.exclude_current_positions = bool(exclude_current_positions_from_observation)
         self._xy_before = None
         super().__init__(gymnasium_asset("swimmer.xml"), frame_skip=frame_skip, reset_noise_scale=reset_noise_scale,
@@ -738,13 +730,9 @@ class _Runner(ModelEnv):
                  ctrl_cost_weight: float, healthy_reward: float = 1.0, terminate_when_unhealthy: bool = True,
                  healthy_z_range=None, healthy_angle_range=None, healthy_state_range=None,
                  reset_noise_scale: float, exclude_current_positions_from_observation: bool = True, **kwargs):
-        for key, value in (("forward_reward_weight", forward_reward_weight), ("ctrl_cost_weight", ctrl_cost_weight),
-                           ("healthy_reward", healthy_reward)):
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
-                raise InputError(f"must be a finite number, got {value!r}", key)
-        self.forward_reward_weight = float(forward_reward_weight)
-        self.ctrl_cost_weight = float(ctrl_cost_weight)
-        self.healthy_reward = float(healthy_reward)
+        self.forward_reward_weight = _weight(forward_reward_weight, "forward_reward_weight")
+        self.ctrl_cost_weight = _weight(ctrl_cost_weight, "ctrl_cost_weight")
+        self.healthy_reward = _weight(healthy_reward, "healthy_reward")
         self.terminate_when_unhealthy = bool(terminate_when_unhealthy)
         self.healthy_z_range = _range(healthy_z_range, "healthy_z_range")
         self.healthy_angle_range = _range(healthy_angle_range, "healthy_angle_range")
@@ -800,6 +788,14 @@ class _Runner(ModelEnv):
         if self.healthy_z_range is not None:
             info["z_distance_from_origin"] = qpos[:, 1] - self.init_qpos[1]
         return info
+
+
+def _weight(value, key: str) -> float:
+    """A task's weight or reward ``value`` as a float; an InputError at ``key`` unless it is a finite
+    number (a bool is not)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
+        raise InputError(f"must be a finite number, got {value!r}", key)
+    return float(value)
 
 
 def _range(value, key: str):
@@ -884,10 +880,7 @@ class Ant(_Runner):
     def __init__(self, *, frame_skip: int = 5, ctrl_cost_weight: float = 0.5, contact_cost_weight: float = 5e-4,
                  healthy_z_range=(0.2, 1.0), contact_force_range=(-1.0, 1.0), reset_noise_scale: float = 0.1,
                  include_cfrc_ext_in_observation: bool = True, **kwargs):
-        if isinstance(contact_cost_weight, bool) or not isinstance(contact_cost_weight, (int, float, np.number)) \
-                or not np.isfinite(contact_cost_weight):
-            raise InputError(f"must be a finite number, got {contact_cost_weight!r}", "contact_cost_weight")
-        self.contact_cost_weight = float(contact_cost_weight)
+        self.contact_cost_weight = _weight(contact_cost_weight, "contact_cost_weight")
         self.contact_force_range = _range(contact_force_range, "contact_force_range")
         self.include_cfrc_ext = bool(include_cfrc_ext_in_observation)
         super().__init__("ant.xml", frame_skip=frame_skip, ctrl_cost_weight=ctrl_cost_weight,
