@@ -105,6 +105,7 @@ class World:
         self.collision_filters: list[CollisionFilter] = []  # per body (collision/filter.py)
         self.excluded_collisions: set[tuple[int, int]] = set()  # (lo, hi) body rows that never touch
         self.pair_materials: dict[tuple[int, int], Material] = {}  # (lo, hi) body rows: their contacts' material
+        self.pair_material_version = 0  # bumped when they change: the contact solver rereads them
         # True when a body hangs between two joints with next to no mass (an MJCF body with several
         # joints, tumble.mjcf) or a joint has armature (add_joint): the Simulator then solves joints
         # exactly by default (the tree method)
@@ -543,7 +544,7 @@ class World:
             self.pair_materials.pop(pair, None)
         else:
             self.pair_materials[pair] = Material.coerce(material)
-        self.filter_version += 1  # the contact solver rereads the pairs
+        self.pair_material_version += 1
 
     def should_collide(self, body_a, body_b) -> bool:
         """Whether contact between two bodies is allowed: their filters meet, the pair is not

@@ -172,6 +172,7 @@ class ContactSolver:
         self.contacts = None
         self._material_bodies = -1
         self._pair_rows = None  # (rows, condims) of the contacts whose body pair has its own material
+        self._pair_key = None  # (World.pair_material_version, body count) of ``_pair_table``
         self.rolling_rows = _NO_ROWS  # contacts with rolling and spinning rows this step
         self._surface_written = False  # whether surface_target holds anything but zeros
         self._part_material_key = None  # (table, body count) of the per-shape materials below
@@ -337,8 +338,8 @@ class ContactSolver:
         take its friction (0 where its condim is 1) and restitution. Returns (rows (K,), their
         pairs' condims (K,)) for ``_prepare_rolling``."""
         nb = world.body_count
-        key = (world.filter_version, nb)
-        if key != getattr(self, "_pair_key", None):
+        key = (world.pair_material_version, nb)
+        if key != self._pair_key:
             items = sorted(world.pair_materials.items())
             self._pair_table = (np.array([lo * nb + hi for (lo, hi), _ in items], dtype=np.int64),
                                 np.array([m.friction for _, m in items], dtype=float),

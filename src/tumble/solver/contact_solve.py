@@ -117,6 +117,16 @@ def combine_material(value_a, value_b, mode_a, mode_b, default):
     return max(value_a, value_b)
 
 
+@njit(**JIT, inline="always")
+def combine_friction(value_a, value_b, codes_a0, codes_b0, condim_a, condim_b):
+    """A contact's friction: ``combine_material`` of the two bodies' (or parts') by their modes
+    ``codes_a0``, ``codes_b0``, or none where the pair's condim, the larger of ``condim_a`` and
+    ``condim_b``, is 1 (MuJoCo's frictionless contact: ``Material.condim``)."""
+    if max(condim_a, condim_b) <= 1:
+        return 0.0
+    return combine_material(value_a, value_b, codes_a0, codes_b0, FRICTION_DEFAULT_MODE)
+
+
 @njit(**JIT)
 def combine_materials_kernel(index_a, index_b, friction_of, restitution_of, combine_of,
                              # outputs
@@ -128,8 +138,8 @@ def combine_materials_kernel(index_a, index_b, friction_of, restitution_of, comb
     for c in range(index_a.shape[0]):
         a = index_a[c]
         b = index_b[c]
-        friction[c] = combine_material(friction_of[a], friction_of[b], combine_of[a, 0], combine_of[b, 0],
-                                       FRICTION_DEFAULT_MODE) if max(combine_of[a, 2], combine_of[b, 2]) > 1 else 0.0
+        friction[c] = combine_friction(friction_of[a], friction_of[b], combine_of[a, 0], combine_of[b, 0],
+                                       combine_of[a, 2], combine_of[b, 2])
         restitution[c] = combine_material(restitution_of[a], restitution_of[b], combine_of[a, 1], combine_of[b, 1],
                                           RESTITUTION_DEFAULT_MODE)
 
@@ -227,9 +237,8 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
         src = soft_static if not (moving[a] and moving[b]) else soft_dynamic
         soft[c, 0], soft[c, 1], soft[c, 2] = src[0], src[1], src[2]
-        # MuJoCo's condim (Material.condim), the larger of the pair's: 1 is a frictionless contact
-        friction[c] = combine_material(body_friction[a], body_friction[b], body_combine[a, 0], body_combine[b, 0],
-                                       FRICTION_DEFAULT_MODE) if max(body_combine[a, 2], body_combine[b, 2]) > 1 else 0.0
+        friction[c] = combine_friction(body_friction[a], body_friction[b], body_combine[a, 0], body_combine[b, 0],
+                                       body_combine[a, 2], body_combine[b, 2])
         restitution[c] = combine_material(body_restitution[a], body_restitution[b], body_combine[a, 1],
                                           body_combine[b, 1], RESTITUTION_DEFAULT_MODE)
         va0, va1, va2 = _point_velocity(v, omega, a, ra)
