@@ -66,9 +66,9 @@ class Material:
     condim: int | None = None
 
     def __post_init__(self):
-        if self.condim is not None and (isinstance(self.condim, bool) or self.condim not in CONDIMS):
-            raise InputError(f"expected one of 1, 3, 4, 6, got {self.condim!r}", "condim")
         if self.condim is not None:
+            if isinstance(self.condim, bool) or self.condim not in CONDIMS:
+                raise InputError(f"expected one of 1, 3, 4, 6, got {self.condim!r}", "condim")
             object.__setattr__(self, "condim", int(self.condim))
         for key in ("friction_combine", "restitution_combine"):
             mode = getattr(self, key)

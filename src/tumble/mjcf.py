@@ -112,6 +112,7 @@ import numpy as np
 
 from . import checks
 from .errors import InputError
+from .material import CONDIMS, Material
 from .math3d import matrix_to_quat, quat_to_matrix
 from .mjcf_hfield import read_hfields
 from .shapes import Box, Capsule, Convex, Cylinder, Ellipsoid, Plane, Sphere, heightfield
@@ -373,19 +374,15 @@ def _geom(reader: _Reader, a: dict, key: str, meshes: dict):
     friction = float(frictions[0])
     if friction < 0:
         raise InputError(f"must be >= 0, got {friction:g}", f"{key}.friction")
-    condim = int(_floats(a["condim"], f"{key}.condim", (1,))[0]) if "condim" in a else 3
-    if condim not in (1, 3, 4, 6):
-        raise InputError(f"expected 1, 3, 4 or 6, got {a['condim']}", f"{key}.condim")
+    condim = _condim(a, key)
     # the torsional friction (m) with condim 4 or 6: tumble's spinning friction, MuJoCo's the same torque
     # limit (s N); the rolling one (condim 6) is not read: tumble's is per radius (docs/robots.md)
-    spinning = float((list(frictions) + list(DEFAULT_FRICTIONS[len(frictions):]))[1]) if condim >= 4 else 0.0
+    spinning = float(frictions[1] if len(frictions) > 1 else DEFAULT_FRICTIONS[1]) if condim >= 4 else 0.0
     if spinning < 0:
         raise InputError(f"must be >= 0, got {spinning:g}", f"{key}.friction")
     margin = float(_floats(a["margin"], f"{key}.margin", (1,))[0]) if "margin" in a else 0.0
     if not margin >= 0:
         raise InputError(f"must be >= 0, got {margin:g}", f"{key}.margin")
-    from .material import Material
-
     return shape, position, R, collides, Material(friction=friction, margin=margin, friction_combine="max",
                                                   condim=condim, spinning_friction=spinning)
 
@@ -566,12 +563,21 @@ def _read(path: Path) -> MjcfModel:
     return out
 
 
+def _condim(a: dict, key: str) -> int:
+    """A geom's or pair's ``condim`` (MuJoCo's default 3): one of ``material.CONDIMS``, else an
+    InputError at ``key.condim``."""
+    if "condim" not in a:
+        return 3
+    condim = int(_floats(a["condim"], f"{key}.condim", (1,))[0])
+    if condim not in CONDIMS:
+        raise InputError(f"expected 1, 3, 4 or 6, got {a['condim']}", f"{key}.condim")
+    return condim
+
+
 def _pairs(reader: _Reader, root) -> list:
     """``<contact><pair geom1 geom2 friction condim>``: [(key, geom1, geom2, Material)], the pair's
     sliding friction (``friction``'s first number; MuJoCo's default 1, not the geoms') and condim
     (default 3) as a pair material (``World.set_pair_material``)."""
-    from .material import Material
-
     out = []
     for contact in root.findall("contact"):
         for k, p in enumerate(contact.findall("pair")):
@@ -583,10 +589,7 @@ def _pairs(reader: _Reader, root) -> list:
             friction = float(_floats(a["friction"], f"{key}.friction", (1, 2, 3, 4, 5))[0]) if "friction" in a else 1.0
             if not friction >= 0:
                 raise InputError(f"must be >= 0, got {friction:g}", f"{key}.friction")
-            condim = int(_floats(a["condim"], f"{key}.condim", (1,))[0]) if "condim" in a else 3
-            if condim not in (1, 3, 4, 6):
-                raise InputError(f"expected 1, 3, 4 or 6, got {a['condim']}", f"{key}.condim")
-            out.append((key, a["geom1"], a["geom2"], Material(friction=friction, condim=condim)))
+            out.append((key, a["geom1"], a["geom2"], Material(friction=friction, condim=_condim(a, key))))
     return out
 
 
