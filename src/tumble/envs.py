@@ -57,7 +57,7 @@ except ImportError:  # pragma: no cover - the message is the point
 from .errors import InputError
 
 __all__ = ["ModelEnv", "ModelVectorEnv", "InvertedPendulum", "InvertedDoublePendulum", "Reacher", "HalfCheetah",
-           "Hopper", "Walker2d", "Ant", "Pusher", "Swimmer", "gymnasium_asset"]
+           "Hopper", "Walker2d", "Ant", "Humanoid", "HumanoidStandup", "Pusher", "Swimmer", "gymnasium_asset"]
 
 
 def gymnasium_asset(name: str) -> str:
@@ -167,7 +167,9 @@ class _Copies:
         self._fast = self._fast_path(robot, kin)
         self._solver_rows = (None, None)
         self._links = {}  # (link, point): (its body in each copy (n,), the point in the body (3,)), for link_origins
-        self._bodies = None  # (rows of each world body, moving bodies of each copy), for external_forces
+        self._bodies = None  # the file's bodies (``_file_bodies``)
+        self._actuation = None  # (nu, nv) the actuators' efforts on the rates (``actuator_forces``)
+        self._efforts = np.zeros((n, len(self.actuators)))  # (n, nu) N m or N, from the controls last set
         self.fresh = np.ones(n, dtype=bool)  # copies not stepped since put at a start: no constraint forces yet
         self.view = _View(self)
 
@@ -217,14 +219,16 @@ class _Copies:
         """The controls ``u`` (n, nu) of every copy (MuJoCo's ``data.ctrl``), from the next step on."""
         fast = self._fast
         if fast is None:
-            for robot, row in zip(self.robots, u.tolist()):
+            for c, (robot, row) in enumerate(zip(self.robots, u.tolist())):
                 robot.set_controls(self.sim, dict(zip(self.actuators, row)))
+                self._efforts[c] = [robot.actuators[name].drive() for name in self.actuators]
             return
         # mjcf_control.apply_controls's arithmetic: ctrl clipped to its range, gear (gain ctrl + b0)
         # with the force clipped to its range; + 0.0 as its sum starting from 0 (-0.0 becomes 0.0)
         ctrl = np.minimum(np.maximum(u, fast["ctrl_lo"]), fast["ctrl_hi"])
         force = np.minimum(np.maximum(fast["gain"] * ctrl + fast["b0"], fast["force_lo"]), fast["force_hi"])
         effort = fast["gear"] * force + 0.0
+        self._efforts[:] = effort
         column = fast["column"]
         for param, value in zip(fast["records"], effort.ravel().tolist()):
             param[column] = value
@@ -278,39 +282,136 @@ class _Copies:
         out[self.fresh] = 0.0
         return out
 
+    def _file_bodies(self):
+        """The model's bodies as MuJoCo has them (the file's, the world and tumble's virtual links
+        left out), cached: a namespace of ``names`` (B,) in the file's order (MuJoCo's body order,
+        less the world), ``body`` (n, B) each one's tumble body in each copy, ``link_p`` (B, 3) m
+        and ``link_Rl`` (B, 3, 3) its frame in that body's shape frame, ``mass`` (B,) kg,
+        ``center`` (B, 3) m and ``inertia`` (B, 3, 3) kg m^2 its own inertial in its frame (a
+        body welded into its parent keeps its own here: MuJoCo's ``body_mass``, ``body_ipos``),
+        and ``part_row`` / ``part_copy`` / ``part_first`` (each world body's compound parts: part
+        k of world body i is row ``part_row[part_first[i] + k]`` (-1: none) of copy
+        ``part_copy[...]``)."""
+        if self._bodies is not None:
+            return self._bodies
+        from types import SimpleNamespace
+
+        robot, w = self.robots[0], self.world
+        model = robot.model
+        names = [k for k in model.links if k != "world" and k not in robot.virtual_links]
+        kin = self.kinematics[0]
+        at = np.array([kin.index[name] for name in names], dtype=np.int64)
+        links = [model.links[name] for name in names]
+        # each world body's parts, by the links it holds in the file's order (``urdf._add_link_body``)
+        counts = np.zeros(w.body_count, dtype=np.int64)
+        rows = [[] for _ in range(w.body_count)]
+        copies = [[] for _ in range(w.body_count)]
+        for c, r in enumerate(self.robots):
+            for link_name, link in model.links.items():
+                if link_name == "world" or r.owners.get(link_name) is None:
+                    continue
+                i = r.links[link_name].index
+                row = names.index(link_name) if link_name in names else -1
+                rows[i] += [row] * len(link.parts)
+                copies[i] += [c] * len(link.parts)
+        for i in range(w.body_count):
+            counts[i] = max(len(rows[i]), 1)
+            if not rows[i]:
+                rows[i], copies[i] = [-1], [-1]
+        self._bodies = SimpleNamespace(
+            names=names, body=np.array([k.link_body[at] for k in self.kinematics], dtype=np.int64),
+            link_p=kin.link_p[at].copy(), link_Rl=kin.link_Rl[at].copy(),
+            mass=np.array([link.mass for link in links]), center=np.array([link.center for link in links], dtype=float),
+            inertia=np.array([link.inertia for link in links], dtype=float),
+            part_first=np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64),
+            part_row=np.array([x for row in rows for x in row], dtype=np.int64),
+            part_copy=np.array([x for row in copies for x in row], dtype=np.int64))
+        return self._bodies
+
+    def _mass_frames(self):
+        """The file's bodies now (``_file_bodies``): (centres of mass (n, B, 3) m, world; rotations
+        of their frames (n, B, 3, 3); each copy's centre of mass (n, 3) m, MuJoCo's ``subtree_com``
+        of the root: sum m xipos / sum m over the file's bodies)."""
+        f, w = self._file_bodies(), self.world
+        b = f.body
+        Rb = w.R[b]
+        origin = w.x[b] - np.einsum("nbij,nbj->nbi", Rb, w.com_offset[b]) + np.einsum("nbij,bj->nbi", Rb, f.link_p)
+        R = np.einsum("nbij,bjk->nbik", Rb, f.link_Rl)
+        xipos = origin + np.einsum("nbij,bj->nbi", R, f.center)
+        com = np.einsum("b,nbj->nj", f.mass, xipos) / f.mass.sum()
+        return xipos, R, com
+
+    def center_of_mass(self) -> np.ndarray:
+        """(n, 3) m, world: each copy's centre of mass now (MuJoCo's ``subtree_com`` of the root;
+        Gymnasium's ``mass_center``: the file's bodies' masses, not tumble's virtual links')."""
+        return self._mass_frames()[2]
+
+    def com_inertia(self) -> np.ndarray:
+        """(n, B, 10) each copy's MuJoCo ``cinert[1:]`` now: per body of the file, its inertia about
+        the copy's centre of mass in world axes (xx, yy, zz, xy, xz, yz; kg m^2: its own, rotated,
+        plus m (|d|^2 1 - d d^T)), then m d (kg m) and m (kg), d its centre of mass less the
+        copy's (MuJoCo's ``mju_inertCom``)."""
+        f = self._file_bodies()
+        xipos, R, com = self._mass_frames()
+        inertia = np.einsum("nbij,bjk,nblk->nbil", R, f.inertia, R)
+        d = xipos - com[:, None, :]
+        m = f.mass[None, :]
+        dx, dy, dz = d[..., 0], d[..., 1], d[..., 2]
+        return np.stack([inertia[..., 0, 0] + m * (dy * dy + dz * dz), inertia[..., 1, 1] + m * (dx * dx + dz * dz),
+                         inertia[..., 2, 2] + m * (dx * dx + dy * dy), inertia[..., 0, 1] - m * dx * dy,
+                         inertia[..., 0, 2] - m * dx * dz, inertia[..., 1, 2] - m * dy * dz,
+                         m * dx, m * dy, m * dz, np.broadcast_to(m, dx.shape)], axis=-1)
+
+    def com_velocity(self) -> np.ndarray:
+        """(n, B, 6) each copy's MuJoCo ``cvel[1:]`` now: per body of the file, its angular velocity
+        (rad/s) then the velocity (m/s) of its point at the copy's centre of mass, world axes."""
+        f, w = self._file_bodies(), self.world
+        com = self._mass_frames()[2]
+        b = f.body
+        omega = w.omega[b]
+        v = w.v[b] + np.cross(omega, com[:, None, :] - w.x[b])
+        return np.concatenate([omega, v], axis=-1)
+
+    def actuator_forces(self) -> np.ndarray:
+        """(n, nv) each copy's MuJoCo ``qfrc_actuator``: its actuators' forces on its coordinates from
+        the controls last set (a motor's gear (gain ctrl + b0), clipped to its force range; through
+        a fixed tendon, times each joint's coefficient), 0 for a copy not stepped since its start
+        (MuJoCo's reset zeroes ``ctrl``). Models with servos (a force that depends on the state)
+        are refused: an InputError."""
+        if self._actuation is None:
+            kin, robot = self.kinematics[0], self.robots[0]
+            G = np.zeros((len(self.actuators), self.nv))  # the effort of actuator a on rate k
+            for a, name in enumerate(self.actuators):
+                act = robot.actuators[name]
+                if act.stiffness != 0.0 or act.damping != 0.0 or act.given is not None:
+                    raise InputError(f"actuator {name!r} is a servo: its force is not read (motors only)", "model")
+                for joint, coef in (act.tendon or ((act.joint, 1.0),)):
+                    G[a, kin.by_name[joint].qvel] += coef
+            self._actuation = G
+        out = self._efforts @ self._actuation
+        out[self.fresh] = 0.0
+        return out
+
     def external_forces(self) -> np.ndarray:
         """(n, B, 6) each copy's MuJoCo ``cfrc_ext[1:]`` after the last step: per body of the file (B,
         in the file's order, the world left out), the contacts' forces on it over the step (N) and
         their torque (N m) about the copy's centre of mass (MuJoCo's ``subtree_com`` of the root),
-        torque first, world axes. A body welded into its parent (MuJoCo's body, tumble's part of
-        one) has its contacts counted on the first body of the file that tumble's body holds."""
-        if self._bodies is None:
-            robot, w = self.robots[0], self.world
-            names = [k for k in robot.model.links if k != "world" and k not in robot.virtual_links]
-            row_of_body = -np.ones(w.body_count, dtype=np.int64)  # -1: not a copy's body
-            copy_of_body = -np.ones(w.body_count, dtype=np.int64)
-            for c, r in enumerate(self.robots):
-                for k, name in enumerate(names):
-                    i = r.links[name].index
-                    if row_of_body[i] < 0:
-                        row_of_body[i], copy_of_body[i] = k, c
-            moving = np.array([sorted({link.index for link in r.links.values() if w.inv_mass[link.index] > 0.0})
-                               for r in self.robots], dtype=np.int64)
-            self._bodies = (row_of_body, copy_of_body, moving, len(names))
-        row_of_body, copy_of_body, moving, B = self._bodies
+        torque first, world axes. A body welded into its parent (MuJoCo's body, a part of tumble's)
+        has its own contacts: those of its geoms' parts (``Contacts.part_a``, ``part_b``)."""
+        f = self._file_bodies()
+        n, B = len(self.robots), len(f.names)
         if self.fresh.all():
-            return np.zeros((len(self.robots), B, 6))
-        w = self.world
-        m = w.mass[moving]  # (n, k)
-        com = np.einsum("nk,nkj->nj", m, w.x[moving]) / m.sum(axis=1)[:, None]
-        out = np.zeros((len(self.robots), B, 6))
+            return np.zeros((n, B, 6))
+        com = self._mass_frames()[2]
+        out = np.zeros((n, B, 6))
         c = self.sim.contacts()
-        for body, sign in ((c.body_a, -1.0), (c.body_b, 1.0)):
-            row = row_of_body[body]
+        for body, part, sign in ((c.body_a, c.part_a, -1.0), (c.body_b, c.part_b, 1.0)):
+            at = f.part_first[body] + part
+            row, copy = f.part_row[at], f.part_copy[at]
             ok = row >= 0
-            copy = copy_of_body[body[ok]]
-            f = sign * c.force[ok]
-            np.add.at(out, (copy, row[ok]), np.concatenate([np.cross(c.point[ok] - com[copy], f), f], axis=1))
+            copy = copy[ok]
+            force = sign * c.force[ok]
+            np.add.at(out, (copy, row[ok]), np.concatenate([np.cross(c.point[ok] - com[copy], force), force], axis=1))
         out[self.fresh] = 0.0  # a copy just reset has had no step (MuJoCo's reset zeroes cfrc_ext)
         return out
 
@@ -333,8 +434,10 @@ class _View:
     """What a task's ``observe`` may read of the copies besides qpos and qvel (its ``links``
     argument): ``links(name, point=None)`` (n, 3) m, the origin of a link's frame (or a point in
     it: a site) in each copy now; ``links.limit_force(joint)`` (n,) the force of a joint's limits
-    (``_Copies.limit_force``); ``links.external_forces()`` (n, B, 6) MuJoCo's ``cfrc_ext[1:]``
-    (``_Copies.external_forces``)."""
+    (``_Copies.limit_force``); ``links.external_forces()`` (n, B, 6) MuJoCo's ``cfrc_ext[1:]``;
+    ``links.center_of_mass()`` (n, 3) its ``subtree_com`` of the root, ``links.com_inertia()`` (n,
+    B, 10) its ``cinert[1:]``, ``links.com_velocity()`` (n, B, 6) its ``cvel[1:]``,
+    ``links.actuator_forces()`` (n, nv) its ``qfrc_actuator`` (``_Copies``' methods of those names)."""
 
     def __init__(self, copies):
         self._copies = copies
@@ -347,6 +450,18 @@ class _View:
 
     def external_forces(self) -> np.ndarray:
         return self._copies.external_forces()
+
+    def center_of_mass(self) -> np.ndarray:
+        return self._copies.center_of_mass()
+
+    def com_inertia(self) -> np.ndarray:
+        return self._copies.com_inertia()
+
+    def com_velocity(self) -> np.ndarray:
+        return self._copies.com_velocity()
+
+    def actuator_forces(self) -> np.ndarray:
+        return self._copies.actuator_forces()
 
 
 def _touches_itself(world) -> bool:
@@ -454,10 +569,11 @@ class ModelEnv(gymnasium.Env):
         n = len(observation)
         return np.zeros(n), np.zeros(n, dtype=bool), {}
 
-    def remember(self, qpos: np.ndarray, qvel: np.ndarray):
-        """Called with the copies' ``qpos`` (n, nq) and ``qvel`` (n, nv) before each step, for a task
-        whose reward compares the step's start with its end (a runner's forward speed, as
-        Gymnasium's locomotion tasks measure it: the root's x moved over ``dt``): nothing here."""
+    def remember(self, qpos: np.ndarray, qvel: np.ndarray, links=None):
+        """Called with the copies' ``qpos`` (n, nq) and ``qvel`` (n, nv) (and ``links``, as
+        ``observe``'s) before each step, for a task whose reward compares the step's start with its
+        end (a runner's forward speed, as Gymnasium's locomotion tasks measure it: the root's x
+        moved over ``dt``): nothing here."""
 
     def reset_info(self, qpos: np.ndarray, qvel: np.ndarray) -> dict:
         """The info {key: (n,)} that ``reset`` returns for copies starting at ``qpos`` (n, nq),
@@ -471,7 +587,7 @@ class ModelEnv(gymnasium.Env):
         super().reset(seed=seed)
         qpos, qvel = self.draw_start(self.np_random)
         self._copies.set_states([0], qpos[None], qvel[None])
-        info = {k: v[0].item() for k, v in self.reset_info(qpos[None], qvel[None]).items()}
+        info = {k: _one(v) for k, v in self.reset_info(qpos[None], qvel[None]).items()}
         return self.observe(qpos[None], qvel[None], self._copies.view)[0], info
 
     def set_state(self, qpos, qvel):
@@ -483,12 +599,12 @@ class ModelEnv(gymnasium.Env):
         terminated, truncated (always False: a ``TimeLimit`` wrapper truncates), info)."""
         u = _check_actions(np.asarray(action)[None], 1, len(self.actuators))
         self._copies.set_controls(u)
-        self.remember(*self._copies.state())
+        self.remember(*self._copies.state(), self._copies.view)
         self.sim.step(self.frame_skip)
         self._copies.fresh[:] = False
         obs = self.observe(*self._copies.state(), self._copies.view)
         reward, terminated, info = self.evaluate(obs, u)
-        return obs[0], reward[0].item(), bool(terminated[0]), False, {k: v[0].item() for k, v in info.items()}
+        return obs[0], reward[0].item(), bool(terminated[0]), False, {k: _one(v) for k, v in info.items()}
 
     def render(self):
         """A (H, W, 3) uint8 image of the present state from ``camera`` (``render_mode="rgb_array"``),
@@ -496,6 +612,13 @@ class ModelEnv(gymnasium.Env):
         if self.render_mode != "rgb_array":
             return None
         return self.camera.capture(self.world).rgb
+
+
+def _one(value):
+    """The first copy's entry of an info value (n,) or (n, k): a Python number, or a (k,) array
+    (Gymnasium's humanoid's tendon lengths)."""
+    value = np.asarray(value)
+    return value[0].item() if value.ndim == 1 else value[0].copy()
 
 
 def _spaces(env):
@@ -693,7 +816,7 @@ class Swimmer(ModelEnv):
         position = qpos[:, 2:] if self.exclude_current_positions else qpos
         return np.concatenate([position, qvel], axis=1)
 
-    def remember(self, qpos, qvel):
+    def remember(self, qpos, qvel, links=None):
         self._xy_before = qpos[:, :2].copy()
 
     def evaluate(self, observation, action):
@@ -756,7 +879,7 @@ class _Runner(ModelEnv):
         velocity = qvel if self.velocity_clip is None else np.clip(qvel, -self.velocity_clip, self.velocity_clip)
         return np.concatenate([position, velocity], axis=1)
 
-    def remember(self, qpos, qvel):
+    def remember(self, qpos, qvel, links=None):
         self._x_before = qpos[:, 0].copy()
 
     def healthy(self, qpos, qvel) -> np.ndarray:
@@ -896,7 +1019,7 @@ class Ant(_Runner):
         parts = [position, qvel] + ([self._forces] if self.include_cfrc_ext else [])
         return np.concatenate(parts, axis=1)
 
-    def remember(self, qpos, qvel):
+    def remember(self, qpos, qvel, links=None):
         self._xy_before = qpos[:, :2].copy()
 
     def healthy(self, qpos, qvel):
@@ -922,6 +1045,140 @@ class Ant(_Runner):
     def reset_info(self, qpos, qvel):
         return {"x_position": qpos[:, 0].copy(), "y_position": qpos[:, 1].copy(),
                 "distance_from_origin": np.linalg.norm(qpos[:, :2], axis=1)}
+
+
+class _Humanoid(_Runner):
+    """Gymnasium's humanoids (``Humanoid-v5``, ``HumanoidStandup-v5``): a torso on a free joint,
+    17 motors on hinges (abdomen, hips, knees, shoulders, elbows) with springs, dampers and
+    armature, 13 bodies; timestep 0.003 s, ``frame_skip`` 5; reset noise 0.01 (uniform, qpos and
+    qvel). Observation (348,): qpos without x and y (22), qvel (23), then MuJoCo's derived
+    quantities of the present state, each leaving out the world: ``cinert[1:]`` (13 x 10: each
+    body's inertia about the humanoid's centre of mass, its m d and m; ``_Copies.com_inertia``),
+    ``cvel[1:]`` (13 x 6: angular velocity, then the velocity of its point at the centre of mass;
+    ``com_velocity``), ``qfrc_actuator[6:]`` (17: the motors' torques, gear x the clipped control;
+    ``actuator_forces``) and ``cfrc_ext[1:]`` (13 x 6: its contacts' torque about the centre of
+    mass and force; ``external_forces``); ``include_cinert_in_observation`` and its three
+    siblings leave each out. Gymnasium reads these after ``mj_step``, which computed them before
+    its last integration (of the state up to a step before the qpos beside them: measured 0.06
+    rad/s on cvel); tumble's are the observed state's own. ``info`` adds the fixed tendons'
+    ``tendon_length`` and ``tendon_velocity`` ((2,) each: the hips' and knees' couplings, which
+    drive nothing). The file's geom margins (0.001 m) are read, as MuJoCo rests on them."""
+
+    margins = True
+
+    def __init__(self, asset: str, *, include_cinert_in_observation: bool = True,
+                 include_cvel_in_observation: bool = True, include_qfrc_actuator_in_observation: bool = True,
+                 include_cfrc_ext_in_observation: bool = True, **kwargs):
+        self.include = tuple(bool(v) for v in (include_cinert_in_observation, include_cvel_in_observation,
+                                                include_qfrc_actuator_in_observation,
+                                                include_cfrc_ext_in_observation))
+        super().__init__(asset, **kwargs)
+        kin = self.robot.kinematics
+        self._tendons = (np.zeros((len(self.robot.tendons), kin.nq)), np.zeros((len(self.robot.tendons), kin.nv)))
+        for t, terms in enumerate(self.robot.tendons.values()):
+            for joint, coef in terms:  # MuJoCo's fixed tendon: length sum coef q, velocity sum coef q'
+                self._tendons[0][t, kin.by_name[joint].qpos.start] += coef
+                self._tendons[1][t, kin.by_name[joint].qvel.start] += coef
+
+    def observe(self, qpos, qvel, links=None):
+        if links is None:
+            raise InputError("the humanoid's observation reads the copies' bodies: pass the env's links view", "links")
+        self._state = (qpos, qvel)
+        n = len(qpos)
+        self._forces = links.external_forces().reshape(n, -1)
+        self._com = links.center_of_mass()
+        position = qpos[:, 2:] if self.exclude_current_positions else qpos
+        parts = [position, qvel]
+        for wanted, read in zip(self.include, (lambda: links.com_inertia().reshape(n, -1),
+                                               lambda: links.com_velocity().reshape(n, -1),
+                                               lambda: links.actuator_forces()[:, 6:], lambda: self._forces)):
+            if wanted:
+                parts.append(read())
+        return np.concatenate(parts, axis=1)
+
+    def tendon_info(self, qpos, qvel) -> dict:
+        """{"tendon_length": (n, T) m or rad, "tendon_velocity": (n, T)}: the fixed tendons (MuJoCo's
+        ``ten_length``, ``ten_velocity``) of copies at ``qpos``, ``qvel``."""
+        return {"tendon_length": qpos @ self._tendons[0].T, "tendon_velocity": qvel @ self._tendons[1].T}
+
+    def healthy(self, qpos, qvel):
+        low, high = self.healthy_z_range
+        return (low < qpos[:, 2]) & (qpos[:, 2] < high)
+
+    def reset_info(self, qpos, qvel):
+        return {"x_position": qpos[:, 0].copy(), "y_position": qpos[:, 1].copy(), **self.tendon_info(qpos, qvel)}
+
+
+class Humanoid(_Humanoid):
+    """Gymnasium's ``Humanoid-v5`` stepped by tumble, on its ``humanoid.xml`` (``_Humanoid`` says the
+    model and the observation): walk forward. Reward: 1.25 x the speed along x of the centre of
+    mass over the step (Gymnasium's ``mass_center``: the file's bodies' masses) + 5 while healthy -
+    0.1 |action|^2 - min(5e-7 |cfrc_ext|^2, 10); healthy while 1 < z < 2 m (the torso's),
+    terminated when not. ``info``: v5's keys."""
+
+    def __init__(self, *, frame_skip: int = 5, forward_reward_weight: float = 1.25, ctrl_cost_weight: float = 0.1,
+                 contact_cost_weight: float = 5e-7, contact_cost_range=(-np.inf, 10.0), healthy_reward: float = 5.0,
+                 terminate_when_unhealthy: bool = True, healthy_z_range=(1.0, 2.0), reset_noise_scale: float = 1e-2,
+                 **kwargs):
+        self.contact_cost_weight = _weight(contact_cost_weight, "contact_cost_weight")
+        self.contact_cost_range = _range(contact_cost_range, "contact_cost_range")
+        super().__init__("humanoid.xml", frame_skip=frame_skip, forward_reward_weight=forward_reward_weight,
+                         ctrl_cost_weight=ctrl_cost_weight, healthy_reward=healthy_reward,
+                         terminate_when_unhealthy=terminate_when_unhealthy, healthy_z_range=healthy_z_range,
+                         reset_noise_scale=reset_noise_scale, **kwargs)
+
+    def remember(self, qpos, qvel, links=None):
+        self._xy_before = links.center_of_mass()[:, :2].copy()
+
+    def evaluate(self, observation, action):
+        qpos, qvel = self._state
+        xy_velocity = (self._com[:, :2] - self._xy_before) / self.dt
+        forward = self.forward_reward_weight * xy_velocity[:, 0]
+        healthy = self.healthy(qpos, qvel)
+        survive = healthy * self.healthy_reward
+        ctrl = self.ctrl_cost_weight * np.square(action).sum(axis=1)
+        contact = np.clip(self.contact_cost_weight * np.square(self._forces).sum(axis=1), *self.contact_cost_range)
+        info = {"x_position": qpos[:, 0].copy(), "y_position": qpos[:, 1].copy(), **self.tendon_info(qpos, qvel),
+                "distance_from_origin": np.linalg.norm(qpos[:, :2], axis=1), "x_velocity": xy_velocity[:, 0],
+                "y_velocity": xy_velocity[:, 1], "reward_survive": survive, "reward_forward": forward,
+                "reward_ctrl": -ctrl, "reward_contact": -contact}
+        terminated = ~healthy if self.terminate_when_unhealthy else np.zeros(len(qpos), dtype=bool)
+        return forward + survive - ctrl - contact, terminated, info
+
+    def reset_info(self, qpos, qvel):
+        return {**super().reset_info(qpos, qvel), "distance_from_origin": np.linalg.norm(qpos[:, :2], axis=1)}
+
+
+class HumanoidStandup(_Humanoid):
+    """Gymnasium's ``HumanoidStandup-v5`` stepped by tumble, on its ``humanoidstandup.xml`` (the
+    humanoid lying on its back, torso at z = 0.105 m; ``_Humanoid`` says the model and the
+    observation): stand up. Reward: ``uph_cost_weight`` x the torso's z over the simulator's
+    timestep (z / 0.003 s: how high, not how fast it rose) - 0.1 |action|^2 - min(0.5e-6
+    |cfrc_ext|^2, 10) + 1; never terminated. (Gymnasium 1.4's code leaves ``uph_cost_weight`` out
+    of its sum while its documentation multiplies by it; with the default 1 the two agree.)
+    ``info``: v5's keys."""
+
+    def __init__(self, *, frame_skip: int = 5, uph_cost_weight: float = 1.0, ctrl_cost_weight: float = 0.1,
+                 impact_cost_weight: float = 0.5e-6, impact_cost_range=(-np.inf, 10.0),
+                 reset_noise_scale: float = 1e-2, **kwargs):
+        self.uph_cost_weight = _weight(uph_cost_weight, "uph_cost_weight")
+        self.impact_cost_weight = _weight(impact_cost_weight, "impact_cost_weight")
+        self.impact_cost_range = _range(impact_cost_range, "impact_cost_range")
+        super().__init__("humanoidstandup.xml", frame_skip=frame_skip, ctrl_cost_weight=ctrl_cost_weight,
+                         reset_noise_scale=reset_noise_scale, **kwargs)
+
+    def evaluate(self, observation, action):
+        qpos, qvel = self._state
+        up = self.uph_cost_weight * qpos[:, 2] / self.timestep
+        ctrl = self.ctrl_cost_weight * np.square(action).sum(axis=1)
+        impact = np.clip(self.impact_cost_weight * np.square(self._forces).sum(axis=1), *self.impact_cost_range)
+        info = {"x_position": qpos[:, 0].copy(), "y_position": qpos[:, 1].copy(),
+                "z_distance_from_origin": qpos[:, 2] - self.init_qpos[2], **self.tendon_info(qpos, qvel),
+                "reward_linup": up, "reward_quadctrl": -ctrl, "reward_impact": -impact}
+        return up - ctrl - impact + 1.0, np.zeros(len(qpos), dtype=bool), info
+
+    def reset_info(self, qpos, qvel):
+        return {**super().reset_info(qpos, qvel), "z_distance_from_origin": qpos[:, 2] - self.init_qpos[2]}
 
 
 class ModelVectorEnv(VectorEnv):
@@ -1024,7 +1281,7 @@ class ModelVectorEnv(VectorEnv):
         u = _check_actions(actions, n, len(self.template.actuators))
         restart = np.flatnonzero(self._ended)
         self._copies.set_controls(u)
-        self.template.remember(*self._copies.state())
+        self.template.remember(*self._copies.state(), self._copies.view)
         self.sim.step(self.frame_skip)
         self._copies.fresh[:] = False
         # the copies to restart moved with the others (one world); their start is put back now
@@ -1054,7 +1311,7 @@ class ModelVectorEnv(VectorEnv):
 # the ids tumble adds, with Gymnasium's episode limits and reward thresholds for its own v5 tasks
 TASKS = (("InvertedPendulum", 1000, 950.0), ("Reacher", 50, -3.75), ("InvertedDoublePendulum", 1000, 9100.0),
          ("Pusher", 100, 0.0), ("Swimmer", 1000, 360.0), ("HalfCheetah", 1000, 4800.0), ("Hopper", 1000, 3800.0),
-         ("Walker2d", 1000, None), ("Ant", 1000, 6000.0))
+         ("Walker2d", 1000, None), ("Ant", 1000, 6000.0), ("Humanoid", 1000, None), ("HumanoidStandup", 1000, None))
 
 
 def _register():

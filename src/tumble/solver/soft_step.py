@@ -40,6 +40,7 @@ import numba
 import numpy as np
 from numba import njit
 
+from ..collision.manifold import KEY_BITS
 from ..collision.pipeline import CollisionPipeline
 from ..body_motion import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
 from ..integrators import accumulate_forces_kernel
@@ -359,6 +360,10 @@ class Contacts:
         normal_impulse: (C,) N s on b along the normal over the whole step (a gets the opposite).
         friction_impulse: (C, 3) N s on b, tangential, over the whole step.
         force: (C, 3) N, the mean force on b over the step: (normal + friction impulse) / dt.
+        part_a, part_b: (C,) int64, which part of each body's shape touches: its index in the
+            body's ``Compound`` (nested compounds flattened, in order), 0 for a shape of one part
+            (PyBullet's ``linkIndexA``, MuJoCo's geom of a body: an MJCF or URDF body made of
+            several links' or geoms' shapes tells them apart by it).
     """
 
     body_a: np.ndarray
@@ -371,6 +376,8 @@ class Contacts:
     normal_impulse: np.ndarray
     friction_impulse: np.ndarray
     force: np.ndarray
+    part_a: np.ndarray = None
+    part_b: np.ndarray = None
 
     def __len__(self):
         return len(self.body_a)
@@ -624,16 +631,25 @@ class SoftStep:
         if c is None or c.contact_count == 0:
             z = np.zeros(0, dtype=np.int64)
             return Contacts(z, z, names[z], names[z], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-                            np.zeros((0, 3)), np.zeros((0, 3)))
+                            np.zeros((0, 3)), np.zeros((0, 3)), z, z)
         sol = self.solver
         normal = c.contact_normal.copy()
         jn = sol.step_normal_impulse.copy()
         jt = sol.step_tangent_impulse
         friction = jt[:, 0:1] * sol.tangent1 + jt[:, 1:2] * sol.tangent2
         dt = self.dt if self.dt > 0 else 1.0
+        # the shapes from the contact's key ((shape_a << 42) | (shape_b << 21) | feature), each
+        # less its body's first row of the shape table (rows in body order, one per part)
+        shape_body = self.pipeline.table.shape_body
+        mask = (1 << KEY_BITS) - 1
+        parts = []
+        for shape, body in (((c.contact_key >> (2 * KEY_BITS)) & mask, c.contact_body_a),
+                            ((c.contact_key >> KEY_BITS) & mask, c.contact_body_b)):
+            parts.append(shape - np.searchsorted(shape_body, body))
         return Contacts(
             body_a=c.contact_body_a.copy(), body_b=c.contact_body_b.copy(),
             names_a=names[c.contact_body_a], names_b=names[c.contact_body_b],
             point=c.contact_point.copy(), normal=normal, separation=c.contact_separation.copy(),
             normal_impulse=jn, friction_impulse=friction, force=(jn[:, None] * normal + friction) / dt,
+            part_a=parts[0], part_b=parts[1],
         )
