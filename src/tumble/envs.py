@@ -1074,11 +1074,10 @@ class _Humanoid(_Runner):
                                                 include_cfrc_ext_in_observation))
         super().__init__(asset, **kwargs)
         kin = self.robot.kinematics
-        self._tendons = (np.zeros((len(self.robot.tendons), kin.nq)), np.zeros((len(self.robot.tendons), kin.nv)))
-        for t, terms in enumerate(self.robot.tendons.values()):
-            for joint, coef in terms:  # MuJoCo's fixed tendon: length sum coef q, velocity sum coef q'
-                self._tendons[0][t, kin.by_name[joint].qpos.start] += coef
-                self._tendons[1][t, kin.by_name[joint].qvel.start] += coef
+        # MuJoCo's fixed tendons: length sum coef q, velocity sum coef q' (term by term, in the file's
+        # order: a matrix product's bits would depend on how many copies are stacked)
+        self._tendons = [[(kin.by_name[joint].qpos.start, kin.by_name[joint].qvel.start, float(coef))
+                          for joint, coef in terms] for terms in self.robot.tendons.values()]
 
     def observe(self, qpos, qvel, links=None):
         if links is None:
@@ -1099,7 +1098,13 @@ class _Humanoid(_Runner):
     def tendon_info(self, qpos, qvel) -> dict:
         """{"tendon_length": (n, T) m or rad, "tendon_velocity": (n, T)}: the fixed tendons (MuJoCo's
         ``ten_length``, ``ten_velocity``) of copies at ``qpos``, ``qvel``."""
-        return {"tendon_length": qpos @ self._tendons[0].T, "tendon_velocity": qvel @ self._tendons[1].T}
+        n = len(qpos)
+        length, velocity = np.zeros((n, len(self._tendons))), np.zeros((n, len(self._tendons)))
+        for t, terms in enumerate(self._tendons):
+            for q, v, coef in terms:
+                length[:, t] += coef * qpos[:, q]
+                velocity[:, t] += coef * qvel[:, v]
+        return {"tendon_length": length, "tendon_velocity": velocity}
 
     def healthy(self, qpos, qvel):
         low, high = self.healthy_z_range

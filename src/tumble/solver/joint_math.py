@@ -265,8 +265,12 @@ def _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, last_p
         xb = _axis(R, b, frame_b, j, 0)
         yb = _axis(R, b, frame_b, j, 1)
         angle = math.atan2(_dot(ya, xb) - _dot(xa, yb), _dot(xa, xb) + _dot(ya, yb))
+        # the nearest turn of the angle to the last reading, as the angle plus whole turns: the
+        # principal angle itself where no turn is crossed, whatever the reading (base + wrap(angle -
+        # base) rounded by the reading: an episode after a reset, whose readings are its start's
+        # qpos, parted from a fresh world's (readings 0) at 1e-15 rad/s in the first step)
         base = last_position[j]
-        return True, False, za, ra, rb, base + _wrap(angle - base)
+        return True, False, za, ra, rb, angle - 2.0 * math.pi * math.floor((angle - base + math.pi) / (2.0 * math.pi))
     if t == JOINT_SLIDER:
         return True, True, za, _add(ra, d), rb, _dot(d, za)
     if t == JOINT_DISTANCE:
