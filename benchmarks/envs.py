@@ -77,8 +77,8 @@ def main():
     ap.add_argument("--reacher-sizes", type=int, nargs="+", default=[1, 256])
     ap.add_argument("--runner-sizes", type=int, nargs="+", default=[1, 64, 256])
     ap.add_argument("--sections", nargs="+", default=["pendulum", "reacher", "double", "pusher", "swimmer", "runners",
-                                                      "ant"],
-                    choices=["pendulum", "reacher", "double", "pusher", "swimmer", "runners", "ant"])
+                                                      "ant", "humanoid"],
+                    choices=["pendulum", "reacher", "double", "pusher", "swimmer", "runners", "ant", "humanoid"])
     args = ap.parse_args()
     rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     import mujoco
@@ -101,6 +101,9 @@ def main():
             random_task(args, task, nu, args.runner_sizes)
     if "ant" in args.sections:  # Ant-v5: four legs on the floor, its observation's contact forces
         random_task(args, "Ant", 8, args.runner_sizes)
+    if "humanoid" in args.sections:  # 17 motors within +-0.4; the walker falls (episodes end), the standup lies
+        for task in ("Humanoid", "HumanoidStandup"):
+            random_task(args, task, 17, args.runner_sizes, limit=0.4)
 
 
 def pendulum(args, gym, te):
@@ -137,20 +140,21 @@ def pendulum(args, gym, te):
 
 
 
-def random_task(args, task: str, nu: int, sizes):
+def random_task(args, task: str, nu: int, sizes, limit: float = 1.0):
     """Gymnasium's ``TASK-v5`` and tumble's ``tumble/TASK-v5`` with uniform random controls in [-1, 1]
     (``nu`` of them): single environments (size 1) and vector environments side by side. The
     reacher (two links with armature: tumble's tree solve) is truncated at 50 steps, the pusher
     (seven joints with armature, an object on the table) at 100, the swimmer (in MuJoCo's fluid,
     tumble.Fluid) at 1000; the runners
     (contacts with the floor in every step; each vector copy in an env of its own) at 1000, the
-    hopper and walker terminated when they fall."""
+    hopper and walker terminated when they fall; the humanoids' controls within +-``limit``
+    (their range, 0.4): the walking humanoid terminated when it falls (z < 1 m), the standup never."""
     import gymnasium as gym
 
     import tumble.envs  # noqa: F401
 
     def controls(obs, rng):
-        return rng.uniform(-1.0, 1.0, size=obs.shape[:-1] + (nu,)).astype(np.float32)
+        return rng.uniform(-limit, limit, size=obs.shape[:-1] + (nu,)).astype(np.float32)
 
     print()
     print(f"| {task}-v5, random controls | copies | us per step | us per environment step | environment steps/s | "

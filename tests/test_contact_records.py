@@ -44,6 +44,38 @@ def test_query_names_points_and_forces_of_the_last_step():
     assert tb.Simulator(tb.World()).contacts().point.shape == (0, 3)
 
 
+def test_query_names_the_part_of_a_compound_that_touches():
+    """``part_a``/``part_b``: which part of a body's ``Compound`` each contact is on (PyBullet's
+    link index, MuJoCo's geom). A dumbbell of a ball (part 0) and a cube (part 1) lies on the
+    ground with a block on its cube: the ground's contacts with the ball are on part 0 (one
+    point, under the ball's centre), those with the cube on part 1 (four, under the cube), the
+    block's on part 1 from above; a shape of one part and the plane report 0. The ground
+    carries the whole weight (to 1e-6, settled), the ball's share found through its part."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.sleeping = False
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+    dumbbell = tb.Compound([(tb.Sphere(radius=0.1), (-0.5, 0, 0), (1, 0, 0, 0)),
+                            (tb.Box(size=(0.2, 0.2, 0.2)), (0.5, 0, 0), (1, 0, 0, 0))])
+    w.add_body(dumbbell, mass=2.0, position=(0, 0, 0.1), name="dumbbell")
+    w.add_body(tb.Box(size=(0.1, 0.1, 0.1)), mass=0.5, position=(0.5, 0, 0.25), name="block")
+    sim = tb.Simulator(w)
+    sim.step(240)
+    c = sim.contacts()
+    on_ground = c.names_a == "ground"
+    assert np.all(c.part_a[on_ground] == 0)
+    ball = on_ground & (c.part_b == 0)
+    cube = on_ground & (c.part_b == 1)
+    assert ball.sum() == 1 and cube.sum() == 4 and on_ground.sum() == 5
+    assert np.all(c.names_b[on_ground] == "dumbbell")
+    assert np.allclose(c.point[ball, :2], [-0.5, 0.0], atol=1e-3) and np.all(np.abs(c.point[cube, 0] - 0.5) < 0.11)
+    block = ~on_ground
+    assert block.sum() == 4
+    pairs = {(a, pa, b, pb) for a, pa, b, pb in zip(c.names_a[block], c.part_a[block], c.names_b[block], c.part_b[block])}
+    assert pairs in ({("dumbbell", 1, "block", 0)}, {("block", 0, "dumbbell", 1)})
+    assert c.force[on_ground, 2].sum() == pytest.approx(2.5 * 9.81, rel=1e-6)
+    assert 0.0 < c.force[ball, 2].sum() < c.force[cube, 2].sum()  # the block rests on the cube's end
+
+
 def test_recorded_contacts_are_the_query_of_each_frame(tmp_path):
     """record_contacts=True: frame k of the trajectory holds the contacts sim.contacts() gave after
     the steps of frame k, padded to the largest count; it survives save and load."""
