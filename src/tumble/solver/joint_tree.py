@@ -528,7 +528,9 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
     rebounds at -0.004 rad/s; a 0.1 % tolerance costs 3.0 ms for 0.003 rad/s). Worlds whose
     limits are idle keep their bits. ``before`` (J, L) scratch; soft (3,) as
     ``solve_joints_kernel``'s, its bias rate the tree solve's. ``factor`` (int64): 1 to factor the
-    tree at the current poses, 0 to solve on the factors (and gear masses) the last call made,
+    tree at the current poses (2: and make the velocities consistent with the tree before the first
+    Gauss-Seidel rows: the biased solve of a substep with armature, whose velocities are each
+    body's own after the substep's forces), 0 to solve on the factors (and gear masses) the last call made,
     when nothing they depend on (poses, masses, inertias, parameters) has changed since: the same
     numbers, so the same bits (the soft step's last relax solve of a substep with armature), and
     then with no limit re-sweeps (that last call has just converged them).
@@ -607,6 +609,25 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             tree_gear_masses(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
                              local_b, frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow,
                              Dinv, H_up, W, y, sol, work, node_skip)
+            # the velocities made consistent with the tree before the first Gauss-Seidel rows read
+            # them: after the forces of a substep they are each body's own, and a light body between
+            # two joints of one MuJoCo body (a virtual link, 1e-3 of the body) spins at hundreds of
+            # rad/s under a motor's torque until the tree solve shares it out. A limit row that read
+            # that rate judged its joint about to strike a limit 0.6 rad away, pushed, and the sweeps
+            # (GS limit rows around the exact solve converge slowly) left part of that push: with
+            # armature carrying it from substep to substep, Gymnasium's humanoid under random
+            # controls blew up (its hip at 1e3, 1e5, 1e7 rad/s over three substeps; measured)
+            # (the biased solve's, ``factor`` 2: after the relax's position step the contacts have
+            # changed the velocities instead, and projecting those first let the ant of
+            # tests/physics/test_mjcf.py gain 0.063 J in a step against 0.033 J; and only with
+            # armature, whose flywheel carried the leftover: without, the limit's push is undone by
+            # the sweeps and the step is as it was (a gripper squeezing a box by a gear held it
+            # at 0.1-1.4 mm/s before, 0.1-2.1 mm/s with the projection: measured, left))
+            if factor == 2:
+                tree_substitute_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b,
+                                       local_a, local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C,
+                                       nrow, Dinv, H_up, W, y, sol, work, node_skip, v, omega, linear_impulse,
+                                       angular_impulse, axial_impulse)
         # COMPILE: one sweep as an int64, not the literal 1: the literal compiled the joint sweeps a
         # second time beside the Gauss-Seidel solve's (their compile 27.8 -> 13.9 s in robot_arm's
         # first run; docs/benchmarks.md "compile time")

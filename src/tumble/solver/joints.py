@@ -734,7 +734,8 @@ class JointSolver:
             limits, max_sweeps, tolerance, *tree = self.tree_parts()
             node_order, node_joint, node_body, node_parent, *scratch = tree
             tree_sweeps_kernel(int(iterations), limits, max_sweeps, tolerance, *args, node_order, node_joint, node_body,
-                               node_parent, np.int64(1 if factor else 0), *scratch, *out)
+                               node_parent, np.int64((2 if use_bias and self.has_armature() else 1) if factor else 0),
+                               *scratch, *out)
 
     def tree_parts(self) -> tuple:
         """The tree method's arrays for ``tree_sweeps_kernel``: (limit columns, TREE_LIMIT_SWEEPS,

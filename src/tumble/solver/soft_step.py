@@ -267,8 +267,9 @@ def _substeps_kernel(with_joints: bool):
                     warm_start_rolling_kernel(rolling_rows, body_a, body_b, normal, tangent1, tangent2, rolling_impulse,
                                               I_inv, omega)
             if with_joints and n_joints:
+                # with armature, the velocities made consistent with the tree first (tree_sweeps_kernel)
                 _solve_joints(tree, velocity_iterations, soft_bias, Y, R, inv_mass, I_inv, h, joints, tree_parts, v,
-                              omega, impulses, np.int64(1))
+                              omega, impulses, np.int64(2 if armature else 1))
             if n_contacts:
                 _solve_contacts(True, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
             integrate_positions_kernel(layout, Y, active, kinematic, v, omega, h, R)
