@@ -179,7 +179,9 @@ class _Copies:
         from .kinematics import ONE_DOF
 
         coordinates = kin.coordinates
-        if not all(c.kind in ONE_DOF for c in coordinates):
+        root = coordinates[0] if coordinates and coordinates[0].kind == "floating" else None
+        joints = coordinates[1:] if root is not None else coordinates
+        if not all(c.kind in ONE_DOF for c in joints):
             return None
         acts = [robot.actuators[name] for name in self.actuators]
         driven = [a.joint for a in acts]
@@ -194,11 +196,21 @@ class _Copies:
             "force_hi": np.array([inf if a.forcerange is None else a.forcerange[1] for a in acts]),
             "gain": np.array([a.gain for a in acts]), "b0": np.array([a.bias[0] for a in acts]),
             "gear": np.array([a.gear for a in acts]),
-            # (n, nu) the joint records the actuators drive, (n, nq) those of the coordinates
+            # (n, nu) the joint records the actuators drive, (n, nq or nq - 7) those of the 1-D coordinates
             "driven": [[r.joints[j] for j in driven] for r in self.robots],
-            "coordinate": [[r.joints[c.name] for c in coordinates] for r in self.robots],
+            "coordinate": [[r.joints[c.name] for c in joints] for r in self.robots],
+            # where the 1-D coordinates go in qpos and qvel
+            "qpos_cols": np.array([c.qpos.start for c in joints], dtype=np.int64),
+            "qvel_cols": np.array([c.qvel.start for c in joints], dtype=np.int64),
             "column": P_EFFORT,
+            "root": None,
         }
+        if root is not None:
+            # a free root (MuJoCo's free joint: the ant's, the humanoid's torso): its qpos and qvel
+            # read from its body in every copy at once, as ``Kinematics.qpos``/``qvel`` read them
+            k = kin.index[root.link]
+            fast["root"] = (np.array([kn.link_body[k] for kn in self.kinematics], dtype=np.int64),
+                            kin.link_p[k].copy(), kin.link_Rl[k].copy())
         fast["records"] = [rec.bound.param for row in fast["driven"] for rec in row]
         fast["actuators"] = [r.actuators[name] for r in self.robots for name in self.actuators]
         return fast
@@ -242,9 +254,39 @@ class _Copies:
         """(qpos (n, nq), qvel (n, nv)) of every copy now."""
         solver, rows = self._rows() if self._fast is not None else (None, None)
         if solver is not None:
-            return solver.position[rows[1]], solver.rate[rows[1]]
+            fast = self._fast
+            if fast["root"] is None:
+                return solver.position[rows[1]], solver.rate[rows[1]]
+            n = len(self.robots)
+            qpos, qvel = np.empty((n, self.nq)), np.empty((n, self.nv))
+            qpos[:, fast["qpos_cols"]] = solver.position[rows[1]]
+            qvel[:, fast["qvel_cols"]] = solver.rate[rows[1]]
+            self._root_state(qpos, qvel)
+            return qpos, qvel
         return (np.array([k.qpos(self.sim) for k in self.kinematics]),
                 np.array([k.qvel() for k in self.kinematics]))
+
+    def _root_state(self, qpos: np.ndarray, qvel: np.ndarray):
+        """Write the free root's qpos[:, :7] (its link frame's origin, m, world; its orientation as a
+        unit quaternion w x y z, w >= 0) and qvel[:, :6] (its origin's velocity, m/s, world; its
+        angular velocity, rad/s, in its own frame: MuJoCo's free joint) of every copy now, from its
+        body (``Kinematics._present``'s and ``qvel``'s arithmetic, for all copies at once)."""
+        from .math3d import matrix_to_quat_into
+
+        b, link_p, link_Rl = self._fast["root"]
+        w = self.world
+        Rb = w.R[b]
+        o = w.x[b] - np.einsum("nij,nj->ni", Rb, w.com_offset[b]) + np.einsum("nij,j->ni", Rb, link_p)
+        R = np.einsum("nij,jk->nik", Rb, link_Rl)
+        qpos[:, 0:3] = o
+        for c in range(len(b)):
+            matrix_to_quat_into(np.ascontiguousarray(R[c]), qpos[c, 3:7])
+        omega, v, r = w.omega[b], w.v[b], o - w.x[b]
+        # v + omega x r, written as Kinematics.qvel writes it
+        qvel[:, 0] = v[:, 0] + omega[:, 1] * r[:, 2] - omega[:, 2] * r[:, 1]
+        qvel[:, 1] = v[:, 1] + omega[:, 2] * r[:, 0] - omega[:, 0] * r[:, 2]
+        qvel[:, 2] = v[:, 2] + omega[:, 0] * r[:, 1] - omega[:, 1] * r[:, 0]
+        qvel[:, 3:6] = np.einsum("nji,nj->ni", R, omega)
 
     def link_origins(self, link: str, point=None) -> np.ndarray:
         """(n, 3) m, world: the origin of ``link``'s frame in each copy now, or the ``point`` (3,) m
@@ -426,8 +468,8 @@ class _Copies:
             self.robots[k]._restart_warm_starts(self.sim, self.kinematics[k].positions(q))
         solver, rows = self._rows() if self._fast is not None else (None, None)
         if solver is not None:  # the readings a step would leave, for ``state``
-            solver.position[rows[1][copies]] = qpos
-            solver.rate[rows[1][copies]] = qvel
+            solver.position[rows[1][copies]] = qpos[:, self._fast["qpos_cols"]]
+            solver.rate[rows[1][copies]] = qvel[:, self._fast["qvel_cols"]]
 
 
 class _View:
