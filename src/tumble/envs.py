@@ -80,10 +80,11 @@ class _Copies:
     solves treat each row with its own bodies only, in one order, so a copy's bits do not depend on
     the others (tests/test_envs.py, tests/test_envs_runners.py: copies equal single environments).
 
-    The fast path (every coordinate a hinge or a slider, every actuator on one joint of its own
-    without a spring or damper: the motors of Gymnasium's models) writes the controls' efforts
+    The fast path (every coordinate a hinge or a slider but a free root's, every actuator on one
+    joint of its own without a spring or damper: the motors of Gymnasium's models) writes the controls' efforts
     into the joint solver's rows and reads the coordinates from its readings (``JointSolver.store``,
-    the end of the step) with array operations over all copies; the arithmetic is
+    the end of the step; a free root's from its body, ``_root_state``) with array operations over
+    all copies; the arithmetic is
     ``mjcf_control.apply_controls``'s, the same bits. Other models take ``Robot.set_controls`` and
     ``Kinematics.qpos``/``qvel`` copy by copy.
     """
