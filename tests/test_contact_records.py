@@ -76,6 +76,82 @@ def test_query_names_the_part_of_a_compound_that_touches():
     assert 0.0 < c.force[ball, 2].sum() < c.force[cube, 2].sum()  # the block rests on the cube's end
 
 
+def test_sleeping_bodies_keep_the_contacts_they_rest_on():
+    """An island asleep still rests on its contacts (Box2D keeps a sleeping body's contacts,
+    PyBullet's getContactPoints returns them): two stacked boxes asleep after 1.5 s report the 8
+    contacts of their last step awake, their forces carrying the weights (the ground's 2 m g, the
+    lower box's m g to 1e-6: at rest the step's impulses balance gravity), the same at 3 s, and in
+    the recorded frames; before session 34 ``contacts()`` was empty once they slept. A ball
+    dropped on the stack wakes it: the contacts are detected again, none kept twice (each pair's
+    points once: 4 + 4 + the ball's). A user's push wakes it too, and its kept contacts go."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+    w.add_body(tb.Box(size=(0.4, 0.4, 0.4)), mass=1.5, position=(0, 0, 0.2), name="low")
+    w.add_body(tb.Box(size=(0.4, 0.4, 0.4)), mass=1.5, position=(0, 0, 0.6), name="top")
+    sim = tb.Simulator(w, record_contacts=True)
+    traj = sim.run(1.5, frame_rate=24)
+    assert not sim.sleep.awake[1:].any()  # both asleep
+    for _ in range(2):
+        c = sim.contacts()
+        assert len(c) == 8
+        ground = c.names_a == "ground"
+        assert ground.sum() == 4 and set(c.names_b[ground]) == {"low"}
+        assert c.force[ground, 2].sum() == pytest.approx(2 * 1.5 * 9.81, rel=1e-6)
+        stacked = ~ground
+        on_top = np.where(c.names_b[stacked] == "top", 1.0, -1.0)  # the force on b, b = top or low
+        assert (on_top * c.force[stacked, 2]).sum() == pytest.approx(1.5 * 9.81, rel=1e-6)
+        sim.step(360)  # 1.5 s more, asleep
+    assert traj.contact_count[-1] == 8
+    # a ball dropped on the stack wakes it: detected contacts, none doubled
+    w.add_body(tb.Sphere(radius=0.05), mass=0.2, position=(0.1, 0, 0.9), name="ball")
+    sim.step(60)
+    c = sim.contacts()
+    pairs = [tuple(sorted(p)) for p in zip(c.names_a.tolist(), c.names_b.tolist())]
+    assert sim.sleep.awake[1:3].all()
+    assert pairs.count(("ground", "low")) == 4 and pairs.count(("low", "top")) == 4
+    assert len(pairs) == 8 + pairs.count(("ball", "top"))
+    # asleep again, then a push: the kept contacts go with the sleep
+    sim.step(480)
+    assert not sim.sleep.awake[1:].any() and len(sim.contacts()) >= 8
+    w.body(2).apply_impulse((0.0, 0.0, 0.01))
+    sim.step(1)
+    c = sim.contacts()
+    pairs = [tuple(sorted(p)) for p in zip(c.names_a.tolist(), c.names_b.tolist())]
+    assert sim.sleep.awake[2] and pairs.count(("ground", "low")) == 4 and pairs.count(("low", "top")) == 4
+
+
+def test_a_sleeping_stacks_contacts_survive_a_checkpoint_and_a_snapshot(tmp_path):
+    """The kept contacts of a sleeping island are part of the sleep state (``sleep_resting_*`` in a
+    checkpoint and a snapshot): a run of the stack checkpointed at 1.5 s, asleep, and resumed to
+    2.5 s records the same contacts frame by frame as the run uninterrupted (8 in its last
+    frames), and a snapshot restored after a wake gives back the sleeping stack's contacts."""
+    def stack():
+        w = tb.World(gravity=(0, 0, -9.81))
+        w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+        w.add_body(tb.Box(size=(0.4, 0.4, 0.4)), mass=1.5, position=(0, 0, 0.2), name="low")
+        w.add_body(tb.Box(size=(0.4, 0.4, 0.4)), mass=1.5, position=(0, 0, 0.6), name="top")
+        return w
+
+    whole = tb.Simulator(stack(), record_contacts=True)
+    traj = whole.run(2.5, frame_rate=24)
+    first = tb.Simulator(stack(), record_contacts=True)
+    assert first.run_to_file(tmp_path / "run", 1.5, frame_rate=24).status == "completed"
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "run" / "checkpoint.npz")
+    assert len(resumed.contacts()) == 8  # asleep on them, before a step
+    resumed.run_to_file(tmp_path / "run", 2.5, frame_rate=24, resume=True)
+    streamed = load_trajectory(tmp_path / "run" / "trajectory.npz")
+    assert traj.contact_count[-1] == 8
+    assert np.array_equal(streamed.contact_count, traj.contact_count)
+    assert np.array_equal(streamed.contact_force, traj.contact_force, equal_nan=True)
+    saved = whole.save_state()
+    before = whole.contacts()
+    whole.world.body(2).apply_impulse((0.0, 0.0, 1.0))
+    whole.step(30)
+    whole.restore_state(saved)
+    after = whole.contacts()
+    assert len(after) == 8 and np.array_equal(after.force, before.force)
+
+
 def test_recorded_contacts_are_the_query_of_each_frame(tmp_path):
     """record_contacts=True: frame k of the trajectory holds the contacts sim.contacts() gave after
     the steps of frame k, padded to the largest count; it survives save and load."""
@@ -171,7 +247,8 @@ def test_scene_keys_turn_collisions_off_and_record_contacts():
     sim = scene.simulator()
     assert sim.record_contacts and sim.contact_settings.substeps == 2 and sim.contact_settings.restitution_threshold == 0.5
     traj = scene.run(progress=False)
-    assert traj.contact_count[1] == 1 and traj.contact_count[-1] == 0  # asleep by 0.5 s: no contact left
+    # asleep by 0.5 s, the ball still rests on its contact (kept for sleeping islands since session 34)
+    assert traj.contact_count[1] == 1 and traj.contact_count[-1] == 1
     doc["simulation"]["sleeping"] = False
     assert parse_scene(doc, "s.toml").run(progress=False).contact_count[-1] == 1
     doc["simulation"]["collisions"] = False

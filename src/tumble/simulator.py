@@ -302,6 +302,9 @@ class Simulator:
                     sleep.resize(w.body_count)
                     moving[:] = all_moving & sleep.awake
                     table.body_moving[:] = moving
+                # the last step's contacts, kept for an island that may fall asleep now (its contacts
+                # are then no longer detected, but it still rests on them: SleepState.keep_resting)
+                last = soft.query() if sleep is not None and sleep.may_fall_asleep(all_moving, self.dt) else None
                 active = soft.collide(Y, t, self.dt)
                 if sleep is not None:
                     c = soft.contacts
@@ -312,6 +315,7 @@ class Simulator:
                     sleep.update(w, Y, c.contact_body_a, c.contact_body_b, self.dt, moving=all_moving,
                                  also_awake=touched)
                     if sleep.woke.any() or sleep.fell_asleep.any():
+                        sleep.keep_resting(last, all_moving)
                         moving[:] = all_moving & sleep.awake
                         table.body_moving[:] = moving
                         active = soft.collide(Y, t, self.dt)
@@ -453,10 +457,21 @@ class Simulator:
 
     def contacts(self):
         """The contacts of the last step (``tumble.solver.soft_step.Contacts``: bodies, points,
-        normals, separations, normal and friction impulses, mean forces); empty without contact."""
+        normals, separations, normal and friction impulses, mean forces); empty without contact.
+        Bodies asleep keep the contacts they fell asleep on, as their last step awake left them
+        (``SleepState.keep_resting``; Box2D keeps a sleeping body's contacts), after the
+        detected ones."""
         if self.soft_step is None:
             return SoftStep(self.world).query()
-        return self.soft_step.query()
+        c = self.soft_step.query()
+        if self.sleep is None or not getattr(self.world, "sleeping", True):
+            return c
+        resting = self.sleep.resting_contacts(self.world.moving)
+        if not len(resting["body_a"]):
+            return c
+        names = np.asarray(self.world.names, dtype=str)
+        fields = {name: np.concatenate([getattr(c, name), resting[name]]) for name in resting}
+        return type(c)(names_a=names[fields["body_a"]], names_b=names[fields["body_b"]], **fields)
 
     def _impulse_steps(self):
         return [self._impulse_step(imp) for imp in self.world.impulses]

@@ -292,9 +292,18 @@ class SleepState:
         island: int64, the islands of the last ``update`` (-1: fixed).
         woke, fell_asleep: bool, what the last ``update`` changed.
         speed, angular_speed: float, m/s and rad/s at the start of the last ``update``'s step.
+        resting: {field: (C,) or (C, 3)} the contacts of the sleeping islands, as their last step
+            awake left them (``Contacts``' fields but the names; ``keep_resting``): a body asleep
+            still rests on what it rests on, and ``Simulator.contacts()`` reports it (Box2D keeps
+            a sleeping body's contacts; PyBullet's getContactPoints returns them) (state).
     """
 
     STATE_KEYS = ("sleep_timer", "awake", "allow_sleep", "sleeping_island")
+    # the resting contacts' fields: (name, dtype, trailing shape)
+    RESTING_FIELDS = (("body_a", np.int64, ()), ("body_b", np.int64, ()), ("part_a", np.int64, ()),
+                      ("part_b", np.int64, ()), ("point", float, (3,)), ("normal", float, (3,)),
+                      ("separation", float, ()), ("normal_impulse", float, ()), ("friction_impulse", float, (3,)),
+                      ("force", float, (3,)))
 
     def __init__(self, body_count: int = 0, enabled: bool = True, linear_tolerance: float = LINEAR_SLEEP_TOLERANCE,
                  angular_tolerance: float = ANGULAR_SLEEP_TOLERANCE, time_to_sleep: float = TIME_TO_SLEEP):
@@ -309,6 +318,7 @@ class SleepState:
         self.sleeping_island = np.full(0, -1, dtype=np.int64)
         self._coupling_key = None
         self._coupling = (_NO_PAIRS, np.zeros(0, dtype=bool))
+        self.resting = {name: np.zeros((0,) + shape, dtype=dtype) for name, dtype, shape in self.RESTING_FIELDS}
         self.resize(body_count)
 
     # -- sizes -----------------------------------------------------------------------
@@ -453,8 +463,49 @@ class SleepState:
 
     # -- checkpoints -----------------------------------------------------------------
     def state(self) -> dict:
-        """Copies of the state arrays: sleep_timer (N,) s, awake (N,), allow_sleep (N,), sleeping_island (N,)."""
-        return {k: getattr(self, k).copy() for k in self.STATE_KEYS}
+        """Copies of the state arrays: sleep_timer (N,) s, awake (N,), allow_sleep (N,), sleeping_island
+        (N,), and the resting contacts as ``resting_FIELD`` (C,) or (C, 3)."""
+        out = {k: getattr(self, k).copy() for k in self.STATE_KEYS}
+        out.update({"resting_" + k: v.copy() for k, v in self.resting.items()})
+        return out
+
+    # -- the contacts of sleeping islands ------------------------------------------------
+    def may_fall_asleep(self, moving, dt: float) -> bool:
+        """Whether an island may fall asleep at the next ``update`` of a step of ``dt``: some awake
+        moving body's timer is within one step of ``time_to_sleep`` (then the caller keeps the
+        last step's contacts for ``keep_resting`` before colliding again)."""
+        if not self.enabled or self.body_count == 0:
+            return False
+        due = self.time_to_sleep * (1.0 - _TIMER_ROUNDOFF)
+        n = min(len(moving), self.body_count)
+        return bool(np.any(self.awake[:n] & moving[:n] & (self.sleep_timer[:n] + dt >= due)))
+
+    def keep_resting(self, contacts, moving):
+        """After an ``update``: forget the resting contacts of bodies awake again, and keep those of
+        ``contacts`` (the last step's, a ``Contacts``; None: none kept) whose two bodies are each
+        asleep or fixed, one of them fallen asleep at this update. ``moving`` (N,) bool: the
+        world's moving bodies."""
+        def asleep_or_fixed(b):
+            return ~moving[b] | ~self.awake[b]
+
+        r = self.resting
+        keep = asleep_or_fixed(r["body_a"]) & asleep_or_fixed(r["body_b"])
+        parts = [{k: v[keep] for k, v in r.items()}]
+        if contacts is not None and len(contacts) and self.fell_asleep.any():
+            a, b = contacts.body_a, contacts.body_b
+            new = asleep_or_fixed(a) & asleep_or_fixed(b) & (self.fell_asleep[a] | self.fell_asleep[b])
+            parts.append({name: getattr(contacts, name)[new] for name, _dtype, _shape in self.RESTING_FIELDS})
+        self.resting = {k: np.concatenate([p[k] for p in parts]) for k in r}
+
+    def resting_contacts(self, moving) -> dict:
+        """The resting contacts whose bodies are still each asleep or fixed (a body woken since by
+        the user, ``wake``, is left out): {field: array}."""
+        a, b = self.resting["body_a"], self.resting["body_b"]
+        n = self.body_count
+        if len(a) == 0 or len(moving) != n:
+            return {k: v[:0] for k, v in self.resting.items()}
+        keep = (~moving[a] | ~self.awake[a]) & (~moving[b] | ~self.awake[b])
+        return {k: v[keep] for k, v in self.resting.items()}
 
     def set_state(self, state: dict):
         """Restore ``state()``. All arrays must have one length N. Without ``sleeping_island``
@@ -470,3 +521,7 @@ class SleepState:
             self.sleeping_island[:] = np.asarray(state["sleeping_island"], dtype=np.int64).reshape(n)
         else:
             self.sleeping_island[:] = np.where(self.awake, -1, np.arange(n))
+        # the resting contacts (none in a checkpoint made before session 34)
+        self.resting = {name: np.asarray(state.get("resting_" + name, np.zeros((0,) + shape)),
+                                         dtype=dtype).reshape((-1,) + shape)
+                        for name, dtype, shape in self.RESTING_FIELDS}
