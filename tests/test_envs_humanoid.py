@@ -13,7 +13,6 @@ import pytest
 gym = pytest.importorskip("gymnasium")
 mujoco = pytest.importorskip("mujoco")
 
-import tumble as tb  # noqa: E402
 import tumble.envs as te  # noqa: E402
 
 HUMANOIDS = [("Humanoid", te.Humanoid), ("HumanoidStandup", te.HumanoidStandup)]
@@ -222,15 +221,10 @@ def test_humanoid_in_the_air_converges_to_mujoco_rk4_at_first_order():
                 out.append(env._copies.state()[0][0].copy())
         return np.array(out)
 
+    from tests.test_envs_runners import assert_first_order
+
     reference = run(mujoco_env("Humanoid", 1e-4, int(round(env_dt / 1e-4))))
-    for c in kin.coordinates:
-        if c.lower is not None:
-            q = reference[:, c.qpos]
-            assert np.all((q > c.lower + 0.03) & (q < c.upper - 0.03)), c.name
-    errors = [np.abs(run(te.Humanoid(timestep=h, frame_skip=int(round(env_dt / h)))) - reference).max()
-              for h in (0.003, 0.0015, 0.00075, 0.000375)]
-    ratios = np.array(errors[:-1]) / np.array(errors[1:])
-    assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
+    assert_first_order(reference, kin.coordinates, 0.03, run, te.Humanoid, env_dt, (0.003, 0.0015, 0.00075, 0.000375))
 
 
 def test_humanoid_external_forces_obey_newtons_law_on_their_own_bodies():
@@ -270,34 +264,6 @@ def test_humanoid_external_forces_obey_newtons_law_on_their_own_bodies():
             step_and_check()
     lying = [step_and_check()[:, 5].sum() for _ in range(int(round(1.0 / dt)))]
     assert np.mean(lying) == pytest.approx(weight, rel=1e-3)
-
-
-@pytest.mark.parametrize("make, key", [
-    (lambda: te.Humanoid(contact_cost_range=(10.0, 1.0)), "contact_cost_range"),
-    (lambda: te.Humanoid(contact_cost_weight=None), "contact_cost_weight"),
-    (lambda: te.Humanoid(healthy_z_range="tall"), "healthy_z_range"),
-    (lambda: te.HumanoidStandup(uph_cost_weight=float("inf")), "uph_cost_weight"),
-    (lambda: te.HumanoidStandup(impact_cost_range=(0.0,)), "impact_cost_range"),
-    (lambda: te.HumanoidStandup(impact_cost_weight=True), "impact_cost_weight"),
-])
-def test_bad_humanoid_settings_are_one_line(make, key):
-    """Bad task settings: ``tb.InputError`` with one line naming the key."""
-    with pytest.raises(tb.InputError) as err:
-        make()
-    assert f"{key}: " in str(err.value) and "\n" not in str(err.value)
-
-
-def test_humanoids_pass_gymnasiums_env_checker_and_register():
-    """Gymnasium's own checks of the API pass, and ``gymnasium.make("tumble/NAME-v5")`` makes each
-    with Gymnasium's episode limit (1000 steps)."""
-    from gymnasium.utils.env_checker import check_env
-
-    for name, make in HUMANOIDS:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            check_env(make())
-        env = gym.make(f"tumble/{name}-v5")
-        assert isinstance(env.unwrapped, make) and env.spec.max_episode_steps == 1000
 
 
 @pytest.mark.parametrize("name, make", HUMANOIDS)

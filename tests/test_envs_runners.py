@@ -17,6 +17,8 @@ import tumble.envs as te  # noqa: E402
 
 RUNNERS = [("HalfCheetah", te.HalfCheetah), ("Hopper", te.Hopper), ("Walker2d", te.Walker2d)]
 EVERY = RUNNERS + [("Ant", te.Ant)]
+# and Gymnasium's humanoids (tests/test_envs_humanoid.py), for the API's checks
+CHECKED = EVERY + [("Humanoid", te.Humanoid), ("HumanoidStandup", te.HumanoidStandup)]
 
 
 def mujoco_runner(name, timestep=None, frame_skip=None):
@@ -174,6 +176,12 @@ def test_a_cheetah_at_rest_stands_on_contacts_that_carry_its_weight():
     (lambda: te.Hopper(frame_skip=0), "frame_skip"),
     (lambda: te.Ant(contact_force_range=(1.0, -1.0)), "contact_force_range"),
     (lambda: te.Ant(contact_cost_weight="small"), "contact_cost_weight"),
+    (lambda: te.Humanoid(contact_cost_range=(10.0, 1.0)), "contact_cost_range"),
+    (lambda: te.Humanoid(contact_cost_weight=None), "contact_cost_weight"),
+    (lambda: te.Humanoid(healthy_z_range="tall"), "healthy_z_range"),
+    (lambda: te.HumanoidStandup(uph_cost_weight=float("inf")), "uph_cost_weight"),
+    (lambda: te.HumanoidStandup(impact_cost_range=(0.0,)), "impact_cost_range"),
+    (lambda: te.HumanoidStandup(impact_cost_weight=True), "impact_cost_weight"),
 ])
 def test_bad_runner_settings_are_one_line(make, key):
     """Bad task settings: ``tb.InputError`` with one line naming the key."""
@@ -187,7 +195,7 @@ def test_runners_pass_gymnasiums_env_checker_and_register():
     with Gymnasium's episode limit (1000 steps)."""
     from gymnasium.utils.env_checker import check_env
 
-    for name, make in EVERY:
+    for name, make in CHECKED:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
             check_env(make())
@@ -328,13 +336,21 @@ def test_ant_in_the_air_converges_to_mujoco_rk4_at_first_order():
         return np.array(out)
 
     reference = run(mujoco_runner("Ant", 1e-4, int(round(env_dt / 1e-4))))
-    for k, c in enumerate(env.robot.kinematics.coordinates):
-        joint = env.robot.joints.get(c.name)
-        if getattr(joint, "lower", None) is not None:
+    assert_first_order(reference, env.robot.kinematics.coordinates, 0.05, run, te.Ant, env_dt,
+                       (0.004, 0.002, 0.001, 0.0005))
+
+
+def assert_first_order(reference, coordinates, clearance, run, make, env_dt, steps):
+    """The in-air comparisons' common end: no coordinate of ``reference`` (MuJoCo's qpos per
+    environment step) comes within ``clearance`` (rad or m) of its range (MuJoCo's soft limits
+    and tumble's rigid ones would part there), and ``run(make(timestep=h, ...))`` for each ``h``
+    of ``steps`` (each half the last) is a first-order approach to it: each halving halves the
+    largest qpos difference (ratios 1.7-2.3)."""
+    for c in coordinates:
+        if c.lower is not None:
             q = reference[:, c.qpos]
-            assert np.all((q > joint.lower + 0.05) & (q < joint.upper - 0.05)), c.name
-    errors = [np.abs(run(te.Ant(timestep=h, frame_skip=int(round(env_dt / h)))) - reference).max()
-              for h in (0.004, 0.002, 0.001, 0.0005)]
+            assert np.all((q > c.lower + clearance) & (q < c.upper - clearance)), c.name
+    errors = [np.abs(run(make(timestep=h, frame_skip=int(round(env_dt / h)))) - reference).max() for h in steps]
     ratios = np.array(errors[:-1]) / np.array(errors[1:])
     assert np.all((ratios > 1.7) & (ratios < 2.3)), (errors, ratios)
 

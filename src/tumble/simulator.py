@@ -304,7 +304,8 @@ class Simulator:
                     table.body_moving[:] = moving
                 # the last step's contacts, kept for an island that may fall asleep now (its contacts
                 # are then no longer detected, but it still rests on them: SleepState.keep_resting)
-                last = soft.query() if sleep is not None and sleep.may_fall_asleep(all_moving, self.dt) else None
+                near = None if sleep is None else sleep.may_fall_asleep(all_moving, self.dt)
+                last = None if near is None else soft.contact_fields(near)
                 active = soft.collide(Y, t, self.dt)
                 if sleep is not None:
                     c = soft.contacts

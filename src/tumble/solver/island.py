@@ -470,31 +470,31 @@ class SleepState:
         return out
 
     # -- the contacts of sleeping islands ------------------------------------------------
-    def may_fall_asleep(self, moving, dt: float) -> bool:
-        """Whether an island may fall asleep at the next ``update`` of a step of ``dt``: some awake
-        moving body's timer is within one step of ``time_to_sleep`` (then the caller keeps the
-        last step's contacts for ``keep_resting`` before colliding again)."""
-        if not self.enabled or self.body_count == 0:
-            return False
+    def may_fall_asleep(self, moving, dt: float):
+        """(N,) bool: the bodies that may fall asleep at the next ``update`` of a step of ``dt``
+        (awake, moving, their timer within one step of ``time_to_sleep``), or None when none may
+        (then the caller keeps nothing of the last step's contacts for ``keep_resting``)."""
+        if not self.enabled or self.body_count == 0 or len(moving) != self.body_count:
+            return None
         due = self.time_to_sleep * (1.0 - _TIMER_ROUNDOFF)
-        n = min(len(moving), self.body_count)
-        return bool(np.any(self.awake[:n] & moving[:n] & (self.sleep_timer[:n] + dt >= due)))
+        near = self.awake & moving & (self.sleep_timer + dt >= due)
+        return near if near.any() else None
 
     def keep_resting(self, contacts, moving):
         """After an ``update``: forget the resting contacts of bodies awake again, and keep those of
-        ``contacts`` (the last step's, a ``Contacts``; None: none kept) whose two bodies are each
-        asleep or fixed, one of them fallen asleep at this update. ``moving`` (N,) bool: the
-        world's moving bodies."""
+        ``contacts`` (the last step's of the bodies ``may_fall_asleep`` named, {field: array} as
+        ``SoftStep.contact_fields``; None: none kept) whose two bodies are each asleep or fixed,
+        one of them fallen asleep at this update. ``moving`` (N,) bool: the world's moving bodies."""
         def asleep_or_fixed(b):
             return ~moving[b] | ~self.awake[b]
 
         r = self.resting
         keep = asleep_or_fixed(r["body_a"]) & asleep_or_fixed(r["body_b"])
         parts = [{k: v[keep] for k, v in r.items()}]
-        if contacts is not None and len(contacts) and self.fell_asleep.any():
-            a, b = contacts.body_a, contacts.body_b
+        if contacts is not None and len(contacts["body_a"]) and self.fell_asleep.any():
+            a, b = contacts["body_a"], contacts["body_b"]
             new = asleep_or_fixed(a) & asleep_or_fixed(b) & (self.fell_asleep[a] | self.fell_asleep[b])
-            parts.append({name: getattr(contacts, name)[new] for name, _dtype, _shape in self.RESTING_FIELDS})
+            parts.append({name: contacts[name][new] for name, _dtype, _shape in self.RESTING_FIELDS})
         self.resting = {k: np.concatenate([p[k] for p in parts]) for k in r}
 
     def resting_contacts(self, moving) -> dict:

@@ -627,30 +627,36 @@ class SoftStep:
     # -- contacts as data ------------------------------------------------------------
     def query(self) -> Contacts:
         """The contacts of the last step, as a ``Contacts`` record (copies)."""
-        c = self.contacts
+        fields = self.contact_fields()
         names = np.asarray(self.world.names, dtype=str)
+        return Contacts(names_a=names[fields["body_a"]], names_b=names[fields["body_b"]], **fields)
+
+    def contact_fields(self, bodies=None) -> dict:
+        """``Contacts``' fields but the names, {field: (C,) or (C, 3)} (copies), of the last step's
+        contacts, or of those that touch one of ``bodies`` ((N,) bool; the sleeping islands'
+        contacts kept as they fall asleep, ``SleepState.keep_resting``: a few rows of many)."""
+        c = self.contacts
         if c is None or c.contact_count == 0:
             z = np.zeros(0, dtype=np.int64)
-            return Contacts(z, z, names[z], names[z], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-                            np.zeros((0, 3)), np.zeros((0, 3)), z, z)
+            return dict(body_a=z, body_b=z, point=np.zeros((0, 3)), normal=np.zeros((0, 3)), separation=np.zeros(0),
+                        normal_impulse=np.zeros(0), friction_impulse=np.zeros((0, 3)), force=np.zeros((0, 3)),
+                        part_a=z, part_b=z)
         sol = self.solver
-        normal = c.contact_normal.copy()
-        jn = sol.step_normal_impulse.copy()
-        jt = sol.step_tangent_impulse
-        friction = jt[:, 0:1] * sol.tangent1 + jt[:, 1:2] * sol.tangent2
+        rows = slice(None) if bodies is None else np.flatnonzero(bodies[c.contact_body_a] | bodies[c.contact_body_b])
+        body_a, body_b = c.contact_body_a[rows].copy(), c.contact_body_b[rows].copy()
+        normal = c.contact_normal[rows].copy()
+        jn = sol.step_normal_impulse[rows].copy()
+        jt = sol.step_tangent_impulse[rows]
+        friction = jt[:, 0:1] * sol.tangent1[rows] + jt[:, 1:2] * sol.tangent2[rows]
         dt = self.dt if self.dt > 0 else 1.0
         # the shapes from the contact's key ((shape_a << 42) | (shape_b << 21) | feature), each
         # less its body's first row of the shape table (rows in body order, one per part)
         shape_body = self.pipeline.table.shape_body
         mask = (1 << KEY_BITS) - 1
+        key = c.contact_key[rows]
         parts = []
-        for shape, body in (((c.contact_key >> (2 * KEY_BITS)) & mask, c.contact_body_a),
-                            ((c.contact_key >> KEY_BITS) & mask, c.contact_body_b)):
+        for shape, body in (((key >> (2 * KEY_BITS)) & mask, body_a), ((key >> KEY_BITS) & mask, body_b)):
             parts.append(shape - np.searchsorted(shape_body, body))
-        return Contacts(
-            body_a=c.contact_body_a.copy(), body_b=c.contact_body_b.copy(),
-            names_a=names[c.contact_body_a], names_b=names[c.contact_body_b],
-            point=c.contact_point.copy(), normal=normal, separation=c.contact_separation.copy(),
-            normal_impulse=jn, friction_impulse=friction, force=(jn[:, None] * normal + friction) / dt,
-            part_a=parts[0], part_b=parts[1],
-        )
+        return dict(body_a=body_a, body_b=body_b, point=c.contact_point[rows].copy(), normal=normal,
+                    separation=c.contact_separation[rows].copy(), normal_impulse=jn, friction_impulse=friction,
+                    force=(jn[:, None] * normal + friction) / dt, part_a=parts[0], part_b=parts[1])
