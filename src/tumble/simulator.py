@@ -302,10 +302,6 @@ class Simulator:
                     sleep.resize(w.body_count)
                     moving[:] = all_moving & sleep.awake
                     table.body_moving[:] = moving
-                # the last step's contacts, kept for an island that may fall asleep now (its contacts
-                # are then no longer detected, but it still rests on them: SleepState.keep_resting)
-                near = None if sleep is None else sleep.may_fall_asleep(all_moving, self.dt)
-                last = None if near is None else soft.contact_fields(near)
                 active = soft.collide(Y, t, self.dt)
                 if sleep is not None:
                     c = soft.contacts
@@ -316,7 +312,10 @@ class Simulator:
                     sleep.update(w, Y, c.contact_body_a, c.contact_body_b, self.dt, moving=all_moving,
                                  also_awake=touched)
                     if sleep.woke.any() or sleep.fell_asleep.any():
-                        sleep.keep_resting(last, all_moving)
+                        # an island asleep is no longer collided, but still rests on its contacts:
+                        # kept from this collide, with the last step's impulses (SleepState.keep_resting)
+                        sleep.keep_resting(soft.resting_fields(sleep.fell_asleep) if sleep.fell_asleep.any() else None,
+                                           all_moving)
                         moving[:] = all_moving & sleep.awake
                         table.body_moving[:] = moving
                         active = soft.collide(Y, t, self.dt)

@@ -293,7 +293,8 @@ class SleepState:
         woke, fell_asleep: bool, what the last ``update`` changed.
         speed, angular_speed: float, m/s and rad/s at the start of the last ``update``'s step.
         resting: {field: (C,) or (C, 3)} the contacts of the sleeping islands, as their last step
-            awake left them (``Contacts``' fields but the names; ``keep_resting``): a body asleep
+            awake left them (``Contacts``' fields but the names; ``keep_resting``: the contacts
+            found as it falls asleep, with the last step's impulses): a body asleep
             still rests on what it rests on, and ``Simulator.contacts()`` reports it (Box2D keeps
             a sleeping body's contacts; PyBullet's getContactPoints returns them) (state).
     """
@@ -470,20 +471,10 @@ class SleepState:
         return out
 
     # -- the contacts of sleeping islands ------------------------------------------------
-    def may_fall_asleep(self, moving, dt: float):
-        """(N,) bool: the bodies that may fall asleep at the next ``update`` of a step of ``dt``
-        (awake, moving, their timer within one step of ``time_to_sleep``), or None when none may
-        (then the caller keeps nothing of the last step's contacts for ``keep_resting``)."""
-        if not self.enabled or self.body_count == 0 or len(moving) != self.body_count:
-            return None
-        due = self.time_to_sleep * (1.0 - _TIMER_ROUNDOFF)
-        near = self.awake & moving & (self.sleep_timer + dt >= due)
-        return near if near.any() else None
-
     def keep_resting(self, contacts, moving):
         """After an ``update``: forget the resting contacts of bodies awake again, and keep those of
-        ``contacts`` (the last step's of the bodies ``may_fall_asleep`` named, {field: array} as
-        ``SoftStep.contact_fields``; None: none kept) whose two bodies are each asleep or fixed,
+        ``contacts`` (those of the bodies fallen asleep, {field: array} as
+        ``SoftStep.resting_fields``; None: none kept) whose two bodies are each asleep or fixed,
         one of them fallen asleep at this update. ``moving`` (N,) bool: the world's moving bodies."""
         def asleep_or_fixed(b):
             return ~moving[b] | ~self.awake[b]
