@@ -104,6 +104,7 @@ def test_sleeping_bodies_keep_the_contacts_they_rest_on():
     assert traj.contact_count[-1] == 8
     # a ball dropped on the stack wakes it: detected contacts, none doubled
     w.add_body(tb.Sphere(radius=0.05), mass=0.2, position=(0.1, 0, 0.9), name="ball")
+    assert len(sim.contacts()) == 8  # a body added: the stack still asleep on its contacts
     sim.step(60)
     c = sim.contacts()
     pairs = [tuple(sorted(p)) for p in zip(c.names_a.tolist(), c.names_b.tolist())]

@@ -458,9 +458,9 @@ class Simulator:
     def contacts(self):
         """The contacts of the last step (``tumble.solver.soft_step.Contacts``: bodies, points,
         normals, separations, normal and friction impulses, mean forces); empty without contact.
-        Bodies asleep keep the contacts they fell asleep on, as their last step awake left them
-        (``SleepState.keep_resting``; Box2D keeps a sleeping body's contacts), after the
-        detected ones."""
+        Bodies asleep keep the contacts they fell asleep on (found as they fell asleep, with their
+        last step's impulses: ``SleepState.keep_resting``; Box2D keeps a sleeping body's
+        contacts), after the detected ones."""
         if self.soft_step is None:
             return SoftStep(self.world).query()
         c = self.soft_step.query()

@@ -292,9 +292,9 @@ class SleepState:
         island: int64, the islands of the last ``update`` (-1: fixed).
         woke, fell_asleep: bool, what the last ``update`` changed.
         speed, angular_speed: float, m/s and rad/s at the start of the last ``update``'s step.
-        resting: {field: (C,) or (C, 3)} the contacts of the sleeping islands, as their last step
-            awake left them (``Contacts``' fields but the names; ``keep_resting``: the contacts
-            found as it falls asleep, with the last step's impulses): a body asleep
+        resting: {field: (C,) or (C, 3)} the contacts of the sleeping islands (``Contacts``' fields
+            but the names; ``keep_resting``: the contacts found as an island falls asleep, with
+            its last step's impulses): a body asleep
             still rests on what it rests on, and ``Simulator.contacts()`` reports it (Box2D keeps
             a sleeping body's contacts; PyBullet's getContactPoints returns them) (state).
     """
@@ -492,9 +492,9 @@ class SleepState:
         """The resting contacts whose bodies are still each asleep or fixed (a body woken since by
         the user, ``wake``, is left out): {field: array}."""
         a, b = self.resting["body_a"], self.resting["body_b"]
-        n = self.body_count
-        if len(a) == 0 or len(moving) != n:
+        if len(a) == 0 or len(moving) < self.body_count:
             return {k: v[:0] for k, v in self.resting.items()}
+        # (bodies added since the last update come after these rows' bodies: ``moving`` may be longer)
         keep = (~moving[a] | ~self.awake[a]) & (~moving[b] | ~self.awake[b])
         return {k: v[keep] for k, v in self.resting.items()}
 
