@@ -227,11 +227,14 @@ def test_state_round_trip_and_resize():
     rest(st, moving, np.zeros(3), ints(1), ints(2), STEPS_TO_SLEEP)
     st.set_allow_sleep(0, False)
     saved = st.state()
-    assert set(saved) == {"sleep_timer", "awake", "allow_sleep", "sleeping_island"}
+    resting = {"resting_" + name for name, _dtype, _shape in SleepState.RESTING_FIELDS}
+    assert set(saved) == {"sleep_timer", "awake", "allow_sleep", "sleeping_island"} | resting
     other = SleepState()
     other.set_state(saved)
-    for k in saved:
+    for k in SleepState.STATE_KEYS:
         assert np.array_equal(getattr(other, k), saved[k])
+    for k in resting:  # the contacts kept for sleeping islands (none here: no step made any)
+        assert np.array_equal(other.resting[k[len("resting_"):]], saved[k])
     # the restored island wakes whole
     other.update_arrays(moving, [0.0, 0.0, 0.0], np.zeros(3), ints(0), ints(2), DT)
     assert other.sleeping.tolist() == [False, True, True]
