@@ -276,9 +276,7 @@ class _Copies:
 
         b, link_p, link_Rl = self._fast["root"]
         w = self.world
-        Rb = w.R[b]
-        o = w.x[b] - np.einsum("nij,nj->ni", Rb, w.com_offset[b]) + np.einsum("nij,j->ni", Rb, link_p)
-        R = np.einsum("nij,jk->nik", Rb, link_Rl)
+        o, R = self._frames(b, link_p, link_Rl)
         qpos[:, 0:3] = o
         for c in range(len(b)):
             matrix_to_quat_into(np.ascontiguousarray(R[c]), qpos[c, 3:7])
@@ -304,9 +302,17 @@ class _Copies:
             cached = (np.array([kn.link_body[k] for kn in self.kinematics], dtype=np.int64), p)
             self._links[key] = cached
         b, p = cached
+        return self._frames(b, p)[0]
+
+    def _frames(self, b, link_p, link_Rl=None):
+        """The frames of links in their bodies ``b`` (int array, any shape S) now: (origins (S, 3) m,
+        world; rotations (S, 3, 3), or None without ``link_Rl``), each link at ``link_p`` (3,) m
+        and ``link_Rl`` (3, 3) in its body's shape frame (arrays broadcast against S)
+        (``Kinematics._present``'s arithmetic, for many bodies at once)."""
         w = self.world
         Rb = w.R[b]
-        return w.x[b] - np.einsum("nij,nj->ni", Rb, w.com_offset[b]) + np.einsum("nij,j->ni", Rb, p)
+        origin = w.x[b] - np.einsum("...ij,...j->...i", Rb, w.com_offset[b]) + np.einsum("...ij,...j->...i", Rb, link_p)
+        return origin, None if link_Rl is None else np.einsum("...ij,...jk->...ik", Rb, link_Rl)
 
     def limit_force(self, joint: str) -> np.ndarray:
         """(n,) N or N m: the force (torque) ``joint``'s limits applied along its coordinate in each
@@ -375,11 +381,8 @@ class _Copies:
         """The file's bodies now (``_file_bodies``): (centres of mass (n, B, 3) m, world; rotations
         of their frames (n, B, 3, 3); each copy's centre of mass (n, 3) m, MuJoCo's ``subtree_com``
         of the root: sum m xipos / sum m over the file's bodies)."""
-        f, w = self._file_bodies(), self.world
-        b = f.body
-        Rb = w.R[b]
-        origin = w.x[b] - np.einsum("nbij,nbj->nbi", Rb, w.com_offset[b]) + np.einsum("nbij,bj->nbi", Rb, f.link_p)
-        R = np.einsum("nbij,bjk->nbik", Rb, f.link_Rl)
+        f = self._file_bodies()
+        origin, R = self._frames(f.body, f.link_p, f.link_Rl)
         xipos = origin + np.einsum("nbij,bj->nbi", R, f.center)
         com = np.einsum("b,nbj->nj", f.mass, xipos) / f.mass.sum()
         return xipos, R, com

@@ -476,15 +476,11 @@ class SleepState:
         ``contacts`` (those of the bodies fallen asleep, {field: array} as
         ``SoftStep.resting_fields``; None: none kept) whose two bodies are each asleep or fixed,
         one of them fallen asleep at this update. ``moving`` (N,) bool: the world's moving bodies."""
-        def asleep_or_fixed(b):
-            return ~moving[b] | ~self.awake[b]
-
         r = self.resting
-        keep = asleep_or_fixed(r["body_a"]) & asleep_or_fixed(r["body_b"])
-        parts = [{k: v[keep] for k, v in r.items()}]
+        parts = [self.resting_contacts(moving)]
         if contacts is not None and len(contacts["body_a"]) and self.fell_asleep.any():
             a, b = contacts["body_a"], contacts["body_b"]
-            new = asleep_or_fixed(a) & asleep_or_fixed(b) & (self.fell_asleep[a] | self.fell_asleep[b])
+            new = self._asleep_or_fixed(moving, a, b) & (self.fell_asleep[a] | self.fell_asleep[b])
             parts.append({name: contacts[name][new] for name, _dtype, _shape in self.RESTING_FIELDS})
         self.resting = {k: np.concatenate([p[k] for p in parts]) for k in r}
 
@@ -495,8 +491,12 @@ class SleepState:
         if len(a) == 0 or len(moving) < self.body_count:
             return {k: v[:0] for k, v in self.resting.items()}
         # (bodies added since the last update come after these rows' bodies: ``moving`` may be longer)
-        keep = (~moving[a] | ~self.awake[a]) & (~moving[b] | ~self.awake[b])
+        keep = self._asleep_or_fixed(moving, a, b)
         return {k: v[keep] for k, v in self.resting.items()}
+
+    def _asleep_or_fixed(self, moving, a, b) -> np.ndarray:
+        """(C,) bool: contacts between bodies ``a`` and ``b`` (C,) that are each asleep or fixed."""
+        return (~moving[a] | ~self.awake[a]) & (~moving[b] | ~self.awake[b])
 
     def set_state(self, state: dict):
         """Restore ``state()``. All arrays must have one length N. Without ``sleeping_island``

@@ -40,7 +40,7 @@ import numba
 import numpy as np
 from numba import njit
 
-from ..collision.manifold import KEY_BITS
+from ..collision.manifold import KEY_BITS, match_contacts
 from ..collision.pipeline import CollisionPipeline
 from ..body_motion import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
 from ..integrators import accumulate_forces_kernel
@@ -677,16 +677,13 @@ class SoftStep:
         normal = c.contact_normal[rows].copy()
         jn, friction = np.zeros(len(rows)), np.zeros((len(rows), 3))
         sol = self.solver
-        k = sol.old_count
-        if k:  # the last step's contacts: sol.old_key[:k] in the order of its impulse arrays
-            old = sol.old_key[:k]
-            order = np.argsort(old, kind="stable")
-            j = order[np.minimum(np.searchsorted(old[order], key), k - 1)]
-            found = old[j] == key
-            j = j[found]
-            jn[found] = sol.step_normal_impulse[j]
-            jt = sol.step_tangent_impulse[j]
-            friction[found] = jt[:, 0:1] * sol.tangent1[j] + jt[:, 1:2] * sol.tangent2[j]
+        # the last step's row of each (sol.old_key[:old_count], in the order of its impulse arrays)
+        j = match_contacts(sol.old_key[:sol.old_count], key)
+        found = j >= 0
+        j = j[found]
+        jn[found] = sol.step_normal_impulse[j]
+        jt = sol.step_tangent_impulse[j]
+        friction[found] = jt[:, 0:1] * sol.tangent1[j] + jt[:, 1:2] * sol.tangent2[j]
         dt = self.dt if self.dt > 0 else 1.0
         body_a, body_b = c.contact_body_a[rows].copy(), c.contact_body_b[rows].copy()
         part_a, part_b = self._parts(key, body_a, body_b)
