@@ -2059,8 +2059,8 @@ def bare_ant(tmp_path, armature: str):
 def test_a_legged_mechanism_without_armature_comes_to_rest_on_its_feet(tmp_path):
     """The ant's four free legs (no limits, no dampers) on feet held by friction 3 let go bent: its
     torso settles on the floor and every rate falls to rounding (under 1e-9 after 3 s; measured
-    5e-14): the joints' tree solve and the contacts' Gauss-Seidel rows agree at rest. The case
-    below, with armature, does not."""
+    5e-14): the joints' tree solve and the contacts agree at rest. The case below, with armature,
+    too since the contacts are solved through the tree (session 35)."""
     kin, sim = bare_ant(tmp_path, "0")
     sim.step(300)
     assert np.abs(kin.qvel()).max() < 1e-9
@@ -2070,12 +2070,21 @@ def test_a_legged_mechanism_with_armature_loses_energy_and_sinks_as_mujocos_does
     """The same ant with the file's armature (1 kg m^2 on every hinge, about 1000 times its legs' own
     inertia about their axes): a passive mechanism on contacts that hold or slide, so from the
     landing on (0.4 s) its energy E = kinetic + potential + sum a q'^2 / 2 only falls, but for the
-    soft contacts' push-out (the armature-free twin's largest rise in a step: 0.02 J; this one's
-    0.033 J, measured; bound 0.05 J of the 3.2 J above the floor). It does not come to rest within
-    4 s, nor does MuJoCo's same model (its rates up to 0.24 rad/s from 1 s to 4 s, measured each
-    step at dt 0.01 and 0.002): the heavy legs splay slowly under the torso, which reaches the floor
-    (z 0.25, the torso's radius; MuJoCo's 0.261 by 2.5 s), rates under 0.5 rad/s after 1 s (measured
-    0.47 at most: twice MuJoCo's, the contact rows seeing the legs' own masses, not the armature).
+    soft contacts' push-out: bound 0.005 J a step of the 3.1 J above the floor (measured 0.0007 J
+    since the contacts are solved through the tree, session 35; 0.033 J before, when the contact
+    rows saw the legs' own masses and the joints' solve undid part of each push: the armature-free
+    twin's largest rise was 0.02 J).
+
+    Held by friction, the bent stance is an equilibrium, but an unstable one: the torso can turn
+    about the vertical while the legs swing about their hips the other way, which lowers it with
+    the feet still (the twist mode). So the ant stands, then leaves the stance as a small
+    disturbance grows, sinks to the floor (z 0.25, the torso's radius) and loses energy to the
+    contacts. When it leaves depends on the disturbance: MuJoCo's same model, whose soft contacts
+    creep, is on the floor by 2.5 s (0.261; its rates up to 0.24 rad/s from 1 s to 4 s, measured each
+    step at dt 0.01 and 0.002); tumble's before session 35, whose contacts and joints disagreed by
+    0.03 rad/s at rest, by 3 s; now by 10.2 s (measured; the stance holds to 1e-2 rad/s for 4 s).
+    Over 16 s: E falls from 3.14 to 2.08 J (bound: by 0.5 J), rates under 1 rad/s after 1 s (measured
+    0.91, the twist's fall), the torso on the floor.
 
     Found in session 31: the armature's rate was taken again each substep from the bodies' rates,
     which the contacts had changed with the free bodies' masses, so each contact's change of q' was
@@ -2090,14 +2099,14 @@ def test_a_legged_mechanism_with_armature_loses_energy_and_sinks_as_mujocos_does
     sim.step(40)
     landed = previous = energy()
     rise = fastest = 0.0
-    for k in range(360):
+    for k in range(1560):
         sim.step(1)
         now = energy()
         rise = max(rise, now - previous)
         previous = now
         if k >= 60:
             fastest = max(fastest, np.abs(kin.qvel()).max())
-    assert rise < 0.05
-    assert previous < landed - 1.0
-    assert fastest < 0.5
+    assert rise < 0.005
+    assert previous < landed - 0.5
+    assert fastest < 1.0
     assert 0.24 < kin.qpos()[2] < 0.27

@@ -430,12 +430,16 @@ class ContactSolver:
             warm_start_rolling_kernel(self.rolling_rows, c.contact_body_a, c.contact_body_b, c.contact_normal,
                                       self.tangent1, self.tangent2, self.rolling_impulse, self.I_inv, self.omega)
 
-    def solve_contacts(self, use_bias: bool):
+    def solve_contacts(self, use_bias: bool, order: np.ndarray | None = None, bounds: np.ndarray | None = None):
+        """One sweep of ``solve_contacts_kernel`` in the sweep's order, or in ``order`` cut by ``bounds``
+        (the contacts of jointed bodies taken out: ``contact_tree.TreeContacts``)."""
         if not self.count:
             return
         c = self.contacts
         w = self.world
-        solve_contacts_kernel(self.sweep.order[:self.count], self.sweep.bounds, c.contact_body_a, c.contact_body_b,
+        if order is None:
+            order, bounds = self.sweep.order[:self.count], self.sweep.bounds
+        solve_contacts_kernel(order, bounds, c.contact_body_a, c.contact_body_b,
                               c.contact_normal, self.tangent1, self.tangent2, self.local_a, self.local_b,
                               self.anchor_offset, self.separation_base, self.normal_mass, self.tangent_mass, self.soft,
                               self.friction, self.surface_target, self.x, self.R, w.inv_mass, self.I_inv, 1.0 / self.h,

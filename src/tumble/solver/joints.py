@@ -131,6 +131,7 @@ from .joint_stepper import (  # noqa: F401  (public here, as before the split: t
 from .joint_tree import (
     tree_sweeps_kernel,
 )
+from .contact_tree import tree_layout
 from .partition import SweepOrder
 
 
@@ -498,6 +499,7 @@ class JointSolver:
         self._row_of = {id(rec): j for j, rec in enumerate(self._joints)}
         self.count = J
         self._tree_key = None
+        self.tree_layout = None  # (body_node, node_tree, tree_lo, tree_hi) with the tree method (_build_tree)
         self.has_gears = bool(np.any(self.joint_type == JOINT_GEAR))
 
     def _build_tree(self, moving: np.ndarray):
@@ -565,6 +567,10 @@ class JointSolver:
         self.node_body = np.array([r if k == 0 else -1 for k, r in zip(kinds, refs)], dtype=np.int64)
         self.node_parent = np.array(parents, dtype=np.int64)
         self.node_order = np.arange(n - 1, -1, -1, dtype=np.int64)  # parents were added before children
+        # where each body sits in the forest, for contacts solved through it (contact_tree)
+        self.tree_layout = tree_layout(self.node_body, self.node_parent, nb)
+        _, _, lo, hi = self.tree_layout
+        self.tree_width = int((hi - lo).max()) if n else 0
         self.gauss_seidel = ~in_tree
         # gears are solved by the tree sweeps themselves, each on tree-consistent velocities (tree_sweeps_kernel)
         self.gauss_seidel[self.joint_type == JOINT_GEAR] = False
@@ -574,6 +580,7 @@ class JointSolver:
             "nrow": np.zeros(J, dtype=np.int64), "D": np.zeros((n, 6, 6)), "Dinv": np.zeros((n, 6, 6)),
             "H_up": np.zeros((n, 6, 6)), "W": np.zeros((n, 6, 6)), "y": np.zeros((n, 6)), "sol": np.zeros((n, 6)),
             "work": np.zeros((6, 6)), "node_skip": np.zeros(n, dtype=bool), "sub_order": np.zeros(J, dtype=np.int64),
+            "no_skip": np.zeros(n, dtype=bool),
         }
 
     def _groups(self, moving: np.ndarray):
@@ -636,6 +643,7 @@ class JointSolver:
                 self._tree_key = key
         else:
             self.gauss_seidel = np.ones(self.count, dtype=bool)
+            self.tree_layout = None
         self.h = float(h)
         self.inv_mass = world.inv_mass if inv_mass is None else inv_mass
         self.I_inv = world.I_inv if I_inv is None else I_inv

@@ -49,6 +49,7 @@ from ..world import Scratch
 from . import contact as C
 from .joint_solve import (first_substep_rates_kernel, flywheel_rates_kernel, joint_rates_kernel,
                           solve_joints_serial_kernel, warm_start_joints_kernel)
+from .contact_tree import TreeContacts, solve_tree_contacts_kernel, tree_contact_responses_kernel
 from .joint_tree import tree_sweeps_kernel
 from .contact_rolling import solve_rolling_kernel, warm_start_rolling_kernel
 from .contact_solve import solve_contacts_kernel, warm_start_kernel
@@ -182,9 +183,10 @@ def _solve_joints(tree, iterations, soft, x, R, inv_mass, I_inv, h, joints, tree
 
 
 @njit(**JIT)
-def _solve_contacts(use_bias, contacts, rolling, x, R, inv_mass, I_inv, inv_h, contact_speed, v, omega):
-    """One contact sweep of the fused substeps: ``ContactSolver.solve_contacts``."""
-    (order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset, separation,
+def _solve_contacts(use_bias, contacts, order, bounds, rolling, x, R, inv_mass, I_inv, inv_h, contact_speed, v, omega):
+    """One contact sweep of the fused substeps: ``ContactSolver.solve_contacts`` in ``order`` cut by
+    ``bounds`` (the contacts of jointed bodies left to ``_solve_tree_contacts``)."""
+    (_order, _bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset, separation,
      normal_mass, tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
      relative_velocity, last_normal_speed, arm_a, arm_b, gap, _step_normal, _step_tangent) = contacts
     solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
@@ -197,6 +199,42 @@ def _solve_contacts(use_bias, contacts, rolling, x, R, inv_mass, I_inv, inv_h, c
                              rolling_limit, I_inv, omega, rolling_impulse)
 
 
+@njit(**JIT)
+def _tree_responses(tree_contacts, contacts, joints, tree_parts, inv_mass, I_inv):
+    """The responses of the contacts of jointed bodies through the tree (``contact_tree``), on the
+    factors of the joint solve just made."""
+    (_order, _bounds, listed, slot_count, slot_ref, slot_resp, row_mass, body_node, node_tree, tree_lo, tree_hi,
+     no_skip) = tree_contacts
+    (_c_order, _c_bounds, body_a, body_b, normal, tangent1, tangent2, _local_a, _local_b, _anchor_offset, _separation,
+     _normal_mass, _tangent_mass, _soft, _friction, _surface_target, _normal_impulse, _tangent_impulse,
+     _max_normal_impulse, _relative_velocity, _last_normal_speed, arm_a, arm_b, _gap, _step_normal,
+     _step_tangent) = contacts
+    (_j_order, _j_bounds, joint_type, joint_a, joint_b, _j_local_a, _j_local_b, _frame_a, _frame_b, param, _enabled,
+     _gauss_seidel, _position, _rate0) = joints
+    (_limits, _max_sweeps, _tolerance, node_order, node_joint, node_body, node_parent, Ja, Jb, _C, nrow, _D, Dinv,
+     H_up, W, y, sol, work) = tree_parts[:18]
+    tree_contact_responses_kernel(listed, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass, I_inv,
+                                  body_node, node_tree, tree_lo, tree_hi, node_order, node_joint, node_body,
+                                  node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y,
+                                  sol, work, no_skip, slot_count, slot_ref, slot_resp, row_mass)
+
+
+@njit(**JIT)
+def _solve_tree_contacts(use_bias, tree_contacts, contacts, x, R, inv_h, contact_speed, v, omega, impulses):
+    """One sweep over the contacts of jointed bodies, through the tree (``contact_tree``)."""
+    (_order, _bounds, listed, slot_count, slot_ref, slot_resp, row_mass, _body_node, _node_tree, _tree_lo,
+     _tree_hi, _no_skip) = tree_contacts
+    (_c_order, _c_bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset, separation,
+     _normal_mass, _tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
+     relative_velocity, last_normal_speed, arm_a, arm_b, gap, _step_normal, _step_tangent) = contacts
+    linear_impulse, angular_impulse, axial_impulse = impulses
+    solve_tree_contacts_kernel(listed, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
+                               separation, soft, friction, surface_target, x, R, inv_h, contact_speed, use_bias,
+                               slot_count, slot_ref, slot_resp, row_mass, v, omega, linear_impulse, angular_impulse,
+                               axial_impulse, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                               last_normal_speed, arm_a, arm_b, gap)
+
+
 def _substeps_kernel(with_joints: bool):
     """``substeps_kernel`` compiled with or without its joint stages (``with_joints``, a constant of
     the closure: Numba prunes the branches it decides, so a world without joints does not compile the
@@ -206,7 +244,7 @@ def _substeps_kernel(with_joints: bool):
     def substeps_kernel(layout, Y, active, kinematic, mass, inv_mass, inertia_body, inertia_body_inv, moving,
                         gravity, forces, kinematic_v, kinematic_omega, h, substeps,
                         joints, tree, tree_parts, soft_bias, soft_relax, velocity_iterations, relax_iterations, armature,
-                        armature_rate, contacts, rolling, contact_speed,
+                        armature_rate, contacts, rolling, contact_speed, tree_contacts,
                         # outputs and scratch
                         R, v, omega, F, T, I_inv, I_world, impulses):
         """The substeps of a step, in one call: ``SoftStep.step``'s loop, the same kernels in the
@@ -236,6 +274,8 @@ def _substeps_kernel(with_joints: bool):
          normal_mass, tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
          relative_velocity, last_normal_speed, arm_a, arm_b, gap, step_normal_impulse, step_tangent_impulse) = contacts
         rolling_rows, rolling_impulse, rolling_mass, rolling_limit = rolling
+        s_order, s_bounds, tree_listed = tree_contacts[0], tree_contacts[1], tree_contacts[2]
+        n_tree = tree_listed.shape[0]
         n_joints = joint_type.shape[0]
         n_contacts = c_order.shape[0]
         n_rolling = rolling_rows.shape[0]
@@ -270,14 +310,22 @@ def _substeps_kernel(with_joints: bool):
                 # with armature, the velocities made consistent with the tree first (tree_sweeps_kernel)
                 _solve_joints(tree, velocity_iterations, soft_bias, Y, R, inv_mass, I_inv, h, joints, tree_parts, v,
                               omega, impulses, np.int64(2 if armature else 1))
+                if n_tree and k == 0:  # on the factors just made (contact_tree: once a step)
+                    _tree_responses(tree_contacts, contacts, joints, tree_parts, inv_mass, I_inv)
             if n_contacts:
-                _solve_contacts(True, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
+                _solve_contacts(True, contacts, s_order, s_bounds, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed,
+                                v, omega)
+                if with_joints and n_tree:
+                    _solve_tree_contacts(True, tree_contacts, contacts, Y, R, inv_h, contact_speed, v, omega, impulses)
             integrate_positions_kernel(layout, Y, active, kinematic, v, omega, h, R)
             if with_joints and n_joints:
                 _solve_joints(tree, relax_iterations, soft_relax, Y, R, inv_mass, I_inv, h, joints, tree_parts, v, omega,
                               impulses, np.int64(1))
             if n_contacts:
-                _solve_contacts(False, contacts, rolling, Y, R, inv_mass, I_inv, inv_h, contact_speed, v, omega)
+                _solve_contacts(False, contacts, s_order, s_bounds, rolling, Y, R, inv_mass, I_inv, inv_h,
+                                contact_speed, v, omega)
+                if with_joints and n_tree:
+                    _solve_tree_contacts(False, tree_contacts, contacts, Y, R, inv_h, contact_speed, v, omega, impulses)
             if with_joints and armature:
                 # the joints last, so that each coordinate with armature ends the substep at its flywheel's rate
                 # (joint_solve.flywheel_rates_kernel). Without it (the flywheel carried) the ant's legs kicked
@@ -402,6 +450,7 @@ class SoftStep:
         self.joints = None  # JointSolver, made when the world has joints
         self._joint_key = None
         self.solver = C.ContactSolver(self.settings)
+        self.tree_contacts = TreeContacts()  # this step's contacts of jointed bodies (contact_tree)
         self._n = -1
         self.dt = 0.0
         self.contacts = None
@@ -510,6 +559,8 @@ class SoftStep:
         if joints is not None:
             joints.prepare(w, h, w.inv_mass, self.I_inv, x=Y)
         armature = joints is not None and joints.has_armature()
+        tree = self.tree_contacts
+        tree.split(solver, joints)  # the contacts of jointed bodies, solved through the tree (contact_tree)
         if armature:
             joints.check_armature_rates(Y)  # the last step's rates, unless something moved the bodies since
         if self.fuse and check is None and not w.tables.custom and (joints is None or joints.fusable()):
@@ -531,11 +582,14 @@ class SoftStep:
             solver.warm_start(fresh=k == 0)
             if joints is not None:
                 joints.solve(s.v, s.omega, Y, s.R, True)
-            solver.solve_contacts(True)
+                if len(tree.contacts) and k == 0:
+                    _tree_responses(tree.parts(), self._contact_tables()[0], self._joint_tables(joints),
+                                    joints.tree_parts(), w.inv_mass, self.I_inv)
+            self._solve_contacts(True, joints)
             integrate_positions_kernel(layout, Y, active, kinematic, s.v, s.omega, h, s.R)
             if joints is not None:
                 joints.solve(s.v, s.omega, Y, s.R, False)
-            solver.solve_contacts(False)
+            self._solve_contacts(False, joints)
             if armature:  # the joints last (substeps_kernel says why), on the relax solve's factors
                 joints.solve(s.v, s.omega, Y, s.R, False, factor=False)
             store_momenta_kernel(layout, Y, active, w.mass, s.v, s.omega, self.I_world)
@@ -564,31 +618,50 @@ class SoftStep:
         if joints is None:
             joints = self._no_joints()
         st = joints.settings
-        n = joints.count
-        tables = (joints.sweep.order[:n], joints.sweep.bounds, joints.joint_type, joints.joint_a, joints.joint_b,
-                  joints.local_a, joints.local_b, joints.frame_a, joints.frame_b, joints.param, joints.enabled,
-                  joints.gauss_seidel, joints.position, joints.rate0)
-        sol = self.solver
-        m = sol.count
-        if m:
-            c = sol.contacts
-            contacts = (sol.sweep.order[:m], sol.sweep.bounds, c.contact_body_a, c.contact_body_b, c.contact_normal,
-                        sol.tangent1, sol.tangent2, sol.local_a, sol.local_b, sol.anchor_offset, sol.separation_base,
-                        sol.normal_mass, sol.tangent_mass, sol.soft, sol.friction, sol.surface_target,
-                        sol.normal_impulse, sol.tangent_impulse, sol.max_normal_impulse, sol.relative_velocity,
-                        sol.last_normal_speed, sol.arm_a, sol.arm_b, sol.gap, sol.step_normal_impulse,
-                        sol.step_tangent_impulse)
-            rolling = (sol.rolling_rows, sol.rolling_impulse, sol.rolling_mass, sol.rolling_limit)
-        else:
-            contacts, rolling = self._no_contacts()
+        tables = self._joint_tables(joints)
+        contacts, rolling = self._contact_tables()
         SUBSTEPS_KERNELS[self.has_joints()](
             w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
             w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
                                   tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
             tables, st.method == "tree", joints.tree_parts(), joints.soft_bias, joints.soft_relax,
             int(st.velocity_iterations), int(st.relax_iterations), armature, joints.armature_rate, contacts, rolling,
-            float(self.settings.contact_speed), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
+            float(self.settings.contact_speed), self.tree_contacts.parts(), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
             (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
+
+    @staticmethod
+    def _joint_tables(joints) -> tuple:
+        """``JointSolver``'s tables as ``substeps_kernel`` takes them (``_solve_joints`` unpacks them)."""
+        n = joints.count
+        return (joints.sweep.order[:n], joints.sweep.bounds, joints.joint_type, joints.joint_a, joints.joint_b,
+                joints.local_a, joints.local_b, joints.frame_a, joints.frame_b, joints.param, joints.enabled,
+                joints.gauss_seidel, joints.position, joints.rate0)
+
+    def _contact_tables(self) -> tuple:
+        """(contacts, rolling): ``ContactSolver``'s arrays as ``substeps_kernel`` takes them."""
+        sol = self.solver
+        m = sol.count
+        if not m:
+            return self._no_contacts()
+        c = sol.contacts
+        contacts = (sol.sweep.order[:m], sol.sweep.bounds, c.contact_body_a, c.contact_body_b, c.contact_normal,
+                    sol.tangent1, sol.tangent2, sol.local_a, sol.local_b, sol.anchor_offset, sol.separation_base,
+                    sol.normal_mass, sol.tangent_mass, sol.soft, sol.friction, sol.surface_target,
+                    sol.normal_impulse, sol.tangent_impulse, sol.max_normal_impulse, sol.relative_velocity,
+                    sol.last_normal_speed, sol.arm_a, sol.arm_b, sol.gap, sol.step_normal_impulse,
+                    sol.step_tangent_impulse)
+        return contacts, (sol.rolling_rows, sol.rolling_impulse, sol.rolling_mass, sol.rolling_limit)
+
+    def _solve_contacts(self, use_bias: bool, joints):
+        """One contact sweep of ``step``'s loop: the contact solver's, then the contacts of jointed bodies
+        through the tree (``substeps_kernel``'s order)."""
+        tree = self.tree_contacts
+        self.solver.solve_contacts(use_bias, tree.order, tree.bounds)
+        if len(tree.contacts):
+            sol = self.solver
+            _solve_tree_contacts(bool(use_bias), tree.parts(), self._contact_tables()[0], sol.x, sol.R, 1.0 / sol.h,
+                                 float(self.settings.contact_speed), sol.v, sol.omega,
+                                 (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
 
     def _no_joints(self):
         """A JointSolver of no joints: the joint tables of ``substeps_kernel`` for a world without

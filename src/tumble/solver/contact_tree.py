@@ -1,0 +1,379 @@
+"""Contacts of jointed bodies solved through the joint tree: each contact row's response is the
+articulated bodies', not the free body's.
+
+With the tree method (``JointSettings.method = "tree"``) the joints' rigid rows are solved
+exactly (``joint_tree``), and a contact solved with the free bodies' masses then disagrees with
+them: the contact stops its own body, the next joint solve shares that change out over the
+tree, the contact pushes again. One pass of each per substep does not converge to the pair's
+fixed point; with armature (a motor's rotor inertia, Gymnasium's ant and humanoid) the two
+settle into a cycle: the ant resting on its hips oscillated at about 3e-3 rad/s, the humanoid
+lying on its arm at 0.13 rad/s (MuJoCo's 0.01), and repeating the two solves within a substep
+took 40 passes to reach rest (measured, session 32; docs/joints.md).
+
+Here a contact that touches a body of the joint tree is solved as a row of the whole tree
+(Rapier's multibody contacts, PhysX's articulations): its response M_art^-1 J^T, the change of
+every velocity of the tree (and of every joint's impulse) under a unit impulse along the row,
+is one forward and back substitution on the tree's factors (``joint_tree._substitute``: the
+unit impulse on the free bodies, then the exact joint solve that follows it), its effective
+mass 1 / (J M_art^-1 J^T). Applying an impulse then moves the whole tree at once, so the
+velocities stay consistent with the joints and the contact sees the inertia behind its body.
+
+The responses are taken once a step (on the factors of the first substep's joint solve, at the
+arms of the step's start), as Rapier takes its multibody Jacobians once a step; within the step
+the arms and joints move a little, and the joints' solves of the later substeps take the
+difference up.
+
+Arrays, for the A contacts of this step that touch a tree (``contacts`` (A,), indices into the
+contact solver's rows, in its sweep order) and their 3 A rows (contact q: 3 q the normal,
+3 q + 1, 3 q + 2 the two friction directions ``tangent1``, ``tangent2``):
+
+- ``slot_count`` (3A,): how many slots row r has; ``slot_ref`` (3A, S): body i >= 0 or joint
+  -(j + 1) per slot; ``slot_resp`` (3A, S, 8): per unit impulse, a body's (dv (m/s), dw (rad/s),
+  0, 0) or a joint's (linear impulse (N s), angular impulse (N m s), ``A_EQUAL``, ``A_ARMATURE``
+  axial impulses), world frame;
+- ``row_mass`` (3A,): 1 / (J M_art^-1 J^T) (kg for the rows' unit directions).
+
+Tree layout (``JointSolver._build_tree``): ``body_node`` (N,) each moving body's node (-1: not in
+the tree), ``node_tree`` (n,) its tree, ``tree_lo``, ``tree_hi`` (T,) each tree's node range (its
+nodes were made parents first, so ``node_order[n - hi:n - lo]`` is the tree leaves first).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..joints import JOINT_DISTANCE
+from ..math3d import JIT
+from .contact_anchor import _arms
+from .joint_solve import A_ARMATURE, A_EQUAL
+from .joint_tree import _has_armature_row, _substitute
+
+@njit(**JIT)
+def _free_response(i, a, b, dva, dwa, dvb, dwb):
+    """Body i's free velocity change (dv, dw) under the row's unit impulse: a's or b's (both when i is a and b:
+    never, a contact joins two bodies)."""
+    if i == a:
+        return dva, dwa
+    if i == b:
+        return dvb, dwb
+    return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+
+
+@njit(**JIT)
+def _tree_of(i, body_node, node_tree):
+    if i < 0:
+        return -1
+    k = body_node[i]
+    return node_tree[k] if k >= 0 else -1
+
+
+@njit(**JIT)
+def tree_contact_responses_kernel(contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass,
+                                  I_inv, body_node, node_tree, tree_lo, tree_hi, node_order, node_joint, node_body,
+                                  node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W,
+                                  y, sol, work, no_skip,
+                                  # outputs
+                                  slot_count, slot_ref, slot_resp, row_mass):
+    """Each row's response through the tree and its effective mass (the module docstring's arrays),
+    on the factors ``joint_tree.tree_factor_kernel`` made at the current poses (``Ja``, ``Jb``,
+    ``nrow``, ``Dinv``, ``H_up``, ``W``); ``y``, ``sol`` (n, 6), ``work`` (6, 6) scratch,
+    ``no_skip`` (n,) all False."""
+    n_nodes = node_order.shape[0]
+    for q in range(contacts.shape[0]):
+        c = contacts[q]
+        a = body_a[c]
+        b = body_b[c]
+        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+        ta = _tree_of(a, body_node, node_tree)
+        tb = _tree_of(b, body_node, node_tree)
+        for d in range(3):
+            r = 3 * q + d
+            if d == 0:
+                u = (normal[c, 0], normal[c, 1], normal[c, 2])
+            elif d == 1:
+                u = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
+            else:
+                u = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
+            # the free bodies' response to the unit impulse -u at a's arm, +u at b's
+            ca = (ra[1] * u[2] - ra[2] * u[1], ra[2] * u[0] - ra[0] * u[2], ra[0] * u[1] - ra[1] * u[0])
+            cb = (rb[1] * u[2] - rb[2] * u[1], rb[2] * u[0] - rb[0] * u[2], rb[0] * u[1] - rb[1] * u[0])
+            dva = (-inv_mass[a] * u[0], -inv_mass[a] * u[1], -inv_mass[a] * u[2])
+            dwa = (-(I_inv[a, 0, 0] * ca[0] + I_inv[a, 0, 1] * ca[1] + I_inv[a, 0, 2] * ca[2]),
+                   -(I_inv[a, 1, 0] * ca[0] + I_inv[a, 1, 1] * ca[1] + I_inv[a, 1, 2] * ca[2]),
+                   -(I_inv[a, 2, 0] * ca[0] + I_inv[a, 2, 1] * ca[1] + I_inv[a, 2, 2] * ca[2]))
+            dvb = (inv_mass[b] * u[0], inv_mass[b] * u[1], inv_mass[b] * u[2])
+            dwb = (I_inv[b, 0, 0] * cb[0] + I_inv[b, 0, 1] * cb[1] + I_inv[b, 0, 2] * cb[2],
+                   I_inv[b, 1, 0] * cb[0] + I_inv[b, 1, 1] * cb[1] + I_inv[b, 1, 2] * cb[2],
+                   I_inv[b, 2, 0] * cb[0] + I_inv[b, 2, 1] * cb[1] + I_inv[b, 2, 2] * cb[2])
+            count = 0
+            k = 0.0  # J M_art^-1 J^T, summed over a's and b's slots
+            for side in range(2):
+                t = ta if side == 0 else tb
+                if side == 1 and tb == ta:
+                    t = -1  # one tree holds both: done
+                if t < 0:
+                    continue
+                lo = tree_lo[t]
+                hi = tree_hi[t]
+                # right-hand side: each joint of the tree reads the free response of its bodies
+                for kk in range(lo, hi):
+                    for m in range(6):
+                        y[kk, m] = 0.0
+                    j = node_joint[kk]
+                    if j < 0:
+                        continue
+                    dv1, dw1 = _free_response(joint_a[j], a, b, dva, dwa, dvb, dwb)
+                    dv2, dw2 = _free_response(joint_b[j], a, b, dva, dwa, dvb, dwb)
+                    rows = nrow[j] + 1 if _has_armature_row(j, joint_type[j], param) else nrow[j]
+                    for m in range(rows):
+                        acc = 0.0
+                        for e in range(3):
+                            acc += (Ja[j, m, e] * dv1[e] + Ja[j, m, 3 + e] * dw1[e] + Jb[j, m, e] * dv2[e]
+                                    + Jb[j, m, 3 + e] * dw2[e])
+                        y[kk, m] = -acc
+                _substitute(node_order[n_nodes - hi:n_nodes - lo], node_parent, Dinv, H_up, W, y, sol, work, no_skip)
+                for kk in range(lo, hi):
+                    j = node_joint[kk]
+                    for m in range(8):
+                        slot_resp[r, count, m] = 0.0
+                    if j < 0:
+                        i = node_body[kk]
+                        dv, dw = _free_response(i, a, b, dva, dwa, dvb, dwb)
+                        for e in range(3):
+                            slot_resp[r, count, e] = sol[kk, e] + dv[e]
+                            slot_resp[r, count, 3 + e] = sol[kk, 3 + e] + dw[e]
+                        slot_ref[r, count] = i
+                        if i == a:
+                            k -= (u[0] * slot_resp[r, count, 0] + u[1] * slot_resp[r, count, 1]
+                                  + u[2] * slot_resp[r, count, 2] + ca[0] * slot_resp[r, count, 3]
+                                  + ca[1] * slot_resp[r, count, 4] + ca[2] * slot_resp[r, count, 5])
+                        elif i == b:
+                            k += (u[0] * slot_resp[r, count, 0] + u[1] * slot_resp[r, count, 1]
+                                  + u[2] * slot_resp[r, count, 2] + cb[0] * slot_resp[r, count, 3]
+                                  + cb[1] * slot_resp[r, count, 4] + cb[2] * slot_resp[r, count, 5])
+                    else:
+                        # the joint's impulses as the exact solve adds them (tree_substitute_kernel)
+                        m_rows = nrow[j]
+                        if _has_armature_row(j, joint_type[j], param):
+                            slot_resp[r, count, 7] = -sol[kk, m_rows]
+                        for m in range(m_rows):
+                            lam = -sol[kk, m]
+                            lin = Jb[j, m, 0] != 0.0 or Jb[j, m, 1] != 0.0 or Jb[j, m, 2] != 0.0
+                            if joint_type[j] == JOINT_DISTANCE:
+                                slot_resp[r, count, 6] += lam
+                            elif lin:
+                                for e in range(3):
+                                    slot_resp[r, count, e] += lam * Jb[j, m, e]
+                            else:
+                                for e in range(3):
+                                    slot_resp[r, count, 3 + e] += lam * Jb[j, m, 3 + e]
+                        slot_ref[r, count] = -(j + 1)
+                    count += 1
+            # a side outside every tree: its free response (nothing for a fixed body)
+            for side in range(2):
+                i = a if side == 0 else b
+                if (ta if side == 0 else tb) >= 0 or inv_mass[i] == 0.0:
+                    continue
+                dv, dw = (dva, dwa) if side == 0 else (dvb, dwb)
+                cr = ca if side == 0 else cb
+                for e in range(3):
+                    slot_resp[r, count, e] = dv[e]
+                    slot_resp[r, count, 3 + e] = dw[e]
+                slot_resp[r, count, 6] = 0.0
+                slot_resp[r, count, 7] = 0.0
+                slot_ref[r, count] = i
+                s = (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2] + cr[0] * dw[0] + cr[1] * dw[1] + cr[2] * dw[2])
+                k += -s if side == 0 else s
+                count += 1
+            slot_count[r] = count
+            row_mass[r] = 1.0 / k if k > 0.0 else 0.0
+
+
+@njit(**JIT)
+def _apply_row(r, impulse, slot_count, slot_ref, slot_resp, v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """Impulse (N s) along row r: every velocity and joint impulse of its tree (and its free body) by the row's
+    response."""
+    for s in range(slot_count[r]):
+        ref = slot_ref[r, s]
+        if ref >= 0:
+            for e in range(3):
+                v[ref, e] += impulse * slot_resp[r, s, e]
+                omega[ref, e] += impulse * slot_resp[r, s, 3 + e]
+        else:
+            j = -ref - 1
+            for e in range(3):
+                linear_impulse[j, e] += impulse * slot_resp[r, s, e]
+                angular_impulse[j, e] += impulse * slot_resp[r, s, 3 + e]
+            axial_impulse[j, A_EQUAL] += impulse * slot_resp[r, s, 6]
+            axial_impulse[j, A_ARMATURE] += impulse * slot_resp[r, s, 7]
+
+
+@njit(**JIT)
+def _speed(v, omega, a, b, ra, rb, u):
+    """The speed of b's point over a's along u (m/s)."""
+    s = 0.0
+    wa = (omega[a, 0], omega[a, 1], omega[a, 2])
+    wb = (omega[b, 0], omega[b, 1], omega[b, 2])
+    pa = (v[a, 0] + wa[1] * ra[2] - wa[2] * ra[1], v[a, 1] + wa[2] * ra[0] - wa[0] * ra[2],
+          v[a, 2] + wa[0] * ra[1] - wa[1] * ra[0])
+    pb = (v[b, 0] + wb[1] * rb[2] - wb[2] * rb[1], v[b, 1] + wb[2] * rb[0] - wb[0] * rb[2],
+          v[b, 2] + wb[0] * rb[1] - wb[1] * rb[0])
+    for e in range(3):
+        s += u[e] * (pb[e] - pa[e])
+    return s
+
+
+@njit(**JIT)
+def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
+                               separation, soft, friction, surface_target, x, R, inv_h, contact_speed, use_bias,
+                               slot_count, slot_ref, slot_resp, row_mass,
+                               # outputs
+                               v, omega, linear_impulse, angular_impulse, axial_impulse, normal_impulse,
+                               tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed, arm_a,
+                               arm_b, gap):
+    """One Gauss-Seidel sweep over the contacts of jointed bodies, each row through the tree (the
+    module docstring): per contact the normal impulse (soft when ``use_bias``), then the friction,
+    with the contact solve's rules (``contact_solve.solve_contacts_kernel``: the speculative gap,
+    the soft push-out capped at ``contact_speed``, the rigid relax that takes the push-out back,
+    the approach speed for restitution, Coulomb's disc) and its arrays. The relax reads the arms
+    at the moved poses (and caches them, as that kernel does)."""
+    for q in range(contacts.shape[0]):
+        c = contacts[q]
+        a = body_a[c]
+        b = body_b[c]
+        if use_bias:
+            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+        else:
+            ra, rb, dd = _arms(x, R, a, b, local_a, local_b, anchor_offset, c)
+            for e in range(3):
+                arm_a[c, e] = ra[e]
+                arm_b[c, e] = rb[e]
+            gap[c] = normal[c, 0] * dd[0] + normal[c, 1] * dd[1] + normal[c, 2] * dd[2]
+        n = (normal[c, 0], normal[c, 1], normal[c, 2])
+        s = separation[c] + gap[c]
+        bias = 0.0
+        mass_scale = 1.0
+        impulse_scale = 0.0
+        if s > 0.0:
+            bias = s * inv_h
+        elif use_bias:
+            bias = max(soft[c, 0] * s, -contact_speed)
+            mass_scale = soft[c, 1]
+            impulse_scale = soft[c, 2]
+        mass = row_mass[3 * q]
+        vn = _speed(v, omega, a, b, ra, rb, n)
+        impulse = -mass * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
+        new_impulse = max(normal_impulse[c] + impulse, 0.0)
+        if not use_bias and s > 0.0 and normal_impulse[c] == 0.0 and new_impulse > 0.0:
+            new_impulse = normal_impulse[c]  # the relax takes back push-out only (solve_contacts_kernel)
+        if new_impulse > 0.0 and vn < relative_velocity[c]:
+            u = -vn  # the approach speed restitution reflects, as in _solve_contact_range
+            w0 = -last_normal_speed[c]
+            if s > 0.0 and w0 > 0.0 and u > w0:
+                u = min(math.sqrt(w0 * w0 + 2.0 * ((u - w0) * inv_h) * s), u)
+            relative_velocity[c] = min(-u, relative_velocity[c])
+        impulse = new_impulse - normal_impulse[c]
+        normal_impulse[c] = new_impulse
+        max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+        if not use_bias:
+            last_normal_speed[c] = vn + (impulse / mass if mass > 0.0 else 0.0)
+        _apply_row(3 * q, impulse, slot_count, slot_ref, slot_resp, v, omega, linear_impulse, angular_impulse,
+                   axial_impulse)
+        # Coulomb friction: each direction with its own mass, the 2-vector clamped to mu times the normal impulse
+        t1 = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
+        t2 = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
+        vt1 = _speed(v, omega, a, b, ra, rb, t1) - surface_target[c, 0]
+        vt2 = _speed(v, omega, a, b, ra, rb, t2) - surface_target[c, 1]
+        old1 = tangent_impulse[c, 0]
+        old2 = tangent_impulse[c, 1]
+        new1 = old1 - row_mass[3 * q + 1] * vt1
+        new2 = old2 - row_mass[3 * q + 2] * vt2
+        limit = friction[c] * normal_impulse[c]
+        mag2 = new1 * new1 + new2 * new2
+        if mag2 > limit * limit:
+            scale = limit / math.sqrt(mag2)
+            new1 *= scale
+            new2 *= scale
+        tangent_impulse[c, 0] = new1
+        tangent_impulse[c, 1] = new2
+        _apply_row(3 * q + 1, new1 - old1, slot_count, slot_ref, slot_resp, v, omega, linear_impulse,
+                   angular_impulse, axial_impulse)
+        _apply_row(3 * q + 2, new2 - old2, slot_count, slot_ref, slot_resp, v, omega, linear_impulse,
+                   angular_impulse, axial_impulse)
+
+
+def tree_layout(node_body: np.ndarray, node_parent: np.ndarray, body_count: int):
+    """``body_node`` (N,), ``node_tree`` (n,), ``tree_lo``, ``tree_hi`` (T,) of the forest whose nodes
+    were made parents first, a tree at a time (``JointSolver._build_tree``)."""
+    n = node_parent.shape[0]
+    roots = np.flatnonzero(node_parent < 0)
+    tree_lo = roots.astype(np.int64)
+    tree_hi = np.append(roots[1:], n).astype(np.int64)
+    node_tree = np.zeros(n, dtype=np.int64)
+    for t, (lo, hi) in enumerate(zip(tree_lo, tree_hi)):
+        node_tree[lo:hi] = t
+    body_node = np.full(body_count, -1, dtype=np.int64)
+    bodies = np.flatnonzero(node_body >= 0)
+    body_node[node_body[bodies]] = bodies
+    return body_node, node_tree, tree_lo, tree_hi
+
+
+class TreeContacts:
+    """This step's contacts that touch the joint tree (``split``), their responses and the rest of
+    the contact solver's sweep order: ``order``, ``bounds`` (as ``ContactSolver.sweep``'s, without
+    them), ``contacts`` (A,) and the module docstring's arrays."""
+
+    def __init__(self):
+        self.contacts = np.zeros(0, dtype=np.int64)
+        self.order = np.zeros(0, dtype=np.int64)
+        self.bounds = np.zeros(2, dtype=np.int64)
+        self.layout = (np.zeros(0, dtype=np.int64),) * 4
+        self.no_skip = np.zeros(0, dtype=bool)
+        self._buffers(0, 0)
+
+    def _buffers(self, rows: int, width: int):
+        old = self.__dict__.get("slot_ref")
+        if old is None or old.shape[0] < rows or old.shape[1] < width:
+            rows = max(rows, 2 * (old.shape[0] if old is not None else 0))
+            self.slot_count = np.zeros(rows, dtype=np.int64)
+            self.slot_ref = np.zeros((rows, width), dtype=np.int64)
+            self.slot_resp = np.zeros((rows, width, 8))
+            self.row_mass = np.zeros(rows)
+
+    def split(self, solver, joints) -> int:
+        """Take the contacts of ``solver`` (a prepared ``ContactSolver``) that touch a moving body of
+        ``joints``' tree (tree method) out of its sweep order; returns how many."""
+        m = solver.count
+        order = solver.sweep.order[:m]
+        bounds = solver.sweep.bounds
+        layout = None if joints is None else joints.tree_layout
+        self.order, self.bounds = order, bounds
+        self.contacts = self.contacts[:0]
+        if layout is None or m == 0:
+            return 0
+        body_node = layout[0]
+        c = solver.contacts
+        touches = (body_node[c.contact_body_a] >= 0) | (body_node[c.contact_body_b] >= 0)
+        if not touches.any():
+            return 0
+        in_tree = touches[order]
+        keep = ~in_tree
+        cum = np.zeros(m + 1, dtype=np.int64)
+        np.cumsum(keep, out=cum[1:])
+        self.order = order[keep]
+        self.bounds = cum[bounds]
+        self.contacts = order[in_tree]
+        self.layout = layout
+        self.no_skip = joints._scratch["no_skip"]
+        self._buffers(3 * len(self.contacts), 2 * joints.tree_width + 2)
+        return len(self.contacts)
+
+    def parts(self) -> tuple:
+        """The arrays ``soft_step.substeps_kernel`` takes (``split``'s, the responses', the layout)."""
+        return (self.order, self.bounds, self.contacts, self.slot_count, self.slot_ref, self.slot_resp,
+                self.row_mass, *self.layout, self.no_skip)
