@@ -334,3 +334,34 @@ def test_a_humanoid_under_random_controls_does_not_blow_up():
         fastest = max(fastest, np.abs(env.world.omega).max())
     assert np.all(np.isfinite(env.world.x)) and fastest < 100.0
     assert episodes >= 5
+
+
+def test_the_humanoid_fallen_and_the_ant_standing_come_to_rest():
+    """With zero controls Gymnasium's humanoid falls and lies on the floor, its right arm wedged
+    between its legs and the floor, an elbow on its limit (seed 0); the ant stands on its four legs.
+    Both come to rest: the humanoid's largest joint rate from 9 to 12 s under 1e-6 rad/s (measured
+    1.8e-13: median 1e-13; MuJoCo's same model 0.012, its soft contacts still creeping), the ant's
+    largest rate at 10 s under 1e-6 (measured 1e-11; MuJoCo's 3.5e-6).
+
+    Before session 35 neither did: the contacts were solved with each link's own mass while the
+    joints' tree saw the whole mechanism and its armature, and the two solves, one pass each a
+    substep, settled into a cycle (the ant at 0.03-0.05 rad/s, the humanoid at 0.14); with the
+    contacts solved through the tree (contact_tree) the humanoid still moved at 0.11, its elbow
+    bouncing on a limit pushed back rigidly (the tree's 1/h bias: 4e-4 rad past it, then 5e-4 apart,
+    each step); its limits are now solved through the tree too, and pushed back at Box2D's joint
+    softness (JointSettings.limit_hertz)."""
+    env = gym.make("tumble/Humanoid-v5", terminate_when_unhealthy=False, max_episode_steps=10_000)
+    env.reset(seed=0)
+    rates = []
+    for k in range(800):  # 12 s at 0.015 s a step
+        obs = env.step(np.zeros(17))[0]
+        if (k + 1) * 0.015 > 9.0:
+            rates.append(np.abs(obs[28:45]).max())  # the hinges' rates (qvel[6:])
+    assert obs[0] < 0.2  # lying
+    assert max(rates) < 1e-6
+    env = gym.make("tumble/Ant-v5")
+    env.reset(seed=0)
+    for _ in range(1000):  # 10 s at 0.01 s
+        obs = env.step(np.zeros(8))[0]
+    assert obs[0] > 0.3  # standing
+    assert np.abs(obs[13:27]).max() < 1e-6

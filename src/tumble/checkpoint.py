@@ -78,7 +78,7 @@ JOINT_SOLVER_OPTIONAL = ("armature_rate", "armature_state")
 JOINT_SOLVER_REBUILT = ("joint_type", "joint_a", "joint_b", "local_a", "local_b", "frame_a", "frame_b",
                         "gauss_seidel", "node_joint", "node_body", "node_parent", "node_order",
                         "joint_group", "body_group",  # the tree sweeps' settling groups, with the forest
-                        "inv_mass", "I_inv", "soft_bias", "soft_relax", "rate0")
+                        "inv_mass", "I_inv", "soft_bias", "soft_relax", "soft_limit", "rate0")
 # fields of a joint record that are not constructor arguments: kept apart in the meta
 JOINT_STATE_FIELDS = ("bound", "broken")
 

@@ -80,7 +80,7 @@ DEGREE_KEYS = {"lower_deg": "lower", "upper_deg": "upper", "target_deg": "target
                "motor_speed_deg": "motor_speed", "twist_lower_deg": "twist_lower", "twist_upper_deg": "twist_upper",
                "lower_b_deg": "lower_b", "upper_b_deg": "upper_b", "motor_speed_b_deg": "motor_speed_b"}
 SOLVER_KEYS = ("method", "hertz", "damping_ratio", "velocity_iterations", "relax_iterations", "bias_factor",
-               "partitions", "partition_min_joints")
+               "partitions", "partition_min_joints", "limit_hertz", "limit_damping_ratio")
 
 
 def _number(value, key: str, file, unbounded=False) -> float:
@@ -237,7 +237,7 @@ def _parse_gear(entry: dict, key: str, world, file, names: set):
 
 def parse_joint_settings(table, file: str | None = None):
     """A ``[joint_solver]`` table (method, hertz, damping_ratio, velocity_iterations,
-    relax_iterations, bias_factor, partitions, partition_min_joints) as
+    relax_iterations, bias_factor, partitions, partition_min_joints, limit_hertz, limit_damping_ratio) as
     ``tumble.solver.joints.JointSettings``."""
     from .solver.joints import JointSettings
 

@@ -45,21 +45,14 @@ import math
 import numpy as np
 from numba import njit
 
-from ..joints import JOINT_DISTANCE
 from ..math3d import JIT
 from .contact_anchor import _arms
-from .joint_solve import A_ARMATURE, A_EQUAL
-from .joint_tree import _has_armature_row, _substitute
+from .joint_math import _cross, _dot, _mat_vec, _scale
+from .joint_tree import apply_row_response, slot_rate, tree_row_response
 
-@njit(**JIT)
-def _free_response(i, a, b, dva, dwa, dvb, dwb):
-    """Body i's free velocity change (dv, dw) under the row's unit impulse: a's or b's (both when i is a and b:
-    never, a contact joins two bodies)."""
-    if i == a:
-        return dva, dwa
-    if i == b:
-        return dvb, dwb
-    return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+
+#: a row whose response through the tree is below this fraction of its free bodies' is held by the joints
+RESPONSE_FLOOR = 1e-12
 
 
 @njit(**JIT)
@@ -81,7 +74,6 @@ def tree_contact_responses_kernel(contacts, body_a, body_b, normal, tangent1, ta
     on the factors ``joint_tree.tree_factor_kernel`` made at the current poses (``Ja``, ``Jb``,
     ``nrow``, ``Dinv``, ``H_up``, ``W``); ``y``, ``sol`` (n, 6), ``work`` (6, 6) scratch,
     ``no_skip`` (n,) all False."""
-    n_nodes = node_order.shape[0]
     for q in range(contacts.shape[0]):
         c = contacts[q]
         a = body_a[c]
@@ -98,118 +90,43 @@ def tree_contact_responses_kernel(contacts, body_a, body_b, normal, tangent1, ta
                 u = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
             else:
                 u = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
-            # the free bodies' response to the unit impulse -u at a's arm, +u at b's
-            ca = (ra[1] * u[2] - ra[2] * u[1], ra[2] * u[0] - ra[0] * u[2], ra[0] * u[1] - ra[1] * u[0])
-            cb = (rb[1] * u[2] - rb[2] * u[1], rb[2] * u[0] - rb[0] * u[2], rb[0] * u[1] - rb[1] * u[0])
-            dva = (-inv_mass[a] * u[0], -inv_mass[a] * u[1], -inv_mass[a] * u[2])
-            dwa = (-(I_inv[a, 0, 0] * ca[0] + I_inv[a, 0, 1] * ca[1] + I_inv[a, 0, 2] * ca[2]),
-                   -(I_inv[a, 1, 0] * ca[0] + I_inv[a, 1, 1] * ca[1] + I_inv[a, 1, 2] * ca[2]),
-                   -(I_inv[a, 2, 0] * ca[0] + I_inv[a, 2, 1] * ca[1] + I_inv[a, 2, 2] * ca[2]))
-            dvb = (inv_mass[b] * u[0], inv_mass[b] * u[1], inv_mass[b] * u[2])
-            dwb = (I_inv[b, 0, 0] * cb[0] + I_inv[b, 0, 1] * cb[1] + I_inv[b, 0, 2] * cb[2],
-                   I_inv[b, 1, 0] * cb[0] + I_inv[b, 1, 1] * cb[1] + I_inv[b, 1, 2] * cb[2],
-                   I_inv[b, 2, 0] * cb[0] + I_inv[b, 2, 1] * cb[1] + I_inv[b, 2, 2] * cb[2])
+            # the row's Jacobian: -u at a's arm, +u at b's; the free bodies' response to its unit impulse
+            ja = _scale(-1.0, u)
+            jwa = _scale(-1.0, _cross(ra, u))
+            jwb = _cross(rb, u)
+            dva = _scale(inv_mass[a], ja)
+            dwa = _mat_vec(I_inv, a, jwa)
+            dvb = _scale(inv_mass[b], u)
+            dwb = _mat_vec(I_inv, b, jwb)
             count = 0
-            k = 0.0  # J M_art^-1 J^T, summed over a's and b's slots
-            for side in range(2):
-                t = ta if side == 0 else tb
-                if side == 1 and tb == ta:
-                    t = -1  # one tree holds both: done
-                if t < 0:
-                    continue
-                lo = tree_lo[t]
-                hi = tree_hi[t]
-                # right-hand side: each joint of the tree reads the free response of its bodies
-                for kk in range(lo, hi):
-                    for m in range(6):
-                        y[kk, m] = 0.0
-                    j = node_joint[kk]
-                    if j < 0:
-                        continue
-                    dv1, dw1 = _free_response(joint_a[j], a, b, dva, dwa, dvb, dwb)
-                    dv2, dw2 = _free_response(joint_b[j], a, b, dva, dwa, dvb, dwb)
-                    rows = nrow[j] + 1 if _has_armature_row(j, joint_type[j], param) else nrow[j]
-                    for m in range(rows):
-                        acc = 0.0
-                        for e in range(3):
-                            acc += (Ja[j, m, e] * dv1[e] + Ja[j, m, 3 + e] * dw1[e] + Jb[j, m, e] * dv2[e]
-                                    + Jb[j, m, 3 + e] * dw2[e])
-                        y[kk, m] = -acc
-                _substitute(node_order[n_nodes - hi:n_nodes - lo], node_parent, Dinv, H_up, W, y, sol, work, no_skip)
-                for kk in range(lo, hi):
-                    j = node_joint[kk]
-                    for m in range(8):
-                        slot_resp[r, count, m] = 0.0
-                    if j < 0:
-                        i = node_body[kk]
-                        dv, dw = _free_response(i, a, b, dva, dwa, dvb, dwb)
-                        for e in range(3):
-                            slot_resp[r, count, e] = sol[kk, e] + dv[e]
-                            slot_resp[r, count, 3 + e] = sol[kk, 3 + e] + dw[e]
-                        slot_ref[r, count] = i
-                        if i == a:
-                            k -= (u[0] * slot_resp[r, count, 0] + u[1] * slot_resp[r, count, 1]
-                                  + u[2] * slot_resp[r, count, 2] + ca[0] * slot_resp[r, count, 3]
-                                  + ca[1] * slot_resp[r, count, 4] + ca[2] * slot_resp[r, count, 5])
-                        elif i == b:
-                            k += (u[0] * slot_resp[r, count, 0] + u[1] * slot_resp[r, count, 1]
-                                  + u[2] * slot_resp[r, count, 2] + cb[0] * slot_resp[r, count, 3]
-                                  + cb[1] * slot_resp[r, count, 4] + cb[2] * slot_resp[r, count, 5])
-                    else:
-                        # the joint's impulses as the exact solve adds them (tree_substitute_kernel)
-                        m_rows = nrow[j]
-                        if _has_armature_row(j, joint_type[j], param):
-                            slot_resp[r, count, 7] = -sol[kk, m_rows]
-                        for m in range(m_rows):
-                            lam = -sol[kk, m]
-                            lin = Jb[j, m, 0] != 0.0 or Jb[j, m, 1] != 0.0 or Jb[j, m, 2] != 0.0
-                            if joint_type[j] == JOINT_DISTANCE:
-                                slot_resp[r, count, 6] += lam
-                            elif lin:
-                                for e in range(3):
-                                    slot_resp[r, count, e] += lam * Jb[j, m, e]
-                            else:
-                                for e in range(3):
-                                    slot_resp[r, count, 3 + e] += lam * Jb[j, m, 3 + e]
-                        slot_ref[r, count] = -(j + 1)
-                    count += 1
+            if ta >= 0:
+                count = tree_row_response(ta, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint,
+                                          node_body, node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow,
+                                          Dinv, H_up, W, y, sol, work, no_skip, slot_ref, slot_resp, r, count)
+            if tb >= 0 and tb != ta:
+                count = tree_row_response(tb, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint,
+                                          node_body, node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow,
+                                          Dinv, H_up, W, y, sol, work, no_skip, slot_ref, slot_resp, r, count)
             # a side outside every tree: its free response (nothing for a fixed body)
             for side in range(2):
                 i = a if side == 0 else b
                 if (ta if side == 0 else tb) >= 0 or inv_mass[i] == 0.0:
                     continue
                 dv, dw = (dva, dwa) if side == 0 else (dvb, dwb)
-                cr = ca if side == 0 else cb
                 for e in range(3):
                     slot_resp[r, count, e] = dv[e]
                     slot_resp[r, count, 3 + e] = dw[e]
                 slot_resp[r, count, 6] = 0.0
                 slot_resp[r, count, 7] = 0.0
                 slot_ref[r, count] = i
-                s = (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2] + cr[0] * dw[0] + cr[1] * dw[1] + cr[2] * dw[2])
-                k += -s if side == 0 else s
                 count += 1
             slot_count[r] = count
-            row_mass[r] = 1.0 / k if k > 0.0 else 0.0
-
-
-@njit(**JIT)
-def _apply_row(r, impulse, slot_count, slot_ref, slot_resp, v, omega, linear_impulse, angular_impulse, axial_impulse):
-    """Impulse (N s) along row r: every velocity and joint impulse of its tree (and its free body) by the row's
-    response."""
-    for s in range(slot_count[r]):
-        ref = slot_ref[r, s]
-        if ref >= 0:
-            for e in range(3):
-                v[ref, e] += impulse * slot_resp[r, s, e]
-                omega[ref, e] += impulse * slot_resp[r, s, 3 + e]
-        else:
-            j = -ref - 1
-            for e in range(3):
-                linear_impulse[j, e] += impulse * slot_resp[r, s, e]
-                angular_impulse[j, e] += impulse * slot_resp[r, s, 3 + e]
-            axial_impulse[j, A_EQUAL] += impulse * slot_resp[r, s, 6]
-            axial_impulse[j, A_ARMATURE] += impulse * slot_resp[r, s, 7]
+            k = (slot_rate(r, count, slot_ref, slot_resp, a, ja, jwa)
+                 + slot_rate(r, count, slot_ref, slot_resp, b, u, jwb))
+            # a direction the joints hold (a hinged rod's point along the hinge's axis) answers with
+            # rounding (4e-17 of the free response, measured): no mass, not 1 / rounding
+            k_free = _dot(ja, dva) + _dot(jwa, dwa) + _dot(u, dvb) + _dot(jwb, dwb)
+            row_mass[r] = 1.0 / k if k > RESPONSE_FLOOR * k_free else 0.0
 
 
 @njit(**JIT)
@@ -282,8 +199,8 @@ def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tange
         max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
         if not use_bias:
             last_normal_speed[c] = vn + (impulse / mass if mass > 0.0 else 0.0)
-        _apply_row(3 * q, impulse, slot_count, slot_ref, slot_resp, v, omega, linear_impulse, angular_impulse,
-                   axial_impulse)
+        apply_row_response(3 * q, impulse, slot_count[3 * q], slot_ref, slot_resp, v, omega, linear_impulse,
+                           angular_impulse, axial_impulse)
         # Coulomb friction: each direction with its own mass, the 2-vector clamped to mu times the normal impulse
         t1 = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
         t2 = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
@@ -301,10 +218,10 @@ def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tange
             new2 *= scale
         tangent_impulse[c, 0] = new1
         tangent_impulse[c, 1] = new2
-        _apply_row(3 * q + 1, new1 - old1, slot_count, slot_ref, slot_resp, v, omega, linear_impulse,
-                   angular_impulse, axial_impulse)
-        _apply_row(3 * q + 2, new2 - old2, slot_count, slot_ref, slot_resp, v, omega, linear_impulse,
-                   angular_impulse, axial_impulse)
+        apply_row_response(3 * q + 1, new1 - old1, slot_count[3 * q + 1], slot_ref, slot_resp, v, omega,
+                           linear_impulse, angular_impulse, axial_impulse)
+        apply_row_response(3 * q + 2, new2 - old2, slot_count[3 * q + 2], slot_ref, slot_resp, v, omega,
+                           linear_impulse, angular_impulse, axial_impulse)
 
 
 def tree_layout(node_body: np.ndarray, node_parent: np.ndarray, body_count: int):

@@ -219,10 +219,13 @@ def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp
 
 @njit(**JIT, inline="always")
 def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
-                 h, inv_h, soft, v, omega, linear_impulse, axial_impulse):
-    """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate."""
+                 h, inv_h, soft, v, omega, linear_impulse, axial_impulse, in_tree):
+    """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate.
+    ``in_tree``: the joint's rigid rows are the tree's, and a hinge's or slider's limits too
+    (``joint_tree.tree_limits_kernel``): left out here."""
+    limit_on = param[j, P_LIMIT_ON] != 0.0 and not (in_tree and (t == JOINT_HINGE or t == JOINT_SLIDER))
     if (param[j, P_STIFFNESS] == 0.0 and param[j, P_DAMPING] == 0.0 and param[j, P_MOTOR_ON] == 0.0
-            and param[j, P_RIGID] == 0.0 and param[j, P_LIMIT_ON] == 0.0):
+            and param[j, P_RIGID] == 0.0 and not limit_on):
         return  # PERF: most joints (a net, a chain) have no 1-D rows; skip their geometry
     p = param[j]
     has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
@@ -287,7 +290,7 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
         axial_impulse[j, A_EQUAL] = old + imp
         _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0, imp, keep,
                      axial_impulse)
-    elif p[P_LIMIT_ON] != 0.0:
+    elif limit_on:
         _solve_limit_rows(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos, a, b, linear, n, ra, rb, comp, keep, m_eff, soft,
                           inv_h, inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
 
@@ -611,7 +614,7 @@ def _sweep_joints(lo, hi, backward, order, joint_type, joint_a, joint_b, local_a
         if _inv_m(inv_mass, a) + _inv_m(inv_mass, b) == 0.0:
             continue
         _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
-                     h, inv_h, soft, v, omega, linear_impulse, axial_impulse)
+                     h, inv_h, soft, v, omega, linear_impulse, axial_impulse, not gauss_seidel[j])
         if param[j, P_LIMIT2_ON] != 0.0 or param[j, P_MOTOR2_ON] != 0.0:
             # PERF: tested here, not only inside: while _solve_axial2 was a call (some 20
             # array arguments), the call alone cost 25 % of the joint_grid step, whose joints

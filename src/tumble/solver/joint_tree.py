@@ -18,8 +18,10 @@ from ..joints import (
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
     P_ARMATURE,
+    P_LIMIT_ON,
     P_LOWER,
     P_RIGID,
+    P_UPPER,
 )
 from ..math3d import (
     NO_NRT,
@@ -34,14 +36,18 @@ from .joint_math import (
     _cross,
     _dot,
     _frames,
+    _inv_m,
     _mat_vec,
+    _row_velocity,
     _scale,
     _sub,
 )
 from .joint_solve import (
     A_ARMATURE,
     A_EQUAL,
+    A_LOWER,
     _coordinate_row,
+    _limits_idle,
     solve_joints_serial_kernel,
 )
 
@@ -364,6 +370,117 @@ def _substitute(order, node_parent, Dinv, H_up, W, y, sol, work, skip):
             sol[k, r] = s
 
 
+# ---------------------------------------------------------------------- rows solved through the tree
+# A row outside the tree's rigid rows (a contact: contact_tree; a hinge's or slider's limit:
+# tree_limits_kernel) solved as a row of the whole tree: its response M_art^-1 J^T, the change of
+# every velocity of the tree and of every joint's impulse under a unit impulse along it, is the
+# free bodies' response followed by the exact joint solve it calls for: one substitution on the
+# factors. Applied with it, an impulse leaves the velocities consistent with the joints, and the
+# row's mass 1 / (J M_art^-1 J^T) is the inertia behind it. Slots: a body i >= 0 with (dv, dw, 0, 0)
+# or a joint -(j + 1) with (linear, angular, A_EQUAL, A_ARMATURE impulses), per unit impulse.
+@njit(**NO_NRT)
+def _free_response(i, a, b, dva, dwa, dvb, dwb):
+    """Body i's free velocity change (dv, dw) under the row's unit impulse: a's or b's (zero for
+    any other body, the world included)."""
+    if i >= 0 and i == a:
+        return dva, dwa
+    if i >= 0 and i == b:
+        return dvb, dwb
+    return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+
+
+@njit(**NO_NRT)
+def tree_row_response(t, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint, node_body, node_parent,
+                      joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
+                      slot_ref, slot_resp, r, count):
+    """Row r's response over tree t's nodes into its slots from ``count`` on (returns the new count):
+    bodies a and b (-1: none) move by (dva, dwa), (dvb, dwb) under the row's unit impulse as free
+    bodies; each joint of the tree reads that, and the exact solve (``_substitute`` on the tree's
+    own nodes, leaves first: node_order[n - hi:n - lo]) answers. ``no_skip`` (n,) all False."""
+    n_nodes = node_order.shape[0]
+    lo = tree_lo[t]
+    hi = tree_hi[t]
+    for kk in range(lo, hi):
+        for m in range(6):
+            y[kk, m] = 0.0
+        j = node_joint[kk]
+        if j < 0:
+            continue
+        dv1, dw1 = _free_response(joint_a[j], a, b, dva, dwa, dvb, dwb)
+        dv2, dw2 = _free_response(joint_b[j], a, b, dva, dwa, dvb, dwb)
+        rows = nrow[j] + 1 if _has_armature_row(j, joint_type[j], param) else nrow[j]
+        for m in range(rows):
+            acc = 0.0
+            for e in range(3):
+                acc += Ja[j, m, e] * dv1[e] + Ja[j, m, 3 + e] * dw1[e] + Jb[j, m, e] * dv2[e] + Jb[j, m, 3 + e] * dw2[e]
+            y[kk, m] = -acc
+    _substitute(node_order[n_nodes - hi:n_nodes - lo], node_parent, Dinv, H_up, W, y, sol, work, no_skip)
+    for kk in range(lo, hi):
+        j = node_joint[kk]
+        for m in range(8):
+            slot_resp[r, count, m] = 0.0
+        if j < 0:
+            i = node_body[kk]
+            dv, dw = _free_response(i, a, b, dva, dwa, dvb, dwb)
+            for e in range(3):
+                slot_resp[r, count, e] = sol[kk, e] + dv[e]
+                slot_resp[r, count, 3 + e] = sol[kk, 3 + e] + dw[e]
+            slot_ref[r, count] = i
+        else:
+            # the joint's impulses as the exact solve adds them (tree_substitute_kernel)
+            m_rows = nrow[j]
+            if _has_armature_row(j, joint_type[j], param):
+                slot_resp[r, count, 7] = -sol[kk, m_rows]
+            for m in range(m_rows):
+                lam = -sol[kk, m]
+                lin = Jb[j, m, 0] != 0.0 or Jb[j, m, 1] != 0.0 or Jb[j, m, 2] != 0.0
+                if joint_type[j] == JOINT_DISTANCE:
+                    slot_resp[r, count, 6] += lam
+                elif lin:
+                    for e in range(3):
+                        slot_resp[r, count, e] += lam * Jb[j, m, e]
+                else:
+                    for e in range(3):
+                        slot_resp[r, count, 3 + e] += lam * Jb[j, m, 3 + e]
+            slot_ref[r, count] = -(j + 1)
+        count += 1
+    return count
+
+
+@njit(**NO_NRT)
+def slot_rate(r, count, slot_ref, slot_resp, i, ja, jw):
+    """The rate (ja . dv + jw . dw) of body i's slots of row r (the first ``count``): body i's part
+    of J M_art^-1 J^T for its Jacobian (ja, jw)."""
+    s = 0.0
+    if i < 0:
+        return s
+    for q in range(count):
+        if slot_ref[r, q] == i:
+            for e in range(3):
+                s += ja[e] * slot_resp[r, q, e] + jw[e] * slot_resp[r, q, 3 + e]
+    return s
+
+
+@njit(**NO_NRT)
+def apply_row_response(r, impulse, count, slot_ref, slot_resp, v, omega, linear_impulse, angular_impulse,
+                       axial_impulse):
+    """An impulse (N s or N m s) along row r: every velocity and joint impulse of its slots (the first
+    ``count``) by the row's response."""
+    for q in range(count):
+        ref = slot_ref[r, q]
+        if ref >= 0:
+            for e in range(3):
+                v[ref, e] += impulse * slot_resp[r, q, e]
+                omega[ref, e] += impulse * slot_resp[r, q, 3 + e]
+        else:
+            j = -ref - 1
+            for e in range(3):
+                linear_impulse[j, e] += impulse * slot_resp[r, q, e]
+                angular_impulse[j, e] += impulse * slot_resp[r, q, 3 + e]
+            axial_impulse[j, A_EQUAL] += impulse * slot_resp[r, q, 6]
+            axial_impulse[j, A_ARMATURE] += impulse * slot_resp[r, q, 7]
+
+
 @njit(**NO_NRT)
 def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                            param, rate0, x, R, inv_mass, I_inv, bias_rate, Ja, Jb, C, nrow, Dinv, H_up, W,
@@ -504,13 +621,101 @@ def tree_gear_masses(order, node_joint, node_body, node_parent, joint_type, join
 
 
 @njit(**NO_NRT)
+def tree_limits_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
+                       position, x, R, inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, Ja, Jb,
+                       nrow, Dinv, H_up, W, y, sol, work, joint_group, group_done, layout, limit_rows,
+                       # outputs
+                       v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """The limit rows of the tree's hinges and sliders, each through the tree (``tree_row_response``),
+    on velocities the exact solve has just made consistent: the rules of ``joint_solve._solve_limit_rows``
+    (speculative while apart, soft once crossed: ``soft``, the solve's (3,)), with the mass of the
+    articulated bodies and the armature behind the coordinate (which the Gauss-Seidel row only
+    approximated: the anchor block and ``keep``), and its impulse moving the whole tree.
+
+    NOTE: why: as Gauss-Seidel rows around the exact solve, with the free bodies' masses, the limits
+    converged slowly (tree_sweeps_kernel's re-sweeps), and beside contacts solved through the tree
+    (contact_tree) the two disagreed at rest: Gymnasium's humanoid lying on its arm moved at 0.11
+    rad/s with the limits so solved, at 1e-13 with its limits off (measured, session 35).
+
+    ``layout``: (body_node, node_tree, tree_lo, tree_hi, no_skip) (``JointSolver.tree_layout``);
+    ``limit_rows``: (slot_count, slot_ref (J, S), slot_resp (J, S, 8), mass (J,), valid (J,) bool,
+    soft_limit (3,)): a joint's row response, taken once per factorization when its limits first act
+    (``valid`` cleared by the caller when it factors), and the softness a crossed limit is pushed
+    back at in a biased solve (``soft[0] > 0``; ``JointSettings.limit_hertz``). Joints of a settled
+    group (``group_done``) are left."""
+    body_node, node_tree, tree_lo, tree_hi, no_skip = layout
+    slot_count, slot_ref, slot_resp, mass, valid, soft_limit = limit_rows
+    inv_h = 1.0 / h
+    for j in range(joint_type.shape[0]):
+        t = joint_type[j]
+        if (param[j, P_LIMIT_ON] == 0.0 or gauss_seidel[j] or not enabled[j]
+                or (t != JOINT_HINGE and t != JOINT_SLIDER)):
+            continue
+        g = joint_group[j]
+        if g >= 0 and group_done[g]:
+            continue
+        a = joint_a[j]
+        b = joint_b[j]
+        has, lin, u, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
+        if not has:
+            continue
+        cdot = _row_velocity(v, omega, a, b, lin, u, ra, rb)
+        if _limits_idle(j, param[j], pos, cdot, inv_h, axial_impulse):
+            continue
+        # the coordinate's Jacobian: (ja, jwa) on a, (jb, jwb) on b
+        z = (0.0, 0.0, 0.0)
+        ja = _scale(-1.0, u) if lin else z
+        jwa = _scale(-1.0, _cross(ra, u)) if lin else _scale(-1.0, u)
+        jb = u if lin else z
+        jwb = _cross(rb, u) if lin else u
+        if not valid[j]:
+            dva = _scale(_inv_m(inv_mass, a), ja)
+            dwa = _mat_vec(I_inv, a, jwa) if a >= 0 else z
+            dvb = _scale(_inv_m(inv_mass, b), jb)
+            dwb = _mat_vec(I_inv, b, jwb) if b >= 0 else z
+            tree = node_tree[body_node[b]] if b >= 0 and body_node[b] >= 0 else node_tree[body_node[a]]
+            count = tree_row_response(tree, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint,
+                                      node_body, node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv,
+                                      H_up, W, y, sol, work, no_skip, slot_ref, slot_resp, j, 0)
+            slot_count[j] = count
+            k = (slot_rate(j, count, slot_ref, slot_resp, a, ja, jwa)
+                 + slot_rate(j, count, slot_ref, slot_resp, b, jb, jwb))
+            k_free = _dot(ja, dva) + _dot(jwa, dwa) + _dot(jb, dvb) + _dot(jwb, dwb)
+            mass[j] = 1.0 / k if k > 1e-12 * k_free else 0.0  # (contact_tree.RESPONSE_FLOOR)
+            valid[j] = True
+        if mass[j] == 0.0:
+            continue
+        for side in range(2):
+            # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
+            sign = 1.0 if side == 0 else -1.0
+            bound = param[j, P_LOWER] if side == 0 else param[j, P_UPPER]
+            if math.isinf(bound):
+                continue
+            C = sign * (pos - bound)
+            bias, ms, iscale = 0.0, 1.0, 0.0
+            if C > 0.0:
+                bias = C * inv_h  # speculative: the gap may close within this substep, no more
+            elif soft[0] > 0.0:  # the biased solve: pushed back in at the limits' own softness
+                bias, ms, iscale = soft_limit[0] * C, soft_limit[1], soft_limit[2]
+            else:
+                bias, ms, iscale = soft[0] * C, soft[1], soft[2]
+            slot = A_LOWER + side
+            rate = sign * _row_velocity(v, omega, a, b, lin, u, ra, rb)
+            old = axial_impulse[j, slot]
+            new = max(old - mass[j] * ms * (rate + bias) - iscale * old, 0.0)
+            axial_impulse[j, slot] = new
+            apply_row_response(j, sign * (new - old), slot_count[j], slot_ref, slot_resp, v, omega, linear_impulse,
+                               angular_impulse, axial_impulse)
+
+
+@njit(**NO_NRT)
 def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
                        local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
                        inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, factor,
                        # scratch
                        Ja, Jb, C, nrow, D, Dinv, H_up, W, y, sol, work, before,
                        joint_group, body_group, group_change, group_largest, group_done, node_skip, sub_order,
-                       sub_bounds,
+                       sub_bounds, layout, limit_rows,
                        # outputs
                        v, omega, linear_impulse, angular_impulse, axial_impulse):
     """One solve of the tree method: ``iterations`` sweeps, each the Gauss-Seidel rows (the
@@ -609,6 +814,9 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             tree_gear_masses(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
                              local_b, frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow,
                              Dinv, H_up, W, y, sol, work, node_skip)
+            valid = limit_rows[4]
+            for j in range(valid.shape[0]):
+                valid[j] = False  # the limits' responses were the last factors' (tree_limits_kernel)
             # the velocities made consistent with the tree before the first Gauss-Seidel rows read
             # them: after the forces of a substep they are each body's own, and a light body between
             # two joints of one MuJoCo body (a virtual link, 1e-3 of the body) spins at hundreds of
@@ -650,3 +858,8 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
         tree_substitute_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
                                local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow, Dinv, H_up, W,
                                y, sol, work, node_skip, v, omega, linear_impulse, angular_impulse, axial_impulse)
+        if L > 0:
+            tree_limits_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+                               gauss_seidel, position, x, R, inv_mass, I_inv, h, soft, node_order, node_joint, node_body,
+                               node_parent, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, joint_group, group_done, layout,
+                               limit_rows, v, omega, linear_impulse, angular_impulse, axial_impulse)

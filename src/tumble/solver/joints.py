@@ -155,6 +155,16 @@ class JointSettings:
         Gauss-Seidel around it, ``velocity_iterations`` / ``relax_iterations`` times. With
         "tree", the rows are rigid with bias rate 1/h (hertz 0) or the soft bias rate of
         ``hertz`` (no mass or impulse scaling).
+    limit_hertz, limit_damping_ratio: (240 Hz, 2) with the tree method, the softness at which a
+        hinge's or slider's limit pushes a crossed limit back in the biased solve (a soft row,
+        Box2D's b2MakeSoft; capped as ``hertz``: 240 Hz is the cap at the default substep of
+        1/960 s); 0: rigid, the rigid rows' 1/h bias. Its stop stays rigid (a limit apart may close
+        within a substep, no more). NOTE: why: rigid, a limit pressed by contacts overshot its
+        push-out and bounced: Gymnasium's humanoid lying with an elbow on its limit never came to
+        rest (0.11 rad/s, the elbow 4e-4 rad past its limit, then 5e-4 apart, step after step;
+        MuJoCo's, whose limits are soft, 0.012), soft at 30 to 240 Hz: 1e-13 rad/s (measured,
+        session 35). Under load a soft limit gives a little (an arm resting on its limit: 1e-5 rad
+        at 240 Hz, 1.5e-4 at Box2D's 60 Hz: tests/physics/test_urdf.py).
     partitions: (2) a world with at least ``partition_min_joints`` (256) joints sweeps them in
         this many spatial slabs side by side (one per core), then the joints joining two slabs,
         as the contacts (``contact.SoftStepSettings.partitions``); the bits follow these two
@@ -172,6 +182,8 @@ class JointSettings:
     bias_factor: float = 1.0
     partitions: int = 2
     partition_min_joints: int = 256
+    limit_hertz: float = 240.0
+    limit_damping_ratio: float = 2.0
 
     def __post_init__(self):
         if self.method not in ("gauss-seidel", "tree"):
@@ -456,6 +468,7 @@ class JointSolver:
         self._soft_key = None
         self.sweep = SweepOrder()  # the joints' order in the sweeps (slabs for a large world)
         self._parts = None  # tree_parts of this step
+        self.soft_limit = np.zeros(3)  # the tree's limit rows' softness in the biased solve (prepare)
         self._build([])
 
     def _build(self, joints):
@@ -581,6 +594,9 @@ class JointSolver:
             "H_up": np.zeros((n, 6, 6)), "W": np.zeros((n, 6, 6)), "y": np.zeros((n, 6)), "sol": np.zeros((n, 6)),
             "work": np.zeros((6, 6)), "node_skip": np.zeros(n, dtype=bool), "sub_order": np.zeros(J, dtype=np.int64),
             "no_skip": np.zeros(n, dtype=bool),
+            # the limit rows' responses through the tree (joint_tree.tree_limits_kernel)
+            "limit_rows": (np.zeros(J, dtype=np.int64), np.zeros((J, self.tree_width), dtype=np.int64),
+                           np.zeros((J, self.tree_width, 8)), np.zeros(J), np.zeros(J, dtype=bool), self.soft_limit),
         }
 
     def _groups(self, moving: np.ndarray):
@@ -648,7 +664,8 @@ class JointSolver:
         self.inv_mass = world.inv_mass if inv_mass is None else inv_mass
         self.I_inv = world.I_inv if I_inv is None else I_inv
         st = self.settings
-        key = (self.h, st.hertz, st.damping_ratio, st.hertz_cap_per_substep, st.bias_factor)
+        key = (self.h, st.hertz, st.damping_ratio, st.hertz_cap_per_substep, st.bias_factor, st.limit_hertz,
+               st.limit_damping_ratio)
         if key != self._soft_key:
             if st.hertz > 0.0:
                 hertz = min(st.hertz, st.hertz_cap_per_substep / h)
@@ -656,6 +673,11 @@ class JointSolver:
             else:  # rigid: the bias takes out bias_factor of the error in one substep
                 self.soft_bias = np.array([st.bias_factor / h, 1.0, 0.0])
             self.soft_relax = np.array([0.0, 1.0, 0.0])
+            if st.limit_hertz > 0.0:  # the tree's limit rows (joint_tree.tree_limits_kernel)
+                hertz = min(st.limit_hertz, st.hertz_cap_per_substep / h)
+                self.soft_limit[:] = soft_coefficients(hertz, st.limit_damping_ratio, h)
+            else:
+                self.soft_limit[:] = self.soft_bias
             self._soft_key = key
         st = self.settings
         self._parts = None  # tree_parts: the limit columns follow param, which may change between steps
@@ -760,7 +782,8 @@ class JointSolver:
                                  z(0, i64), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z(0, i64), z((0, 6, 6)),
                                  z((0, 6, 6)), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z((0, 6)), z((6, 6)), z((0, 0)),
                                  z(0, i64), z(0, i64), z(0), z(0), z(0, dtype=bool), z(0, dtype=bool), z(0, i64),
-                                 z(2, i64))
+                                 z(2, i64), (z(0, i64), z(0, i64), z(0, i64), z(0, i64), z(0, dtype=bool)),
+                                 (z(0, i64), z((0, 0), i64), z((0, 0, 8)), z(0), z(0, dtype=bool), z(3)))
             return self._no_tree
         if self._parts is not None:
             return self._parts  # PERF: once a step (prepare clears it): it was 10 us a solve, 8 solves a step
@@ -773,7 +796,8 @@ class JointSolver:
                        self.node_parent, sc["Ja"], sc["Jb"], sc["C"], sc["nrow"], sc["D"], sc["Dinv"], sc["H_up"],
                        sc["W"], sc["y"], sc["sol"], sc["work"], before, self.joint_group, self.body_group,
                        *self._group_scratch, sc["node_skip"], sc["sub_order"],
-                       np.zeros(len(self.sweep.bounds), dtype=np.int64))
+                       np.zeros(len(self.sweep.bounds), dtype=np.int64), (*self.tree_layout, sc["no_skip"]),
+                       sc["limit_rows"])
         return self._parts
 
     def _limit_columns(self) -> np.ndarray:

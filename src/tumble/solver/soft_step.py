@@ -173,13 +173,14 @@ def _solve_joints(tree, iterations, soft, x, R, inv_mass, I_inv, h, joints, tree
         return
     (limits, max_sweeps, tolerance, node_order, node_joint, node_body, node_parent, Ja, Jb, C, nrow, D, Dinv, H_up,
      W, y, sol, work, before, joint_group, body_group, group_change, group_largest, group_done, node_skip, sub_order,
-     sub_bounds) = tree_parts
+     sub_bounds, layout, limit_rows) = tree_parts
     tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
                        local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
                        inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, factor, Ja, Jb, C, nrow,
                        D, Dinv,
                        H_up, W, y, sol, work, before, joint_group, body_group, group_change, group_largest, group_done,
-                       node_skip, sub_order, sub_bounds, v, omega, linear_impulse, angular_impulse, axial_impulse)
+                       node_skip, sub_order, sub_bounds, layout, limit_rows, v, omega, linear_impulse, angular_impulse,
+                       axial_impulse)
 
 
 @njit(**JIT)
