@@ -407,6 +407,40 @@ def _push2(inv_m, vi, wi, j1, j2, e0, e1, e2, f0, f1, f2, k1, k2):
             (wi[0] + (j1 * k1[0] + j2 * k2[0]), wi[1] + (j1 * k1[1] + j2 * k2[1]), wi[2] + (j1 * k1[2] + j2 * k2[2])))
 
 
+@njit(**JIT, inline="always")
+def normal_impulse_after(s, use_bias, soft_rate, mass_scale, impulse_scale, inv_h, contact_speed, mass, vn,
+                         accumulated):
+    """A contact's accumulated normal impulse (N s) after one solve of its row, at separation s (m),
+    normal speed vn (m/s), effective mass ``mass`` (kg): s > 0 (speculative) lets the gap close in
+    this substep and no more; s <= 0 with bias (``use_bias``) a soft spring (the contact's softness:
+    bias rate, mass scale, impulse scale) pushes out at no more than ``contact_speed``; the relax
+    (no bias) is rigid, and takes back push-out only (below). Shared by the free bodies' solve
+    (``_solve_contact_range``) and the tree's (``contact_tree.solve_tree_contacts_kernel``)."""
+    bias = 0.0
+    scale = 1.0
+    keep = 0.0
+    if s > 0.0:
+        bias = s * inv_h
+    elif use_bias:
+        bias = max(soft_rate * s, -contact_speed)
+        scale = mass_scale
+        keep = impulse_scale
+    impulse = -mass * scale * (vn + bias) - keep * accumulated
+    new_impulse = max(accumulated + impulse, 0.0)
+    if not use_bias and s > 0.0 and accumulated == 0.0 and new_impulse > 0.0:
+        # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
+        # here (the next substep's biased solve sees the gap before any position update)
+        # and it slows a falling body before it lands: the step after has a smaller approach
+        # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
+        # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
+        # takes back push-out here. A contact that pushed in this substep is left free:
+        # blocking any increase while its gap was open kept the second corner of an edge
+        # landing from sharing the load once the first had closed (an edge impact turned
+        # the box about the vertical; off the rigid impact's velocities by 3-15 %).
+        new_impulse = accumulated
+    return new_impulse
+
+
 @njit(**JIT)
 def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
                          separation, normal_mass, tangent_mass, soft, friction, surface_target, x, R, inv_mass, I_inv, inv_h,
@@ -477,33 +511,13 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
                         arm_b[c, q] = rb[q]
                     gap[c] = n0 * d[0] + n1 * d[1] + n2 * d[2]
                 s = separation[c] + gap[c]
-                bias = 0.0
-                mass_scale = 1.0
-                impulse_scale = 0.0
-                if s > 0.0:
-                    bias = s * inv_h
-                elif use_bias:
-                    bias = max(soft[c, 0] * s, -contact_speed)
-                    mass_scale = soft[c, 1]
-                    impulse_scale = soft[c, 2]
                 # PERF: the angular directions depend on the arms alone, not on the velocities the
                 # previous point just changed: computed off the chain point -> impulse -> velocities
                 ca, ka = _angular_direction(Ia, ra, n0, n1, n2)
                 cb, kb = _angular_direction(Ib, rb, n0, n1, n2)
                 vn = _speed_along(va, wa, vb, wb, n0, n1, n2, ca, cb)
-                impulse = -normal_mass[c] * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
-                new_impulse = max(normal_impulse[c] + impulse, 0.0)
-                if not use_bias and s > 0.0 and normal_impulse[c] == 0.0 and new_impulse > 0.0:
-                    # NOTE: Box2D's relax also brakes an open contact to vn = -s/h. That is not needed
-                    # here (the next substep's biased solve sees the gap before any position update)
-                    # and it slows a falling body before it lands: the step after has a smaller approach
-                    # speed and the bounce loses height (measured: apexes 3 and 4 of the bouncing ball
-                    # 1.6-1.9 % low), or the restitution pass bounces it off an open gap. The relax only
-                    # takes back push-out here. A contact that pushed in this substep is left free:
-                    # blocking any increase while its gap was open kept the second corner of an edge
-                    # landing from sharing the load once the first had closed (an edge impact turned
-                    # the box about the vertical; off the rigid impact's velocities by 3-15 %).
-                    new_impulse = normal_impulse[c]
+                new_impulse = normal_impulse_after(s, use_bias, soft[c, 0], soft[c, 1], soft[c, 2], inv_h,
+                                                   contact_speed, normal_mass[c], vn, normal_impulse[c])
                 if new_impulse > 0.0 and vn < relative_velocity[c]:
                     # the approach speed before any point of the manifold pushed: the same for
                     # the four corners of a box landing flat, which then bounces without turning

@@ -47,6 +47,7 @@ from numba import njit
 
 from ..math3d import JIT
 from .contact_anchor import _arms
+from .contact_solve import normal_impulse_after
 from .joint_math import _cross, _dot, _mat_vec, _scale
 from .joint_tree import apply_row_response, slot_rate, tree_row_response
 
@@ -173,21 +174,10 @@ def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tange
             gap[c] = normal[c, 0] * dd[0] + normal[c, 1] * dd[1] + normal[c, 2] * dd[2]
         n = (normal[c, 0], normal[c, 1], normal[c, 2])
         s = separation[c] + gap[c]
-        bias = 0.0
-        mass_scale = 1.0
-        impulse_scale = 0.0
-        if s > 0.0:
-            bias = s * inv_h
-        elif use_bias:
-            bias = max(soft[c, 0] * s, -contact_speed)
-            mass_scale = soft[c, 1]
-            impulse_scale = soft[c, 2]
         mass = row_mass[3 * q]
         vn = _speed(v, omega, a, b, ra, rb, n)
-        impulse = -mass * mass_scale * (vn + bias) - impulse_scale * normal_impulse[c]
-        new_impulse = max(normal_impulse[c] + impulse, 0.0)
-        if not use_bias and s > 0.0 and normal_impulse[c] == 0.0 and new_impulse > 0.0:
-            new_impulse = normal_impulse[c]  # the relax takes back push-out only (solve_contacts_kernel)
+        new_impulse = normal_impulse_after(s, use_bias, soft[c, 0], soft[c, 1], soft[c, 2], inv_h, contact_speed,
+                                           mass, vn, normal_impulse[c])
         if new_impulse > 0.0 and vn < relative_velocity[c]:
             u = -vn  # the approach speed restitution reflects, as in _solve_contact_range
             w0 = -last_normal_speed[c]

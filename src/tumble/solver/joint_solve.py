@@ -187,6 +187,21 @@ def _solve_motor_row(j, slot, speed, max_impulse, m_eff, a, b, linear, n, ra, rb
                  new - old, keep, axial_impulse)
 
 
+@njit(**NO_NRT, inline="always")
+def limit_impulse_after(C, inv_h, push, m_eff, rate, old):
+    """A limit row's accumulated impulse after one solve, at C >= 0 apart (rad or m), moving at ``rate``
+    (into the limit < 0), effective mass ``m_eff``: speculative while apart (the gap may close within
+    this substep, no more), pushed back at the softness ``push`` (3,) (bias rate, mass scale,
+    impulse scale) once crossed. Shared by the Gauss-Seidel rows (``_solve_limit_rows``) and the
+    tree's (``joint_tree.tree_limits_kernel``)."""
+    bias, ms, iscale = 0.0, 1.0, 0.0
+    if C > 0.0:
+        bias = C * inv_h
+    else:
+        bias, ms, iscale = push[0] * C, push[1], push[2]
+    return max(old - m_eff * ms * (rate + bias) - iscale * old, 0.0)
+
+
 @njit(**NO_NRT)
 def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp, keep, m_eff, soft, inv_h,
                       inv_mass, I_inv, v, omega, linear_impulse, axial_impulse):
@@ -203,15 +218,10 @@ def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp
         if math.isinf(bound):
             continue
         C = sign * (pos - bound)
-        bias, ms, iscale = 0.0, 1.0, 0.0
-        if C > 0.0:
-            bias = C * inv_h  # speculative: the gap may close within this substep, no more
-        else:
-            bias, ms, iscale = soft[0] * C, soft[1], soft[2]
         slot = slot0 + side
         cdot = sign * _row_velocity(v, omega, a, b, linear, n, ra, rb)
         old = axial_impulse[j, slot]
-        new = max(old - m_eff * ms * (cdot + bias) - iscale * old, 0.0)
+        new = limit_impulse_after(C, inv_h, soft, m_eff, cdot, old)
         axial_impulse[j, slot] = new
         _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, linear_impulse, 0,
                      sign * (new - old), keep, axial_impulse)

@@ -48,6 +48,7 @@ from .joint_solve import (
     A_LOWER,
     _coordinate_row,
     _limits_idle,
+    limit_impulse_after,
     solve_joints_serial_kernel,
 )
 
@@ -692,17 +693,11 @@ def tree_limits_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
             if math.isinf(bound):
                 continue
             C = sign * (pos - bound)
-            bias, ms, iscale = 0.0, 1.0, 0.0
-            if C > 0.0:
-                bias = C * inv_h  # speculative: the gap may close within this substep, no more
-            elif soft[0] > 0.0:  # the biased solve: pushed back in at the limits' own softness
-                bias, ms, iscale = soft_limit[0] * C, soft_limit[1], soft_limit[2]
-            else:
-                bias, ms, iscale = soft[0] * C, soft[1], soft[2]
             slot = A_LOWER + side
             rate = sign * _row_velocity(v, omega, a, b, lin, u, ra, rb)
             old = axial_impulse[j, slot]
-            new = max(old - mass[j] * ms * (rate + bias) - iscale * old, 0.0)
+            # the biased solve (soft[0] > 0) pushes a crossed limit back at the limits' own softness
+            new = limit_impulse_after(C, inv_h, soft_limit if soft[0] > 0.0 else soft, mass[j], rate, old)
             axial_impulse[j, slot] = new
             apply_row_response(j, sign * (new - old), slot_count[j], slot_ref, slot_resp, v, omega, linear_impulse,
                                angular_impulse, axial_impulse)
