@@ -79,3 +79,32 @@ def test_a_hinged_rod_on_a_support_rests_with_the_levers_force(armature):
     weight_moment = np.cross(np.asarray(rod.x) - hinge, [0.0, 0.0, -M * G])[1]
     assert contact_moment + weight_moment == pytest.approx(0.0, abs=1e-9 * abs(weight_moment))
     assert abs(c.force[0] @ c.normal[0]) == pytest.approx(M * G * (LENGTH / 2) / TIP, rel=1e-4)
+
+
+@pytest.mark.parametrize("e", [1.0, 0.5])
+def test_a_ball_strikes_a_hinged_bar_with_the_impact_law_of_its_inertia_about_the_hinge(e):
+    """A 1 kg ball at 3 m/s strikes a 0.2 kg bar (1 x 0.1 x 0.1 m) hinged to the world at its end
+    (vertical axis), 0.8 m out, square on, frictionless, restitution e, no gravity: Newton's impact
+    law with the bar's mass at the point, m_b = I_hinge / r^2 = 0.105 kg, gives the ball
+    (1 - e m_b) / (1 + m_b) v and the bar (1 + e) v / ((1 + m_b) r) (angular momentum about the
+    hinge and the law of restitution; e = 1 keeps the energy). Measured: the ball to 2e-16, the bar's
+    rate 1.9e-5 and the energy 1.3e-5 off (the bar turns a little within the step of the impact, its
+    response taken at the step's start); bound 1e-4 relative.
+    With the restitution pass on the free bar's mass (before session 35): 2.4712 m/s, 2.4 % of
+    the energy lost at e = 1; with the contacts through the tree but that pass free: 2.4519."""
+    w = tb.World(gravity=(0.0, 0.0, 0.0))
+    w.sleeping = False
+    material = tb.Material(friction=0.0, restitution=e)
+    bar = w.add_body(tb.Box(size=(1.0, 0.1, 0.1)), mass=0.2, position=(0.5, 0.0, 0.0), material=material)
+    ball = w.add_body(tb.Sphere(0.1), mass=1.0, position=(0.8, -0.5, 0.0), velocity=(0.0, 3.0, 0.0),
+                      material=material)
+    w.add_joint(HingeJoint("world", bar, anchor=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0)))
+    sim = tb.Simulator(w, dt=1 / 240, joint_settings=ACCURATE)
+    energy = w.kinetic_energy()
+    sim.step(120)
+    inertia = 0.2 * (1.0 + 0.01) / 12 + 0.2 * 0.5 ** 2
+    m_b = inertia / 0.8 ** 2
+    assert w.v[ball.index][1] == pytest.approx((1 - e * m_b) / (1 + m_b) * 3.0, rel=1e-4)
+    assert w.omega[bar.index][2] == pytest.approx((1 + e) * 3.0 / ((1 + m_b) * 0.8), rel=1e-4)
+    if e == 1.0:
+        assert w.kinetic_energy() == pytest.approx(energy, rel=1e-4)

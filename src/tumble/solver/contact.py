@@ -48,6 +48,7 @@ from .contact_solve import (
     store_impulses_kernel,
     warm_start_kernel,
 )
+from .contact_tree import restitution_tree_kernel
 from .partition import (
     SweepOrder,
 )
@@ -452,17 +453,34 @@ class ContactSolver:
                                  self.tangent1, self.tangent2, self.normal_impulse, self.rolling_mass,
                                  self.rolling_limit, self.I_inv, self.omega, self.rolling_impulse)
 
-    def apply_restitution(self):
+    def apply_restitution(self, tree=None, joints=None):
+        """The restitution pass; the contacts of jointed bodies (``tree``, a split
+        ``contact_tree.TreeContacts``, and its ``joints``) through the tree."""
         if not self.count:
             return
         c = self.contacts
+        n = self.count
+        skip = self.__dict__.get("_no_skip")
+        if skip is None or skip.shape[0] < n:
+            skip = self._no_skip = np.zeros(2 * n, dtype=bool)
+        listed = tree.contacts if tree is not None else ()
+        if len(listed):
+            skip[listed] = True
         # the restitution pass adds to the accumulated impulse: count the increment in the step's total
         self.step_normal_impulse[:] -= self.normal_impulse
         apply_restitution_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.local_a,
                                  self.local_b, self.normal_mass, self.restitution, self.relative_velocity,
                                  self.max_normal_impulse, self.settings.restitution_threshold,
-                                 self.arm_a, self.arm_b, self.world.inv_mass, self.I_inv, self.v, self.omega,
+                                 self.arm_a, self.arm_b, self.world.inv_mass, self.I_inv, skip[:n], self.v, self.omega,
                                  self.normal_impulse)
+        if len(listed):
+            skip[listed] = False
+            restitution_tree_kernel(listed, c.contact_body_a, c.contact_body_b, c.contact_normal, self.restitution,
+                                    self.relative_velocity, self.max_normal_impulse,
+                                    self.settings.restitution_threshold, self.arm_a, self.arm_b, tree.slot_count,
+                                    tree.slot_ref, tree.slot_resp, tree.row_mass, self.v, self.omega,
+                                    joints.linear_impulse, joints.angular_impulse, joints.axial_impulse,
+                                    self.normal_impulse)
         self.step_normal_impulse[:] += self.normal_impulse
 
     def accumulate_step_impulses(self):

@@ -658,11 +658,12 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
 
 @njit(**JIT)
 def apply_restitution_kernel(body_a, body_b, normal, local_a, local_b, normal_mass, restitution,
-                             relative_velocity, max_normal_impulse, threshold, arm_a, arm_b, inv_mass, I_inv,
+                             relative_velocity, max_normal_impulse, threshold, arm_a, arm_b, inv_mass, I_inv, skip,
                              # outputs
                              v, omega, normal_impulse):
     """After the substeps: where the pre-step approach speed was above ``threshold``
     and the contact pushed this step, set the normal speed to -e times the approach speed.
+    Contacts with ``skip`` (C,) set are left (those of jointed bodies: ``contact_tree``'s).
 
     A manifold (the consecutive contacts of one pair) is passed over until no impulse changes
     its point's speed by more than ``MANIFOLD_PASS_SPEED``, at most ``MANIFOLD_PASSES`` times:
@@ -680,7 +681,7 @@ def apply_restitution_kernel(body_a, body_b, normal, local_a, local_b, normal_ma
             again = False
             for c in range(i, end):
                 e = restitution[c]
-                if e == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0:
+                if e == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0 or skip[c]:
                     continue
                 ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])  # the last relax's, at these poses
                 rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])

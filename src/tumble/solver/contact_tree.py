@@ -47,7 +47,7 @@ from numba import njit
 
 from ..math3d import JIT
 from .contact_anchor import _arms
-from .contact_solve import normal_impulse_after
+from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, normal_impulse_after
 from .joint_math import _cross, _dot, _mat_vec, _scale
 from .joint_tree import apply_row_response, slot_rate, tree_row_response
 
@@ -212,6 +212,42 @@ def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tange
                            linear_impulse, angular_impulse, axial_impulse)
         apply_row_response(3 * q + 2, new2 - old2, slot_count[3 * q + 2], slot_ref, slot_resp, v, omega,
                            linear_impulse, angular_impulse, axial_impulse)
+
+
+@njit(**JIT)
+def restitution_tree_kernel(contacts, body_a, body_b, normal, restitution, relative_velocity, max_normal_impulse,
+                            threshold, arm_a, arm_b, slot_count, slot_ref, slot_resp, row_mass,
+                            # outputs
+                            v, omega, linear_impulse, angular_impulse, axial_impulse, normal_impulse):
+    """The restitution pass of the contacts of jointed bodies (``contact_solve.apply_restitution_kernel``'s
+    rule: where the approach speed was above ``threshold`` and the contact pushed this step, the normal
+    speed set to -e times it), each normal row through the tree, passed over until no impulse changes a
+    speed by more than MANIFOLD_PASS_SPEED (at most MANIFOLD_PASSES). NOTE: why: with the free bodies'
+    masses, a ball (1 kg, 3 m/s, e = 1) striking a hinged bar (0.2 kg, 1 m) 0.8 m from its hinge left
+    at 2.452 m/s against the 2.433 of the bar's inertia about the hinge, 1.2 % of the energy lost
+    (measured, session 35)."""
+    for _ in range(MANIFOLD_PASSES):
+        again = False
+        for q in range(contacts.shape[0]):
+            c = contacts[q]
+            e = restitution[c]
+            if e == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0:
+                continue
+            mass = row_mass[3 * q]
+            if mass == 0.0:
+                continue
+            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])  # the last relax's, at these poses
+            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+            vn = _speed(v, omega, body_a[c], body_b[c], ra, rb, (normal[c, 0], normal[c, 1], normal[c, 2]))
+            new_impulse = max(normal_impulse[c] - mass * (vn + e * relative_velocity[c]), 0.0)
+            impulse = new_impulse - normal_impulse[c]
+            normal_impulse[c] = new_impulse
+            if abs(impulse) > MANIFOLD_PASS_SPEED * mass:
+                again = True
+            apply_row_response(3 * q, impulse, slot_count[3 * q], slot_ref, slot_resp, v, omega, linear_impulse,
+                               angular_impulse, axial_impulse)
+        if not again:
+            break
 
 
 @njit(**JIT)
