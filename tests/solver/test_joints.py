@@ -398,6 +398,11 @@ def test_parse_joint_settings():
         parse_joint_settings({"relax_iterations": 0}, "s.toml")
     st = parse_joint_settings({"partitions": 1, "partition_min_joints": 0}, "s.toml")
     assert st.partitions == 1 and st.partition_min_joints == 0
+    st = parse_joint_settings({"limit_hertz": 120, "limit_damping_ratio": 1}, "s.toml")
+    assert st.limit_hertz == 120 and st.limit_damping_ratio == 1
+    assert parse_joint_settings({}, "s.toml").limit_hertz == 240  # the tree's limits, soft (docs/joints.md)
+    with pytest.raises(tb.InputError, match="joint_solver.limit_hertz: must be >= 0, got -5"):
+        parse_joint_settings({"limit_hertz": -5}, "s.toml")
     with pytest.raises(tb.InputError, match="joint_solver.partitions: must be a whole number >= 1"):
         parse_joint_settings({"partitions": 0}, "s.toml")
     with pytest.raises(tb.InputError, match="joint_solver.partition_min_joints: must be a whole number >= 0"):
