@@ -441,6 +441,22 @@ def normal_impulse_after(s, use_bias, soft_rate, mass_scale, impulse_scale, inv_
     return new_impulse
 
 
+@njit(**JIT, inline="always")
+def friction_impulses_after(old1, old2, mass1, mass2, slip1, slip2, limit):
+    """A contact's accumulated friction impulses (N s) along its two tangents after one solve: each
+    direction with its own mass (kg) against its slip (m/s), then the 2-vector clamped to the disc of
+    radius ``limit`` = mu times the normal impulse (isotropic Coulomb cone). Shared by the free
+    bodies' solve and the tree's (``contact_tree.solve_tree_contacts_kernel``)."""
+    new1 = old1 - mass1 * slip1
+    new2 = old2 - mass2 * slip2
+    mag2 = new1 * new1 + new2 * new2
+    if mag2 > limit * limit:
+        scale = limit / math.sqrt(mag2)
+        new1 *= scale
+        new2 *= scale
+    return new1, new2
+
+
 @njit(**JIT)
 def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
                          separation, normal_mass, tangent_mass, soft, friction, surface_target, x, R, inv_mass, I_inv, inv_h,
@@ -558,14 +574,8 @@ def _solve_contact_range(lo, hi, order, body_a, body_b, normal, tangent1, tangen
                 vt2 = _speed_along(va, wa, vb, wb, f0, f1, f2, ca2, cb2) - surface_target[c, 1]
                 old1 = tangent_impulse[c, 0]
                 old2 = tangent_impulse[c, 1]
-                new1 = old1 - tangent_mass[c, 0] * vt1
-                new2 = old2 - tangent_mass[c, 1] * vt2
-                limit = friction[c] * normal_impulse[c]
-                mag2 = new1 * new1 + new2 * new2
-                if mag2 > limit * limit:
-                    scale = limit / math.sqrt(mag2)
-                    new1 *= scale
-                    new2 *= scale
+                new1, new2 = friction_impulses_after(old1, old2, tangent_mass[c, 0], tangent_mass[c, 1], vt1, vt2,
+                                                     friction[c] * normal_impulse[c])
                 tangent_impulse[c, 0] = new1
                 tangent_impulse[c, 1] = new2
                 j1 = new1 - old1

@@ -47,7 +47,7 @@ from numba import njit
 
 from ..math3d import JIT
 from .contact_anchor import _arms
-from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, normal_impulse_after
+from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, friction_impulses_after, normal_impulse_after
 from .joint_math import _cross, _dot, _mat_vec, _scale
 from .joint_tree import apply_row_response, slot_rate, tree_row_response
 
@@ -198,14 +198,8 @@ def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tange
         vt2 = _speed(v, omega, a, b, ra, rb, t2) - surface_target[c, 1]
         old1 = tangent_impulse[c, 0]
         old2 = tangent_impulse[c, 1]
-        new1 = old1 - row_mass[3 * q + 1] * vt1
-        new2 = old2 - row_mass[3 * q + 2] * vt2
-        limit = friction[c] * normal_impulse[c]
-        mag2 = new1 * new1 + new2 * new2
-        if mag2 > limit * limit:
-            scale = limit / math.sqrt(mag2)
-            new1 *= scale
-            new2 *= scale
+        new1, new2 = friction_impulses_after(old1, old2, row_mass[3 * q + 1], row_mass[3 * q + 2], vt1, vt2,
+                                             friction[c] * normal_impulse[c])
         tangent_impulse[c, 0] = new1
         tangent_impulse[c, 1] = new2
         apply_row_response(3 * q + 1, new1 - old1, slot_count[3 * q + 1], slot_ref, slot_resp, v, omega,
