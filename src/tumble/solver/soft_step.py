@@ -11,14 +11,18 @@ per step of dt made of ``substeps`` substeps h (``Simulator.substeps * SoftStepS
         accumulate_forces        the World's forces at the substep's state (F, T)
         integrate_velocities     P += h F, L += h T; then v, omega, I^-1 from them
         warm_start               the accumulated impulses of the last substep
-        solve_contacts(bias)     soft non-penetration, Coulomb friction
+        solve_joints(bias)       (the first substep: the responses of the contacts of
+                                 jointed bodies through the joint tree, contact_tree)
+        solve_contacts(bias)     soft non-penetration, Coulomb friction; the contacts of
+                                 jointed bodies last, through the tree
         integrate_positions      x += h v, the orientation by the exact rotation of omega h
+        relax_joints
         relax_contacts           solve without bias: the push-out speed leaves again
         relax_joints             again, when a joint has armature: the rates its flywheel has
                                  (joint_solve.flywheel_rates_kernel)
         store_momenta            P = m v, L = I omega (I at the substep's start, the
                                  inverse of the I^-1 the solve used)
-    apply_restitution
+    apply_restitution            (the contacts of jointed bodies through the tree)
     store_momenta, store_impulses
 
 The substep loop runs in one compiled call, ``substeps_kernel`` (the same stages in the same
