@@ -48,20 +48,8 @@ from numba import njit
 from ..math3d import JIT
 from .contact_anchor import _arms
 from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, friction_impulses_after, normal_impulse_after
-from .joint_math import _cross, _dot, _mat_vec, _scale
-from .joint_tree import apply_row_response, slot_rate, tree_row_response
-
-
-#: a row whose response through the tree is below this fraction of its free bodies' is held by the joints
-RESPONSE_FLOOR = 1e-12
-
-
-@njit(**JIT)
-def _tree_of(i, body_node, node_tree):
-    if i < 0:
-        return -1
-    k = body_node[i]
-    return node_tree[k] if k >= 0 else -1
+from .joint_math import _cross, _scale
+from .joint_tree import apply_row_response, tree_row
 
 
 @njit(**JIT)
@@ -71,63 +59,29 @@ def tree_contact_responses_kernel(contacts, body_a, body_b, normal, tangent1, ta
                                   y, sol, work, no_skip,
                                   # outputs
                                   slot_count, slot_ref, slot_resp, row_mass):
-    """Each row's response through the tree and its effective mass (the module docstring's arrays),
-    on the factors ``joint_tree.tree_factor_kernel`` made at the current poses (``Ja``, ``Jb``,
-    ``nrow``, ``Dinv``, ``H_up``, ``W``); ``y``, ``sol`` (n, 6), ``work`` (6, 6) scratch,
-    ``no_skip`` (n,) all False."""
+    """Each row's response through the tree and its effective mass (the module docstring's arrays;
+    ``joint_tree.tree_row``), on the factors ``joint_tree.tree_factor_kernel`` made at the current
+    poses (``Ja``, ``Jb``, ``nrow``, ``Dinv``, ``H_up``, ``W``); ``y``, ``sol`` (n, 6), ``work``
+    (6, 6) scratch, ``no_skip`` (n,) all False."""
     for q in range(contacts.shape[0]):
         c = contacts[q]
         a = body_a[c]
         b = body_b[c]
         ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
         rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-        ta = _tree_of(a, body_node, node_tree)
-        tb = _tree_of(b, body_node, node_tree)
         for d in range(3):
-            r = 3 * q + d
             if d == 0:
                 u = (normal[c, 0], normal[c, 1], normal[c, 2])
             elif d == 1:
                 u = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
             else:
                 u = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
-            # the row's Jacobian: -u at a's arm, +u at b's; the free bodies' response to its unit impulse
-            ja = _scale(-1.0, u)
-            jwa = _scale(-1.0, _cross(ra, u))
-            jwb = _cross(rb, u)
-            dva = _scale(inv_mass[a], ja)
-            dwa = _mat_vec(I_inv, a, jwa)
-            dvb = _scale(inv_mass[b], u)
-            dwb = _mat_vec(I_inv, b, jwb)
-            count = 0
-            if ta >= 0:
-                count = tree_row_response(ta, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint,
-                                          node_body, node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow,
-                                          Dinv, H_up, W, y, sol, work, no_skip, slot_ref, slot_resp, r, count)
-            if tb >= 0 and tb != ta:
-                count = tree_row_response(tb, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint,
-                                          node_body, node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow,
-                                          Dinv, H_up, W, y, sol, work, no_skip, slot_ref, slot_resp, r, count)
-            # a side outside every tree: its free response (nothing for a fixed body)
-            for side in range(2):
-                i = a if side == 0 else b
-                if (ta if side == 0 else tb) >= 0 or inv_mass[i] == 0.0:
-                    continue
-                dv, dw = (dva, dwa) if side == 0 else (dvb, dwb)
-                for e in range(3):
-                    slot_resp[r, count, e] = dv[e]
-                    slot_resp[r, count, 3 + e] = dw[e]
-                slot_resp[r, count, 6] = 0.0
-                slot_resp[r, count, 7] = 0.0
-                slot_ref[r, count] = i
-                count += 1
-            slot_count[r] = count
-            k = (slot_rate(r, count, slot_ref, slot_resp, a, ja, jwa)
-                 + slot_rate(r, count, slot_ref, slot_resp, b, u, jwb))
-            # a direction the joints hold (a hinged rod's point along the hinge's axis) answers with
-            # rounding (4e-17 of the free response, measured): no mass, not 1 / rounding
-            k_free = _dot(ja, dva) + _dot(jwa, dwa) + _dot(u, dvb) + _dot(jwb, dwb)
-            row_mass[r] = 1.0 / k if k > RESPONSE_FLOOR * k_free else 0.0
+            # the row's Jacobian: -u at a's arm, +u at b's
+            row_mass[3 * q + d] = tree_row(3 * q + d, a, b, _scale(-1.0, u), _scale(-1.0, _cross(ra, u)), u,
+                                           _cross(rb, u), inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
+                                           node_order, node_joint, node_body, node_parent, joint_type, joint_a,
+                                           joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
+                                           slot_count, slot_ref, slot_resp)
 
 
 @njit(**JIT)
@@ -265,22 +219,6 @@ def split_kernel(order, bounds, body_a, body_b, body_node,
                 n_kept += 1
         kept_bounds[p + 1] = n_kept
     return n_listed
-
-
-def tree_layout(node_body: np.ndarray, node_parent: np.ndarray, body_count: int):
-    """``body_node`` (N,), ``node_tree`` (n,), ``tree_lo``, ``tree_hi`` (T,) of the forest whose nodes
-    were made parents first, a tree at a time (``JointSolver._build_tree``)."""
-    n = node_parent.shape[0]
-    roots = np.flatnonzero(node_parent < 0)
-    tree_lo = roots.astype(np.int64)
-    tree_hi = np.append(roots[1:], n).astype(np.int64)
-    node_tree = np.zeros(n, dtype=np.int64)
-    for t, (lo, hi) in enumerate(zip(tree_lo, tree_hi)):
-        node_tree[lo:hi] = t
-    body_node = np.full(body_count, -1, dtype=np.int64)
-    bodies = np.flatnonzero(node_body >= 0)
-    body_node[node_body[bodies]] = bodies
-    return body_node, node_tree, tree_lo, tree_hi
 
 
 class TreeContacts:

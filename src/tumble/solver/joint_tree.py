@@ -482,6 +482,79 @@ def apply_row_response(r, impulse, count, slot_ref, slot_resp, v, omega, linear_
             axial_impulse[j, A_ARMATURE] += impulse * slot_resp[r, q, 7]
 
 
+#: a row whose response through the tree is below this fraction of its free bodies' is held by the joints
+#: (a hinged rod's point along the hinge's axis answers with rounding, 4e-17 of it: no mass, not 1 / rounding)
+RESPONSE_FLOOR = 1e-12
+
+
+@njit(**NO_NRT)
+def _tree_of(i, body_node, node_tree):
+    """The tree of body i (-1: the world, a fixed body, a body in no tree)."""
+    if i < 0:
+        return -1
+    k = body_node[i]
+    return node_tree[k] if k >= 0 else -1
+
+
+@njit(**NO_NRT)
+def tree_row(r, a, b, ja, jwa, jb, jwb, inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi, node_order,
+             node_joint, node_body, node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y,
+             sol, work, no_skip, slot_count, slot_ref, slot_resp):
+    """Row r with Jacobian (ja, jwa) on body a and (jb, jwb) on body b (-1: the world): its response
+    through the trees of a and b (``tree_row_response``), and for a moving side outside every tree
+    its free response, into its slots (``slot_count[r]`` of them). Returns its mass
+    1 / (J M_art^-1 J^T) (kg, or kg m^2 for an angular row), 0 for a direction the joints hold
+    (``RESPONSE_FLOOR``)."""
+    dva = _scale(_inv_m(inv_mass, a), ja)
+    dwa = _mat_vec(I_inv, a, jwa)
+    dvb = _scale(_inv_m(inv_mass, b), jb)
+    dwb = _mat_vec(I_inv, b, jwb)
+    ta = _tree_of(a, body_node, node_tree)
+    tb = _tree_of(b, body_node, node_tree)
+    count = 0
+    if ta >= 0:
+        count = tree_row_response(ta, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint, node_body,
+                                  node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y,
+                                  sol, work, no_skip, slot_ref, slot_resp, r, count)
+    if tb >= 0 and tb != ta:
+        count = tree_row_response(tb, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint, node_body,
+                                  node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y,
+                                  sol, work, no_skip, slot_ref, slot_resp, r, count)
+    for side in range(2):  # a side outside every tree: its free response (nothing for the world or a fixed body)
+        i = a if side == 0 else b
+        if (ta if side == 0 else tb) >= 0 or _inv_m(inv_mass, i) == 0.0:
+            continue
+        dv, dw = (dva, dwa) if side == 0 else (dvb, dwb)
+        for e in range(3):
+            slot_resp[r, count, e] = dv[e]
+            slot_resp[r, count, 3 + e] = dw[e]
+        slot_resp[r, count, 6] = 0.0
+        slot_resp[r, count, 7] = 0.0
+        slot_ref[r, count] = i
+        count += 1
+    slot_count[r] = count
+    k = slot_rate(r, count, slot_ref, slot_resp, a, ja, jwa) + slot_rate(r, count, slot_ref, slot_resp, b, jb, jwb)
+    k_free = _dot(ja, dva) + _dot(jwa, dwa) + _dot(jb, dvb) + _dot(jwb, dwb)
+    return 1.0 / k if k > RESPONSE_FLOOR * k_free else 0.0
+
+
+def tree_layout(node_body: np.ndarray, node_parent: np.ndarray, body_count: int):
+    """``body_node`` (N,), ``node_tree`` (n,), ``tree_lo``, ``tree_hi`` (T,) of the forest whose nodes
+    were made parents first, a tree at a time (``JointSolver._build_tree``): each body's node (-1:
+    none), each node's tree, each tree's node range."""
+    n = node_parent.shape[0]
+    roots = np.flatnonzero(node_parent < 0)
+    tree_lo = roots.astype(np.int64)
+    tree_hi = np.append(roots[1:], n).astype(np.int64)
+    node_tree = np.zeros(n, dtype=np.int64)
+    for t, (lo, hi) in enumerate(zip(tree_lo, tree_hi)):
+        node_tree[lo:hi] = t
+    body_node = np.full(body_count, -1, dtype=np.int64)
+    bodies = np.flatnonzero(node_body >= 0)
+    body_node[node_body[bodies]] = bodies
+    return body_node, node_tree, tree_lo, tree_hi
+
+
 @njit(**NO_NRT)
 def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
                            param, rate0, x, R, inv_mass, I_inv, bias_rate, Ja, Jb, C, nrow, Dinv, H_up, W,
@@ -627,7 +700,7 @@ def tree_limits_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
                        nrow, Dinv, H_up, W, y, sol, work, joint_group, group_done, layout, limit_rows,
                        # outputs
                        v, omega, linear_impulse, angular_impulse, axial_impulse):
-    """The limit rows of the tree's hinges and sliders, each through the tree (``tree_row_response``),
+    """The limit rows of the tree's hinges and sliders, each through the tree (``tree_row``),
     on velocities the exact solve has just made consistent: the rules of ``joint_solve._solve_limit_rows``
     (speculative while apart, soft once crossed: ``soft``, the solve's (3,)), with the mass of the
     articulated bodies and the armature behind the coordinate (which the Gauss-Seidel row only
@@ -670,19 +743,9 @@ def tree_limits_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
         jb = u if lin else z
         jwb = _cross(rb, u) if lin else u
         if not valid[j]:
-            dva = _scale(_inv_m(inv_mass, a), ja)
-            dwa = _mat_vec(I_inv, a, jwa) if a >= 0 else z
-            dvb = _scale(_inv_m(inv_mass, b), jb)
-            dwb = _mat_vec(I_inv, b, jwb) if b >= 0 else z
-            tree = node_tree[body_node[b]] if b >= 0 and body_node[b] >= 0 else node_tree[body_node[a]]
-            count = tree_row_response(tree, a, b, dva, dwa, dvb, dwb, tree_lo, tree_hi, node_order, node_joint,
-                                      node_body, node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv,
-                                      H_up, W, y, sol, work, no_skip, slot_ref, slot_resp, j, 0)
-            slot_count[j] = count
-            k = (slot_rate(j, count, slot_ref, slot_resp, a, ja, jwa)
-                 + slot_rate(j, count, slot_ref, slot_resp, b, jb, jwb))
-            k_free = _dot(ja, dva) + _dot(jwa, dwa) + _dot(jb, dvb) + _dot(jwb, dwb)
-            mass[j] = 1.0 / k if k > 1e-12 * k_free else 0.0  # (contact_tree.RESPONSE_FLOOR)
+            mass[j] = tree_row(j, a, b, ja, jwa, jb, jwb, inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
+                               node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, param, Ja,
+                               Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip, slot_count, slot_ref, slot_resp)
             valid[j] = True
         if mass[j] == 0.0:
             continue

@@ -129,9 +129,9 @@ from .joint_stepper import (  # noqa: F401  (public here, as before the split: t
     step_with_joints,
 )
 from .joint_tree import (
+    tree_layout,
     tree_sweeps_kernel,
 )
-from .contact_tree import tree_layout
 from .partition import SweepOrder
 
 
