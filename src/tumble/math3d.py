@@ -9,8 +9,10 @@ kernels and Python code (tests, scene building) can call them.
 from __future__ import annotations
 
 import math
+import os
 import types
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -33,6 +35,23 @@ JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy", _nrt=Tru
 # it returns no array (a view it made carries no reference; an NRT caller would drop one it never
 # got). tests/test_reference_counting.py and tests/collision/test_narrowphase_kernel.py check it.
 NO_NRT = dict(JIT, _nrt=False)
+
+
+_threads_started_in = None  # the process that has started Numba's thread pool (start_threads)
+
+
+def start_threads():
+    """Start Numba's thread pool, once per process, before a compiled function that is not itself
+    parallel calls one that is (the fused substeps call the contact solve's, the tree sweeps their
+    groups'). Numba starts the pool only when a parallel function is compiled or called through its
+    own dispatcher: called from inside a kernel before that, such a function crashed (a segmentation
+    fault: found by tests/physics/test_kinematic.py). ``numba.get_num_threads`` starts it (0.6 us a
+    call; this check 0.1 us, measured); the process id makes a forked child start its own."""
+    global _threads_started_in
+    pid = os.getpid()
+    if _threads_started_in != pid:
+        numba.get_num_threads()
+        _threads_started_in = pid
 
 
 def serial_twin(kernel, name: str, flags: dict = JIT):

@@ -82,3 +82,79 @@ def test_each_arm_ends_as_it_would_alone_whatever_the_other_arms_limits_do(tmp_p
     monkeypatch.setattr(JointSolver, "_groups", one_group)
     same_before, _ = compare(path, STARTS)
     assert not all(same_before)
+
+
+def _many_arms(path, count, threads=None):
+    """``arms`` with ``count`` arms (STARTS over and over, the rates scaled a little per arm), its
+    joint solver's group mode, and the state (x, q, P, L) at the end."""
+    import numba
+
+    starts = [(q, tuple(r * (1 + 0.01 * k) for r in qd)) for k, (q, qd) in
+              ((k, STARTS[k % len(STARTS)]) for k in range(count))]
+    before = numba.get_num_threads()
+    if threads is not None:
+        numba.set_num_threads(threads)
+    try:
+        world, _, elbow = arms(path, starts)
+    finally:
+        numba.set_num_threads(before)
+    return world, elbow
+
+
+def test_groups_swept_side_by_side_end_with_the_serial_sweeps_bits(tmp_path, monkeypatch):
+    """With enough tree nodes (``GROUP_THREADS_MIN_NODES``) the groups of a world are swept side by
+    side on the threads (``joint_tree._tree_sweeps_groups``): 16 arms (64 nodes), their elbows
+    striking their limits, end with the bits of the serial sweep over the world (the threshold
+    raised past them), on one thread or two. Compared with: the serial sweep itself (the property
+    is that the side-by-side sweep reorders nothing within a group, so the comparison is exact)."""
+    from tumble.solver import joints as J
+
+    path = tmp_path / "arm.xml"
+    path.write_text(ARM)
+    modes = []
+    build = J.JointSolver._group_tables
+
+    def record(self, moving):
+        build(self, moving)
+        modes.append(self._groups_table[0])
+
+    monkeypatch.setattr(J.JointSolver, "_group_tables", record)
+    side, elbow = _many_arms(path, 16)
+    assert elbow > 0.29  # the limits were struck: extra sweeps, and limit rows through the tree
+    assert modes == [1]
+    one_thread, _ = _many_arms(path, 16, threads=1)
+    monkeypatch.setattr(J, "GROUP_THREADS_MIN_NODES", 10**9)
+    serial, _ = _many_arms(path, 16)
+    assert modes[1:] == [1, 0]
+    for name in ("x", "q", "P", "L"):
+        assert np.array_equal(getattr(side, name), getattr(serial, name))
+        assert np.array_equal(getattr(one_thread, name), getattr(serial, name))
+
+
+def test_groups_are_swept_apart_only_when_nothing_outside_a_group_can_move():
+    """``_groups_apart``: a joint outside every group, or one whose other end is outside its group and
+    can move (a sleeping body keeps its mass: two groups' rows could both push it), sends the solve
+    back to the serial sweep over the world; the world and fixed ends (no inverse mass or inertia) do
+    not."""
+    from tumble.solver.joint_tree import _groups_apart
+
+    joint_a = np.array([-1, 0, 2], dtype=np.int64)  # joint 0: world - body 0; joint 1: 0 - 1; joint 2: 2 - 3
+    joint_b = np.array([0, 1, 3], dtype=np.int64)
+    enabled = np.ones(3, dtype=bool)
+    joint_group = np.array([0, 0, 1], dtype=np.int64)
+    body_group = np.array([0, 0, 1, -1], dtype=np.int64)  # body 3 moves in no group (asleep, or fixed)
+    inv_mass = np.array([1.0, 1.0, 1.0, 0.0])
+    I_inv = np.zeros((4, 3, 3))
+    I_inv[:3] = np.eye(3)
+    args = (joint_a, joint_b, enabled, joint_group, body_group)
+    assert _groups_apart(*args, inv_mass, I_inv)  # body 3 fixed
+    inv_mass[3] = 1.0  # body 3 asleep: it has its mass
+    assert not _groups_apart(*args, inv_mass, I_inv)
+    inv_mass[3] = 0.0
+    I_inv[3] = np.eye(3)  # no inverse mass but an inverse inertia: it can turn
+    assert not _groups_apart(*args, inv_mass, I_inv)
+    I_inv[3] = 0.0
+    joint_group[2] = -1
+    assert not _groups_apart(*args, inv_mass, I_inv)  # an enabled joint in no group
+    enabled[2] = False
+    assert _groups_apart(*args, inv_mass, I_inv)  # a disabled one is never swept

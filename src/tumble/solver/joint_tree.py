@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..joints import (
     G_MASS,
@@ -24,6 +24,7 @@ from ..joints import (
     P_UPPER,
 )
 from ..math3d import (
+    JIT,
     NO_NRT,
 )
 from .joint_gear import free_mass, gear_entries, gear_on, gear_row, solve_gear
@@ -228,13 +229,14 @@ def _has_armature_row(j, t, param):
 
 
 @njit(**NO_NRT)
-def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
-                       frame_a, frame_b, param, position, x, R, inv_mass, I_inv,
+def tree_factor_kernel(order, lo, hi, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
+                       local_b, frame_a, frame_b, param, position, x, R, inv_mass, I_inv,
                        # outputs (scratch)
                        Ja, Jb, C, nrow, D, Dinv, H_up, W, work):
     """The rigid rows of the tree joints at the current pose (``Ja``, ``Jb`` (J, 6, 6), ``C`` (J, 6),
     ``nrow`` (J,)) and the block L D L^T factors of their KKT matrix H = [[M, J^T], [J, -compliance]]
-    in ``order`` (leaves first): ``Dinv`` (n, 6, 6) the pivots' inverses, ``H_up`` (n, 6, 6) each
+    in ``order`` (leaves first) of the nodes lo..hi - 1 (a forest's, or one tree's: its node range,
+    ``tree_layout``): ``Dinv`` (n, 6, 6) the pivots' inverses, ``H_up`` (n, 6, 6) each
     node's block with its parent, ``W`` = Dinv H_up (n, 6, 6) (Baraff 1996's elimination).
 
     Nodes: ``node_joint[k]`` >= 0 for a joint node, else ``node_body[k]`` is a body node;
@@ -250,7 +252,7 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
     Catto GDC 2011). Its rigid rows are at most 5, so the 6x6 block has room.
     """
     n_nodes = order.shape[0]
-    for k in range(n_nodes):
+    for k in range(lo, hi):
         j = node_joint[k]
         if j >= 0:
             nrow[j] = _joint_rows(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, frame_a, frame_b,
@@ -268,7 +270,7 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
                         Ja[j, m, 3 + c] = -ca[c] if lin else -u[c]
                         Jb[j, m, 3 + c] = cb[c] if lin else u[c]
     # diagonal blocks
-    for k in range(n_nodes):
+    for k in range(lo, hi):
         j = node_joint[k]
         for r in range(6):
             for c in range(6):
@@ -293,7 +295,7 @@ def tree_factor_kernel(order, node_joint, node_body, node_parent, joint_type, jo
                 for c in range(3):
                     D[k, 3 + r, 3 + c] = Dinv[k, r, c]
     # H_up[k] = H[k, parent]: joint rows x body dofs, or its transpose
-    for k in range(n_nodes):
+    for k in range(lo, hi):
         p = node_parent[k]
         if p < 0:
             continue
@@ -556,26 +558,26 @@ def tree_layout(node_body: np.ndarray, node_parent: np.ndarray, body_count: int)
 
 
 @njit(**NO_NRT)
-def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a, local_b,
-                           param, rate0, x, R, inv_mass, I_inv, bias_rate, Ja, Jb, C, nrow, Dinv, H_up, W,
+def tree_substitute_kernel(order, lo, hi, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
+                           local_b, param, rate0, x, R, inv_mass, I_inv, bias_rate, Ja, Jb, C, nrow, Dinv, H_up, W,
                            # scratch
                            y, sol, work, skip,
                            # outputs
                            v, omega, linear_impulse, angular_impulse, axial_impulse):
     """One exact solve of the rigid rows of the tree joints on the factors of ``tree_factor_kernel``:
     J (u + du) = -bias_rate C, M du = J^T lambda (and the armature rows), by forward and back
-    substitution in ``order``. Adds lambda to the joints' accumulated impulses. The nodes with
-    ``skip`` (n,) set (trees whose sweeps have settled, ``tree_sweeps_kernel``) are left as they are."""
-    n_nodes = order.shape[0]
+    substitution in ``order`` (leaves first) of the nodes lo..hi - 1 (as ``tree_factor_kernel``'s).
+    Adds lambda to the joints' accumulated impulses. The nodes with ``skip`` (n,) set (trees whose
+    sweeps have settled, ``tree_sweeps_kernel``) are left as they are."""
     # the accumulated impulses put back in the span of the current rows (all joints first: the
     # undo changes velocities the right-hand sides read)
-    for k in range(n_nodes):
+    for k in range(lo, hi):
         j = node_joint[k]
         if j >= 0 and not skip[k]:
             _project_accumulated(j, joint_type[j], joint_a[j], joint_b[j], x, R, local_a, local_b, nrow[j], Jb,
                                  inv_mass, I_inv, v, omega, linear_impulse, angular_impulse)
     # right-hand sides
-    for k in range(n_nodes):
+    for k in range(lo, hi):
         j = node_joint[k]
         if skip[k]:
             continue
@@ -600,7 +602,7 @@ def tree_substitute_kernel(order, node_joint, node_body, node_parent, joint_type
             y[k, m] += rate0[j] - inv_arm * axial_impulse[j, A_ARMATURE]
     _substitute(order, node_parent, Dinv, H_up, W, y, sol, work, skip)
     # apply: body nodes take du; joint nodes give lambda = -mu
-    for k in range(n_nodes):
+    for k in range(lo, hi):
         j = node_joint[k]
         if skip[k]:
             continue
@@ -717,53 +719,66 @@ def tree_limits_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, 
     (``valid`` cleared by the caller when it factors), and the softness a crossed limit is pushed
     back at in a biased solve (``soft[0] > 0``; ``JointSettings.limit_hertz``). Joints of a settled
     group (``group_done``) are left."""
-    body_node, node_tree, tree_lo, tree_hi, no_skip = layout
-    slot_count, slot_ref, slot_resp, mass, valid, soft_limit = limit_rows
-    inv_h = 1.0 / h
     for j in range(joint_type.shape[0]):
-        t = joint_type[j]
-        if (param[j, P_LIMIT_ON] == 0.0 or gauss_seidel[j] or not enabled[j]
-                or (t != JOINT_HINGE and t != JOINT_SLIDER)):
-            continue
         g = joint_group[j]
         if g >= 0 and group_done[g]:
             continue
-        a = joint_a[j]
-        b = joint_b[j]
-        has, lin, u, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
-        if not has:
+        _tree_limit(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
+                    position, x, R, inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, Ja, Jb,
+                    nrow, Dinv, H_up, W, y, sol, work, layout, limit_rows, v, omega, linear_impulse, angular_impulse,
+                    axial_impulse)
+
+
+@njit(**NO_NRT)
+def _tree_limit(j, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
+                position, x, R, inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, Ja, Jb, nrow,
+                Dinv, H_up, W, y, sol, work, layout, limit_rows,
+                # outputs
+                v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """Joint j's limit rows through the tree (``tree_limits_kernel``'s rules), if it has any acting."""
+    body_node, node_tree, tree_lo, tree_hi, no_skip = layout
+    slot_count, slot_ref, slot_resp, mass, valid, soft_limit = limit_rows
+    inv_h = 1.0 / h
+    t = joint_type[j]
+    if (param[j, P_LIMIT_ON] == 0.0 or gauss_seidel[j] or not enabled[j]
+            or (t != JOINT_HINGE and t != JOINT_SLIDER)):
+        return
+    a = joint_a[j]
+    b = joint_b[j]
+    has, lin, u, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
+    if not has:
+        return
+    cdot = _row_velocity(v, omega, a, b, lin, u, ra, rb)
+    if _limits_idle(j, param[j], pos, cdot, inv_h, axial_impulse):
+        return
+    # the coordinate's Jacobian: (ja, jwa) on a, (jb, jwb) on b
+    z = (0.0, 0.0, 0.0)
+    ja = _scale(-1.0, u) if lin else z
+    jwa = _scale(-1.0, _cross(ra, u)) if lin else _scale(-1.0, u)
+    jb = u if lin else z
+    jwb = _cross(rb, u) if lin else u
+    if not valid[j]:
+        mass[j] = tree_row(j, a, b, ja, jwa, jb, jwb, inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
+                           node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, param, Ja,
+                           Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip, slot_count, slot_ref, slot_resp)
+        valid[j] = True
+    if mass[j] == 0.0:
+        return
+    for side in range(2):
+        # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
+        sign = 1.0 if side == 0 else -1.0
+        bound = param[j, P_LOWER] if side == 0 else param[j, P_UPPER]
+        if math.isinf(bound):
             continue
-        cdot = _row_velocity(v, omega, a, b, lin, u, ra, rb)
-        if _limits_idle(j, param[j], pos, cdot, inv_h, axial_impulse):
-            continue
-        # the coordinate's Jacobian: (ja, jwa) on a, (jb, jwb) on b
-        z = (0.0, 0.0, 0.0)
-        ja = _scale(-1.0, u) if lin else z
-        jwa = _scale(-1.0, _cross(ra, u)) if lin else _scale(-1.0, u)
-        jb = u if lin else z
-        jwb = _cross(rb, u) if lin else u
-        if not valid[j]:
-            mass[j] = tree_row(j, a, b, ja, jwa, jb, jwb, inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
-                               node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, param, Ja,
-                               Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip, slot_count, slot_ref, slot_resp)
-            valid[j] = True
-        if mass[j] == 0.0:
-            continue
-        for side in range(2):
-            # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
-            sign = 1.0 if side == 0 else -1.0
-            bound = param[j, P_LOWER] if side == 0 else param[j, P_UPPER]
-            if math.isinf(bound):
-                continue
-            C = sign * (pos - bound)
-            slot = A_LOWER + side
-            rate = sign * _row_velocity(v, omega, a, b, lin, u, ra, rb)
-            old = axial_impulse[j, slot]
-            # the biased solve (soft[0] > 0) pushes a crossed limit back at the limits' own softness
-            new = limit_impulse_after(C, inv_h, soft_limit if soft[0] > 0.0 else soft, mass[j], rate, old)
-            axial_impulse[j, slot] = new
-            apply_row_response(j, sign * (new - old), slot_count[j], slot_ref, slot_resp, v, omega, linear_impulse,
-                               angular_impulse, axial_impulse)
+        C = sign * (pos - bound)
+        slot = A_LOWER + side
+        rate = sign * _row_velocity(v, omega, a, b, lin, u, ra, rb)
+        old = axial_impulse[j, slot]
+        # the biased solve (soft[0] > 0) pushes a crossed limit back at the limits' own softness
+        new = limit_impulse_after(C, inv_h, soft_limit if soft[0] > 0.0 else soft, mass[j], rate, old)
+        axial_impulse[j, slot] = new
+        apply_row_response(j, sign * (new - old), slot_count[j], slot_ref, slot_resp, v, omega, linear_impulse,
+                           angular_impulse, axial_impulse)
 
 
 @njit(**NO_NRT)
@@ -773,7 +788,7 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
                        # scratch
                        Ja, Jb, C, nrow, D, Dinv, H_up, W, y, sol, work, before,
                        joint_group, body_group, group_change, group_largest, group_done, node_skip, sub_order,
-                       sub_bounds, layout, limit_rows,
+                       sub_bounds, layout, limit_rows, groups,
                        # outputs
                        v, omega, linear_impulse, angular_impulse, axial_impulse):
     """One solve of the tree method: ``iterations`` sweeps, each the Gauss-Seidel rows (the
@@ -807,12 +822,26 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
     robots' limits (the copies of a vector environment, ``tumble.envs``, drifted 1e-7 from their
     single environments in one step, measured), and every robot was swept as long as the slowest.
     ``group_change``, ``group_largest`` (G,) float and ``group_done`` (G,) bool scratch.
+
+    ``groups``: the groups' own tables (``JointSolver._group_tables``); when its mode says so and
+    the groups are apart (``_groups_apart``), each group is swept on its own, the groups side by
+    side on the threads (``_tree_sweeps_groups``): the same operations on each group in the same
+    order, so the same bits as this serial loop over the world (each group's rows touch its own
+    bodies and joints only).
     """
     L = limits.shape[0]
     G = group_done.shape[0]
     sweeps = iterations
     if L > 0 and iterations > 0 and factor:
         sweeps = max(iterations, max_sweeps)
+    if groups[0] and _groups_apart(joint_a, joint_b, enabled, joint_group, body_group, inv_mass, I_inv):
+        _group_orders(order, bounds, joint_group, groups)
+        _tree_sweeps_groups(iterations, sweeps, limits, tolerance, joint_type, joint_a, joint_b, local_a, local_b,
+                            frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv,
+                            h, soft, node_order, node_joint, node_body, node_parent, factor, Ja, Jb, C, nrow, D,
+                            Dinv, H_up, W, y, sol, before, layout, limit_rows, groups, v, omega, linear_impulse,
+                            angular_impulse, axial_impulse)
+        return
     for g in range(G):
         group_done[g] = False
     n_nodes = node_order.shape[0]
@@ -866,9 +895,9 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
         if sweep == 0 and factor:
             # PERF: the factors depend on the poses, masses and inertias, fixed over the sweeps: once
             # per solve (it was once per sweep: the same numbers, so the same bits)
-            tree_factor_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
-                               local_b, frame_a, frame_b, param, position, x, R, inv_mass, I_inv, Ja, Jb, C, nrow, D,
-                               Dinv, H_up, W, work)
+            tree_factor_kernel(node_order, 0, n_nodes, node_joint, node_body, node_parent, joint_type, joint_a,
+                               joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R, inv_mass, I_inv, Ja,
+                               Jb, C, nrow, D, Dinv, H_up, W, work)
             tree_gear_masses(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
                              local_b, frame_a, frame_b, param, enabled, position, x, R, inv_mass, I_inv, Ja, Jb, nrow,
                              Dinv, H_up, W, y, sol, work, node_skip)
@@ -890,10 +919,10 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             # the sweeps and the step is as it was (a gripper squeezing a box by a gear held it
             # at 0.1-1.4 mm/s before, 0.1-2.1 mm/s with the projection: measured, left))
             if factor == 2:
-                tree_substitute_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b,
-                                       local_a, local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C,
-                                       nrow, Dinv, H_up, W, y, sol, work, node_skip, v, omega, linear_impulse,
-                                       angular_impulse, axial_impulse)
+                tree_substitute_kernel(node_order, 0, n_nodes, node_joint, node_body, node_parent, joint_type,
+                                       joint_a, joint_b, local_a, local_b, param, rate0, x, R, inv_mass, I_inv,
+                                       soft[0], Ja, Jb, C, nrow, Dinv, H_up, W, y, sol, work, node_skip, v, omega,
+                                       linear_impulse, angular_impulse, axial_impulse)
         # COMPILE: one sweep as an int64, not the literal 1: the literal compiled the joint sweeps a
         # second time beside the Gauss-Seidel solve's (their compile 27.8 -> 13.9 s in robot_arm's
         # first run; docs/benchmarks.md "compile time")
@@ -907,17 +936,165 @@ def tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds,
             # hinge drifted apart: the lock 0.97 rad and the gear 1.4 rad off in 0.25 s, and blew up
             # beside contacts (measured; tests/physics/test_joints_gear.py)
             if joint_type[g] == JOINT_GEAR and gear_on(g, param, enabled):
-                tree_substitute_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b,
-                                       local_a, local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow,
-                                       Dinv, H_up, W, y, sol, work, node_skip, v, omega, linear_impulse,
-                                       angular_impulse, axial_impulse)
+                tree_substitute_kernel(node_order, 0, n_nodes, node_joint, node_body, node_parent, joint_type,
+                                       joint_a, joint_b, local_a, local_b, param, rate0, x, R, inv_mass, I_inv,
+                                       soft[0], Ja, Jb, C, nrow, Dinv, H_up, W, y, sol, work, node_skip, v, omega,
+                                       linear_impulse, angular_impulse, axial_impulse)
                 solve_gear(g, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position, x, R,
                            inv_mass, I_inv, soft, v, omega, axial_impulse)
-        tree_substitute_kernel(node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, local_a,
-                               local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow, Dinv, H_up, W,
-                               y, sol, work, node_skip, v, omega, linear_impulse, angular_impulse, axial_impulse)
+        tree_substitute_kernel(node_order, 0, n_nodes, node_joint, node_body, node_parent, joint_type, joint_a,
+                               joint_b, local_a, local_b, param, rate0, x, R, inv_mass, I_inv, soft[0], Ja, Jb, C,
+                               nrow, Dinv, H_up, W, y, sol, work, node_skip, v, omega, linear_impulse,
+                               angular_impulse, axial_impulse)
         if L > 0:
             tree_limits_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
                                gauss_seidel, position, x, R, inv_mass, I_inv, h, soft, node_order, node_joint, node_body,
                                node_parent, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, joint_group, group_done, layout,
                                limit_rows, v, omega, linear_impulse, angular_impulse, axial_impulse)
+
+
+# ---------------------------------------------------------------------- the groups side by side
+# The joints of a world with several robots (a vector environment's copies, tumble.envs) fall into
+# groups that share no moving body (JointSolver._groups). The tree sweeps of one group touch its own
+# bodies, joints and tree nodes only, so the groups can be swept side by side on the threads, each
+# as tree_sweeps_kernel sweeps it within the world (its rows in the same order, its own settling
+# test): the same bits on any number of threads.
+@njit(**NO_NRT)
+def _groups_apart(joint_a, joint_b, enabled, joint_group, body_group, inv_mass, I_inv):
+    """Whether every enabled joint is in a group and its other end, if outside the group, cannot move
+    (no inverse mass or inertia: the world, a fixed or kinematic body; not a sleeping body, which
+    the rows of two groups could both push)."""
+    for j in range(joint_a.shape[0]):
+        if not enabled[j]:
+            continue
+        g = joint_group[j]
+        if g < 0:
+            return False
+        for side in range(2):
+            i = joint_a[j] if side == 0 else joint_b[j]
+            if i < 0 or body_group[i] == g:
+                continue
+            if inv_mass[i] != 0.0:
+                return False
+            for r in range(3):
+                for c in range(3):
+                    if I_inv[i, r, c] != 0.0:
+                        return False
+    return True
+
+
+@njit(**NO_NRT)
+def _group_orders(order, bounds, joint_group, groups):
+    """Each group's Gauss-Seidel order: the joints of ``order`` cut by ``bounds`` (the world's sweep,
+    partitions one after another) that are in the group, in the same order, into ``groups``'
+    (order_start (G + 1,), order (J,)), and (0, count) into its sweep bounds (G, 2)."""
+    (_mode, _joint_start, _joints, _tree_start, _trees, order_start, group_order, group_bounds,
+     _work) = groups
+    G = group_bounds.shape[0]
+    for g in range(G + 1):
+        order_start[g] = 0
+    for p in range(bounds.shape[0] - 1):
+        for idx in range(bounds[p], bounds[p + 1]):
+            g = joint_group[order[idx]]
+            if g >= 0:
+                order_start[g + 1] += 1
+    for g in range(G):
+        order_start[g + 1] += order_start[g]
+        group_bounds[g, 0] = 0
+        group_bounds[g, 1] = 0
+    for p in range(bounds.shape[0] - 1):
+        for idx in range(bounds[p], bounds[p + 1]):
+            j = order[idx]
+            g = joint_group[j]
+            if g >= 0:
+                group_order[order_start[g] + group_bounds[g, 1]] = j
+                group_bounds[g, 1] += 1
+
+
+@njit(**JIT, parallel=True)
+def _tree_sweeps_groups(iterations, sweeps, limits, tolerance, joint_type, joint_a, joint_b, local_a, local_b,
+                        frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h,
+                        soft, node_order, node_joint, node_body, node_parent, factor, Ja, Jb, C, nrow, D, Dinv, H_up,
+                        W, y, sol, before, layout, limit_rows, groups,
+                        # outputs
+                        v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """``tree_sweeps_kernel``'s solve, the groups side by side (``_sweep_group`` each)."""
+    G = groups[7].shape[0]
+    for g in prange(G):
+        _sweep_group(g, iterations, sweeps, limits, tolerance, joint_type, joint_a, joint_b, local_a, local_b,
+                     frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft,
+                     node_order, node_joint, node_body, node_parent, factor, Ja, Jb, C, nrow, D, Dinv, H_up, W, y,
+                     sol, before, layout, limit_rows, groups, v, omega, linear_impulse, angular_impulse,
+                     axial_impulse)
+
+
+@njit(**NO_NRT)
+def _sweep_group(g, iterations, sweeps, limits, tolerance, joint_type, joint_a, joint_b, local_a, local_b, frame_a,
+                 frame_b, param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h, soft, node_order,
+                 node_joint, node_body, node_parent, factor, Ja, Jb, C, nrow, D, Dinv, H_up, W, y, sol, before, layout,
+                 limit_rows, groups,
+                 # outputs
+                 v, omega, linear_impulse, angular_impulse, axial_impulse):
+    """Group g's part of ``tree_sweeps_kernel``'s solve, alone: its steps in its order (its
+    Gauss-Seidel rows, its trees' factors and substitutions, its limits in joint order), sweeping
+    until its own limit impulses settle (the world's loop leaves a settled group out the same way)."""
+    (_mode, joint_start, group_joints, tree_start, group_trees, order_start, group_order, group_bounds,
+     group_work) = groups
+    _body_node, _node_tree, tree_lo, tree_hi, no_skip = layout
+    valid = limit_rows[4]
+    work = group_work[g]
+    n_nodes = node_order.shape[0]
+    L = limits.shape[0]
+    j0, j1 = joint_start[g], joint_start[g + 1]
+    t0, t1 = tree_start[g], tree_start[g + 1]
+    own_order = group_order[order_start[g]:order_start[g + 1]]
+    own_bounds = group_bounds[g]
+    for sweep in range(sweeps):
+        if sweep >= iterations:
+            change = 0.0
+            largest = 0.0
+            for idx in range(j0, j1):
+                j = group_joints[idx]
+                for c in range(L):
+                    change = max(change, abs(axial_impulse[j, limits[c]] - before[j, c]))
+                    largest = max(largest, abs(before[j, c]))
+            if change <= tolerance * max(largest, 1e-9):
+                break
+        if L > 0 and sweep >= iterations - 1:
+            for idx in range(j0, j1):
+                j = group_joints[idx]
+                for c in range(L):
+                    before[j, c] = axial_impulse[j, limits[c]]
+        if sweep == 0 and factor:
+            for q in range(t0, t1):
+                t = group_trees[q]
+                lo, hi = tree_lo[t], tree_hi[t]
+                tree_factor_kernel(node_order[n_nodes - hi:n_nodes - lo], lo, hi, node_joint, node_body, node_parent,
+                                   joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position,
+                                   x, R, inv_mass, I_inv, Ja, Jb, C, nrow, D, Dinv, H_up, W, work)
+            for idx in range(j0, j1):
+                valid[group_joints[idx]] = False
+            if factor == 2:
+                for q in range(t0, t1):
+                    t = group_trees[q]
+                    lo, hi = tree_lo[t], tree_hi[t]
+                    tree_substitute_kernel(node_order[n_nodes - hi:n_nodes - lo], lo, hi, node_joint, node_body,
+                                           node_parent, joint_type, joint_a, joint_b, local_a, local_b, param, rate0,
+                                           x, R, inv_mass, I_inv, soft[0], Ja, Jb, C, nrow, Dinv, H_up, W, y, sol,
+                                           work, no_skip, v, omega, linear_impulse, angular_impulse, axial_impulse)
+        solve_joints_serial_kernel(own_order, own_bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a,
+                                   frame_b, param, enabled, gauss_seidel, position, rate0, x, R, inv_mass, I_inv, h,
+                                   soft, np.int64(1), v, omega, linear_impulse, angular_impulse, axial_impulse)
+        for q in range(t0, t1):
+            t = group_trees[q]
+            lo, hi = tree_lo[t], tree_hi[t]
+            tree_substitute_kernel(node_order[n_nodes - hi:n_nodes - lo], lo, hi, node_joint, node_body, node_parent,
+                                   joint_type, joint_a, joint_b, local_a, local_b, param, rate0, x, R, inv_mass,
+                                   I_inv, soft[0], Ja, Jb, C, nrow, Dinv, H_up, W, y, sol, work, no_skip, v, omega,
+                                   linear_impulse, angular_impulse, axial_impulse)
+        if L > 0:
+            for idx in range(j0, j1):
+                _tree_limit(group_joints[idx], joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b,
+                            param, enabled, gauss_seidel, position, x, R, inv_mass, I_inv, h, soft, node_order,
+                            node_joint, node_body, node_parent, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, layout,
+                            limit_rows, v, omega, linear_impulse, angular_impulse, axial_impulse)

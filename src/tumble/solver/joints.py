@@ -77,6 +77,7 @@ from ..math3d import (
     normalize_quat_inplace,
     quat_exp_multiply_inplace,
     quat_to_matrix_into,
+    start_threads,
 )
 from .joint_gear import GEAR_COLUMN, gear_axis, gear_rate
 from .joint_math import (
@@ -416,6 +417,9 @@ def soft_coefficients(hertz: float, zeta: float, h: float):
 # at most this many sweeps, until no limit impulse changes by more than LIMIT_TOLERANCE of the largest
 TREE_LIMIT_SWEEPS = 32
 LIMIT_TOLERANCE = 1e-2
+#: the tree method sweeps the groups of a world side by side on the threads from this many tree nodes
+#: (``JointSolver._group_tables``)
+GROUP_THREADS_MIN_NODES = 48
 
 
 def _root(parent: list, i: int) -> int:
@@ -633,6 +637,34 @@ class JointSolver:
         G = len(label)
         self.joint_group, self.body_group = joint_group, body_group
         self._group_scratch = (np.zeros(G), np.zeros(G), np.zeros(G, dtype=bool))
+        self._group_tables(moving)
+
+    def _group_tables(self, moving: np.ndarray):
+        """The groups' own tables, for sweeping them side by side (``joint_tree._tree_sweeps_groups``):
+        (mode, joint_start (G + 1,), joints (J',): each group's joints in joint order, tree_start
+        (G + 1,), trees (T,): each group's trees, then scratch: order_start (G + 1,), order (J,),
+        bounds (G, 2), work (G, 6, 6)). ``mode`` 1: side by side, when there are at least two groups
+        (no gear: a gear makes the world one group), every enabled joint is in one, and the trees
+        have at least ``GROUP_THREADS_MIN_NODES`` nodes (fewer: the threads' start costs more
+        than they save); 0: the serial loop over the world."""
+        G = len(self._group_scratch[0])
+        J = self.count
+        jg = self.joint_group
+        joints = np.flatnonzero(jg >= 0)
+        joints = joints[np.argsort(jg[joints], kind="stable")].astype(np.int64)
+        joint_start = np.searchsorted(jg[joints], np.arange(G + 1)).astype(np.int64)
+        _, node_tree, tree_lo, _ = self.tree_layout
+        T = len(tree_lo)
+        tree_group = np.full(T, -1, dtype=np.int64)
+        bodies = np.flatnonzero(self.node_body >= 0)
+        tree_group[node_tree[bodies]] = self.body_group[self.node_body[bodies]]
+        trees = np.flatnonzero(tree_group >= 0)
+        trees = trees[np.argsort(tree_group[trees], kind="stable")].astype(np.int64)
+        tree_start = np.searchsorted(tree_group[trees], np.arange(G + 1)).astype(np.int64)
+        apart = bool(np.all(jg[self.enabled] >= 0)) and not self.has_gears
+        mode = int(G >= 2 and apart and len(self.node_order) >= GROUP_THREADS_MIN_NODES)
+        self._groups_table = (mode, joint_start, joints, tree_start, trees, np.zeros(G + 1, dtype=np.int64),
+                              np.zeros(J, dtype=np.int64), np.zeros((G, 2), dtype=np.int64), np.zeros((G, 6, 6)))
 
     # -- stages --------------------------------------------------------------------------
     def prepare(self, world, h: float, inv_mass: np.ndarray | None = None, I_inv: np.ndarray | None = None,
@@ -763,6 +795,7 @@ class JointSolver:
                 return
             limits, max_sweeps, tolerance, *tree = self.tree_parts()
             node_order, node_joint, node_body, node_parent, *scratch = tree
+            start_threads()  # the groups may be swept side by side (joint_tree._tree_sweeps_groups)
             tree_sweeps_kernel(int(iterations), limits, max_sweeps, tolerance, *args, node_order, node_joint, node_body,
                                node_parent, np.int64((2 if use_bias and self.has_armature() else 1) if factor else 0),
                                *scratch, *out)
@@ -783,7 +816,9 @@ class JointSolver:
                                  z((0, 6, 6)), z((0, 6, 6)), z((0, 6, 6)), z((0, 6)), z((0, 6)), z((6, 6)), z((0, 0)),
                                  z(0, i64), z(0, i64), z(0), z(0), z(0, dtype=bool), z(0, dtype=bool), z(0, i64),
                                  z(2, i64), (z(0, i64), z(0, i64), z(0, i64), z(0, i64), z(0, dtype=bool)),
-                                 (z(0, i64), z((0, 0), i64), z((0, 0, 8)), z(0), z(0, dtype=bool), z(3)))
+                                 (z(0, i64), z((0, 0), i64), z((0, 0, 8)), z(0), z(0, dtype=bool), z(3)),
+                                 (0, z(1, i64), z(0, i64), z(1, i64), z(0, i64), z(1, i64), z(0, i64),
+                                  z((0, 2), i64), z((0, 6, 6))))
             return self._no_tree
         if self._parts is not None:
             return self._parts  # PERF: once a step (prepare clears it): it was 10 us a solve, 8 solves a step
@@ -797,7 +832,7 @@ class JointSolver:
                        sc["W"], sc["y"], sc["sol"], sc["work"], before, self.joint_group, self.body_group,
                        *self._group_scratch, sc["node_skip"], sc["sub_order"],
                        np.zeros(len(self.sweep.bounds), dtype=np.int64), (*self.tree_layout, sc["no_skip"]),
-                       sc["limit_rows"])
+                       sc["limit_rows"], self._groups_table)
         return self._parts
 
     def _limit_columns(self) -> np.ndarray:

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numba import njit
 
@@ -48,7 +47,7 @@ from ..collision.manifold import KEY_BITS, match_contacts
 from ..collision.pipeline import CollisionPipeline
 from ..body_motion import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
 from ..integrators import accumulate_forces_kernel
-from ..math3d import JIT
+from ..math3d import JIT, start_threads
 from ..world import Scratch
 from . import contact as C
 from .joint_solve import (first_substep_rates_kernel, flywheel_rates_kernel, joint_rates_kernel,
@@ -177,14 +176,14 @@ def _solve_joints(tree, iterations, soft, x, R, inv_mass, I_inv, h, joints, tree
         return
     (limits, max_sweeps, tolerance, node_order, node_joint, node_body, node_parent, Ja, Jb, C, nrow, D, Dinv, H_up,
      W, y, sol, work, before, joint_group, body_group, group_change, group_largest, group_done, node_skip, sub_order,
-     sub_bounds, layout, limit_rows) = tree_parts
+     sub_bounds, layout, limit_rows, groups) = tree_parts
     tree_sweeps_kernel(iterations, limits, max_sweeps, tolerance, order, bounds, joint_type, joint_a, joint_b,
                        local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel, position, rate0, x, R,
                        inv_mass, I_inv, h, soft, node_order, node_joint, node_body, node_parent, factor, Ja, Jb, C, nrow,
                        D, Dinv,
                        H_up, W, y, sol, work, before, joint_group, body_group, group_change, group_largest, group_done,
-                       node_skip, sub_order, sub_bounds, layout, limit_rows, v, omega, linear_impulse, angular_impulse,
-                       axial_impulse)
+                       node_skip, sub_order, sub_bounds, layout, limit_rows, groups, v, omega, linear_impulse,
+                       angular_impulse, axial_impulse)
 
 
 @njit(**JIT)
@@ -615,8 +614,7 @@ class SoftStep:
         # process (a small scene prepares its contacts on the calling thread), they crashed
         # (a segmentation fault; found by tests/physics/test_kinematic.py, reproduced by a script
         # stepping a box on a kinematic platform, and gone when the pool is started first).
-        # get_num_threads starts it (once; then a few hundred ns).
-        numba.get_num_threads()
+        start_threads()
         w = self.world
         s = self.scratch
         tb = w.tables
