@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..math3d import JIT
 from .contact_anchor import _arms
@@ -64,24 +64,55 @@ def tree_contact_responses_kernel(contacts, body_a, body_b, normal, tangent1, ta
     poses (``Ja``, ``Jb``, ``nrow``, ``Dinv``, ``H_up``, ``W``); ``y``, ``sol`` (n, 6), ``work``
     (6, 6) scratch, ``no_skip`` (n,) all False."""
     for q in range(contacts.shape[0]):
-        c = contacts[q]
-        a = body_a[c]
-        b = body_b[c]
-        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
-        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-        for d in range(3):
-            if d == 0:
-                u = (normal[c, 0], normal[c, 1], normal[c, 2])
-            elif d == 1:
-                u = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
-            else:
-                u = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
-            # the row's Jacobian: -u at a's arm, +u at b's
-            row_mass[3 * q + d] = tree_row(3 * q + d, a, b, _scale(-1.0, u), _scale(-1.0, _cross(ra, u)), u,
-                                           _cross(rb, u), inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
-                                           node_order, node_joint, node_body, node_parent, joint_type, joint_a,
-                                           joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
-                                           slot_count, slot_ref, slot_resp)
+        _contact_rows(q, contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass, I_inv,
+                      body_node, node_tree, tree_lo, tree_hi, node_order, node_joint, node_body, node_parent,
+                      joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
+                      slot_count, slot_ref, slot_resp, row_mass)
+
+
+@njit(**JIT, parallel=True)
+def tree_contact_responses_groups_kernel(group_start, group_q, group_work, contacts, body_a, body_b, normal,
+                                         tangent1, tangent2, arm_a, arm_b, inv_mass, I_inv, body_node, node_tree,
+                                         tree_lo, tree_hi, node_order, node_joint, node_body, node_parent,
+                                         joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol,
+                                         no_skip,
+                                         # outputs
+                                         slot_count, slot_ref, slot_resp, row_mass):
+    """``tree_contact_responses_kernel`` with the contacts of each joint group (``group_contacts_kernel``)
+    side by side on the threads, each group's with its own ``group_work`` (G, 6, 6): the same rows."""
+    for g in prange(group_start.shape[0] - 1):
+        for idx in range(group_start[g], group_start[g + 1]):
+            _contact_rows(group_q[idx], contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass,
+                          I_inv, body_node, node_tree, tree_lo, tree_hi, node_order, node_joint, node_body,
+                          node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol,
+                          group_work[g], no_skip, slot_count, slot_ref, slot_resp, row_mass)
+
+
+@njit(**JIT)
+def _contact_rows(q, contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass, I_inv, body_node,
+                  node_tree, tree_lo, tree_hi, node_order, node_joint, node_body, node_parent, joint_type, joint_a,
+                  joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
+                  # outputs
+                  slot_count, slot_ref, slot_resp, row_mass):
+    """The three rows of listed contact q (rows 3 q .. 3 q + 2): their responses and masses."""
+    c = contacts[q]
+    a = body_a[c]
+    b = body_b[c]
+    ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+    rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+    for d in range(3):
+        if d == 0:
+            u = (normal[c, 0], normal[c, 1], normal[c, 2])
+        elif d == 1:
+            u = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
+        else:
+            u = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
+        # the row's Jacobian: -u at a's arm, +u at b's
+        row_mass[3 * q + d] = tree_row(3 * q + d, a, b, _scale(-1.0, u), _scale(-1.0, _cross(ra, u)), u,
+                                       _cross(rb, u), inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
+                                       node_order, node_joint, node_body, node_parent, joint_type, joint_a,
+                                       joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
+                                       slot_count, slot_ref, slot_resp)
 
 
 @njit(**JIT)
@@ -114,52 +145,86 @@ def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tange
     the approach speed for restitution, Coulomb's disc) and its arrays. The relax reads the arms
     at the moved poses (and caches them, as that kernel does)."""
     for q in range(contacts.shape[0]):
-        c = contacts[q]
-        a = body_a[c]
-        b = body_b[c]
-        if use_bias:
-            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
-            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-        else:
-            ra, rb, dd = _arms(x, R, a, b, local_a, local_b, anchor_offset, c)
-            for e in range(3):
-                arm_a[c, e] = ra[e]
-                arm_b[c, e] = rb[e]
-            gap[c] = normal[c, 0] * dd[0] + normal[c, 1] * dd[1] + normal[c, 2] * dd[2]
-        n = (normal[c, 0], normal[c, 1], normal[c, 2])
-        s = separation[c] + gap[c]
-        mass = row_mass[3 * q]
-        vn = _speed(v, omega, a, b, ra, rb, n)
-        new_impulse = normal_impulse_after(s, use_bias, soft[c, 0], soft[c, 1], soft[c, 2], inv_h, contact_speed,
-                                           mass, vn, normal_impulse[c])
-        if new_impulse > 0.0 and vn < relative_velocity[c]:
-            u = -vn  # the approach speed restitution reflects, as in _solve_contact_range
-            w0 = -last_normal_speed[c]
-            if s > 0.0 and w0 > 0.0 and u > w0:
-                u = min(math.sqrt(w0 * w0 + 2.0 * ((u - w0) * inv_h) * s), u)
-            relative_velocity[c] = min(-u, relative_velocity[c])
-        impulse = new_impulse - normal_impulse[c]
-        normal_impulse[c] = new_impulse
-        max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
-        if not use_bias:
-            last_normal_speed[c] = vn + (impulse / mass if mass > 0.0 else 0.0)
-        apply_row_response(3 * q, impulse, slot_count[3 * q], slot_ref, slot_resp, v, omega, linear_impulse,
-                           angular_impulse, axial_impulse)
-        # Coulomb friction: each direction with its own mass, the 2-vector clamped to mu times the normal impulse
-        t1 = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
-        t2 = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
-        vt1 = _speed(v, omega, a, b, ra, rb, t1) - surface_target[c, 0]
-        vt2 = _speed(v, omega, a, b, ra, rb, t2) - surface_target[c, 1]
-        old1 = tangent_impulse[c, 0]
-        old2 = tangent_impulse[c, 1]
-        new1, new2 = friction_impulses_after(old1, old2, row_mass[3 * q + 1], row_mass[3 * q + 2], vt1, vt2,
-                                             friction[c] * normal_impulse[c])
-        tangent_impulse[c, 0] = new1
-        tangent_impulse[c, 1] = new2
-        apply_row_response(3 * q + 1, new1 - old1, slot_count[3 * q + 1], slot_ref, slot_resp, v, omega,
-                           linear_impulse, angular_impulse, axial_impulse)
-        apply_row_response(3 * q + 2, new2 - old2, slot_count[3 * q + 2], slot_ref, slot_resp, v, omega,
-                           linear_impulse, angular_impulse, axial_impulse)
+        _solve_tree_contact(q, contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
+                            separation, soft, friction, surface_target, x, R, inv_h, contact_speed, use_bias,
+                            slot_count, slot_ref, slot_resp, row_mass, v, omega, linear_impulse, angular_impulse,
+                            axial_impulse, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                            last_normal_speed, arm_a, arm_b, gap)
+
+
+@njit(**JIT, parallel=True)
+def solve_tree_contacts_groups_kernel(group_start, group_q, contacts, body_a, body_b, normal, tangent1, tangent2,
+                                      local_a, local_b, anchor_offset, separation, soft, friction, surface_target, x,
+                                      R, inv_h, contact_speed, use_bias, slot_count, slot_ref, slot_resp, row_mass,
+                                      # outputs
+                                      v, omega, linear_impulse, angular_impulse, axial_impulse, normal_impulse,
+                                      tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed,
+                                      arm_a, arm_b, gap):
+    """``solve_tree_contacts_kernel`` with the contacts of each joint group side by side on the threads
+    (``group_contacts_kernel``), each group's in the listed order: the same sweep."""
+    for g in prange(group_start.shape[0] - 1):
+        for idx in range(group_start[g], group_start[g + 1]):
+            _solve_tree_contact(group_q[idx], contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
+                                anchor_offset, separation, soft, friction, surface_target, x, R, inv_h, contact_speed,
+                                use_bias, slot_count, slot_ref, slot_resp, row_mass, v, omega, linear_impulse,
+                                angular_impulse, axial_impulse, normal_impulse, tangent_impulse, max_normal_impulse,
+                                relative_velocity, last_normal_speed, arm_a, arm_b, gap)
+
+
+@njit(**JIT)
+def _solve_tree_contact(q, contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
+                        separation, soft, friction, surface_target, x, R, inv_h, contact_speed, use_bias, slot_count,
+                        slot_ref, slot_resp, row_mass,
+                        # outputs
+                        v, omega, linear_impulse, angular_impulse, axial_impulse, normal_impulse, tangent_impulse,
+                        max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap):
+    """Listed contact q: its normal row, then its friction, through the tree (``solve_tree_contacts_kernel``)."""
+    c = contacts[q]
+    a = body_a[c]
+    b = body_b[c]
+    if use_bias:
+        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+    else:
+        ra, rb, dd = _arms(x, R, a, b, local_a, local_b, anchor_offset, c)
+        for e in range(3):
+            arm_a[c, e] = ra[e]
+            arm_b[c, e] = rb[e]
+        gap[c] = normal[c, 0] * dd[0] + normal[c, 1] * dd[1] + normal[c, 2] * dd[2]
+    n = (normal[c, 0], normal[c, 1], normal[c, 2])
+    s = separation[c] + gap[c]
+    mass = row_mass[3 * q]
+    vn = _speed(v, omega, a, b, ra, rb, n)
+    new_impulse = normal_impulse_after(s, use_bias, soft[c, 0], soft[c, 1], soft[c, 2], inv_h, contact_speed,
+                                       mass, vn, normal_impulse[c])
+    if new_impulse > 0.0 and vn < relative_velocity[c]:
+        u = -vn  # the approach speed restitution reflects, as in _solve_contact_range
+        w0 = -last_normal_speed[c]
+        if s > 0.0 and w0 > 0.0 and u > w0:
+            u = min(math.sqrt(w0 * w0 + 2.0 * ((u - w0) * inv_h) * s), u)
+        relative_velocity[c] = min(-u, relative_velocity[c])
+    impulse = new_impulse - normal_impulse[c]
+    normal_impulse[c] = new_impulse
+    max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+    if not use_bias:
+        last_normal_speed[c] = vn + (impulse / mass if mass > 0.0 else 0.0)
+    apply_row_response(3 * q, impulse, slot_count[3 * q], slot_ref, slot_resp, v, omega, linear_impulse,
+                       angular_impulse, axial_impulse)
+    # Coulomb friction: each direction with its own mass, the 2-vector clamped to mu times the normal impulse
+    t1 = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
+    t2 = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
+    vt1 = _speed(v, omega, a, b, ra, rb, t1) - surface_target[c, 0]
+    vt2 = _speed(v, omega, a, b, ra, rb, t2) - surface_target[c, 1]
+    old1 = tangent_impulse[c, 0]
+    old2 = tangent_impulse[c, 1]
+    new1, new2 = friction_impulses_after(old1, old2, row_mass[3 * q + 1], row_mass[3 * q + 2], vt1, vt2,
+                                         friction[c] * normal_impulse[c])
+    tangent_impulse[c, 0] = new1
+    tangent_impulse[c, 1] = new2
+    apply_row_response(3 * q + 1, new1 - old1, slot_count[3 * q + 1], slot_ref, slot_resp, v, omega,
+                       linear_impulse, angular_impulse, axial_impulse)
+    apply_row_response(3 * q + 2, new2 - old2, slot_count[3 * q + 2], slot_ref, slot_resp, v, omega,
+                       linear_impulse, angular_impulse, axial_impulse)
 
 
 @njit(**JIT)
@@ -221,6 +286,52 @@ def split_kernel(order, bounds, body_a, body_b, body_node,
     return n_listed
 
 
+@njit(**JIT)
+def group_contacts_kernel(listed, body_a, body_b, body_node, body_group, inv_mass, I_inv,
+                          # outputs
+                          group_start, group_q):
+    """The listed contacts (A,) by joint group, for solving the groups side by side: ``group_q`` (A,)
+    the positions q of group 0's contacts in the listed order, then group 1's, ..., cut by
+    ``group_start`` (G + 1,). Returns False (and the serial sweep is kept) when a contact touches
+    two groups (two robots touching) or a body outside every tree that can move (a box two robots
+    could both push): then the groups' rows are not apart."""
+    G = group_start.shape[0] - 1
+    A = listed.shape[0]
+    group_of = np.empty(A, dtype=np.int64)
+    for g in range(G + 1):
+        group_start[g] = 0
+    for q in range(A):
+        c = listed[q]
+        g = -1
+        for side in range(2):
+            i = body_a[c] if side == 0 else body_b[c]
+            if i < 0:
+                continue
+            if body_node[i] >= 0:
+                if body_group[i] < 0 or (g >= 0 and body_group[i] != g):
+                    return False
+                g = body_group[i]
+                continue
+            if inv_mass[i] != 0.0:
+                return False
+            for r in range(3):
+                for k in range(3):
+                    if I_inv[i, r, k] != 0.0:
+                        return False
+        if g < 0:
+            return False
+        group_of[q] = g
+        group_start[g + 1] += 1
+    for g in range(G):
+        group_start[g + 1] += group_start[g]
+    filled = np.zeros(G, dtype=np.int64)
+    for q in range(A):
+        g = group_of[q]
+        group_q[group_start[g] + filled[g]] = q
+        filled[g] += 1
+    return True
+
+
 class TreeContacts:
     """This step's contacts that touch the joint tree (``split``), their responses and the rest of
     the contact solver's sweep order: ``order``, ``bounds`` (as ``ContactSolver.sweep``'s, without
@@ -235,6 +346,11 @@ class TreeContacts:
         self._kept = self._listed = np.zeros(0, dtype=np.int64)  # split's buffers
         self._kept_bounds = np.zeros(0, dtype=np.int64)
         self._buffers(0, 0)
+        # the listed contacts by joint group (group_contacts_kernel), when the groups are swept side by side
+        self.group_start = np.zeros(1, dtype=np.int64)
+        self.group_q = np.zeros(0, dtype=np.int64)
+        self.group_work = np.zeros((0, 6, 6))
+        self.group_mode = 0
 
     def _buffers(self, rows: int, width: int):
         old = self.__dict__.get("slot_ref")
@@ -254,6 +370,7 @@ class TreeContacts:
         layout = None if joints is None else joints.tree_layout
         self.order, self.bounds = order, bounds
         self.contacts = self.contacts[:0]
+        self.group_mode = 0
         if layout is None or m == 0 or bounds[0] != 0:
             return 0
         if self._kept.shape[0] < m or self._kept_bounds.shape[0] != bounds.shape[0]:
@@ -272,9 +389,21 @@ class TreeContacts:
         self.layout = layout
         self.no_skip = joints._scratch["no_skip"]
         self._buffers(3 * len(self.contacts), 2 * joints.tree_width + 2)
+        groups = joints._groups_table
+        if groups[0]:  # the joint groups are swept side by side: their contacts too, if apart
+            G = groups[8].shape[0]
+            if self.group_start.shape[0] != G + 1:
+                self.group_start = np.zeros(G + 1, dtype=np.int64)
+            if self.group_q.shape[0] < n:
+                self.group_q = np.zeros(2 * n, dtype=np.int64)
+            self.group_work = groups[8]
+            self.group_mode = int(group_contacts_kernel(self.contacts, c.contact_body_a, c.contact_body_b, layout[0],
+                                                        joints.body_group, solver.world.inv_mass, solver.I_inv,
+                                                        self.group_start, self.group_q[:n]))
         return len(self.contacts)
 
     def parts(self) -> tuple:
         """The arrays ``soft_step.substeps_kernel`` takes (``split``'s, the responses', the layout)."""
         return (self.order, self.bounds, self.contacts, self.slot_count, self.slot_ref, self.slot_resp,
-                self.row_mass, *self.layout, self.no_skip)
+                self.row_mass, *self.layout, self.no_skip, self.group_start, self.group_q[:len(self.contacts)],
+                self.group_work, self.group_mode)
