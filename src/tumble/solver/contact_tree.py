@@ -53,7 +53,7 @@ from .joint_tree import apply_row_response, tree_row
 
 
 @njit(**JIT)
-def tree_contact_responses_kernel(contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass,
+def tree_contact_responses_kernel(qs, contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass,
                                   I_inv, body_node, node_tree, tree_lo, tree_hi, node_order, node_joint, node_body,
                                   node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W,
                                   y, sol, work, no_skip,
@@ -62,12 +62,28 @@ def tree_contact_responses_kernel(contacts, body_a, body_b, normal, tangent1, ta
     """Each row's response through the tree and its effective mass (the module docstring's arrays;
     ``joint_tree.tree_row``), on the factors ``joint_tree.tree_factor_kernel`` made at the current
     poses (``Ja``, ``Jb``, ``nrow``, ``Dinv``, ``H_up``, ``W``); ``y``, ``sol`` (n, 6), ``work``
-    (6, 6) scratch, ``no_skip`` (n,) all False."""
-    for q in range(contacts.shape[0]):
-        _contact_rows(q, contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass, I_inv,
-                      body_node, node_tree, tree_lo, tree_hi, node_order, node_joint, node_body, node_parent,
-                      joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
-                      slot_count, slot_ref, slot_resp, row_mass)
+    (6, 6) scratch, ``no_skip`` (n,) all False. The listed contacts at positions ``qs`` (all, or one
+    joint group's: ``tree_contact_responses_groups_kernel``)."""
+    for idx in range(qs.shape[0]):
+        q = qs[idx]
+        c = contacts[q]
+        a = body_a[c]
+        b = body_b[c]
+        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+        for d in range(3):
+            if d == 0:
+                u = (normal[c, 0], normal[c, 1], normal[c, 2])
+            elif d == 1:
+                u = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
+            else:
+                u = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
+            # the row's Jacobian: -u at a's arm, +u at b's
+            row_mass[3 * q + d] = tree_row(3 * q + d, a, b, _scale(-1.0, u), _scale(-1.0, _cross(ra, u)), u,
+                                           _cross(rb, u), inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
+                                           node_order, node_joint, node_body, node_parent, joint_type, joint_a,
+                                           joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
+                                           slot_count, slot_ref, slot_resp)
 
 
 @njit(**JIT, parallel=True)
@@ -81,38 +97,11 @@ def tree_contact_responses_groups_kernel(group_start, group_q, group_work, conta
     """``tree_contact_responses_kernel`` with the contacts of each joint group (``group_contacts_kernel``)
     side by side on the threads, each group's with its own ``group_work`` (G, 6, 6): the same rows."""
     for g in prange(group_start.shape[0] - 1):
-        for idx in range(group_start[g], group_start[g + 1]):
-            _contact_rows(group_q[idx], contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass,
-                          I_inv, body_node, node_tree, tree_lo, tree_hi, node_order, node_joint, node_body,
-                          node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol,
-                          group_work[g], no_skip, slot_count, slot_ref, slot_resp, row_mass)
-
-
-@njit(**JIT)
-def _contact_rows(q, contacts, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass, I_inv, body_node,
-                  node_tree, tree_lo, tree_hi, node_order, node_joint, node_body, node_parent, joint_type, joint_a,
-                  joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
-                  # outputs
-                  slot_count, slot_ref, slot_resp, row_mass):
-    """The three rows of listed contact q (rows 3 q .. 3 q + 2): their responses and masses."""
-    c = contacts[q]
-    a = body_a[c]
-    b = body_b[c]
-    ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
-    rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-    for d in range(3):
-        if d == 0:
-            u = (normal[c, 0], normal[c, 1], normal[c, 2])
-        elif d == 1:
-            u = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
-        else:
-            u = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
-        # the row's Jacobian: -u at a's arm, +u at b's
-        row_mass[3 * q + d] = tree_row(3 * q + d, a, b, _scale(-1.0, u), _scale(-1.0, _cross(ra, u)), u,
-                                       _cross(rb, u), inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
-                                       node_order, node_joint, node_body, node_parent, joint_type, joint_a,
-                                       joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip,
-                                       slot_count, slot_ref, slot_resp)
+        tree_contact_responses_kernel(group_q[group_start[g]:group_start[g + 1]], contacts, body_a, body_b, normal,
+                                      tangent1, tangent2, arm_a, arm_b, inv_mass, I_inv, body_node, node_tree,
+                                      tree_lo, tree_hi, node_order, node_joint, node_body, node_parent, joint_type,
+                                      joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, group_work[g],
+                                      no_skip, slot_count, slot_ref, slot_resp, row_mass)
 
 
 @njit(**JIT)
@@ -131,9 +120,9 @@ def _speed(v, omega, a, b, ra, rb, u):
 
 
 @njit(**JIT)
-def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
-                               separation, soft, friction, surface_target, x, R, inv_h, contact_speed, use_bias,
-                               slot_count, slot_ref, slot_resp, row_mass,
+def solve_tree_contacts_kernel(qs, contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
+                               anchor_offset, separation, soft, friction, surface_target, x, R, inv_h, contact_speed,
+                               use_bias, slot_count, slot_ref, slot_resp, row_mass,
                                # outputs
                                v, omega, linear_impulse, angular_impulse, axial_impulse, normal_impulse,
                                tangent_impulse, max_normal_impulse, relative_velocity, last_normal_speed, arm_a,
@@ -143,13 +132,56 @@ def solve_tree_contacts_kernel(contacts, body_a, body_b, normal, tangent1, tange
     with the contact solve's rules (``contact_solve.solve_contacts_kernel``: the speculative gap,
     the soft push-out capped at ``contact_speed``, the rigid relax that takes the push-out back,
     the approach speed for restitution, Coulomb's disc) and its arrays. The relax reads the arms
-    at the moved poses (and caches them, as that kernel does)."""
-    for q in range(contacts.shape[0]):
-        _solve_tree_contact(q, contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
-                            separation, soft, friction, surface_target, x, R, inv_h, contact_speed, use_bias,
-                            slot_count, slot_ref, slot_resp, row_mass, v, omega, linear_impulse, angular_impulse,
-                            axial_impulse, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
-                            last_normal_speed, arm_a, arm_b, gap)
+    at the moved poses (and caches them, as that kernel does). The listed contacts at positions ``qs``
+    in that order (all, or one joint group's: ``solve_tree_contacts_groups_kernel``)."""
+    for idx in range(qs.shape[0]):
+        q = qs[idx]
+        c = contacts[q]
+        a = body_a[c]
+        b = body_b[c]
+        if use_bias:
+            ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
+            rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
+        else:
+            ra, rb, dd = _arms(x, R, a, b, local_a, local_b, anchor_offset, c)
+            for e in range(3):
+                arm_a[c, e] = ra[e]
+                arm_b[c, e] = rb[e]
+            gap[c] = normal[c, 0] * dd[0] + normal[c, 1] * dd[1] + normal[c, 2] * dd[2]
+        n = (normal[c, 0], normal[c, 1], normal[c, 2])
+        s = separation[c] + gap[c]
+        mass = row_mass[3 * q]
+        vn = _speed(v, omega, a, b, ra, rb, n)
+        new_impulse = normal_impulse_after(s, use_bias, soft[c, 0], soft[c, 1], soft[c, 2], inv_h, contact_speed,
+                                           mass, vn, normal_impulse[c])
+        if new_impulse > 0.0 and vn < relative_velocity[c]:
+            u = -vn  # the approach speed restitution reflects, as in _solve_contact_range
+            w0 = -last_normal_speed[c]
+            if s > 0.0 and w0 > 0.0 and u > w0:
+                u = min(math.sqrt(w0 * w0 + 2.0 * ((u - w0) * inv_h) * s), u)
+            relative_velocity[c] = min(-u, relative_velocity[c])
+        impulse = new_impulse - normal_impulse[c]
+        normal_impulse[c] = new_impulse
+        max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
+        if not use_bias:
+            last_normal_speed[c] = vn + (impulse / mass if mass > 0.0 else 0.0)
+        apply_row_response(3 * q, impulse, slot_count[3 * q], slot_ref, slot_resp, v, omega, linear_impulse,
+                           angular_impulse, axial_impulse)
+        # Coulomb friction: each direction with its own mass, the 2-vector clamped to mu times the normal impulse
+        t1 = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
+        t2 = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
+        vt1 = _speed(v, omega, a, b, ra, rb, t1) - surface_target[c, 0]
+        vt2 = _speed(v, omega, a, b, ra, rb, t2) - surface_target[c, 1]
+        old1 = tangent_impulse[c, 0]
+        old2 = tangent_impulse[c, 1]
+        new1, new2 = friction_impulses_after(old1, old2, row_mass[3 * q + 1], row_mass[3 * q + 2], vt1, vt2,
+                                             friction[c] * normal_impulse[c])
+        tangent_impulse[c, 0] = new1
+        tangent_impulse[c, 1] = new2
+        apply_row_response(3 * q + 1, new1 - old1, slot_count[3 * q + 1], slot_ref, slot_resp, v, omega,
+                           linear_impulse, angular_impulse, axial_impulse)
+        apply_row_response(3 * q + 2, new2 - old2, slot_count[3 * q + 2], slot_ref, slot_resp, v, omega,
+                           linear_impulse, angular_impulse, axial_impulse)
 
 
 @njit(**JIT, parallel=True)
@@ -163,68 +195,12 @@ def solve_tree_contacts_groups_kernel(group_start, group_q, contacts, body_a, bo
     """``solve_tree_contacts_kernel`` with the contacts of each joint group side by side on the threads
     (``group_contacts_kernel``), each group's in the listed order: the same sweep."""
     for g in prange(group_start.shape[0] - 1):
-        for idx in range(group_start[g], group_start[g + 1]):
-            _solve_tree_contact(group_q[idx], contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
-                                anchor_offset, separation, soft, friction, surface_target, x, R, inv_h, contact_speed,
-                                use_bias, slot_count, slot_ref, slot_resp, row_mass, v, omega, linear_impulse,
-                                angular_impulse, axial_impulse, normal_impulse, tangent_impulse, max_normal_impulse,
-                                relative_velocity, last_normal_speed, arm_a, arm_b, gap)
-
-
-@njit(**JIT)
-def _solve_tree_contact(q, contacts, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
-                        separation, soft, friction, surface_target, x, R, inv_h, contact_speed, use_bias, slot_count,
-                        slot_ref, slot_resp, row_mass,
-                        # outputs
-                        v, omega, linear_impulse, angular_impulse, axial_impulse, normal_impulse, tangent_impulse,
-                        max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap):
-    """Listed contact q: its normal row, then its friction, through the tree (``solve_tree_contacts_kernel``)."""
-    c = contacts[q]
-    a = body_a[c]
-    b = body_b[c]
-    if use_bias:
-        ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
-        rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
-    else:
-        ra, rb, dd = _arms(x, R, a, b, local_a, local_b, anchor_offset, c)
-        for e in range(3):
-            arm_a[c, e] = ra[e]
-            arm_b[c, e] = rb[e]
-        gap[c] = normal[c, 0] * dd[0] + normal[c, 1] * dd[1] + normal[c, 2] * dd[2]
-    n = (normal[c, 0], normal[c, 1], normal[c, 2])
-    s = separation[c] + gap[c]
-    mass = row_mass[3 * q]
-    vn = _speed(v, omega, a, b, ra, rb, n)
-    new_impulse = normal_impulse_after(s, use_bias, soft[c, 0], soft[c, 1], soft[c, 2], inv_h, contact_speed,
-                                       mass, vn, normal_impulse[c])
-    if new_impulse > 0.0 and vn < relative_velocity[c]:
-        u = -vn  # the approach speed restitution reflects, as in _solve_contact_range
-        w0 = -last_normal_speed[c]
-        if s > 0.0 and w0 > 0.0 and u > w0:
-            u = min(math.sqrt(w0 * w0 + 2.0 * ((u - w0) * inv_h) * s), u)
-        relative_velocity[c] = min(-u, relative_velocity[c])
-    impulse = new_impulse - normal_impulse[c]
-    normal_impulse[c] = new_impulse
-    max_normal_impulse[c] = max(max_normal_impulse[c], impulse)
-    if not use_bias:
-        last_normal_speed[c] = vn + (impulse / mass if mass > 0.0 else 0.0)
-    apply_row_response(3 * q, impulse, slot_count[3 * q], slot_ref, slot_resp, v, omega, linear_impulse,
-                       angular_impulse, axial_impulse)
-    # Coulomb friction: each direction with its own mass, the 2-vector clamped to mu times the normal impulse
-    t1 = (tangent1[c, 0], tangent1[c, 1], tangent1[c, 2])
-    t2 = (tangent2[c, 0], tangent2[c, 1], tangent2[c, 2])
-    vt1 = _speed(v, omega, a, b, ra, rb, t1) - surface_target[c, 0]
-    vt2 = _speed(v, omega, a, b, ra, rb, t2) - surface_target[c, 1]
-    old1 = tangent_impulse[c, 0]
-    old2 = tangent_impulse[c, 1]
-    new1, new2 = friction_impulses_after(old1, old2, row_mass[3 * q + 1], row_mass[3 * q + 2], vt1, vt2,
-                                         friction[c] * normal_impulse[c])
-    tangent_impulse[c, 0] = new1
-    tangent_impulse[c, 1] = new2
-    apply_row_response(3 * q + 1, new1 - old1, slot_count[3 * q + 1], slot_ref, slot_resp, v, omega,
-                       linear_impulse, angular_impulse, axial_impulse)
-    apply_row_response(3 * q + 2, new2 - old2, slot_count[3 * q + 2], slot_ref, slot_resp, v, omega,
-                       linear_impulse, angular_impulse, axial_impulse)
+        solve_tree_contacts_kernel(group_q[group_start[g]:group_start[g + 1]], contacts, body_a, body_b, normal,
+                                   tangent1, tangent2, local_a, local_b, anchor_offset, separation, soft, friction,
+                                   surface_target, x, R, inv_h, contact_speed, use_bias, slot_count, slot_ref,
+                                   slot_resp, row_mass, v, omega, linear_impulse, angular_impulse, axial_impulse,
+                                   normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
+                                   last_normal_speed, arm_a, arm_b, gap)
 
 
 @njit(**JIT)
@@ -351,6 +327,7 @@ class TreeContacts:
         self.group_q = np.zeros(0, dtype=np.int64)
         self.group_work = np.zeros((0, 6, 6))
         self.group_mode = 0
+        self._positions = np.zeros(0, dtype=np.int64)  # 0, 1, ...: every listed contact, in order
 
     def _buffers(self, rows: int, width: int):
         old = self.__dict__.get("slot_ref")
@@ -389,6 +366,8 @@ class TreeContacts:
         self.layout = layout
         self.no_skip = joints._scratch["no_skip"]
         self._buffers(3 * len(self.contacts), 2 * joints.tree_width + 2)
+        if self._positions.shape[0] < n:
+            self._positions = np.arange(2 * n, dtype=np.int64)
         groups = joints._groups_table
         if groups[0]:  # the joint groups are swept side by side: their contacts too, if apart
             G = groups[8].shape[0]
@@ -405,5 +384,5 @@ class TreeContacts:
     def parts(self) -> tuple:
         """The arrays ``soft_step.substeps_kernel`` takes (``split``'s, the responses', the layout)."""
         return (self.order, self.bounds, self.contacts, self.slot_count, self.slot_ref, self.slot_resp,
-                self.row_mass, *self.layout, self.no_skip, self.group_start, self.group_q[:len(self.contacts)],
-                self.group_work, self.group_mode)
+                self.row_mass, *self.layout, self.no_skip, self._positions[:len(self.contacts)], self.group_start,
+                self.group_q[:len(self.contacts)], self.group_work, self.group_mode)

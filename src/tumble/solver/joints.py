@@ -643,8 +643,9 @@ class JointSolver:
         """The groups' own tables, for sweeping them side by side (``joint_tree._tree_sweeps_groups``):
         (mode, joint_start (G + 1,), joints (J',): each group's joints in joint order, tree_start
         (G + 1,), trees (T,): each group's trees, then scratch: order_start (G + 1,), order (J,),
-        bounds (G, 2), work (G, 6, 6)). ``mode`` 1: side by side, when there are at least two groups
-        (no gear: a gear makes the world one group), every enabled joint is in one, and the trees
+        bounds (G, 2), work (G, 6, 6), and every joint 0..J-1 (J,): the serial sweep's limits).
+        ``mode`` 1: side by side, when there are at least two groups (no gear: a gear makes the
+        world one group), every enabled joint is in one, and the trees
         have at least ``GROUP_THREADS_MIN_NODES`` nodes (fewer: the threads' start costs more
         than they save); 0: the serial loop over the world."""
         G = len(self._group_scratch[0])
@@ -664,7 +665,8 @@ class JointSolver:
         apart = bool(np.all(jg[self.enabled] >= 0)) and not self.has_gears
         mode = int(G >= 2 and apart and len(self.node_order) >= GROUP_THREADS_MIN_NODES)
         self._groups_table = (mode, joint_start, joints, tree_start, trees, np.zeros(G + 1, dtype=np.int64),
-                              np.zeros(J, dtype=np.int64), np.zeros((G, 2), dtype=np.int64), np.zeros((G, 6, 6)))
+                              np.zeros(J, dtype=np.int64), np.zeros((G, 2), dtype=np.int64), np.zeros((G, 6, 6)),
+                              np.arange(J, dtype=np.int64))
 
     # -- stages --------------------------------------------------------------------------
     def prepare(self, world, h: float, inv_mass: np.ndarray | None = None, I_inv: np.ndarray | None = None,
@@ -818,7 +820,7 @@ class JointSolver:
                                  z(2, i64), (z(0, i64), z(0, i64), z(0, i64), z(0, i64), z(0, dtype=bool)),
                                  (z(0, i64), z((0, 0), i64), z((0, 0, 8)), z(0), z(0, dtype=bool), z(3)),
                                  (0, z(1, i64), z(0, i64), z(1, i64), z(0, i64), z(1, i64), z(0, i64),
-                                  z((0, 2), i64), z((0, 6, 6))))
+                                  z((0, 2), i64), z((0, 6, 6)), z(0, i64)))
             return self._no_tree
         if self._parts is not None:
             return self._parts  # PERF: once a step (prepare clears it): it was 10 us a solve, 8 solves a step

@@ -214,7 +214,7 @@ def _tree_responses(tree_contacts, contacts, joints, tree_parts, inv_mass, I_inv
     """The responses of the contacts of jointed bodies through the tree (``contact_tree``), on the
     factors of the joint solve just made."""
     (_order, _bounds, listed, slot_count, slot_ref, slot_resp, row_mass, body_node, node_tree, tree_lo, tree_hi,
-     no_skip, group_start, group_q, group_work, group_mode) = tree_contacts
+     no_skip, positions, group_start, group_q, group_work, group_mode) = tree_contacts
     (_c_order, _c_bounds, body_a, body_b, normal, tangent1, tangent2, _local_a, _local_b, _anchor_offset, _separation,
      _normal_mass, _tangent_mass, _soft, _friction, _surface_target, _normal_impulse, _tangent_impulse,
      _max_normal_impulse, _relative_velocity, _last_normal_speed, arm_a, arm_b, _gap, _step_normal,
@@ -230,17 +230,17 @@ def _tree_responses(tree_contacts, contacts, joints, tree_parts, inv_mass, I_inv
                                              joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y, sol, no_skip,
                                              slot_count, slot_ref, slot_resp, row_mass)
         return
-    tree_contact_responses_kernel(listed, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b, inv_mass, I_inv,
-                                  body_node, node_tree, tree_lo, tree_hi, node_order, node_joint, node_body,
-                                  node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv, H_up, W, y,
-                                  sol, work, no_skip, slot_count, slot_ref, slot_resp, row_mass)
+    tree_contact_responses_kernel(positions, listed, body_a, body_b, normal, tangent1, tangent2, arm_a, arm_b,
+                                  inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi, node_order, node_joint,
+                                  node_body, node_parent, joint_type, joint_a, joint_b, param, Ja, Jb, nrow, Dinv,
+                                  H_up, W, y, sol, work, no_skip, slot_count, slot_ref, slot_resp, row_mass)
 
 
 @njit(**JIT)
 def _solve_tree_contacts(use_bias, tree_contacts, contacts, x, R, inv_h, contact_speed, v, omega, impulses):
     """One sweep over the contacts of jointed bodies, through the tree (``contact_tree``)."""
     (_order, _bounds, listed, slot_count, slot_ref, slot_resp, row_mass, _body_node, _node_tree, _tree_lo,
-     _tree_hi, _no_skip, group_start, group_q, _group_work, group_mode) = tree_contacts
+     _tree_hi, _no_skip, positions, group_start, group_q, _group_work, group_mode) = tree_contacts
     (_c_order, _c_bounds, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset, separation,
      _normal_mass, _tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
      relative_velocity, last_normal_speed, arm_a, arm_b, gap, _step_normal, _step_tangent) = contacts
@@ -253,11 +253,11 @@ def _solve_tree_contacts(use_bias, tree_contacts, contacts, x, R, inv_h, contact
                                           axial_impulse, normal_impulse, tangent_impulse, max_normal_impulse,
                                           relative_velocity, last_normal_speed, arm_a, arm_b, gap)
         return
-    solve_tree_contacts_kernel(listed, body_a, body_b, normal, tangent1, tangent2, local_a, local_b, anchor_offset,
-                               separation, soft, friction, surface_target, x, R, inv_h, contact_speed, use_bias,
-                               slot_count, slot_ref, slot_resp, row_mass, v, omega, linear_impulse, angular_impulse,
-                               axial_impulse, normal_impulse, tangent_impulse, max_normal_impulse, relative_velocity,
-                               last_normal_speed, arm_a, arm_b, gap)
+    solve_tree_contacts_kernel(positions, listed, body_a, body_b, normal, tangent1, tangent2, local_a, local_b,
+                               anchor_offset, separation, soft, friction, surface_target, x, R, inv_h, contact_speed,
+                               use_bias, slot_count, slot_ref, slot_resp, row_mass, v, omega, linear_impulse,
+                               angular_impulse, axial_impulse, normal_impulse, tangent_impulse, max_normal_impulse,
+                               relative_velocity, last_normal_speed, arm_a, arm_b, gap)
 
 
 def _substeps_kernel(with_joints: bool):
