@@ -49,7 +49,7 @@ from ..math3d import JIT
 from .contact_anchor import _arms
 from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, friction_impulses_after, normal_impulse_after
 from .joint_math import _cross, _scale
-from .joint_tree import apply_row_response, tree_row
+from .joint_tree import apply_row_response, movable, tree_row
 
 
 @njit(**JIT)
@@ -288,12 +288,8 @@ def group_contacts_kernel(listed, body_a, body_b, body_node, body_group, inv_mas
                     return False
                 g = body_group[i]
                 continue
-            if inv_mass[i] != 0.0:
+            if movable(i, inv_mass, I_inv):
                 return False
-            for r in range(3):
-                for k in range(3):
-                    if I_inv[i, r, k] != 0.0:
-                        return False
         if g < 0:
             return False
         group_of[q] = g

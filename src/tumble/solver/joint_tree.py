@@ -967,15 +967,22 @@ def _groups_apart(joint_a, joint_b, enabled, joint_group, body_group, inv_mass, 
             return False
         for side in range(2):
             i = joint_a[j] if side == 0 else joint_b[j]
-            if i < 0 or body_group[i] == g:
-                continue
-            if inv_mass[i] != 0.0:
+            if i >= 0 and body_group[i] != g and movable(i, inv_mass, I_inv):
                 return False
-            for r in range(3):
-                for c in range(3):
-                    if I_inv[i, r, c] != 0.0:
-                        return False
     return True
+
+
+@njit(**NO_NRT)
+def movable(i, inv_mass, I_inv):
+    """Whether a row's impulse can move body i (an inverse mass or inertia; the world, fixed and
+    kinematic bodies have neither)."""
+    if inv_mass[i] != 0.0:
+        return True
+    for r in range(3):
+        for c in range(3):
+            if I_inv[i, r, c] != 0.0:
+                return True
+    return False
 
 
 @njit(**NO_NRT)
