@@ -49,7 +49,7 @@ from ..math3d import JIT
 from .contact_anchor import _arms
 from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, friction_impulses_after, normal_impulse_after
 from .joint_math import _cross, _scale
-from .joint_tree import apply_row_response, movable, tree_row
+from .joint_tree import apply_row_response, bucket_by_group, movable, tree_row
 
 
 @njit(**JIT)
@@ -274,8 +274,6 @@ def group_contacts_kernel(listed, body_a, body_b, body_node, body_group, inv_mas
     G = group_start.shape[0] - 1
     A = listed.shape[0]
     group_of = np.empty(A, dtype=np.int64)
-    for g in range(G + 1):
-        group_start[g] = 0
     for q in range(A):
         c = listed[q]
         g = -1
@@ -293,14 +291,7 @@ def group_contacts_kernel(listed, body_a, body_b, body_node, body_group, inv_mas
         if g < 0:
             return False
         group_of[q] = g
-        group_start[g + 1] += 1
-    for g in range(G):
-        group_start[g + 1] += group_start[g]
-    filled = np.zeros(G, dtype=np.int64)
-    for q in range(A):
-        g = group_of[q]
-        group_q[group_start[g] + filled[g]] = q
-        filled[g] += 1
+    bucket_by_group(np.arange(A), group_of, group_start, group_q, np.zeros(G, dtype=np.int64))
     return True
 
 

@@ -986,31 +986,40 @@ def movable(i, inv_mass, I_inv):
 
 
 @njit(**NO_NRT)
+def bucket_by_group(items, item_group, start, out, cursor):
+    """A stable counting sort: the ``items`` (A,) (int64 indices) whose group ``item_group[item]`` is
+    >= 0 into ``out``, group 0's first, each group's in the items' order, cut by ``start`` (G + 1,);
+    ``cursor`` (G,) ends with each group's count. (The joints' sweep order here, the tree contacts'
+    order in ``contact_tree.group_contacts_kernel``.)"""
+    G = cursor.shape[0]
+    for g in range(G + 1):
+        start[g] = 0
+    for idx in range(items.shape[0]):
+        g = item_group[items[idx]]
+        if g >= 0:
+            start[g + 1] += 1
+    for g in range(G):
+        start[g + 1] += start[g]
+        cursor[g] = 0
+    for idx in range(items.shape[0]):
+        g = item_group[items[idx]]
+        if g >= 0:
+            out[start[g] + cursor[g]] = items[idx]
+            cursor[g] += 1
+
+
+@njit(**NO_NRT)
 def _group_orders(order, bounds, joint_group, groups):
     """Each group's Gauss-Seidel order: the joints of ``order`` cut by ``bounds`` (the world's sweep,
-    partitions one after another) that are in the group, in the same order, into ``groups``'
-    (order_start (G + 1,), order (J,)), and (0, count) into its sweep bounds (G, 2)."""
+    partitions one after another: order[bounds[0]:bounds[-1]]) that are in the group, in the same
+    order, into ``groups``' (order_start (G + 1,), order (J,)), and (0, count) into its sweep bounds
+    (G, 2)."""
     (_mode, _joint_start, _joints, _tree_start, _trees, order_start, group_order, group_bounds, _work,
      _all_joints) = groups
-    G = group_bounds.shape[0]
-    for g in range(G + 1):
-        order_start[g] = 0
-    for p in range(bounds.shape[0] - 1):
-        for idx in range(bounds[p], bounds[p + 1]):
-            g = joint_group[order[idx]]
-            if g >= 0:
-                order_start[g + 1] += 1
-    for g in range(G):
-        order_start[g + 1] += order_start[g]
+    for g in range(group_bounds.shape[0]):
         group_bounds[g, 0] = 0
-        group_bounds[g, 1] = 0
-    for p in range(bounds.shape[0] - 1):
-        for idx in range(bounds[p], bounds[p + 1]):
-            j = order[idx]
-            g = joint_group[j]
-            if g >= 0:
-                group_order[order_start[g] + group_bounds[g, 1]] = j
-                group_bounds[g, 1] += 1
+    bucket_by_group(order[bounds[0]:bounds[bounds.shape[0] - 1]], joint_group, order_start, group_order,
+                    group_bounds[:, 1])
 
 
 @njit(**JIT, parallel=True)
