@@ -41,6 +41,7 @@ import tumble as tb
 from tumble import checks
 from tumble.scene import parse_scene
 from tumble.sweep import run_sweep, run_variant, table_for_comparison
+from tests.ctrl_c import cli_under_ctrl_c
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src"
@@ -253,8 +254,7 @@ def test_cli_sigint_then_resume_gives_the_same_table(reference, tmp_path):
     scene = write_scene(tmp_path / "scene.toml", {"vary": {KEY: SPEC}, "metrics": METRICS, "chunk_size": 5})
     out = tmp_path / "out"
     args = ["sweep", scene, "--out", out, "--workers", 0, "--no-progress"]
-    proc = subprocess.Popen([sys.executable, "-m", "tumble.cli", *map(str, args)], env=env(), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(cli_under_ctrl_c(*args), env=env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         if (out / "parts").exists() and len(list((out / "parts").glob("chunk-*.parquet"))) >= 10:

@@ -24,7 +24,6 @@ import os
 import signal
 import socket
 import subprocess
-import sys
 import threading
 import time
 import urllib.request
@@ -45,6 +44,7 @@ from tumble.viewer.contacts import contacts_at
 from tumble.viewer.meshes import body_mesh, mesh_key, shape_mesh
 
 from tests.browser import BENIGN_CONSOLE_ERRORS, CHROMIUM, CHROMIUM_ARGS, browser_session  # noqa: F401  (re-exported)
+from tests.ctrl_c import cli_under_ctrl_c
 VIEWPORT = {"width": 960, "height": 640}
 # Hide every DOM element but the three.js canvas (the GUI panel and notices, and the energy plot's
 # own canvas inside the panel: uPlot draws on a <canvas> too), so that the pixels measured are the
@@ -468,13 +468,8 @@ def test_cli_serves_a_trajectory_until_ctrl_c(tmp_path):
     make_trajectory(6).save(path)
     port = free_port()
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")]))
-    # Ctrl-C is SIGINT; a shell's background job inherits SIGINT ignored, so the child sets Python's handler itself.
-    start = (
-        "import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
-        "from tumble.cli import main; sys.exit(main(sys.argv[1:]))"
-    )
     proc = subprocess.Popen(
-        [sys.executable, "-c", start, "view", str(path), "--port", str(port), "--no-browser"],
+        cli_under_ctrl_c("view", path, "--port", port, "--no-browser"),
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
     )
     killer = threading.Timer(60.0, proc.kill)  # never hang the suite
