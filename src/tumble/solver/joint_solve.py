@@ -231,9 +231,9 @@ def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp
 def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, position, inv_mass, I_inv,
                  h, inv_h, soft, v, omega, linear_impulse, axial_impulse, in_tree):
     """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate.
-    ``in_tree``: the joint's rigid rows are the tree's, and a hinge's or slider's limits too
-    (``joint_tree.tree_limits_kernel``): left out here."""
-    limit_on = param[j, P_LIMIT_ON] != 0.0 and not (in_tree and (t == JOINT_HINGE or t == JOINT_SLIDER))
+    ``in_tree``: the joint's rigid rows are the tree's, and its limits too (a hinge's, slider's,
+    ball's cone or universal joint's: ``joint_tree.tree_limits_kernel``): left out here."""
+    limit_on = param[j, P_LIMIT_ON] != 0.0 and not (in_tree and tree_limited(t))
     if (param[j, P_STIFFNESS] == 0.0 and param[j, P_DAMPING] == 0.0 and param[j, P_MOTOR_ON] == 0.0
             and param[j, P_RIGID] == 0.0 and not limit_on):
         return  # PERF: most joints (a net, a chain) have no 1-D rows; skip their geometry
@@ -306,17 +306,31 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
 
 
 @njit(**NO_NRT)
+def tree_limited(t):
+    """Whether the tree method solves the limits of a joint of type t through the tree
+    (``joint_tree.tree_limits_kernel``): every coordinate with limits but a distance joint's."""
+    return t == JOINT_HINGE or t == JOINT_SLIDER or t == JOINT_BALL or t == JOINT_UNIVERSAL
+
+
+@njit(**NO_NRT)
 def _limits_idle(j, p, pos, cdot, inv_h, axial_impulse):
     """Whether both limit rows of the 1-D coordinate at ``pos`` moving at ``cdot`` would apply
     nothing this sweep (``_solve_limit_rows``): each bound infinite, or apart (C > 0) with no
     accumulated impulse and C / h + its rate >= 0, so that max(0 - m (rate + C / h), 0) = 0."""
+    return limit_rows_idle(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos, cdot, inv_h, axial_impulse)
+
+
+@njit(**NO_NRT)
+def limit_rows_idle(j, slot0, lower, upper, pos, cdot, inv_h, axial_impulse):
+    """``_limits_idle`` for the bounds [lower, upper] of a coordinate whose rows accumulate in
+    ``axial_impulse[j, slot0]`` and ``[j, slot0 + 1]`` (the first coordinate's or the second's)."""
     for side in range(2):
         sign = 1.0 if side == 0 else -1.0
-        bound = p[P_LOWER] if side == 0 else p[P_UPPER]
+        bound = lower if side == 0 else upper
         if math.isinf(bound):
             continue
         C = sign * (pos - bound)
-        if C <= 0.0 or axial_impulse[j, A_LOWER + side] != 0.0 or sign * cdot + C * inv_h < 0.0:
+        if C <= 0.0 or axial_impulse[j, slot0 + side] != 0.0 or sign * cdot + C * inv_h < 0.0:
             return False
     return True
 
@@ -376,21 +390,23 @@ def _coupled_row_mass(inv_mass, I_inv, a, b, n, ra, rb):
 
 @njit(**JIT, inline="always")
 def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h, soft,
-                  v, omega, linear_impulse, axial_impulse):
+                  v, omega, linear_impulse, axial_impulse, in_tree):
     """Motor (universal joints), then lower and upper limit of the second angular
     coordinate (``_second_row``: a ball joint's twist, a universal joint's angle about
     axis_b), the same rows as the first coordinate's in ``_solve_axial`` (Box2D v3's
     revolute limit: velocity level, speculative while the limit is apart, soft once
     crossed; solved with the anchor block). Accumulated in ``axial_impulse[j, A_*2]``.
     The first coordinate's code is left as it is so that joints without these rows give
-    the same numbers as before."""
+    the same numbers as before. ``in_tree``: the joint is the tree's, whose limits are solved
+    through it (``joint_tree.tree_limits_kernel``): only the motor here."""
     p = param[j]
-    if p[P_LIMIT2_ON] == 0.0 and p[P_MOTOR2_ON] == 0.0:
+    limit_on = p[P_LIMIT2_ON] != 0.0 and not in_tree
+    if not limit_on and p[P_MOTOR2_ON] == 0.0:
         return
     has, n, pos = _second_row(t, j, a, b, R, frame_a, frame_b)
     if not has:
         return
-    if p[P_LIMIT2_ON] != 0.0:
+    if limit_on:
         pos = _centred_angle(pos, p[P_LOWER2], p[P_UPPER2])
     ra, pa = _anchor(x, R, a, local_a, j)
     rb, pb = _anchor(x, R, b, local_b, j)
@@ -401,7 +417,7 @@ def _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, i
     if p[P_MOTOR2_ON] != 0.0:
         _solve_motor_row(j, A_MOTOR2, p[P_MOTOR2_SPEED], p[P_MAX_MOTOR2] * h, m_eff, a, b, False, n, ra, rb, comp, 1.0,
                          inv_mass, I_inv, v, omega, axial_impulse)
-    if p[P_LIMIT2_ON] == 0.0:
+    if not limit_on:
         return
     _solve_limit_rows(j, A_LOWER2, p[P_LOWER2], p[P_UPPER2], pos, a, b, False, n, ra, rb, comp, 1.0, m_eff, soft, inv_h,
                       inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
@@ -630,7 +646,7 @@ def _sweep_joints(lo, hi, backward, order, joint_type, joint_a, joint_b, local_a
             # array arguments), the call alone cost 25 % of the joint_grid step, whose joints
             # have no such rows; it is inlined now, and the test still skips its set-up
             _solve_axial2(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, inv_h,
-                          soft, v, omega, linear_impulse, axial_impulse)
+                          soft, v, omega, linear_impulse, axial_impulse, not gauss_seidel[j])
         if t == JOINT_BALL and (param[j, P_BALL_STIFFNESS] != 0.0 or param[j, P_BALL_DAMPING] != 0.0):
             _solve_ball_drive(j, a, b, x, R, local_a, local_b, frame_a, frame_b, param, inv_mass, I_inv, h, v, omega,
                               axial_impulse)

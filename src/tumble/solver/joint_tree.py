@@ -18,10 +18,13 @@ from ..joints import (
     JOINT_SLIDER,
     JOINT_UNIVERSAL,
     P_ARMATURE,
+    P_LIMIT2_ON,
     P_LIMIT_ON,
     P_LOWER,
+    P_LOWER2,
     P_RIGID,
     P_UPPER,
+    P_UPPER2,
 )
 from ..math3d import (
     JIT,
@@ -47,10 +50,14 @@ from .joint_solve import (
     A_ARMATURE,
     A_EQUAL,
     A_LOWER,
+    A_LOWER2,
+    _centred_angle,
     _coordinate_row,
-    _limits_idle,
+    _second_row,
     limit_impulse_after,
+    limit_rows_idle,
     solve_joints_serial_kernel,
+    tree_limited,
 )
 
 
@@ -703,24 +710,31 @@ def tree_limits_kernel(joints, joint_type, joint_a, joint_b, local_a, local_b, f
                        limit_rows,
                        # outputs
                        v, omega, linear_impulse, angular_impulse, axial_impulse):
-    """The limit rows of the tree's hinges and sliders, each through the tree (``tree_row``),
-    on velocities the exact solve has just made consistent: the rules of ``joint_solve._solve_limit_rows``
-    (speculative while apart, soft once crossed: ``soft``, the solve's (3,)), with the mass of the
-    articulated bodies and the armature behind the coordinate (which the Gauss-Seidel row only
-    approximated: the anchor block and ``keep``), and its impulse moving the whole tree.
+    """The limit rows of the tree's joints, each through the tree (``tree_row``), on velocities the
+    exact solve has just made consistent: a hinge's or slider's coordinate, a ball joint's cone
+    (its swing) and twist, a universal joint's two angles; the rules of
+    ``joint_solve._solve_limit_rows`` (speculative while apart, soft once crossed: ``soft``, the
+    solve's (3,)), with the mass of the articulated bodies and the armature behind the coordinate
+    (which the Gauss-Seidel row only approximated: the anchor block and ``keep``), and its impulse
+    moving the whole tree.
 
     NOTE: why: as Gauss-Seidel rows around the exact solve, with the free bodies' masses, the limits
     converged slowly (tree_sweeps_kernel's re-sweeps), and beside contacts solved through the tree
     (contact_tree) the two disagreed at rest: Gymnasium's humanoid lying on its arm moved at 0.11
-    rad/s with the limits so solved, at 1e-13 with its limits off (measured, session 35).
+    rad/s with the limits so solved, at 1e-13 with its limits off (measured, session 35). The ball
+    joints' cones and twists stayed such rows until session 37: four ragdolls lying in a heap
+    (tumble.scenes.ragdolls, the tree method) then never came to rest, a head held on its neck's
+    cone limit against the ground rocking with its energy rising from 0.03 J at 8 s to 0.24 J at
+    14 s (measured; tests/physics/test_joints_tree_limits.py).
 
     ``layout``: (body_node, node_tree, tree_lo, tree_hi, no_skip) (``JointSolver.tree_layout``);
-    ``limit_rows``: (slot_count, slot_ref (J, S), slot_resp (J, S, 8), mass (J,), valid (J,) bool,
-    soft_limit (3,)): a joint's row response, taken once per factorization when its limits first act
-    (``valid`` cleared by the caller when it factors), and the softness a crossed limit is pushed
-    back at in a biased solve (``soft[0] > 0``; ``JointSettings.limit_hertz``). The joints ``joints``
-    in that order (all, or one group's: ``_sweep_group``); those of a settled group (``group_done``)
-    are left.
+    ``limit_rows``: (slot_count, slot_ref (2J, S), slot_resp (2J, S, 8), mass (2J,), valid (2J,)
+    bool, soft_limit (3,)): a coordinate's row response (row j the joint's first coordinate, J + j
+    its second), taken once per factorization when its limits first act (``valid`` cleared by the
+    caller when it factors), and the softness a crossed limit is pushed back at in a biased solve
+    (``soft[0] > 0``; ``JointSettings.limit_hertz``). The joints ``joints`` in that order (all, or
+    one group's: ``_sweep_group``), each its first coordinate then its second; those of a settled
+    group (``group_done``) are left.
 
     PERF: the row's rules written in this loop, not called per joint: as a function of 40 arguments
     called for every joint and sweep (most return at once: no limit acting), a single hopper's
@@ -728,51 +742,69 @@ def tree_limits_kernel(joints, joint_type, joint_a, joint_b, local_a, local_b, f
     body_node, node_tree, tree_lo, tree_hi, no_skip = layout
     slot_count, slot_ref, slot_resp, mass, valid, soft_limit = limit_rows
     inv_h = 1.0 / h
+    J = joint_type.shape[0]
     for idx in range(joints.shape[0]):
         j = joints[idx]
         t = joint_type[j]
-        if (param[j, P_LIMIT_ON] == 0.0 or gauss_seidel[j] or not enabled[j]
-                or (t != JOINT_HINGE and t != JOINT_SLIDER)):
+        if gauss_seidel[j] or not enabled[j] or not tree_limited(t):
             continue
         g = joint_group[j]
         if g >= 0 and group_done[g]:
             continue
         a = joint_a[j]
         b = joint_b[j]
-        has, lin, u, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
-        if not has:
-            continue
-        cdot = _row_velocity(v, omega, a, b, lin, u, ra, rb)
-        if _limits_idle(j, param[j], pos, cdot, inv_h, axial_impulse):
-            continue
-        # the coordinate's Jacobian: (ja, jwa) on a, (jb, jwb) on b
-        z = (0.0, 0.0, 0.0)
-        ja = _scale(-1.0, u) if lin else z
-        jwa = _scale(-1.0, _cross(ra, u)) if lin else _scale(-1.0, u)
-        jb = u if lin else z
-        jwb = _cross(rb, u) if lin else u
-        if not valid[j]:
-            mass[j] = tree_row(j, a, b, ja, jwa, jb, jwb, inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
-                               node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, param, Ja,
-                               Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip, slot_count, slot_ref, slot_resp)
-            valid[j] = True
-        if mass[j] == 0.0:
-            continue
-        for side in range(2):
-            # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
-            sign = 1.0 if side == 0 else -1.0
-            bound = param[j, P_LOWER] if side == 0 else param[j, P_UPPER]
-            if math.isinf(bound):
+        for coordinate in range(2):
+            # the first coordinate (a hinge's angle, a slider's length, a ball's swing, a universal's
+            # angle about its axis), then the second (a ball's twist, a universal's angle about axis_b)
+            if coordinate == 0:
+                if param[j, P_LIMIT_ON] == 0.0:
+                    continue
+                lower, upper, slot0, r = param[j, P_LOWER], param[j, P_UPPER], A_LOWER, j
+                has, lin, u, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b,
+                                                           position)
+                if t == JOINT_UNIVERSAL:
+                    pos = _centred_angle(pos, lower, upper)
+            else:
+                if param[j, P_LIMIT2_ON] == 0.0 or (t != JOINT_BALL and t != JOINT_UNIVERSAL):
+                    continue
+                lower, upper, slot0, r = param[j, P_LOWER2], param[j, P_UPPER2], A_LOWER2, J + j
+                has, u, pos = _second_row(t, j, a, b, R, frame_a, frame_b)
+                lin = False
+                ra = rb = (0.0, 0.0, 0.0)  # an angular row: its rate (wb - wa) . u needs no arm
+                pos = _centred_angle(pos, lower, upper)
+            if not has:
                 continue
-            C = sign * (pos - bound)
-            slot = A_LOWER + side
-            rate = sign * _row_velocity(v, omega, a, b, lin, u, ra, rb)
-            old = axial_impulse[j, slot]
-            # the biased solve (soft[0] > 0) pushes a crossed limit back at the limits' own softness
-            new = limit_impulse_after(C, inv_h, soft_limit if soft[0] > 0.0 else soft, mass[j], rate, old)
-            axial_impulse[j, slot] = new
-            apply_row_response(j, sign * (new - old), slot_count[j], slot_ref, slot_resp, v, omega, linear_impulse,
-                               angular_impulse, axial_impulse)
+            cdot = _row_velocity(v, omega, a, b, lin, u, ra, rb)
+            if limit_rows_idle(j, slot0, lower, upper, pos, cdot, inv_h, axial_impulse):
+                continue
+            # the coordinate's Jacobian: (ja, jwa) on a, (jb, jwb) on b
+            z = (0.0, 0.0, 0.0)
+            ja = _scale(-1.0, u) if lin else z
+            jwa = _scale(-1.0, _cross(ra, u)) if lin else _scale(-1.0, u)
+            jb = u if lin else z
+            jwb = _cross(rb, u) if lin else u
+            if not valid[r]:
+                mass[r] = tree_row(r, a, b, ja, jwa, jb, jwb, inv_mass, I_inv, body_node, node_tree, tree_lo, tree_hi,
+                                   node_order, node_joint, node_body, node_parent, joint_type, joint_a, joint_b, param,
+                                   Ja, Jb, nrow, Dinv, H_up, W, y, sol, work, no_skip, slot_count, slot_ref, slot_resp)
+                valid[r] = True
+            if mass[r] == 0.0:
+                continue
+            for side in range(2):
+                # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
+                sign = 1.0 if side == 0 else -1.0
+                bound = lower if side == 0 else upper
+                if math.isinf(bound):
+                    continue
+                C = sign * (pos - bound)
+                slot = slot0 + side
+                rate = sign * _row_velocity(v, omega, a, b, lin, u, ra, rb)
+                old = axial_impulse[j, slot]
+                # the biased solve (soft[0] > 0) pushes a crossed limit back at the limits' own softness
+                new = limit_impulse_after(C, inv_h, soft_limit if soft[0] > 0.0 else soft, mass[r], rate, old)
+                axial_impulse[j, slot] = new
+                apply_row_response(r, sign * (new - old), slot_count[r], slot_ref, slot_resp, v, omega,
+                                   linear_impulse, angular_impulse, axial_impulse)
 
 
 @njit(**NO_NRT)
@@ -1084,7 +1116,8 @@ def _sweep_group(g, iterations, sweeps, limits, tolerance, joint_type, joint_a, 
                                    joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, position,
                                    x, R, inv_mass, I_inv, Ja, Jb, C, nrow, D, Dinv, H_up, W, work)
             for idx in range(j0, j1):
-                valid[group_joints[idx]] = False
+                valid[group_joints[idx]] = False  # its first coordinate's row, and its second's
+                valid[joint_type.shape[0] + group_joints[idx]] = False
             if factor == 2:
                 for q in range(t0, t1):
                     t = group_trees[q]

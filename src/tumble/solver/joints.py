@@ -598,9 +598,11 @@ class JointSolver:
             "H_up": np.zeros((n, 6, 6)), "W": np.zeros((n, 6, 6)), "y": np.zeros((n, 6)), "sol": np.zeros((n, 6)),
             "work": np.zeros((6, 6)), "node_skip": np.zeros(n, dtype=bool), "sub_order": np.zeros(J, dtype=np.int64),
             "no_skip": np.zeros(n, dtype=bool),
-            # the limit rows' responses through the tree (joint_tree.tree_limits_kernel)
-            "limit_rows": (np.zeros(J, dtype=np.int64), np.zeros((J, self.tree_width), dtype=np.int64),
-                           np.zeros((J, self.tree_width, 8)), np.zeros(J), np.zeros(J, dtype=bool), self.soft_limit),
+            # the limit rows' responses through the tree (joint_tree.tree_limits_kernel): rows j, each
+            # joint's first coordinate, and J + j, its second
+            "limit_rows": (np.zeros(2 * J, dtype=np.int64), np.zeros((2 * J, self.tree_width), dtype=np.int64),
+                           np.zeros((2 * J, self.tree_width, 8)), np.zeros(2 * J), np.zeros(2 * J, dtype=bool),
+                           self.soft_limit),
         }
 
     def _groups(self, moving: np.ndarray):
