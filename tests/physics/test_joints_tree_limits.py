@@ -1,5 +1,5 @@
-"""The limits of a ball joint (its cone and its twist) solved through the joint tree with the tree
-method (``joint_tree.tree_limits_kernel``), as a hinge's and a slider's are: each row's mass is the
+"""The limits of a ball joint (its cone and its twist) and of a universal joint's angles solved through
+the joint tree with the tree method (``joint_tree.tree_limits_kernel``), as a hinge's and a slider's are: each row's mass is the
 articulated bodies' (checked against the reduced coordinates' mass matrix), and a heap of ragdolls
 loses energy and comes to rest (it did not: as Gauss-Seidel rows around the exact tree solve, a
 head held on its neck's cone limit against the ground rocked with its energy rising)."""
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import tumble as tb
-from tumble.joints import BallJoint, HingeJoint
+from tumble.joints import BallJoint, HingeJoint, UniversalJoint
 from tumble.scenes.ragdolls import ragdolls
-from tumble.solver.joint_solve import A_LOWER2
+from tumble.solver.joint_solve import A_LOWER2, A_UPPER2
 from tumble.solver.joints import ACCURATE
 
 G = 9.81
@@ -24,7 +24,9 @@ def arm_and_rod(case: str):
     "twist": the rod starts along y (perpendicular to the axis, its weight a torque about x) and
     turns onto its twist limit of 30 deg; a weak drive (5 N m/rad, 5 N m s/rad toward the start:
     9.4 would hold the weight at the limit) keeps its swing at 0 (with the twist limit alone the
-    rest on it is unstable: a swing and a twist together bring the rod down to hang).
+    rest on it is unstable: a swing and a twist together bring the rod down to hang);
+    "universal": the rod starts along x on a universal joint (axis x in the arm, axis_b y in the
+    rod) and falls about y onto its second angle's upper limit, 45 deg (the row's axis: the rod's y).
     The tree method, 1/240 s."""
     w = tb.World(gravity=(0.0, 0.0, -G))
     w.sleeping = False
@@ -33,6 +35,10 @@ def arm_and_rod(case: str):
     if case == "cone":
         rod = w.add_body(tb.Box(size=(1.0, 0.1, 0.1)), mass=M_B, position=(1.5, 0, 1.0), name="rod")
         w.add_joint(BallJoint(arm, rod, anchor=(1.0, 0, 1.0), axis=(1, 0, 0), cone_limit=np.pi / 4))
+    elif case == "universal":
+        rod = w.add_body(tb.Box(size=(1.0, 0.1, 0.1)), mass=M_B, position=(1.5, 0, 1.0), name="rod")
+        w.add_joint(UniversalJoint(arm, rod, anchor=(1.0, 0, 1.0), axis=(1, 0, 0), axis_b=(0, 1, 0),
+                                   upper_b=np.pi / 4))
     else:
         rod = w.add_body(tb.Box(size=(0.1, 1.0, 0.1)), mass=M_B, position=(1.0, 0.5, 1.0), name="rod")
         w.add_joint(BallJoint(arm, rod, anchor=(1.0, 0, 1.0), axis=(1, 0, 0), twist_lower=-np.pi / 6,
@@ -40,27 +46,29 @@ def arm_and_rod(case: str):
     return w, tb.Simulator(w, dt=1 / 240, joint_settings=ACCURATE)
 
 
-def reduced_mass_matrix(w, anchor_hinge, anchor_ball, axis_hinge):
-    """The 4 x 4 mass matrix of the generalized velocities u = (hinge rate, the rod's angular
-    velocity relative to the arm (3, world)), from the bodies' masses and world inertias: the
-    arm turns at omega_A = u0 axis_hinge about the hinge, the rod at omega_B = omega_A + u[1:] about
-    the ball's anchor, which the arm carries. M = sum J^T diag(m, I) J over the two bodies."""
+def reduced_mass_matrix(w, anchor_hinge, anchor_ball, axis_hinge, relative_axes):
+    """The (1 + k) x (1 + k) mass matrix of the generalized velocities u = (hinge rate, the rates
+    about the rod's k relative axes, ``relative_axes`` (3, k) world: the ball's three, the identity;
+    the universal joint's two), from the bodies' masses and world inertias: the arm turns at
+    omega_A = u0 axis_hinge about the hinge, the rod at omega_B = omega_A + relative_axes u[1:] about
+    the joint's anchor, which the arm carries. M = sum J^T diag(m, I) J over the two bodies."""
     arm, rod = 0, 1
+    k = relative_axes.shape[1]
     jac = {}
     for i in (arm, rod):
-        Jv = np.zeros((3, 4))
-        Jw = np.zeros((3, 4))
+        Jv = np.zeros((3, 1 + k))
+        Jw = np.zeros((3, 1 + k))
         Jw[:, 0] = axis_hinge
         if i == arm:
             Jv[:, 0] = np.cross(axis_hinge, w.x[arm] - anchor_hinge)
         else:
             Jv[:, 0] = np.cross(axis_hinge, w.x[rod] - anchor_hinge)
-            Jw[:, 1:] = np.eye(3)
-            # omega_rel x (x_rod - anchor_ball): the relative turn moves the rod's centre about the ball
+            Jw[:, 1:] = relative_axes
+            # omega_rel x (x_rod - anchor): the relative turn moves the rod's centre about the anchor
             r = w.x[rod] - anchor_ball
-            Jv[:, 1:] = -np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+            Jv[:, 1:] = -np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]]) @ relative_axes
         jac[i] = (Jv, Jw)
-    M = np.zeros((4, 4))
+    M = np.zeros((1 + k, 1 + k))
     for i, m in ((arm, M_A), (rod, M_B)):
         Jv, Jw = jac[i]
         I_world = w.R[i] @ w.inertia_body[i] @ w.R[i].T
@@ -68,41 +76,49 @@ def reduced_mass_matrix(w, anchor_hinge, anchor_ball, axis_hinge):
     return M
 
 
-@pytest.mark.parametrize("case", ["cone", "twist"])
-def test_a_ball_joints_limit_row_has_the_articulated_mass_behind_it(case):
-    """Resting on its limit, the ball joint's limit row (omega_rod - omega_arm) . n has through the
-    tree the mass 1 / (e^T M^-1 e) of the reduced coordinates (e = (0, n) picks the relative rate
-    along n; M the arm-and-rod mass matrix at the pose, the hinge free: its limit is a row of its
-    own). n from the pose, with the joint's axis fixed in each body (x at the start: za, zb): the
-    cone's row unit(za x zb), the twist's (za + zb) / (1 + za . zb) (``joint_solve._second_row``).
-    Tolerance: the cone's rod rests (every rate under 1e-9 after 2 s; the pose still to 1e-15), 1e-9
-    relative for the rounding through the 6x6 factors; the twist's creeps at under 1e-6 rad/s after
-    3 s (its drive's damping is a Gauss-Seidel row), 4e-9 rad a step, so 1e-7. The Gauss-Seidel row
-    saw the two bodies alone with the anchor held (``_coupled_row_mass``). Fails on the code before:
-    no such rows (the masses 0)."""
+@pytest.mark.parametrize("case", ["cone", "twist", "universal"])
+def test_a_joints_limit_row_has_the_articulated_mass_behind_it(case):
+    """Resting on its limit, the joint's limit row (omega_rod - omega_arm) . n has through the tree
+    the mass 1 / (e^T M^-1 e) of the reduced coordinates (e picks the row's rate from the relative
+    ones, e = (0, A^T n) with A the relative axes; M the arm-and-rod mass matrix at the pose, the
+    hinge free: its limit is a row of its own). n from the pose, with the joint's axes fixed in each
+    body: the ball's cone row unit(za x zb), its twist's (za + zb) / (1 + za . zb) (za, zb its axis,
+    x at the start, in the arm and the rod: ``joint_solve._second_row``), the universal joint's
+    second angle's the rod's y. Tolerance: the cone's and the universal's rods rest (every rate
+    under 1e-9 after 2 s; the pose still to 1e-15), 1e-9 relative for the rounding through the 6x6
+    factors; the twist's creeps at under 1e-6 rad/s after 3 s (its drive's damping is a
+    Gauss-Seidel row), 4e-9 rad a step, so 1e-7. The Gauss-Seidel row saw the two bodies alone with
+    the anchor held (``_coupled_row_mass``). Fails on the code before: no such rows (the masses 0)."""
     w, sim = arm_and_rod(case)
-    if case == "cone":
-        sim.step(480)
-        assert np.abs(w.omega).max() < 1e-9 and np.abs(w.v).max() < 1e-9
-        # on its cone (the soft push-out leaves 1e-5 rad past it, as a hinge's limit: docs/joints.md)
-        assert sim.joint_readings()["position"][1] == pytest.approx(np.pi / 4, abs=2e-5)
-    else:
+    if case == "twist":
         sim.step(720)
         assert np.abs(w.omega).max() < 1e-6 and np.abs(w.v).max() < 1e-6
         assert sim.soft_step.joints.axial_impulse[1, A_LOWER2] > 0.0  # held by its lower twist limit
+    else:
+        sim.step(480)
+        assert np.abs(w.omega).max() < 1e-9 and np.abs(w.v).max() < 1e-9
+        # on its limit (the soft push-out leaves 1e-5 rad past it, as a hinge's limit: docs/joints.md)
+        if case == "cone":
+            assert sim.joint_readings()["position"][1] == pytest.approx(np.pi / 4, abs=2e-5)
+        else:
+            assert sim.soft_step.joints.axial_impulse[1, A_UPPER2] > 0.0  # held by its upper limit
     arm, rod = 0, 1
     za, zb = w.R[arm] @ [1.0, 0.0, 0.0], w.R[rod] @ [1.0, 0.0, 0.0]
+    axes = np.eye(3)
     if case == "cone":
         n = np.cross(za, zb) / np.linalg.norm(np.cross(za, zb))
-    else:
+    elif case == "twist":
         n = (za + zb) / (1.0 + za @ zb)
-    ball_anchor = w.x[arm] + w.R[arm] @ [0.5, 0.0, 0.0]  # the arm's tip, where it is now
-    M = reduced_mass_matrix(w, np.array([0.0, 0.0, 1.0]), ball_anchor, np.array([0.0, 1.0, 0.0]))
-    e = np.concatenate([[0.0], n])
+    else:
+        n = w.R[rod] @ [0.0, 1.0, 0.0]  # axis_b, fixed in the rod
+        axes = np.column_stack([za, n])  # the universal's two: axis in the arm, axis_b in the rod
+    anchor = w.x[arm] + w.R[arm] @ [0.5, 0.0, 0.0]  # the arm's tip, where it is now
+    M = reduced_mass_matrix(w, np.array([0.0, 0.0, 1.0]), anchor, np.array([0.0, 1.0, 0.0]), axes)
+    e = np.concatenate([[0.0], axes.T @ n])
     joints = sim.soft_step.joints
-    row = 1 if case == "cone" else joints.count + 1  # the ball joint's first coordinate's row, or its second's
+    row = 1 if case == "cone" else joints.count + 1  # the joint's first coordinate's row, or its second's
     mass = joints._scratch["limit_rows"][3][row]
-    assert mass == pytest.approx(1.0 / (e @ np.linalg.solve(M, e)), rel=1e-9 if case == "cone" else 1e-7)
+    assert mass == pytest.approx(1.0 / (e @ np.linalg.solve(M, e)), rel=1e-7 if case == "twist" else 1e-9)
 
 
 def test_a_heap_of_ragdolls_on_the_tree_method_loses_energy_and_comes_to_rest():

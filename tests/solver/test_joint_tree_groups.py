@@ -158,3 +158,38 @@ def test_groups_are_swept_apart_only_when_nothing_outside_a_group_can_move():
     assert not _groups_apart(*args, inv_mass, I_inv)  # an enabled joint in no group
     enabled[2] = False
     assert _groups_apart(*args, inv_mass, I_inv)  # a disabled one is never swept
+
+
+def test_ragdolls_swept_side_by_side_end_with_the_serial_sweeps_bits(monkeypatch):
+    """The same for the limits of ball joints, solved through the tree since session 37 (each joint's
+    cone row and twist row, ``tree_limits_kernel``'s rows j and J + j, their responses taken anew
+    after each factorization: ``_sweep_group`` clears both): five ragdolls (tumble.scenes.ragdolls,
+    55 tree nodes: hips, shoulders, waist and neck ball joints with cones and twists, hinged knees
+    and elbows) dropped 1.5 s into a heap, side by side (mode 1) and by the serial sweep (the
+    threshold raised past them), end with the same bits."""
+    from tumble.scenes.ragdolls import ragdolls
+    from tumble.solver import joints as J
+
+    modes = []
+    build = J.JointSolver._group_tables
+
+    def record(self, moving):
+        build(self, moving)
+        modes.append(self._groups_table[0])
+
+    monkeypatch.setattr(J.JointSolver, "_group_tables", record)
+
+    def heap():
+        world, _ = ragdolls(5, 0)
+        sim = tb.Simulator(world, dt=1 / 60, joint_settings=ACCURATE)
+        sim.step(90)
+        struck = np.abs(sim.soft_step.joints.axial_impulse[:, [2, 3, 5, 6]]).max()  # the limits' impulses
+        return world, struck
+
+    side, struck = heap()
+    assert struck > 0.0 and modes[-1] == 1
+    monkeypatch.setattr(J, "GROUP_THREADS_MIN_NODES", 10**9)
+    serial, _ = heap()
+    assert modes[-1] == 0
+    for name in ("x", "q", "P", "L"):
+        assert np.array_equal(getattr(side, name), getattr(serial, name))
