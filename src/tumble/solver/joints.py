@@ -152,12 +152,14 @@ class JointSettings:
         (Baumgarte's beta; 1 by default).
     method: "gauss-seidel" (Box2D: every row by sequential impulses) or "tree": the rigid
         rows of a spanning forest of the joint graph solved exactly in linear time (Baraff
-        1996), loop-closing joints and all 1-D coordinate rows (limits, motors, springs) by
-        Gauss-Seidel around it, ``velocity_iterations`` / ``relax_iterations`` times. With
+        1996), loop-closing joints and the 1-D coordinate rows (motors, springs, drives, a
+        distance joint's limits) by Gauss-Seidel around it, ``velocity_iterations`` /
+        ``relax_iterations`` times; the limits of hinges, sliders, ball joints (cone and twist)
+        and universal joints as rows of the whole tree (``joint_tree.tree_limits_kernel``). With
         "tree", the rows are rigid with bias rate 1/h (hertz 0) or the soft bias rate of
         ``hertz`` (no mass or impulse scaling).
     limit_hertz, limit_damping_ratio: (240 Hz, 2) with the tree method, the softness at which a
-        hinge's or slider's limit pushes a crossed limit back in the biased solve (a soft row,
+        limit solved through the tree pushes a crossed limit back in the biased solve (a soft row,
         Box2D's b2MakeSoft; capped as ``hertz``: 240 Hz is the cap at the default substep of
         1/960 s); 0: rigid, the rigid rows' 1/h bias. Its stop stays rigid (a limit apart may close
         within a substep, no more). NOTE: why: rigid, a limit pressed by contacts overshot its
