@@ -8,9 +8,12 @@ Humanoid too) at two revisions, interleaved in one run. Each revision is a check
 Prints a table: the median of 3 timings (a single env: 300 steps; a vector env: 60 steps of 64
 copies), microseconds per environment step, each timing in a fresh process after 20 warm-up steps
 (compilation apart)."""
+import os
 import statistics
-import subprocess
 import sys
+
+sys.path.insert(0, os.path.dirname(__file__))
+from interleaved import interleaved  # noqa: E402
 
 code = r'''
 import time, numpy as np, gymnasium as gym, sys, json
@@ -34,13 +37,8 @@ for _ in range(steps): step()
 print(json.dumps(1e6 * (time.perf_counter() - t) / steps / n))
 '''
 TASKS = [(t, n, 300 if n == 1 else 60) for t in (sys.argv[3:] or ["Ant", "HalfCheetah"]) for n in (1, 64)]
-results = {}
-for rnd in range(3):
-    for task, n, steps in TASKS:
-        for rev, folder in (("old", sys.argv[1]), ("new", sys.argv[2])):
-            out = subprocess.run([sys.executable, "-c", code, task, str(n), str(steps)], cwd=folder,
-                                 env={"PYTHONPATH": "src", "PATH": "/usr/bin:/bin"}, capture_output=True, text=True)
-            results.setdefault((task, n, rev), []).append(float(out.stdout.strip().splitlines()[-1]))
+results = {(case[0], case[1], rev): runs for (case, rev), runs in
+           interleaved(code, sys.argv[1], sys.argv[2], TASKS, 3).items()}
 print("| task | copies | before: us per env step | after | change |")
 print("|---|---|---|---|---|")
 for task, n, _ in TASKS:

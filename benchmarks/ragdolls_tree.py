@@ -9,10 +9,12 @@ Each revision is a checkout (``git worktree add --detach DIR REV``):
 Each timing is a fresh process, after a first 0.5 s run of one ragdoll (compilation, cached on
 disk, apart); the table gives the median wall time over the rounds and the last round's figures
 (the runs are deterministic: every round ends the same)."""
-import json
+import os
 import statistics
-import subprocess
 import sys
+
+sys.path.insert(0, os.path.dirname(__file__))
+from interleaved import interleaved, take_rounds  # noqa: E402
 
 code = r'''
 import json, sys, time, numpy as np
@@ -43,24 +45,12 @@ print(json.dumps([wall, float(np.max(energy - np.minimum.accumulate(energy))), w
 
 def main(argv):
     args = list(argv)
-    rounds = 3
-    if "--rounds" in args:
-        i = args.index("--rounds")
-        rounds = int(args[i + 1])
-        del args[i:i + 2]
+    rounds = take_rounds(args, 3)
     old, new, *sizes = args
     sizes = [int(s) for s in sizes] or [4, 25]
-    walls, last = {}, {}
-    for _ in range(rounds):
-        for n in sizes:
-            for rev, folder in (("old", old), ("new", new)):
-                out = subprocess.run([sys.executable, "-c", code, str(n)], cwd=folder,
-                                     env={"PYTHONPATH": "src", "PATH": "/usr/bin:/bin"}, capture_output=True, text=True)
-                if out.returncode:
-                    raise SystemExit(f"{n} at {folder}: {out.stderr.strip().splitlines()[-1]}")
-                figures = json.loads(out.stdout.strip().splitlines()[-1])
-                walls.setdefault((n, rev), []).append(figures[0])
-                last[(n, rev)] = figures
+    runs = interleaved(code, old, new, [(n,) for n in sizes], rounds)
+    walls = {(n, rev): [figures[0] for figures in runs[((n,), rev)]] for n in sizes for rev in ("old", "new")}
+    last = {(n, rev): runs[((n,), rev)][-1] for n in sizes for rev in ("old", "new")}
     print("| ragdolls | revision | wall s (16 s simulated) | energy rise after 6 s (J) | kinetic energy at 16 s (J) "
           "| fastest body at 16 s (m/s, rad/s) |")
     print("|---|---|---|---|---|---|")

@@ -11,9 +11,12 @@ examples/tower.toml, sleeping off), ``arm`` (examples/robot_arm.toml), ``pendulu
 median of 5 blocks of 400 steps (200 for the ant), microseconds per step; the table gives the
 median over the rounds. Also prints a digest of the final state of each (the same bits at both
 revisions, or the change is not an overhead change)."""
+import os
 import statistics
-import subprocess
 import sys
+
+sys.path.insert(0, os.path.dirname(__file__))
+from interleaved import interleaved, take_rounds  # noqa: E402
 
 code = r'''
 import time, hashlib, sys, json, statistics, numpy as np
@@ -66,30 +69,16 @@ CASES = ["box", "tower", "arm", "pendulum", "hopper", "ant"]
 
 def main(argv):
     args = list(argv)
-    rounds = 5
-    if "--rounds" in args:
-        i = args.index("--rounds")
-        rounds = int(args[i + 1])
-        del args[i:i + 2]
+    rounds = take_rounds(args, 5)
     old, new, *cases = args
     cases = cases or CASES
-    results, digests = {}, {}
-    for _ in range(rounds):
-        for case in cases:
-            for rev, folder in (("old", old), ("new", new)):
-                out = subprocess.run([sys.executable, "-c", code, case], cwd=folder,
-                                     env={"PYTHONPATH": "src", "PATH": "/usr/bin:/bin"}, capture_output=True,
-                                     text=True)
-                if out.returncode:
-                    raise SystemExit(f"{case} at {folder}: {out.stderr.strip().splitlines()[-1]}")
-                import json
-                us, digest = json.loads(out.stdout.strip().splitlines()[-1])
-                results.setdefault((case, rev), []).append(us)
-                digests[(case, rev)] = digest
+    runs = interleaved(code, old, new, [(case,) for case in cases], rounds)
+    us = {(case, rev): [u for u, _ in runs[((case,), rev)]] for case in cases for rev in ("old", "new")}
+    digests = {(case, rev): runs[((case,), rev)][-1][1] for case in cases for rev in ("old", "new")}
     print("| case | before: us per step | after | change | same bits |")
     print("|---|---|---|---|---|")
     for case in cases:
-        a, b = statistics.median(results[(case, "old")]), statistics.median(results[(case, "new")])
+        a, b = statistics.median(us[(case, "old")]), statistics.median(us[(case, "new")])
         same = "yes" if digests[(case, "old")] == digests[(case, "new")] else "NO"
         print(f"| {case} | {a:.1f} | {b:.1f} | {100 * (b / a - 1):+.1f} % | {same} |")
 

@@ -6,6 +6,7 @@ Compared with: the same robot stepped alone (the reference is the engine itself:
 independence, so the comparison is exact)."""
 
 import numpy as np
+import pytest
 
 import tumble as tb
 from tumble.solver.joints import ACCURATE
@@ -101,7 +102,24 @@ def _many_arms(path, count, threads=None):
     return world, elbow
 
 
-def test_groups_swept_side_by_side_end_with_the_serial_sweeps_bits(tmp_path, monkeypatch):
+@pytest.fixture
+def group_modes(monkeypatch):
+    """The list of the group modes (``JointSolver._groups_table[0]``: 1 side by side, 0 serial) of
+    every joint solver built while the test runs, in order."""
+    from tumble.solver import joints as J
+
+    modes = []
+    build = J.JointSolver._group_tables
+
+    def record(self, moving):
+        build(self, moving)
+        modes.append(self._groups_table[0])
+
+    monkeypatch.setattr(J.JointSolver, "_group_tables", record)
+    return modes
+
+
+def test_groups_swept_side_by_side_end_with_the_serial_sweeps_bits(tmp_path, monkeypatch, group_modes):
     """With enough tree nodes (``GROUP_THREADS_MIN_NODES``) the groups of a world are swept side by
     side on the threads (``joint_tree._tree_sweeps_groups``): 16 arms (64 nodes), their elbows
     striking their limits, end with the bits of the serial sweep over the world (the threshold
@@ -111,14 +129,7 @@ def test_groups_swept_side_by_side_end_with_the_serial_sweeps_bits(tmp_path, mon
 
     path = tmp_path / "arm.xml"
     path.write_text(ARM)
-    modes = []
-    build = J.JointSolver._group_tables
-
-    def record(self, moving):
-        build(self, moving)
-        modes.append(self._groups_table[0])
-
-    monkeypatch.setattr(J.JointSolver, "_group_tables", record)
+    modes = group_modes
     side, elbow = _many_arms(path, 16)
     assert elbow > 0.29  # the limits were struck: extra sweeps, and limit rows through the tree
     assert modes == [1]
@@ -160,7 +171,7 @@ def test_groups_are_swept_apart_only_when_nothing_outside_a_group_can_move():
     assert _groups_apart(*args, inv_mass, I_inv)  # a disabled one is never swept
 
 
-def test_ragdolls_swept_side_by_side_end_with_the_serial_sweeps_bits(monkeypatch):
+def test_ragdolls_swept_side_by_side_end_with_the_serial_sweeps_bits(monkeypatch, group_modes):
     """The same for the limits of ball joints, solved through the tree since session 37 (each joint's
     cone row and twist row, ``tree_limits_kernel``'s rows j and J + j, their responses taken anew
     after each factorization: ``_sweep_group`` clears both): five ragdolls (tumble.scenes.ragdolls,
@@ -170,14 +181,7 @@ def test_ragdolls_swept_side_by_side_end_with_the_serial_sweeps_bits(monkeypatch
     from tumble.scenes.ragdolls import ragdolls
     from tumble.solver import joints as J
 
-    modes = []
-    build = J.JointSolver._group_tables
-
-    def record(self, moving):
-        build(self, moving)
-        modes.append(self._groups_table[0])
-
-    monkeypatch.setattr(J.JointSolver, "_group_tables", record)
+    modes = group_modes
 
     def heap():
         world, _ = ragdolls(5, 0)

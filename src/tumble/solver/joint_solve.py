@@ -202,6 +202,18 @@ def limit_impulse_after(C, inv_h, push, m_eff, rate, old):
     return max(old - m_eff * ms * (rate + bias) - iscale * old, 0.0)
 
 
+@njit(**NO_NRT, inline="always")
+def limit_side(side, lower, upper, pos):
+    """(sign, C) of a coordinate's lower limit row (side 0: C = pos - lower >= 0) or its upper one
+    (side 1: C = upper - pos >= 0, the row reversed, sign -1), at ``pos`` within [lower, upper];
+    C = inf for an infinite bound (no row)."""
+    sign = 1.0 if side == 0 else -1.0
+    bound = lower if side == 0 else upper
+    if math.isinf(bound):
+        return sign, math.inf
+    return sign, sign * (pos - bound)
+
+
 @njit(**NO_NRT)
 def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp, keep, m_eff, soft, inv_h,
                       inv_mass, I_inv, v, omega, linear_impulse, axial_impulse):
@@ -212,12 +224,9 @@ def _solve_limit_rows(j, slot0, lower, upper, pos, a, b, linear, n, ra, rb, comp
     bound has no row. Shared by the first coordinate (``_solve_axial``) and the second
     (``_solve_axial2``: a ball joint's twist, a universal joint's angle about axis_b)."""
     for side in range(2):
-        # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
-        sign = 1.0 if side == 0 else -1.0
-        bound = lower if side == 0 else upper
-        if math.isinf(bound):
+        sign, C = limit_side(side, lower, upper, pos)
+        if math.isinf(C):
             continue
-        C = sign * (pos - bound)
         slot = slot0 + side
         cdot = sign * _row_velocity(v, omega, a, b, linear, n, ra, rb)
         old = axial_impulse[j, slot]
@@ -325,11 +334,9 @@ def limit_rows_idle(j, slot0, lower, upper, pos, cdot, inv_h, axial_impulse):
     """``_limits_idle`` for the bounds [lower, upper] of a coordinate whose rows accumulate in
     ``axial_impulse[j, slot0]`` and ``[j, slot0 + 1]`` (the first coordinate's or the second's)."""
     for side in range(2):
-        sign = 1.0 if side == 0 else -1.0
-        bound = lower if side == 0 else upper
-        if math.isinf(bound):
+        sign, C = limit_side(side, lower, upper, pos)
+        if math.isinf(C):
             continue
-        C = sign * (pos - bound)
         if C <= 0.0 or axial_impulse[j, slot0 + side] != 0.0 or sign * cdot + C * inv_h < 0.0:
             return False
     return True

@@ -56,6 +56,7 @@ from .joint_solve import (
     _second_row,
     limit_impulse_after,
     limit_rows_idle,
+    limit_side,
     solve_joints_serial_kernel,
     tree_limited,
 )
@@ -791,12 +792,9 @@ def tree_limits_kernel(joints, joint_type, joint_a, joint_b, local_a, local_b, f
             if mass[r] == 0.0:
                 continue
             for side in range(2):
-                # lower: C = pos - lower >= 0; upper: C = upper - pos >= 0 (the row reversed)
-                sign = 1.0 if side == 0 else -1.0
-                bound = lower if side == 0 else upper
-                if math.isinf(bound):
+                sign, C = limit_side(side, lower, upper, pos)
+                if math.isinf(C):
                     continue
-                C = sign * (pos - bound)
                 slot = slot0 + side
                 rate = sign * _row_velocity(v, omega, a, b, lin, u, ra, rb)
                 old = axial_impulse[j, slot]
