@@ -1,5 +1,5 @@
-"""The limits of a ball joint (its cone and its twist) and of a universal joint's angles solved through
-the joint tree with the tree method (``joint_tree.tree_limits_kernel``), as a hinge's and a slider's are: each row's mass is the
+"""The limits of a ball joint (its cone and its twist), of a universal joint's angles and of a rope
+(a distance joint's lengths) solved through the joint tree with the tree method (``joint_tree.tree_limits_kernel``), as a hinge's and a slider's are: each row's mass is the
 articulated bodies' (checked against the reduced coordinates' mass matrix), and a heap of ragdolls
 loses energy and comes to rest (it did not: as Gauss-Seidel rows around the exact tree solve, a
 head held on its neck's cone limit against the ground rocked with its energy rising)."""
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import tumble as tb
-from tumble.joints import BallJoint, HingeJoint, UniversalJoint
+from tumble.joints import BallJoint, DistanceJoint, HingeJoint, UniversalJoint
 from tumble.scenes.ragdolls import ragdolls
 from tumble.solver.joint_solve import A_LOWER2, A_UPPER2
 from tumble.solver.joints import ACCURATE
@@ -137,6 +137,35 @@ def test_a_joints_limit_row_has_the_articulated_mass_behind_it(case):
     row = 1 if case in ("cone", "universal_first") else joints.count + 1  # its first coordinate's row, or second's
     mass = joints._scratch["limit_rows"][3][row]
     assert mass == pytest.approx(1.0 / (e @ np.linalg.solve(M, e)), rel=1e-7 if case == "twist" else 1e-9)
+
+
+def test_a_ropes_taut_row_has_the_articulated_mass_behind_it():
+    """A 1 kg ball of radius 0.1 m hanging on a 0.5 m rope (``DistanceJoint(min_length=0,
+    max_length=0.5)``) from the tip of the arm of ``arm_and_rod`` (hinged to the world, held level
+    by its hinge's limit): at rest (rates under 1e-9 after 2 s) the taut end's row, u . (v_ball -
+    v_tip) with u the rope's direction, has through the tree the mass 1 / (c^2 / I_hinge + 1 / m)
+    of the reduced coordinates (the hinge angle, free: its limit is a row of its own; the ball's
+    six), c = u . (y x (tip - hinge)) the tip's rate along u per unit hinge rate, I_hinge the arm's
+    inertia about the hinge (from its mass and world inertia), to 1e-9 relative (rounding). The
+    rope's slack and taut ends were Gauss-Seidel rows with the free bodies' masses before: the mass
+    0 there (fails). A rigid distance joint's length stays a row of the tree itself."""
+    w = tb.World(gravity=(0.0, 0.0, -G))
+    w.sleeping = False
+    arm = w.add_body(tb.Box(size=(1.0, 0.1, 0.1)), mass=M_A, position=(0.5, 0, 1.0), name="arm")
+    w.add_joint(HingeJoint("world", arm, anchor=(0, 0, 1.0), axis=(0, 1, 0), lower=-1.0, upper=0.0))
+    ball = w.add_body(tb.Sphere(0.1), mass=M_B, position=(1.0, 0, 0.5), name="ball")
+    w.add_joint(DistanceJoint(arm, ball, anchor=(1.0, 0, 1.0), anchor_b=(1.0, 0, 0.5), min_length=0.0, max_length=0.5))
+    sim = tb.Simulator(w, dt=1 / 240, joint_settings=ACCURATE)
+    sim.step(480)
+    assert np.abs(w.omega).max() < 1e-9 and np.abs(w.v).max() < 1e-9
+    hinge, y = np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    tip = w.x[0] + w.R[0] @ [0.5, 0.0, 0.0]
+    u = (w.x[1] - tip) / np.linalg.norm(w.x[1] - tip)
+    offset = w.x[0] - hinge
+    I_hinge = y @ (w.R[0] @ w.inertia_body[0] @ w.R[0].T) @ y + M_A * (offset @ offset - (offset @ y) ** 2)
+    c = u @ np.cross(y, tip - hinge)
+    mass = sim.soft_step.joints._scratch["limit_rows"][3][1]  # the rope's first coordinate's row
+    assert mass == pytest.approx(1.0 / (c ** 2 / I_hinge + 1.0 / M_B), rel=1e-9)
 
 
 def test_a_heap_of_ragdolls_on_the_tree_method_loses_energy_and_comes_to_rest():

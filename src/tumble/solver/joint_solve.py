@@ -241,7 +241,8 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
                  h, inv_h, soft, v, omega, linear_impulse, axial_impulse, in_tree):
     """Spring/PD drive, motor, then limits (or the rigid length of a distance joint) on the 1-D coordinate.
     ``in_tree``: the joint's rigid rows are the tree's, and its limits too (a hinge's, slider's,
-    ball's cone or universal joint's: ``joint_tree.tree_limits_kernel``): left out here."""
+    ball's cone, universal joint's or distance joint's: ``joint_tree.tree_limits_kernel``): left
+    out here."""
     limit_on = param[j, P_LIMIT_ON] != 0.0 and not (in_tree and tree_limited(t))
     if (param[j, P_STIFFNESS] == 0.0 and param[j, P_DAMPING] == 0.0 and param[j, P_MOTOR_ON] == 0.0
             and param[j, P_RIGID] == 0.0 and not limit_on):
@@ -317,8 +318,9 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
 @njit(**NO_NRT)
 def tree_limited(t):
     """Whether the tree method solves the limits of a joint of type t through the tree
-    (``joint_tree.tree_limits_kernel``): every coordinate with limits but a distance joint's."""
-    return t == JOINT_HINGE or t == JOINT_SLIDER or t == JOINT_BALL or t == JOINT_UNIVERSAL
+    (``joint_tree.tree_limits_kernel``): every coordinate with limits (a gear has none)."""
+    return (t == JOINT_HINGE or t == JOINT_SLIDER or t == JOINT_BALL or t == JOINT_UNIVERSAL
+            or t == JOINT_DISTANCE)
 
 
 @njit(**NO_NRT)

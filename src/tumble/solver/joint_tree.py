@@ -713,7 +713,8 @@ def tree_limits_kernel(joints, joint_type, joint_a, joint_b, local_a, local_b, f
                        v, omega, linear_impulse, angular_impulse, axial_impulse):
     """The limit rows of the tree's joints, each through the tree (``tree_row``), on velocities the
     exact solve has just made consistent: a hinge's or slider's coordinate, a ball joint's cone
-    (its swing) and twist, a universal joint's two angles; the rules of
+    (its swing) and twist, a universal joint's two angles, a distance joint's length (a rope's
+    slack and taut ends); the rules of
     ``joint_solve._solve_limit_rows`` (speculative while apart, soft once crossed: ``soft``, the
     solve's (3,)), with the mass of the articulated bodies and the armature behind the coordinate
     (which the Gauss-Seidel row only approximated: the anchor block and ``keep``), and its impulse
@@ -756,10 +757,11 @@ def tree_limits_kernel(joints, joint_type, joint_a, joint_b, local_a, local_b, f
         b = joint_b[j]
         for coordinate in range(2):
             # the first coordinate (a hinge's angle, a slider's length, a ball's swing, a universal's
-            # angle about its axis), then the second (a ball's twist, a universal's angle about axis_b)
+            # angle about its axis, a distance joint's length), then the second (a ball's twist, a
+            # universal's angle about axis_b)
             if coordinate == 0:
-                if param[j, P_LIMIT_ON] == 0.0:
-                    continue
+                if param[j, P_LIMIT_ON] == 0.0 or param[j, P_RIGID] != 0.0:
+                    continue  # (a rigid distance joint's length is a row of the tree itself)
                 lower, upper, slot0, r = param[j, P_LOWER], param[j, P_UPPER], A_LOWER, j
                 has, lin, u, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b,
                                                            position)
