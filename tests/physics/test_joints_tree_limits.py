@@ -168,6 +168,28 @@ def test_a_ropes_taut_row_has_the_articulated_mass_behind_it():
     assert mass == pytest.approx(1.0 / (c ** 2 / I_hinge + 1.0 / M_B), rel=1e-9)
 
 
+def test_a_rigid_distance_joint_is_a_row_of_the_tree_not_two_limits():
+    """The ball of the rope test on a rigid rod instead (``DistanceJoint`` without lengths: its
+    limits' parameters both the length, as the rigid row reads them): the tree's own row holds the
+    length, and no limit row acts beside it (their impulses 0, no response taken), where the two
+    one-sided rows at one length would push against each other and the tree's row."""
+    from tumble.solver.joint_solve import A_LOWER, A_UPPER
+
+    w = tb.World(gravity=(0.0, 0.0, -G))
+    w.sleeping = False
+    arm = w.add_body(tb.Box(size=(1.0, 0.1, 0.1)), mass=M_A, position=(0.5, 0, 1.0), name="arm")
+    w.add_joint(HingeJoint("world", arm, anchor=(0, 0, 1.0), axis=(0, 1, 0), lower=-1.0, upper=0.0))
+    ball = w.add_body(tb.Sphere(0.1), mass=M_B, position=(1.0, 0, 0.5), name="ball")
+    w.add_joint(DistanceJoint(arm, ball, anchor=(1.0, 0, 1.0), anchor_b=(1.0, 0, 0.5)))
+    sim = tb.Simulator(w, dt=1 / 240, joint_settings=ACCURATE)
+    sim.step(480)
+    joints = sim.soft_step.joints
+    assert joints.axial_impulse[1, A_LOWER] == 0.0 and joints.axial_impulse[1, A_UPPER] == 0.0
+    assert not joints._scratch["limit_rows"][4][1]  # no response taken for its rows
+    tip = w.x[0] + w.R[0] @ [0.5, 0.0, 0.0]
+    assert np.linalg.norm(w.x[1] - tip) == pytest.approx(0.5, abs=1e-9)
+
+
 def test_a_heap_of_ragdolls_on_the_tree_method_loses_energy_and_comes_to_rest():
     """Four ragdolls (tumble.scenes.ragdolls, seed 0: ball joints with cone and twist limits, hinges
     with limits) dropped into a heap, the tree method, 16 s at 1/60 s. Nothing drives them, so from
