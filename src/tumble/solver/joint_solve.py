@@ -254,7 +254,8 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     if t == JOINT_UNIVERSAL and p[P_LIMIT_ON] != 0.0:
         pos = _centred_angle(pos, p[P_LOWER], p[P_UPPER])
     if (p[P_STIFFNESS] == 0.0 and p[P_DAMPING] == 0.0 and p[P_MOTOR_ON] == 0.0 and p[P_RIGID] == 0.0
-            and _limits_idle(j, p, pos, _row_velocity(v, omega, a, b, linear, n, ra, rb), inv_h, axial_impulse)):
+            and limit_rows_idle(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos,
+                                _row_velocity(v, omega, a, b, linear, n, ra, rb), inv_h, axial_impulse)):
         # PERF: only limits, both apart and not closing within the substep, with no impulse: their
         # rows would add nothing; skip the row's mass (a 3x3 solve with the anchor block): a sweep of
         # an ant's eight hinges with limits alone, swinging freely, 7.7 -> 3.6 us (the same bits).
@@ -324,17 +325,12 @@ def tree_limited(t):
 
 
 @njit(**NO_NRT)
-def _limits_idle(j, p, pos, cdot, inv_h, axial_impulse):
-    """Whether both limit rows of the 1-D coordinate at ``pos`` moving at ``cdot`` would apply
-    nothing this sweep (``_solve_limit_rows``): each bound infinite, or apart (C > 0) with no
-    accumulated impulse and C / h + its rate >= 0, so that max(0 - m (rate + C / h), 0) = 0."""
-    return limit_rows_idle(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos, cdot, inv_h, axial_impulse)
-
-
-@njit(**NO_NRT)
 def limit_rows_idle(j, slot0, lower, upper, pos, cdot, inv_h, axial_impulse):
-    """``_limits_idle`` for the bounds [lower, upper] of a coordinate whose rows accumulate in
-    ``axial_impulse[j, slot0]`` and ``[j, slot0 + 1]`` (the first coordinate's or the second's)."""
+    """Whether both limit rows [lower, upper] of the 1-D coordinate at ``pos`` moving at ``cdot``,
+    accumulated in ``axial_impulse[j, slot0]`` and ``[j, slot0 + 1]`` (the first coordinate's or
+    the second's), would apply nothing this sweep (``_solve_limit_rows``): each bound infinite, or
+    apart (C > 0) with no accumulated impulse and C / h + its rate >= 0, so that
+    max(0 - m (rate + C / h), 0) = 0."""
     for side in range(2):
         sign, C = limit_side(side, lower, upper, pos)
         if math.isinf(C):

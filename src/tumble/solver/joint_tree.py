@@ -768,7 +768,7 @@ def tree_limits_kernel(joints, joint_type, joint_a, joint_b, local_a, local_b, f
                 if t == JOINT_UNIVERSAL:
                     pos = _centred_angle(pos, lower, upper)
             else:
-                if param[j, P_LIMIT2_ON] == 0.0 or (t != JOINT_BALL and t != JOINT_UNIVERSAL):
+                if param[j, P_LIMIT2_ON] == 0.0:  # (set by ball and universal joints only)
                     continue
                 lower, upper, slot0, r = param[j, P_LOWER2], param[j, P_UPPER2], A_LOWER2, J + j
                 has, u, pos = _second_row(t, j, a, b, R, frame_a, frame_b)

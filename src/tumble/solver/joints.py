@@ -153,9 +153,9 @@ class JointSettings:
     method: "gauss-seidel" (Box2D: every row by sequential impulses) or "tree": the rigid
         rows of a spanning forest of the joint graph solved exactly in linear time (Baraff
         1996), loop-closing joints and the 1-D coordinate rows (motors, springs, drives) by
-        Gauss-Seidel around it, ``velocity_iterations`` /
-        ``relax_iterations`` times; the limits of hinges, sliders, ball joints (cone and twist),
-        universal joints and ropes as rows of the whole tree (``joint_tree.tree_limits_kernel``). With
+        Gauss-Seidel around it, ``velocity_iterations`` / ``relax_iterations`` times; the limits
+        of hinges, sliders, ball joints (cone and twist), universal joints and ropes as rows of
+        the whole tree (``joint_tree.tree_limits_kernel``). With
         "tree", the rows are rigid with bias rate 1/h (hertz 0) or the soft bias rate of
         ``hertz`` (no mass or impulse scaling).
     limit_hertz, limit_damping_ratio: (240 Hz, 2) with the tree method, the softness at which a
