@@ -35,7 +35,7 @@ from . import __version__, checks
 from .errors import InputError, SimulationError
 from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring
 from .joints import (G_FOLLOWS, G_JOINT, JOINT_CLASSES, JOINT_TYPES, OLD_PARAM_COUNTS, P_BALL_MAX_DRIVE, P_BALL_TARGET,
-                     PARAM_COUNT, BoundJoint)
+                     PARAM_COUNT, BoundJoint, edit_count)
 from .solver.contact import SoftStepSettings
 from .solver.joint_solve import OLD_AXIAL_COUNTS
 from .solver.joints import JointSettings
@@ -370,6 +370,14 @@ def _restore_joint_solver(sim, state: dict):
             raise InputError(f"joint solver array {name!r} is {saved.dtype}{list(saved.shape)}, "
                              f"expected {target.dtype}{list(target.shape)}")
         target[...] = saved
+    # the rows the run reads are the records' rows too (a snapshot's restore puts back the targets,
+    # torques and motors set after its save): a later edit of a record writes its own columns over
+    # them, and no edit made before the restore is taken after it
+    for j in range(k):
+        row = joints[j].bound.param
+        row[...] = solver.param[j, :row.shape[0]]
+    solver._edits_seen = edit_count()
+    sim._joint_edits_seen = edit_count()
 
 
 def _pad_param(rows: np.ndarray) -> np.ndarray:

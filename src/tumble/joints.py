@@ -8,6 +8,15 @@ frame at the current poses (the pose at creation is the joint's zero: hinge angl
 slider position 0). The solver (``tumble.solver.joints``) reads the bound values into
 its arrays; records are not read inside a step.
 
+A bound record's parameters stay editable: setting a field after ``add_joint`` (``hinge.damping
+= 0.5``, ``ball.cone_limit = 0.3``, ``hinge.motor_speed = None``) checks the new value (InputError,
+the field left as it was), writes the parameter columns it decides and marks the record edited
+(``edit_count``): the solver takes the row at its next step and the Simulator wakes the joint's
+bodies (Box2D's joint setters wake them too: b2Joint_WakeBodies). MuJoCo's model fields and
+PyBullet's ``changeDynamics`` are edited the same way between steps. The geometry resolved at
+``add_joint`` (the bodies, anchors, frame and axes; a gear's joints) is fixed: setting it raises
+(make a new joint instead).
+
 Units: m, rad, N, N m. Angular parameters of hinges are per radian (stiffness N m/rad,
 damping N m s/rad); linear ones of sliders and distance joints per metre.
 """
@@ -135,6 +144,15 @@ class Joint:
     # set by bind_joint
     bound: Any = field(default=None, init=False, repr=False)
     broken: bool = field(default=False, init=False)
+    # the value of ``edit_count`` at this record's last edit after binding (0: never edited)
+    _edit_stamp: ClassVar[int] = 0
+
+    def __setattr__(self, name, value):
+        # before binding (the constructor, dataclasses.replace) and for the state fields: plain
+        if name in _PLAIN_FIELDS or self.__dict__.get("bound") is None or name not in self.__dataclass_fields__:
+            object.__setattr__(self, name, value)
+        else:
+            edit_joint(self, name, value)
 
     # -- per type: world joint frame (3, 3) at creation from the axis arguments, and params
     def _frame_world(self, axis_to_world) -> np.ndarray:
@@ -564,6 +582,10 @@ class BoundJoint:
     frame_a: np.ndarray
     frame_b: np.ndarray
     param: np.ndarray
+    # m, a distance joint's anchor distance at creation (the default of its rigid length and its
+    # drive's target, which an edit of those fields needs again); nan: not known (a record read
+    # from a checkpoint: ``_creation_length`` finds it in the row)
+    length: float = math.nan
 
 
 def _body_index(world, body, key) -> int:
@@ -573,6 +595,111 @@ def _body_index(world, body, key) -> int:
         return world.index_of(body)
     except InputError as err:
         raise InputError(err.problem, key) from None
+
+
+# fields set freely after binding: the record's state and label
+_PLAIN_FIELDS = frozenset({"bound", "broken", "name"})
+# fields resolved into the bound frames at ``add_joint``: an edit would have to re-resolve them
+# at poses that are no longer the creation's (the joint's zero), so it is refused
+_FIXED_FIELDS = frozenset({"body_a", "body_b", "anchor", "anchor_b", "frame", "axis", "axis_b", "joint", "follows"})
+# the count of edits of bound records in this process (``edit_count``): a solver or simulator keeps
+# the count it has seen and looks for edited records only when it moved (no loop over the joints
+# in a step otherwise); and the count of edits of ``collide_connected`` (``pair_edit_count``)
+_EDITS = [0, 0]
+
+
+def edit_count() -> int:
+    """The number of edits of bound joint records so far in this process (``mark_edited``)."""
+    return _EDITS[0]
+
+
+def pair_edit_count() -> int:
+    """The number of edits of bound records' ``collide_connected`` so far (the contact step's
+    pairs of jointed bodies that must not collide are made again when it moves)."""
+    return _EDITS[1]
+
+
+def mark_edited(joint: Joint):
+    """Mark a bound record edited now: the solvers copy its parameter row (``bound.param``) into
+    their tables at their next step and the Simulator wakes its bodies (``edited_since``)."""
+    _EDITS[0] += 1
+    object.__setattr__(joint, "_edit_stamp", _EDITS[0])
+
+
+def edited_since(joints, seen: int) -> list[int]:
+    """The indices in ``joints`` of the records edited after ``edit_count()`` was ``seen``."""
+    return [k for k, rec in enumerate(joints) if rec._edit_stamp > seen]
+
+
+def _param_row(joint: Joint, length: float) -> np.ndarray:
+    """A non-gear record's parameter row (PARAM_COUNT,) from its fields (InputError on a bad one);
+    ``length`` m: the anchors' distance at creation (a distance joint's defaults)."""
+    param = np.zeros(PARAM_COUNT)
+    param[P_LOWER], param[P_UPPER] = -math.inf, math.inf
+    param[P_LOWER2], param[P_UPPER2] = -math.inf, math.inf
+    param[P_MAX_MOTOR] = param[P_MAX_DRIVE] = param[P_MAX_MOTOR2] = param[P_BALL_MAX_DRIVE] = math.inf
+    param[P_BALL_TARGET] = 1.0  # the identity quaternion: read by a ball joint's drive alone
+    joint._params(param, length)
+    param[P_MAX_FORCE] = _number(joint.max_force, "max_force", minimum=0.0, allow_inf=True)
+    param[P_MAX_TORQUE] = _number(joint.max_torque, "max_torque", minimum=0.0, allow_inf=True)
+    if not isinstance(joint.collide_connected, (bool, np.bool_)):
+        raise InputError(f"expected true or false, got {joint.collide_connected!r}", "collide_connected")
+    return param
+
+
+def _creation_length(joint: Joint) -> float:
+    """A bound record's anchor distance at creation, m (``BoundJoint.length``); for a record bound
+    without it (read from a checkpoint), the row's default that holds it: the drive's target when
+    the record gives none, else a rigid rod's length; nan when neither does (no field reads it)."""
+    b = joint.bound
+    if not math.isnan(b.length) or not isinstance(joint, DistanceJoint):
+        return b.length
+    if joint.target is None:
+        return float(b.param[P_TARGET])
+    if joint.min_length is None and joint.max_length is None:
+        return float(b.param[P_LOWER])
+    return math.nan
+
+
+def _row_of_fields(joint: Joint, length: float) -> np.ndarray:
+    if isinstance(joint, GearJoint):
+        return _gear_row(joint, joint.bound.param[[G_JOINT, G_FOLLOWS]])
+    return _param_row(joint, length)
+
+
+def edit_joint(joint: Joint, name: str, value):
+    """Set field ``name`` of a bound record to ``value`` (``Joint.__setattr__`` after binding):
+    check it, write the parameter columns it decides into ``bound.param`` and mark the record
+    edited. Only the columns whose value the field changes are written: the others keep what the
+    run put there (a drive target or torque set through the Simulator, a robot's controls).
+    InputError, the field left as it was: a bad value, or a field fixed at ``add_joint``."""
+    if name in _FIXED_FIELDS:
+        raise InputError(f"fixed when the joint was added (its zero and frames were resolved then): "
+                         f"make a new joint for another {name}", name)
+    length = _creation_length(joint)
+    old = joint.__dict__[name]
+    try:
+        before = _row_of_fields(joint, length)
+    except InputError:  # fields read from a file that never made its row: every column written
+        before = np.full(PARAM_COUNT, np.nan)
+    object.__setattr__(joint, name, value)
+    try:
+        after = _row_of_fields(joint, length)
+        if isinstance(joint, DistanceJoint) and math.isnan(length) and (
+                joint.target is None or (joint.min_length is None and joint.max_length is None)):
+            raise InputError("the joint's length at creation is not known here (a record read from a "
+                             "checkpoint of an older version): give the lengths and target", name)
+    except InputError:
+        object.__setattr__(joint, name, old)
+        raise
+    changed = ~((before == after) | (np.isnan(before) & np.isnan(after)))
+    joint.bound.param[changed] = after[changed]
+    if name == "collide_connected":
+        _EDITS[1] += 1
+    world = joint.__dict__.get("_world")
+    if name == "armature" and world is not None and world() is not None:
+        world().joint_armature_set(joint.bound.param[P_ARMATURE])  # as add_joint: the tree method's default
+    mark_edited(joint)
 
 
 def bind_joint(world, joint: Joint) -> BoundJoint:
@@ -588,8 +715,6 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
         raise InputError(f"a joint needs two different bodies, got {what} twice", "body_b")
     if joint.frame not in ("world", "body"):
         raise InputError(f"must be 'world' or 'body', got {joint.frame!r}", "frame")
-    if not isinstance(joint.collide_connected, (bool, np.bool_)):
-        raise InputError(f"expected true or false, got {joint.collide_connected!r}", "collide_connected")
 
     def pose(i):
         if i < 0:
@@ -621,17 +746,11 @@ def bind_joint(world, joint: Joint) -> BoundJoint:
     else:
         frame_world = joint._frame_world(lambda u: mat_vec(Ra, np.asarray(u, dtype=float)) if body_frame else u)
 
-    param = np.zeros(PARAM_COUNT)
-    param[P_LOWER], param[P_UPPER] = -math.inf, math.inf
-    param[P_LOWER2], param[P_UPPER2] = -math.inf, math.inf
-    param[P_MAX_MOTOR] = param[P_MAX_DRIVE] = param[P_MAX_MOTOR2] = param[P_BALL_MAX_DRIVE] = math.inf
-    param[P_BALL_TARGET] = 1.0  # the identity quaternion: read by a ball joint's drive alone
-    joint._params(param, float(norm3(pb - pa)))
-    param[P_MAX_FORCE] = _number(joint.max_force, "max_force", minimum=0.0, allow_inf=True)
-    param[P_MAX_TORQUE] = _number(joint.max_torque, "max_torque", minimum=0.0, allow_inf=True)
+    length = float(norm3(pb - pa))
+    param = _param_row(joint, length)
     frame_world = np.ascontiguousarray(frame_world, dtype=float)
     bound = BoundJoint(JOINT_TYPES[joint.kind], a, b, local_a, local_b, mat_t_mat(Ra, frame_world),
-                       mat_t_mat(Rb, frame_world), param)
+                       mat_t_mat(Rb, frame_world), param, length)
     joint.bound = bound
     return bound
 
@@ -655,20 +774,9 @@ def joint_index(world, ref, key) -> int:
     raise InputError(f"expected a joint record, a joint name or an index below {len(joints)}, got {ref!r}", key)
 
 
-def _bind_gear(world, gear: GearJoint) -> BoundJoint:
-    """A gear's bound row: the two joints' indices and the polynomial's coefficients (``G_*``)."""
-    ends = []
-    for key in ("joint", "follows"):
-        if key == "follows" and gear.follows is None:  # a lock: q_joint = offset (MuJoCo's equality without joint2)
-            ends.append(-1)
-            continue
-        k = joint_index(world, getattr(gear, key), key)
-        rec = world.joints[k]
-        if rec.kind not in ("hinge", "slider"):
-            raise InputError(f"a gear couples hinge and slider joints, not a {rec.kind} joint", key)
-        ends.append(k)
-    if ends[0] == ends[1]:
-        raise InputError("a gear needs two different joints, got the same twice", "follows")
+def _gear_row(gear: GearJoint, ends) -> np.ndarray:
+    """A gear's parameter row (PARAM_COUNT,): its joints' indices ``ends`` (joint, follows; -1: a
+    lock) and the polynomial's coefficients from the record (InputError on a bad field)."""
     coef = np.zeros(5)
     if gear.polynomial is not None:
         if isinstance(gear.polynomial, (str, bytes)) or not hasattr(gear.polynomial, "__len__") \
@@ -687,6 +795,24 @@ def _bind_gear(world, gear: GearJoint) -> BoundJoint:
     param = np.zeros(PARAM_COUNT)
     param[G_JOINT], param[G_FOLLOWS] = ends
     param[G_COEF:G_COEF + 5] = coef  # over P_MAX_FORCE too: a gear does not break (the store kernel's gear branch)
+    return param
+
+
+def _bind_gear(world, gear: GearJoint) -> BoundJoint:
+    """A gear's bound row: the two joints' indices and the polynomial's coefficients (``G_*``)."""
+    ends = []
+    for key in ("joint", "follows"):
+        if key == "follows" and gear.follows is None:  # a lock: q_joint = offset (MuJoCo's equality without joint2)
+            ends.append(-1)
+            continue
+        k = joint_index(world, getattr(gear, key), key)
+        rec = world.joints[k]
+        if rec.kind not in ("hinge", "slider"):
+            raise InputError(f"a gear couples hinge and slider joints, not a {rec.kind} joint", key)
+        ends.append(k)
+    if ends[0] == ends[1]:
+        raise InputError("a gear needs two different joints, got the same twice", "follows")
+    param = _gear_row(gear, ends)
     # a moving body of each joint (its body_b unless that is the world): islands join them, checkpoints name them
     bodies = []
     for k in ends:
@@ -702,21 +828,23 @@ def _bind_gear(world, gear: GearJoint) -> BoundJoint:
 
 def set_record_target(joint: Joint, value, velocity=None) -> np.ndarray:
     """Check ``value`` as a bound joint's drive target and write it into the record and its
-    parameter row (a checkpoint carries both): rad or m (``P_TARGET``) for a hinge, slider or
-    distance joint; a rotation (``ball_target_quaternion``: rotation vector or quaternion) for a
-    ball joint, and ``velocity`` (3,) rad/s its target velocity (None: left as it is). Returns the
-    row's target column(s) (a ball joint's: quaternion then velocity, (7,)). InputError: not a
-    target of that joint."""
+    parameter row (a checkpoint carries both; the record marked edited): rad or m (``P_TARGET``)
+    for a hinge, slider or distance joint; a rotation (``ball_target_quaternion``: rotation vector
+    or quaternion) for a ball joint, and ``velocity`` (3,) rad/s its target velocity (None: left as
+    it is). Returns the row's target column(s) (a ball joint's: quaternion then velocity, (7,)).
+    InputError: not a target of that joint."""
     p = joint.bound.param
     t = joint.bound.type_id
     if t == JOINT_BALL:
         q = ball_target_quaternion(value, "target")
         if velocity is not None:
             rate = finite_vector(velocity, "target_velocity")
-            joint.target_velocity = [float(c) for c in rate]
+            object.__setattr__(joint, "target_velocity", [float(c) for c in rate])
             p[P_BALL_RATE:P_BALL_RATE + 3] = rate
-        joint.target, joint.target_euler_deg = [float(c) for c in q], None
+        object.__setattr__(joint, "target", [float(c) for c in q])
+        object.__setattr__(joint, "target_euler_deg", None)
         p[P_BALL_TARGET:P_BALL_TARGET + 4] = q
+        mark_edited(joint)
         return np.concatenate([q, p[P_BALL_RATE:P_BALL_RATE + 3]])
     if velocity is not None:
         raise InputError(f"only a ball joint's drive takes a target velocity, not a {joint.kind} joint's",
@@ -724,19 +852,23 @@ def set_record_target(joint: Joint, value, velocity=None) -> np.ndarray:
     if t not in (JOINT_HINGE, JOINT_SLIDER, JOINT_DISTANCE):
         raise InputError(f"a {joint.kind} joint has no drive target", "joint")
     target = _number(value, "target", minimum=0.0 if t == JOINT_DISTANCE else None)
-    joint.target = target
+    object.__setattr__(joint, "target", target)
     p[P_TARGET] = target
+    mark_edited(joint)
     return np.array([target])
 
 
 def set_record_effort(joint: Joint, value) -> float:
     """Check ``value`` as the torque (N m, a hinge) or force (N, a slider) a bound joint applies
-    along its coordinate and write it into the record's parameter row (``P_EFFORT``; a checkpoint
-    carries it). Returns it. InputError: not a number, not finite, or not a hinge or slider."""
+    along its coordinate and write it into the record (its ``torque`` or ``force``) and its
+    parameter row (``P_EFFORT``; a checkpoint carries both); the record marked edited. Returns
+    it. InputError: not a number, not finite, or not a hinge or slider."""
     effort = _number(value, "torque")
     if joint.bound.type_id not in (JOINT_HINGE, JOINT_SLIDER):
         raise InputError(f"only hinge and slider joints take a torque or force, not a {joint.kind} joint", "joint")
+    object.__setattr__(joint, "torque" if joint.bound.type_id == JOINT_HINGE else "force", effort)
     joint.bound.param[P_EFFORT] = effort
+    mark_edited(joint)
     return effort
 
 

@@ -27,6 +27,7 @@ from .errors import InputError, SimulationError
 from .collision.sensor import SensorLog
 from .buoyancy import apply_buoyancy
 from .forces import Explosion, Impulse
+from .joints import edit_count as _joint_edit_count
 from .math3d import quat_to_matrix
 from .kinematic import drive_paths, touched_by_kinematic
 from .recording import RunResult, _first_frame_notice, _progress_bar, _Recorder
@@ -126,6 +127,9 @@ class Simulator:
             joint_settings = ACCURATE
         self.joint_settings = joint_settings  # tumble.solver.joints.JointSettings, or None for its defaults
         self.record_joints = bool(record_joints)
+        # tumble.joints.edit_count() when this simulator last took the joint records' edits
+        # (``_take_joint_edits``); the edits before it was made have nothing here to wake
+        self._joint_edits_seen = _joint_edit_count()
         # begin and end touch events, step by step, when asked for (solver.contact_events)
         self._event_log = ContactEventLog() if contact_events else None
         self._sensor_log = None  # collision.sensor.SensorLog, made on the first step of a world with a sensor
@@ -283,6 +287,8 @@ class Simulator:
         all_moving = moving.copy()
         table = soft.pipeline.refresh()
         sleep = self._sleep_state()
+        if self._joint_edits_seen != _joint_edit_count():
+            self._take_joint_edits()
         if w.wake_requests:  # bodies the user moved, pushed or placed since the last step
             if sleep is not None:
                 sleep.resize(w.body_count)
@@ -387,6 +393,25 @@ class Simulator:
         if not self.world.sensor[i]:
             raise InputError(f"body {self.world.names[i]!r} is not a sensor", "sensor")
         return log.pairs[log.pairs[:, 0] == i, 1].copy()
+
+    def _take_joint_edits(self):
+        """The joint records edited since this simulator last looked (a field set after
+        ``add_joint``, a target, torque or motor set between steps: ``tumble.joints.mark_edited``):
+        their bodies woken at the next step (``world.wake_requests``: Box2D's joint setters wake
+        the joint's bodies; a sleeping arm given a new drive target stayed where it was) and their
+        rows in the joint solver's table (which the solver would take in its next ``prepare``;
+        taken here so that a checkpoint saved now carries them)."""
+        from .joints import edited_since
+
+        w = self.world
+        joints = getattr(w, "joints", [])
+        for k in edited_since(joints, self._joint_edits_seen):
+            b = joints[k].bound
+            w.wake_requests.update(int(i) for i in (b.body_a, b.body_b) if i >= 0)
+        self._joint_edits_seen = _joint_edit_count()
+        solver = None if self.soft_step is None else self.soft_step.joints
+        if solver is not None and solver.count == len(joints):
+            solver.take_edits()
 
     def _sleep_state(self):
         """The ``SleepState`` (``self.sleep``) when the world lets bodies sleep, else None."""
@@ -845,6 +870,7 @@ class Simulator:
         """
         from .checkpoint import save_checkpoint
 
+        self._take_joint_edits()  # the rows and the wakes of records edited since the last step
         return save_checkpoint(self, path, run)
 
     def save_state(self):
@@ -856,6 +882,7 @@ class Simulator:
         materials) is not in it: it stays the world's."""
         from .snapshot import save_state
 
+        self._take_joint_edits()
         return save_state(self)
 
     def restore_state(self, state) -> None:

@@ -63,12 +63,12 @@ from ..joints import (
     P_LOWER,
     P_MAX_FORCE,
     P_MAX_TORQUE,
-    P_MOTOR2_SPEED,
-    P_MOTOR_SPEED,
     P_STIFFNESS,
     P_TARGET,
     P_UPPER,
     PARAM_COUNT,
+    edit_count,
+    edited_since,
     set_record_effort,
     set_record_target,
 )
@@ -513,6 +513,7 @@ class JointSolver:
         self.reaction_torque = np.zeros((J, 3))
         self.broke = np.zeros(J, dtype=bool)
         self._joints = list(joints)
+        self._edits_seen = edit_count()  # every row read from its record just now
         # record -> row, for ``index`` (a search through the list cost O(J) a lookup: resetting the
         # copies of a vector environment, tumble.envs, was quadratic in their number)
         self._row_of = {id(rec): j for j, rec in enumerate(self._joints)}
@@ -690,6 +691,8 @@ class JointSolver:
         joints = world.joints
         if len(joints) != self.count or (self.count and joints[-1] is not self._joints[-1]):
             self._build(joints)
+        elif self._edits_seen != edit_count():  # a record edited since (tumble.joints.edit_joint)
+            self.take_edits()
         if self.settings.method == "tree":
             key = (self.count, world.body_count, bytes(world.moving), bytes(self.enabled))
             if key != self._tree_key:
@@ -723,6 +726,17 @@ class JointSolver:
         parts = 1 if self.has_gears else int(st.partitions)
         self.sweep.update(self.joint_a, self.joint_b, np.asarray(world.moving), world.x if x is None else x,
                           parts, st.partition_min_joints)
+
+    def take_edits(self) -> list[int]:
+        """Copy the parameter rows of the records edited since the tables last took them
+        (``tumble.joints.mark_edited``: a field set after ``add_joint``, a target or torque set
+        between steps) into ``param``; returns their rows."""
+        rows = edited_since(self._joints, self._edits_seen)
+        for k in rows:
+            row = self._joints[k].bound.param
+            self.param[k, :row.shape[0]] = row
+        self._edits_seen = edit_count()
+        return rows
 
     def fusable(self) -> bool:
         """Whether ``soft_step.substeps_kernel`` can run this step's substeps (after
@@ -912,8 +926,11 @@ class JointSolver:
 
     def set_motor_speed(self, joint, speed: float, axis_b: bool = False):
         """Change a motor's target rate (rad/s or m/s) between steps; ``axis_b=True``: a
-        universal joint's motor about axis_b (``motor_speed_b``)."""
-        self.param[self.index(joint), P_MOTOR2_SPEED if axis_b else P_MOTOR_SPEED] = float(speed)
+        universal joint's motor about axis_b (``motor_speed_b``); kept in the record too (its
+        field and row), as an edit of that field: a motor that is off is switched on."""
+        j = self.index(joint)
+        setattr(self._joints[j], "motor_speed_b" if axis_b else "motor_speed", float(speed))
+        self.param[j] = self._joints[j].bound.param
 
     def set_target(self, joint, target, velocity=None):
         """Change a drive's target between steps: rad or m for a hinge, slider or distance joint,

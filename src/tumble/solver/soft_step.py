@@ -517,12 +517,13 @@ class SoftStep:
 
     def _refresh_joints(self):
         """The JointSolver and the sorted keys lo * N + hi of the body pairs that must not collide
-        (joints with collide_connected=False); rebuilt when joints are added or break."""
-        from ..joints import jointed_body_pairs
+        (joints with collide_connected=False); rebuilt when joints are added or break, or a
+        record's collide_connected is set."""
+        from ..joints import jointed_body_pairs, pair_edit_count
         from .joints import JointSolver
 
         w = self.world
-        key = (len(w.joints), sum(1 for j in w.joints if j.broken), w.body_count)
+        key = (len(w.joints), sum(1 for j in w.joints if j.broken), w.body_count, pair_edit_count())
         if key == self._joint_key:
             return
         if self.joints is None:

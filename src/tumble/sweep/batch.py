@@ -179,8 +179,9 @@ def _moved_joint(rec, k: int, offset: int, first_joint: int):
         for column in (G_JOINT, G_FOLLOWS):
             if new.bound.param[column] >= 0:  # (-1: a lock follows no joint)
                 new.bound.param[column] += first_joint
-        new.joint = int(new.bound.param[G_JOINT])
-        new.follows = None if new.bound.param[G_FOLLOWS] < 0 else int(new.bound.param[G_FOLLOWS])
+        # fields fixed once bound (tumble.joints.edit_joint refuses them): set as the binding would
+        object.__setattr__(new, "joint", int(new.bound.param[G_JOINT]))
+        object.__setattr__(new, "follows", None if new.bound.param[G_FOLLOWS] < 0 else int(new.bound.param[G_FOLLOWS]))
     new.broken = rec.broken
     return new
 
