@@ -51,7 +51,9 @@ class Body:
 
     name = property(lambda self: self.world.names[self.index])
     shape = property(lambda self: self.world.shapes[self.index])
-    material = property(lambda self: self.world.materials[self.index])
+    material = property(lambda self: self.world.materials[self.index],
+                        lambda self, value: self.world.set_material(self.index, value),
+                        doc="The body's ``Material``; set it between steps (``World.set_material``).")
 
     @property
     def collision_filter(self) -> CollisionFilter:
@@ -78,6 +80,11 @@ class Body:
     def surface_velocity(self, value):
         self.world.surface_velocity[self.index] = finite_vector(value, "surface_velocity")
     mass = property(lambda self: float(self.world.mass[self.index]))
+
+    def set_mass(self, mass: float, inertia=None):
+        """``World.set_mass`` of this body: mass kg and inertia kg m^2 (None: scaled with the mass),
+        velocities kept, woken."""
+        self.world.set_mass(self.index, mass, inertia)
     inertia_body = property(lambda self: self.world.inertia_body[self.index])
     inertia_body_inv = property(lambda self: self.world.inertia_body_inv[self.index])
     com_offset = property(lambda self: self.world.com_offset[self.index])

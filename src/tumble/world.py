@@ -107,6 +107,7 @@ class World:
         self.excluded_collisions: set[tuple[int, int]] = set()  # (lo, hi) body rows that never touch
         self.pair_materials: dict[tuple[int, int], Material] = {}  # (lo, hi) body rows: their contacts' material
         self.pair_material_version = 0  # bumped when they change: the contact solver rereads them
+        self.material_version = 0  # bumped by set_material: the contact solver and pipeline reread materials
         # True when a body hangs between two joints with next to no mass (an MJCF body with several
         # joints, tumble.mjcf) or a joint has armature (add_joint): the Simulator then solves joints
         # exactly by default (the tree method)
@@ -536,6 +537,63 @@ class World:
             raise InputError(f"a body cannot be excluded from itself ({self.names[a]!r})", "body_b")
         self.excluded_collisions.add((min(a, b), max(a, b)))
         self.filter_version += 1
+
+    def set_material(self, body, material):
+        """Give ``body`` (a ``Body``, name or index) another ``Material`` (or a mapping with its
+        keys, the rest defaults) from the next step on: PyBullet's ``changeDynamics(lateralFriction=,
+        restitution=, rollingFriction=, spinningFriction=)``, MuJoCo's ``model.geom_friction`` edited
+        between steps (domain randomization). A compound's parts with materials of their own keep
+        them. The body is woken (a resting box given less friction slides). ``body.material = ...``
+        does the same. InputError (key ``material``), nothing changed: a bad material."""
+        i = self.index_of(body)
+        try:
+            material = Material.coerce(material)
+        except InputError as err:
+            raise err.within("material") from None
+        self.materials[i] = material
+        self.material_version += 1
+        self.wake_requests.add(i)
+
+    def set_mass(self, body, mass, inertia=None):
+        """Give a moving ``body`` (a ``Body``, name or index) the mass ``mass`` kg and the inertia
+        ``inertia`` kg m^2 about its centre of mass (body frame: (3,) principal moments along the
+        body axes or a symmetric (3, 3); None: the present inertia scaled by the new mass over the
+        old, the same shape of the same density throughout) from now on: PyBullet's
+        ``changeDynamics(mass=, localInertiaDiagonal=)``, MuJoCo's ``model.body_mass`` and
+        ``body_inertia`` edited between steps. Its velocity and angular velocity are kept (its
+        momenta P = m v and L = I omega follow, as PyBullet keeps a body's velocity); its centre
+        of mass stays where it is. The body is woken. InputError (key ``mass`` or ``inertia``),
+        nothing changed: a fixed or kinematic body, a mass not positive and finite, an inertia not
+        symmetric positive definite or breaking the triangle inequality."""
+        i = self.index_of(body)
+        if not self.moving[i]:
+            raise InputError("a fixed or kinematic body has no mass to set (infinite: it is not moved by forces)",
+                             "mass")
+        if isinstance(mass, bool) or not isinstance(mass, (int, float, np.floating, np.integer)) \
+                or not math.isfinite(mass) or mass <= 0:
+            raise InputError(f"must be a positive number, got {mass!r}", "mass")
+        mass = float(mass)
+        if inertia is None:
+            I = self.inertia_body[i] * (mass / self.mass[i])
+        else:
+            I = _override_inertia(MassProperties(mass, np.zeros(3), np.eye(3)), inertia).inertia
+        _check_inertia(I)
+        props = MassProperties(mass, np.zeros(3), np.array(I, dtype=float))
+        v, omega = self.v[i].copy(), self.omega[i].copy()
+        a = self._arrays
+        a["mass"][i] = mass
+        a["inv_mass"][i] = 1.0 / mass
+        a["inertia_body"][i] = props.inertia
+        a["inertia_body_inv"][i] = inverse3(props.inertia)
+        moments, axes = props.principal()
+        a["principal_q"][i] = matrix_to_quat(np.ascontiguousarray(axes))
+        a["principal_moments"][i] = moments
+        R = self.R[i]
+        a["P"][i] = mass * v
+        a["L"][i] = mat_vec(rotate_tensor(R, props.inertia), omega)
+        self._tables = None  # force tables may hold what a body's mass decides (a fluid's inertia box)
+        self.wake_requests.add(i)
+        self.update_derived()
 
     def set_pair_material(self, body_a, body_b, material):
         """The contacts between ``body_a`` and ``body_b`` (``Body``, name or index) take

@@ -39,6 +39,7 @@ class CollisionPipeline:
         self.pairs = PairBuffer()
         self.contacts = ContactManifolds()
         self.shape_pos = self.shape_rot = self.shape_aabb = self.shape_margin = self.shape_rest = None
+        self._material_version = None  # World.material_version of shape_rest
         self.pair_a = self.pair_b = None
         # sorted int64 keys lo * N + hi of jointed body pairs that must not collide (set by the
         # soft step), or None; the World's own exclusions are added to them (``_filters``)
@@ -60,9 +61,13 @@ class CollisionPipeline:
             self.shape_rot = np.empty((S, 3, 3))
             self.shape_aabb = np.empty((S, 2, 3))
             self.shape_margin = np.empty(S)
-            # each shape's body's Material.margin (None: no body has one), a constant per body
+            self._material_version = None
+        if world.material_version != self._material_version:
+            # each shape's body's Material.margin (None: no body has one): read again when a
+            # body's material is set (World.set_material)
             rest = np.array([m.margin for m in world.materials[: world.body_count]], dtype=float)
             self.shape_rest = rest[self.table.shape_body] if rest.any() else None
+            self._material_version = world.material_version
         return self.table
 
     def take_table(self, other: "CollisionPipeline"):
@@ -74,7 +79,7 @@ class CollisionPipeline:
             self.table, self._body_count = other.table, other._body_count
             self.shape_pos, self.shape_rot = other.shape_pos, other.shape_rot
             self.shape_aabb, self.shape_margin = other.shape_aabb, other.shape_margin
-            self.shape_rest = other.shape_rest
+            self.shape_rest, self._material_version = other.shape_rest, other._material_version
 
     def _filters(self):
         """(excluded keys or None, body filter table): the World's filters and exclusions

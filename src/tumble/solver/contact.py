@@ -171,7 +171,7 @@ class ContactSolver:
         self._reserve(capacity)
         self.old_key = np.zeros(0, dtype=np.int64)
         self.contacts = None
-        self._material_bodies = -1
+        self._material_bodies = None  # (body count, World.material_version) of the body_* material arrays
         self._pair_rows = None  # (rows, condims) of the contacts whose body pair has its own material
         self._pair_key = None  # (World.pair_material_version, body count) of ``_pair_table``
         self.rolling_rows = _NO_ROWS  # contacts with rolling and spinning rows this step
@@ -273,7 +273,7 @@ class ContactSolver:
         self.soft_static = np.array(soft_coefficients(st.static_hertz_scale * hertz, st.static_damping_ratio, h))
         match = match_contacts(self.old_key, contacts.contact_key)
         nb = world.body_count
-        if nb != self._material_bodies:  # materials are constants: read them once per body count
+        if (nb, world.material_version) != self._material_bodies:  # read again when bodies are added or set
             self.body_friction = np.array([m.friction for m in world.materials[:nb]], dtype=float)
             self.body_restitution = np.array([m.restitution for m in world.materials[:nb]], dtype=float)
             self.body_rolling = np.array([m.rolling_resistance for m in world.materials[:nb]], dtype=float)
@@ -282,7 +282,7 @@ class ContactSolver:
             self.body_margin = np.array([m.margin for m in world.materials[:nb]], dtype=float)
             self.body_resists_rolling = np.array([m.resists_rolling for m in world.materials[:nb]], dtype=bool)
             self.any_resists_rolling = bool(self.body_resists_rolling.any())
-            self._material_bodies = nb
+            self._material_bodies = (nb, world.material_version)
         b = self._buf
         b["step_normal_impulse"][:n] = 0.0
         b["step_tangent_impulse"][:n] = 0.0
@@ -324,9 +324,10 @@ class ContactSolver:
         part's own, else its body's) by their combine modes, in place of the bodies' that
         ``prepare_contacts_kernel`` mixed: the same function (``combine_material``), so a part
         without its own material gives the same numbers. Keeps the contacts' shapes for ``_prepare_rolling``."""
-        if self._part_material_key != (id(table), world.body_count):
+        key = (id(table), world.body_count, world.material_version)
+        if self._part_material_key != key:
             self._shape_material = table.shape_materials(world.materials)
-            self._part_material_key = (id(table), world.body_count)
+            self._part_material_key = key
         m = contacts.contact_manifold
         sa, sb = contacts.manifold_shape_a[m], contacts.manifold_shape_b[m]
         mat = self._shape_material
