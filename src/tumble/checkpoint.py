@@ -177,7 +177,7 @@ def _joint_from_dict(world, record, key: str):
     joint = cls(**record)
     joint.bound = BoundJoint(JOINT_TYPES[kind], ends[0], ends[1], arrays["local_a"], arrays["local_b"],
                              arrays["frame_a"], arrays["frame_b"], arrays["param"])
-    joint.broken = broken
+    object.__setattr__(joint, "broken", broken)  # the saved state, not an edit (tumble.joints.set_broken)
     return joint
 
 

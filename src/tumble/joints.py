@@ -597,8 +597,8 @@ def _body_index(world, body, key) -> int:
         raise InputError(err.problem, key) from None
 
 
-# fields set freely after binding: the record's state and label
-_PLAIN_FIELDS = frozenset({"bound", "broken", "name"})
+# fields set freely after binding: the binding and the label (``broken``: set_broken)
+_PLAIN_FIELDS = frozenset({"bound", "name"})
 # fields resolved into the bound frames at ``add_joint``: an edit would have to re-resolve them
 # at poses that are no longer the creation's (the joint's zero), so it is refused
 _FIXED_FIELDS = frozenset({"body_a", "body_b", "anchor", "anchor_b", "frame", "axis", "axis_b", "joint", "follows"})
@@ -673,6 +673,9 @@ def edit_joint(joint: Joint, name: str, value):
     edited. Only the columns whose value the field changes are written: the others keep what the
     run put there (a drive target or torque set through the Simulator, a robot's controls).
     InputError, the field left as it was: a bad value, or a field fixed at ``add_joint``."""
+    if name == "broken":
+        set_broken(joint, value)
+        return
     if name in _FIXED_FIELDS:
         raise InputError(f"fixed when the joint was added (its zero and frames were resolved then): "
                          f"make a new joint for another {name}", name)
@@ -700,6 +703,20 @@ def edit_joint(joint: Joint, name: str, value):
     if name == "armature" and world is not None and world() is not None:
         world().joint_armature_set(joint.bound.param[P_ARMATURE])  # as add_joint: the tree method's default
     mark_edited(joint)
+
+
+def set_broken(joint: Joint, broken):
+    """A bound record's ``broken`` set by its user (``joint.broken = True``): the joint stops
+    acting from the next step (PyBullet's ``removeConstraint`` of a grasp, MuJoCo's
+    ``eq_active`` off; its bodies collide again unless other joints join them); ``False``: it acts
+    again, from its present pose's error (a repaired joint). Marked
+    edited: the solver takes it at the next step and the Simulator wakes the two bodies.
+    InputError: not true or false. (The solver sets it itself when a joint breaks: not an edit.)"""
+    if not isinstance(broken, (bool, np.bool_)):
+        raise InputError(f"expected true or false, got {broken!r}", "broken")
+    if bool(broken) != joint.broken:
+        object.__setattr__(joint, "broken", bool(broken))
+        mark_edited(joint)
 
 
 def bind_joint(world, joint: Joint) -> BoundJoint:

@@ -111,7 +111,7 @@ def restore_state(sim, state: SimState) -> None:
     for name in STATE + KINEMATIC:
         getattr(w, name)[...] = state.arrays[name]
     for joint, broken in zip(joints, state.broken):
-        joint.broken = broken
+        object.__setattr__(joint, "broken", broken)  # the saved state (the solver's enabled comes back too)
     w.t = state.t
     w.applied_impulses = set(state.applied_impulses)
     w.wake_requests = set(state.wake_requests)

@@ -17,7 +17,7 @@ from scipy.optimize import brentq
 
 import tumble as tb
 from tumble import checks
-from tumble.joints import (BallJoint, DistanceJoint, GearJoint, HingeJoint, SliderJoint, UniversalJoint,
+from tumble.joints import (BallJoint, DistanceJoint, FixedJoint, GearJoint, HingeJoint, SliderJoint, UniversalJoint,
                            edit_count)
 from tumble.solver.island import ANGULAR_SLEEP_TOLERANCE
 from tumble.solver.joints import ACCURATE, JointSolver, step_with_joints
@@ -243,3 +243,30 @@ def test_set_motor_speed_keeps_the_record_and_switches_a_motor_on():
     for _ in range(24):
         step_with_joints(w, solver, DT, 4)
     assert w.omega[0, 2] == pytest.approx(3.0, rel=1e-6)
+
+
+def test_a_joint_switched_off_lets_go_and_switched_on_holds_again():
+    """A grasp released (PyBullet's removeConstraint, MuJoCo's eq_active off): a box held by a fixed
+    joint to the world, ``joint.broken = True``: it falls freely, z0 - g t^2 / 2 after 0.25 s (1e-6 m:
+    the step's integration of constant gravity is exact to round-off; no joint impulse left
+    acting) and its readings after the step say disabled; ``broken = False`` mid-fall: the joint acts again from
+    the error it finds and closes it, the anchors together to 1 mm within
+    2 s (the soft rows' correction), the box's pose back to the one it was held at."""
+    w = tb.World(gravity=(0.0, 0.0, -9.81))
+    w.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(0.0, 0.0, 1.0), name="box")
+    grip = w.add_joint(FixedJoint("world", "box", anchor=(0.0, 0.0, 1.0)))
+    sim = tb.Simulator(w, dt=DT, joint_settings=ACCURATE)
+    sim.step(48)
+    z0 = w.x[0, 2]
+    assert z0 == pytest.approx(1.0, abs=1e-6)
+    grip.broken = True
+    sim.step(60)
+    assert sim.joint_readings()["enabled"].tolist() == [False]
+    assert w.x[0, 2] == pytest.approx(z0 - 0.5 * 9.81 * 0.25 ** 2, abs=1e-6)
+    assert w.v[0, 2] == pytest.approx(-9.81 * 0.25, abs=1e-9)
+    grip.broken = False
+    sim.step(480)
+    assert abs(w.x[0, 2] - 1.0) < 1e-3
+    assert sim.joint_readings()["enabled"].tolist() == [True]
+    with pytest.raises(tb.InputError, match="true or false"):
+        grip.broken = "no"

@@ -733,8 +733,10 @@ class JointSolver:
         between steps) into ``param``; returns their rows."""
         rows = edited_since(self._joints, self._edits_seen)
         for k in rows:
-            row = self._joints[k].bound.param
+            rec = self._joints[k]
+            row = rec.bound.param
             self.param[k, :row.shape[0]] = row
+            self.enabled[k] = not rec.broken  # set by the user too (tumble.joints.set_broken)
         self._edits_seen = edit_count()
         return rows
 
@@ -899,7 +901,7 @@ class JointSolver:
                                     self.reaction_torque, self.broke)
         if broke:
             for j in np.flatnonzero(self.broke):
-                self._joints[j].broken = True
+                object.__setattr__(self._joints[j], "broken", True)  # the solver's own: not an edit
         return broke
 
     # -- queries -------------------------------------------------------------------------

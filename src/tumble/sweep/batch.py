@@ -182,7 +182,7 @@ def _moved_joint(rec, k: int, offset: int, first_joint: int):
         # fields fixed once bound (tumble.joints.edit_joint refuses them): set as the binding would
         object.__setattr__(new, "joint", int(new.bound.param[G_JOINT]))
         object.__setattr__(new, "follows", None if new.bound.param[G_FOLLOWS] < 0 else int(new.bound.param[G_FOLLOWS]))
-    new.broken = rec.broken
+    object.__setattr__(new, "broken", rec.broken)
     return new
 
 
