@@ -196,6 +196,24 @@ def test_motor_and_position_control(tmp_path):
         robot.set_motor(sim, "nope", 1.0)
 
 
+def test_a_sleeping_robot_wakes_to_a_new_control(tmp_path):
+    # The wheel of test_motor_and_position_control held by its PD drive at 0 falls asleep; a new
+    # position target wakes it (Box2D's joint setters wake the joint's bodies) and it turns to it
+    # (before, it stayed asleep at 0: the control was written, nothing woke the wheel).
+    text = urdf(link("base", mass=None) + link("wheel", inertia=0.08 / 12)
+                + joint("spin", "continuous", "base", "wheel", axis="0 0 1", extra='<limit effort="0.02"/>'))
+    world = tb.World(gravity=(0, 0, 0))
+    robot = load_urdf(world, write(tmp_path, text))
+    sim = tb.Simulator(world, dt=1 / 240)
+    robot.set_position_target(sim, "spin", target=0.0, stiffness=2.0, damping=0.3, max_force=10.0)
+    sim.step(240)
+    assert not sim.sleep.awake[world.index_of(robot.links["wheel"])]
+    robot.set_position_target(sim, "spin", target=0.25, stiffness=2.0, damping=0.3, max_force=10.0)
+    sim.step(960)
+    position, rate = robot.joint_states(sim)["spin"]
+    assert position == pytest.approx(0.25, abs=1e-3) and abs(rate) < 1e-3
+
+
 def test_torque_control(tmp_path):
     # PyBullet's TORQUE_CONTROL: the same cube (I = 0.00667 kg m^2) under a joint torque of 0.01 N m
     # spins up at 0.01 / I = 1.5 rad/s^2 (exactly: no gyroscopic term about a principal axis), not

@@ -57,7 +57,7 @@ import numpy as np
 from .collision.filter import CollisionFilter
 from .errors import InputError
 from .joints import BallJoint, FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P_EFFORT, P_MAX_DRIVE, P_MAX_MOTOR, \
-    P_MOTOR_ON, P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, mark_edited
+    P_MOTOR_ON, P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
 from .material import Material
 from .mass import combine_mass_properties
 from .math3d import (
@@ -288,7 +288,12 @@ class Robot:
         for row in rows:
             for column, value in values.items():
                 row[column] = value
-        mark_edited(record)  # its bodies woken at the next step (a sleeping robot follows a new control)
+        # its bodies woken at the next step (a sleeping robot follows a new control; Box2D's joint
+        # setters wake too); the rows are written in both places already, so no record edit to take
+        # (tumble.joints.mark_edited would have every step scan the joints for it)
+        if sim is not None:  # (None: written before there is a Simulator, into the record alone)
+            b = record.bound
+            sim.world.wake_requests.update(int(i) for i in (b.body_a, b.body_b) if i >= 0)
 
     def set_motor(self, sim, joint: str, speed: float, max_force: float | None = None):
         """Velocity control (PyBullet's ``VELOCITY_CONTROL``): drive ``joint`` at ``speed`` rad/s or
