@@ -699,9 +699,6 @@ def edit_joint(joint: Joint, name: str, value):
     joint.bound.param[changed] = after[changed]
     if name == "collide_connected":
         _EDITS[1] += 1
-    world = joint.__dict__.get("_world")
-    if name == "armature" and world is not None and world() is not None:
-        world().joint_armature_set(joint.bound.param[P_ARMATURE])  # as add_joint: the tree method's default
     mark_edited(joint)
 
 

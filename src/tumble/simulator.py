@@ -27,6 +27,7 @@ from .errors import InputError, SimulationError
 from .collision.sensor import SensorLog
 from .buoyancy import apply_buoyancy
 from .forces import Explosion, Impulse
+from .joints import P_ARMATURE
 from .joints import edit_count as _joint_edit_count
 from .math3d import quat_to_matrix
 from .kinematic import drive_paths, touched_by_kinematic
@@ -118,10 +119,11 @@ class Simulator:
         self.soft_step = None  # SoftStep: collision pipeline + contact solver, made on first use
         self.sleep = None  # solver.island.SleepState, made on the first step with contacts
         self.record_contacts = bool(record_contacts)
-        if joint_settings is None and world.exact_joints:
+        if joint_settings is None and (world.exact_joints or any(
+                j.bound is not None and j.bound.param[P_ARMATURE] > 0.0 for j in getattr(world, "joints", ()))):
             # light virtual links between joints (tumble.mjcf): Gauss-Seidel's soft rows leave errors of
             # tenths of a radian there (measured against MuJoCo), the exact tree solve converges; the
-            # same for armature and gears (World.add_joint)
+            # same for armature and gears (World.add_joint; an armature set on a record after it too)
             from .solver.joints import ACCURATE
 
             joint_settings = ACCURATE

@@ -31,7 +31,6 @@ accumulated ``force`` (N, 3) N, ``torque`` (N, 3) N m, world, about the centre o
 from __future__ import annotations
 
 import math
-import weakref
 from typing import Any
 
 import numpy as np
@@ -388,21 +387,14 @@ class World:
             # flywheel slipped 0.081 rad in 2 s with Box2D's soft rows and blew up within 0.2 s with rigid
             # ones; the tree method takes it through the tree (2e-15 rad; measured): the default
             self.exact_joints = True
-        self.joint_armature_set(bound.param[P_ARMATURE])
-        # the world, for an edit of the record's armature (tumble.joints.edit_joint); weak: a record
-        # kept after its world is gone keeps nothing alive
-        object.__setattr__(joint, "_world", weakref.ref(self))
-        self.joints.append(joint)
-        return joint
-
-    def joint_armature_set(self, armature: float):
-        """A joint of this world has ``armature`` (kg m^2 or kg) now (added or edited)."""
-        if armature > 0.0:
+        if bound.param[P_ARMATURE] > 0.0:
             # Gauss-Seidel converges slowly, and with limits not at all, where the armature dwarfs the
             # links' inertia (two 0.1 kg links of 0.4 m with armature 1 swung twice the exact angle in
             # 1 s; 0.04 kg links against a limit went to NaN; measured): the exact tree solve by default
-            # (read when a Simulator is made: one made before keeps its method)
+            # (an armature set on the record later: Simulator's default looks at the rows too)
             self.exact_joints = True
+        self.joints.append(joint)
+        return joint
 
     def add_path(self, path, place: bool = True):
         """Add a ``tumble.kinematic.KeyframePath``: before each step the Simulator sets its
