@@ -17,7 +17,7 @@ body in plain Python, and the tests compare the two.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, ClassVar, Sequence
 
 import math
 
@@ -34,6 +34,51 @@ UFORCE_PARAMS = 12
 FLUID_MINVAL = 1e-15
 
 
+# the count of edits of force records already added to a world, in this process (``_ForceRecord``):
+# a World rebuilds its force tables, and a Simulator wakes the edited records' bodies, when it moved
+_EDITS = [0]
+# fields naming the bodies a record acts on: resolved against the world at ``add_force``
+_BODY_FIELDS = frozenset({"body", "body_a", "body_b", "bodies"})
+
+
+def force_edit_count() -> int:
+    """The number of edits of added force records so far in this process."""
+    return _EDITS[0]
+
+
+class _ForceRecord:
+    """The force records' base: a field set on a record already added to a world (``World.add_force``)
+    is checked as the constructor checks it (InputError, the record as it was) and acts from the
+    next step: the world's force tables are rebuilt and the Simulator wakes the record's bodies
+    (``f.force = (0, 0, 5)``, ``spring.stiffness = 80``, ``wind.wind = (3, 0, 0)``). Before,
+    such a set did nothing until ``World.forces_changed()`` was called. The bodies a record acts
+    on are fixed once it is added (remove it and add another)."""
+
+    _edit_stamp: ClassVar[int] = 0  # force_edit_count() at this record's last edit (0: never)
+
+    def __setattr__(self, name, value):
+        d = self.__dict__
+        if not d.get("_added") or d.get("_checking") or name not in self.__dataclass_fields__:
+            object.__setattr__(self, name, value)
+            return
+        if name in _BODY_FIELDS:
+            raise InputError("fixed when the force was added: remove it and add a new one for other bodies", name)
+        if name == "rest_length" and value is None:
+            raise InputError("a spring takes its length at add_force only: give a length in m", name)
+        saved = dict(d)
+        object.__setattr__(self, name, value)
+        d["_checking"] = True
+        try:
+            self.__post_init__()  # the constructor's checks, and its normal forms (tuples of floats)
+        except InputError:
+            d.clear()
+            d.update(saved)
+            raise
+        del d["_checking"]
+        _EDITS[0] += 1
+        d["_edit_stamp"] = _EDITS[0]
+
+
 def _nonnegative(value, key):
     try:
         v = float(value)
@@ -45,7 +90,7 @@ def _nonnegative(value, key):
 
 
 @dataclass
-class Drag:
+class Drag(_ForceRecord):
     """Drag relative to the air, which moves at ``wind`` (m/s, world).
 
     Force  F   = -(linear + quadratic |u|) u,           u = v - wind       (N)
@@ -76,7 +121,7 @@ def Wind(velocity=(0.0, 0.0, 0.0), linear=0.0, quadratic=0.0, bodies=None) -> Dr
 
 
 @dataclass
-class Buoyancy:
+class Buoyancy(_ForceRecord):
     """A still body of fluid (water) filling the world below a level surface: Archimedes' buoyancy on
     the part of each body under it, and drag there (tumble.buoyancy).
 
@@ -125,7 +170,7 @@ class Buoyancy:
 
 
 @dataclass
-class Fluid:
+class Fluid(_ForceRecord):
     """A fluid filling the world, as MuJoCo's inertia-box model (``<option density viscosity wind>``;
     MuJoCo's documentation, "Fluid forces"): Gymnasium's swimmer swims in it.
 
@@ -198,7 +243,7 @@ def fluid_box(mass: float, inertia_body, frame=None):
 
 
 @dataclass
-class ConstantForce:
+class ConstantForce(_ForceRecord):
     """Constant ``force`` (N) through the centre of mass and ``torque`` (N m), both world frame, on ``body``."""
 
     body: Any
@@ -211,7 +256,7 @@ class ConstantForce:
 
 
 @dataclass
-class PointForce:
+class PointForce(_ForceRecord):
     """Constant ``force`` (N, world) applied at ``point`` (m), giving torque (p - x) x F (Baraff 2001 eq. 2-37).
 
     ``frame="world"``: the point is fixed in the world (e.g. a thruster's
@@ -232,7 +277,7 @@ class PointForce:
 
 
 @dataclass
-class Spring:
+class Spring(_ForceRecord):
     """Damped spring between a point on ``body_a`` and a point on ``body_b`` (or a world anchor).
 
     Baraff's damped spring: with d = p_a - p_b, l = |d|, u = d / l,
@@ -265,7 +310,7 @@ class Spring:
 
 
 @dataclass
-class Impulse:
+class Impulse(_ForceRecord):
     """Instantaneous ``impulse`` (N s, world) on ``body`` at world ``point`` (None: the centre of mass).
 
     Applied once, before the first step that starts at or after ``time`` (s):
@@ -285,7 +330,7 @@ class Impulse:
 
 
 @dataclass
-class Explosion:
+class Explosion(_ForceRecord):
     """A blast at world ``position`` (m) at ``time`` (s): Box2D v3's ``b2World_Explode`` in 3-D.
 
     Every shape of a dynamic body within ``radius + falloff`` (m) of the centre takes an impulse
@@ -332,7 +377,7 @@ class Explosion:
 
 
 @dataclass
-class CustomForce:
+class CustomForce(_ForceRecord):
     """A user Python function adding force and torque (slow path: called every stage).
 
     ``function(t, body) -> (force (3,), torque (3,))`` in N and N m, world

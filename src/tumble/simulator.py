@@ -26,7 +26,7 @@ from . import integrators as K
 from .errors import InputError, SimulationError
 from .collision.sensor import SensorLog
 from .buoyancy import apply_buoyancy
-from .forces import Explosion, Impulse
+from .forces import Explosion, Impulse, force_edit_count
 from .joints import P_ARMATURE
 from .joints import edit_count as _joint_edit_count
 from .math3d import quat_to_matrix
@@ -132,6 +132,7 @@ class Simulator:
         # tumble.joints.edit_count() when this simulator last took the joint records' edits
         # (``_take_joint_edits``); the edits before it was made have nothing here to wake
         self._joint_edits_seen = _joint_edit_count()
+        self._force_edits_seen = force_edit_count()  # the same for the force records (_take_force_edits)
         # begin and end touch events, step by step, when asked for (solver.contact_events)
         self._event_log = ContactEventLog() if contact_events else None
         self._sensor_log = None  # collision.sensor.SensorLog, made on the first step of a world with a sensor
@@ -291,6 +292,8 @@ class Simulator:
         sleep = self._sleep_state()
         if self._joint_edits_seen != _joint_edit_count():
             self._take_joint_edits()
+        if self._force_edits_seen != force_edit_count():
+            self._take_force_edits()
         if w.wake_requests:  # bodies the user moved, pushed or placed since the last step
             if sleep is not None:
                 sleep.resize(w.body_count)
@@ -414,6 +417,25 @@ class Simulator:
         solver = None if self.soft_step is None else self.soft_step.joints
         if solver is not None and solver.count == len(joints):
             solver.take_edits()
+
+    def _take_force_edits(self):
+        """The bodies of the force records edited since this simulator last looked (a field set on
+        an added record: ``forces._ForceRecord``) woken at the next step: a resting box given a push,
+        a hanging weight given a stiffer spring (a record over all bodies: all of them)."""
+        w = self.world
+        seen = self._force_edits_seen
+        for f in w.forces:
+            if f._edit_stamp <= seen:
+                continue
+            if getattr(f, "bodies", 0) is None:  # a drag or fluid over every moving body
+                w.wake_requests.update(int(i) for i in np.flatnonzero(w.moving))
+                continue
+            for name in ("body", "body_a", "body_b"):
+                b = getattr(f, name, None)
+                if b is not None:
+                    w.wake_requests.add(w.index_of(b))
+            w.wake_requests.update(w.index_of(b) for b in getattr(f, "bodies", None) or ())
+        self._force_edits_seen = force_edit_count()
 
     def _sleep_state(self):
         """The ``SleepState`` (``self.sleep``) when the world lets bodies sleep, else None."""
@@ -873,6 +895,7 @@ class Simulator:
         from .checkpoint import save_checkpoint
 
         self._take_joint_edits()  # the rows and the wakes of records edited since the last step
+        self._take_force_edits()
         return save_checkpoint(self, path, run)
 
     def save_state(self):
@@ -885,6 +908,7 @@ class Simulator:
         from .snapshot import save_state
 
         self._take_joint_edits()
+        self._take_force_edits()
         return save_state(self)
 
     def restore_state(self, state) -> None:

@@ -49,6 +49,7 @@ from .forces import (
     PointForce,
     Spring,
     build_force_tables,
+    force_edit_count,
 )
 from .mass import MassProperties, mass_properties
 from .material import Material
@@ -107,6 +108,7 @@ class World:
         self.pair_materials: dict[tuple[int, int], Material] = {}  # (lo, hi) body rows: their contacts' material
         self.pair_material_version = 0  # bumped when they change: the contact solver rereads them
         self.material_version = 0  # bumped by set_material: the contact solver and pipeline reread materials
+        self._force_edits = 0  # forces.force_edit_count() when the force tables were built
         # True when a body hangs between two joints with next to no mass (an MJCF body with several
         # joints, tumble.mjcf) or a joint has armature (add_joint): the Simulator then solves joints
         # exactly by default (the tree method)
@@ -352,6 +354,7 @@ class World:
             pa, pb = self.spring_endpoints(force)
             force.rest_length = float(np.linalg.norm(pa - pb))
         self.forces.append(force)
+        object.__setattr__(force, "_added", True)  # its fields' edits rebuild the tables (forces._ForceRecord)
         self._tables = None
         return force
 
@@ -365,6 +368,7 @@ class World:
         for k, f in enumerate(self.forces):
             if f is force:
                 del self.forces[k]
+                object.__setattr__(force, "_added", False)
                 # the applied impulses are counted by their place in ``forces``: those after k move up one
                 self.applied_impulses = {j - 1 if j > k else j for j in self.applied_impulses}
                 self._tables = None
@@ -372,8 +376,8 @@ class World:
         raise InputError(f"not a force of this world: {force!r}", "forces")
 
     def forces_changed(self):
-        """Say that force records were changed in place (a spring's anchor moved, a drag's
-        coefficient set): the kernels' force tables are rebuilt before the next step."""
+        """Say that force records were changed in place: the kernels' force tables are rebuilt
+        before the next step. (A field set on an added record does this itself.)"""
         self._tables = None
 
     def add_joint(self, joint):
@@ -636,7 +640,8 @@ class World:
     @property
     def tables(self):
         """The force tables the kernels read (rebuilt when forces or bodies change)."""
-        if self._tables is None:
+        if self._tables is None or self._force_edits != force_edit_count():
+            self._force_edits = force_edit_count()  # (any world's record edited: rebuilt, the same tables or new)
             self._tables = build_force_tables(self.forces, self.body_count, self.moving, self.index_of, self.mass,
                                               self.inertia_body)
         return self._tables

@@ -348,8 +348,7 @@ class LiveViewer(Viewer):
             target = np.asarray(target, dtype=float)
             if target.shape != (3,) or not np.all(np.isfinite(target)):
                 raise InputError(f"expected a finite (3,) point, got {target!r}", "target")
-            spring.anchor_b = tuple(float(c) for c in target)
-            self.sim.world.forces_changed()
+            spring.anchor_b = tuple(float(c) for c in target)  # an added record's edit: acts at the next step
             self.sim.world.wake_requests.add(index)
 
     def release(self):
