@@ -170,15 +170,21 @@ def test_inertia_sources(tmp_path):
         load_urdf(tb.World(), path, inertia="guess")
 
 
-def test_motor_and_position_control(tmp_path):
-    # a 1 kg, 0.2 m cube turning about z through its centre: I = m (0.2^2 + 0.2^2) / 12 = 0.00667.
-    # The motor's torque is at most the URDF's effort, 0.02 N m: alpha = 0.02 / I = 3 rad/s^2
-    # until the target speed 1.5 rad/s (0.5 s); then the PD drive takes it to 0.25 rad.
+def wheel_robot(tmp_path):
+    """(world, robot, sim): a wheel on a continuous joint about z (the URDF's effort 0.02 N m), no gravity."""
     text = urdf(link("base", mass=None) + link("wheel", inertia=0.08 / 12)
                 + joint("spin", "continuous", "base", "wheel", axis="0 0 1", extra='<limit effort="0.02"/>'))
     world = tb.World(gravity=(0, 0, 0))
     robot = load_urdf(world, write(tmp_path, text))
     sim = tb.Simulator(world, dt=1 / 240)
+    return world, robot, sim
+
+
+def test_motor_and_position_control(tmp_path):
+    # a 1 kg, 0.2 m cube turning about z through its centre: I = m (0.2^2 + 0.2^2) / 12 = 0.00667.
+    # The motor's torque is at most the URDF's effort, 0.02 N m: alpha = 0.02 / I = 3 rad/s^2
+    # until the target speed 1.5 rad/s (0.5 s); then the PD drive takes it to 0.25 rad.
+    world, robot, sim = wheel_robot(tmp_path)
     robot.set_motor(sim, "spin", 1.5)  # before the first step: written into the joint record
     sim.step(60)
     assert robot.joint_states(sim)["spin"][1] == pytest.approx(3.0 * 0.25, rel=1e-6)
@@ -200,11 +206,7 @@ def test_a_sleeping_robot_wakes_to_a_new_control(tmp_path):
     # The wheel of test_motor_and_position_control held by its PD drive at 0 falls asleep; a new
     # position target wakes it (Box2D's joint setters wake the joint's bodies) and it turns to it
     # (before, it stayed asleep at 0: the control was written, nothing woke the wheel).
-    text = urdf(link("base", mass=None) + link("wheel", inertia=0.08 / 12)
-                + joint("spin", "continuous", "base", "wheel", axis="0 0 1", extra='<limit effort="0.02"/>'))
-    world = tb.World(gravity=(0, 0, 0))
-    robot = load_urdf(world, write(tmp_path, text))
-    sim = tb.Simulator(world, dt=1 / 240)
+    world, robot, sim = wheel_robot(tmp_path)
     robot.set_position_target(sim, "spin", target=0.0, stiffness=2.0, damping=0.3, max_force=10.0)
     sim.step(240)
     assert not sim.sleep.awake[world.index_of(robot.links["wheel"])]
