@@ -125,6 +125,8 @@ def _joint_to_dict(world, joint) -> dict:
         out[f.name] = value
     out["bound"] = {"local_a": b.local_a.tolist(), "local_b": b.local_b.tolist(), "frame_a": b.frame_a.tolist(),
                     "frame_b": b.frame_b.tolist(), "param": b.param.tolist()}
+    if math.isfinite(b.length):  # the anchors' distance at creation (an edit of a distance joint's lengths reads it)
+        out["bound"]["length"] = float(b.length)
     return out
 
 
@@ -174,9 +176,12 @@ def _joint_from_dict(world, record, key: str):
         if a is None or a.shape != shape or np.isnan(a).any() or (name != "param" and not np.isfinite(a).all()):
             raise InputError(f"expected {'x'.join(map(str, shape))} finite numbers", f"{key}.bound.{name}")
         arrays[name] = a
+    length = bound.get("length", math.nan)  # (absent: written before session 38, or not known)
+    if isinstance(length, bool) or not isinstance(length, (int, float)) or not (math.isnan(length) or length >= 0.0):
+        raise InputError(f"expected a length >= 0, got {length!r}", f"{key}.bound.length")
     joint = cls(**record)
     joint.bound = BoundJoint(JOINT_TYPES[kind], ends[0], ends[1], arrays["local_a"], arrays["local_b"],
-                             arrays["frame_a"], arrays["frame_b"], arrays["param"])
+                             arrays["frame_a"], arrays["frame_b"], arrays["param"], float(length))
     object.__setattr__(joint, "broken", broken)  # the saved state, not an edit (tumble.joints.set_broken)
     return joint
 

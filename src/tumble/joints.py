@@ -691,7 +691,7 @@ def edit_joint(joint: Joint, name: str, value):
         if isinstance(joint, DistanceJoint) and math.isnan(length) and (
                 joint.target is None or (joint.min_length is None and joint.max_length is None)):
             raise InputError("the joint's length at creation is not known here (a record read from a "
-                             "checkpoint of an older version): give the lengths and target", name)
+                             "checkpoint written before session 38): give the lengths and target", name)
     except InputError:
         object.__setattr__(joint, name, old)
         raise

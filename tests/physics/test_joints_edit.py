@@ -288,3 +288,28 @@ def test_a_world_with_edited_joints_pickles_and_its_copy_edits_alone():
     for world in (w, copy):
         tb.Simulator(world, dt=DT).step(120)
     assert checks.state_hash(copy) == checks.state_hash(w)
+
+
+def test_a_resumed_distance_joint_knows_its_length_at_creation(tmp_path):
+    """A checkpoint carries a distance joint's anchor distance at creation (``BoundJoint.length``):
+    after a load, a rope's lengths set back to None make it the rigid rod of that distance, as in
+    the run that saved (the same row and the same bits after 0.5 s)."""
+    def start():
+        w = two_boxes()
+        w.add_joint(DistanceJoint("a", "b", anchor=(0.0, 0.0, 0.9), anchor_b=(0.0, 0.0, 0.6), min_length=0.0,
+                                  max_length=0.5, target=0.4))  # (a target given: the row holds no length)
+        sim = tb.Simulator(w, dt=DT)
+        sim.step(24)
+        return sim
+
+    whole, first = start(), start()
+    first.save_checkpoint(tmp_path / "c.npz")
+    resumed = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    for sim in (whole, resumed):
+        rope = sim.world.joints[0]
+        assert rope.bound.length == pytest.approx(0.3, abs=1e-12)
+        rope.min_length = None
+        rope.max_length = None
+        assert rope.bound.param[0] == rope.bound.param[1] == rope.bound.length
+        sim.step(120)
+    assert checks.state_hash(resumed.world) == checks.state_hash(whole.world)
