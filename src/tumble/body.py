@@ -79,7 +79,9 @@ class Body:
     @surface_velocity.setter
     def surface_velocity(self, value):
         self.world.surface_velocity[self.index] = finite_vector(value, "surface_velocity")
-    mass = property(lambda self: float(self.world.mass[self.index]))
+    mass = property(lambda self: float(self.world.mass[self.index]),
+                    lambda self, value: self.world.set_mass(self.index, value),
+                    doc="kg (inf: fixed or kinematic). Set: ``World.set_mass`` (the inertia scaled with it).")
 
     def set_mass(self, mass: float, inertia=None):
         """``World.set_mass`` of this body: mass kg and inertia kg m^2 (None: scaled with the mass),

@@ -100,7 +100,8 @@ def test_a_resting_box_given_a_new_mass_carries_its_new_weight():
     sim = tb.Simulator(w)
     sim.step(240 * 2)
     assert not sim.sleep.awake[1]
-    box.set_mass(5.0)
+    box.mass = 5.0  # Body.mass's setter: World.set_mass
+    assert w.mass[1] == 5.0 and box.inertia_body[0, 0] == pytest.approx(5.0 / 12 * (0.6 ** 2 + 0.3 ** 2), rel=1e-12)
     w.sleeping = False  # measured over 1 s of rest: a sleeping box has no contacts to measure
     sim.step(240)
     total = 0.0
