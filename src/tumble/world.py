@@ -159,6 +159,21 @@ class World:
         return moving
 
     # ------------------------------------------------------------------ building
+    @property
+    def gravity(self) -> np.ndarray:
+        """(3,) m/s^2, world frame: the acceleration applied to every moving body (as m g)."""
+        return self._gravity
+
+    @gravity.setter
+    def gravity(self, value):
+        """Set between steps too (a maze tilted, a moon's 1.62 m/s^2): checked (InputError keyed
+        ``gravity``), and a change wakes every moving body (a sleeping pile would not feel it)."""
+        g = finite_vector(value, "gravity")
+        old = self.__dict__.get("_gravity")
+        self._gravity = g
+        if old is not None and not np.array_equal(old, g) and self.body_count:
+            self.wake_requests.update(int(i) for i in np.flatnonzero(self.moving))
+
     def add_body(
         self,
         shape,
