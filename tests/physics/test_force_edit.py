@@ -88,3 +88,22 @@ def test_a_removed_or_never_added_record_is_a_plain_record_and_worlds_with_force
         tb.Simulator(world, dt=1 / 240).step(24)
     assert checks.state_hash(copy) == checks.state_hash(w)
     assert w.v[0, 0] == pytest.approx(0.5 * 0.1, abs=1e-12) and math.isfinite(w.x[0, 0])
+
+
+def test_a_wind_over_every_body_set_on_a_sleeping_world_wakes_them_and_drags_them_along():
+    """A drag over every moving body (``bodies=None``) with still air; two boxes asleep on a
+    frictionless ground; the wind set to 2 m/s along x: both wake and follow
+    v = w (1 - exp(-c t / m)) (linear drag c = 1 N s/m, m = 2 kg), at 1 s to 1e-3 relative (the
+    step's first-order velocity update of a velocity-dependent force; measured 2e-4)."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, material=tb.Material(friction=0.0))
+    for x in (0.0, 2.0):
+        w.add_body(tb.Box(size=(0.4, 0.4, 0.4)), mass=2.0, position=(x, 0, 0.2), material=tb.Material(friction=0.0))
+    wind = w.add_force(tb.Wind(velocity=(0.0, 0.0, 0.0), linear=1.0))
+    sim = tb.Simulator(w)
+    sim.step(240 * 2)
+    assert not sim.sleep.awake[1:].any()
+    wind.wind = (2.0, 0.0, 0.0)
+    sim.step(240)
+    expected = 2.0 * (1.0 - math.exp(-1.0 * 1.0 / 2.0))
+    np.testing.assert_allclose(w.v[1:, 0], [expected, expected], rtol=1e-3)
