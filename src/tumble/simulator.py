@@ -429,12 +429,8 @@ class Simulator:
                 continue
             if getattr(f, "bodies", 0) is None:  # a drag or fluid over every moving body
                 w.wake_requests.update(int(i) for i in np.flatnonzero(w.moving))
-                continue
-            for name in ("body", "body_a", "body_b"):
-                b = getattr(f, name, None)
-                if b is not None:
-                    w.wake_requests.add(w.index_of(b))
-            w.wake_requests.update(w.index_of(b) for b in getattr(f, "bodies", None) or ())
+            else:
+                w.wake_requests.update(w.force_bodies(f))
         self._force_edits_seen = force_edit_count()
 
     def _sleep_state(self):

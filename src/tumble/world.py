@@ -330,13 +330,7 @@ class World:
             a["principal_q"][i] = (1.0, 0.0, 0.0, 0.0)
             a["principal_moments"][i] = math.inf
         else:
-            a["mass"][i] = props.mass
-            a["inv_mass"][i] = 1.0 / props.mass
-            a["inertia_body"][i] = props.inertia
-            a["inertia_body_inv"][i] = inverse3(np.asarray(props.inertia, dtype=float))
-            moments, axes = props.principal()
-            a["principal_q"][i] = matrix_to_quat(np.ascontiguousarray(axes))
-            a["principal_moments"][i] = moments
+            self._write_mass_properties(i, props)
             omega = angular_velocity if angular_velocity_frame == "world" else mat_vec(R, angular_velocity)
             a["P"][i] = props.mass * velocity
             a["L"][i] = mat_vec(rotate_tensor(R, np.asarray(props.inertia, dtype=float)), omega)
@@ -359,12 +353,7 @@ class World:
         if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy, Fluid,
                                   CustomForce)):
             raise InputError(f"not a force record: {force!r}", "forces")
-        for attr in ("body", "body_a", "body_b"):
-            b = getattr(force, attr, None)
-            if b is not None:
-                self.index_of(b)
-        for b in getattr(force, "bodies", None) or ():
-            self.index_of(b)
+        self.force_bodies(force)  # each known (InputError)
         if isinstance(force, Spring) and force.rest_length is None:
             pa, pb = self.spring_endpoints(force)
             force.rest_length = float(np.linalg.norm(pa - pb))
@@ -389,6 +378,14 @@ class World:
                 self._tables = None
                 return
         raise InputError(f"not a force of this world: {force!r}", "forces")
+
+    def force_bodies(self, force) -> list[int]:
+        """The rows of the bodies a force record names (``body``, ``body_a``, ``body_b``,
+        ``bodies``; a record over every moving body, ``bodies=None``, names none). InputError:
+        one unknown."""
+        rows = [self.index_of(b) for b in (getattr(force, k, None) for k in ("body", "body_a", "body_b"))
+                if b is not None]
+        return rows + [self.index_of(b) for b in getattr(force, "bodies", None) or ()]
 
     def forces_changed(self):
         """Say that force records were changed in place: the kernels' force tables are rebuilt
@@ -580,31 +577,30 @@ class World:
         if not self.moving[i]:
             raise InputError("a fixed or kinematic body has no mass to set (infinite: it is not moved by forces)",
                              "mass")
-        if isinstance(mass, bool) or not isinstance(mass, (int, float, np.floating, np.integer)) \
-                or not math.isfinite(mass) or mass <= 0:
-            raise InputError(f"must be a positive number, got {mass!r}", "mass")
-        mass = float(mass)
-        if inertia is None:
-            I = self.inertia_body[i] * (mass / self.mass[i])
-        else:
-            I = _override_inertia(MassProperties(mass, np.zeros(3), np.eye(3)), inertia).inertia
-        _check_inertia(I)
-        props = MassProperties(mass, np.zeros(3), np.array(I, dtype=float))
+        mass = _positive_mass(mass)
+        props = MassProperties(mass, np.zeros(3), self.inertia_body[i] * (mass / self.mass[i]))
+        if inertia is not None:
+            props = _override_inertia(props, inertia)
+        _check_inertia(props.inertia)
         v, omega = self.v[i].copy(), self.omega[i].copy()
-        a = self._arrays
-        a["mass"][i] = mass
-        a["inv_mass"][i] = 1.0 / mass
-        a["inertia_body"][i] = props.inertia
-        a["inertia_body_inv"][i] = inverse3(props.inertia)
-        moments, axes = props.principal()
-        a["principal_q"][i] = matrix_to_quat(np.ascontiguousarray(axes))
-        a["principal_moments"][i] = moments
-        R = self.R[i]
-        a["P"][i] = mass * v
-        a["L"][i] = mat_vec(rotate_tensor(R, props.inertia), omega)
+        self._write_mass_properties(i, props)
+        self._arrays["P"][i] = mass * v
+        self._arrays["L"][i] = mat_vec(rotate_tensor(self.R[i], props.inertia), omega)
         self._tables = None  # force tables may hold what a body's mass decides (a fluid's inertia box)
         self.wake_requests.add(i)
         self.update_derived()
+
+    def _write_mass_properties(self, i: int, props: MassProperties):
+        """Body row i's mass, inverse mass, inertia, its inverse and principal axes from ``props``
+        (a moving body's: add_body, set_mass)."""
+        a = self._arrays
+        a["mass"][i] = props.mass
+        a["inv_mass"][i] = 1.0 / props.mass
+        a["inertia_body"][i] = props.inertia
+        a["inertia_body_inv"][i] = inverse3(np.asarray(props.inertia, dtype=float))
+        moments, axes = props.principal()
+        a["principal_q"][i] = matrix_to_quat(np.ascontiguousarray(axes))
+        a["principal_moments"][i] = moments
 
     def set_pair_material(self, body_a, body_b, material):
         """The contacts between ``body_a`` and ``body_b`` (``Body``, name or index) take
@@ -807,11 +803,16 @@ def _given_mass_properties(mass, density, inertia, center_of_mass):
     if mass is None or inertia is None or density is not None:
         raise InputError("give center_of_mass with mass and inertia (not density): the shape's own are then not used",
                          "center_of_mass")
+    center = finite_vector(center_of_mass, "center_of_mass")
+    return _override_inertia(MassProperties(_positive_mass(mass), center, np.eye(3)), inertia)
+
+
+def _positive_mass(mass) -> float:
+    """``mass`` as a float, kg (InputError keyed ``mass``: not a positive finite number)."""
     if isinstance(mass, bool) or not isinstance(mass, (int, float, np.floating, np.integer)) \
             or not math.isfinite(mass) or mass <= 0:
         raise InputError(f"must be a positive number, got {mass!r}", "mass")
-    center = finite_vector(center_of_mass, "center_of_mass")
-    return _override_inertia(MassProperties(float(mass), center, np.eye(3)), inertia)
+    return float(mass)
 
 
 def _override_inertia(props, inertia):
