@@ -68,6 +68,10 @@ class Body:
         self.world.filter_version += 1
 
     fixed = property(lambda self: not (self.world.moving[self.index] or self.world.kinematic[self.index]))
+    type = property(lambda self: self.world.body_type(self.index),
+                    lambda self, value: self.world.set_body_type(self.index, value),
+                    doc='``"dynamic"``, ``"kinematic"`` or ``"fixed"``; set it between steps '
+                        '(``World.set_body_type``: a carried body let go, a falling one frozen).')
     kinematic = property(lambda self: bool(self.world.kinematic[self.index]))
     sensor = property(lambda self: bool(self.world.sensor[self.index]))
 

@@ -46,7 +46,8 @@ from .world import Material, World
 
 FORMAT = "tumble-checkpoint"
 VERSION = 1
-CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q", "principal_moments", "com_offset", "moving")
+CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q", "principal_moments", "com_offset", "moving",
+             "dynamic_mass")  # dynamic_mass: absent from checkpoints written before session 39 (World.set_body_type)
 STATE = ("x", "q", "R", "P", "L")
 # kinematic bodies (World.kinematic, their velocities), surface velocities and sensors: absent
 # from checkpoints written before they existed, which load with none
@@ -301,7 +302,7 @@ def load_checkpoint(cls, path, custom_forces=None):
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE + KINEMATIC if name in data.files}
-            missing = [name for name in CONSTANTS + STATE if name not in arrays]
+            missing = [name for name in CONSTANTS + STATE if name not in arrays and name != "dynamic_mass"]
             if missing:
                 raise KeyError(f"{missing[0]} is not a file in the archive")
             warm, sleep, joint_state = _solver_parts(data.files, lambda name: np.array(data[name]))

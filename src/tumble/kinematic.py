@@ -36,6 +36,11 @@ class KeyframePath:
         repeat: after the last key, start again from the first (period times[-1] - times[0]):
             each period ends on the last key, the next begins at the first (a jump unless the
             last pose is the first: make it so for a closed loop). Default: hold the last pose.
+        release: at the last key, let the body go: it becomes dynamic (``World.set_body_type``)
+            and goes on at the velocity it arrived with, the last step's (a ball thrown, a crate
+            dropped by a crane, an animated object handed to the simulation: Blender's
+            "Animated" box unticked at a frame). The body needs a mass (``mass`` or ``density``
+            at ``add_body``). Not with ``repeat``.
     """
 
     body: Any
@@ -44,6 +49,7 @@ class KeyframePath:
     orientations: Any = None
     euler_deg: Any = None
     repeat: bool = False
+    release: bool = False
 
     def __post_init__(self):
         t = np.asarray(self.times, dtype=float) if _numbers(self.times) else None
@@ -68,6 +74,11 @@ class KeyframePath:
         if not isinstance(self.repeat, (bool, np.bool_)):
             raise InputError(f"expected true or false, got {self.repeat!r}", "repeat")
         self.repeat = bool(self.repeat)
+        if not isinstance(self.release, (bool, np.bool_)):
+            raise InputError(f"expected true or false, got {self.release!r}", "release")
+        self.release = bool(self.release)
+        if self.release and self.repeat:
+            raise InputError("a repeating path has no last key to let its body go at: give repeat or release", "release")
 
     def pose(self, t: float):
         """(position (3,) m of the shape origin, quaternion (4,) or None) on the path at time t (s)."""
@@ -97,7 +108,7 @@ class KeyframePath:
     def to_dict(self) -> dict:
         return {"times": self.times.tolist(), "positions": self.positions.tolist(),
                 "orientations": None if self.orientations is None else self.orientations.tolist(),
-                "repeat": self.repeat}
+                "repeat": self.repeat, "release": self.release}
 
 
 def _numbers(value) -> bool:
@@ -166,6 +177,8 @@ def bind_path(world, path: KeyframePath) -> int:
         raise InputError(f"body {world.names[i]!r} is not kinematic: only a kinematic body follows a path", "body")
     if any(world.index_of(p.body) == i for p in world.paths):
         raise InputError(f"body {world.names[i]!r} already has a path", "body")
+    if path.release and not math.isfinite(world.dynamic_mass[i]) and type(world.shapes[i]).__name__ != "Particles":
+        raise InputError(f"body {world.names[i]!r} has no mass to be let go with: give it a mass or density", "release")
     return i
 
 

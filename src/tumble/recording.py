@@ -91,13 +91,15 @@ def frame_values(world: World) -> dict:
         }
 
 
-def static_values(world: World) -> dict:
-    """The per-body keys of the trajectory file that do not change with time."""
+def static_values(world: World, fixed=None) -> dict:
+    """The per-body keys of the trajectory file that do not change with time. ``fixed`` (N,) bool:
+    the bodies fixed at every recorded frame (``World.set_body_type`` changes a body's type
+    during a run; the exports animate every body that was not), default the world's now."""
     return {
         "names": np.array(world.names, dtype=str),
         "com_offset": world.com_offset.copy(),
         "shapes": np.array([json.dumps(shape_to_dict(sh)) for sh in world.shapes], dtype=str),
-        "fixed": world.fixed.copy(),
+        "fixed": world.fixed.copy() if fixed is None else np.asarray(fixed, dtype=bool).copy(),
         # only in a world with a sensor: the files of others keep their bytes
         **({"sensor": world.sensor.copy()} if world.sensor.any() else {}),
     }
@@ -150,6 +152,7 @@ class _Recorder:
         self.sensors_of = sensors_of  # a Simulator whose sensor_frame() is recorded each frame, or None
         n = world.body_count
         self.count = 0
+        self.fixed = world.fixed.copy()  # fixed at every frame recorded so far (static_values)
         self.arrays = {}
         for key, shape in self.KEYS.items():
             if shape is None or shape == ():
@@ -181,6 +184,7 @@ class _Recorder:
             self.grow()
         for key, value in frame_values(self.world).items():
             self.arrays[key][self.count] = value
+        self.fixed &= self.world.fixed
         if self.contacts_of is not None:
             self.contact_frames.append(self.contacts_of.contacts())
         if self.joints_of is not None:
@@ -199,4 +203,4 @@ class _Recorder:
             contacts = pad_contacts([len(c) for c in frames], rows)
         if self.joints_of is not None:
             contacts["joint_names"] = np.array([j.name or "" for j in self.world.joints], dtype=str)
-        return Trajectory(**{key: a[:k].copy() for key, a in self.arrays.items()}, **static_values(self.world), **contacts)
+        return Trajectory(**{key: a[:k].copy() for key, a in self.arrays.items()}, **static_values(self.world, self.fixed), **contacts)

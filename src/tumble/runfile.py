@@ -14,6 +14,8 @@ import threading
 import time as _time
 from pathlib import Path
 
+import numpy as np
+
 from . import checks
 from .errors import InputError, SimulationError
 from .trajectory import TrajectoryWriter, frame_bytes, write_json_atomic
@@ -57,7 +59,13 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
     _check_disk(out, (total + 1) * frame_bytes(w.body_count))
 
     sensing = sim._sensing()
-    writer = TrajectoryWriter(out / TRAJECTORY, static_values(w), w.body_count, keep_frames=recorded if resume else None,
+    # the bodies fixed at every frame so far: a resumed run's earlier frames are in its checkpoint
+    fixed_so_far = meta.get("fixed") if resume else None
+    if fixed_so_far is not None and len(fixed_so_far) != w.body_count:
+        raise InputError(f"the checkpoint's run lists {len(fixed_so_far)} bodies, its world {w.body_count}", None,
+                         str(out / CHECKPOINT))
+    writer = TrajectoryWriter(out / TRAJECTORY, static_values(w, None if fixed_so_far is None else
+                                                                  np.asarray(fixed_so_far, dtype=bool) & w.fixed), w.body_count, keep_frames=recorded if resume else None,
                               contacts=sim.record_contacts, joints=len(w.joints) if sim.record_joints else None,
                               sensors=int(w.sensor.sum()) if sensing else None)
     state = {"stop": None, "wall0": fig["wall_time_s"], "started": _time.perf_counter()}
@@ -65,6 +73,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
 
     def record():
         values = frame_values(w)
+        writer.static["fixed"] &= w.fixed  # fixed at every frame: a body whose type changed moved
         if sim.record_contacts:
             values["contacts"] = sim.contacts()
             values["contact_count"] = len(values["contacts"])
@@ -83,7 +92,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
         state["last_flush"] = _time.perf_counter()
         fig["wall_time_s"] = state["wall0"] + (state["last_flush"] - state["started"])
         writer.flush()
-        run = {"t_start": t_start, "frames": writer.frames, "duration": float(duration), "frame_rate": float(frame_rate),
+        run = {"t_start": t_start, "frames": writer.frames, "fixed": writer.static["fixed"].tolist(), "duration": float(duration), "frame_rate": float(frame_rate),
                "checkpoint_every": checkpoint_every, "figures": fig, "info": run_info}
         sim.save_checkpoint(out / CHECKPOINT, run=run)
         result = RunResult(

@@ -44,8 +44,8 @@ BODY_KEYS = (
 # fracture = {pieces, seed, strength, min_face}: the body as Voronoi cells glued by breakable joints (tumble.fracturing)
 FRACTURE_KEYS = ("pieces", "seed", "strength", "min_face")
 FRACTURE_SHAPES = (Box, Convex, Sphere, Capsule, Cylinder, Cone, Ellipsoid)
-# path = {times, positions, orientations or euler_deg, repeat}: a kinematic body's keyframes (tumble.kinematic)
-PATH_KEYS = ("times", "positions", "orientations", "euler_deg", "repeat")
+# path = {times, positions, orientations or euler_deg, repeat, release}: a kinematic body's keyframes (tumble.kinematic)
+PATH_KEYS = ("times", "positions", "orientations", "euler_deg", "repeat", "release")
 # collision_filter = {category, mask, group}: which bodies this one touches (collision/filter.py)
 # Per shape type: (required keys, optional keys).
 SHAPE_KEYS = {
@@ -151,8 +151,9 @@ class BodyReader(ValueReader):
                 if k in b:
                     raise self.error("a body on a path starts at the path's pose and moves at its velocity: "
                                      "give no position, orientation or velocity", f"{key}.{k}")
-            if "repeat" in path:
-                path["repeat"] = self.boolean(path["repeat"], f"{key}.path.repeat")
+            for k in ("repeat", "release"):
+                if k in path:
+                    path[k] = self.boolean(path[k], f"{key}.path.{k}")
         drop = self.boolean(b["drop"], f"{key}.drop") if "drop" in b else False
         if drop and path is not None:
             raise self.error("a body on a path starts at the path's pose: it cannot be dropped", f"{key}.drop")

@@ -133,6 +133,8 @@ class Simulator:
         # (``_take_joint_edits``); the edits before it was made have nothing here to wake
         self._joint_edits_seen = _joint_edit_count()
         self._force_edits_seen = force_edit_count()  # the same for the force records (_take_force_edits)
+        # how many of World.type_changes this simulator has taken (_take_type_changes)
+        self._type_changes_seen = len(getattr(world, "type_changes", ()))
         # begin and end touch events, step by step, when asked for (solver.contact_events)
         self._event_log = ContactEventLog() if contact_events else None
         self._sensor_log = None  # collision.sensor.SensorLog, made on the first step of a world with a sensor
@@ -196,10 +198,15 @@ class Simulator:
         end = self.step_index + count
         floating = bool(self.world.tables.buoyancy)
         while self.step_index < end:
+            if self.world.paths:
+                Y = self._release_due_paths(Y)
+            if self._type_changes_seen != len(self.world.type_changes):
+                Y = self._take_type_changes(Y)
             self._apply_due_impulses(Y)
             if check is not None:
                 check("apply_impulses", self.step_index * self.dt, Y=Y)
-            nxt = min([end] + [k for k in self._impulse_steps() if k > self.step_index])
+            nxt = min([end] + [k for k in self._impulse_steps() if k > self.step_index]
+                      + [k for k, _ in self._release_steps() if k > self.step_index])
             if floating:
                 # buoyancy and drag for this step (at the mid-step pose foreseen from its start:
                 # tumble.buoyancy), held over it; so one step at a time
@@ -398,6 +405,56 @@ class Simulator:
         if not self.world.sensor[i]:
             raise InputError(f"body {self.world.names[i]!r} is not a sensor", "sensor")
         return log.pairs[log.pairs[:, 0] == i, 1].copy()
+
+    def _release_steps(self) -> list:
+        """[(step, path)]: the keyframed paths that let their body go (``KeyframePath.release``)
+        and the first step starting at or after their last key."""
+        return [(int(math.ceil(p.times[-1] / self.dt - 1e-9)), p) for p in self.world.paths if p.release]
+
+    def _release_due_paths(self, Y: np.ndarray) -> np.ndarray:
+        """Make the bodies of the paths due to release at this step dynamic (``World.set_body_type``:
+        the body goes on at the velocity of the path's last step, which brought it to the last
+        key). Y (N, W) is the state now; returned as the world holds it after."""
+        due = [p for k, p in self._release_steps() if k <= self.step_index]
+        if not due:
+            return Y
+        w = self.world
+        w.unpack(Y)
+        for path in due:
+            w.set_body_type(path.body, "dynamic")
+        return w.pack()
+
+    def _take_type_changes(self, Y: np.ndarray) -> np.ndarray:
+        """The bodies whose type was changed since this simulator last looked (``World.
+        set_body_type``): the contact and joint stages made anew from the world as it is now (the
+        shape table says which bodies move, the joint tree is cut at the fixed ones, the force
+        tables list the moving ones), given their arrays of the step before as a restored snapshot
+        is (``snapshot.restore_state``: the warm start and sleep timers kept); the changed bodies,
+        those touching them or jointed to them woken (Box2D's b2Body_SetType wakes the body and
+        the bodies its contacts touch: a box asleep on a shelf made dynamic falls with it); the
+        blow-up check's energy taken again (a body let go brings its kinetic energy). Y (N, W) is
+        the state now; returned as the world holds it after."""
+        from .snapshot import restore_state, save_state
+
+        w = self.world
+        rows = w.type_changes[self._type_changes_seen:]
+        self._type_changes_seen = len(w.type_changes)
+        w.unpack(Y)
+        changed = np.zeros(w.body_count, dtype=bool)
+        changed[rows] = True
+        wake = set(int(i) for i in rows)
+        if self.soft_step is not None:
+            c = self.contacts()  # a sleeping island's contacts too
+            hit = changed[c.body_a] | changed[c.body_b]
+            wake.update(int(i) for i in np.concatenate([c.body_a[hit], c.body_b[hit]]))
+            for joint in getattr(w, "joints", ()):
+                b = joint.bound
+                if b is not None and ((b.body_a >= 0 and changed[b.body_a]) or (b.body_b >= 0 and changed[b.body_b])):
+                    wake.update(i for i in (b.body_a, b.body_b) if i >= 0)
+            restore_state(self, save_state(self), keep_table=False)
+        w.wake_requests.update(i for i in wake if w.moving[i])
+        self._reset_energy_reference()
+        return w.pack()
 
     def _take_joint_edits(self):
         """The joint records edited since this simulator last looked (a field set after

@@ -90,8 +90,10 @@ def save_state(sim) -> SimState:
         sensor_pairs=None if sensors is None else np.array(sensors.pairs))
 
 
-def restore_state(sim, state: SimState) -> None:
+def restore_state(sim, state: SimState, keep_table: bool = True) -> None:
     """``Simulator.restore_state``: put ``state`` back into ``sim`` and its world, in place.
+    ``keep_table=False`` builds the new pipeline's shape table anew too (a body's type changed:
+    ``Simulator._take_type_changes``; the table holds which bodies move).
 
     Raises:
         InputError: ``state`` is not a ``SimState``, or was saved from a world of another size
@@ -129,7 +131,8 @@ def restore_state(sim, state: SimState) -> None:
     sim.soft_step = None
     if old is not None:
         sim.soft_step = sim._new_soft_step()
-        sim.soft_step.pipeline.take_table(old.pipeline)
+        if keep_table:
+            sim.soft_step.pipeline.take_table(old.pipeline)
     sim.sleep = None
     sim._sensor_log = None
     if sim._event_log is not None:

@@ -54,7 +54,7 @@ from .forces import (
 from .mass import MassProperties, mass_properties
 from .material import Material
 from .math3d import inverse3, mat_vec, matrix_to_quat, norm3, quat_from_euler_deg, quat_to_matrix, rotate_tensor
-from .shapes import Mesh, Plane, finite_vector
+from .shapes import Mesh, Particles, Plane, finite_vector
 
 
 def unit_quaternion(value, key="orientation") -> np.ndarray:
@@ -69,7 +69,15 @@ def unit_quaternion(value, key="orientation") -> np.ndarray:
 _CONSTANT_ARRAYS = {
     "mass": (), "inv_mass": (), "inertia_body": (3, 3), "inertia_body_inv": (3, 3),
     "principal_q": (4,), "principal_moments": (3,), "com_offset": (3,),
+    # kg: the mass the body has as a dynamic body: ``mass`` when it is dynamic; the mass given at
+    # add_body, or held from when it was dynamic, when it is fixed or kinematic (whose ``mass`` is
+    # inf); NaN for none. ``set_body_type`` makes a body dynamic with it (its inertia is then
+    # ``inertia_body``, kept finite for such a body).
+    "dynamic_mass": (),
 }
+#: a body's types (``World.set_body_type``): moved by forces and contacts; moved at set
+#: velocities whatever pushes it (infinite mass); never moved
+BODY_TYPES = ("dynamic", "kinematic", "fixed")
 _STATE_ARRAYS = {"x": (3,), "q": (4,), "R": (3, 3), "P": (3,), "L": (3,)}
 _DERIVED_ARRAYS = {"v": (3,), "omega": (3,), "I_inv": (3, 3), "force": (3,), "torque": (3,)}
 _KINEMATIC_ARRAYS = {"kinematic_v": (3,), "kinematic_omega": (3,), "surface_velocity": (3,)}
@@ -114,6 +122,9 @@ class World:
         # exactly by default (the tree method)
         self.exact_joints = False
         self.filter_version = 0  # bumped when either changes: the collision pipeline rereads them
+        # body rows whose type was changed (set_body_type), in order: a Simulator takes those
+        # after the ones it has seen and builds its contact and joint stages again
+        self.type_changes: list[int] = []
         self.forces: list[Any] = []
         self.joints: list[Any] = []  # joint records of tumble.joints, bound (add_joint)
         self.paths: list[Any] = []  # keyframed paths of kinematic bodies (tumble.kinematic, add_path)
@@ -323,12 +334,9 @@ class World:
             a["v"][i] = velocity
             a["omega"][i] = omega
         if fixed or kinematic or props is None:
-            a["mass"][i] = math.inf
-            a["inv_mass"][i] = 0.0
+            self._write_infinite_mass(i)
             a["inertia_body"][i] = np.diag([math.inf] * 3) if props is None else props.inertia
-            a["inertia_body_inv"][i] = 0.0
-            a["principal_q"][i] = (1.0, 0.0, 0.0, 0.0)
-            a["principal_moments"][i] = math.inf
+            a["dynamic_mass"][i] = math.nan if props is None else props.mass
         else:
             self._write_mass_properties(i, props)
             omega = angular_velocity if angular_velocity_frame == "world" else mat_vec(R, angular_velocity)
@@ -592,15 +600,128 @@ class World:
 
     def _write_mass_properties(self, i: int, props: MassProperties):
         """Body row i's mass, inverse mass, inertia, its inverse and principal axes from ``props``
-        (a moving body's: add_body, set_mass)."""
+        (a moving body's: add_body, set_mass, set_body_type)."""
         a = self._arrays
         a["mass"][i] = props.mass
+        a["dynamic_mass"][i] = props.mass
         a["inv_mass"][i] = 1.0 / props.mass
         a["inertia_body"][i] = props.inertia
         a["inertia_body_inv"][i] = inverse3(np.asarray(props.inertia, dtype=float))
         moments, axes = props.principal()
         a["principal_q"][i] = matrix_to_quat(np.ascontiguousarray(axes))
         a["principal_moments"][i] = moments
+
+    def _write_infinite_mass(self, i: int):
+        """Body row i's mass rows as a fixed or kinematic body's: infinite mass and inertia (the
+        ``inertia_body`` row is the caller's: the inertia given or held, or inf)."""
+        a = self._arrays
+        a["mass"][i] = math.inf
+        a["inv_mass"][i] = 0.0
+        a["inertia_body_inv"][i] = 0.0
+        a["principal_q"][i] = (1.0, 0.0, 0.0, 0.0)
+        a["principal_moments"][i] = math.inf
+
+    def body_type(self, body) -> str:
+        """``"dynamic"``, ``"kinematic"`` or ``"fixed"``: the type of ``body`` (``Body``, name or index)."""
+        i = self.index_of(body)
+        return "dynamic" if self.moving[i] else "kinematic" if self.kinematic[i] else "fixed"
+
+    def set_body_type(self, body, body_type: str, *, mass=None, density=None, inertia=None):
+        """Make ``body`` (``Body``, name or index) ``"dynamic"``, ``"kinematic"`` or ``"fixed"``
+        from the next step on (Box2D's ``b2Body_SetType``, Bullet's kinematic flag set and
+        cleared, Blender's "Animated" box unticked at a frame: a body carried, then let go).
+
+        Its velocity is kept where the new type has one: a kinematic body made dynamic goes on at
+        the velocity it moved at (P = m v, L = I omega: a thrown ball leaves the hand at the
+        hand's speed), a dynamic body made kinematic moves on at its velocity, whatever pushes it;
+        a body made fixed stops. A body made dynamic takes the mass given here (``mass`` kg or
+        ``density`` kg/m^3, as in ``add_body``; ``inertia`` to override the shape's), else the one
+        it had (given at ``add_body`` to a fixed or kinematic body, or held from when it was
+        dynamic: ``dynamic_mass``). A kinematic body's keyframed path ends with the type. The
+        body and those touching it are woken; the Simulator builds its contact and joint stages
+        again at its next step (the contacts' warm start kept: an expensive call, as Box2D says of
+        its own).
+
+        Raises:
+            InputError (key ``type``, ``mass``, ``density`` or ``inertia``), nothing changed: an
+            unknown type; a plane or an open mesh made other than fixed (or kinematic, for an open
+            mesh); a body made dynamic with no mass known; a mass with its centre away from the
+            body's frame (a body added without a mass has its frame at the shape's origin: give
+            the mass at ``add_body``); a mass for a body that is dynamic already (``set_mass``).
+        """
+        i = self.index_of(body)
+        if body_type not in BODY_TYPES:
+            raise InputError(f"must be one of {', '.join(BODY_TYPES)}, got {body_type!r}", "type")
+        old = self.body_type(i)
+        shape = self.shapes[i]
+        if isinstance(shape, Plane) and body_type != "fixed":
+            raise InputError("a plane can only be a fixed body", "type")
+        if isinstance(shape, Mesh) and not shape.closed and body_type == "dynamic":
+            raise InputError("an open mesh (closed = false) can only be on a fixed or kinematic body", "type")
+        given = mass is not None or density is not None or inertia is not None
+        if given and old == "dynamic":
+            raise InputError(f"body {self.names[i]!r} is dynamic: set its mass with set_mass", "mass")
+        props = self._type_mass(i, mass, density, inertia) if given or (body_type == "dynamic" and old != "dynamic") \
+            else None
+        if body_type == old and props is None:
+            return
+        a = self._arrays
+        v, omega, R = self.v[i].copy(), self.omega[i].copy(), self.R[i]
+        a["kinematic_v"][i] = 0.0
+        a["kinematic_omega"][i] = 0.0
+        if body_type == "dynamic":
+            self._write_mass_properties(i, props)
+            a["P"][i] = props.mass * v
+            a["L"][i] = mat_vec(rotate_tensor(R, np.asarray(props.inertia, dtype=float)), omega)
+        else:
+            if props is not None:  # held for a later switch to dynamic
+                a["dynamic_mass"][i] = props.mass
+                a["inertia_body"][i] = props.inertia
+            self._write_infinite_mass(i)
+            a["P"][i] = 0.0
+            a["L"][i] = 0.0
+            if body_type == "kinematic":
+                a["kinematic_v"][i] = v
+                a["kinematic_omega"][i] = omega
+        a["moving"][i] = body_type == "dynamic"
+        a["kinematic"][i] = body_type == "kinematic"
+        if body_type != "kinematic":
+            self.paths = [p for p in self.paths if self.index_of(p.body) != i]
+        if body_type != old:
+            self.type_changes.append(i)
+            self._tables = None  # the force tables list the moving bodies
+            self.__dict__.pop("_ray_scene", None)
+        if body_type == "dynamic":
+            self.wake_requests.add(i)
+        self.update_derived()
+
+    def _type_mass(self, i: int, mass, density, inertia) -> MassProperties:
+        """The mass properties body row i takes as a dynamic body (set_body_type): from ``mass``
+        or ``density``, else those it has (``dynamic_mass``, ``inertia_body``, or a particle
+        set's own), ``inertia`` overriding; about the body frame's origin (its centre of mass)."""
+        shape = self.shapes[i]
+        if mass is None and density is None:
+            if inertia is not None and not math.isfinite(self.dynamic_mass[i]):
+                raise InputError("give inertia with a mass or density", "inertia")
+            if math.isfinite(self.dynamic_mass[i]):
+                props = MassProperties(float(self.dynamic_mass[i]), self.com_offset[i].copy(), self.inertia_body[i].copy())
+            elif isinstance(shape, Particles):
+                props = mass_properties(shape)
+            else:
+                raise InputError(f"body {self.names[i]!r} has no mass (fixed or kinematic, added without one): "
+                                 "give mass or density", "mass")
+        else:
+            props = mass_properties(shape, mass=mass, density=density)
+        center = np.asarray(props.center, dtype=float)
+        scale = max(1.0, float(np.max(np.abs(center))))
+        if np.max(np.abs(center - self.com_offset[i])) > 1e-9 * scale:
+            raise InputError(f"the centre of mass {center.tolist()} (shape frame) is not the body frame's origin "
+                             f"{self.com_offset[i].tolist()}: give the body its mass at add_body, which places its frame",
+                             "mass")
+        if inertia is not None:
+            props = _override_inertia(props, inertia)
+        _check_inertia(props.inertia)
+        return props
 
     def set_pair_material(self, body_a, body_b, material):
         """The contacts between ``body_a`` and ``body_b`` (``Body``, name or index) take
