@@ -632,3 +632,37 @@ def test_harbour_floats_what_is_lighter_than_sea_water_at_its_archimedes_draft()
     anchor = names.index("anchor")
     assert w.x[anchor, 2] == pytest.approx(-2.0 + 0.15, abs=1e-3)
     assert np.linalg.norm(w.v[anchor]) < 1e-3
+
+
+# ---------------------------------------------------------------------- toss (paths that let go)
+
+def test_toss_throws_the_ball_into_the_stack_and_drops_the_crate_on_the_pallet(tmp_path):
+    """examples/toss.toml, 3 s: bodies on keyframed paths with ``release = true``. Checks: until
+    its last key (0.8 s) the ball is on its path (at 0.75 s on the straight line between its last
+    two keys, 1e-12 m) and kinematic; from its release it flies x1 + u t + g t^2 / 2 with u the
+    path's last velocity (4, 0, 2) m/s (1e-9 m up to 1.25 s, well before it nears the stack: rk4
+    is exact on a parabola); it knocks the top box off (off the stack at the end: below 0.5 m and
+    past the stack's side); the crate is on its path at 1.5 s (1e-12 m) and rests on the pallet at
+    the end (its centre 0.2 m above the pallet's top, 1 mm), both dynamic then. The trajectory
+    file written by ``tumble run`` marks neither as fixed (its exports animate them).
+    Measured: top box at x = 1.63 m, z = 0.15 m; crate 0.4 m up to 0.2 mm."""
+    scene, traj = run("toss")
+    w = scene.world
+    i = w.index_of
+    ball, crate, top = i("ball"), i("crate"), i("box3")
+    assert w.body_type(ball) == w.body_type(crate) == "dynamic" and not w.paths
+    frame = lambda t: int(round(t * scene.frame_rate))  # noqa: E731
+    t = traj.time
+    np.testing.assert_allclose(traj.position[frame(0.75), ball], [-2.8, 0, 1.5], atol=1e-12)
+    x1, u, g = np.array([-2.6, 0, 1.6]), np.array([4.0, 0, 2.0]), np.array([0, 0, -9.81])
+    flight = (t > 0.8) & (t <= 1.25)
+    s = (t[flight] - 0.8)[:, None]
+    np.testing.assert_allclose(traj.position[flight, ball], x1 + u * s + 0.5 * g * s ** 2, rtol=0, atol=1e-9)
+    assert w.x[top, 2] < 0.5 and w.x[top, 0] > 0.3
+    np.testing.assert_allclose(traj.position[frame(1.5), crate], [2.5, 0, 1.4], atol=1e-12)
+    assert abs(w.x[crate, 2] - (w.x[i("pallet"), 2] + 0.1 + 0.2)) < 1e-3
+    assert abs(w.x[i("pallet"), 2] - 0.1) < 1e-3
+    out = tmp_path / "toss"
+    assert cli_main(["run", str(EXAMPLES / "toss.toml"), "--out", str(out), "--no-progress"]) == 0
+    fixed = tb.load_trajectory(out / "trajectory.npz").fixed
+    assert fixed.tolist() == [True] + [False] * (w.body_count - 1)

@@ -437,15 +437,16 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
         w.exclude_collision(int(a), int(b))
     for a, b, material in meta.get("pair_materials") or ():
         w.set_pair_material(int(a), int(b), Material(**material))
-    for k, record in enumerate(meta.get("kinematic_paths") or ()):
-        try:
-            # placed already: the saved state holds the body's pose and velocities
-            w.add_path(KeyframePath(**record), place=False)
-        except (InputError, TypeError) as err:
-            raise InputError(f"kinematic_paths[{k}]: {err}") from None
     for name in CONSTANTS + STATE + KINEMATIC:
         if name in arrays:
             getattr(w, name)[:] = arrays[name]
+    for k, record in enumerate(meta.get("kinematic_paths") or ()):
+        try:
+            # placed already: the saved state holds the body's pose and velocities (and, for a path
+            # that lets its body go, the mass it goes with: dynamic_mass, read above)
+            w.add_path(KeyframePath(**record), place=False)
+        except (InputError, TypeError) as err:
+            raise InputError(f"kinematic_paths[{k}]: {err}") from None
     customs = list(custom_forces or [])
     wanted = sum(1 for f in meta["forces"] if f["type"] == "CustomForce")
     if len(customs) != wanted:

@@ -176,7 +176,8 @@ def validate_world(world, stage: str = "validate_world", check_unit: bool = True
     if problem is not None:
         raise blow_up(names, problem[0], problem[1], t, stage)
     for key in ("mass", "inv_mass", "inertia_body_inv", "com_offset"):
-        arr = getattr(world, key)[m].reshape(int(m.sum()), -1)
+        rows = getattr(world, key)[m]
+        arr = rows.reshape(len(rows), -1) if len(rows) else rows.reshape(0, 1)  # none moving: nothing to check
         bad = ~np.all(np.isfinite(arr), axis=1)
         if bad.any():
             i = int(np.flatnonzero(m)[np.flatnonzero(bad)[0]])

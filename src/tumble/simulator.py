@@ -429,30 +429,19 @@ class Simulator:
         set_body_type``): the contact and joint stages made anew from the world as it is now (the
         shape table says which bodies move, the joint tree is cut at the fixed ones, the force
         tables list the moving ones), given their arrays of the step before as a restored snapshot
-        is (``snapshot.restore_state``: the warm start and sleep timers kept); the changed bodies,
-        those touching them or jointed to them woken (Box2D's b2Body_SetType wakes the body and
-        the bodies its contacts touch: a box asleep on a shelf made dynamic falls with it); the
-        blow-up check's energy taken again (a body let go brings its kinetic energy). Y (N, W) is
-        the state now; returned as the world holds it after."""
+        is (``snapshot.restore_state``: the warm start and sleep timers kept); the blow-up check's
+        energy taken again (a body let go brings its kinetic energy). A body made dynamic is
+        woken by ``set_body_type``; the sleeping bodies it touches wake as any touched by an awake
+        body do (a box asleep on a shelf made dynamic falls with it: tests/physics/
+        test_body_type.py), so Box2D's wake of the contacts' bodies needs nothing more here.
+        Y (N, W) is the state now; returned as the world holds it after."""
         from .snapshot import restore_state, save_state
 
         w = self.world
-        rows = w.type_changes[self._type_changes_seen:]
         self._type_changes_seen = len(w.type_changes)
         w.unpack(Y)
-        changed = np.zeros(w.body_count, dtype=bool)
-        changed[rows] = True
-        wake = set(int(i) for i in rows)
         if self.soft_step is not None:
-            c = self.contacts()  # a sleeping island's contacts too
-            hit = changed[c.body_a] | changed[c.body_b]
-            wake.update(int(i) for i in np.concatenate([c.body_a[hit], c.body_b[hit]]))
-            for joint in getattr(w, "joints", ()):
-                b = joint.bound
-                if b is not None and ((b.body_a >= 0 and changed[b.body_a]) or (b.body_b >= 0 and changed[b.body_b])):
-                    wake.update(i for i in (b.body_a, b.body_b) if i >= 0)
-            restore_state(self, save_state(self), keep_table=False)
-        w.wake_requests.update(i for i in wake if w.moving[i])
+            restore_state(self, save_state(self), keep_table=False)  # its wake requests are the world's now
         self._reset_energy_reference()
         return w.pack()
 

@@ -55,6 +55,10 @@ class SimState:
         energy_reference: the current run's energy reference (the blow-up check's), or None.
         contact_touching: the touching pairs of the contact events, when they are on.
         sensor_pairs: (K, 2) the (sensor, visitor) overlaps, when the world has sensors.
+        paths: the kinematic bodies' keyframed paths, as (body row, ``KeyframePath.to_dict()``):
+            with the bodies' types (``moving``, ``kinematic`` and their mass rows in ``arrays``),
+            what a restore puts back for a body whose type changed since the save (a path that
+            let its body go, or ``World.set_body_type``).
     """
 
     t: float
@@ -71,12 +75,19 @@ class SimState:
     energy_reference: list | None = field(repr=False)
     contact_touching: list | None = field(repr=False)
     sensor_pairs: np.ndarray | None = field(repr=False)
+    paths: tuple = field(default=(), repr=False)
+
+
+# a body's type and the mass rows that go with it (World.set_body_type): put back for the bodies
+# whose type differs at a restore (the others keep theirs: a mass set since stays)
+TYPE_ARRAYS = ("moving", "kinematic", "mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q",
+               "principal_moments", "dynamic_mass")
 
 
 def save_state(sim) -> SimState:
     """``Simulator.save_state``: copies of everything the steps after now read (module docstring)."""
     w = sim.world
-    arrays = {name: np.array(getattr(w, name), order="C") for name in STATE + KINEMATIC}
+    arrays = {name: np.array(getattr(w, name), order="C") for name in STATE + KINEMATIC + TYPE_ARRAYS}
     arrays.update(_solver_arrays(sim))
     sensors = sim._sensor_log
     return SimState(
@@ -87,7 +98,8 @@ def save_state(sim) -> SimState:
         wake_requests=frozenset(int(k) for k in w.wake_requests),
         stats=dict(sim.stats), energy_reference=copy.deepcopy(sim.energy_reference),
         contact_touching=sim._event_log.pairs() if sim._event_log is not None else None,
-        sensor_pairs=None if sensors is None else np.array(sensors.pairs))
+        sensor_pairs=None if sensors is None else np.array(sensors.pairs),
+        paths=tuple((w.index_of(p.body), p.to_dict()) for p in w.paths))
 
 
 def restore_state(sim, state: SimState, keep_table: bool = True) -> None:
@@ -110,6 +122,7 @@ def restore_state(sim, state: SimState, keep_table: bool = True) -> None:
                          f"({here[2]} layout)", "state")
     if state.dt != sim.dt:
         raise InputError(f"was saved by a simulator stepping dt = {state.dt} s; this one steps {sim.dt} s", "state")
+    retyped = _put_types_back(w, state)
     for name in STATE + KINEMATIC:
         getattr(w, name)[...] = state.arrays[name]
     for joint, broken in zip(joints, state.broken):
@@ -131,8 +144,9 @@ def restore_state(sim, state: SimState, keep_table: bool = True) -> None:
     sim.soft_step = None
     if old is not None:
         sim.soft_step = sim._new_soft_step()
-        if keep_table:
+        if keep_table and not retyped:
             sim.soft_step.pipeline.take_table(old.pipeline)
+    sim._type_changes_seen = len(w.type_changes)  # the stages are made anew from the types as they are
     sim.sleep = None
     sim._sensor_log = None
     if sim._event_log is not None:
@@ -140,3 +154,25 @@ def restore_state(sim, state: SimState, keep_table: bool = True) -> None:
     _restore_logs(sim, state.contact_touching, None if state.sensor_pairs is None else state.sensor_pairs.tolist())
     warm, sleep, joint_state = _solver_parts(list(state.arrays), lambda name: state.arrays[name].copy())
     _restore_solvers(sim, warm, sleep, joint_state)
+
+
+def _put_types_back(w, state: SimState) -> bool:
+    """Put back the type of each body whose type differs from the save's (``TYPE_ARRAYS``) and
+    the keyframed path it had then (a path that let its body go since: it goes again at its last
+    key); paths of those bodies added since are dropped. Returns whether any body's type changed.
+    A state saved before types could change (no ``moving`` array) changes none."""
+    from .kinematic import KeyframePath
+
+    if "moving" not in state.arrays:
+        return False
+    changed = (state.arrays["moving"] != w.moving) | (state.arrays["kinematic"] != w.kinematic)
+    if not changed.any():
+        return False
+    rows = np.flatnonzero(changed)
+    for name in TYPE_ARRAYS:
+        getattr(w, name)[rows] = state.arrays[name][rows]
+    back = set(rows.tolist())
+    w.paths = [p for p in w.paths if w.index_of(p.body) not in back]
+    w.paths.extend(KeyframePath(body=row, **record) for row, record in state.paths if row in back)
+    w._retyped(rows)
+    return True

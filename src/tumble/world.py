@@ -688,12 +688,18 @@ class World:
         if body_type != "kinematic":
             self.paths = [p for p in self.paths if self.index_of(p.body) != i]
         if body_type != old:
-            self.type_changes.append(i)
-            self._tables = None  # the force tables list the moving bodies
-            self.__dict__.pop("_ray_scene", None)
+            self._retyped([i])
         if body_type == "dynamic":
             self.wake_requests.add(i)
         self.update_derived()
+
+    def _retyped(self, rows):
+        """Note that the bodies ``rows`` changed type (set_body_type, a snapshot's restore): listed
+        in ``type_changes`` for the Simulator; the force tables (which list the moving bodies) and
+        the queries' shape table made again when next needed."""
+        self.type_changes.extend(int(i) for i in rows)
+        self._tables = None
+        self.__dict__.pop("_ray_scene", None)
 
     def _type_mass(self, i: int, mass, density, inertia) -> MassProperties:
         """The mass properties body row i takes as a dynamic body (set_body_type): from ``mass``
