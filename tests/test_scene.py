@@ -291,7 +291,7 @@ BAD_SCENES = [
     ("path-and-position", body(mass=None, kinematic="true", path=PATH, position="[0, 0, 1]"), "bodies[0].position",
      "a body on a path starts at the path's pose and moves at its velocity: give no position, orientation or velocity"),
     ("path-unknown-key", body(mass=None, kinematic="true", path="{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]], loop = true }"),
-     "bodies[0].path.loop", "unknown key (expected one of times, positions, orientations, euler_deg, repeat)"),
+     "bodies[0].path.loop", "unknown key (expected one of times, positions, orientations, euler_deg, repeat, release)"),
     ("path-missing-positions", body(mass=None, kinematic="true", path="{ times = [0, 1] }"), "bodies[0].path",
      "missing key 'positions'"),
     ("path-times-decrease", body(mass=None, kinematic="true", path="{ times = [1, 0], positions = [[0, 0, 0], [1, 0, 0]] }"),
