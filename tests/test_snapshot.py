@@ -167,3 +167,37 @@ def test_a_state_of_another_world_or_dt_is_one_line():
         assert "\n" not in line and "state" in line and word in line, line
     # a refused restore changes nothing
     assert [state_hash(target.world) for target, _, _ in cases] == before
+
+
+def test_a_state_saved_the_step_before_an_island_falls_asleep_restores_and_reports_its_contacts(tmp_path):
+    """A box settling on the ground, saved (in memory and to a checkpoint) at the step before it
+    falls asleep: restored or loaded, the next step puts it to sleep and ``contacts()`` reports its
+    resting contacts with the impulses of the run straight through, to the bit. The sleeping
+    island's contacts carry the last step's impulses, which a restore had not put back: that step
+    raised an IndexError (found by benchmarks/type_change.py, session 39). Its contacts are
+    compared field by field, exactly."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
+    w.add_body(tb.Box(size=(0.3, 0.3, 0.3)), mass=1.0, position=(0, 0, 0.16))
+    sim = tb.Simulator(w)
+    saved = None
+    for _ in range(600):
+        saved = sim.save_state()
+        sim.save_checkpoint(tmp_path / "c.npz")
+        sim.step(1)
+        if not sim.sleep.awake[1]:
+            break
+    assert not sim.sleep.awake[1]
+    straight = sim.contacts()
+    assert len(straight) == 4 and np.all(straight.normal_impulse > 0.0)
+    sim.step(3)
+    sim.restore_state(saved)
+    assert sim.sleep.awake[1]
+    sim.step(1)
+    loaded = tb.Simulator.load_checkpoint(tmp_path / "c.npz")
+    loaded.step(1)
+    for again in (sim, loaded):
+        assert not again.sleep.awake[1]
+        c = again.contacts()
+        for name in ("body_a", "body_b", "point", "normal", "separation", "normal_impulse", "friction_impulse", "force"):
+            np.testing.assert_array_equal(getattr(c, name), getattr(straight, name), err_msg=name)

@@ -326,15 +326,18 @@ def load_checkpoint(cls, path, custom_forces=None):
 
 WARM_START = ("contact_key", "contact_normal_impulse", "contact_friction_impulse")
 # the rolling and spinning impulses (solver.contact_rolling); absent from older checkpoints: zeros
-WARM_START_OPTIONAL = ("contact_rolling_impulse",)
+WARM_START_OPTIONAL = ("contact_rolling_impulse",
+                       # the last step's impulses of the same contacts (absent before session 39: zeros)
+                       "contact_step_normal_impulse", "contact_step_friction_impulse")
 
 
 def _restore_warm_start(sim, warm: dict):
     k = len(warm["key"])
     if warm["key"].dtype.kind != "i" or warm["normal_impulse"].shape != (k,) or warm["friction_impulse"].shape != (k, 3):
         raise InputError("contact warm-start arrays have inconsistent shapes")
-    if "rolling_impulse" in warm and warm["rolling_impulse"].shape != (k, 3):
-        raise InputError("contact warm-start arrays have inconsistent shapes")
+    for name, shape in (("rolling_impulse", (k, 3)), ("step_normal_impulse", (k,)), ("step_friction_impulse", (k, 3))):
+        if name in warm and warm[name].shape != shape:
+            raise InputError("contact warm-start arrays have inconsistent shapes")
     if sim._contact_on():
         sim.soft_step.solver.set_warm_start_state(warm)
 

@@ -332,7 +332,7 @@ class Simulator:
                     if sleep.woke.any() or sleep.fell_asleep.any():
                         # an island asleep is no longer collided, but still rests on its contacts:
                         # kept from this collide, with the last step's impulses (SleepState.keep_resting)
-                        sleep.keep_resting(soft.resting_fields(sleep.fell_asleep) if sleep.fell_asleep.any() else None,
+                        sleep.keep_resting(soft.resting_fields(sleep.fell_asleep, self.dt) if sleep.fell_asleep.any() else None,
                                            all_moving)
                         moving[:] = all_moving & sleep.awake
                         table.body_moving[:] = moving

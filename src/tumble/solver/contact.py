@@ -178,6 +178,10 @@ class ContactSolver:
         self._surface_written = False  # whether surface_target holds anything but zeros
         self._part_material_key = None  # (table, body count) of the per-shape materials below
         self._rolling_stored = False  # whether old_rolling_impulse holds the last step's
+        # (normal (K,) N s, friction (K, 3) N s world): the last step's impulses of its K contacts
+        # when they came from a checkpoint or snapshot (set_warm_start_state) rather than from a
+        # step this solver took; dropped by the next prepare (last_step_impulses)
+        self._restored_step = None
         self.sweep = SweepOrder()  # the order of this step's sweeps (slabs for a large step)
 
     def _reserve(self, n: int):
@@ -286,6 +290,7 @@ class ContactSolver:
         b = self._buf
         b["step_normal_impulse"][:n] = 0.0
         b["step_tangent_impulse"][:n] = 0.0
+        self._restored_step = None
         table = shapes.table
         # Without a round shape the rows of ``anchor_offset`` stay as allocated, zeros (anchors fixed
         # in the bodies, m their midpoint): a world's shapes are only ever added to, so once it has
@@ -492,13 +497,30 @@ class ContactSolver:
         self.step_normal_impulse[:] += self.normal_impulse
         self.step_tangent_impulse[:] += self.tangent_impulse
 
+    def last_step_impulses(self, rows) -> tuple[np.ndarray, np.ndarray]:
+        """(normal (M,) N s, friction (M, 3) N s, world): the whole last step's impulses of its
+        contacts ``rows`` (M,) (rows of ``old_key``: the last step's contacts, in its order), from
+        the step's totals, or from the arrays a checkpoint or snapshot restored when no step has
+        been taken since (``SoftStep.resting_fields``: an island falling asleep at the first step
+        after a restore; that step's totals are not made yet: an IndexError before session 39)."""
+        if self._restored_step is not None:
+            normal, friction = self._restored_step
+            return normal[rows], friction[rows]
+        jt = self.step_tangent_impulse[rows]
+        return self.step_normal_impulse[rows], jt[:, 0:1] * self.tangent1[rows] + jt[:, 1:2] * self.tangent2[rows]
+
     def warm_start_state(self) -> dict:
         """The impulses kept for the next step's warm start, as arrays (for checkpoints): the keys
-        (K,) int64, normal impulses (K,) N s and friction impulses (K, 3) N s, world."""
+        (K,) int64, normal impulses (K,) N s and friction impulses (K, 3) N s, world; and the
+        whole last step's impulses of the same contacts, ``step_normal_impulse`` (K,) and
+        ``step_friction_impulse`` (K, 3) (``last_step_impulses``: what the contacts of an island
+        falling asleep at the next step report)."""
         k = self.old_count
         rolling = self._buf["old_rolling_impulse"][:k].copy() if self._rolling_stored else np.zeros((k, 3))
+        step_normal, step_friction = self.last_step_impulses(np.arange(k))
         return {"key": self.old_key[:k].copy(), "normal_impulse": self._buf["old_normal_impulse"][:k].copy(),
-                "friction_impulse": self._buf["old_friction_impulse"][:k].copy(), "rolling_impulse": rolling}
+                "friction_impulse": self._buf["old_friction_impulse"][:k].copy(), "rolling_impulse": rolling,
+                "step_normal_impulse": np.array(step_normal), "step_friction_impulse": np.array(step_friction)}
 
     def set_warm_start_state(self, state: dict):
         """Inverse of ``warm_start_state``."""
@@ -512,6 +534,9 @@ class ContactSolver:
         self._rolling_stored = True
         self.old_key = key.copy()
         self.old_count = k
+        # absent (checkpoints written before session 39): zeros, what a first step reports
+        self._restored_step = (np.array(state.get("step_normal_impulse", np.zeros(k)), dtype=float),
+                               np.array(state.get("step_friction_impulse", np.zeros((k, 3))), dtype=float))
 
     def forget(self, bodies: np.ndarray, shape_body: np.ndarray):
         """Drop the warm start of the stored contacts (last step's) that touch ``bodies`` (N,) bool,

@@ -759,7 +759,7 @@ class SoftStep:
         return (((key >> (2 * KEY_BITS)) & mask) - np.searchsorted(shape_body, body_a),
                 ((key >> KEY_BITS) & mask) - np.searchsorted(shape_body, body_b))
 
-    def resting_fields(self, bodies) -> dict:
+    def resting_fields(self, bodies, dt: float | None = None) -> dict:
         """The contacts of ``bodies`` (N,) bool (an island falling asleep), as ``contact_fields``:
         those ``collide`` has just found (the poses at the start of this step: the last step's
         end), with the last step's impulses of the same contact (by ``contact_key``: the solver
@@ -779,10 +779,10 @@ class SoftStep:
         j = match_contacts(sol.old_key[:sol.old_count], key)
         found = j >= 0
         j = j[found]
-        jn[found] = sol.step_normal_impulse[j]
-        jt = sol.step_tangent_impulse[j]
-        friction[found] = jt[:, 0:1] * sol.tangent1[j] + jt[:, 1:2] * sol.tangent2[j]
-        dt = self.dt if self.dt > 0 else 1.0
+        jn[found], friction[found] = sol.last_step_impulses(j)
+        # the step's dt (s) for the mean forces: given by the Simulator (a soft step made anew by a
+        # restore has taken no step to know it from; its forces were the impulses per second)
+        dt = dt if dt else self.dt if self.dt > 0 else 1.0
         body_a, body_b = c.contact_body_a[rows].copy(), c.contact_body_b[rows].copy()
         part_a, part_b = self._parts(key, body_a, body_b)
         return dict(body_a=body_a, body_b=body_b, point=c.contact_point[rows].copy(), normal=normal,
