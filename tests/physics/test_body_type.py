@@ -326,3 +326,30 @@ def test_a_release_without_a_mass_in_a_scene_file_is_one_line_and_exit_2(tmp_pat
     assert cli_main(["validate", str(scene)]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "release" in err and "mass" in err, err
+
+
+def test_a_fixed_mesh_made_dynamic_collides_as_its_hull_and_rests_on_the_ground():
+    """A closed triangle mesh (a 0.4 x 0.4 x 0.2 m block) fixed 1 m up with 2 kg given, then made
+    dynamic: it falls and comes to rest flat on the ground, its bottom within 1 mm of it (a mesh
+    collides as triangles on a fixed body and as its hull on a moving one: the shape table is made
+    again for it). And a box fixed in the air made dynamic in a world that does not sleep lands
+    as well (the kept table's moving flags are set at the change, not by the sleep pass)."""
+    import trimesh
+
+    w = ground_world()
+    block = trimesh.creation.box(extents=(0.4, 0.4, 0.2))
+    mesh = w.add_body(tb.Mesh(vertices=block.vertices, faces=block.faces), fixed=True, mass=2.0,
+                      position=(0, 0, 1.0), name="mesh")
+    sim = tb.Simulator(w, dt=DT)
+    sim.step(10)
+    mesh.type = "dynamic"
+    sim.step(480)
+    assert abs(gap_below(w, 1, 0.1)) < 1e-3 and np.linalg.norm(mesh.v) < 1e-3
+    w2 = ground_world()
+    w2.sleeping = False
+    box = w2.add_body(tb.Box(size=(0.4, 0.4, 0.2)), fixed=True, position=(0, 0, 1.0), name="box")
+    sim2 = tb.Simulator(w2, dt=DT)
+    sim2.step(10)
+    w2.set_body_type(box, "dynamic", mass=1.0)
+    sim2.step(480)
+    assert abs(gap_below(w2, 1, 0.1)) < 1e-3
