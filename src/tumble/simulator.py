@@ -507,10 +507,14 @@ class Simulator:
         ``enabled`` (J,) bool. Zeros (and enabled) before the first step."""
         J = len(getattr(self.world, "joints", ()))
         solver = None if self.soft_step is None else self.soft_step.joints
+        # ``enabled`` from the records: a joint switched off or on since the last step (``joint.broken
+        # = ...``) reads as it is now, not as the solver will take it at the next step (the solver's
+        # own breaks are written into the records as they happen)
+        enabled = np.array([not j.broken for j in self.world.joints], dtype=bool)
         if solver is None or getattr(solver, "count", 0) != J:
             return {"position": np.zeros(J), "rate": np.zeros(J), "force": np.zeros((J, 3)), "torque": np.zeros((J, 3)),
-                    "enabled": np.array([not j.broken for j in self.world.joints], dtype=bool)}
-        return solver.readings()
+                    "enabled": enabled}
+        return {**solver.readings(), "enabled": enabled}
 
     def set_joint_torque(self, joint, torque: float):
         """Apply ``torque`` (N m along a hinge; a force in N along a slider) from the next step on,

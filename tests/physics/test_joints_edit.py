@@ -249,7 +249,8 @@ def test_a_joint_switched_off_lets_go_and_switched_on_holds_again():
     """A grasp released (PyBullet's removeConstraint, MuJoCo's eq_active off): a box held by a fixed
     joint to the world, ``joint.broken = True``: it falls freely, z0 - g t^2 / 2 after 0.25 s (1e-6 m:
     the step's integration of constant gravity is exact to round-off; no joint impulse left
-    acting) and its readings after the step say disabled; ``broken = False`` mid-fall: the joint acts again from
+    acting) and its readings say disabled from the moment it is set (they said so only after the
+    next step before session 39); ``broken = False`` mid-fall: the joint acts again from
     the error it finds and closes it, the anchors together to 1 mm within
     2 s (the soft rows' correction), the box's pose back to the one it was held at."""
     w = tb.World(gravity=(0.0, 0.0, -9.81))
@@ -260,11 +261,13 @@ def test_a_joint_switched_off_lets_go_and_switched_on_holds_again():
     z0 = w.x[0, 2]
     assert z0 == pytest.approx(1.0, abs=1e-6)
     grip.broken = True
+    assert sim.joint_readings()["enabled"].tolist() == [False]  # at once, not after the next step
     sim.step(60)
     assert sim.joint_readings()["enabled"].tolist() == [False]
     assert w.x[0, 2] == pytest.approx(z0 - 0.5 * 9.81 * 0.25 ** 2, abs=1e-6)
     assert w.v[0, 2] == pytest.approx(-9.81 * 0.25, abs=1e-9)
     grip.broken = False
+    assert sim.joint_readings()["enabled"].tolist() == [True]
     sim.step(480)
     assert abs(w.x[0, 2] - 1.0) < 1e-3
     assert sim.joint_readings()["enabled"].tolist() == [True]
