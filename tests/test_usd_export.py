@@ -244,3 +244,13 @@ def test_open_meshes_go_out_double_sided_and_come_back_open(tmp_path):
     tb.Simulator(back).step(480)
     ball = names.index("ball")
     assert np.linalg.norm(back.x[ball]) < 1.0 - 0.2 + 2e-3 and back.x[ball, 2] < -0.7
+
+
+def test_a_path_that_lets_its_body_go_says_the_release_is_left_out(tmp_path):
+    """examples/toss.toml's ball and crate are let go at their paths' last keys (``release``):
+    UsdPhysics has no such event (a body's kinematic flag is one value of the stage), so the
+    stage keeps their paths as time samples and the export's warning names the release as left
+    out, rather than writing a stage that silently behaves otherwise."""
+    world = load_scene(EXAMPLES / "toss.toml").world
+    with pytest.warns(UserWarning, match="the release of keyframed paths"):
+        tb.save_usd(world, tmp_path / "toss.usda")

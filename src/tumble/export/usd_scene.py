@@ -389,6 +389,8 @@ def _animations(world, stage, wr, paths: list[str]) -> None:
         end = max(end, float(path.times[-1]) * TIME_CODES_PER_SECOND)
         if path.repeat:
             wr.left_out.add("the repetition of repeating keyframed paths (written once round)")
+        if path.release:  # PhysX's kinematic flag is a constant of the stage
+            wr.left_out.add("the release of keyframed paths that let their body go (it stays kinematic at its last key)")
     stage.SetEndTimeCode(end)
 
 
