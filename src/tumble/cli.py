@@ -198,6 +198,8 @@ def _energy_worker(sim) -> str | None:
         found.append("joints")
     elif sim._contact_on():
         found.append("contacts")
+    if getattr(w, "type_changes", None):  # a body let go brings its energy in (a kinematic one counts none)
+        found.append("bodies changing type")
     return " and ".join(found) if found else None
 
 
