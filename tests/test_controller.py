@@ -126,3 +126,34 @@ def test_a_sleeping_body_moved_by_the_user_wakes_and_falls():
     traj = sim.run(0.25, frame_rate=24)
     np.testing.assert_allclose(traj.position[:, box.index, 2], 1.0 - 0.5 * 9.81 * (traj.time - 1.0) ** 2,
                                rtol=0, atol=1e-9)
+
+
+def test_a_controller_that_adds_a_body_inside_a_run_is_refused_with_one_line():
+    """A controller that spawns a body during ``sim.run`` (a run's frames and a call's arrays are
+    sized for the bodies it began with): one InputError keyed ``controller`` naming the time, the
+    world left at the last recorded frame with the new body in it, and a new run then records it.
+    Before, the run failed with a NumPy broadcast error from deep in the step. A loop of
+    ``sim.step()`` adding bodies between calls (PyBullet's way) works."""
+    w = tb.World()
+    w.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(0, 0, 1), name="first")
+
+    def spawn(sim):
+        if sim.step_index == 30 and sim.world.body_count == 1:
+            sim.world.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(1, 0, 1), name="second")
+
+    sim = tb.Simulator(w, controller=spawn)
+    with pytest.raises(tb.InputError) as err:
+        sim.run(0.5)
+    assert err.value.key == "controller" and "t = 0.125 s" in str(err.value) and "\n" not in str(err.value)
+    assert w.body_count == 2 and w.t == pytest.approx(3 / 24)  # the frame before, the new body kept
+    assert w.x[1].tolist() == [1.0, 0.0, 1.0]
+    traj = sim.run(0.25)
+    assert traj.position.shape[1] == 2
+    loop = tb.World()
+    loop.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(0, 0, 1))
+    stepper = tb.Simulator(loop)
+    for k in range(60):
+        if k == 30:
+            loop.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(1, 0, 1))
+        stepper.step()
+    assert loop.body_count == 2 and loop.x[1, 2] < 1.0

@@ -67,9 +67,10 @@ class Simulator:
 
     controller: ``f(sim)``, called before every step with the world at the step's start
         (``sim.world``, its time ``sim.world.t``): it may set velocities, apply impulses,
-        change motor speeds or kinematic targets (MuJoCo's control callback, the body of a
-        PyBullet loop); it must not add or remove bodies. Runs with one go one step at a
-        time. Settable later as ``sim.controller``.
+        change motor speeds, kinematic targets or body types (MuJoCo's control callback, the
+        body of a PyBullet loop); it must not add bodies (an InputError keyed ``controller``:
+        add them between calls). Runs with one go one step at a time. Settable later as
+        ``sim.controller``.
 
     With ``TUMBLE_VALIDATE=1`` in the environment, ``checks.validate_world`` runs
     after every stage of every step (the stage-by-stage path; same results, slower).
@@ -179,10 +180,17 @@ class Simulator:
         if self.controller is None:
             return self._advance(Y, count, scratch)
         w = self.world
+        n = w.body_count
         for _ in range(count):
             w.unpack(Y)
             w.t = self.step_index * self.dt
             self.controller(self)
+            if w.body_count != n:
+                # a call's arrays (its scratch, a run's frames) are sized for the bodies it began
+                # with: a spawn inside it failed on a NumPy broadcast deep in the step
+                raise InputError(f"the controller added a body at t = {w.t:g} s, inside a run or a step(count) call: "
+                                 "add bodies between calls (a loop of sim.step(), or a controller that calls "
+                                 "nothing but sets and pushes)", "controller")
             Y = w.pack()
             Y = self._advance(Y, 1, scratch)
         return Y
@@ -886,6 +894,10 @@ class Simulator:
         Y0, self.step_index, applied, self.stats = snapshot
         w.applied_impulses = set(applied)
         w.t = self.step_index * self.dt
+        if len(Y0) != w.body_count:  # bodies added since (a controller's: refused): they keep their state
+            Y = w.pack()
+            Y[:len(Y0)] = Y0
+            Y0 = Y
         w.unpack(Y0)
 
     def _check_energy(self):
