@@ -611,3 +611,33 @@ def test_a_click_in_the_browser_pushes_the_body_under_the_mouse(browser, scene_f
         page.close()
         v.stop()
     assert not [p for p in problems if not any(b in p for b in BENIGN_CONSOLE_ERRORS)], problems
+
+
+def test_a_pinned_body_holds_where_it_is_and_unpinned_falls_again(paused, scene_file):
+    """Pin mode (``pin``, a click in "pin" mode): the box pinned in mid-fall is made fixed
+    (``World.set_body_type``) and stays where it was to the bit; a second click lets it go, at rest,
+    with its 2 kg, and it falls again (its height drops). The ground (fixed from the start) is not
+    pinnable: a click on it does nothing, a call is one InputError. "Back to mark" from a moment
+    before the pin gives the plain run's bits again (the snapshot puts the box's type back), and
+    the saved take does not count the box as fixed (it moved)."""
+    v = paused
+    w = v.world
+    box = w.index_of("box")
+    v.mark()
+    v.step_frame(1)
+    assert v.click_ray(w.x[box] + np.array([0.0, 0.0, 3.0]), (0, 0, -1), "pin") == box
+    assert w.body_type(box) == "fixed"
+    held = w.x[box].copy()
+    v.step_frame(3)
+    assert np.array_equal(w.x[box], held)
+    assert v.click_ray(w.x[box] + np.array([0.0, 0.0, 3.0]), (0, 0, -1), "pin") == box
+    assert w.body_type(box) == "dynamic" and w.mass[box] == 2.0
+    v.step_frame(3)
+    assert w.x[box, 2] < held[2]
+    assert v.click_ray((0, 3, 1), (0, 0, -1), "pin") is None and w.body_type("ground") == "fixed"
+    with pytest.raises(InputError, match="not dynamic when the scene started"):
+        v.pin("ground")
+    assert v.trajectory().fixed[box] == np.False_
+    v.back_to_mark()
+    v.advance(30)
+    assert np.array_equal(v.world.pack(), plain_state(scene_file, 30))

@@ -66,7 +66,7 @@ MAX_LAG_S = 0.1  # s of simulated time the run may owe real time; more is droppe
 PUSH_SPEED = 2.0  # m/s: a push's default change of speed (impulse = mass * speed)
 GRAB_HERTZ = 2.0  # Hz: natural frequency of a grabbed body on the grab spring (stiffness = m (2 pi f)^2)
 GRAB_DAMPING_RATIO = 1.0  # critical: the body follows the handle without swinging past it
-CLICK_MODES = ("select", "push", "grab", "blast")
+CLICK_MODES = ("select", "push", "grab", "blast", "pin")
 BLAST_RADIUS = 0.5  # m: a click's explosion, full strength within it (and as far again, fading)
 BLAST_IMPULSE = 200.0  # N s / m^2: its impulse per area of a shape's shadow (a 20 cm cube face-on: 8 N s)
 CAMERA_PERIOD_S = 0.2  # s of wall time between a camera's images while running (a capture costs 2-40 ms)
@@ -356,6 +356,24 @@ class LiveViewer(Viewer):
         with self._lock:
             self._release_spring()
 
+    def pin(self, body) -> bool:
+        """Pin a dynamic body where it is, or unpin a pinned one: made fixed (``World.set_body_type``:
+        it stops, and what hits it meets a fixed body) or dynamic again, from rest, with its mass.
+        Only a body that was dynamic when the scene started (it is drawn as one that moves); a
+        Reset unpins every body, and "Back to mark" puts back the pins of its moment. Returns
+        whether the body is pinned now."""
+        with self._lock:
+            w = self.sim.world
+            b = w.body(body)
+            if not self._dynamic_at_start[b.index]:
+                raise InputError(f"body {b.name!r} was not dynamic when the scene started: only such a body can be "
+                                 "pinned", "pin")
+            if b.index == (self.grabbed or (None,))[0]:
+                self._release_spring()  # a pinned body cannot be held
+            w.set_body_type(b.index, "fixed" if w.moving[b.index] else "dynamic")
+            self._refresh()
+            return bool(w.fixed[b.index])
+
     # ---- the run ----------------------------------------------------------------------------
 
     def trajectory(self) -> Trajectory:
@@ -390,6 +408,8 @@ class LiveViewer(Viewer):
 
     def _start_recording(self):
         sim = self.sim
+        # the bodies that may be pinned and unpinned (``pin``): drawn as moving ones from the start
+        self._dynamic_at_start = np.array(sim.world.moving, dtype=bool)
         self._recorder = _Recorder(sim.world, 64, sim if sim.record_contacts else None, sim if sim.record_joints else None,
                                    sim if sim._sensing() else None)
         n = sim.world.body_count
@@ -523,7 +543,8 @@ class LiveViewer(Viewer):
             self.click_dropdown = gui.add_dropdown("Click a body to", CLICK_MODES, initial_value="select",
                                                    hint="select: its quantities; push: an impulse along the click; "
                                                         "grab: a spring to a handle you drag; blast: an explosion "
-                                                        "where you click (shift + click pushes)")
+                                                        "where you click; pin: hold a body where it is, or let a "
+                                                        "pinned one go (shift + click pushes)")
             self.push_speed_slider = gui.add_slider("Push speed (m/s)", min=0.1, max=20.0, step=0.1,
                                                     initial_value=PUSH_SPEED, hint="the speed a push gives the body")
             self.blast_radius_slider = gui.add_slider("Blast radius (m)", min=0.05, max=5.0, step=0.05,
@@ -743,11 +764,11 @@ class LiveViewer(Viewer):
 
     def click_ray(self, origin, direction, mode: str):
         """What a click along the ray ``origin`` + s ``direction`` (world) does in ``mode`` ("push",
-        "grab", "blast", "select"): the first body the ray hits (``World.ray_cast``, the bodies'
-        exact shapes), pushed along the ray at the hit point, grabbed there, blasted from there
-        (``blast``: any body hit, the ground too, is where the explosion goes off), or selected.
-        Returns the body's index, or None (nothing hit, or a body that does not move: only
-        selected, or blasted from)."""
+        "grab", "blast", "pin", "select"): the first body the ray hits (``World.ray_cast``, the
+        bodies' exact shapes), pushed along the ray at the hit point, grabbed there, blasted from
+        there (``blast``: any body hit, the ground too, is where the explosion goes off), pinned
+        or unpinned (``pin``), or selected. Returns the body's index, or None (nothing hit, or a
+        body that does not move: only selected, or blasted from)."""
         if mode not in CLICK_MODES:
             raise InputError(f"expected one of {', '.join(CLICK_MODES)}, got {mode!r}", "mode")
         with self._lock:
@@ -761,6 +782,11 @@ class LiveViewer(Viewer):
             if mode == "blast":
                 self.blast(hits.point[0])
                 return body if self.sim.world.moving[body] else None
+            if mode == "pin":
+                if not self._dynamic_at_start[body]:
+                    return None
+                self.pin(body)
+                return body
             if mode == "select" or not self.sim.world.moving[body]:
                 return None
             if mode == "push":
