@@ -22,25 +22,16 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from contact import TumbleScene, machine, md_table, write_results  # noqa: E402
+from contact import machine, md_table, write_results  # noqa: E402
 from peers.common import median, scene_spec  # noqa: E402
 from peers.common import median_time as timed  # noqa: E402
+from snapshot import Tumble as PileTumble  # noqa: E402  (the pile at Box3D's step, as there)
 
 
-class Tumble:
-    name = "tumble"
-
-    def __init__(self, n: int):
-        self.scene = TumbleScene("pile", {"n": n}, "semi-implicit-euler", None, 1, 4)
-        self.sim = self.scene.sim
-        self.dt = self.scene.dt
-        self.first = 1  # row 0 is the ground
-
-    def step(self, k):
-        self.sim.step(k)
-
+class Tumble(PileTumble):
     def set_fixed(self, i, fixed: bool):
-        self.sim.world.set_body_type(self.first + i, "fixed" if fixed else "dynamic")
+        # box i is body row i + 1 (row 0 is the ground)
+        self.sim.world.set_body_type(1 + i, "fixed" if fixed else "dynamic")
 
 
 class Pybullet:
