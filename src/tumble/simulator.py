@@ -443,10 +443,9 @@ class Simulator:
         body do (a box asleep on a shelf made dynamic falls with it: tests/physics/
         test_body_type.py), so Box2D's wake of the contacts' bodies needs nothing more here.
         Y (N, W) is the state now; returned as the world holds it after."""
-        from .snapshot import restore_state, save_state
-
         from .collision.geometry import flatten_parts
         from .shapes import Mesh
+        from .snapshot import restore_state, save_state
 
         w = self.world
         rows = w.type_changes[self._type_changes_seen:]
