@@ -156,8 +156,10 @@ class Simulator:
         """
         w = self.world
         Y = w.pack()
-        # the World's arrays keep the start until unpack, unless a controller sees every step (then a copy)
-        start = None if self.controller is None else Y.copy()
+        types = self._type_mark()
+        # the World's arrays keep the start until unpack, unless a controller sees every step or a
+        # body's type may change (a path that lets go unpacks the state there): then a copy
+        start = None if self.controller is None and types is None else Y.copy()
         marks = (self.step_index, set(w.applied_impulses), dict(self.stats))
         scratch = Scratch(w.body_count, w.state_size)
         try:
@@ -168,11 +170,31 @@ class Simulator:
                 problem = checks.state_problem(Y, w.layout, w.moving)
                 if problem is not None:
                     Y0 = w.pack() if start is None else start
+                    self._put_types_back(types)  # the replay starts from the call's start
                     raise self._diagnose((Y0.copy(),) + marks, count, problem)
         except BaseException:  # as run's frames: a blow-up, an interrupt, a bad user force
+            self._put_types_back(types)
             self._restore((w.pack() if start is None else start,) + marks)
             raise
         w.unpack(Y)
+
+    def _type_mark(self):
+        """The bodies' types now (``snapshot.capture_types``) when the coming steps may change them
+        (a controller, a keyframed path that lets its body go), else None: a call that fails puts
+        the world back where it started, its bodies' types too (``_put_types_back``)."""
+        w = self.world
+        if self.controller is None and not any(p.release for p in w.paths):
+            return None
+        from .snapshot import capture_types
+
+        return capture_types(w)
+
+    def _put_types_back(self, mark):
+        """Put back the types of a ``_type_mark`` (None: nothing to do)."""
+        if mark is not None:
+            from .snapshot import put_types_back
+
+            put_types_back(self.world, *mark)
 
     def _advance_steps(self, Y, count: int, scratch):
         """``_advance`` by ``count`` steps; with a controller, one step at a time, the controller
@@ -864,12 +886,15 @@ class Simulator:
         try:
             for _ in range(frames):
                 snapshot = (Y.copy(), self.step_index, set(w.applied_impulses), dict(self.stats))
+                types = self._type_mark()
                 try:
                     Y = self._advance_steps(Y, steps_per_frame, scratch)
                     problem = checks.state_problem(Y, w.layout, w.moving)
                     if problem is not None:
+                        self._put_types_back(types)  # the replay starts from the frame's start
                         raise self._diagnose((snapshot[0].copy(),) + snapshot[1:], steps_per_frame, problem)
                 except BaseException:
+                    self._put_types_back(types)
                     self._restore(snapshot)
                     raise
                 w.unpack(Y)

@@ -81,13 +81,22 @@ class SimState:
 # a body's type and the mass rows that go with it (World.set_body_type): put back for the bodies
 # whose type differs at a restore (the others keep theirs: a mass set since stays)
 TYPE_ARRAYS = ("moving", "kinematic", "mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q",
-               "principal_moments", "dynamic_mass")
+               "principal_moments", "dynamic_mass", "kinematic_v", "kinematic_omega")
+
+
+def capture_types(w) -> tuple[dict, tuple]:
+    """(copies of the ``TYPE_ARRAYS``, the keyframed paths as (body row, ``to_dict()``)): what
+    ``put_types_back`` needs (a snapshot's, or a step call's that may change types)."""
+    return ({name: np.array(getattr(w, name), order="C") for name in TYPE_ARRAYS},
+            tuple((w.index_of(p.body), p.to_dict()) for p in w.paths))
 
 
 def save_state(sim) -> SimState:
     """``Simulator.save_state``: copies of everything the steps after now read (module docstring)."""
     w = sim.world
-    arrays = {name: np.array(getattr(w, name), order="C") for name in STATE + KINEMATIC + TYPE_ARRAYS}
+    arrays = {name: np.array(getattr(w, name), order="C") for name in STATE + KINEMATIC}
+    types, paths = capture_types(w)
+    arrays.update(types)
     arrays.update(_solver_arrays(sim))
     sensors = sim._sensor_log
     return SimState(
@@ -99,7 +108,7 @@ def save_state(sim) -> SimState:
         stats=dict(sim.stats), energy_reference=copy.deepcopy(sim.energy_reference),
         contact_touching=sim._event_log.pairs() if sim._event_log is not None else None,
         sensor_pairs=None if sensors is None else np.array(sensors.pairs),
-        paths=tuple((w.index_of(p.body), p.to_dict()) for p in w.paths))
+        paths=paths)
 
 
 def restore_state(sim, state: SimState, keep_table: bool = True) -> None:
@@ -122,7 +131,8 @@ def restore_state(sim, state: SimState, keep_table: bool = True) -> None:
                          f"({here[2]} layout)", "state")
     if state.dt != sim.dt:
         raise InputError(f"was saved by a simulator stepping dt = {state.dt} s; this one steps {sim.dt} s", "state")
-    retyped = _put_types_back(w, state)
+    # a state saved before types could change (no ``moving`` array) changes none
+    retyped = "moving" in state.arrays and put_types_back(w, state.arrays, state.paths)
     for name in STATE + KINEMATIC:
         getattr(w, name)[...] = state.arrays[name]
     for joint, broken in zip(joints, state.broken):
@@ -156,23 +166,21 @@ def restore_state(sim, state: SimState, keep_table: bool = True) -> None:
     _restore_solvers(sim, warm, sleep, joint_state)
 
 
-def _put_types_back(w, state: SimState) -> bool:
-    """Put back the type of each body whose type differs from the save's (``TYPE_ARRAYS``) and
-    the keyframed path it had then (a path that let its body go since: it goes again at its last
-    key); paths of those bodies added since are dropped. Returns whether any body's type changed.
-    A state saved before types could change (no ``moving`` array) changes none."""
+def put_types_back(w, arrays: dict, paths) -> bool:
+    """Put back the type of each body whose type differs from ``arrays``' (``capture_types``: the
+    ``TYPE_ARRAYS`` rows) and the keyframed path it had then (``paths``; a path that let its body
+    go since goes again at its last key); paths of those bodies added since are dropped. Returns
+    whether any body's type changed."""
     from .kinematic import KeyframePath
 
-    if "moving" not in state.arrays:
-        return False
-    changed = (state.arrays["moving"] != w.moving) | (state.arrays["kinematic"] != w.kinematic)
+    changed = (arrays["moving"] != w.moving) | (arrays["kinematic"] != w.kinematic)
     if not changed.any():
         return False
     rows = np.flatnonzero(changed)
     for name in TYPE_ARRAYS:
-        getattr(w, name)[rows] = state.arrays[name][rows]
+        getattr(w, name)[rows] = arrays[name][rows]
     back = set(rows.tolist())
     w.paths = [p for p in w.paths if w.index_of(p.body) not in back]
-    w.paths.extend(KeyframePath(body=row, **record) for row, record in state.paths if row in back)
+    w.paths.extend(KeyframePath(body=row, **record) for row, record in paths if row in back)
     w._retyped(rows)
     return True

@@ -402,3 +402,45 @@ def test_a_link_frozen_mid_swing_holds_the_next_as_a_fixed_body_does(method):
     assert np.array_equal(a.x, held)
     assert apart < (2e-3 if method == "gauss-seidel" else 1e-4)
     assert reach < 1e-3
+
+
+def test_a_call_that_fails_after_a_release_puts_the_types_back_with_the_state():
+    """A ball on a path that lets it go at 0.5 s, and a user force that raises at 0.6 s: the
+    ``step(240)`` call that passes both fails, and the world is back where the call started, the
+    ball kinematic on its path again (not dynamic at its start pose); with the force mended, the
+    same call gives the bits of a run that never failed (state hash), release included. A ``run``
+    that fails leaves the world at its last frame, the types as they were then (the ball let go at
+    0.5 s, dynamic at 0.583 s)."""
+    from tumble.checks import state_hash
+
+    def world(fail):
+        w = tb.World(gravity=(0, 0, -G))
+        ball = w.add_body(tb.Sphere(radius=0.1), kinematic=True, mass=0.5, name="ball")
+        w.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(3, 0, 0), name="box")
+        w.add_path(tb.KeyframePath(ball, times=[0.0, 0.5], positions=[[0, 0, 1], [1, 0, 2]], release=True))
+
+        def push(t, body):
+            if fail[0] and t > 0.6:
+                raise tb.InputError("the force failed", "function")
+            return np.zeros(3), np.zeros(3)
+
+        w.add_force(tb.CustomForce(push, bodies=["box"]))
+        return w
+
+    fail = [True]
+    w = world(fail)
+    sim = tb.Simulator(w, dt=DT)
+    start = state_hash(w)
+    with pytest.raises(tb.InputError, match="the force failed"):
+        sim.step(240)
+    assert w.body_type("ball") == "kinematic" and len(w.paths) == 1 and state_hash(w) == start
+    fail[0] = False
+    sim.step(240)
+    straight = tb.Simulator(world([False]), dt=DT)
+    straight.step(240)
+    assert w.body_type("ball") == "dynamic" and state_hash(w) == state_hash(straight.world)
+    fail[0] = True
+    w2 = world(fail)
+    with pytest.raises(tb.InputError, match="the force failed"):
+        tb.Simulator(w2, dt=DT).run(1.0)
+    assert w2.t == pytest.approx(0.5833333333333334) and w2.body_type("ball") == "dynamic"
