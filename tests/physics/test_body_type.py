@@ -11,6 +11,7 @@ on the ground or on another body at the heights the shapes give (1 mm: the conta
 tolerance). Before this change a body's type was set once, at ``add_body``."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -185,7 +186,7 @@ def test_a_bad_type_change_is_refused_and_nothing_changes(case):
 
 # ---------------------------------------------------------------------- runs that change types
 
-TOSS = __import__("pathlib").Path(__file__).resolve().parents[2] / "examples" / "toss.toml"
+TOSS = Path(__file__).resolve().parents[2] / "examples" / "toss.toml"
 
 
 def toss_simulator():
