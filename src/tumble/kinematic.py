@@ -177,8 +177,13 @@ def bind_path(world, path: KeyframePath) -> int:
         raise InputError(f"body {world.names[i]!r} is not kinematic: only a kinematic body follows a path", "body")
     if any(world.index_of(p.body) == i for p in world.paths):
         raise InputError(f"body {world.names[i]!r} already has a path", "body")
-    if path.release and not math.isfinite(world.dynamic_mass[i]) and type(world.shapes[i]).__name__ != "Particles":
-        raise InputError(f"body {world.names[i]!r} has no mass to be let go with: give it a mass or density", "release")
+    if path.release:
+        # the mass it will be let go with, checked now as the release will (World.set_body_type):
+        # known, with its centre at the body frame's origin; not found mid-run at the last key
+        try:
+            world._type_mass(i, None, None, None)
+        except InputError as err:
+            raise InputError(err.problem, "release") from None
     return i
 
 

@@ -64,8 +64,8 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
     if fixed_so_far is not None and len(fixed_so_far) != w.body_count:
         raise InputError(f"the checkpoint's run lists {len(fixed_so_far)} bodies, its world {w.body_count}", None,
                          str(out / CHECKPOINT))
-    writer = TrajectoryWriter(out / TRAJECTORY, static_values(w, None if fixed_so_far is None else
-                                                                  np.asarray(fixed_so_far, dtype=bool) & w.fixed), w.body_count, keep_frames=recorded if resume else None,
+    fixed = None if fixed_so_far is None else np.asarray(fixed_so_far, dtype=bool) & w.fixed
+    writer = TrajectoryWriter(out / TRAJECTORY, static_values(w, fixed), w.body_count, keep_frames=recorded if resume else None,
                               contacts=sim.record_contacts, joints=len(w.joints) if sim.record_joints else None,
                               sensors=int(w.sensor.sum()) if sensing else None)
     state = {"stop": None, "wall0": fig["wall_time_s"], "started": _time.perf_counter()}

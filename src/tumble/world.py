@@ -338,10 +338,8 @@ class World:
             a["inertia_body"][i] = np.diag([math.inf] * 3) if props is None else props.inertia
             a["dynamic_mass"][i] = math.nan if props is None else props.mass
         else:
-            self._write_mass_properties(i, props)
             omega = angular_velocity if angular_velocity_frame == "world" else mat_vec(R, angular_velocity)
-            a["P"][i] = props.mass * velocity
-            a["L"][i] = mat_vec(rotate_tensor(R, np.asarray(props.inertia, dtype=float)), omega)
+            self._write_mass_properties(i, props, velocity, omega)
             a["v"][i] = velocity
             a["omega"][i] = omega
             a["I_inv"][i] = rotate_tensor(R, a["inertia_body_inv"][i])
@@ -590,18 +588,19 @@ class World:
         if inertia is not None:
             props = _override_inertia(props, inertia)
         _check_inertia(props.inertia)
-        v, omega = self.v[i].copy(), self.omega[i].copy()
-        self._write_mass_properties(i, props)
-        self._arrays["P"][i] = mass * v
-        self._arrays["L"][i] = mat_vec(rotate_tensor(self.R[i], props.inertia), omega)
+        self._write_mass_properties(i, props, self.v[i].copy(), self.omega[i].copy())
         self._tables = None  # force tables may hold what a body's mass decides (a fluid's inertia box)
         self.wake_requests.add(i)
         self.update_derived()
 
-    def _write_mass_properties(self, i: int, props: MassProperties):
+    def _write_mass_properties(self, i: int, props: MassProperties, v, omega):
         """Body row i's mass, inverse mass, inertia, its inverse and principal axes from ``props``
-        (a moving body's: add_body, set_mass, set_body_type)."""
+        (a moving body's: add_body, set_mass, set_body_type), and its momenta from its velocity
+        ``v`` (3,) m/s and angular velocity ``omega`` (3,) rad/s, world: P = m v, L = R Ibody R^T
+        omega (R the body's orientation row, already written)."""
         a = self._arrays
+        a["P"][i] = props.mass * v
+        a["L"][i] = mat_vec(rotate_tensor(a["R"][i], np.asarray(props.inertia, dtype=float)), omega)
         a["mass"][i] = props.mass
         a["dynamic_mass"][i] = props.mass
         a["inv_mass"][i] = 1.0 / props.mass
@@ -637,10 +636,10 @@ class World:
         a body made fixed stops. A body made dynamic takes the mass given here (``mass`` kg or
         ``density`` kg/m^3, as in ``add_body``; ``inertia`` to override the shape's), else the one
         it had (given at ``add_body`` to a fixed or kinematic body, or held from when it was
-        dynamic: ``dynamic_mass``). A kinematic body's keyframed path ends with the type. The
-        body and those touching it are woken; the Simulator builds its contact and joint stages
-        again at its next step (the contacts' warm start kept: an expensive call, as Box2D says of
-        its own).
+        dynamic: ``dynamic_mass``). A kinematic body's keyframed path ends with the type. A body
+        made dynamic is woken (the sleeping bodies it touches wake as an awake body's touch wakes
+        them); the Simulator builds its contact and joint stages again at its next step (the
+        contacts' warm start kept: an expensive call, as Box2D says of its own).
 
         Raises:
             InputError (key ``type``, ``mass``, ``density`` or ``inertia``), nothing changed: an
@@ -666,13 +665,11 @@ class World:
         if body_type == old and props is None:
             return
         a = self._arrays
-        v, omega, R = self.v[i].copy(), self.omega[i].copy(), self.R[i]
+        v, omega = self.v[i].copy(), self.omega[i].copy()
         a["kinematic_v"][i] = 0.0
         a["kinematic_omega"][i] = 0.0
         if body_type == "dynamic":
-            self._write_mass_properties(i, props)
-            a["P"][i] = props.mass * v
-            a["L"][i] = mat_vec(rotate_tensor(R, np.asarray(props.inertia, dtype=float)), omega)
+            self._write_mass_properties(i, props, v, omega)
         else:
             if props is not None:  # held for a later switch to dynamic
                 a["dynamic_mass"][i] = props.mass

@@ -150,7 +150,7 @@ def test_a_dynamic_body_made_kinematic_moves_on_at_its_velocity_and_comes_back_w
 
 
 @pytest.mark.parametrize("case", ["unknown type", "plane", "open mesh", "no mass", "off centre", "dynamic mass",
-                                  "release repeat", "release no mass", "inertia alone"])
+                                  "release repeat", "release no mass", "release off centre", "inertia alone"])
 def test_a_bad_type_change_is_refused_and_nothing_changes(case):
     """Each bad change is one InputError naming its key, and the body keeps its type, mass and
     velocity (the checks run before anything is written)."""
@@ -160,6 +160,8 @@ def test_a_bad_type_change_is_refused_and_nothing_changes(case):
     sheet = w.add_body(tb.Mesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]], closed=False),
                        fixed=True, name="sheet")
     lump = w.add_body(tb.Compound([(tb.Sphere(radius=0.1), (0.5, 0, 0), (1, 0, 0, 0))]), kinematic=True, name="lump")
+    # point masses whose centre is off the frame a kinematic body without a mass gets (the origin)
+    dots = w.add_body(tb.Particles(points=[[1, 0, 0], [2, 0, 0]], masses=[1.0, 1.0]), kinematic=True, name="dots")
     before = {k: np.array(getattr(w, k)) for k in ("mass", "moving", "kinematic", "kinematic_v", "P", "dynamic_mass")}
     calls = {
         "unknown type": (lambda: w.set_body_type(dyn, "static"), "type"),
@@ -172,6 +174,9 @@ def test_a_bad_type_change_is_refused_and_nothing_changes(case):
                                                    release=True), "release"),
         "release no mass": (lambda: w.add_path(tb.KeyframePath(kin, times=[0, 1], positions=[[0, 0, 0], [1, 0, 0]],
                                                                release=True)), "release"),
+        # refused at add_path, as the release at the last key would be (before: found mid-run)
+        "release off centre": (lambda: w.add_path(tb.KeyframePath(dots, times=[0, 1], positions=[[0, 0, 0], [1, 0, 0]],
+                                                                  release=True)), "release"),
         "inertia alone": (lambda: w.set_body_type(kin, "dynamic", inertia=(1, 1, 1)), "inertia"),
     }
     call, key = calls[case]
@@ -228,7 +233,7 @@ def test_a_run_through_a_release_resumes_from_its_checkpoint_bit_for_bit(tmp_pat
     the ball's mass are in the file) or 1.0 s (after it: the ball dynamic, the crate's path still
     to let go), resumed from the file to 2.5 s: the same state hash as the run that went straight
     through. Loading a path that lets go needs the body's mass, read before the paths (it failed
-    with "no mass to be let go with" when read after)."""
+    with "has no mass" when read after)."""
     from tumble.checks import state_hash
 
     sim = toss_simulator()

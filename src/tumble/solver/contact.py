@@ -497,17 +497,21 @@ class ContactSolver:
         self.step_normal_impulse[:] += self.normal_impulse
         self.step_tangent_impulse[:] += self.tangent_impulse
 
-    def last_step_impulses(self, rows) -> tuple[np.ndarray, np.ndarray]:
+    def last_step_impulses(self, rows=None) -> tuple[np.ndarray, np.ndarray]:
         """(normal (M,) N s, friction (M, 3) N s, world): the whole last step's impulses of its
-        contacts ``rows`` (M,) (rows of ``old_key``: the last step's contacts, in its order), from
-        the step's totals, or from the arrays a checkpoint or snapshot restored when no step has
-        been taken since (``SoftStep.resting_fields``: an island falling asleep at the first step
-        after a restore; that step's totals are not made yet: an IndexError before session 39)."""
+        contacts ``rows`` (M,) (rows of ``old_key``: the last step's contacts, in its order; None:
+        all of them, as whole arrays), from the step's totals, or from the arrays a checkpoint or
+        snapshot restored when no step has been taken since (``SoftStep.resting_fields``: an
+        island falling asleep at the first step after a restore; that step's totals are not made
+        yet: an IndexError before session 39)."""
+        # PERF: None reads whole arrays, no gather (a snapshot's save at 1000 boxes, 4000 contacts:
+        # 0.19 -> 0.05 ms)
+        sel = slice(None) if rows is None else rows
         if self._restored_step is not None:
             normal, friction = self._restored_step
-            return normal[rows], friction[rows]
-        jt = self.step_tangent_impulse[rows]
-        return self.step_normal_impulse[rows], jt[:, 0:1] * self.tangent1[rows] + jt[:, 1:2] * self.tangent2[rows]
+            return normal[sel], friction[sel]
+        jt = self.step_tangent_impulse[sel]
+        return self.step_normal_impulse[sel], jt[:, 0:1] * self.tangent1[sel] + jt[:, 1:2] * self.tangent2[sel]
 
     def warm_start_state(self) -> dict:
         """The impulses kept for the next step's warm start, as arrays (for checkpoints): the keys
@@ -517,14 +521,9 @@ class ContactSolver:
         falling asleep at the next step report)."""
         k = self.old_count
         rolling = self._buf["old_rolling_impulse"][:k].copy() if self._rolling_stored else np.zeros((k, 3))
-        if self._restored_step is None and self.count == k:
-            # PERF: all of the last step's rows, in order: whole arrays, no gather (0.19 -> 0.05 ms
-            # at 1000 boxes, 4000 contacts; a snapshot's save)
-            jt = self.step_tangent_impulse
-            step_normal = self.step_normal_impulse
-            step_friction = jt[:, 0:1] * self.tangent1 + jt[:, 1:2] * self.tangent2
-        else:
-            step_normal, step_friction = self.last_step_impulses(np.arange(k))
+        # the last step's K rows, in order (its totals hold them all between steps: count == K)
+        whole = self._restored_step is not None or self.count == k
+        step_normal, step_friction = self.last_step_impulses(None if whole else np.arange(k))
         return {"key": self.old_key[:k].copy(), "normal_impulse": self._buf["old_normal_impulse"][:k].copy(),
                 "friction_impulse": self._buf["old_friction_impulse"][:k].copy(), "rolling_impulse": rolling,
                 "step_normal_impulse": np.array(step_normal), "step_friction_impulse": np.array(step_friction)}
