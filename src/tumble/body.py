@@ -73,6 +73,10 @@ class Body:
                     doc='``"dynamic"``, ``"kinematic"`` or ``"fixed"``; set it between steps '
                         '(``World.set_body_type``: a carried body let go, a falling one frozen).')
     kinematic = property(lambda self: bool(self.world.kinematic[self.index]))
+    enabled = property(lambda self: not self.world.disabled[self.index],
+                       lambda self, value: self.world.set_enabled(self.index, value),
+                       doc="False while the body is out of the simulation; set it between steps "
+                           "(``World.set_enabled``: a body despawned, and spawned again).")
     sensor = property(lambda self: bool(self.world.sensor[self.index]))
 
     @property
@@ -99,6 +103,9 @@ class Body:
     torque = property(lambda self: self.world.torque[self.index])
 
     def _set(self, name, value, shape):
+        if name in ("P", "L") and self.world.disabled[self.index]:
+            raise InputError(f"body {self.name!r} is disabled: set v or omega (the velocities it comes back with) "
+                             f"instead of {name}", name)
         if name in ("P", "L") and self.kinematic:
             raise InputError(f"a kinematic body has infinite mass and no momentum: set v or omega instead of {name}", name)
         arr = np.asarray(value, dtype=float)
@@ -125,6 +132,9 @@ class Body:
 
     @v.setter
     def v(self, value):
+        if self.world.disabled[self.index]:  # the velocity it comes back with (World.set_enabled)
+            self.world.held_v[self.index] = finite_vector(value, "v")
+            return
         if self.kinematic:
             self.world.kinematic_v[self.index] = finite_vector(value, "v")
             self.world.update_derived()
@@ -148,7 +158,7 @@ class Body:
         b2Body_ApplyLinearImpulse, PyBullet's applyExternalForce over one step). A sleeping body
         given one wakes at the next step. Only for dynamic bodies."""
         if not self.world.moving[self.index]:
-            kind = "kinematic" if self.kinematic else "fixed"
+            kind = "disabled" if self.world.disabled[self.index] else "kinematic" if self.kinematic else "fixed"
             raise InputError(f"body {self.name!r} is {kind}: an impulse moves only a dynamic body", "impulse")
         J = finite_vector(impulse, "impulse")
         p = self.x if point is None else finite_vector(point, "point")
@@ -185,6 +195,9 @@ class Body:
     @omega.setter
     def omega(self, value):
         w = finite_vector(value, "omega")
+        if self.world.disabled[self.index]:  # the angular velocity it comes back with (World.set_enabled)
+            self.world.held_omega[self.index] = w
+            return
         if self.kinematic:
             self.world.kinematic_omega[self.index] = w
             self.world.update_derived()

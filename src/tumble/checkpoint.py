@@ -51,7 +51,10 @@ CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_
 STATE = ("x", "q", "R", "P", "L")
 # kinematic bodies (World.kinematic, their velocities), surface velocities and sensors: absent
 # from checkpoints written before they existed, which load with none
-KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega", "surface_velocity", "sensor")
+# disabled, held_*: the bodies out of the simulation and what they come back as (World.set_enabled;
+# absent from checkpoints written before session 40: none disabled)
+KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega", "surface_velocity", "sensor", "disabled", "held_type",
+             "held_v", "held_omega")
 FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy, Fluid,
                                           CustomForce)}
 BODY_FIELDS = ("body", "body_a", "body_b")
@@ -219,6 +222,8 @@ def save_checkpoint(sim, path, run: dict | None = None) -> Path:
         "forces": [_force_to_dict(w, f) for f in w.forces],
         "joints": [_joint_to_dict(w, j) for j in getattr(w, "joints", ())],
         "applied_impulses": sorted(int(k) for k in w.applied_impulses),
+        # the joints switched off by a disabled body (World.set_enabled; absent from older checkpoints)
+        "joints_switched_off": sorted(int(k) for k in w.joints_switched_off),
         # bodies pushed, moved or placed since the last step: the next step wakes them (absent
         # from older checkpoints: none)
         "wake_requests": sorted(int(k) for k in w.wake_requests),
@@ -467,6 +472,7 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
         raise InputError("expected a list of joint records", "joints")
     # appended as bound at their creation: World.add_joint would rebind them at the saved poses
     w.joints.extend(_joint_from_dict(w, record, f"joints[{i}]") for i, record in enumerate(joints))
+    w.joints_switched_off = {int(k) for k in meta.get("joints_switched_off") or ()}
     w.t = float(meta["t"])
     w.collisions = bool(meta.get("collisions", True))
     w.sleeping = bool(meta.get("sleeping", True))

@@ -431,7 +431,7 @@ class ForceTables:
 
 
 def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mass=None,
-                       inertia_body=None) -> ForceTables:
+                       inertia_body=None, disabled=None) -> ForceTables:
     """Turn force records into ``ForceTables``.
 
     Args:
@@ -441,6 +441,9 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mas
         resolve: function mapping a body, a name or an index to an index.
         mass: (N,) kg and inertia_body: (N, 3, 3) kg m^2, body frame: ``Fluid``'s boxes (needed
             only with a Fluid).
+        disabled: (N,) bool or None: the bodies out of the simulation (``World.set_enabled``):
+            a spring with a disabled end pulls nothing (the other forces act on moving bodies
+            only, which a disabled body is not).
     """
     rows = []  # (body, order, kind, params[, the Buoyancy record that fills the row])
     springs = []
@@ -468,6 +471,8 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mas
         elif isinstance(f, Spring):
             a = resolve(f.body_a)
             b = -1 if f.body_b is None else resolve(f.body_b)
+            if disabled is not None and (disabled[a] or (b >= 0 and disabled[b])):
+                continue
             springs.append((a, b, f.anchor_a, f.anchor_b, [f.stiffness, f.damping, f.rest_length]))
         elif isinstance(f, Buoyancy):
             targets = all_moving if f.bodies is None else [resolve(b) for b in f.bodies]

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .shapes import shape_to_dict
-from .trajectory import CONTACT_FIELDS, Trajectory, joint_frame_shapes, pad_contacts
+from .trajectory import CONTACT_FIELDS, EnabledLog, Trajectory, joint_frame_shapes, pad_contacts
 from .world import World
 
 
@@ -153,6 +153,7 @@ class _Recorder:
         n = world.body_count
         self.count = 0
         self.fixed = world.fixed.copy()  # fixed at every frame recorded so far (static_values)
+        self.enabled_log = EnabledLog(n)  # the bodies disabled and enabled, frame by frame
         self.arrays = {}
         for key, shape in self.KEYS.items():
             if shape is None or shape == ():
@@ -178,6 +179,7 @@ class _Recorder:
         """Keep the first ``count`` frames only (the live viewer's "Back to mark")."""
         self.count = min(self.count, int(count))
         del self.contact_frames[self.count:]
+        self.enabled_log.truncate(self.count)
 
     def record(self):
         if self.count == len(self.arrays["time"]):
@@ -185,6 +187,7 @@ class _Recorder:
         for key, value in frame_values(self.world).items():
             self.arrays[key][self.count] = value
         self.fixed &= self.world.fixed
+        self.enabled_log.observe(self.count, self.world.disabled)
         if self.contacts_of is not None:
             self.contact_frames.append(self.contacts_of.contacts())
         if self.joints_of is not None:
@@ -203,4 +206,5 @@ class _Recorder:
             contacts = pad_contacts([len(c) for c in frames], rows)
         if self.joints_of is not None:
             contacts["joint_names"] = np.array([j.name or "" for j in self.world.joints], dtype=str)
+        contacts["enabled_changes"] = self.enabled_log.array()
         return Trajectory(**{key: a[:k].copy() for key, a in self.arrays.items()}, **static_values(self.world, self.fixed), **contacts)

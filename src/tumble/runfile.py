@@ -18,7 +18,7 @@ import numpy as np
 
 from . import checks
 from .errors import InputError, SimulationError
-from .trajectory import TrajectoryWriter, frame_bytes, write_json_atomic
+from .trajectory import EnabledLog, TrajectoryWriter, frame_bytes, write_json_atomic
 
 TRAJECTORY, CHECKPOINT, SUMMARY = "trajectory.npz", "checkpoint.npz", "summary.json"
 # Without --checkpoint-every, flush (trajectory, checkpoint, summary) after the first frame
@@ -68,12 +68,22 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
     writer = TrajectoryWriter(out / TRAJECTORY, static_values(w, fixed), w.body_count, keep_frames=recorded if resume else None,
                               contacts=sim.record_contacts, joints=len(w.joints) if sim.record_joints else None,
                               sensors=int(w.sensor.sum()) if sensing else None)
+    # the bodies disabled and enabled so far (Trajectory.enabled_changes): a resumed run's earlier
+    # rows are in its checkpoint's run record
+    enabled_log = EnabledLog(w.body_count, (meta.get("enabled_changes") or ()) if resume else ())
+    enabled_log.truncate(recorded)
+    if enabled_log.rows:
+        writer.static["enabled_changes"] = enabled_log.array()
     state = {"stop": None, "wall0": fig["wall_time_s"], "started": _time.perf_counter()}
     state["last_flush"] = state["started"]
 
     def record():
         values = frame_values(w)
         writer.static["fixed"] &= w.fixed  # fixed at every frame: a body whose type changed moved
+        before = len(enabled_log.rows)
+        enabled_log.observe(writer.frames, w.disabled)
+        if len(enabled_log.rows) != before:
+            writer.static["enabled_changes"] = enabled_log.array()
         if sim.record_contacts:
             values["contacts"] = sim.contacts()
             values["contact_count"] = len(values["contacts"])
@@ -92,7 +102,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
         state["last_flush"] = _time.perf_counter()
         fig["wall_time_s"] = state["wall0"] + (state["last_flush"] - state["started"])
         writer.flush()
-        run = {"t_start": t_start, "frames": writer.frames, "fixed": writer.static["fixed"].tolist(), "duration": float(duration), "frame_rate": float(frame_rate),
+        run = {"t_start": t_start, "frames": writer.frames, "fixed": writer.static["fixed"].tolist(), "enabled_changes": enabled_log.rows, "duration": float(duration), "frame_rate": float(frame_rate),
                "checkpoint_every": checkpoint_every, "figures": fig, "info": run_info}
         sim.save_checkpoint(out / CHECKPOINT, run=run)
         result = RunResult(

@@ -473,6 +473,14 @@ class Simulator:
         rows = w.type_changes[self._type_changes_seen:]
         self._type_changes_seen = len(w.type_changes)
         w.unpack(Y)
+        gone = [i for i in set(rows) if w.disabled[i]]
+        if gone and self.soft_step is not None:
+            # the bodies that touched a body now disabled are woken (Box2D's b2Body_Disable wakes
+            # the body's islands): a box asleep on a shelf that vanishes falls
+            c = self.contacts()
+            touched = np.isin(c.body_a, gone) | np.isin(c.body_b, gone)
+            w.wake_requests.update(int(i) for i in np.concatenate([c.body_a[touched], c.body_b[touched]])
+                                   if w.moving[i])
         if self.soft_step is not None:
             # The shape table holds which bodies move (read each step) and, for a triangle mesh,
             # its triangles on a fixed or kinematic body but its hull on a moving one: made anew

@@ -81,14 +81,17 @@ class SimState:
 # a body's type and the mass rows that go with it (World.set_body_type): put back for the bodies
 # whose type differs at a restore (the others keep theirs: a mass set since stays)
 TYPE_ARRAYS = ("moving", "kinematic", "mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q",
-               "principal_moments", "dynamic_mass", "kinematic_v", "kinematic_omega")
+               "principal_moments", "dynamic_mass", "kinematic_v", "kinematic_omega",
+               "disabled", "held_type", "held_v", "held_omega")  # World.set_enabled's
 
 
 def capture_types(w) -> tuple[dict, tuple]:
-    """(copies of the ``TYPE_ARRAYS``, the keyframed paths as (body row, ``to_dict()``)): what
-    ``put_types_back`` needs (a snapshot's, or a step call's that may change types)."""
-    return ({name: np.array(getattr(w, name), order="C") for name in TYPE_ARRAYS},
-            tuple((w.index_of(p.body), p.to_dict()) for p in w.paths))
+    """(copies of the ``TYPE_ARRAYS`` and of the joints a disabled body switched off, the keyframed
+    paths as (body row, ``to_dict()``)): what ``put_types_back`` needs (a snapshot's, or a step
+    call's that may change types)."""
+    arrays = {name: np.array(getattr(w, name), order="C") for name in TYPE_ARRAYS}
+    arrays["switched_off_joints"] = np.array(sorted(w.joints_switched_off), dtype=np.int64)
+    return arrays, tuple((w.index_of(p.body), p.to_dict()) for p in w.paths)
 
 
 def save_state(sim) -> SimState:
@@ -173,7 +176,11 @@ def put_types_back(w, arrays: dict, paths) -> bool:
     whether any body's type changed."""
     from .kinematic import KeyframePath
 
+    if "switched_off_joints" in arrays:
+        w.joints_switched_off = {int(k) for k in arrays["switched_off_joints"]}
     changed = (arrays["moving"] != w.moving) | (arrays["kinematic"] != w.kinematic)
+    if "disabled" in arrays:
+        changed |= arrays["disabled"] != w.disabled
     if not changed.any():
         return False
     rows = np.flatnonzero(changed)
@@ -183,4 +190,5 @@ def put_types_back(w, arrays: dict, paths) -> bool:
     w.paths = [p for p in w.paths if w.index_of(p.body) not in back]
     w.paths.extend(KeyframePath(body=row, **record) for row, record in paths if row in back)
     w._retyped(rows)
+    w.filter_version += 1  # a disabled body's filter in the pipeline (World.collision_filters_in_effect)
     return True

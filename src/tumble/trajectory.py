@@ -65,6 +65,13 @@ class Trajectory:
     Sensors, when the world has any (else None), K sensors in body order (``sensor`` flags):
         sensor_visitors: (F, K) how many bodies overlap each sensor at the frame
             (``Simulator.sensor_overlaps``; frame 0 at the run's start).
+
+    Bodies out of the simulation (``World.set_enabled``), when some body was at some frame (else
+    None: every body present throughout):
+        enabled_changes: (K, 3) int64 rows (frame, body, 1 enabled / 0 disabled), in frame order:
+            the body is so from that frame on (a body disabled at the first frame has a row at
+            frame 0). ``enabled`` unfolds them into (F, N) bool. Kept as changes, not per frame,
+            so that a streamed file's memory does not grow with the run.
     """
 
     time: np.ndarray
@@ -100,8 +107,9 @@ class Trajectory:
     joint_torque: np.ndarray | None = None
     joint_enabled: np.ndarray | None = None
     sensor_visitors: np.ndarray | None = None
+    enabled_changes: np.ndarray | None = None
 
-    OPTIONAL = ("sensor_visitors", "joint_names", "joint_position", "joint_rate", "joint_force", "joint_torque", "joint_enabled",
+    OPTIONAL = ("enabled_changes", "sensor_visitors", "joint_names", "joint_position", "joint_rate", "joint_force", "joint_torque", "joint_enabled",
                 "shapes", "fixed", "sensor", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
                 "contact_normal", "contact_separation", "contact_normal_impulse", "contact_friction_impulse",
                 "contact_force")
@@ -113,6 +121,12 @@ class Trajectory:
     @property
     def total_energy(self) -> np.ndarray:
         return self.kinetic_energy + self.potential_energy
+
+    @property
+    def enabled(self) -> np.ndarray:
+        """(F, N) bool: whether each body is in the simulation at each frame (``enabled_changes``
+        unfolded; all True when the file has none). The exports hide a body where it is False."""
+        return unfold_enabled(self.enabled_changes, self.frame_count, len(self.names))
 
     def shape(self, index: int):
         """The shape record of body ``index`` (rebuilt from ``shapes``), or None."""
@@ -146,6 +160,54 @@ class Trajectory:
         if self.shapes is not None:
             arrays["shapes"] = np.asarray(self.shapes, dtype=str)
         return write_atomic(path, lambda fh: np.savez_compressed(fh, **arrays))
+
+
+def unfold_enabled(changes, frames: int, bodies: int) -> np.ndarray:
+    """(F, N) bool from ``Trajectory.enabled_changes`` rows (frame, body, 0/1) (None: all True)."""
+    out = np.ones((frames, bodies), dtype=bool)
+    if changes is None:
+        return out
+    for frame, body, on in np.asarray(changes, dtype=np.int64).reshape(-1, 3).tolist():
+        if 0 <= frame < frames and 0 <= body < bodies:
+            out[frame:, body] = bool(on)
+    return out
+
+
+class EnabledLog:
+    """The rows of ``Trajectory.enabled_changes`` gathered frame by frame (the recorder's and the
+    streamed writer's): a row where a body's ``World.disabled`` flag differs from the frame
+    before's (at the first frame, from enabled)."""
+
+    def __init__(self, body_count: int, rows=()):
+        self.rows = [tuple(int(v) for v in r) for r in rows]
+        self.last = np.zeros(body_count, dtype=bool)  # disabled at the last frame observed
+        self._replay()
+
+    def _replay(self):
+        self.last[:] = False
+        for _, body, on in self.rows:
+            if body < len(self.last):
+                self.last[body] = not on
+
+    def observe(self, frame: int, disabled: np.ndarray):
+        """Note the flags ``disabled`` (N,) bool at frame ``frame``."""
+        if disabled.shape != self.last.shape:  # bodies added since: they start enabled
+            last = np.zeros(disabled.shape, dtype=bool)
+            last[: min(len(last), len(self.last))] = self.last[: len(last)]
+            self.last = last
+        changed = np.flatnonzero(disabled != self.last)
+        if len(changed):
+            self.rows.extend((int(frame), int(i), int(not disabled[i])) for i in changed)
+            self.last = disabled.copy()
+
+    def truncate(self, frames: int):
+        """Keep the rows of the first ``frames`` frames only."""
+        self.rows = [r for r in self.rows if r[0] < frames]
+        self._replay()
+
+    def array(self):
+        """(K, 3) int64, or None when no body was ever disabled."""
+        return np.array(self.rows, dtype=np.int64).reshape(-1, 3) if self.rows else None
 
 
 def joint_frame_shapes(joint_count: int) -> dict:

@@ -37,7 +37,7 @@ import numpy as np
 
 from . import integrators as K
 from .errors import InputError
-from .collision.filter import ALL_CATEGORIES, CollisionFilter
+from .collision.filter import ALL_CATEGORIES, NOTHING_FILTER, CollisionFilter
 from .forces import (
     Buoyancy,
     Fluid,
@@ -80,8 +80,15 @@ _CONSTANT_ARRAYS = {
 BODY_TYPES = ("dynamic", "kinematic", "fixed")
 _STATE_ARRAYS = {"x": (3,), "q": (4,), "R": (3, 3), "P": (3,), "L": (3,)}
 _DERIVED_ARRAYS = {"v": (3,), "omega": (3,), "I_inv": (3, 3), "force": (3,), "torque": (3,)}
-_KINEMATIC_ARRAYS = {"kinematic_v": (3,), "kinematic_omega": (3,), "surface_velocity": (3,)}
-_FLAG_ARRAYS = ("moving", "kinematic", "sensor")
+_KINEMATIC_ARRAYS = {
+    "kinematic_v": (3,), "kinematic_omega": (3,), "surface_velocity": (3,),
+    # a disabled body's (``World.set_enabled``): the type it comes back as (0 dynamic, 1
+    # kinematic, 2 fixed: BODY_TYPES' index) and the velocities it comes back with, m/s and
+    # rad/s, world (its centre of mass); zero for an enabled body
+    "held_type": (), "held_v": (3,), "held_omega": (3,),
+}
+#: ``disabled``: out of the simulation (World.set_enabled): moves with nothing, touches nothing
+_FLAG_ARRAYS = ("moving", "kinematic", "sensor", "disabled")
 
 
 class World:
@@ -125,6 +132,9 @@ class World:
         # body rows whose type was changed (set_body_type), in order: a Simulator takes those
         # after the ones it has seen and builds its contact and joint stages again
         self.type_changes: list[int] = []
+        # indices into ``joints`` of the joints switched off because a body of theirs was
+        # disabled (set_enabled): switched on again when both their bodies are enabled
+        self.joints_switched_off: set[int] = set()
         self.forces: list[Any] = []
         self.joints: list[Any] = []  # joint records of tumble.joints, bound (add_joint)
         self.paths: list[Any] = []  # keyframed paths of kinematic bodies (tumble.kinematic, add_path)
@@ -205,6 +215,7 @@ class World:
         kinematic: bool = False,
         surface_velocity=(0.0, 0.0, 0.0),
         sensor: bool = False,
+        enabled: bool = True,
         name: str | None = None,
     ) -> "Body":
         """Add one body and return its view.
@@ -245,6 +256,8 @@ class World:
             sensor: the body touches nothing and reports the dynamic and kinematic bodies that
                 overlap it (``Simulator.sensor_events``, ``sensor_overlaps``; Box2D's sensor
                 shapes): a trigger zone. It may be fixed, kinematic or dynamic.
+            enabled: False adds the body out of the simulation (``set_enabled``): it waits,
+                hidden in exports, touching nothing, until enabled (a body that appears later).
             name: unique; default "body<i>".
         """
         if name is None:
@@ -278,6 +291,10 @@ class World:
             raise InputError("a body is fixed or kinematic, not both", "kinematic")
         if not isinstance(sensor, (bool, np.bool_)):
             raise InputError(f"expected True or False, got {sensor!r}", "sensor")
+        if not isinstance(enabled, (bool, np.bool_)):
+            raise InputError(f"expected True or False, got {enabled!r}", "enabled")
+        if not enabled and isinstance(shape, Plane):
+            raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
         if sensor and isinstance(shape, Plane):
             raise InputError("a plane cannot be a sensor (it has no inside to enter)", "sensor")
         if kinematic and isinstance(shape, Plane):
@@ -324,6 +341,10 @@ class World:
         a["moving"][i] = not (fixed or kinematic)
         a["kinematic"][i] = kinematic
         a["sensor"][i] = bool(sensor)
+        a["disabled"][i] = False
+        a["held_type"][i] = 0.0
+        a["held_v"][i] = 0.0
+        a["held_omega"][i] = 0.0
         a["kinematic_v"][i] = 0.0
         a["kinematic_omega"][i] = 0.0
         a["surface_velocity"][i] = surface_velocity
@@ -349,6 +370,8 @@ class World:
         self.materials.append(material)
         self.collision_filters.append(collision_filter)
         self._tables = None
+        if not enabled:
+            self.set_enabled(i, False)
         # force/torque are filled by the simulator's first evaluation (or update_derived())
         return Body(self, i)
 
@@ -580,6 +603,7 @@ class World:
         nothing changed: a fixed or kinematic body, a mass not positive and finite, an inertia not
         symmetric positive definite or breaking the triangle inequality."""
         i = self.index_of(body)
+        self._refuse_disabled(i, "mass", "its mass")
         if not self.moving[i]:
             raise InputError("a fixed or kinematic body has no mass to set (infinite: it is not moved by forces)",
                              "mass")
@@ -621,9 +645,114 @@ class World:
         a["principal_moments"][i] = math.inf
 
     def body_type(self, body) -> str:
-        """``"dynamic"``, ``"kinematic"`` or ``"fixed"``: the type of ``body`` (``Body``, name or index)."""
+        """``"dynamic"``, ``"kinematic"`` or ``"fixed"``: the type of ``body`` (``Body``, name or
+        index); a disabled body's is the type it comes back as (``set_enabled``)."""
         i = self.index_of(body)
+        if self.disabled[i]:
+            return BODY_TYPES[int(self.held_type[i])]
         return "dynamic" if self.moving[i] else "kinematic" if self.kinematic[i] else "fixed"
+
+    @property
+    def enabled(self) -> np.ndarray:
+        """(N,) bool: False for the bodies out of the simulation (``set_enabled``); a new array."""
+        return ~self.disabled
+
+    def _refuse_disabled(self, i: int, key: str, what: str):
+        if self.disabled[i]:
+            raise InputError(f"body {self.names[i]!r} is disabled: enable it before changing {what}", key)
+
+    def set_enabled(self, body, enabled: bool):
+        """Take ``body`` (``Body``, name or index) out of the simulation (``enabled=False``) or put
+        it back (Box2D's ``b2Body_Disable`` / ``b2Body_Enable``; what PyBullet's ``removeBody``
+        and a game's despawn and spawn are for), from the next step on.
+
+        A disabled body stays where it is, moved by nothing, and touches nothing: no contact, no
+        sensor overlap, no ray or shape query sees it; its joints are switched off (``broken``,
+        switched on again when both their bodies are enabled) and its springs pull nothing; the
+        recorded trajectory marks it absent from the frame it left (``Trajectory.enabled``), and
+        the exports hide it there (glTF scale, USD visibility, videos, the viewer). It keeps its
+        row, name and type: ``body_type`` says the type it comes back as. Enabled again, it comes
+        back as that type at the pose it has (set it while disabled: a body respawned elsewhere)
+        with the velocity it left with (or one set while disabled: ``Body.v``, ``Body.omega``),
+        woken. A kinematic body's keyframed path ends when it is disabled (as with a type
+        change). The bodies that touched it are woken (a box asleep on a shelf that vanishes
+        falls). The Simulator builds its contact and joint stages again at its next step, as
+        for a type change (``set_body_type``).
+
+        Raises:
+            InputError (key ``enabled``), nothing changed: not True or False; a plane.
+        """
+        i = self.index_of(body)
+        if not isinstance(enabled, (bool, np.bool_)):
+            raise InputError(f"expected True or False, got {enabled!r}", "enabled")
+        if not enabled and isinstance(self.shapes[i], Plane):
+            raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
+        if bool(enabled) != bool(self.disabled[i]):
+            return  # already so
+        a = self._arrays
+        if not enabled:
+            kind = self.body_type(i)
+            a["held_type"][i] = BODY_TYPES.index(kind)
+            a["held_v"][i] = self.v[i]
+            a["held_omega"][i] = self.omega[i]
+            # as a fixed body in every stage (its mass held: dynamic_mass, inertia_body), and
+            # out of the collision pipeline by its filter (collision_filters_in_effect)
+            self._write_infinite_mass(i)
+            a["P"][i] = 0.0
+            a["L"][i] = 0.0
+            a["kinematic_v"][i] = 0.0
+            a["kinematic_omega"][i] = 0.0
+            a["moving"][i] = False
+            a["kinematic"][i] = False
+            a["disabled"][i] = True
+            self.paths = [p for p in self.paths if self.index_of(p.body) != i]
+            self._switch_joints(i, on=False)
+        else:
+            kind = BODY_TYPES[int(a["held_type"][i])]
+            v, omega = a["held_v"][i].copy(), a["held_omega"][i].copy()
+            a["disabled"][i] = False
+            a["held_type"][i] = 0.0
+            a["held_v"][i] = 0.0
+            a["held_omega"][i] = 0.0
+            if kind == "dynamic":
+                props = MassProperties(float(self.dynamic_mass[i]), self.com_offset[i].copy(), self.inertia_body[i].copy())
+                self._write_mass_properties(i, props, v, omega)
+            elif kind == "kinematic":
+                a["kinematic_v"][i] = v
+                a["kinematic_omega"][i] = omega
+            a["moving"][i] = kind == "dynamic"
+            a["kinematic"][i] = kind == "kinematic"
+            self._switch_joints(i, on=True)
+            self.wake_requests.add(i)
+        self.filter_version += 1
+        self._retyped([i])
+        self.update_derived()
+
+    def _switch_joints(self, i: int, on: bool):
+        """Switch off the joints of body row i that act (``joints_switched_off`` lists them), or
+        on again those of them whose bodies are now both enabled (``joints.set_broken``: their
+        bodies woken, the solver's row taken at the next step)."""
+        from .joints import set_broken
+
+        for k, joint in enumerate(self.joints):
+            b = joint.bound
+            if b is None or i not in (b.body_a, b.body_b):
+                continue
+            if not on and not joint.broken:
+                set_broken(joint, True)
+                self.joints_switched_off.add(k)
+            elif on and k in self.joints_switched_off and not any(r >= 0 and self.disabled[r] for r in (b.body_a, b.body_b)):
+                set_broken(joint, False)
+                self.joints_switched_off.discard(k)
+
+    def collision_filters_in_effect(self) -> list:
+        """The bodies' collision filters as the collision pipeline and the queries read them:
+        a disabled body's is ``NOTHING_FILTER`` (it meets no other; ``set_enabled``)."""
+        filters = self.collision_filters[: self.body_count]
+        disabled = self.disabled
+        if not disabled.any():
+            return filters
+        return [NOTHING_FILTER if off else f for f, off in zip(filters, disabled)]
 
     def set_body_type(self, body, body_type: str, *, mass=None, density=None, inertia=None):
         """Make ``body`` (``Body``, name or index) ``"dynamic"``, ``"kinematic"`` or ``"fixed"``
@@ -651,6 +780,7 @@ class World:
         i = self.index_of(body)
         if body_type not in BODY_TYPES:
             raise InputError(f"must be one of {', '.join(BODY_TYPES)}, got {body_type!r}", "type")
+        self._refuse_disabled(i, "type", "its type")
         old = self.body_type(i)
         shape = self.shapes[i]
         if isinstance(shape, Plane) and body_type != "fixed":
@@ -778,7 +908,7 @@ class World:
         if self._tables is None or self._force_edits != force_edit_count():
             self._force_edits = force_edit_count()  # (any world's record edited: rebuilt, the same tables or new)
             self._tables = build_force_tables(self.forces, self.body_count, self.moving, self.index_of, self.mass,
-                                              self.inertia_body)
+                                              self.inertia_body, disabled=self.disabled)
         return self._tables
 
     @property
@@ -892,8 +1022,10 @@ class World:
         (hinge, slider and distance stiffness, ball joint drives: ``solver.joints.joint_spring_energy``), J."""
         m = self.moving
         e = float(-np.sum(self.mass[m] * (self.x[m] @ self.gravity)))
+        disabled = self.disabled
         for f in self.forces:
-            if isinstance(f, Spring):
+            if isinstance(f, Spring) and not (disabled[self.index_of(f.body_a)]
+                                              or (f.body_b is not None and disabled[self.index_of(f.body_b)])):
                 pa, pb = self.spring_endpoints(f)
                 e += 0.5 * f.stiffness * (float(np.linalg.norm(pa - pb)) - f.rest_length) ** 2
         if self.joints:

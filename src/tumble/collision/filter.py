@@ -101,6 +101,9 @@ class CollisionFilter:
 
 
 DEFAULT_FILTER = CollisionFilter()
+# the filter a disabled body's rows take in the collision pipeline and the queries
+# (``World.set_enabled``): no category and no mask, no group: it meets no other filter
+NOTHING_FILTER = CollisionFilter(category=0, mask=0)
 FILTER_COLUMNS = 4  # category, mask, group, env
 NO_FILTER = np.zeros((0, FILTER_COLUMNS), dtype=np.int64)
 

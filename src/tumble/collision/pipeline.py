@@ -87,10 +87,12 @@ class CollisionPipeline:
         w = self.world
         key = (w.body_count, w.filter_version)
         if key != self._filter_key or self._joint_keys is not self.excluded_pairs:
-            self._user_filter = filter_table(w.collision_filters[: w.body_count])
+            # a disabled body's row meets no other (World.set_enabled: NOTHING_FILTER)
+            filters = w.collision_filters_in_effect()
+            self._user_filter = filter_table(filters)
             # sensors touch nothing (collision/sensor.py): their rows meet no other
             sensor = w.sensor
-            self._body_filter = sensor_filter_table(w.collision_filters[: w.body_count], sensor) \
+            self._body_filter = sensor_filter_table(filters, sensor) \
                 if sensor.any() else self._user_filter
             excluded = exclusion_keys(w.excluded_collisions, w.body_count)
             if self.excluded_pairs is not None:

@@ -494,7 +494,7 @@ def _seen(world, mask, category=ALL_CATEGORIES) -> np.ndarray:
     key = (world.body_count, world.filter_version)
     cached = getattr(world, "_query_categories", None)
     if cached is None or cached[0] != key:
-        filters = world.collision_filters[: world.body_count]
+        filters = world.collision_filters_in_effect()  # a disabled body's meets no query
         cached = world._query_categories = (key, np.array([f.category for f in filters], dtype=np.int64),
                                             np.array([f.mask for f in filters], dtype=np.int64))
     return ((cached[1] & query.mask) != 0) & ((cached[2] & query.category) != 0) & ~world.sensor
