@@ -14,7 +14,7 @@ from .camera import Camera, CameraImage
 from .collision.filter import CollisionFilter
 from .decomposition import decompose
 from .errors import InputError, SimulationError, TumbleError, TumbleWarning
-from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring, Wind
+from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring, Switch, Wind
 from .kinematic import KeyframePath
 from .joints import BallJoint, DistanceJoint, FixedJoint, GearJoint, HingeJoint, SliderJoint, UniversalJoint
 from .shapes import Box, Capsule, Compound, Cone, Convex, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere, heightfield
@@ -76,7 +76,7 @@ __all__ = [
     "World", "Body", "Material", "CollisionFilter", "Simulator", "SimState", "Trajectory", "load_trajectory", "load_scene",
     "load_urdf", "load_mjcf", "load_usd", "save_usd", "Camera", "CameraImage",
     "Sphere", "Box", "Capsule", "Cylinder", "Cone", "Ellipsoid", "Plane", "Particles", "Mesh", "Convex", "Compound", "heightfield", "decompose", "fracture",
-    "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Impulse", "Explosion", "Blast", "Buoyancy", "Fluid", "CustomForce",
+    "Drag", "Wind", "ConstantForce", "PointForce", "Spring", "Switch", "Impulse", "Explosion", "Blast", "Buoyancy", "Fluid", "CustomForce",
     "BallJoint", "HingeJoint", "SliderJoint", "FixedJoint", "DistanceJoint", "UniversalJoint", "GearJoint",
     "KeyframePath",
     "TumbleError", "InputError", "SimulationError", "TumbleWarning",

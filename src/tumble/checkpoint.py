@@ -33,7 +33,7 @@ import numpy as np
 
 from . import __version__, checks
 from .errors import InputError, SimulationError
-from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring
+from .forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring, Switch
 from .joints import (G_FOLLOWS, G_JOINT, JOINT_CLASSES, JOINT_TYPES, OLD_PARAM_COUNTS, P_BALL_MAX_DRIVE, P_BALL_TARGET,
                      PARAM_COUNT, BoundJoint, edit_count)
 from .solver.contact import SoftStepSettings
@@ -56,7 +56,7 @@ STATE = ("x", "q", "R", "P", "L")
 KINEMATIC = ("kinematic", "kinematic_v", "kinematic_omega", "surface_velocity", "sensor", "disabled", "held_type",
              "held_v", "held_omega")
 FORCE_CLASSES = {c.__name__: c for c in (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy, Fluid,
-                                          CustomForce)}
+                                          CustomForce, Switch)}
 BODY_FIELDS = ("body", "body_a", "body_b")
 
 # The JointSolver (``sim.soft_step.joints``) arrays saved as ``joint_<name>``, by attribute

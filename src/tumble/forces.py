@@ -330,6 +330,27 @@ class Impulse(_ForceRecord):
 
 
 @dataclass
+class Switch(_ForceRecord):
+    """``body`` taken out of the simulation (``enabled=False``) or put back (``True``) at
+    ``time`` (s): ``World.set_enabled`` before the first step that starts at or after ``time``,
+    once, as an ``Impulse`` is applied. A body that appears later is added with ``enabled=False``
+    and given a Switch; one that vanishes, a Switch to False (a part thrown away, a spawn wave).
+    Not a force: a record of the run's timeline kept with the impulses (checkpoints, snapshots
+    and the scene file's ``enable_at`` / ``disable_at`` keys go through it).
+    """
+
+    body: Any
+    enabled: bool = True
+    time: float = 0.0
+
+    def __post_init__(self):
+        if not isinstance(self.enabled, (bool, np.bool_)):
+            raise InputError(f"expected true or false, got {self.enabled!r}", "enabled")
+        self.enabled = bool(self.enabled)
+        self.time = _nonnegative(self.time, "time")
+
+
+@dataclass
 class Explosion(_ForceRecord):
     """A blast at world ``position`` (m) at ``time`` (s): Box2D v3's ``b2World_Explode`` in 3-D.
 
@@ -480,7 +501,7 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mas
         elif isinstance(f, CustomForce):
             targets = all_moving if f.bodies is None else np.array([resolve(b) for b in f.bodies], dtype=np.int64)
             custom.append((f, np.asarray(targets, dtype=np.int64)))
-        elif isinstance(f, (Impulse, Explosion)):
+        elif isinstance(f, (Impulse, Explosion, Switch)):
             continue  # applied by the simulator between steps
         else:
             raise InputError(f"unknown force record {f!r}", "forces")

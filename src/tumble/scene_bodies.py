@@ -15,7 +15,7 @@ from typing import Any
 
 from . import checks
 from .errors import InputError
-from .forces import Buoyancy, ConstantForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring, Wind
+from .forces import Buoyancy, ConstantForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring, Switch, Wind
 from .math3d import quat_from_euler_deg
 from .scene_values import ValueReader, _describe
 from .shapes import (
@@ -39,7 +39,7 @@ from .world import World
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter", "path",
-    "surface_velocity", "sensor", "drop", "fracture",
+    "surface_velocity", "sensor", "drop", "fracture", "enabled", "enable_at", "disable_at",
 )
 # fracture = {pieces, seed, strength, min_face}: the body as Voronoi cells glued by breakable joints (tumble.fracturing)
 FRACTURE_KEYS = ("pieces", "seed", "strength", "min_face")
@@ -154,13 +154,23 @@ class BodyReader(ValueReader):
             for k in ("repeat", "release"):
                 if k in path:
                     path[k] = self.boolean(path[k], f"{key}.path.{k}")
+        switches = self.switches(b, key, shape)
+        if switches and "enabled" not in b:
+            kw["enabled"] = not switches[0][1]  # the first switch an enable: the body appears then
+        elif "enabled" in b:
+            kw["enabled"] = self.boolean(b["enabled"], f"{key}.enabled")
         drop = self.boolean(b["drop"], f"{key}.drop") if "drop" in b else False
         if drop and path is not None:
             raise self.error("a body on a path starts at the path's pose: it cannot be dropped", f"{key}.drop")
         if "fracture" in b:
+            if "enabled" in kw:
+                raise self.error("a fractured body's cells cannot be disabled or switched (give no enabled, "
+                                 "enable_at or disable_at)", f"{key}.fracture")
             self.fractured(world, b, shape, kw, key, names, drop)
             return
         body = self.library(key, world.add_body, shape, **kw)
+        for time, on, where in switches:
+            self.library(where, world.add_force, Switch(body, enabled=on, time=time))
         if drop:
             # dropped once every body and robot is in the world, in the file's order (scene.py)
             self.drops.append((name, key))
@@ -169,6 +179,26 @@ class BodyReader(ValueReader):
 
             self.library(f"{key}.path", lambda: world.add_path(KeyframePath(body, **path)))
         names[name] = len(names)
+
+    def switches(self, b: dict, key: str, shape) -> list:
+        """[(time s, enabled, key)] from a body's ``enable_at`` and ``disable_at`` (a number of
+        seconds or a list of them: ``Switch`` records), in time order; a time in both is refused."""
+        out = []
+        for name, on in (("enable_at", True), ("disable_at", False)):
+            if name not in b:
+                continue
+            where = f"{key}.{name}"
+            values = b[name] if isinstance(b[name], list) else [b[name]]
+            if not values:
+                raise self.error("expected a time in s or a list of them, got an empty list", where)
+            out += [(self.nonnegative(v, where), on, where) for v in values]
+        if out and isinstance(shape, Plane):
+            raise self.error("a plane cannot be disabled (it is the ground of everything)", out[0][2])
+        out.sort(key=lambda r: (r[0], r[1]))
+        for (t0, _, _), (t1, _, where) in zip(out, out[1:]):
+            if t0 == t1:
+                raise self.error(f"two switches at t = {t1:g} s", where)
+        return out
 
     def fractured(self, world: World, b: dict, shape, kw: dict, key: str, names: dict, drop: bool):
         """A body with ``fracture = {...}``: its shape cut into cells, each a body ``NAME/k``, glued

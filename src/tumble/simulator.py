@@ -26,7 +26,7 @@ from . import integrators as K
 from .errors import InputError, SimulationError
 from .collision.sensor import SensorLog
 from .buoyancy import apply_buoyancy
-from .forces import Explosion, Impulse, force_edit_count
+from .forces import Explosion, Impulse, Switch, force_edit_count
 from .joints import P_ARMATURE
 from .joints import edit_count as _joint_edit_count
 from .math3d import quat_to_matrix
@@ -183,7 +183,8 @@ class Simulator:
         (a controller, a keyframed path that lets its body go), else None: a call that fails puts
         the world back where it started, its bodies' types too (``_put_types_back``)."""
         w = self.world
-        if self.controller is None and not any(p.release for p in w.paths):
+        if self.controller is None and not any(p.release for p in w.paths) and not any(
+                isinstance(f, Switch) and k not in w.applied_impulses for k, f in enumerate(w.forces)):
             return None
         from .snapshot import capture_types
 
@@ -230,6 +231,7 @@ class Simulator:
         while self.step_index < end:
             if self.world.paths:
                 Y = self._release_due_paths(Y)
+            Y = self._switch_due_bodies(Y)
             if self._type_changes_seen != len(self.world.type_changes):
                 Y = self._take_type_changes(Y)
             self._apply_due_impulses(Y)
@@ -452,6 +454,21 @@ class Simulator:
         w.unpack(Y)
         for path in due:
             w.set_body_type(path.body, "dynamic")
+        return w.pack()
+
+    def _switch_due_bodies(self, Y: np.ndarray) -> np.ndarray:
+        """Apply the ``Switch`` records due at this step, in the order they were added
+        (``World.set_enabled``; each once, counted with the impulses). Y (N, W) is the state now;
+        returned as the world holds it after."""
+        w = self.world
+        due = [k for k, f in enumerate(w.forces) if isinstance(f, Switch) and k not in w.applied_impulses
+               and self._impulse_step(f) <= self.step_index]
+        if not due:
+            return Y
+        w.unpack(Y)
+        for k in due:
+            w.set_enabled(w.forces[k].body, w.forces[k].enabled)
+            w.applied_impulses.add(k)
         return w.pack()
 
     def _take_type_changes(self, Y: np.ndarray) -> np.ndarray:

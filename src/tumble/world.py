@@ -46,6 +46,7 @@ from .forces import (
     Drag,
     Explosion,
     Impulse,
+    Switch,
     PointForce,
     Spring,
     build_force_tables,
@@ -377,12 +378,14 @@ class World:
 
     def add_force(self, force):
         """Add a force record of ``tumble.forces`` (Drag, Wind, ConstantForce, PointForce,
-        Spring, Impulse, Explosion, Buoyancy, Fluid, CustomForce). A spring with ``rest_length=None`` takes
-        the distance between its anchors now."""
+        Spring, Impulse, Explosion, Buoyancy, Fluid, CustomForce), or a ``Switch`` (a body taken out or
+        put back at a time). A spring with ``rest_length=None`` takes the distance between its anchors now."""
         if not isinstance(force, (Drag, ConstantForce, PointForce, Spring, Impulse, Explosion, Buoyancy, Fluid,
-                                  CustomForce)):
+                                  CustomForce, Switch)):
             raise InputError(f"not a force record: {force!r}", "forces")
         self.force_bodies(force)  # each known (InputError)
+        if isinstance(force, Switch) and isinstance(self.shapes[self.index_of(force.body)], Plane):
+            raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
         if isinstance(force, Spring) and force.rest_length is None:
             pa, pb = self.spring_endpoints(force)
             force.rest_length = float(np.linalg.norm(pa - pb))
@@ -395,8 +398,8 @@ class World:
         """Remove a force record added by ``add_force`` (that very object): a spring let go, a
         wind stopped. An ``Impulse`` or ``Explosion`` stays (it is part of the run's history: the
         impulses applied are counted by their place in the list)."""
-        if isinstance(force, (Impulse, Explosion)):
-            kind = "an impulse" if isinstance(force, Impulse) else "an explosion"
+        if isinstance(force, (Impulse, Explosion, Switch)):
+            kind = {Impulse: "an impulse", Explosion: "an explosion", Switch: "a switch"}[type(force)]
             raise InputError(f"{kind} cannot be removed (it is applied once, at its time)", "forces")
         for k, f in enumerate(self.forces):
             if f is force:
@@ -913,8 +916,8 @@ class World:
 
     @property
     def impulses(self) -> list:
-        """The records applied once at their ``time``: ``Impulse`` and ``Explosion``."""
-        return [f for f in self.forces if isinstance(f, (Impulse, Explosion))]
+        """The records applied once at their ``time``: ``Impulse``, ``Explosion`` and ``Switch``."""
+        return [f for f in self.forces if isinstance(f, (Impulse, Explosion, Switch))]
 
     # ------------------------------------------------------------------ the course's state vector
     @property
