@@ -85,3 +85,24 @@ def test_wake_puts_a_sleeping_box_back_into_the_step():
     sim.step(steps(0.1))
     assert sim.sleep.awake[1]
     assert w.x[1, 2] > 0.6
+
+
+def test_a_box_woken_and_asleep_elsewhere_reports_only_the_contacts_it_rests_on_there():
+    """A box asleep near a fixed shelf's edge, pushed off by an impulse (which wakes it from
+    outside the sleep update), falls and sleeps on the ground: ``contacts()`` lists only its
+    contacts with the ground, carrying m g (0.1 %, the resting box's tolerance). Before, the four
+    shelf contacts kept when it first fell asleep came back beside them (and their forces with
+    them: 2 m g in all)."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+    w.add_body(tb.Box(size=(1, 1, 0.1)), fixed=True, position=(0, 0, 1.0), name="shelf")
+    box = w.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(0, 0.35, 1.15), name="box")
+    sim = tb.Simulator(w, dt=DT)
+    sim.step(480)
+    assert not sim.sleep.awake[2] and set(sim.contacts().body_a.tolist()) == {1}
+    box.apply_impulse((0, 2.0, 0))
+    sim.step(1200)
+    assert not sim.sleep.awake[2] and box.x[1] > 0.6 and abs(box.x[2] - 0.1) < 1e-3
+    c = sim.contacts()
+    assert set(c.body_a.tolist()) == {0}
+    assert c.force[:, 2].sum() == pytest.approx(9.81, rel=1e-3)

@@ -448,12 +448,32 @@ class SleepState:
         self.awake[mask] = True
         self.sleep_timer[mask] = 0.0
         self.sleeping_island[mask] = -1
+        self._forget_resting(mask)
 
     def wake_all(self):
         """Every body awake, every timer at 0 (as Box2D does when sleeping is switched off)."""
         self.awake[:] = True
         self.sleep_timer[:] = 0.0
         self.sleeping_island[:] = -1
+        self._forget_resting(np.ones(self.body_count, dtype=bool))
+
+    def _forget_resting(self, woken):
+        """Drop the resting contacts of the bodies ``woken`` (N,) bool: they are found again by the
+        collide while awake, and kept anew if the body falls asleep. Kept, they came back as the
+        body fell asleep elsewhere (``resting_contacts`` reads whether the bodies sleep, not
+        where): a box woken by an impulse, slid off its shelf and asleep on the ground reported its
+        four shelf contacts beside the ground's (``keep_resting`` runs only when ``update`` wakes
+        or puts a body to sleep, not after a wake from outside)."""
+        a, b = self.resting["body_a"], self.resting["body_b"]
+        if len(a) == 0:
+            return
+        n = len(woken)
+        gone = np.zeros(len(a), dtype=bool)
+        for rows in (a, b):
+            inside = (rows >= 0) & (rows < n)
+            gone[inside] |= woken[rows[inside]]
+        if gone.any():
+            self.resting = {k: v[~gone] for k, v in self.resting.items()}
 
     def set_allow_sleep(self, bodies, flag: bool):
         """Per-body switch; forbidding sleep wakes the body and its island (Box2D b2Body_EnableSleep)."""
