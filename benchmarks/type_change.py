@@ -1,5 +1,8 @@
 """A body's type changed between steps (``World.set_body_type``) in a pile of boxes, beside
-PyBullet's ``changeDynamics(mass=0)`` (a body made static) and back, on the same pile, in one run.
+PyBullet's ``changeDynamics(mass=0)`` (a body made static) and back, on the same pile, in one run;
+and a body taken out of the simulation and put back (``World.set_enabled``) beside PyBullet's
+``removeBody`` and a new ``createMultiBody`` at the pose it left (its way of despawning and
+respawning), then the step of the pile with every other box out.
 
     PYTHONPATH=src python benchmarks/type_change.py --n 100 1000
 
@@ -8,13 +11,15 @@ times, one box (a different one each time) is made fixed and the next step timed
 dynamic again and the next step timed; beside them the median of plain steps. tumble's Simulator
 builds its contact and joint stages again after a type change (``Simulator._take_type_changes``:
 a snapshot's save and restore with the shape table made anew), which the first figure includes.
-MuJoCo has no type change (a mocap body is one at compile). Steps as in benchmarks/contact.py.
+MuJoCo has no type change (a mocap body is one at compile) and no body removal. Steps as in
+benchmarks/contact.py.
 Writes benchmarks/results/type_change.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -33,6 +38,9 @@ class Tumble(PileTumble):
         # box i is body row i + 1 (row 0 is the ground)
         self.sim.world.set_body_type(1 + i, "fixed" if fixed else "dynamic")
 
+    def set_enabled(self, i, on: bool):
+        self.sim.world.set_enabled(1 + i, on)
+
 
 class Pybullet:
     def __init__(self, spec):
@@ -42,12 +50,34 @@ class Pybullet:
         self.eng = PybulletScene(spec, "rigidbody")
         self.p, self.c, self.dt = self.eng.p, self.eng.cid, self.eng.dt
         self.mass = [float(m) for m in spec.mass]
+        self.half = [tuple(float(h) for h in spec.half[i]) for i in range(spec.n)]
+        # the material the scene gave it (peers/pybullet_scenes.py: sqrt of tumble's, as Bullet multiplies)
+        self.friction = [math.sqrt(float(f)) for f in spec.friction]
+        self.restitution = [float(e) for e in spec.restitution]
+        self.gone, self.shapes = {}, {}  # removed boxes' poses and velocities; collision shapes by half-extents
 
     def step(self, k):
         self.eng.step(k)
 
     def set_fixed(self, i, fixed: bool):
         self.p.changeDynamics(self.eng.ids[i], -1, mass=0.0 if fixed else self.mass[i], physicsClientId=self.c)
+
+    def set_enabled(self, i, on: bool):
+        p, c = self.p, self.c
+        if not on:  # removed; its pose and velocities kept for the respawn
+            b = self.eng.ids[i]
+            self.gone[i] = (p.getBasePositionAndOrientation(b, physicsClientId=c),
+                            p.getBaseVelocity(b, physicsClientId=c))
+            p.removeBody(b, physicsClientId=c)
+            return
+        (pos, orn), (v, w) = self.gone.pop(i)
+        half = self.half[i]
+        if half not in self.shapes:
+            self.shapes[half] = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), physicsClientId=c)
+        b = p.createMultiBody(self.mass[i], self.shapes[half], basePosition=pos, baseOrientation=orn, physicsClientId=c)
+        p.resetBaseVelocity(b, v, w, physicsClientId=c)
+        p.changeDynamics(b, -1, lateralFriction=self.friction[i], restitution=self.restitution[i], physicsClientId=c)
+        self.eng.ids[i] = b
 
 
 def measure(eng, n: int, repeats: int) -> dict:
@@ -66,6 +96,23 @@ def measure(eng, n: int, repeats: int) -> dict:
         to_dynamic.append(time.perf_counter() - t0)
     row["fixed_ms"] = 1e3 * median(to_fixed)
     row["dynamic_ms"] = 1e3 * median(to_dynamic)
+    out, back = [], []
+    for k in range(repeats):
+        i = (53 * k + 11) % n
+        t0 = time.perf_counter()
+        eng.set_enabled(i, False)
+        eng.step(1)
+        out.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        eng.set_enabled(i, True)
+        eng.step(1)
+        back.append(time.perf_counter() - t0)
+    row["out_ms"] = 1e3 * median(out)
+    row["back_ms"] = 1e3 * median(back)
+    for i in range(0, n, 2):
+        eng.set_enabled(i, False)
+    eng.step(5)  # the stages made anew, the half left settling
+    row["half_step_ms"] = 1e3 * timed(lambda: eng.step(1), repeats)
     return row
 
 
@@ -81,6 +128,8 @@ def main(argv=None):
         warm.step(30)  # compile (or load) the contact kernels outside the timings
         warm.set_fixed(0, True)
         warm.step(1)
+        warm.set_enabled(1, False)
+        warm.step(1)
         t = Tumble(n)
         spec = scene_spec(t.scene.world, {"scene": "pile"})
         for name in args.engines:
@@ -91,8 +140,12 @@ def main(argv=None):
     header = ["boxes", "engine", "dt s", "a step ms", "a box made fixed + the step ms", "made dynamic again + the step ms"]
     table = md_table(header, [[r["n"], r["engine"], f"1/{round(1 / r['dt'])}", f"{r['step_ms']:.2f}",
                                f"{r['fixed_ms']:.2f}", f"{r['dynamic_ms']:.2f}"] for r in rows])
+    header = ["boxes", "engine", "a step ms", "a box taken out + the step ms", "put back + the step ms",
+              "a step with every other box out ms"]
+    table2 = md_table(header, [[r["n"], r["engine"], f"{r['step_ms']:.2f}", f"{r['out_ms']:.2f}", f"{r['back_ms']:.2f}",
+                                f"{r['half_step_ms']:.2f}"] for r in rows])
     info = machine()
-    markdown = f"machine: {info}\n\n{table}\n"
+    markdown = f"machine: {info}\n\n{table}\n\n{table2}\n"
     print(markdown)
     write_results(HERE / "results", "type_change", markdown, rows, info)
 

@@ -131,13 +131,14 @@ def chain():
     return w, a, b, ball
 
 
-def test_disabling_a_link_switches_off_its_joints_and_springs_and_enabling_it_switches_them_back():
+def test_disabling_a_link_switches_off_its_joints_and_springs_and_enabling_it_switches_them_back(tmp_path):
     """A hanging chain with a ball on a spring: the lower rod disabled, its two joints are switched
     off (``broken``, ``joint_readings`` enabled 0) and its spring pulls nothing: the ball falls
     freely (z0 + v0 t - g t^2 / 2 to 1e-9 m over 0.2 s, which a spring still pulling would not give:
     it is stretched by about m g / k = 4.9 cm) and the rod stays put to the bit. The ball hung back
     and the rod enabled again, the joints act again (the rod's end on its hinge within 1 mm after
-    1 s, where it would have fallen 4.9 m) but not one its user had broken before.
+    1 s, where it would have fallen 4.9 m) but not one its user had broken before. A checkpoint
+    saved while the rod is out loads with the rod out and its joint switched off by it.
     The spring's potential is out of the world's energy while its end is disabled."""
     w, a, b, ball = chain()
     sim = tb.Simulator(w, dt=DT)
@@ -154,6 +155,11 @@ def test_disabling_a_link_switches_off_its_joints_and_springs_and_enabling_it_sw
     assert ball.x[2] == pytest.approx(z0 + vz0 * 0.2 - 0.5 * G * 0.2 ** 2, abs=1e-9)
     assert np.array_equal(b.x, b_x)
     assert sim.joint_readings()["enabled"].tolist() == [1.0, 0.0]
+    sim.save_checkpoint(tmp_path / "out.npz")  # the rod out, its joint switched off by it
+    loaded = tb.Simulator.load_checkpoint(tmp_path / "out.npz").world
+    assert not loaded.body("b").enabled and loaded.joints_switched_off == {1} and loaded.joints[1].broken
+    loaded.body("b").enabled = True
+    assert not loaded.joints[1].broken and loaded.body("b").mass == 1.0
     ball.x, ball.v = (0.0, 0.0, z0), (0.0, 0.0, 0.0)  # hung back where it was
     b.enabled = True
     assert not mid.broken and not w.joints_switched_off
@@ -246,15 +252,17 @@ def test_switches_take_their_bodies_out_and_back_at_their_times():
     assert abs(float(traj.position[-1, 3, 2]) - 0.1) < 1e-3
 
 
-def test_a_run_through_switches_resumes_and_restores_bit_for_bit(tmp_path):
+@pytest.mark.parametrize("save_at", [1.0, 2.0])
+def test_a_run_through_switches_resumes_and_restores_bit_for_bit(tmp_path, save_at):
     """Streamed to a file, checkpointed at 1 s (the ball's switch applied, the shelf's and box's to
-    come), resumed to 2.5 s: the same state hash and trajectory (enabled_changes included) as the
-    run kept in memory. A snapshot at 0.25 s restored after the run repeats it to the bit, the
-    ball disabled again."""
+    come) or 2 s (the shelf and the box out), resumed to 2.5 s: the same state hash and trajectory
+    (enabled_changes included: the rows before the checkpoint come from its run record) as the run
+    kept in memory. A snapshot at 0.25 s restored after the run repeats it to the bit, the ball
+    disabled again."""
     straight = tb.Simulator(switched_world(), dt=DT)
     traj = straight.run(2.5)
     sim = tb.Simulator(switched_world(), dt=DT)
-    sim.run_to_file(tmp_path / "run", 1.0, progress=False)
+    sim.run_to_file(tmp_path / "run", save_at, progress=False)
     resumed = tb.Simulator.load_checkpoint(tmp_path / "run" / "checkpoint.npz")
     resumed.run_to_file(tmp_path / "run", 2.5, progress=False, resume=True)
     assert state_hash(resumed.world) == state_hash(straight.world)
