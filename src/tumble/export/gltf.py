@@ -18,6 +18,14 @@ What the file holds (so that a reader can get the trajectory back):
   no channels. Quaternion signs are made continuous from frame to frame, so
   interpolation takes the short way; a stored key may be ``-q`` of the
   trajectory's (the same rotation).
+* A body out of the simulation at some frames (``World.set_enabled``:
+  ``Trajectory.enabled`` False there), fixed or not, has a scale channel too,
+  keyed at every frame: (0, 0, 0) where it is disabled, (1, 1, 1) where it is
+  enabled, STEP, so that it vanishes and appears at once instead of shrinking
+  and growing between two frames. Its node's static scale is the first frame's
+  (0 for a body absent at the start), and ``extras`` has ``"hidden_frames": true``.
+  Bodies present throughout have no scale (the file is what it was before
+  bodies could be disabled).
 * Accessors are float32 (glTF allows nothing else for these): a reader gets
   each value rounded to the nearest float32.
 
@@ -36,9 +44,11 @@ from pathlib import Path
 import numpy as np
 
 from .meshes import (
+    absent_flags,
     body_color,
     body_meshes,
     continuous_quaternions,
+    enabled_flags,
     fixed_flags,
     sensor_flags,
     SENSOR_OPACITY,
@@ -108,6 +118,8 @@ def gltf_document(traj) -> tuple[dict, bytes]:
         raise ValueError("the trajectory has no frames")
     q_cont = continuous_quaternions(orientation)
     q_xyzw = q_cont[..., [1, 2, 3, 0]]
+    enabled = enabled_flags(traj)
+    absent = absent_flags(enabled)  # bodies disabled at some frame: a scale channel hides them there
 
     b = _Builder()
     meshes, materials, nodes = [], [], []
@@ -145,24 +157,34 @@ def gltf_document(traj) -> tuple[dict, bytes]:
             "primitives": [{"attributes": {"POSITION": pos_acc, "NORMAL": nrm_acc}, "indices": idx_acc,
                             "material": material_index[mat_key], "mode": 4}],
         })
-        nodes.append({
+        node = {
             "name": names[i],
             "mesh": i,
             "translation": [float(v) for v in position[0, i]],
             "rotation": [float(v) for v in q_xyzw[0, i] / np.linalg.norm(q_xyzw[0, i])],
             "extras": {"body_index": i, "com_offset": [float(v) for v in com_offset[i]], "fixed": bool(fixed[i]),
                        **({"sensor": True} if sensor[i] else {})},
-        })
+        }
+        if absent[i]:
+            node["extras"]["hidden_frames"] = True
+            if not enabled[0, i]:  # the static pose (a reader that plays no animation) is frame 0's: hidden
+                node["scale"] = [0.0, 0.0, 0.0]
+        nodes.append(node)
 
     animations = []
-    moving = [i for i in range(n_bodies) if not fixed[i]]
-    if moving and n_frames:
+    animated = [i for i in range(n_bodies) if not fixed[i] or absent[i]]
+    if animated and n_frames:
         times = b.accessor(time, "SCALAR", FLOAT, minmax=True)  # min/max are required on sampler inputs
         samplers, channels = [], []
         interpolation = "LINEAR" if n_frames > 1 else "STEP"
-        for i in moving:
-            for path, values, kind in (("translation", position[:, i], "VEC3"), ("rotation", q_xyzw[:, i], "VEC4")):
-                samplers.append({"input": times, "output": b.accessor(values, kind, FLOAT), "interpolation": interpolation})
+        for i in animated:
+            tracks = [] if fixed[i] else [("translation", position[:, i], "VEC3", interpolation),
+                                          ("rotation", q_xyzw[:, i], "VEC4", interpolation)]
+            if absent[i]:  # after the body's other tracks: a file without disabled bodies keeps its bytes
+                scale = np.repeat(enabled[:, i, None].astype(np.float32), 3, axis=1)
+                tracks.append(("scale", scale, "VEC3", "STEP"))
+            for path, values, kind, how in tracks:
+                samplers.append({"input": times, "output": b.accessor(values, kind, FLOAT), "interpolation": how})
                 channels.append({"sampler": len(samplers) - 1, "target": {"node": i + 1, "path": path}})
         animations.append({"name": ANIMATION_NAME, "samplers": samplers, "channels": channels})
 

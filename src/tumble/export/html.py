@@ -7,6 +7,8 @@ component (three.js inside; vendored in ``export/static``, Apache-2.0, its licen
 so it opens from a file, an e-mail or a notebook with no network and no server (Brax's
 ``io.html.render`` is the model: a static viewer filled with the run). Under the model: play and
 pause, a time slider, the clock and a speed choice; drag to turn the camera, scroll to zoom.
+A body disabled at some frames (``World.set_enabled``) vanishes there: the glTF's scale channel
+(0 there, STEP), which model-viewer plays as it plays the poses.
 
 Page size: the glTF's bytes times 4/3 plus the viewer's 1.07 MB.
 """
@@ -110,14 +112,19 @@ def camera_view(traj) -> tuple:
     sees where the moving bodies go over the run: the middle of the box their centres sweep,
     from 2.5 times its half diagonal (at least 0.5 m for the bodies' own size). Fixed bodies
     (a ground plane is drawn as a wide square) are left out of the framing, as long as
-    something moves."""
+    something moves, and so are the frames where a body is disabled (hidden: a body waiting
+    out of sight to appear is framed where it is seen)."""
     import numpy as np
+
+    from .meshes import enabled_flags
 
     position = np.asarray(traj.position, dtype=float)
     moving = np.ones(position.shape[1], dtype=bool) if traj.fixed is None else ~np.asarray(traj.fixed, dtype=bool)
     if not moving.any():
         moving[:] = True
-    points = position[:, moving].reshape(-1, 3)
+    shown = enabled_flags(traj)[:, moving]
+    # (all frames when the moving bodies are never shown: something is framed)
+    points = position[:, moving][shown] if shown.any() else position[:, moving].reshape(-1, 3)
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre = 0.5 * (lo + hi)
     half = max(0.5 * float(np.linalg.norm(hi - lo)), 0.5)

@@ -11,6 +11,9 @@ Shading: vertices are split where neighbouring faces meet at more than
 ``SHARP_ANGLE_DEG`` (box edges, cylinder rims), and kept shared elsewhere, so
 spheres look round and boxes look sharp with one normal per vertex.
 
+Presence: ``enabled_flags`` says, frame by frame, which bodies are in the simulation
+(``World.set_enabled``); the exports and views hide a body at the frames it is not.
+
 Colours: ``body_color`` picks from a fixed palette by body index (sRGB, the
 numbers a colour picker shows); fixed bodies are grey. ``srgb_to_linear``
 converts for formats whose colour factors are linear (glTF, USD).
@@ -141,6 +144,21 @@ def sensor_flags(traj) -> np.ndarray:
     if getattr(traj, "sensor", None) is None:
         return np.zeros(len(traj.names), dtype=bool)
     return np.asarray(traj.sensor, dtype=bool)
+
+
+def enabled_flags(traj) -> np.ndarray:
+    """(F, N) bool: whether each body is in the simulation at each frame (``Trajectory.enabled``;
+    all True for a trajectory that never disabled a body, and for files written before
+    ``enabled_changes`` existed). Every view and export hides a body where it is False."""
+    from ..trajectory import unfold_enabled
+
+    return unfold_enabled(getattr(traj, "enabled_changes", None), len(traj.time), len(traj.names))
+
+
+def absent_flags(enabled: np.ndarray) -> np.ndarray:
+    """(N,) bool: the bodies absent at some frame of ``enabled`` (F, N) (``enabled_flags``): those
+    an export gives a visibility track. All False when no body was ever disabled."""
+    return ~np.all(enabled, axis=0)
 
 
 #: opacity a sensor is drawn with (video, glTF, USD, viewer): what it holds shows through it

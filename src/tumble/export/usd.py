@@ -13,6 +13,12 @@ What the stage holds:
   stored exactly): translate is the body's **centre of mass**, orient is its
   orientation (USD quaternions are (real, imaginary) like tumble's), time-sampled
   at time code = frame index. A fixed body has one default value, no samples.
+* A body out of the simulation at some frames (``World.set_enabled``:
+  ``Trajectory.enabled`` False there), fixed or not, has its Xform's
+  ``visibility`` time-sampled: ``invisible`` from each frame it is disabled,
+  ``inherited`` from each frame it is enabled (a sample at frame 0 and one
+  per change; a token is held between samples, so it vanishes and appears at
+  once). Bodies present throughout have no visibility opinion.
 * Under each body Xform a ``Mesh`` named ``mesh``: points in the body frame
   (the shape shifted by ``-com_offset``, so it appears where the user put the
   shape), faceVertexCounts, faceVertexIndices, vertex normals, extent,
@@ -26,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .meshes import SENSOR_OPACITY, body_color, body_meshes, fixed_flags, frame_rate, sensor_flags, srgb_to_linear
+from .meshes import (SENSOR_OPACITY, absent_flags, body_color, body_meshes, enabled_flags, fixed_flags, frame_rate,
+                     sensor_flags, srgb_to_linear)
 
 SUFFIXES = (".usd", ".usda", ".usdc")
 ROOT_PATH = "/World"
@@ -67,6 +74,8 @@ def build_stage(traj, stage) -> None:
     if n_frames == 0 and names:
         raise ValueError("the trajectory has no frames")
     fps = frame_rate(traj)
+    enabled = enabled_flags(traj)
+    absent = absent_flags(enabled)  # bodies disabled at some frame: visibility samples hide them there
 
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, UsdGeom.LinearUnits.meters)
@@ -108,6 +117,11 @@ def build_stage(traj, stage) -> None:
                 for f in range(n_frames):
                     layer.SetTimeSample(t_path, float(f), Gf.Vec3d(*xs[f]))
                     layer.SetTimeSample(q_path, float(f), Gf.Quatd(*qs[f]))
+        if absent[i]:
+            visibility = xf.CreateVisibilityAttr()
+            on = enabled[:, i]
+            for f in np.flatnonzero(np.r_[True, on[1:] != on[:-1]]):  # frame 0 and each change
+                visibility.Set(UsdGeom.Tokens.inherited if on[f] else UsdGeom.Tokens.invisible, float(f))
 
         vm, _ = meshes[i]
         mesh = UsdGeom.Mesh.Define(stage, f"{ROOT_PATH}/{prim_name}/mesh")

@@ -33,6 +33,10 @@ of the written stage gives back the same bodies, to the schema's single precisio
 * collision filters (Box2D's category, mask and group) as ``PhysicsCollisionGroup`` prims: one
   per distinct filter, each filtering the groups its filter does not collide with (exact).
 
+A disabled body (``World.set_enabled``) is written as it is held, a fixed body, with its Xform's
+``visibility`` ``invisible`` (hidden, as in every export); the schema has no body out of the
+simulation, so the warning below names it (and ``load_usd`` reads it back a fixed body).
+
 What the schema has no place for is left out with one ``TumbleWarning`` naming it: sensors,
 surface velocities, rolling resistance and spinning friction, a ball joint's twist limits and drive, joint
 springs of distance joints, applied joint efforts, universal and gear joints, the repetition of
@@ -238,6 +242,9 @@ class _Writer:
             m.CreatePrincipalAxesAttr(self.quatf(w.principal_q[i]))
         if w.sensor[i]:
             self.left_out.add("sensors (written as ordinary colliders)")
+        if w.disabled[i]:  # held as a fixed body touching nothing: hidden, and named in the warning
+            xf.CreateVisibilityAttr(G.Tokens.invisible)
+            self.left_out.add("disabled bodies (written as hidden fixed bodies)")
         if np.any(w.surface_velocity[i]):
             self.left_out.add("surface velocities (conveyor belts)")
         shift = -np.asarray(w.com_offset[i], dtype=float)
@@ -425,8 +432,12 @@ def build_physics_stage(world, stage) -> None:
         rel = api.GetFilteredPairsRel() or api.CreateFilteredPairsRel()
         rel.AddTarget(paths[b])
     _collision_groups(world, stage, wr, paths)
-    if world.forces:
+    from ..forces import Switch
+
+    if any(not isinstance(f, Switch) for f in world.forces):
         wr.left_out.add("forces other than gravity")
+    if any(isinstance(f, Switch) for f in world.forces):
+        wr.left_out.add("the times bodies are switched in or out of the simulation (Switch records)")
     _animations(world, stage, wr, paths)
     if wr.left_out:
         warnings.warn("the UsdPhysics schema has no place for: " + "; ".join(sorted(wr.left_out)) + " (left out)",

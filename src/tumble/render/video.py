@@ -6,7 +6,9 @@ other planes as translucent patches, the light kit of pyvista, a sky
 gradient and the time in a corner. The camera looks from the front right and
 above (fixed direction) and either frames every body over the whole run
 (``camera="frame"``, fixed) or keeps one body in the middle
-(``camera="follow:NAME"``).
+(``camera="follow:NAME"``). A body disabled at a frame (``World.set_enabled``:
+``Trajectory.enabled`` False) is not drawn there, and its disabled frames
+are left out of the framing.
 
 ``Camera`` is the pinhole model the renderer is given (position, focal
 point, view up, vertical view angle), so ``camera_at(...).project(points)``
@@ -29,7 +31,7 @@ import numpy as np
 
 from ..errors import InputError
 from .. import visual
-from ..export.meshes import SENSOR_OPACITY, sensor_flags
+from ..export.meshes import SENSOR_OPACITY, enabled_flags, sensor_flags
 from ..shapes import Plane
 from ..trajectory import atomic_path
 
@@ -248,14 +250,22 @@ class _Stage:
             self.meshes.append(mesh)
             if isinstance(shape, Plane):
                 self.planes.append(self._world_plane(i, shape, offset[i]))
-        # The bodies' reach over the run: centre of mass +- the body's bounding radius.
+        # Which bodies are drawn at each frame: (F, N) bool, or None when every body is throughout.
+        enabled = enabled_flags(traj)
+        self.enabled = None if enabled.all() else enabled
+        # The bodies' reach over the run: centre of mass +- the body's bounding radius, at the
+        # frames they are drawn (all frames, if that leaves nothing).
         self.radius = np.array([0.0 if m is None else float(np.linalg.norm(m[0], axis=1).max()) for m in self.meshes])
         drawn = [i for i in range(n) if self.meshes[i] is not None]
         if drawn:
             pos = np.asarray(traj.position, float)[:, drawn]
             r = self.radius[drawn]
-            self.lo = (pos - r[:, None]).min(axis=(0, 1))
-            self.hi = (pos + r[:, None]).max(axis=(0, 1))
+            lo, hi = pos - r[:, None], pos + r[:, None]
+            if self.enabled is not None and self.enabled[:, drawn].any():
+                shown = self.enabled[:, drawn]
+                lo, hi = lo[shown], hi[shown]
+            self.lo = lo.reshape(-1, 3).min(axis=0)
+            self.hi = hi.reshape(-1, 3).max(axis=0)
         else:
             self.lo, self.hi = -np.ones(3), np.ones(3)
         horizontal = [p[0][2] for p in self.planes if p[1][2] > 0.999]
@@ -273,10 +283,27 @@ class _Stage:
     def poses_at_frame(self, k):
         return float(self.traj.time[k]), np.asarray(self.traj.position[k], float), np.asarray(self.traj.orientation[k], float)
 
+    def shown_at_frame(self, k):
+        """(N,) bool, the bodies drawn at frame ``k`` (those enabled), or None: all of them."""
+        return None if self.enabled is None else self.enabled[k]
+
+    def shown_at_time(self, t):
+        """The bodies drawn at time ``t`` (``shown_at_frame``): those of the frame at or before ``t``
+        (a body vanishes and appears at a frame, it does not fade between two). A time within a
+        millionth of a frame before a frame's counts as that frame's (the video's clock and the
+        recorded times differ by round-off)."""
+        if self.enabled is None:
+            return None
+        return self.enabled[self._frame_before(t + 1e-6 / trajectory_fps(self.traj))]
+
+    def _frame_before(self, t) -> int:
+        time = np.asarray(self.traj.time, float)
+        return int(np.clip(np.searchsorted(time, t, side="right") - 1, 0, len(time) - 1))
+
     def poses_at_time(self, t):
         """Positions and orientations at time ``t``: linear between frames, normalised-linear for quaternions."""
         time = np.asarray(self.traj.time, float)
-        k = int(np.clip(np.searchsorted(time, t, side="right") - 1, 0, len(time) - 1))
+        k = self._frame_before(t)
         if k == len(time) - 1 or t <= time[k]:
             return self.poses_at_frame(k)
         a = (t - time[k]) / (time[k + 1] - time[k])
@@ -372,8 +399,9 @@ class _Stage:
                 centre[2] = z + size / 2
             p.add_mesh(pv.Plane(center=centre, direction=normal, i_size=size, j_size=size), color=np.array(FIXED_COLOR) / 255, opacity=0.35)
 
-    def render(self, t, position, orientation) -> np.ndarray:
-        """The (H, W, 3) uint8 image of the bodies at these poses."""
+    def render(self, t, position, orientation, shown=None) -> np.ndarray:
+        """The (H, W, 3) uint8 image of the bodies at these poses; ``shown`` (N,) bool: the bodies
+        drawn (``shown_at_frame``; None: all)."""
         if self.plotter is None:
             self.open()
         p = self.plotter
@@ -381,7 +409,12 @@ class _Stage:
             Rs = quat_matrices(orientation)
             for vertex_body, local_points, local_normals, poly in self.layers:
                 R = Rs[vertex_body]
-                poly.points[:] = np.einsum("vij,vj->vi", R, local_points) + position[vertex_body]
+                points = np.einsum("vij,vj->vi", R, local_points)
+                if shown is not None and not shown.all():
+                    # a body not drawn: its mesh shrunk to its centre of mass, triangles of no area
+                    # that cover no pixel (the layer keeps its points; no actor is added or removed)
+                    points *= shown[vertex_body, None]
+                poly.points[:] = points + position[vertex_body]
                 poly.point_data["Normals"][:] = np.einsum("vij,vj->vi", R, local_normals)
                 poly.Modified()
         cam = self.camera(t, position, orientation)
@@ -419,7 +452,7 @@ def render_frame(traj, frame_index: int, width: int = 1280, height: int = 720, c
     stage = _Stage(traj, width, height, camera, colors, antialias)
     k = _frame_index(traj, frame_index)
     try:
-        return stage.render(*stage.poses_at_frame(k))
+        return stage.render(*stage.poses_at_frame(k), stage.shown_at_frame(k))
     finally:
         stage.close()
 
@@ -457,11 +490,11 @@ def render_video(traj, path, width: int = 1280, height: int = 720, fps: float | 
     time = np.asarray(traj.time, float)
     native = abs(fps - trajectory_fps(traj)) <= 1e-9 * fps and traj.frame_count > 1 and np.allclose(np.diff(time), 1 / fps, rtol=1e-6)
     if native or traj.frame_count == 1:
-        poses = (stage.poses_at_frame(k) for k in range(traj.frame_count))
+        poses = ((*stage.poses_at_frame(k), stage.shown_at_frame(k)) for k in range(traj.frame_count))
         count = traj.frame_count
     else:
         count = math.floor((time[-1] - time[0]) * fps + 1e-9) + 1
-        poses = (stage.poses_at_time(time[0] + j / fps) for j in range(count))
+        poses = ((*stage.poses_at_time(t), stage.shown_at_time(t)) for t in (time[0] + j / fps for j in range(count)))
     bar = None
     try:
         with atomic_path(path, suffix=f".tmp{suffix}") as tmp:

@@ -23,7 +23,10 @@ What it shows (z up, metres, DESIGN.md's conventions):
 * toggles: body axes (a frame at each centre of mass, red/green/blue = body
   x/y/z; one batched axes node for all bodies, moved only while shown), contact
   points and contact forces, the ground grid (the contacts a trajectory may carry:
-  ``tumble.viewer.contacts``).
+  ``tumble.viewer.contacts``);
+* a body disabled at a frame (``World.set_enabled``: ``Trajectory.enabled`` False) is
+  hidden there: its row of its group scaled to 0 (and its axes), sent only at the frames
+  where some body vanishes or appears; its disabled frames are left out of the framing.
 
 The server binds to 127.0.0.1 unless another ``host`` is given. If ``port`` is
 busy, viser takes the next free one; ``Viewer.port`` and ``Viewer.url`` say
@@ -40,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..export.meshes import SENSOR_OPACITY, sensor_flags
+from ..export.meshes import SENSOR_OPACITY, enabled_flags, sensor_flags
 from ..trajectory import Trajectory, load_trajectory
 from .. import visual
 from .contacts import CONTACT_FORCE_COLOR, CONTACT_KEYS, CONTACT_POINT_COLOR, contact_arrays, contacts_at
@@ -170,7 +173,9 @@ class Viewer:
         mesh_groups: the ``MeshGroup``s, one batched mesh node each (all bodies but planes).
         plane_frames: {body index: scene frame posed at its centre of mass} for plane bodies.
         axes_node: the batched axes node of all bodies (hidden unless "Body axes" is on).
-        ``body_pose(i)`` and ``body_color(i)`` read what was sent to the browser for body i.
+        enabled: (F, N) bool, the trajectory's ``enabled`` (a body is hidden where False).
+        ``body_pose(i)``, ``body_color(i)`` and ``body_shown(i)`` read what was sent to the
+        browser for body i.
     """
 
     def __init__(self, traj: Trajectory, host: str = "127.0.0.1", port: int = 8080, *, play: bool = True,
@@ -183,6 +188,7 @@ class Viewer:
         self.position = np.asarray(traj.position, dtype=float)
         self.orientation = np.asarray(traj.orientation, dtype=float)
         self.names = [str(n) for n in np.asarray(traj.names)]
+        self.enabled = enabled_flags(traj)
         self.frame_count = len(self.time)
         self.body_count = len(self.names)
         self.contacts = contact_arrays(traj, extras or {})
@@ -310,6 +316,16 @@ class Viewer:
             return None
         return tuple(int(c) for c in self.mesh_groups[g].colors[self._row_of[int(i)]])
 
+    def body_shown(self, i: int) -> bool:
+        """Whether body ``i`` is drawn now, as last sent to the browser: False while it is disabled
+        (its row's scale 0; a plane's frame hidden)."""
+        i = int(i)
+        g = self._group_of[i]
+        if g < 0:
+            return bool(self.plane_frames[i].visible)
+        scales = self.mesh_groups[g].handle.batched_scales
+        return scales is None or bool(np.all(scales[self._row_of[i]] > 0))
+
     def stop(self):
         """Stop playback and the server (idempotent)."""
         if self._stopped:
@@ -416,12 +432,17 @@ class Viewer:
                                                 visible=False)
         self.axes_node.on_click(lambda event: self._clicked(np.arange(N), event))
         self._axes_frame = 0  # the frame the axes were last posed at
+        self._axes_lengths = lengths
         self.body_radius = radii
+        # what the nodes were made with: every body drawn (_show_presence hides the disabled ones)
+        self._shown_sent = np.ones(N, dtype=bool)
 
-        # Size of the scene: the centres of mass over the whole run, widened by the bodies.
+        # Size of the scene: the centres of mass over the whole run, widened by the bodies, at the
+        # frames they are drawn (all frames, when that leaves nothing).
         moving = [i for i in range(self.body_count) if not is_plane[i]]
         if moving:
-            pts = self.position[:, moving, :].reshape(-1, 3)
+            shown = self.enabled[:, moving]
+            pts = self.position[:, moving, :][shown] if shown.any() else self.position[:, moving, :].reshape(-1, 3)
             pts = pts[np.all(np.isfinite(pts), axis=1)]
         else:
             pts = np.zeros((1, 3))
@@ -470,6 +491,28 @@ class Viewer:
         group = self.mesh_groups[g]
         group.colors[self._row_of[i]] = color
         group.handle.batched_colors = linear_colors(group.colors)
+
+    def _shown(self, k: int) -> np.ndarray:
+        """(N,) bool: the bodies drawn at frame ``k``, those enabled (``Trajectory.enabled``)."""
+        return self.enabled[k]
+
+    def _show_presence(self, k: int):
+        """Hide the bodies not drawn at frame ``k`` and show the others again: a hidden body's
+        row of its group (and of the axes) scaled to 0. Only the groups where some body changed
+        since the last call are sent (nothing at all for a run where no body is ever disabled)."""
+        shown = np.asarray(self._shown(k), dtype=bool)
+        changed = shown != self._shown_sent
+        if not changed.any():
+            return
+        for g in np.unique(self._group_of[changed]):
+            if g >= 0:
+                group = self.mesh_groups[g]
+                group.handle.batched_scales = shown[group.bodies].astype(np.float32)
+        for i in np.flatnonzero(changed):
+            if i in self.plane_frames:
+                self.plane_frames[i].visible = bool(shown[i])
+        self.axes_node.batched_scales = self._axes_lengths * shown
+        self._shown_sent = shown.copy()
 
     def _pose_axes(self, k: int):
         """Pose every body's axes at frame ``k`` (one message)."""
@@ -641,6 +684,7 @@ class Viewer:
                     self.plane_frames[i].wxyz = self.orientation[k, i]
                 if self.axes_checkbox.value:  # hidden axes are not moved (posed when shown again)
                     self._pose_axes(k)
+                self._show_presence(k)
                 self._draw_contacts(k)
             self.time_text.content = self._status_text(k)
             self._update_info()
@@ -662,6 +706,8 @@ class Viewer:
                 ("P (kg m/s)", d["P"]), ("L (kg m²/s)", d["L"])]
         lines = [f"**{d['name']}** at t = {d['time']:.3f} s ({self._where(d['frame'])})", "",
                  "| | x | y | z |", "|:--|--:|--:|--:|"]
+        if not self._shown(d["frame"])[i]:
+            lines[1:1] = ["", "*Disabled here (hidden): out of the simulation.*"]
         lines += [f"| {label} | {_fmt(vec)} |" for label, vec in rows]
         lines += ["", f"Kinetic energy: {d['kinetic_energy']:.6g} J (all bodies: {d['kinetic_energy_total']:.6g} J)", "",
                   f"Potential energy, all bodies: {d['potential_energy_total']:.6g} J"]

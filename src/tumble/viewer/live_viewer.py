@@ -30,6 +30,9 @@ body quantities and toggles it shares):
   Box2D's ``b2World_Explode``: full within the "Blast radius", fading over as far again,
   "Blast strength" N s per m^2 of each shape's shadow). Shift + click pushes whatever the mode.
 * the contact points and forces of the last step, from ``Simulator.contacts()``;
+* the world as it is: a body out of the simulation (``World.set_enabled``, ``World.disabled``)
+  is hidden while it is, and shown again when it is put back (a body added disabled is drawn
+  as the type it comes back as: a dynamic one is moved once it appears);
 * "Integration" (a scene file): the integrator and dt the next Reset starts with (the
   course's explicit Euler beside RK4 or the splitting, a step 4x larger or 10x smaller), and a
   plot of the kinetic, potential and total energy of the recorded frames (the drift an
@@ -409,7 +412,8 @@ class LiveViewer(Viewer):
     def _start_recording(self):
         sim = self.sim
         # the bodies that may be pinned and unpinned (``pin``): drawn as moving ones from the start
-        self._dynamic_at_start = np.array(sim.world.moving, dtype=bool)
+        # (a body disabled at the start: the type it comes back as, World.body_type)
+        self._dynamic_at_start = self._body_types(sim.world) == "dynamic"
         self._recorder = _Recorder(sim.world, 64, sim if sim.record_contacts else None, sim if sim.record_joints else None,
                                    sim if sim._sensing() else None)
         n = sim.world.body_count
@@ -498,8 +502,21 @@ class LiveViewer(Viewer):
 
     # ---- what the viewer asks ---------------------------------------------------------------
 
+    @staticmethod
+    def _body_types(world) -> np.ndarray:
+        """(N,) str, the bodies' types now (``World.body_type``: a disabled body's is the one it
+        comes back as)."""
+        if not world.disabled.any():
+            return np.where(world.moving, "dynamic", np.where(world.kinematic, "kinematic", "fixed"))
+        return np.array([world.body_type(i) for i in range(world.body_count)])
+
     def _static_bodies(self) -> np.ndarray:
-        return np.asarray(self.sim.world.fixed, dtype=bool).copy()
+        # a disabled body is held fixed: static only if it comes back fixed
+        return self._body_types(self.sim.world) == "fixed"
+
+    def _shown(self, k: int) -> np.ndarray:
+        """(N,) bool: the bodies in the simulation now (``World.disabled`` False): the others are hidden."""
+        return ~np.asarray(self.sim.world.disabled, dtype=bool)
 
     def _contact_data(self) -> tuple[bool, bool, str]:
         w = self.sim.world

@@ -74,7 +74,9 @@ class MeshGroup:
     Attributes:
         handle: the viser ``BatchedMeshHandle``; row j of its ``batched_positions``
             (M, 3, world, m), ``batched_wxyzs`` (M, 4, body to world) and
-            ``batched_colors`` (M, 3, linear 0-255: ``linear_colors``) is body ``bodies[j]``.
+            ``batched_colors`` (M, 3, linear 0-255: ``linear_colors``) is body ``bodies[j]``;
+            ``batched_scales`` (M,) is None until some body of the group is hidden (disabled:
+            ``World.set_enabled``), then 1 for a body drawn and 0 for one hidden.
         bodies: (M,) body indices, increasing.
         static: True if every body of the group keeps its pose over the whole run
             (the group is posed once, never updated per frame).
