@@ -641,3 +641,30 @@ def test_a_pinned_body_holds_where_it_is_and_unpinned_falls_again(paused, scene_
     v.back_to_mark()
     v.advance(30)
     assert np.array_equal(v.world.pack(), plain_state(scene_file, 30))
+
+
+def test_a_removed_body_is_hidden_and_passed_through_and_back_to_mark_puts_it_back(paused, scene_file):
+    """Remove mode (``remove``, a click in "remove" mode): the box clicked is taken out
+    (``World.set_enabled``): hidden (``body_shown``), held where it was to the bit, and no longer hit
+    by a second click's ray (it reaches the ground: nothing is removed); the take records it out
+    from the next frame (``enabled_changes``). The ground is not removable (a click does nothing, a
+    call is one InputError). "Back to mark" from before the removal gives the plain run's bits."""
+    v = paused
+    w = v.world
+    box = w.index_of("box")
+    v.mark()
+    v.step_frame(1)
+    assert v.click_ray(w.x[box] + np.array([0.0, 0.0, 3.0]), (0, 0, -1), "remove") == box
+    assert not w.body("box").enabled and not v.body_shown(box)
+    held = w.x[box].copy()
+    v.step_frame(3)
+    assert np.array_equal(w.x[box], held)
+    assert v.click_ray(held + np.array([0.0, 0.0, 3.0]), (0, 0, -1), "remove") is None
+    with pytest.raises(InputError, match="a plane cannot be disabled"):
+        v.remove("ground")
+    changes = v.trajectory().enabled_changes
+    assert changes.tolist() == [[2, box, 0]]
+    v.back_to_mark()
+    assert w.body("box").enabled and v.body_shown(box)
+    v.advance(30)
+    assert np.array_equal(v.world.pack(), plain_state(scene_file, 30))

@@ -183,8 +183,8 @@ class Simulator:
         (a controller, a keyframed path that lets its body go), else None: a call that fails puts
         the world back where it started, its bodies' types too (``_put_types_back``)."""
         w = self.world
-        if self.controller is None and not any(p.release for p in w.paths) and not any(
-                isinstance(f, Switch) and k not in w.applied_impulses for k, f in enumerate(w.forces)):
+        if self.controller is None and not any(p.release for p in w.paths) and not (w.switch_count and any(
+                isinstance(f, Switch) and k not in w.applied_impulses for k, f in enumerate(w.forces))):
             return None
         from .snapshot import capture_types
 
@@ -231,7 +231,8 @@ class Simulator:
         while self.step_index < end:
             if self.world.paths:
                 Y = self._release_due_paths(Y)
-            Y = self._switch_due_bodies(Y)
+            if self.world.switch_count:
+                Y = self._switch_due_bodies(Y)
             if self._type_changes_seen != len(self.world.type_changes):
                 Y = self._take_type_changes(Y)
             self._apply_due_impulses(Y)

@@ -137,6 +137,7 @@ class World:
         # disabled (set_enabled): switched on again when both their bodies are enabled
         self.joints_switched_off: set[int] = set()
         self.forces: list[Any] = []
+        self.switch_count = 0  # Switch records among ``forces``: none, and a step looks for none
         self.joints: list[Any] = []  # joint records of tumble.joints, bound (add_joint)
         self.paths: list[Any] = []  # keyframed paths of kinematic bodies (tumble.kinematic, add_path)
         # rows a user changed between steps (a pose, a velocity, an impulse): the Simulator wakes
@@ -384,8 +385,10 @@ class World:
                                   CustomForce, Switch)):
             raise InputError(f"not a force record: {force!r}", "forces")
         self.force_bodies(force)  # each known (InputError)
-        if isinstance(force, Switch) and isinstance(self.shapes[self.index_of(force.body)], Plane):
-            raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
+        if isinstance(force, Switch):
+            if isinstance(self.shapes[self.index_of(force.body)], Plane):
+                raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
+            self.switch_count += 1
         if isinstance(force, Spring) and force.rest_length is None:
             pa, pb = self.spring_endpoints(force)
             force.rest_length = float(np.linalg.norm(pa - pb))
@@ -396,8 +399,8 @@ class World:
 
     def remove_force(self, force):
         """Remove a force record added by ``add_force`` (that very object): a spring let go, a
-        wind stopped. An ``Impulse`` or ``Explosion`` stays (it is part of the run's history: the
-        impulses applied are counted by their place in the list)."""
+        wind stopped. An ``Impulse``, ``Explosion`` or ``Switch`` stays (it is part of the run's
+        history: the records applied are counted by their place in the list)."""
         if isinstance(force, (Impulse, Explosion, Switch)):
             kind = {Impulse: "an impulse", Explosion: "an explosion", Switch: "a switch"}[type(force)]
             raise InputError(f"{kind} cannot be removed (it is applied once, at its time)", "forces")
@@ -674,7 +677,8 @@ class World:
         switched on again when both their bodies are enabled) and its springs pull nothing; the
         recorded trajectory marks it absent from the frame it left (``Trajectory.enabled``), and
         the exports hide it there (glTF scale, USD visibility, videos, the viewer). It keeps its
-        row, name and type: ``body_type`` says the type it comes back as. Enabled again, it comes
+        row, name and type: ``body_type`` says the type it comes back as (while it is out it is
+        held as a fixed body: ``World.fixed`` and ``Body.fixed`` say so). Enabled again, it comes
         back as that type at the pose it has (set it while disabled: a body respawned elsewhere)
         with the velocity it left with (or one set while disabled: ``Body.v``, ``Body.omega``),
         woken. A kinematic body's keyframed path ends when it is disabled (as with a type
@@ -690,7 +694,7 @@ class World:
             raise InputError(f"expected True or False, got {enabled!r}", "enabled")
         if not enabled and isinstance(self.shapes[i], Plane):
             raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
-        if bool(enabled) != bool(self.disabled[i]):
+        if bool(enabled) == (not self.disabled[i]):
             return  # already so
         a = self._arrays
         if not enabled:

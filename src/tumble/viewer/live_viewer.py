@@ -28,7 +28,9 @@ body quantities and toggles it shares):
   a critical damping of the body's motion; "Release" or a click elsewhere lets
   go); or blast it: an explosion where the click's ray meets the scene (``World.explode``,
   Box2D's ``b2World_Explode``: full within the "Blast radius", fading over as far again,
-  "Blast strength" N s per m^2 of each shape's shadow). Shift + click pushes whatever the mode.
+  "Blast strength" N s per m^2 of each shape's shadow); pin it (made fixed where it is, or let
+  go again); or remove it (``World.set_enabled(body, False)``: hidden and touching nothing until
+  "Back to mark" or Reset puts it back). Shift + click pushes whatever the mode.
 * the contact points and forces of the last step, from ``Simulator.contacts()``;
 * the world as it is: a body out of the simulation (``World.set_enabled``, ``World.disabled``)
   is hidden while it is, and shown again when it is put back (a body added disabled is drawn
@@ -58,6 +60,7 @@ import numpy as np
 
 from ..errors import InputError, SimulationError
 from ..forces import Drag, Spring
+from ..shapes import Plane
 from .. import checks
 from ..recording import _Recorder, frame_values
 from ..trajectory import Trajectory
@@ -69,7 +72,7 @@ MAX_LAG_S = 0.1  # s of simulated time the run may owe real time; more is droppe
 PUSH_SPEED = 2.0  # m/s: a push's default change of speed (impulse = mass * speed)
 GRAB_HERTZ = 2.0  # Hz: natural frequency of a grabbed body on the grab spring (stiffness = m (2 pi f)^2)
 GRAB_DAMPING_RATIO = 1.0  # critical: the body follows the handle without swinging past it
-CLICK_MODES = ("select", "push", "grab", "blast", "pin")
+CLICK_MODES = ("select", "push", "grab", "blast", "pin", "remove")
 BLAST_RADIUS = 0.5  # m: a click's explosion, full strength within it (and as far again, fading)
 BLAST_IMPULSE = 200.0  # N s / m^2: its impulse per area of a shape's shadow (a 20 cm cube face-on: 8 N s)
 CAMERA_PERIOD_S = 0.2  # s of wall time between a camera's images while running (a capture costs 2-40 ms)
@@ -377,6 +380,18 @@ class LiveViewer(Viewer):
             self._refresh()
             return bool(w.fixed[b.index])
 
+    def remove(self, body):
+        """Take a body out of the simulation (``World.set_enabled(body, False)``: hidden, touching
+        nothing, its joints off): a wall cleared, a box pulled out of a tower. A plane stays (one
+        InputError). Reset puts every body back, and "Back to mark" those of its moment."""
+        with self._lock:
+            w = self.sim.world
+            b = w.body(body)
+            if b.index == (self.grabbed or (None,))[0]:
+                self._release_spring()  # nothing to hold
+            w.set_enabled(b.index, False)
+            self._refresh()
+
     # ---- the run ----------------------------------------------------------------------------
 
     def trajectory(self) -> Trajectory:
@@ -561,7 +576,8 @@ class LiveViewer(Viewer):
                                                    hint="select: its quantities; push: an impulse along the click; "
                                                         "grab: a spring to a handle you drag; blast: an explosion "
                                                         "where you click; pin: hold a body where it is, or let a "
-                                                        "pinned one go (shift + click pushes)")
+                                                        "pinned one go; remove: take a body out (Back to mark or "
+                                                        "Reset puts it back) (shift + click pushes)")
             self.push_speed_slider = gui.add_slider("Push speed (m/s)", min=0.1, max=20.0, step=0.1,
                                                     initial_value=PUSH_SPEED, hint="the speed a push gives the body")
             self.blast_radius_slider = gui.add_slider("Blast radius (m)", min=0.05, max=5.0, step=0.05,
@@ -781,10 +797,10 @@ class LiveViewer(Viewer):
 
     def click_ray(self, origin, direction, mode: str):
         """What a click along the ray ``origin`` + s ``direction`` (world) does in ``mode`` ("push",
-        "grab", "blast", "pin", "select"): the first body the ray hits (``World.ray_cast``, the
-        bodies' exact shapes), pushed along the ray at the hit point, grabbed there, blasted from
-        there (``blast``: any body hit, the ground too, is where the explosion goes off), pinned
-        or unpinned (``pin``), or selected. Returns the body's index, or None (nothing hit, or a
+        "grab", "blast", "pin", "remove", "select"): the first body the ray hits (``World.ray_cast``,
+        the bodies' exact shapes), pushed along the ray at the hit point, grabbed there, blasted
+        from there (``blast``: any body hit, the ground too, is where the explosion goes off),
+        pinned or unpinned (``pin``), taken out (``remove``: not a plane), or selected. Returns the body's index, or None (nothing hit, or a
         body that does not move: only selected, or blasted from)."""
         if mode not in CLICK_MODES:
             raise InputError(f"expected one of {', '.join(CLICK_MODES)}, got {mode!r}", "mode")
@@ -803,6 +819,11 @@ class LiveViewer(Viewer):
                 if not self._dynamic_at_start[body]:
                     return None
                 self.pin(body)
+                return body
+            if mode == "remove":
+                if isinstance(self.sim.world.shapes[body], Plane):
+                    return None
+                self.remove(body)
                 return body
             if mode == "select" or not self.sim.world.moving[body]:
                 return None
