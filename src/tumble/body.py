@@ -73,6 +73,10 @@ class Body:
                     doc='``"dynamic"``, ``"kinematic"`` or ``"fixed"``; set it between steps '
                         '(``World.set_body_type``: a carried body let go, a falling one frozen).')
     kinematic = property(lambda self: bool(self.world.kinematic[self.index]))
+    gravity_scale = property(lambda self: float(self.world.gravity_scale[self.index]),
+                             lambda self, value: self.world.set_gravity_scale(self.index, value),
+                             doc="The fraction of its weight the body feels (``World.set_gravity_scale``; 1 by "
+                                 "default, 0 floats, negative rises).")
     enabled = property(lambda self: not self.world.disabled[self.index],
                        lambda self, value: self.world.set_enabled(self.index, value),
                        doc="False while the body is out of the simulation; set it between steps "

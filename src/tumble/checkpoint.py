@@ -47,7 +47,10 @@ from .world import Material, World
 FORMAT = "tumble-checkpoint"
 VERSION = 1
 CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q", "principal_moments", "com_offset", "moving",
-             "dynamic_mass")  # dynamic_mass: absent from checkpoints written before session 39 (World.set_body_type)
+             "dynamic_mass", "gravity_scale")
+# absent from older checkpoints (dynamic_mass before session 39: World.set_body_type; gravity_scale
+# before session 40: World.set_gravity_scale): as a new body has them
+OPTIONAL_CONSTANTS = ("dynamic_mass", "gravity_scale")
 STATE = ("x", "q", "R", "P", "L")
 # kinematic bodies (World.kinematic, their velocities), surface velocities and sensors: absent
 # from checkpoints written before they existed, which load with none
@@ -307,7 +310,7 @@ def load_checkpoint(cls, path, custom_forces=None):
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {name: np.array(data[name]) for name in CONSTANTS + STATE + KINEMATIC if name in data.files}
-            missing = [name for name in CONSTANTS + STATE if name not in arrays and name != "dynamic_mass"]
+            missing = [name for name in CONSTANTS + STATE if name not in arrays and name not in OPTIONAL_CONSTANTS]
             if missing:
                 raise KeyError(f"{missing[0]} is not a file in the archive")
             warm, sleep, joint_state = _solver_parts(data.files, lambda name: np.array(data[name]))

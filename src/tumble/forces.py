@@ -452,7 +452,7 @@ class ForceTables:
 
 
 def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mass=None,
-                       inertia_body=None, disabled=None) -> ForceTables:
+                       inertia_body=None, disabled=None, gravity=None, gravity_scale=None) -> ForceTables:
     """Turn force records into ``ForceTables``.
 
     Args:
@@ -465,11 +465,19 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mas
         disabled: (N,) bool or None: the bodies out of the simulation (``World.set_enabled``):
             a spring with a disabled end pulls nothing (the other forces act on moving bodies
             only, which a disabled body is not).
+        gravity: (3,) m/s^2 and gravity_scale: (N,) or None: a moving body whose scale s is not 1
+            gets a constant row (s - 1) m g first among its rows (``World.set_gravity_scale``:
+            the kernels apply m g to every moving body, so the body feels s m g in all).
     """
     rows = []  # (body, order, kind, params[, the Buoyancy record that fills the row])
     springs = []
     custom = []
     all_moving = np.flatnonzero(moving)
+    if gravity_scale is not None:
+        g = np.asarray(gravity, dtype=float)
+        for i in np.flatnonzero(moving & (gravity_scale != 1.0)):
+            # order -1: before the user's records; (s - 1) m g, so that s = 0 cancels m g exactly
+            rows.append((int(i), -1, UFORCE_CONSTANT, [*((gravity_scale[i] - 1.0) * mass[i] * g), 0.0, 0.0, 0.0]))
     for order, f in enumerate(forces):
         if isinstance(f, Drag):
             targets = all_moving if f.bodies is None else [resolve(b) for b in f.bodies]

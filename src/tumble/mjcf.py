@@ -77,6 +77,9 @@ a site's Jacobian is ``robot.kinematics.jacobian(link, position)``), fixed ``<ca
 ``trackcom``: MuJoCo's camera frame looks along -z with y up; ``fovy``; ``resolution``, default
 160 x 120).
 
+A body's ``gravcomp`` (MuJoCo's gravity compensation, a force -gravcomp m g at its centre of
+mass) is its gravity scale 1 - gravcomp (``World.set_gravity_scale``; ``_gravity_compensation``
+for bodies merged into one); a joint's ``actuatorgravcomp="true"`` is refused.
 Collisions: the model's bodies touch each other except bodies a joint links (MuJoCo's parent-child
 rule, ``self_collision=True`` by default here, unlike ``load_urdf``) and those none of whose geoms
 may touch by MuJoCo's ``contype``/``conaffinity`` rule (``mjcf_control._exclude_by_masks``: per body pair; the
@@ -176,6 +179,7 @@ class MjcfModel:
     excluded: list = field(default_factory=list)
     materials: dict = field(default_factory=dict)  # link name: Material of its (first) colliding geom
     virtual: list = field(default_factory=list)  # the links between two joints of one body
+    gravcomp: dict = field(default_factory=dict)  # body (and its virtual links) name: its gravcomp, where not 0
     actuators: dict = field(default_factory=dict)  # name: MjcfActuator, the file's order
     # (kind "connect" | "weld", name, body1, body2, anchor (3,)); ("joint", name, joint1, joint2, polycoef (5,))
     equalities: list = field(default_factory=list)
@@ -635,6 +639,11 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
             raise InputError("duplicate joint name", jkey)
         joint_names.add(jname)
         kind = a.get("type", "hinge")
+        if a.get("actuatorgravcomp", "false") == "true":
+            # MuJoCo then routes the joint's share of gravcomp through its actuators (capped by their
+            # forcerange) instead of applying it passively: not modelled
+            raise InputError("actuatorgravcomp (gravity compensation through the actuators) is not supported; "
+                             "without it the body's gravcomp acts passively", f"{jkey}.actuatorgravcomp")
         if kind not in JOINT_TYPES:
             raise InputError(f"unknown joint type {kind!r} (expected one of {', '.join(JOINT_TYPES)})", f"{jkey}.type")
         anchor = np.zeros(3) if kind == "free" else _floats(a.get("pos", "0 0 0"), f"{jkey}.pos", (3,))
@@ -645,6 +654,10 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
         raise InputError("a free joint must be its body's only joint", key)
     anchor = specs[-1][4] if specs else np.zeros(3)
     _mass_and_shapes(reader, element, cls, key, anchor, link, out, meshes)
+    if "gravcomp" in element.attrib:  # a body attribute, not a default class's (MuJoCo's XML reference)
+        gravcomp = float(_floats(element.get("gravcomp"), f"{key}.gravcomp", (1,))[0])
+        if gravcomp != 0.0:
+            out.gravcomp[name] = gravcomp
     # several joints in one body (MuJoCo composes them, the first nearest the parent, with nothing
     # between): a chain of links, each joint's child a virtual link of VIRTUAL_FRACTION of the body's
     # mass and inertia, the last joint's child the body. Its frame: the body frame moved to the
@@ -679,6 +692,8 @@ def _body(reader, element, parent: str, cls: str, shift: np.ndarray, out: MjcfMo
                                inertia=VIRTUAL_FRACTION * balanced_inertia(link.inertia))
             out.model.links[child] = virtual
             out.virtual.append(child)
+            if name in out.gravcomp:
+                out.gravcomp[child] = out.gravcomp[name]
         previous, previous_anchor = child, at
     if len(specs) > 1:  # MuJoCo's parent-child rule, across the virtual links
         out.excluded.append((parent, name))
@@ -888,6 +903,8 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
             robot.reset_joint_positions(None, start)
     if parsed.virtual:  # light links between the joints of one body: the Simulator solves joints exactly
         world.exact_joints = True
+    if parsed.gravcomp:
+        _gravity_compensation(world, robot, parsed)
     base_p, base_R = robot.link_pose("world")
     statics = parsed.statics if world_geoms else []
     masks = parsed.masks if world_geoms else {k: v for k, v in parsed.masks.items() if not k.startswith("world/")}
@@ -931,6 +948,37 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
     if parsed.fluid is not None and fluid:
         robot.fluid = _add_fluid(world, robot, parsed, inertia)
     return robot
+
+
+def _gravity_compensation(world, robot, parsed: MjcfModel):
+    """MuJoCo's ``gravcomp``: a force -gravcomp m g at each body's centre of mass (a passive force,
+    mj_passive), as the gravity scale 1 - gravcomp of the tumble body (``World.set_gravity_scale``;
+    the same force at the same point). Bodies merged into one (a body with no joint is welded to
+    its parent) take 1 - sum(c m) / sum(m): the whole force; where their gravcomps differ, the
+    torque of the difference about the merged centre of mass is left out and a TumbleWarning says
+    so."""
+    import warnings
+
+    from .errors import TumbleWarning
+
+    totals: dict = {}  # tumble body's link: [sum m, sum c m, the gravcomps]
+    for link, owner in robot.owners.items():
+        part = parsed.model.links.get(link)
+        if part is None:
+            continue
+        t = totals.setdefault(owner, [0.0, 0.0, set()])
+        c = parsed.gravcomp.get(link, 0.0)
+        t[0] += part.mass
+        t[1] += c * part.mass
+        t[2].add(c)
+    for owner, (m, cm, gravcomps) in totals.items():
+        if cm == 0.0 or m <= 0.0 or owner not in robot.links:
+            continue
+        if len(gravcomps) > 1:
+            warnings.warn(f"bodies merged into {owner!r} have different gravcomp ({', '.join(f'{c:g}' for c in sorted(gravcomps))}): "
+                          "their mass-weighted mean is applied at the merged centre of mass (the torque of the "
+                          "difference is left out)", TumbleWarning, stacklevel=4)
+        world.set_gravity_scale(robot.links[owner], 1.0 - cm / m)
 
 
 def _add_fluid(world, robot, parsed: MjcfModel, inertia: str):

@@ -39,7 +39,7 @@ from .world import World
 BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter", "path",
-    "surface_velocity", "sensor", "drop", "fracture", "enabled", "enable_at", "disable_at",
+    "surface_velocity", "sensor", "drop", "fracture", "enabled", "enable_at", "disable_at", "gravity_scale",
 )
 # fracture = {pieces, seed, strength, min_face}: the body as Voronoi cells glued by breakable joints (tumble.fracturing)
 FRACTURE_KEYS = ("pieces", "seed", "strength", "min_face")
@@ -125,6 +125,8 @@ class BodyReader(ValueReader):
             raise self.error("missing key 'mass' (or 'density')", key)
         if "inertia" in b:
             kw["inertia"] = self.inertia(b["inertia"], f"{key}.inertia")
+        if "gravity_scale" in b:
+            kw["gravity_scale"] = self.number(b["gravity_scale"], f"{key}.gravity_scale")
         for k in ("position", "velocity", "angular_velocity", "euler_deg", "surface_velocity"):
             if k in b:
                 kw[k] = self.vector(b[k], f"{key}.{k}")

@@ -75,6 +75,9 @@ _CONSTANT_ARRAYS = {
     # inf); NaN for none. ``set_body_type`` makes a body dynamic with it (its inertia is then
     # ``inertia_body``, kept finite for such a body).
     "dynamic_mass": (),
+    # the fraction of m g the body feels (``World.set_gravity_scale``: Box2D's gravity scale,
+    # 1 - MuJoCo's gravcomp); 1 by default
+    "gravity_scale": (),
 }
 #: a body's types (``World.set_body_type``): moved by forces and contacts; moved at set
 #: velocities whatever pushes it (infinite mass); never moved
@@ -147,6 +150,7 @@ class World:
         # integers, so that a checkpoint can save them
         self.applied_impulses: set[int] = set()
         self._tables = None
+        self._tables_gravity = None  # the gravity the tables' gravity-scale rows were made with (None: no such row)
 
     # ------------------------------------------------------------------ storage
     def _allocate(self, capacity: int):
@@ -196,6 +200,7 @@ class World:
         self._gravity = g
         if old is not None and not np.array_equal(old, g) and self.body_count:
             self.wake_requests.update(int(i) for i in np.flatnonzero(self.moving))
+            self._tables = None  # a gravity scale's row is (s - 1) m g
 
     def add_body(
         self,
@@ -218,6 +223,7 @@ class World:
         surface_velocity=(0.0, 0.0, 0.0),
         sensor: bool = False,
         enabled: bool = True,
+        gravity_scale: float = 1.0,
         name: str | None = None,
     ) -> "Body":
         """Add one body and return its view.
@@ -260,6 +266,8 @@ class World:
                 shapes): a trigger zone. It may be fixed, kinematic or dynamic.
             enabled: False adds the body out of the simulation (``set_enabled``): it waits,
                 hidden in exports, touching nothing, until enabled (a body that appears later).
+            gravity_scale: the fraction of its weight m g the body feels (``set_gravity_scale``):
+                0 floats, 0.5 falls at g / 2, negative rises (a balloon); default 1.
             name: unique; default "body<i>".
         """
         if name is None:
@@ -293,6 +301,7 @@ class World:
             raise InputError("a body is fixed or kinematic, not both", "kinematic")
         if not isinstance(sensor, (bool, np.bool_)):
             raise InputError(f"expected True or False, got {sensor!r}", "sensor")
+        gravity_scale = _gravity_scale(gravity_scale)
         if not isinstance(enabled, (bool, np.bool_)):
             raise InputError(f"expected True or False, got {enabled!r}", "enabled")
         if not enabled and isinstance(shape, Plane):
@@ -344,6 +353,7 @@ class World:
         a["kinematic"][i] = kinematic
         a["sensor"][i] = bool(sensor)
         a["disabled"][i] = False
+        a["gravity_scale"][i] = gravity_scale
         a["held_type"][i] = 0.0
         a["held_v"][i] = 0.0
         a["held_omega"][i] = 0.0
@@ -658,6 +668,21 @@ class World:
             return BODY_TYPES[int(self.held_type[i])]
         return "dynamic" if self.moving[i] else "kinematic" if self.kinematic[i] else "fixed"
 
+    def set_gravity_scale(self, body, scale: float):
+        """The fraction ``scale`` of its weight m g that ``body`` (``Body``, name or index) feels
+        from the next step on: Box2D's ``b2Body_SetGravityScale``, Bullet's per-body gravity,
+        MuJoCo's ``gravcomp`` (a scale of 1 - gravcomp: an arm that holds its pose, a payload
+        lifted by a crane's compensator). 0: the body floats (m g cancelled exactly); 0.5: it falls
+        at g / 2; negative: it rises (a balloon). Applied as a constant force (scale - 1) m g at
+        its centre of mass besides gravity, so it follows the world's gravity and the body's mass
+        as they change; its potential energy is scale m g h (``potential_energy``). A fixed or
+        kinematic body keeps its scale for when it moves. The body is woken. InputError (key
+        ``gravity_scale``), nothing changed: not a finite number."""
+        i = self.index_of(body)
+        self._arrays["gravity_scale"][i] = _gravity_scale(scale)
+        self._tables = None
+        self.wake_requests.add(i)
+
     @property
     def enabled(self) -> np.ndarray:
         """(N,) bool: False for the bodies out of the simulation (``set_enabled``); a new array."""
@@ -912,10 +937,17 @@ class World:
     @property
     def tables(self):
         """The force tables the kernels read (rebuilt when forces or bodies change)."""
+        if self._tables is not None and self._tables_gravity is not None and not np.array_equal(self._tables_gravity,
+                                                                                              self._gravity):
+            self._tables = None  # gravity changed in place (world.gravity[2] = ...) under a scaled body's row
         if self._tables is None or self._force_edits != force_edit_count():
             self._force_edits = force_edit_count()  # (any world's record edited: rebuilt, the same tables or new)
+            scale = self.gravity_scale
+            scaled = bool(np.any(scale != 1.0))
             self._tables = build_force_tables(self.forces, self.body_count, self.moving, self.index_of, self.mass,
-                                              self.inertia_body, disabled=self.disabled)
+                                              self.inertia_body, disabled=self.disabled, gravity=self._gravity,
+                                              gravity_scale=scale if scaled else None)
+            self._tables_gravity = self._gravity.copy() if scaled else None
         return self._tables
 
     @property
@@ -1029,6 +1061,8 @@ class World:
         (hinge, slider and distance stiffness, ball joint drives: ``solver.joints.joint_spring_energy``), J."""
         m = self.moving
         e = float(-np.sum(self.mass[m] * (self.x[m] @ self.gravity)))
+        if np.any(self.gravity_scale[m] != 1.0):  # s m g h: (s - 1) m g h beside the whole weight's
+            e -= float(np.sum((self.gravity_scale[m] - 1.0) * self.mass[m] * (self.x[m] @ self.gravity)))
         disabled = self.disabled
         for f in self.forces:
             if isinstance(f, Spring) and not (disabled[self.index_of(f.body_a)]
@@ -1104,6 +1138,12 @@ def _array_property(name):
 
 for _name in (*_CONSTANT_ARRAYS, *_STATE_ARRAYS, *_DERIVED_ARRAYS, *_KINEMATIC_ARRAYS, *_FLAG_ARRAYS):
     setattr(World, _name, _array_property(_name))
+
+
+def _gravity_scale(value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(value):
+        raise InputError(f"must be a finite number (1: the whole weight, 0: none), got {value!r}", "gravity_scale")
+    return float(value)
 
 
 def _check_inertia(I):

@@ -45,7 +45,7 @@ import numpy as np
 from .. import checks
 from .. import integrators as K
 from ..errors import InputError, SimulationError
-from ..forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring
+from ..forces import Buoyancy, ConstantForce, CustomForce, Drag, Explosion, Fluid, Impulse, PointForce, Spring, Switch
 from ..joints import G_FOLLOWS, G_JOINT, JOINT_GEAR
 from ..simulator import Simulator
 from ..trajectory import Trajectory
@@ -58,8 +58,9 @@ def batch_key(scene):
     w = scene.world
     if K.INTEGRATOR_IDS[scene.integrator] in K.ADAPTIVE:
         return None
-    # an explosion reaches every variant; buoyancy's rows are filled step by step for the world's bodies
-    if any(isinstance(f, (Spring, CustomForce, Explosion, Buoyancy)) for f in w.forces):
+    # an explosion reaches every variant; buoyancy's rows are filled step by step for the world's bodies;
+    # a switch changes the merged world's stages mid-run (World.set_enabled)
+    if any(isinstance(f, (Spring, CustomForce, Explosion, Buoyancy, Switch)) for f in w.forces):
         return None
     if w.collisions and _can_collide(w):
         return None
@@ -226,7 +227,7 @@ def run_single(scene, metrics: list[M.Metric], keep_trajectory: bool = False) ->
     traj = scene.simulator().run(scene.duration, scene.frame_rate, progress=False)
     w = scene.world
     fr = M.Frames.from_trajectory(traj, 1)
-    vals = M.compute(metrics, fr, w.mass[None, :], w.gravity, body_info(w))
+    vals = M.compute(metrics, fr, w.mass[None, :], w.gravity, body_info(w), w.gravity_scale[None, :])
     out = {c: float(v[0]) for c, v in vals.items()}
     return Outcome(out, checks.state_hash(w), traj if keep_trajectory else None, time.perf_counter() - started, 1)
 
@@ -249,14 +250,15 @@ def run_group(scenes: list, metrics: list[M.Metric], keep_trajectory: bool = Fal
     traj = sim.run(s0.duration, s0.frame_rate, progress=False)
     fr = M.Frames.from_trajectory(traj, V)
     mass = np.stack([s.world.mass for s in scenes])
+    gravity_scale = np.stack([s.world.gravity_scale for s in scenes])  # (V, n): World.set_gravity_scale
     info = body_info(s0.world)
-    E = M.energies(fr, mass, merged.gravity, info)
+    E = M.energies(fr, mass, merged.gravity, info, gravity_scale)
     with np.errstate(all="ignore"):
         floor = 0.5 * np.sum(np.where(np.array(info.moving)[None, :], mass, 0.0), axis=1)
         scale = np.maximum(np.abs(E[0]), floor)
         bound = E.min(axis=0) + 0.5 * (s0.max_energy_growth - 1.0) * scale
         suspect = ~np.all(np.isfinite(E), axis=0) | np.any(E > bound[None, :], axis=0)
-    vals = M.compute(metrics, fr, mass, merged.gravity, info)
+    vals = M.compute(metrics, fr, mass, merged.gravity, info, gravity_scale)
     Y = merged.pack()
     each = (time.perf_counter() - started) / V
     out: list[Outcome | None] = []
@@ -266,7 +268,7 @@ def run_group(scenes: list, metrics: list[M.Metric], keep_trajectory: bool = Fal
             continue
         rows = slice(k * n, (k + 1) * n)
         h = checks.state_hash(_VariantState(merged.layout, merged.t, Y[rows]))
-        t_k = split_trajectory(traj, rows, s0.world, mass[k]) if keep_trajectory else None
+        t_k = split_trajectory(traj, rows, s0.world, mass[k], gravity_scale[k]) if keep_trajectory else None
         out.append(Outcome({c: float(v[k]) for c, v in vals.items()}, h, t_k, each, V))
     return out
 
@@ -287,7 +289,7 @@ def run_batched(scenes: list, metrics: list[M.Metric], keep_trajectory: bool = F
     return [g if g is not None else run_batched([s], metrics, keep_trajectory)[0] for g, s in zip(got, scenes)]
 
 
-def split_trajectory(traj: Trajectory, rows: slice, world: World, mass: np.ndarray) -> Trajectory:
+def split_trajectory(traj: Trajectory, rows: slice, world: World, mass: np.ndarray, gravity_scale=None) -> Trajectory:
     """One variant's Trajectory from a batch's: its bodies' frames (bit for bit) and its own totals
     (recomputed here over its bodies; a single run sums them in the engine, so totals may differ in the last bits)."""
     per = {k: np.ascontiguousarray(getattr(traj, k)[:, rows]) for k in
@@ -296,7 +298,8 @@ def split_trajectory(traj: Trajectory, rows: slice, world: World, mass: np.ndarr
     with np.errstate(all="ignore"):
         P, v, L, w = per["linear_momentum"][:, m], per["velocity"][:, m], per["angular_momentum"][:, m], per["angular_velocity"][:, m]
         ke = 0.5 * np.sum(P * v, axis=(1, 2)) + 0.5 * np.sum(L * w, axis=(1, 2))
-        pe = -np.sum(mass[m][None, :] * (per["position"][:, m] @ world.gravity), axis=1)
+        weight = mass[m] if gravity_scale is None else gravity_scale[m] * mass[m]  # s m (World.set_gravity_scale)
+        pe = -np.sum(weight[None, :] * (per["position"][:, m] @ world.gravity), axis=1)
         x = per["position"][:, m]
         q = per["orientation"][:, m]
     orth = np.max(np.abs(np.sum(q * q, axis=2) - 1.0), axis=1) if q.shape[1] else np.zeros(len(traj.time))

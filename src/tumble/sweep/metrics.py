@@ -168,17 +168,20 @@ class BodyInfo:
     sensors: tuple = ()  # the sensors' names, in body order (the trajectory's sensor_visitors columns)
 
 
-def energies(fr: Frames, mass: np.ndarray, gravity: np.ndarray, info: BodyInfo) -> np.ndarray:
+def energies(fr: Frames, mass: np.ndarray, gravity: np.ndarray, info: BodyInfo, gravity_scale=None) -> np.ndarray:
     """(F, V) total energy of each variant: sum over moving bodies (in body order) of
-    1/2 P.v + 1/2 L.omega - m g.x, plus 1/2 k (l - l0)^2 per spring. ``mass`` (V, n)."""
+    1/2 P.v + 1/2 L.omega - s m g.x, plus 1/2 k (l - l0)^2 per spring. ``mass`` (V, n);
+    ``gravity_scale`` (V, n) the bodies' s (``World.set_gravity_scale``), None: 1."""
     with np.errstate(all="ignore"):  # fixed bodies (infinite mass) are left out of the sums below
-        return _energies(fr, mass, gravity, info)
+        return _energies(fr, mass, gravity, info, gravity_scale)
 
 
-def _energies(fr, mass, gravity, info):
+def _energies(fr, mass, gravity, info, gravity_scale=None):
     ke = 0.5 * _dot3(fr.linear_momentum, fr.velocity) + 0.5 * _dot3(fr.angular_momentum, fr.angular_velocity)
     g = np.asarray(gravity, dtype=float)
     pe = -(mass[None, :, :] * _dot3(fr.position, np.broadcast_to(g, fr.position.shape)))
+    if gravity_scale is not None and np.any(gravity_scale != 1.0):  # s m g h (World.potential_energy)
+        pe = pe * np.asarray(gravity_scale, dtype=float)[None, :, :]
     e_body = ke + pe  # (F, V, n)
     total = np.zeros(e_body.shape[:2])
     for j, m in enumerate(info.moving):
@@ -211,13 +214,15 @@ def first_sign_change(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.where(has, tc, np.nan)
 
 
-def compute(metrics: list[Metric], fr: Frames, mass: np.ndarray, gravity, info: BodyInfo) -> dict[str, np.ndarray]:
-    """{column: (V,) values} for ``metrics`` over the frames of V variants."""
+def compute(metrics: list[Metric], fr: Frames, mass: np.ndarray, gravity, info: BodyInfo,
+            gravity_scale=None) -> dict[str, np.ndarray]:
+    """{column: (V,) values} for ``metrics`` over the frames of V variants (``gravity_scale`` (V, n)
+    or None: as ``energies``)."""
     out: dict[str, np.ndarray] = {}
     index = {n: j for j, n in enumerate(info.names)}
     need_energy = any(m.kind in SCALAR_METRICS for m in metrics)
     if need_energy:
-        E = energies(fr, mass, gravity, info)
+        E = energies(fr, mass, gravity, info, gravity_scale)
         e0, e1 = E[0], E[-1]
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             drift = (e1 - e0) / np.maximum(np.abs(e0), np.finfo(float).tiny)
