@@ -80,35 +80,26 @@ class Pybullet:
         self.eng.ids[i] = b
 
 
+def toggled(change, eng, n: int, repeats: int, stride: int, first: int) -> tuple[float, float]:
+    """(ms, ms): medians over ``repeats`` boxes of ``change(i, True)`` + a step and ``change(i, False)``
+    + a step, box i = (first + stride k) mod n."""
+    on, off = [], []
+    for k in range(repeats):
+        i = (first + stride * k) % n
+        for flag, times in ((True, on), (False, off)):
+            t0 = time.perf_counter()
+            change(i, flag)
+            eng.step(1)
+            times.append(time.perf_counter() - t0)
+    return 1e3 * median(on), 1e3 * median(off)
+
+
 def measure(eng, n: int, repeats: int) -> dict:
     eng.step(round(1.0 / eng.dt))
     row = {"engine": eng.name, "dt": eng.dt, "step_ms": 1e3 * timed(lambda: eng.step(1), repeats)}
-    to_fixed, to_dynamic = [], []
-    for k in range(repeats):
-        i = (37 * k) % n
-        t0 = time.perf_counter()
-        eng.set_fixed(i, True)
-        eng.step(1)
-        to_fixed.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        eng.set_fixed(i, False)
-        eng.step(1)
-        to_dynamic.append(time.perf_counter() - t0)
-    row["fixed_ms"] = 1e3 * median(to_fixed)
-    row["dynamic_ms"] = 1e3 * median(to_dynamic)
-    out, back = [], []
-    for k in range(repeats):
-        i = (53 * k + 11) % n
-        t0 = time.perf_counter()
-        eng.set_enabled(i, False)
-        eng.step(1)
-        out.append(time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        eng.set_enabled(i, True)
-        eng.step(1)
-        back.append(time.perf_counter() - t0)
-    row["out_ms"] = 1e3 * median(out)
-    row["back_ms"] = 1e3 * median(back)
+    # a box (a different one each time) changed and changed back, each change timed with the step after
+    row["fixed_ms"], row["dynamic_ms"] = toggled(eng.set_fixed, eng, n, repeats, stride=37, first=0)
+    row["out_ms"], row["back_ms"] = toggled(lambda i, on: eng.set_enabled(i, not on), eng, n, repeats, stride=53, first=11)
     for i in range(0, n, 2):
         eng.set_enabled(i, False)
     eng.step(5)  # the stages made anew, the half left settling

@@ -35,6 +35,7 @@ from tumble.export import export_gltf, export_usd
 from tumble.export.gltf import glb_bytes, gltf_document
 
 from tests.test_export import gltf_validator  # the fixture: the Khronos validator, installed if need be
+from tests.test_export import load_glb, read_accessor
 
 __all__ = ["gltf_validator"]  # the fixture, shared
 
@@ -90,22 +91,6 @@ def far_while_disabled(traj):
 
 
 # ---------------------------------------------------------------------- glTF
-
-
-def load_glb(path):
-    import pygltflib
-
-    gltf = pygltflib.GLTF2.load_binary(str(path))
-    return gltf, gltf.binary_blob()
-
-
-def read_accessor(gltf, blob, index):
-    acc = gltf.accessors[index]
-    view = gltf.bufferViews[acc.bufferView]
-    k = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[acc.type]
-    assert acc.componentType == 5126 and view.byteStride in (None, 0, 4 * k)
-    data = np.frombuffer(blob, dtype=np.float32, count=acc.count * k, offset=(view.byteOffset or 0) + (acc.byteOffset or 0))
-    return data if k == 1 else data.reshape(acc.count, k)
 
 
 def channels_of(gltf, blob, node):
