@@ -254,3 +254,22 @@ def test_a_path_that_lets_its_body_go_says_the_release_is_left_out(tmp_path):
     world = load_scene(EXAMPLES / "toss.toml").world
     with pytest.warns(UserWarning, match="the release of keyframed paths"):
         tb.save_usd(world, tmp_path / "toss.usda")
+
+
+def test_a_body_without_weight_goes_out_as_physx_disable_gravity_and_comes_back(tmp_path):
+    """A box of gravity scale 0 (``World.set_gravity_scale``) is written with PhysX's
+    ``physxRigidBody:disableGravity`` (``PhysxRigidBodyAPI``; UsdPhysics has no gravity scale) and
+    read back with scale 0: it floats where it is, to the bit, over 0.5 s. A scale of 0.5 has no
+    place in either schema: named in the warning, read back as 1."""
+    world = tb.World(gravity=(0, 0, -9.81))
+    world.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(0, 0, 1), gravity_scale=0.0, name="floating")
+    world.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(1, 0, 1), gravity_scale=0.5, name="half")
+    with pytest.warns(tb.TumbleWarning, match="gravity scales other than 0 and 1"):
+        tb.save_usd(world, tmp_path / "stage.usda")
+    text = (tmp_path / "stage.usda").read_text()
+    assert '"PhysxRigidBodyAPI"' in text and "bool physxRigidBody:disableGravity = 1" in text
+    back = round_trip(world, tmp_path)
+    assert back.body("floating").gravity_scale == 0.0 and back.body("half").gravity_scale == 1.0
+    x = back.body("floating").x.copy()
+    tb.Simulator(back).step(120)
+    assert np.array_equal(back.body("floating").x, x)

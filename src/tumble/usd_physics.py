@@ -25,7 +25,8 @@ tumble's bodies, shapes, materials and joints:
   are fixed bodies of their own; ``kinematicEnabled``
   makes a kinematic body (moving at its velocity, or along its transform's time samples:
   ``_animation``); velocities as authored (the schema gives
-  them in the body's parent space: turned into the world).
+  them in the body's parent space: turned into the world); PhysX's
+  ``physxRigidBody:disableGravity`` makes its gravity scale 0 (``World.set_gravity_scale``).
 - mass (the schema's precedence, "Mass properties" in its overview): the body's
   ``physics:mass`` if positive, else the sum over its colliders of each one's mass (its own
   ``physics:mass``, or a density times its volume: the collider's ``physics:density``, else
@@ -593,6 +594,9 @@ def _load(r, world) -> UsdScene:
         except InputError as err:
             raise r.on_prim(err, bpath) from None
         out.bodies[bpath] = body
+        if moving and r.attr(bpath, "physxRigidBody:disableGravity"):
+            # PhysX's rigid-body schema (PhysxRigidBodyAPI; what save_usd writes for a scale of 0)
+            world.set_gravity_scale(body, 0.0)
         if moving and d.kinematicBody:
             _animation(r, world, body, bpath)
     # colliders of no enabled body: static. Those under a prim whose rigid body is disabled

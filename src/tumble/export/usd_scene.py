@@ -33,6 +33,10 @@ of the written stage gives back the same bodies, to the schema's single precisio
 * collision filters (Box2D's category, mask and group) as ``PhysicsCollisionGroup`` prims: one
   per distinct filter, each filtering the groups its filter does not collide with (exact).
 
+A body's gravity scale (``World.set_gravity_scale``) of 0 is written as PhysX's
+``physxRigidBody:disableGravity`` (``PhysxRigidBodyAPI``, read back by ``load_usd``); another
+scale but 1 is named in the warning below (PhysX has none).
+
 A disabled body (``World.set_enabled``) is written as it is held, a fixed body, with its Xform's
 ``visibility`` ``invisible`` (hidden, as in every export); the schema has no body out of the
 simulation, so the warning below names it (and ``load_usd`` reads it back a fixed body).
@@ -240,6 +244,12 @@ class _Writer:
             m.CreateCenterOfMassAttr(self.vecf((0.0, 0.0, 0.0)))
             m.CreateDiagonalInertiaAttr(self.vecf(w.principal_moments[i]))
             m.CreatePrincipalAxesAttr(self.quatf(w.principal_q[i]))
+        scale = float(w.gravity_scale[i])
+        if scale == 0.0:  # PhysX's rigid-body schema (PhysxRigidBodyAPI), which Isaac Sim and load_usd read
+            prim.AddAppliedSchema("PhysxRigidBodyAPI")
+            prim.CreateAttribute("physxRigidBody:disableGravity", self.Sdf.ValueTypeNames.Bool).Set(True)
+        elif scale != 1.0:
+            self.left_out.add("gravity scales other than 0 and 1 (the body feels the whole of m g)")
         if w.sensor[i]:
             self.left_out.add("sensors (written as ordinary colliders)")
         if w.disabled[i]:  # held as a fixed body touching nothing: hidden, and named in the warning
