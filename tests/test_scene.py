@@ -250,7 +250,7 @@ BODY = '[[bodies]]\nname = "a"\nshape = { type = "sphere", radius = 1 }\nmass = 
 INTEGRATORS = ", ".join(INTEGRATOR_IDS)  # explicit-euler, semi-implicit-euler, midpoint, rk4, ...
 SHAPES = "sphere, box, capsule, cylinder, cone, ellipsoid, plane, mesh, convex, particles, compound, heightfield"
 BODY_KEYS = ("name, shape, mass, density, inertia, fixed, kinematic, position, orientation, euler_deg, velocity, "
-             "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity, sensor, drop, fracture, enabled, enable_at, disable_at, gravity_scale")
+             "angular_velocity, angular_velocity_frame, material, collision_filter, path, surface_velocity, sensor, drop, fracture, enabled, enable_at, disable_at, gravity_scale, linear_damping, angular_damping")
 PATH = "{ times = [0, 1], positions = [[0, 0, 0], [1, 0, 0]] }"
 
 

@@ -260,16 +260,21 @@ def test_a_body_without_weight_goes_out_as_physx_disable_gravity_and_comes_back(
     """A box of gravity scale 0 (``World.set_gravity_scale``) is written with PhysX's
     ``physxRigidBody:disableGravity`` (``PhysxRigidBodyAPI``; UsdPhysics has no gravity scale) and
     read back with scale 0: it floats where it is, to the bit, over 0.5 s. A scale of 0.5 has no
-    place in either schema: named in the warning, read back as 1."""
+    place in either schema: named in the warning, read back as 1. Damping rates go out as
+    ``physxRigidBody:linearDamping`` and ``angularDamping`` and come back (float32)."""
     world = tb.World(gravity=(0, 0, -9.81))
     world.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(0, 0, 1), gravity_scale=0.0, name="floating")
-    world.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(1, 0, 1), gravity_scale=0.5, name="half")
+    world.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(1, 0, 1), gravity_scale=0.5, name="half",
+                   linear_damping=0.04, angular_damping=0.1)
     with pytest.warns(tb.TumbleWarning, match="gravity scales other than 0 and 1"):
         tb.save_usd(world, tmp_path / "stage.usda")
     text = (tmp_path / "stage.usda").read_text()
     assert '"PhysxRigidBodyAPI"' in text and "bool physxRigidBody:disableGravity = 1" in text
     back = round_trip(world, tmp_path)
     assert back.body("floating").gravity_scale == 0.0 and back.body("half").gravity_scale == 1.0
+    half = back.body("half")  # PhysX's float damping rates: 32-bit
+    assert (half.linear_damping, half.angular_damping) == (pytest.approx(0.04, rel=1e-7), pytest.approx(0.1, rel=1e-7))
+    assert back.body("floating").linear_damping == 0.0 and "float physxRigidBody:angularDamping = 0.1" in text
     x = back.body("floating").x.copy()
     tb.Simulator(back).step(120)
     assert np.array_equal(back.body("floating").x, x)

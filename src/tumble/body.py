@@ -77,6 +77,12 @@ class Body:
                              lambda self, value: self.world.set_gravity_scale(self.index, value),
                              doc="The fraction of its weight the body feels (``World.set_gravity_scale``; 1 by "
                                  "default, 0 floats, negative rises).")
+    linear_damping = property(lambda self: float(self.world.damping[self.index, 0]),
+                              lambda self, value: self.world.set_damping(self.index, linear=value),
+                              doc="1/s: the rate its velocity decays at (``World.set_damping``; 0 by default).")
+    angular_damping = property(lambda self: float(self.world.damping[self.index, 1]),
+                               lambda self, value: self.world.set_damping(self.index, angular=value),
+                               doc="1/s: the rate its angular momentum decays at (``World.set_damping``).")
     enabled = property(lambda self: not self.world.disabled[self.index],
                        lambda self, value: self.world.set_enabled(self.index, value),
                        doc="False while the body is out of the simulation; set it between steps "

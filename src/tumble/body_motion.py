@@ -23,7 +23,7 @@ import math
 
 from numba import njit
 
-from .forces import UFORCE_CONSTANT, UFORCE_DRAG, UFORCE_FLUID, UFORCE_POINT_WORLD
+from .forces import UFORCE_CONSTANT, UFORCE_DAMPING, UFORCE_DRAG, UFORCE_FLUID, UFORCE_POINT_WORLD
 from .math3d import JIT
 
 LAYOUT_QUATERNION, LAYOUT_MATRIX = 0, 1
@@ -177,6 +177,20 @@ def _unary_forces(i, x, R, v, omega, mass, gravity, uforce_kind, uforce_param, u
             T0 += t[0]
             T1 += t[1]
             T2 += t[2]
+        elif kind == UFORCE_DAMPING:
+            # F = -c m v; tau = -c_a L with L = R Ibody R^T omega (World.set_damping): the velocity
+            # and the angular momentum decay as e^(-c t), e^(-c_a t) under nothing else
+            F0 -= p[0] * v[0]
+            F1 -= p[0] * v[1]
+            F2 -= p[0] * v[2]
+            wb0, wb1, wb2 = _mat_t_vec9(R, omega)  # omega in the body axes
+            lb0 = p[2] * wb0 + p[3] * wb1 + p[4] * wb2
+            lb1 = p[5] * wb0 + p[6] * wb1 + p[7] * wb2
+            lb2 = p[8] * wb0 + p[9] * wb1 + p[10] * wb2
+            l0, l1, l2 = _mat_vec9(R, (lb0, lb1, lb2))
+            T0 -= p[1] * l0
+            T1 -= p[1] * l1
+            T2 -= p[1] * l2
         elif kind == UFORCE_CONSTANT:
             F0 += p[0]
             F1 += p[1]

@@ -47,10 +47,10 @@ from .world import Material, World
 FORMAT = "tumble-checkpoint"
 VERSION = 1
 CONSTANTS = ("mass", "inv_mass", "inertia_body", "inertia_body_inv", "principal_q", "principal_moments", "com_offset", "moving",
-             "dynamic_mass", "gravity_scale")
+             "dynamic_mass", "gravity_scale", "damping")
 # absent from older checkpoints (dynamic_mass before session 39: World.set_body_type; gravity_scale
-# before session 40: World.set_gravity_scale): as a new body has them
-OPTIONAL_CONSTANTS = ("dynamic_mass", "gravity_scale")
+# and damping before session 40: World.set_gravity_scale, set_damping): as a new body has them
+OPTIONAL_CONSTANTS = ("dynamic_mass", "gravity_scale", "damping")
 STATE = ("x", "q", "R", "P", "L")
 # kinematic bodies (World.kinematic, their velocities), surface velocities and sensors: absent
 # from checkpoints written before they existed, which load with none

@@ -28,7 +28,7 @@ from .math3d import matrix_to_quat
 from .shapes import finite_vector
 
 # Unary force kinds (column 0 of the table is the kind, the rest parameters).
-UFORCE_DRAG, UFORCE_CONSTANT, UFORCE_POINT_WORLD, UFORCE_POINT_BODY, UFORCE_FLUID = range(5)
+UFORCE_DRAG, UFORCE_CONSTANT, UFORCE_POINT_WORLD, UFORCE_POINT_BODY, UFORCE_FLUID, UFORCE_DAMPING = range(6)
 UFORCE_PARAMS = 12
 # MuJoCo's mjMINVAL: the floor of an equivalent box's squared side (times m / 6)
 FLUID_MINVAL = 1e-15
@@ -434,7 +434,9 @@ class ForceTables:
       drag [linear, quadratic, angular_linear, angular_quadratic, wind xyz];
       constant [F xyz, tau xyz]; point [F xyz, p xyz];
       fluid [box sides (3,) m, density, viscosity, wind xyz, the box's axes in the body frame as a
-      unit quaternion (w, x, y, z)].
+      unit quaternion (w, x, y, z)];
+      damping [c m (kg/s), c_angular (1/s), Ibody (9,) row-major, kg m^2]: F = -c m v,
+      tau = -c_angular R Ibody R^T omega (= -c_angular L) (``World.set_damping``).
     uforce_start: (N+1,) int64: rows of body i are uforce_start[i]:uforce_start[i+1].
     spring_body: (S, 2) int64 (-1: world). spring_anchor: (S, 2, 3) m.
     spring_param: (S, 3) [stiffness, damping, rest_length].
@@ -452,7 +454,8 @@ class ForceTables:
 
 
 def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mass=None,
-                       inertia_body=None, disabled=None, gravity=None, gravity_scale=None) -> ForceTables:
+                       inertia_body=None, disabled=None, gravity=None, gravity_scale=None,
+                       damping=None) -> ForceTables:
     """Turn force records into ``ForceTables``.
 
     Args:
@@ -468,6 +471,8 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mas
         gravity: (3,) m/s^2 and gravity_scale: (N,) or None: a moving body whose scale s is not 1
             gets a constant row (s - 1) m g first among its rows (``World.set_gravity_scale``:
             the kernels apply m g to every moving body, so the body feels s m g in all).
+        damping: (N, 2) 1/s or None: a moving body's linear and angular damping rates (c, c_a), a
+            row F = -c m v, tau = -c_a L after the gravity scale's (``World.set_damping``).
     """
     rows = []  # (body, order, kind, params[, the Buoyancy record that fills the row])
     springs = []
@@ -478,6 +483,10 @@ def build_force_tables(forces, body_count: int, moving: np.ndarray, resolve, mas
         for i in np.flatnonzero(moving & (gravity_scale != 1.0)):
             # order -1: before the user's records; (s - 1) m g, so that s = 0 cancels m g exactly
             rows.append((int(i), -1, UFORCE_CONSTANT, [*((gravity_scale[i] - 1.0) * mass[i] * g), 0.0, 0.0, 0.0]))
+    if damping is not None:
+        for i in np.flatnonzero(moving & np.any(damping != 0.0, axis=1)):
+            rows.append((int(i), -1, UFORCE_DAMPING, [float(damping[i, 0] * mass[i]), float(damping[i, 1]),
+                                                      *np.asarray(inertia_body[i], dtype=float).ravel()]))
     for order, f in enumerate(forces):
         if isinstance(f, Drag):
             targets = all_moving if f.bodies is None else [resolve(b) for b in f.bodies]

@@ -40,6 +40,7 @@ BODY_KEYS = (
     "name", "shape", "mass", "density", "inertia", "fixed", "kinematic", "position", "orientation", "euler_deg",
     "velocity", "angular_velocity", "angular_velocity_frame", "material", "collision_filter", "path",
     "surface_velocity", "sensor", "drop", "fracture", "enabled", "enable_at", "disable_at", "gravity_scale",
+    "linear_damping", "angular_damping",
 )
 # fracture = {pieces, seed, strength, min_face}: the body as Voronoi cells glued by breakable joints (tumble.fracturing)
 FRACTURE_KEYS = ("pieces", "seed", "strength", "min_face")
@@ -127,6 +128,9 @@ class BodyReader(ValueReader):
             kw["inertia"] = self.inertia(b["inertia"], f"{key}.inertia")
         if "gravity_scale" in b:
             kw["gravity_scale"] = self.number(b["gravity_scale"], f"{key}.gravity_scale")
+        for k in ("linear_damping", "angular_damping"):
+            if k in b:
+                kw[k] = self.nonnegative(b[k], f"{key}.{k}")
         for k in ("position", "velocity", "angular_velocity", "euler_deg", "surface_velocity"):
             if k in b:
                 kw[k] = self.vector(b[k], f"{key}.{k}")

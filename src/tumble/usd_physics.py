@@ -26,7 +26,8 @@ tumble's bodies, shapes, materials and joints:
   makes a kinematic body (moving at its velocity, or along its transform's time samples:
   ``_animation``); velocities as authored (the schema gives
   them in the body's parent space: turned into the world); PhysX's
-  ``physxRigidBody:disableGravity`` makes its gravity scale 0 (``World.set_gravity_scale``).
+  ``physxRigidBody:disableGravity`` makes its gravity scale 0 (``World.set_gravity_scale``), and
+  ``physxRigidBody:linearDamping`` / ``angularDamping`` its damping rates (``World.set_damping``).
 - mass (the schema's precedence, "Mass properties" in its overview): the body's
   ``physics:mass`` if positive, else the sum over its colliders of each one's mass (its own
   ``physics:mass``, or a density times its volume: the collider's ``physics:density``, else
@@ -597,6 +598,14 @@ def _load(r, world) -> UsdScene:
         if moving and r.attr(bpath, "physxRigidBody:disableGravity"):
             # PhysX's rigid-body schema (PhysxRigidBodyAPI; what save_usd writes for a scale of 0)
             world.set_gravity_scale(body, 0.0)
+        if moving:
+            # PhysX's damping rates (1/s, PhysxRigidBodyAPI; unset: 0 here, as UsdPhysics has none)
+            damping = {k: r.attr(bpath, f"physxRigidBody:{k}Damping") for k in ("linear", "angular")}
+            if any(v is not None for v in damping.values()):
+                try:
+                    world.set_damping(body, linear=damping["linear"], angular=damping["angular"])
+                except InputError as err:
+                    raise r.on_prim(err, bpath) from None
         if moving and d.kinematicBody:
             _animation(r, world, body, bpath)
     # colliders of no enabled body: static. Those under a prim whose rigid body is disabled

@@ -78,6 +78,9 @@ _CONSTANT_ARRAYS = {
     # the fraction of m g the body feels (``World.set_gravity_scale``: Box2D's gravity scale,
     # 1 - MuJoCo's gravcomp); 1 by default
     "gravity_scale": (),
+    # 1/s: the rates at which the body's velocity and angular momentum decay under nothing else
+    # (``World.set_damping``: Box2D's and PhysX's linear and angular damping); 0 by default
+    "damping": (2,),
 }
 #: a body's types (``World.set_body_type``): moved by forces and contacts; moved at set
 #: velocities whatever pushes it (infinite mass); never moved
@@ -224,6 +227,8 @@ class World:
         sensor: bool = False,
         enabled: bool = True,
         gravity_scale: float = 1.0,
+        linear_damping: float = 0.0,
+        angular_damping: float = 0.0,
         name: str | None = None,
     ) -> "Body":
         """Add one body and return its view.
@@ -268,6 +273,8 @@ class World:
                 hidden in exports, touching nothing, until enabled (a body that appears later).
             gravity_scale: the fraction of its weight m g the body feels (``set_gravity_scale``):
                 0 floats, 0.5 falls at g / 2, negative rises (a balloon); default 1.
+            linear_damping, angular_damping: 1/s, the rates at which the body's velocity and angular
+                momentum decay (``set_damping``); default 0.
             name: unique; default "body<i>".
         """
         if name is None:
@@ -302,6 +309,7 @@ class World:
         if not isinstance(sensor, (bool, np.bool_)):
             raise InputError(f"expected True or False, got {sensor!r}", "sensor")
         gravity_scale = _gravity_scale(gravity_scale)
+        damping = (_rate(linear_damping, "linear_damping"), _rate(angular_damping, "angular_damping"))
         if not isinstance(enabled, (bool, np.bool_)):
             raise InputError(f"expected True or False, got {enabled!r}", "enabled")
         if not enabled and isinstance(shape, Plane):
@@ -354,6 +362,7 @@ class World:
         a["sensor"][i] = bool(sensor)
         a["disabled"][i] = False
         a["gravity_scale"][i] = gravity_scale
+        a["damping"][i] = damping
         a["held_type"][i] = 0.0
         a["held_v"][i] = 0.0
         a["held_omega"][i] = 0.0
@@ -683,6 +692,23 @@ class World:
         self._tables = None
         self.wake_requests.add(i)
 
+    def set_damping(self, body, linear: float | None = None, angular: float | None = None):
+        """The rates (1/s) at which ``body``'s velocity and angular momentum decay from the next step
+        on: a force -c m v and a torque -c_a L at its centre of mass (Box2D's and PhysX's
+        ``linearDamping`` and ``angularDamping``; under nothing else v = v0 e^(-c t) and
+        L = L0 e^(-c_a t), whatever its shape). ``None`` keeps that one. Bullet's, PyBullet's and
+        Blender's damping d is a fraction of the velocity lost per second: c = -ln(1 - d) (PyBullet's
+        default 0.04 is c = 0.0408, Blender's 0.04 and 0.1 are 0.0408 and 0.105). Air drag that grows
+        with speed, or wind: ``tb.Drag``. The body is woken. InputError (key ``linear_damping`` or
+        ``angular_damping``), nothing changed: not a finite number >= 0."""
+        i = self.index_of(body)
+        row = self._arrays["damping"][i]
+        c = float(row[0]) if linear is None else _rate(linear, "linear_damping")
+        ca = float(row[1]) if angular is None else _rate(angular, "angular_damping")
+        row[:] = (c, ca)
+        self._tables = None
+        self.wake_requests.add(i)
+
     @property
     def enabled(self) -> np.ndarray:
         """(N,) bool: False for the bodies out of the simulation (``set_enabled``); a new array."""
@@ -944,9 +970,11 @@ class World:
             self._force_edits = force_edit_count()  # (any world's record edited: rebuilt, the same tables or new)
             scale = self.gravity_scale
             scaled = bool(np.any(scale != 1.0))
+            damping = self.damping
             self._tables = build_force_tables(self.forces, self.body_count, self.moving, self.index_of, self.mass,
                                               self.inertia_body, disabled=self.disabled, gravity=self._gravity,
-                                              gravity_scale=scale if scaled else None)
+                                              gravity_scale=scale if scaled else None,
+                                              damping=damping if np.any(damping != 0.0) else None)
             self._tables_gravity = self._gravity.copy() if scaled else None
         return self._tables
 
@@ -1143,6 +1171,13 @@ for _name in (*_CONSTANT_ARRAYS, *_STATE_ARRAYS, *_DERIVED_ARRAYS, *_KINEMATIC_A
 def _gravity_scale(value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(value):
         raise InputError(f"must be a finite number (1: the whole weight, 0: none), got {value!r}", "gravity_scale")
+    return float(value)
+
+
+def _rate(value, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (
+            math.isfinite(value) and value >= 0.0):
+        raise InputError(f"must be a finite rate >= 0 in 1/s, got {value!r}", key)
     return float(value)
 
 

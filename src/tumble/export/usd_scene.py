@@ -34,8 +34,9 @@ of the written stage gives back the same bodies, to the schema's single precisio
   per distinct filter, each filtering the groups its filter does not collide with (exact).
 
 A body's gravity scale (``World.set_gravity_scale``) of 0 is written as PhysX's
-``physxRigidBody:disableGravity`` (``PhysxRigidBodyAPI``, read back by ``load_usd``); another
-scale but 1 is named in the warning below (PhysX has none).
+``physxRigidBody:disableGravity`` and its damping rates (``World.set_damping``) as
+``physxRigidBody:linearDamping`` and ``angularDamping`` (``PhysxRigidBodyAPI``, read back by
+``load_usd``); a scale other than 0 and 1 is named in the warning below (PhysX has none).
 
 A disabled body (``World.set_enabled``) is written as it is held, a fixed body, with its Xform's
 ``visibility`` ``invisible`` (hidden, as in every export); the schema has no body out of the
@@ -245,10 +246,17 @@ class _Writer:
             m.CreateDiagonalInertiaAttr(self.vecf(w.principal_moments[i]))
             m.CreatePrincipalAxesAttr(self.quatf(w.principal_q[i]))
         scale = float(w.gravity_scale[i])
-        if scale == 0.0:  # PhysX's rigid-body schema (PhysxRigidBodyAPI), which Isaac Sim and load_usd read
+        damping = [float(c) for c in w.damping[i]]
+        if scale == 0.0 or any(damping):
+            # PhysX's rigid-body schema (PhysxRigidBodyAPI), which Isaac Sim and load_usd read; applied
+            # by name (USD keeps an applied schema it does not know)
             prim.AddAppliedSchema("PhysxRigidBodyAPI")
+        if scale == 0.0:
             prim.CreateAttribute("physxRigidBody:disableGravity", self.Sdf.ValueTypeNames.Bool).Set(True)
-        elif scale != 1.0:
+        for kind, c in zip(("linear", "angular"), damping):
+            if c:
+                prim.CreateAttribute(f"physxRigidBody:{kind}Damping", self.Sdf.ValueTypeNames.Float).Set(c)
+        if scale not in (0.0, 1.0):
             self.left_out.add("gravity scales other than 0 and 1 (the body feels the whole of m g)")
         if w.sensor[i]:
             self.left_out.add("sensors (written as ordinary colliders)")
