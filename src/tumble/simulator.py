@@ -183,8 +183,7 @@ class Simulator:
         (a controller, a keyframed path that lets its body go), else None: a call that fails puts
         the world back where it started, its bodies' types too (``_put_types_back``)."""
         w = self.world
-        if self.controller is None and not any(p.release for p in w.paths) and not (w.switch_count and any(
-                isinstance(f, Switch) and k not in w.applied_impulses for k, f in enumerate(w.forces))):
+        if self.controller is None and not any(p.release for p in w.paths) and not self._switches_to_come():
             return None
         from .snapshot import capture_types
 
@@ -231,7 +230,7 @@ class Simulator:
         while self.step_index < end:
             if self.world.paths:
                 Y = self._release_due_paths(Y)
-            if self.world.switch_count:
+            if self.world.switch_count:  # (no call per step in a world without a switch)
                 Y = self._switch_due_bodies(Y)
             if self._type_changes_seen != len(self.world.type_changes):
                 Y = self._take_type_changes(Y)
@@ -457,13 +456,20 @@ class Simulator:
             w.set_body_type(path.body, "dynamic")
         return w.pack()
 
+    def _switches_to_come(self) -> list:
+        """Indices into ``world.forces`` of the ``Switch`` records not applied yet, in the order
+        they were added (none looked for in a world without one: ``World.switch_count``)."""
+        w = self.world
+        if not w.switch_count:
+            return []
+        return [k for k, f in enumerate(w.forces) if isinstance(f, Switch) and k not in w.applied_impulses]
+
     def _switch_due_bodies(self, Y: np.ndarray) -> np.ndarray:
         """Apply the ``Switch`` records due at this step, in the order they were added
         (``World.set_enabled``; each once, counted with the impulses). Y (N, W) is the state now;
         returned as the world holds it after."""
         w = self.world
-        due = [k for k, f in enumerate(w.forces) if isinstance(f, Switch) and k not in w.applied_impulses
-               and self._impulse_step(f) <= self.step_index]
+        due = [k for k in self._switches_to_come() if self._impulse_step(w.forces[k]) <= self.step_index]
         if not due:
             return Y
         w.unpack(Y)

@@ -190,5 +190,4 @@ def put_types_back(w, arrays: dict, paths) -> bool:
     w.paths = [p for p in w.paths if w.index_of(p.body) not in back]
     w.paths.extend(KeyframePath(body=row, **record) for row, record in paths if row in back)
     w._retyped(rows)
-    w.filter_version += 1  # a disabled body's filter in the pipeline (World.collision_filters_in_effect)
     return True

@@ -189,8 +189,8 @@ class EnabledLog:
             if body < len(self.last):
                 self.last[body] = not on
 
-    def observe(self, frame: int, disabled: np.ndarray):
-        """Note the flags ``disabled`` (N,) bool at frame ``frame``."""
+    def observe(self, frame: int, disabled: np.ndarray) -> bool:
+        """Note the flags ``disabled`` (N,) bool at frame ``frame``; returns whether a row was added."""
         if disabled.shape != self.last.shape:  # bodies added since: they start enabled
             last = np.zeros(disabled.shape, dtype=bool)
             last[: min(len(last), len(self.last))] = self.last[: len(last)]
@@ -199,6 +199,7 @@ class EnabledLog:
         if len(changed):
             self.rows.extend((int(frame), int(i), int(not disabled[i])) for i in changed)
             self.last = disabled.copy()
+        return bool(len(changed))
 
     def truncate(self, frames: int):
         """Keep the rows of the first ``frames`` frames only."""

@@ -312,8 +312,8 @@ class World:
         damping = (_rate(linear_damping, "linear_damping"), _rate(angular_damping, "angular_damping"))
         if not isinstance(enabled, (bool, np.bool_)):
             raise InputError(f"expected True or False, got {enabled!r}", "enabled")
-        if not enabled and isinstance(shape, Plane):
-            raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
+        if not enabled:
+            _check_can_disable(shape)
         if sensor and isinstance(shape, Plane):
             raise InputError("a plane cannot be a sensor (it has no inside to enter)", "sensor")
         if kinematic and isinstance(shape, Plane):
@@ -405,8 +405,7 @@ class World:
             raise InputError(f"not a force record: {force!r}", "forces")
         self.force_bodies(force)  # each known (InputError)
         if isinstance(force, Switch):
-            if isinstance(self.shapes[self.index_of(force.body)], Plane):
-                raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
+            _check_can_disable(self.shapes[self.index_of(force.body)])
             self.switch_count += 1
         if isinstance(force, Spring) and force.rest_length is None:
             pa, pb = self.spring_endpoints(force)
@@ -743,27 +742,19 @@ class World:
         i = self.index_of(body)
         if not isinstance(enabled, (bool, np.bool_)):
             raise InputError(f"expected True or False, got {enabled!r}", "enabled")
-        if not enabled and isinstance(self.shapes[i], Plane):
-            raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
+        if not enabled:
+            _check_can_disable(self.shapes[i])
         if bool(enabled) == (not self.disabled[i]):
             return  # already so
         a = self._arrays
         if not enabled:
-            kind = self.body_type(i)
-            a["held_type"][i] = BODY_TYPES.index(kind)
+            a["held_type"][i] = BODY_TYPES.index(self.body_type(i))
             a["held_v"][i] = self.v[i]
             a["held_omega"][i] = self.omega[i]
             # as a fixed body in every stage (its mass held: dynamic_mass, inertia_body), and
             # out of the collision pipeline by its filter (collision_filters_in_effect)
-            self._write_infinite_mass(i)
-            a["P"][i] = 0.0
-            a["L"][i] = 0.0
-            a["kinematic_v"][i] = 0.0
-            a["kinematic_omega"][i] = 0.0
-            a["moving"][i] = False
-            a["kinematic"][i] = False
+            self._write_type(i, "fixed", None, None, None)
             a["disabled"][i] = True
-            self.paths = [p for p in self.paths if self.index_of(p.body) != i]
             self._switch_joints(i, on=False)
         else:
             kind = BODY_TYPES[int(a["held_type"][i])]
@@ -772,17 +763,11 @@ class World:
             a["held_type"][i] = 0.0
             a["held_v"][i] = 0.0
             a["held_omega"][i] = 0.0
-            if kind == "dynamic":
-                props = MassProperties(float(self.dynamic_mass[i]), self.com_offset[i].copy(), self.inertia_body[i].copy())
-                self._write_mass_properties(i, props, v, omega)
-            elif kind == "kinematic":
-                a["kinematic_v"][i] = v
-                a["kinematic_omega"][i] = omega
-            a["moving"][i] = kind == "dynamic"
-            a["kinematic"][i] = kind == "kinematic"
+            # the mass it held (dynamic_mass, inertia_body), as set_body_type would take it
+            props = self._type_mass(i, None, None, None) if kind == "dynamic" else None
+            self._write_type(i, kind, props, v, omega)
             self._switch_joints(i, on=True)
             self.wake_requests.add(i)
-        self.filter_version += 1
         self._retyped([i])
         self.update_derived()
 
@@ -852,8 +837,21 @@ class World:
             else None
         if body_type == old and props is None:
             return
+        self._write_type(i, body_type, props, self.v[i].copy(), self.omega[i].copy())
+        if body_type != old:
+            self._retyped([i])
+        if body_type == "dynamic":
+            self.wake_requests.add(i)
+        self.update_derived()
+
+    def _write_type(self, i: int, body_type: str, props, v, omega):
+        """Body row i's arrays as a ``body_type`` body moving at ``v`` (3,) m/s and ``omega`` (3,)
+        rad/s, world, where the type has a velocity (set_body_type, set_enabled): a dynamic body's
+        mass rows from ``props`` and its momenta; a fixed or kinematic body's infinite mass (its
+        ``props``, when given, held as ``dynamic_mass`` and ``inertia_body`` for a later switch to
+        dynamic), no momentum, a kinematic body's velocities; a keyframed path kept only by a
+        kinematic body."""
         a = self._arrays
-        v, omega = self.v[i].copy(), self.omega[i].copy()
         a["kinematic_v"][i] = 0.0
         a["kinematic_omega"][i] = 0.0
         if body_type == "dynamic":
@@ -872,19 +870,17 @@ class World:
         a["kinematic"][i] = body_type == "kinematic"
         if body_type != "kinematic":
             self.paths = [p for p in self.paths if self.index_of(p.body) != i]
-        if body_type != old:
-            self._retyped([i])
-        if body_type == "dynamic":
-            self.wake_requests.add(i)
-        self.update_derived()
 
     def _retyped(self, rows):
-        """Note that the bodies ``rows`` changed type (set_body_type, a snapshot's restore): listed
-        in ``type_changes`` for the Simulator; the force tables (which list the moving bodies) and
-        the queries' shape table made again when next needed."""
+        """Note that the bodies ``rows`` changed type or were taken out or put back (set_body_type,
+        set_enabled, a snapshot's restore): listed in ``type_changes`` for the Simulator; the force
+        tables (which list the moving bodies), the queries' shape table and the filters the
+        pipeline and the queries read (a disabled body's: ``collision_filters_in_effect``) made
+        again when next needed."""
         self.type_changes.extend(int(i) for i in rows)
         self._tables = None
         self.__dict__.pop("_ray_scene", None)
+        self.filter_version += 1
 
     def _type_mass(self, i: int, mass, density, inertia) -> MassProperties:
         """The mass properties body row i takes as a dynamic body (set_body_type): from ``mass``
@@ -1085,12 +1081,11 @@ class World:
         return float(0.5 * np.sum(self.P[m] * self.v[m]) + 0.5 * np.sum(self.L[m] * self.omega[m]))
 
     def potential_energy(self) -> float:
-        """Total -m g.x over moving bodies plus 1/2 k (l - l0)^2 over springs and the joints' springs
+        """Total -s m g.x over moving bodies (s: their gravity scales) plus 1/2 k (l - l0)^2 over springs and the joints' springs
         (hinge, slider and distance stiffness, ball joint drives: ``solver.joints.joint_spring_energy``), J."""
         m = self.moving
-        e = float(-np.sum(self.mass[m] * (self.x[m] @ self.gravity)))
-        if np.any(self.gravity_scale[m] != 1.0):  # s m g h: (s - 1) m g h beside the whole weight's
-            e -= float(np.sum((self.gravity_scale[m] - 1.0) * self.mass[m] * (self.x[m] @ self.gravity)))
+        # s m g h (set_gravity_scale; s = 1 multiplies m exactly: the bits of m g h)
+        e = float(-np.sum(self.gravity_scale[m] * self.mass[m] * (self.x[m] @ self.gravity)))
         disabled = self.disabled
         for f in self.forces:
             if isinstance(f, Spring) and not (disabled[self.index_of(f.body_a)]
@@ -1166,6 +1161,12 @@ def _array_property(name):
 
 for _name in (*_CONSTANT_ARRAYS, *_STATE_ARRAYS, *_DERIVED_ARRAYS, *_KINEMATIC_ARRAYS, *_FLAG_ARRAYS):
     setattr(World, _name, _array_property(_name))
+
+
+def _check_can_disable(shape):
+    """InputError (key ``enabled``): a body of ``shape`` cannot be taken out (``set_enabled``)."""
+    if isinstance(shape, Plane):
+        raise InputError("a plane cannot be disabled (it is the ground of everything)", "enabled")
 
 
 def _gravity_scale(value) -> float:
