@@ -676,6 +676,11 @@ class World:
             return BODY_TYPES[int(self.held_type[i])]
         return "dynamic" if self.moving[i] else "kinematic" if self.kinematic[i] else "fixed"
 
+    def body_types(self) -> np.ndarray:
+        """(N,) str: every body's ``body_type`` at once (a disabled body's, the type it comes back as)."""
+        now = np.where(self.moving, "dynamic", np.where(self.kinematic, "kinematic", "fixed"))
+        return np.where(self.disabled, np.array(BODY_TYPES)[self.held_type.astype(np.int64)], now)
+
     def set_gravity_scale(self, body, scale: float):
         """The fraction ``scale`` of its weight m g that ``body`` (``Body``, name or index) feels
         from the next step on: Box2D's ``b2Body_SetGravityScale``, Bullet's per-body gravity,

@@ -183,7 +183,7 @@ def test_a_kinematic_body_disabled_leaves_its_path_and_comes_back_kinematic_at_r
     sim.step(60)
     v = plat.v.copy()
     plat.enabled = False
-    assert not w.paths and plat.type == "kinematic"
+    assert not w.paths and plat.type == "kinematic" and w.body_types().tolist() == ["kinematic"]
     x = plat.x.copy()
     sim.step(60)
     assert np.array_equal(plat.x, x)

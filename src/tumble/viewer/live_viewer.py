@@ -428,7 +428,7 @@ class LiveViewer(Viewer):
         sim = self.sim
         # the bodies that may be pinned and unpinned (``pin``): drawn as moving ones from the start
         # (a body disabled at the start: the type it comes back as, World.body_type)
-        self._dynamic_at_start = self._body_types(sim.world) == "dynamic"
+        self._dynamic_at_start = sim.world.body_types() == "dynamic"
         self._recorder = _Recorder(sim.world, 64, sim if sim.record_contacts else None, sim if sim.record_joints else None,
                                    sim if sim._sensing() else None)
         n = sim.world.body_count
@@ -517,17 +517,9 @@ class LiveViewer(Viewer):
 
     # ---- what the viewer asks ---------------------------------------------------------------
 
-    @staticmethod
-    def _body_types(world) -> np.ndarray:
-        """(N,) str, the bodies' types now (``World.body_type``: a disabled body's is the one it
-        comes back as)."""
-        if not world.disabled.any():
-            return np.where(world.moving, "dynamic", np.where(world.kinematic, "kinematic", "fixed"))
-        return np.array([world.body_type(i) for i in range(world.body_count)])
-
     def _static_bodies(self) -> np.ndarray:
         # a disabled body is held fixed: static only if it comes back fixed
-        return self._body_types(self.sim.world) == "fixed"
+        return self.sim.world.body_types() == "fixed"
 
     def _shown(self, k: int) -> np.ndarray:
         """(N,) bool: the bodies in the simulation now (``World.disabled`` False): the others are hidden."""
