@@ -17,6 +17,7 @@ import pytest
 import tumble as tb
 from tumble.checks import state_hash
 
+from .test_body_type import failing_force
 from .test_contact import G, ground_world
 
 DT = 1.0 / 240.0
@@ -294,13 +295,7 @@ def test_a_call_that_fails_after_a_switch_puts_the_body_back_as_it_was():
                           velocity=(1, 0, 0))
         w.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(3, 0, 0), name="box")
         w.add_force(tb.Switch(ball, enabled=True, time=0.5))
-
-        def push(t, body):
-            if fail[0] and t > 0.6:
-                raise tb.InputError("the force failed", "function")
-            return np.zeros(3), np.zeros(3)
-
-        w.add_force(tb.CustomForce(push, bodies=["box"]))
+        w.add_force(failing_force(fail, "box"))
         return w
 
     sim = tb.Simulator(world(), dt=DT)

@@ -410,6 +410,17 @@ def test_a_link_frozen_mid_swing_holds_the_next_as_a_fixed_body_does(method):
     assert reach < 1e-3
 
 
+def failing_force(fail, body, after=0.6):
+    """A CustomForce on ``body`` of no force that raises an InputError ("the force failed") past
+    ``after`` s while ``fail[0]`` is true: a call that fails part way, mended by fail[0] = False."""
+    def push(t, _body):
+        if fail[0] and t > after:
+            raise tb.InputError("the force failed", "function")
+        return np.zeros(3), np.zeros(3)
+
+    return tb.CustomForce(push, bodies=[body])
+
+
 def test_a_call_that_fails_after_a_release_puts_the_types_back_with_the_state():
     """A ball on a path that lets it go at 0.5 s, and a user force that raises at 0.6 s: the
     ``step(240)`` call that passes both fails, and the world is back where the call started, the
@@ -424,13 +435,7 @@ def test_a_call_that_fails_after_a_release_puts_the_types_back_with_the_state():
         ball = w.add_body(tb.Sphere(radius=0.1), kinematic=True, mass=0.5, name="ball")
         w.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(3, 0, 0), name="box")
         w.add_path(tb.KeyframePath(ball, times=[0.0, 0.5], positions=[[0, 0, 1], [1, 0, 2]], release=True))
-
-        def push(t, body):
-            if fail[0] and t > 0.6:
-                raise tb.InputError("the force failed", "function")
-            return np.zeros(3), np.zeros(3)
-
-        w.add_force(tb.CustomForce(push, bodies=["box"]))
+        w.add_force(failing_force(fail, "box"))
         return w
 
     fail = [True]
