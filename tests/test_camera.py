@@ -75,9 +75,10 @@ def test_segmentation_and_colours():
     assert set(np.unique(img.body)) == {-1, 0, 1, 2}
     np.testing.assert_array_equal(img.rgb[img.body == -1], np.broadcast_to(SKY, img.rgb[img.body == -1].shape))
     assert np.isinf(img.depth[img.body == -1]).all() and np.isnan(img.point[img.body == -1]).all()
-    # shaded body colours: the ball (the first moving body) is the palette's first, the ground grey
+    # shaded body colours: the ball (body 1, after the fixed ground) has body 1's colour in every
+    # view (visual.body_color: the palette by body index), the ground grey
     lit = img.rgb[img.body == ball.index].astype(float)
-    ratio = lit / np.array(PALETTE[0], dtype=float)
+    ratio = lit / np.array(PALETTE[ball.index], dtype=float)
     assert np.allclose(ratio, ratio[:, :1], atol=0.02) and (ratio <= 1.0 + 1e-9).all()
     grey = img.rgb[img.body == 0].astype(float) / np.array(FIXED_COLOR, dtype=float)
     assert np.allclose(grey, grey[:, :1], atol=0.02)

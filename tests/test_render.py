@@ -21,7 +21,7 @@ import imageio_ffmpeg
 
 import tumble as tb
 from tumble.cli import main
-from tumble.render import Camera, camera_at, plot_trajectory, render_frame, render_video
+from tumble.render import Camera, body_colors, camera_at, plot_trajectory, render_frame, render_video
 from tumble.render.plots import DPI, FIGSIZE, PLOT_NAMES
 
 W, H = 320, 240
@@ -251,3 +251,39 @@ def test_a_body_inside_a_sensor_shows_through_it():
     traj.sensor = None
     hidden = red_mask(render_frame(traj, 0, W, H, colors=colors)).sum()
     assert hidden == 0 and seen > 100
+
+
+def test_video_colours_are_the_exporters_with_a_fixed_ground_first(tmp_path):
+    """The video's colour rule is the glTF's, USD's and HTML's (``visual.body_color`` by body index,
+    fixed bodies grey): a fixed ground first does not shift the moving bodies' colours. Before,
+    the video went round the palette over the moving bodies only, so the first moving body was
+    blue in the video and orange in Blender. Compared with the .glb's own materials too."""
+    import json as _json
+    import struct
+
+    from tumble import visual
+    from tumble.export import export
+    from tumble.export.meshes import srgb_to_linear
+
+    world = tb.World(gravity=(0, 0, 0))
+    world.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+    world.add_body(tb.Box(size=(0.3, 0.3, 0.3)), mass=1.0, position=(0, 0, 1), name="crate")
+    world.add_body(tb.Sphere(radius=0.2), mass=1.0, position=(1, 0, 1), name="ball")
+    world.add_body(tb.Box(size=(0.5, 0.5, 0.1)), fixed=True, position=(2, 0, 0.05), name="slab")
+    world.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(3, 0, 1), name="pebble")
+    traj = tb.Simulator(world, dt=1 / 240).run(duration=0.25, frame_rate=4)
+    fixed = np.asarray(traj.fixed, bool)
+    assert fixed.tolist() == [True, False, False, True, False]
+    got = body_colors(traj)
+    expected = np.array([visual.body_color(i, bool(fixed[i])) for i in range(len(fixed))], dtype=np.uint8)
+    np.testing.assert_array_equal(got, expected)
+    assert tuple(got[1]) == visual.PALETTE[1] and tuple(got[0]) == visual.FIXED_COLOR
+    # the .glb's material of each body (its node is child i + 1 of the root) holds the same colour
+    data = export(traj, tmp_path / "t.glb").read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    gltf = _json.loads(data[20:20 + length])
+    for i in range(len(fixed)):
+        node = gltf["nodes"][i + 1]
+        material = gltf["materials"][gltf["meshes"][node["mesh"]]["primitives"][0]["material"]]
+        np.testing.assert_allclose(material["pbrMetallicRoughness"]["baseColorFactor"][:3],
+                                   srgb_to_linear(got[i] / 255.0), atol=1e-6)

@@ -364,6 +364,25 @@ def test_gui_scrub_select_toggles_and_no_contacts(viewer):
     viewer.pause()
 
 
+def test_body_colours_are_the_exporters():
+    """Every drawn body has ``visual.body_color(i, fixed)``, the glTF's, USD's, HTML's and video's
+    colour: a fixed box is grey, and bodies after a fixed one keep their index's colour (before,
+    the viewer drew a fixed body as a lightened palette colour)."""
+    from dataclasses import replace
+
+    from tumble import visual
+
+    traj = make_trajectory()
+    fixed = np.array([True, False, True, False, False])  # box 0 fixed too, ground (a plane) fixed
+    v = view(replace(traj, fixed=fixed), host="127.0.0.1", port=free_port(), play=False)
+    try:
+        for i in (0, 1, 3, 4):  # body 2 is the plane, drawn as a grid
+            assert v.body_color(i) == visual.body_color(i, bool(fixed[i])), i
+        assert v.body_color(0) == visual.FIXED_COLOR and v.body_color(3) == visual.PALETTE[3]
+    finally:
+        v.stop()
+
+
 def test_contacts_are_drawn_when_the_trajectory_has_them(tmp_path):
     traj = make_trajectory(6)
     points = np.full((6, 3, 3), np.nan)

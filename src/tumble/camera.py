@@ -11,9 +11,9 @@ vertical field of view, square pixels) and (cx, cy) = (width / 2, height / 2): p
 (column, row) has its centre at (u + 1/2, v + 1/2). ``depth`` is z in the camera frame (the
 depth image of an RGB-D camera), ``distance`` the length along the ray.
 
-The colour image is each body's colour (the palette of ``tumble render`` and the viewer: the
-moving bodies in turn, fixed bodies grey) lit by a light at the camera (a headlight: ambient 0.35 +
-diffuse 0.65 |n . d|), on a pale sky; it is for looking, the other images are the measurements.
+The colour image is each body's colour (``visual.body_color``, as in the exports, the video and
+the viewer: the palette in turn by body index, fixed bodies grey) lit by a light at the camera (a
+headlight: ambient 0.35 + diffuse 0.65 |n . d|), on a pale sky; it is for looking, the other images are the measurements.
 Cost: one ray per pixel on both cores (docs/benchmarks.md, "camera").
 """
 

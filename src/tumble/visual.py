@@ -37,14 +37,15 @@ def body_color(index: int, fixed: bool = False) -> tuple[int, int, int]:
 
 
 def palette_colors(fixed) -> np.ndarray:
-    """(N, 3) uint8 sRGB colour of each body from ``fixed`` (N,) bool: the palette in turn over
-    the moving bodies only, fixed bodies grey (the video's and the camera's rule)."""
-    fixed = np.asarray(fixed, dtype=bool)
-    order = np.cumsum(~fixed) - 1
+    """(N, 3) uint8 sRGB colour of each body from ``fixed`` (N,) bool: ``body_color(i, fixed[i])``
+    for every body, i.e. the palette in turn over *all* bodies (a fixed one uses up its turn) and
+    fixed bodies grey. The one rule of every view (glTF, USD, HTML, video, camera images, viewer),
+    so that body i has the same colour in each whatever bodies come before it."""
+    fixed = np.asarray(fixed, dtype=bool).reshape(-1)
     palette = np.array(PALETTE, dtype=np.uint8)
-    out = palette[order % len(PALETTE)] if len(fixed) else np.zeros((0, 3), dtype=np.uint8)
+    out = palette[np.arange(len(fixed)) % len(PALETTE)].reshape(len(fixed), 3)
     out[fixed] = FIXED_COLOR
-    return out.reshape(len(fixed), 3)
+    return out
 
 
 def shape_dict(shape) -> dict | None:

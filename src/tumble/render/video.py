@@ -126,7 +126,8 @@ def _shaded(mesh):
 
 
 def body_colors(traj, colors=None) -> np.ndarray:
-    """(N, 3) uint8 RGB colour of each body: the palette in order of the moving bodies, fixed bodies grey.
+    """(N, 3) uint8 sRGB colour of each body: ``visual.body_color(i, fixed)``, the palette in turn by
+    body index, fixed bodies grey (the glTF's, USD's and HTML's colours).
 
     ``colors`` overrides: a mapping from body name, or a sequence (one per body),
     of any colour pyvista understands (name, hex, RGB 0-1 floats or 0-255 ints).
@@ -135,7 +136,7 @@ def body_colors(traj, colors=None) -> np.ndarray:
 
     n = len(traj.names)
     fixed = np.zeros(n, bool) if traj.fixed is None else np.asarray(traj.fixed, bool)
-    out = visual.palette_colors(fixed)  # the palette goes round the moving bodies only
+    out = visual.palette_colors(fixed)  # the exporters' rule: a body looks the same in the video and in Blender
     if colors is None:
         return out
     items = colors.items() if hasattr(colors, "items") else zip(traj.names, colors)

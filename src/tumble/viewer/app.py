@@ -351,8 +351,10 @@ class Viewer:
         scene = self.server.scene
         scene.set_up_direction("+z")
         N = self.body_count
-        self.colors = [PALETTE[i % len(PALETTE)] for i in range(N)]
         fixed = np.zeros(N, bool) if self.traj.fixed is None else np.asarray(self.traj.fixed, bool)
+        # the exporters' and the video's rule (palette by body index, fixed bodies grey): a body
+        # looks the same here as in the .glb, the .usd, the web page and the video
+        self.colors = [tuple(int(v) for v in c) for c in visual.palette_colors(fixed)]
         sensor = sensor_flags(self.traj)
         com_offset = np.asarray(self.traj.com_offset, float)
         static = self._static_bodies()
@@ -396,8 +398,6 @@ class Viewer:
                 if plane is not None:
                     self.plane_nodes.append(plane)
                 continue
-            if fixed[i]:
-                self.colors[i] = tuple(int(0.6 * c + 0.4 * 160) for c in self.colors[i])
             # an open mesh (Mesh(closed=False)) collides on both sides: draw both
             sheet = getattr(shape, "closed", True) is False
             group_of_key.setdefault((digest, bool(static[i]), bool(sensor[i]), sheet), []).append(i)
