@@ -346,3 +346,71 @@ def test_energy_line_says_drift_only_for_a_conservative_scene(tmp_path, capsys):
     assert main(["run", str(examples / "toss.toml"), "--out", str(tmp_path / "toss"), "--no-progress"]) == 0
     line = [s for s in capsys.readouterr().out.splitlines() if s.startswith("energy:")][0]
     assert "contacts and bodies changing type in this scene do work" in line
+
+
+CAMERA_SCENE = """
+[simulation]
+duration = 0.5
+frame_rate = 8
+
+[[bodies]]
+name = "ground"
+shape = { type = "plane" }
+fixed = true
+
+[[bodies]]
+name = "ball"
+shape = { type = "sphere", radius = 0.3 }
+mass = 1.0
+position = [0.2, -0.1, 2.0]
+
+[[cameras]]
+name = "top"
+position = [0, 0, 5]
+target = [0, 0, 0]
+up = [1, 0, 0]
+width = 16
+height = 12
+"""
+
+
+def test_resume_writes_the_media_asked_for(tmp_path, capsys):
+    """``tumble run --resume DIR --gltf --html --plots --images [--usd]`` writes the media of the
+    whole (resumed) run once it completes, as ``tumble run`` does; before, it wrote none and
+    exited 0. The media are those of all the frames, not of the part before the checkpoint."""
+    import importlib.util
+
+    import tumble as tb
+
+    scene = tmp_path / "cam.toml"
+    scene.write_text(CAMERA_SCENE)
+    out = tmp_path / "part"
+    assert main(["run", str(scene), "--out", str(out), "--duration", "0.25", "--checkpoint-every", "0.125",
+                 "--no-progress"]) == 0
+    media = ["--gltf", "--html", "--plots", "--images"] + (["--usd"] if importlib.util.find_spec("pxr") else [])
+    capsys.readouterr()
+    assert main(["run", "--resume", str(out), "--duration", "0.5", "--no-progress", *media]) == 0
+    stdout = capsys.readouterr().out
+    traj = tb.load_trajectory(out / "trajectory.npz")
+    assert traj.frame_count == 5
+    for name in ("trajectory.glb", "trajectory.html", "plots/energy.png", "images/top/rgb_00004.png", "images/top.npz"):
+        assert (out / name).stat().st_size > 0, name
+        assert str(out / name.split("/")[0]) in stdout, name
+    if "--usd" in media:
+        assert (out / "trajectory.usdc").stat().st_size > 0
+    with np.load(out / "images" / "top.npz", allow_pickle=False) as images:
+        assert images["depth"].shape == (5, 12, 16)
+    # the .glb animates all five frames: its time samples end at the last frame's time
+    import struct
+
+    data = (out / "trajectory.glb").read_bytes()
+    gltf = json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
+    times = [a for a in gltf["accessors"] if a.get("type") == "SCALAR" and a.get("max") and a["count"] == 5]
+    assert times and times[0]["max"][0] == pytest.approx(0.5)
+
+    # a flag that cannot work is refused in one line before resuming: the scene file is gone
+    scene.unlink()
+    assert main(["run", "--resume", str(out), "--duration", "0.75", "--images", "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("tumble: error: --images: needs the run's scene file"), err
+    assert tb.load_trajectory(out / "trajectory.npz").frame_count == 5

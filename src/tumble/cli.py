@@ -319,21 +319,46 @@ def _write_media(out: Path, media, progress: bool, scene=None):
 
 
 def cmd_resume(args) -> int:
+    """``tumble run --resume DIR [--duration S] [media flags]``: continue the run in DIR from its
+    checkpoint; once it completes, write the media asked for now (``--video``, ``--gltf``, ...) from
+    the whole trajectory, as ``tumble run`` does. They replace any the folder holds from an earlier
+    part of the same run (they showed fewer frames), as the trajectory and summary are replaced."""
     from .simulator import Simulator
 
     out = Path(args.resume)
     if not out.is_dir():
         raise InputError("not a folder of a run (expected the --out folder of an earlier tumble run)", "--resume", str(out))
+    # bad media flags (a missing package) are refused before the run, as for tumble run
+    media = _media_requested(args)
     sim = Simulator.load_checkpoint(out / "checkpoint.npz")
     run = sim.checkpoint_run or {}
     info = run.get("info")
     if not isinstance(info, dict) or "settings" not in info:
         raise InputError("the checkpoint was not written by tumble run (no run data)", None, str(out / "checkpoint.npz"))
+    scene = _resumed_scene_cameras(info) if "images" in media else None
     duration = args.duration if args.duration is not None else run["duration"]
     info["settings"]["duration"] = duration
     every = args.checkpoint_every if args.checkpoint_every is not None else run.get("checkpoint_every")
     args.checkpoint_every = every
-    return _stream(sim, out, duration, run["frame_rate"], args, info, resume=True)
+    status = _stream(sim, out, duration, run["frame_rate"], args, info, resume=True)
+    if status == EXIT_OK and media:
+        if scene is not None:  # the cameras of the scene file, over the resumed world (its bodies, their types now)
+            scene.world = sim.world
+        _write_media(out, media, progress=(not args.no_progress) and sys.stderr.isatty(), scene=scene)
+    return status
+
+
+def _resumed_scene_cameras(info: dict):
+    """The scene of a resumed run read again from its file, for its ``[[cameras]]`` (``--images``):
+    the checkpoint keeps the world, not the cameras. InputError when the file is gone or has none."""
+    source = info.get("source")
+    if not source or not Path(source).is_file():
+        raise InputError(f"needs the run's scene file for its cameras, and {source or 'it'} is not there "
+                         "(capture them with tumble.scene_cameras.write_images)", "--images")
+    scene = load_scene(source)
+    if not scene.cameras:
+        raise InputError("the scene has no [[cameras]] to capture", "--images", str(source))
+    return scene
 
 
 def _stream(sim, out: Path, duration, frame_rate, args, info, resume: bool) -> int:
