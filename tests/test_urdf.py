@@ -2,6 +2,8 @@
 options, the control helpers, the one-line errors. The motion itself is tested against
 Lagrange's equations in tests/physics/test_urdf.py."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -420,6 +422,39 @@ def test_reset_joint_positions_mid_run(tmp_path):
     assert states["j1"][0] == pytest.approx(-0.7, abs=1e-3) and states["j2"][0] == pytest.approx(0.25, abs=1e-3)
     with pytest.raises(tb.InputError, match="positions.j3: not a revolute"):
         robot.reset_joint_positions(sim, {"j3": 1.0})
+
+
+EXAMPLE_ROBOTS = Path(__file__).resolve().parents[1] / "examples" / "robots"
+
+
+@pytest.mark.parametrize("kind", ["urdf", "mjcf"])
+def test_reset_joint_positions_before_the_first_step_keeps_the_joints_not_named(kind):
+    """Before any step, ``reset_joint_positions`` of one joint keeps the others where they are.
+    Compares the joint coordinates of the bodies' poses (``robot.kinematics.qpos``) and
+    ``joint_states`` with the loaded ``joint_positions`` and the reset joint's value. The joints not
+    named used to be read from the Simulator's readings, zeros until a step stores them: they went
+    back to 0. Tolerance 1e-12 rad: the values only go through quaternions and rotation matrices
+    (rounding, about 1e-16 rad); a zeroed joint is off by 0.9 rad or more."""
+    world = tb.World(gravity=(0, 0, -9.81))
+    if kind == "urdf":
+        kept = {"shoulder": 1.2, "elbow": 0.9}
+        robot = load_urdf(world, EXAMPLE_ROBOTS / "arm.urdf", fixed_base=True, joint_positions=kept)
+        named = "yaw"
+    else:
+        kept = {"shoulder": 0.9}
+        robot = tb.load_mjcf(world, EXAMPLE_ROBOTS / "pendulum.xml", joint_positions=kept)
+        named = "elbow"
+    sim = tb.Simulator(world, dt=1 / 240)
+    kin = robot.kinematics
+    names = [c.name for c in kin.coordinates]
+    # before the first step, joint_states reads the present pose (it read zeros)
+    assert robot.joint_states(sim)["shoulder"] == pytest.approx((kept["shoulder"], 0.0), abs=1e-12)
+    robot.reset_joint_positions(sim, {named: 0.5})
+    q = dict(zip(names, kin.qpos()))
+    assert q[named] == pytest.approx(0.5, abs=1e-12)
+    for joint, value in kept.items():
+        assert q[joint] == pytest.approx(value, abs=1e-12)
+        assert robot.joint_states(sim)[joint][0] == pytest.approx(value, abs=1e-12)
 
 
 @pytest.mark.parametrize("solver", ["", '[joint_solver]\nmethod = "tree"\nhertz = 0.0\nvelocity_iterations = 2\n'

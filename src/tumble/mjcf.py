@@ -883,7 +883,7 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
 def _build(world, parsed: MjcfModel, material, targets, *, position, orientation, euler_deg, self_collision,
            joint_positions, collision_filter, name, inertia, joint_motors, world_geoms=True, fluid=True,
            margins=False):
-    from .urdf import build_robot
+    from .urdf import MOVING_KINDS, build_robot
 
     model = parsed.model
     # the model's pose is its joints at their ``ref`` (MuJoCo's qpos0; 0 where not given)
@@ -900,7 +900,10 @@ def _build(world, parsed: MjcfModel, material, targets, *, position, orientation
         # stiff loop in 1 s (and more at a finer dt), the tree solve 6e-3, first order (measured)
         world.exact_joints = True
         if joint_positions:  # placed after the equality joints took their anchors at the model's pose (MuJoCo's qpos0)
-            robot.reset_joint_positions(None, start)
+            # every moving joint named (the ones not in ``start`` at 0, the model's pose): the joints not
+            # named would keep the pose's readings, equal but for rounding
+            robot.reset_joint_positions(None, {**{j.name: 0.0 for j in model.joints if j.kind in MOVING_KINDS},
+                                               **start})
     if parsed.virtual:  # light links between the joints of one body: the Simulator solves joints exactly
         world.exact_joints = True
     if parsed.gravcomp:

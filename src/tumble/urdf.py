@@ -203,9 +203,17 @@ class Robot:
         return origin + Rb @ p, Rb @ R
 
     def _readings(self, sim):
-        """``sim.joint_readings()`` and {URDF joint name: its row in them}."""
+        """``sim.joint_readings()`` and {URDF joint name: its row in them}. Before the first step (or
+        without a ``sim``), the readings of the present state (``solver.joints.present_readings``):
+        the Simulator's own are zeros until a step has stored them."""
         index = {id(j): k for k, j in enumerate(self.world.joints)}
-        return sim.joint_readings(), {name: index[id(j)] for name, j in self.joints.items()}
+        if self._solver(sim) is None:
+            from .solver.joints import present_readings
+
+            readings = present_readings(self.world)
+        else:
+            readings = sim.joint_readings()
+        return readings, {name: index[id(j)] for name, j in self.joints.items()}
 
     def _solver(self, sim):
         """The simulator's JointSolver once it holds every joint of the world, else None (before the
@@ -215,7 +223,8 @@ class Robot:
 
     def joint_states(self, sim) -> dict:
         """{joint name: (position, rate)} after the last step (rad or m, rad/s or m/s): PyBullet's
-        ``getJointStates``. Zeros before the first step."""
+        ``getJointStates``. Before the first step, those of the present state, read from the bodies'
+        poses and velocities as a step reads them (a hinge's angle in (-pi, pi])."""
         r, row = self._readings(sim)
         return {name: (float(r["position"][k]), float(r["rate"][k])) for name, k in row.items()}
 
@@ -227,12 +236,13 @@ class Robot:
         return {name: (np.array(r["force"][k]), np.array(r["torque"][k])) for name, k in row.items()}
 
     def reset_joint_positions(self, sim, positions: dict):
-        """Put the robot at joint ``positions`` ({joint: rad or m}; the joints not named keep
-        their last reading) with its base where it is, every body of the robot at rest: PyBullet's
-        ``resetJointState``, for all the joints at once. Takes effect now; the joint solver's
-        warm-start impulses of the robot's joints are cleared (they belonged to the old pose)."""
+        """Put the robot at joint ``positions`` ({joint: rad or m}; the hinges and sliders not named
+        keep their positions: ``joint_states``, the last step's readings or, before the first step or
+        with ``sim`` None, the present pose's) with its base where it is, every body of the robot at
+        rest: PyBullet's ``resetJointState``, for all the joints at once. Takes effect now; the joint
+        solver's warm-start impulses of the robot's joints are cleared (they belonged to the old pose)."""
         given = _joint_values(self.model, positions, "positions", f"robot {self.name!r}")
-        current = {name: state[0] for name, state in self.joint_states(sim).items()} if sim is not None else {}
+        current = {name: state[0] for name, state in self.joint_states(sim).items()}
         current.update(given)
         base = self.link_pose(self.model.root)
         _place(self.world, self, _link_frames(self.model, base, current), self.owners)

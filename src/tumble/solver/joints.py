@@ -372,6 +372,23 @@ def store_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a,
     return count
 
 
+def present_readings(world) -> dict:
+    """``JointSolver.readings()`` of ``world.joints`` as the end of a step would store them, taken from
+    the bodies' present poses and velocities by the step's own ``store_joints_kernel``: ``position``
+    and ``rate`` as after a step (a hinge's angle in (-pi, pi]: no earlier reading to count whole
+    turns from, as the first step's), ``force`` and ``torque`` zero (no step has acted), ``enabled``
+    from the records. What a robot's ``joint_states`` reads before the first step."""
+    solver = JointSolver()
+    solver._build(list(world.joints))
+    if solver.count:
+        store_joints_kernel(solver.joint_type, solver.joint_a, solver.joint_b, solver.local_a, solver.local_b,
+                            solver.frame_a, solver.frame_b, solver.param, world.x, world.R, world.v, world.omega,
+                            1.0, solver.linear_impulse, solver.angular_impulse, solver.axial_impulse,
+                            solver.enabled, solver.position, solver.rate, solver.reaction_force,
+                            solver.reaction_torque, solver.broke)
+    return solver.readings()
+
+
 def joint_spring_energy(world) -> float:
     """J: the energy the joints' springs hold at the world's poses, 1/2 k (q - target)^2 of each
     hinge, slider and distance joint with a stiffness (q its angle, displacement or length) and
