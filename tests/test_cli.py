@@ -414,3 +414,45 @@ def test_resume_writes_the_media_asked_for(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("tumble: error: --images: needs the run's scene file"), err
     assert tb.load_trajectory(out / "trajectory.npz").frame_count == 5
+
+
+def test_force_removes_the_replaced_runs_media_it_does_not_write(tmp_path, capsys):
+    """``tumble run --force`` into the folder of an earlier run with media removes the media the new
+    run does not write (a .glb, .html, plots, images of the old run beside the new trajectory would
+    be a trap), one note line each, and nothing tumble did not write; the media it writes are
+    replaced. Without --force the folder is left as it is (the exists check)."""
+    scene = tmp_path / "cam.toml"
+    scene.write_text(CAMERA_SCENE)
+    out = tmp_path / "run"
+    assert main(["run", str(scene), "--out", str(out), "--duration", "0.25", "--gltf", "--html", "--plots", "--images",
+                 "--no-progress"]) == 0
+    (out / "notes.txt").write_text("mine")
+    (out / "plots" / "mine.png").write_bytes(b"x")
+    (out / "images" / "top" / "sketch.png").write_bytes(b"x")
+    old_glb = (out / "trajectory.glb").read_bytes()
+    capsys.readouterr()
+
+    before = snapshot(out)
+    assert main(["run", str(scene), "--out", str(out), "--duration", "0.5", "--no-progress"]) == 2
+    assert snapshot(out) == before and "exists (pass --force" in capsys.readouterr().err
+
+    assert main(["run", str(scene), "--out", str(out), "--duration", "0.5", "--gltf", "--force", "--no-progress"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert sorted(err) == sorted([
+        f"tumble: note: removed {out / 'trajectory.html'}: the replaced run's, which this run does not write (--force)",
+        f"tumble: note: removed {out / 'plots'}/ (3 files): the replaced run's, which this run does not write (--force)",
+        f"tumble: note: removed {out / 'images'}/ (4 files): the replaced run's, which this run does not write (--force)",
+    ]), err
+    assert not (out / "trajectory.html").exists() and not (out / "images" / "top.npz").exists()
+    assert sorted(p.name for p in (out / "plots").iterdir()) == ["mine.png"]
+    assert sorted(p.name for p in (out / "images" / "top").iterdir()) == ["sketch.png"]
+    assert (out / "notes.txt").read_text() == "mine"
+    new_glb = (out / "trajectory.glb").read_bytes()  # asked for: rewritten from the new run (5 frames, not 3)
+    assert new_glb[:4] == b"glTF" and new_glb != old_glb
+
+    # a run into a folder whose media are all gone or asked for prints no note
+    (out / "plots" / "mine.png").unlink()
+    (out / "images" / "top" / "sketch.png").unlink()
+    assert main(["run", str(scene), "--out", str(out), "--duration", "0.25", "--gltf", "--force", "--no-progress"]) == 0
+    assert "removed" not in capsys.readouterr().err
+    assert (out / "plots").is_dir() and (out / "images").is_dir()  # empty folders: left as they were

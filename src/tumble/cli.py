@@ -3,7 +3,7 @@
 Outputs of a run go to one folder: ``trajectory.npz`` (DESIGN.md's trajectory
 file), ``summary.json`` (the scene, the settings, the versions, the run's
 figures) and a copy of the scene file. Nothing already there is overwritten
-without ``--force``.
+without ``--force``; with it, the replaced run's media that this run does not write are removed.
 
 Frames are streamed to disk while the scene runs (peak memory does not grow
 with the duration); ``--checkpoint-every S`` flushes the trajectory and writes
@@ -67,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     def outputs(p, default_help):
         p.add_argument("--out", metavar="DIR", help=f"output folder (default {default_help})")
-        p.add_argument("--force", action="store_true", help="overwrite trajectory.npz and summary.json if they exist")
+        p.add_argument("--force", action="store_true",
+                       help="overwrite the outputs if they exist (and remove the replaced run's media this run does not write)")
         p.add_argument("--duration", type=_seconds, metavar="S", help="simulated time, s (default: the scene's)")
         p.add_argument("--integrator", metavar="NAME", help="integrator (default: the scene's), e.g. rk4, splitting, dop853")
         p.add_argument("--no-progress", action="store_true", help="never show a progress bar")
@@ -252,6 +253,8 @@ def cmd_run(args) -> int:
     copy_path = targets[-1]
     try:
         _write_bytes_atomic(copy_path, scene_text)
+        if args.force:
+            _remove_stale_media(out, media)
     except OSError as exc:
         raise InputError(f"cannot write outputs: {exc.strerror or exc}", None, str(exc.filename or out)) from None
 
@@ -282,6 +285,49 @@ def _media_requested(args) -> list[str]:
         else:
             raise InputError(f"needs {', '.join(missing)}: pip install 'tumble[{extra}]'", f"--{m}")
     return kept
+
+
+def _remove_stale_media(out: Path, media) -> list[Path]:
+    """``--force``: remove the media of the run being replaced that this run will not write (the
+    ``MEDIA_NAMES`` not in ``media``), so that no .glb, .html or video in ``out`` shows the old run
+    beside the new trajectory. Only what tumble writes there: the media files themselves, plots/'s
+    ``PLOT_NAMES`` and images/'s ``NAME/rgb_NNNNN.png`` and ``NAME.npz``; a folder goes only when
+    that emptied it, so a file of the user's in it is kept. One line on stderr per media file or folder
+    removed. Returns the files removed."""
+    import re
+
+    from .render.plots import PLOT_NAMES
+
+    removed = []
+    for kind, name in MEDIA_NAMES.items():
+        path = out / name
+        if kind in media or not (path.exists() or path.is_symlink()):
+            continue
+        if kind == "plots" and path.is_dir():
+            files = [path / n for n in PLOT_NAMES if (path / n).is_file()]
+        elif kind == "images" and path.is_dir():
+            frame = re.compile(r"rgb_\d{5,}\.png")
+            files = [f for d in sorted(path.iterdir()) if d.is_dir() and not d.is_symlink()
+                     for f in sorted(d.iterdir()) if frame.fullmatch(f.name) and f.is_file()]
+            files += [f for f in sorted(path.glob("*.npz")) if f.is_file()]
+        elif path.is_file() or path.is_symlink():
+            files = [path]
+        else:  # a folder where tumble writes a file: not ours to empty
+            continue
+        for f in files:
+            f.unlink()
+        removed.extend(files)
+        if files and path.is_dir() and not path.is_symlink():  # the folders emptied now: a camera's, plots/, images/
+            for d in sorted({f.parent for f in files} - {path}):
+                if not any(d.iterdir()):
+                    d.rmdir()
+            if not any(path.iterdir()):
+                path.rmdir()
+        if files:
+            what = f"{path}" if files == [path] else f"{path}/ ({_count(len(files), 'file', 'files')})"
+            print(f"tumble: note: removed {what}: the replaced run's, which this run does not write (--force)",
+                  file=sys.stderr)
+    return removed
 
 
 def _missing_modules(modules) -> list[str]:
