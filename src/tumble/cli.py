@@ -79,8 +79,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo = sub.add_parser("demo", help="run the built-in demo scene and write its outputs, a video, a .glb and plots")
     outputs(demo, "./tumble-demo")
     demo.add_argument("--no-media", action="store_true", help="write only the run's files: no video, .glb or plots")
-    run = sub.add_parser("run", help="run a scene file (TOML or JSON, or a MuJoCo model .xml) and write its outputs")
-    run.add_argument("scene", metavar="SCENE", nargs="?", help="scene file, .toml or .json; or an MJCF model, .xml")
+    run = sub.add_parser("run", help="run a scene file (TOML or JSON, a MuJoCo model .xml, or a USD stage with "
+                                     "physics) and write its outputs")
+    run.add_argument("scene", metavar="SCENE", nargs="?",
+                     help="scene file, .toml or .json; or an MJCF model, .xml; or a USD stage, .usda, .usdc, .usd or .usdz")
     outputs(run, "./out/<scene name>")
     run.add_argument("--video", action="store_true", help=f"also render {MEDIA_NAMES['video']} (headless)")
     run.add_argument("--gltf", action="store_true", help=f"also export {MEDIA_NAMES['gltf']} (Blender, three.js)")
@@ -94,7 +96,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its checkpoint.npz (no SCENE)")
     parser._run_parser = run
     val = sub.add_parser("validate", help="check a scene file and build its world without running it")
-    val.add_argument("scene", metavar="SCENE", help="scene file, .toml or .json; or an MJCF model, .xml")
+    val.add_argument("scene", metavar="SCENE",
+                     help="scene file, .toml or .json; or an MJCF model, .xml; or a USD stage, .usda, .usdc, .usd or .usdz")
     parser._handlers_table = {}
     for module in _command_modules():
         parser._handlers_table.update(module.add_commands(sub))
