@@ -33,6 +33,7 @@ from tumble.export.meshes import (
 )
 from tumble.math3d import quat_to_matrix
 from tumble.scene import load_scene
+from tumble.shapes import shape_to_dict
 
 from .determinism.scenes import scene_paths
 
@@ -524,3 +525,69 @@ def test_sensors_are_drawn_translucent(trajectories, glb_files, tmp_path):
             assert list(opacity) == [pytest.approx(0.25)] and prim.GetCustomDataByKey("tumble:sensor") is True
         else:
             assert opacity is None
+
+
+def test_many_bodies_over_one_mesh_store_the_mesh_once(tmp_path, capsys):
+    """trajectory.npz keeps each distinct shape JSON once (``shape_table`` (K,) str, ``shape_index``
+    (N,) int64), in the in-memory file and the streamed one: 300 small balls over one large mesh
+    are a small file, not N x the mesh's JSON padded to its length (before: a fixed-width (N,)
+    ``shapes`` array, 136 MB for 300 balls over a 3072-face bowl). The shapes round-trip exactly,
+    ``Trajectory.shapes`` still gives the (N,) texts, and a file of the old form (a ``shapes``
+    array) still loads, exports and views the same."""
+    import trimesh
+
+    import tumble as tb
+    from tumble.trajectory import load_trajectory
+
+    bowl = trimesh.creation.icosphere(subdivisions=4, radius=3.0)  # 5120 faces
+    world = tb.World(gravity=(0, 0, 0))
+    world.add_body(tb.Mesh(vertices=bowl.vertices, faces=bowl.faces), fixed=True, name="bowl")
+    for k in range(300):
+        world.add_body(tb.Sphere(radius=0.02), mass=0.1, position=(0.1 * (k % 20), 0.1 * (k // 20), 5.0), name=f"b{k}")
+    texts = [json.dumps(shape_to_dict(sh)) for sh in world.shapes]
+    longest = max(len(t) for t in texts)
+    padded_bytes = 4 * longest * len(texts)  # the old (N,) fixed-width array
+    assert padded_bytes > 50e6
+
+    sim = tb.Simulator(world, dt=1 / 240)
+    result = sim.run_to_file(tmp_path / "streamed", 1 / 24, 24, progress=False)
+    assert result.status == "completed"
+    memory = sim.run(1 / 24, 24)
+    saved = memory.save(tmp_path / "memory.npz")
+    for path in (tmp_path / "streamed" / "trajectory.npz", saved):
+        size = path.stat().st_size
+        assert size < 2e6 and size < padded_bytes / 100, (path, size)
+        with np.load(path, allow_pickle=False) as data:
+            assert "shapes" not in data.files
+            assert data["shape_table"].shape == (2,) and data["shape_index"].dtype == np.int64
+            assert data["shape_index"].tolist() == [0] + [1] * 300
+        traj = load_trajectory(path)
+        assert [traj.shape_text(i) for i in range(301)] == texts
+        assert traj.shapes.shape == (301,) and traj.shapes.tolist() == texts
+        assert json.dumps(shape_to_dict(traj.shape(0))) == texts[0] and traj.shape(7) == world.shapes[7]
+
+    # the old form: a (N,) fixed-width `shapes` array beside the frames (what tumble 0.1.0 wrote)
+    small = tb.World(gravity=(0, 0, -9.81))
+    small.add_body(tb.Plane(), fixed=True, name="ground")
+    small.add_body(tb.Box(size=(0.2, 0.3, 0.4)), mass=1.0, position=(0, 0, 1), name="box")
+    small.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(1, 0, 1), name="ball")
+    new = tb.Simulator(small).run(0.25, 24)
+    new_path = new.save(tmp_path / "new" / "trajectory.npz")
+    with np.load(new_path, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files if k not in ("shape_table", "shape_index")}
+    arrays["shapes"] = np.array([json.dumps(shape_to_dict(sh)) for sh in small.shapes], dtype=str)
+    old_path = tmp_path / "old" / "trajectory.npz"
+    old_path.parent.mkdir()
+    np.savez(old_path, **arrays)
+    old = load_trajectory(old_path)
+    assert old.shapes.tolist() == arrays["shapes"].tolist() and old.shape(1) == small.shapes[1]
+    assert old.shape_table.shape == (3,) and old.shape_index.tolist() == [0, 1, 2]
+    for suffix in (".glb", ".html"):
+        assert main(["export", str(old_path), "-o", str(tmp_path / f"old{suffix}")]) == 0
+        assert main(["export", str(new_path), "-o", str(tmp_path / f"new{suffix}")]) == 0
+        assert (tmp_path / f"old{suffix}").read_bytes() == (tmp_path / f"new{suffix}").read_bytes()
+    capsys.readouterr()
+    # the API: Trajectory(shapes=...) builds the table, assigning None drops the shapes
+    rebuilt = dataclasses.replace(new, shapes=list(arrays["shapes"]))
+    assert rebuilt.shape_table.tolist() == arrays["shapes"].tolist() and rebuilt.shape_index.tolist() == [0, 1, 2]
+    assert dataclasses.replace(new, shapes=None).shape(1) is None

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .shapes import shape_to_dict
-from .trajectory import CONTACT_FIELDS, EnabledLog, Trajectory, joint_frame_shapes, pad_contacts
+from .trajectory import CONTACT_FIELDS, EnabledLog, Trajectory, joint_frame_shapes, pad_contacts, shape_table_of
 from .world import World
 
 
@@ -98,11 +98,22 @@ def static_values(world: World, fixed=None) -> dict:
     return {
         "names": np.array(world.names, dtype=str),
         "com_offset": world.com_offset.copy(),
-        "shapes": np.array([json.dumps(shape_to_dict(sh)) for sh in world.shapes], dtype=str),
+        **dict(zip(("shape_table", "shape_index"), shape_table_of(_shape_texts(world)))),
         "fixed": world.fixed.copy() if fixed is None else np.asarray(fixed, dtype=bool).copy(),
         # only in a world with a sensor: the files of others keep their bytes
         **({"sensor": world.sensor.copy()} if world.sensor.any() else {}),
     }
+
+
+def _shape_texts(world: World) -> list[str]:
+    """Each body's shape as JSON text (``shapes.shape_to_dict``); a shape record shared by many
+    bodies (one mesh object for a pile) is written out once. The trajectory file keeps each
+    distinct text once (``Trajectory.shape_table``)."""
+    text_of: dict[int, str] = {}  # id of a shape record (alive in world.shapes) -> its text
+    for sh in world.shapes:
+        if id(sh) not in text_of:
+            text_of[id(sh)] = json.dumps(shape_to_dict(sh))
+    return [text_of[id(sh)] for sh in world.shapes]
 
 
 #: s: a first frame slower than this gets one line on stderr saying why (see _first_frame_notice)

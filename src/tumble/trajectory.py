@@ -13,12 +13,15 @@ import os
 import shutil
 import tempfile
 import zipfile
-from dataclasses import dataclass, fields
+from dataclasses import InitVar, dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError
+
+
+_UNSET = object()  # Trajectory(shapes=...) not given
 
 
 @dataclass
@@ -38,8 +41,15 @@ class Trajectory:
         orthonormality_error: (F,) largest |R^T R - 1| entry (|q|^2 - 1 for quaternions).
         com_offset: (N, 3) m, centre of mass seen from each shape's origin, body frame
             (the shape origin is at position - R com_offset), for display and export.
-        shapes: (N,) JSON text of each body's shape (``shapes.shape_to_dict``), so that
-            the file alone is enough to draw and export the bodies (None in old files).
+        shape_table: (K,) str, each distinct body shape once, as JSON text
+            (``shapes.shape_to_dict``), so that the file alone is enough to draw and export the
+            bodies; shape_index: (N,) int64, body i's row of the table (both None in old files
+            and for trajectories without shapes). Kept as a table so that a pile of equal balls
+            over one large mesh stores the mesh once, not N times padded to its length.
+        shapes: (N,) str, body i's JSON text (``shape_table[shape_index]``): the older form, built
+            on first use; files written before the table (a ``shapes`` key) still load, and
+            ``Trajectory(shapes=...)`` still builds one. ``shape_text(i)`` / ``shape(i)`` read
+            one body's without building it.
         fixed: (N,) bool, True for fixed bodies (None in old files).
         sensor: (N,) bool, True for sensors (touch nothing; drawn translucent), written only
             when the world has one (None otherwise).
@@ -88,7 +98,11 @@ class Trajectory:
     total_angular_momentum: np.ndarray
     orthonormality_error: np.ndarray
     com_offset: np.ndarray
-    shapes: np.ndarray | None = None
+    # not a field: the (N,) form, given to the constructor (old files, older callers); the
+    # ``shapes`` property set below reads it back from the table
+    shapes: InitVar[np.ndarray | None] = _UNSET
+    shape_table: np.ndarray | None = None
+    shape_index: np.ndarray | None = None
     fixed: np.ndarray | None = None
     sensor: np.ndarray | None = None
     contact_count: np.ndarray | None = None
@@ -110,9 +124,19 @@ class Trajectory:
     enabled_changes: np.ndarray | None = None
 
     OPTIONAL = ("enabled_changes", "sensor_visitors", "joint_names", "joint_position", "joint_rate", "joint_force", "joint_torque", "joint_enabled",
-                "shapes", "fixed", "sensor", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
+                "shapes", "shape_table", "shape_index", "fixed", "sensor", "contact_count", "contact_body_a", "contact_body_b", "contact_point",
                 "contact_normal", "contact_separation", "contact_normal_impulse", "contact_friction_impulse",
                 "contact_force")
+
+    def __post_init__(self, shapes):
+        if shapes is not _UNSET:  # given: it wins over any table (dataclasses.replace(traj, shapes=None) drops them)
+            self.shape_table, self.shape_index = shape_table_of(shapes)
+
+    def shape_text(self, index: int) -> str | None:
+        """The JSON text of body ``index``'s shape, or None when the trajectory has no shapes."""
+        if self.shape_table is None:
+            return None
+        return str(self.shape_table[int(self.shape_index[index])])
 
     @property
     def frame_count(self) -> int:
@@ -129,12 +153,13 @@ class Trajectory:
         return unfold_enabled(self.enabled_changes, self.frame_count, len(self.names))
 
     def shape(self, index: int):
-        """The shape record of body ``index`` (rebuilt from ``shapes``), or None."""
-        if self.shapes is None:
+        """The shape record of body ``index`` (rebuilt from its JSON, ``shape_text``), or None."""
+        text = self.shape_text(index)
+        if text is None:
             return None
         from .shapes import shape_from_dict
 
-        return shape_from_dict(json.loads(str(self.shapes[index])))
+        return shape_from_dict(json.loads(text))
 
     def body(self, name: str) -> int:
         """Column index of the body called ``name``."""
@@ -157,9 +182,39 @@ class Trajectory:
         arrays["names"] = np.asarray(self.names, dtype=str)
         if self.joint_names is not None:
             arrays["joint_names"] = np.asarray(self.joint_names, dtype=str)
-        if self.shapes is not None:
-            arrays["shapes"] = np.asarray(self.shapes, dtype=str)
+        if self.shape_table is not None:
+            arrays["shape_table"] = np.asarray(self.shape_table, dtype=str)
+            arrays["shape_index"] = np.asarray(self.shape_index, dtype=np.int64)
         return write_atomic(path, lambda fh: np.savez_compressed(fh, **arrays))
+
+
+def _get_shapes(self):
+    if self.shape_table is None:
+        return None
+    # built once per table: the (N,) fixed-width form pads every body to the longest JSON
+    key = (id(self.shape_table), id(self.shape_index))
+    cached = self.__dict__.get("_shapes_cache")
+    if cached is None or cached[0] != key:
+        cached = (key, np.asarray(self.shape_table, dtype=str)[np.asarray(self.shape_index, dtype=np.int64)])
+        self.__dict__["_shapes_cache"] = cached
+    return cached[1]
+
+
+def _set_shapes(self, shapes):
+    self.shape_table, self.shape_index = shape_table_of(shapes)
+
+
+Trajectory.shapes = property(_get_shapes, _set_shapes, doc="(N,) str: each body's shape JSON (see the class docstring).")
+
+
+def shape_table_of(shapes) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(shape_table, shape_index)`` of the (N,) JSON texts ``shapes`` (None: (None, None)): each
+    distinct text once, in order of first use, and each body's row of it ((K,) str, (N,) int64)."""
+    if shapes is None:
+        return None, None
+    rows: dict[str, int] = {}
+    index = np.array([rows.setdefault(str(text), len(rows)) for text in np.asarray(shapes).reshape(-1)], dtype=np.int64)
+    return np.array(list(rows), dtype=str).reshape(len(rows)), index
 
 
 def unfold_enabled(changes, frames: int, bodies: int) -> np.ndarray:
@@ -255,6 +310,8 @@ def load_trajectory(path) -> Trajectory:
         # our own handle: np.load leaks its own when the zip is damaged
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
             values = {f.name: data[f.name] for f in fields(Trajectory) if f.name in data.files}
+            if "shape_table" not in values and "shapes" in data.files:  # a file from before the table
+                values["shapes"] = data["shapes"]
     except Exception as exc:  # a damaged or foreign file: one clear line
         raise InputError(f"not a readable trajectory file ({type(exc).__name__}: {exc})", None, str(path)) from None
     missing = [f.name for f in fields(Trajectory) if f.name not in values and f.name not in Trajectory.OPTIONAL]
@@ -265,6 +322,13 @@ def load_trajectory(path) -> Trajectory:
         a = values[key]
         if a.shape != (frames,) + shape or a.dtype.kind != "f":
             raise InputError(f"not a trajectory file: {key} has shape {a.shape} ({a.dtype}), expected {(frames,) + shape} numbers", None, str(path))
+    if "shape_table" in values or "shape_index" in values:
+        table, index = values.get("shape_table"), values.get("shape_index")
+        if (table is None or index is None or table.ndim != 1 or table.dtype.kind != "U" or index.shape != (bodies,)
+                or index.dtype.kind not in "iu" or (bodies and not (0 <= index.min() and index.max() < len(table)))):
+            raise InputError(f"not a trajectory file: shape_table / shape_index are not {bodies} rows of a table of "
+                             f"shape texts", None, str(path))
+        values["shape_index"] = index.astype(np.int64)
     if "contact_count" in values:  # streamed files keep it as float64 beside the other frame keys
         values["contact_count"] = np.asarray(values["contact_count"]).astype(np.int64)
     return Trajectory(**values)
@@ -348,7 +412,7 @@ class TrajectoryWriter:
 
     Args:
         path: the trajectory file (``.../trajectory.npz``).
-        static: the keys that do not change with time (names, com_offset, shapes, fixed).
+        static: the keys that do not change with time (names, com_offset, shape_table, shape_index, fixed).
         body_count: N.
         keep_frames: None starts afresh (any old work folder is removed); a number
             continues a run: the work folder (or, if it is missing or short, the
@@ -437,6 +501,8 @@ class TrajectoryWriter:
                     with zf.open(info, "w", force_zip64=True) as out:
                         np.lib.format.write_array(out, padded[key], allow_pickle=False)
                     continue
+                if key == "shape_table":  # fixed-width text padded to its longest row (a mesh): deflate shrinks the padding
+                    info.compress_type = zipfile.ZIP_DEFLATED
                 with zf.open(info, "w", force_zip64=True) as out:
                     if key in self.static:
                         np.lib.format.write_array(out, np.asarray(self.static[key]), allow_pickle=False)

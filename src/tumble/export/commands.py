@@ -81,7 +81,7 @@ def cmd_export(args) -> int:
     traj = load_trajectory(source)  # InputError for a missing or unreadable file
     if len(traj.time) == 0:
         raise InputError("the trajectory has no frames", None, str(source))
-    if traj.shapes is None:
+    if traj.shape_table is None:
         print(f"tumble: note: {source} has no body shapes (an older file): bodies are drawn as small spheres")
 
     try:

@@ -91,7 +91,7 @@ def plane_size_for(traj, index: int) -> float:
     pos = np.asarray(traj.position, dtype=float)
     if pos.size == 0:
         return PLANE_MIN_SIZE
-    d = shape_dict(traj.shapes[index]) if traj.shapes is not None else None
+    d = shape_dict(traj.shape_text(index))
     from ..math3d import quat_to_matrix
 
     q0 = np.asarray(traj.orientation[0, index], dtype=float)
@@ -119,7 +119,7 @@ def body_meshes(traj) -> list[tuple[VisualMesh, str]]:
     cache: dict[str, VisualMesh] = {}
     out = []
     for i in range(n):
-        raw = None if traj.shapes is None else str(traj.shapes[i])
+        raw = traj.shape_text(i)
         d = None if raw is None else json.loads(raw)
         offset = np.asarray(traj.com_offset[i], dtype=float)
         plane = d is not None and d.get("type") == "plane"

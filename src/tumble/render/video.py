@@ -241,7 +241,7 @@ class _Stage:
         self.meshes, self.planes = [], []
         cache = {}  # identical shapes (same JSON) share one tessellation
         for i in range(n):
-            key = None if traj.shapes is None else str(traj.shapes[i])
+            key = traj.shape_text(i)
             if key not in cache:
                 shape = traj.shape(i)
                 cache[key] = (shape, _shaded(visual_mesh(shape)))

@@ -308,7 +308,7 @@ def split_trajectory(traj: Trajectory, rows: slice, world: World, mass: np.ndarr
         kinetic_energy=ke, potential_energy=pe, total_linear_momentum=P.sum(axis=1),
         total_angular_momentum=(L + np.cross(x, P)).sum(axis=1), orthonormality_error=orth,
         com_offset=None if traj.com_offset is None else np.ascontiguousarray(traj.com_offset[rows]),
-        shapes=None if traj.shapes is None else traj.shapes[rows].copy(),
+        shape_table=traj.shape_table, shape_index=None if traj.shape_index is None else traj.shape_index[rows].copy(),
         fixed=None if traj.fixed is None else traj.fixed[rows].copy(),
         sensor=None if traj.sensor is None else traj.sensor[rows].copy(),
     )

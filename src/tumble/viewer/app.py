@@ -370,7 +370,7 @@ class Viewer:
         is_plane = np.zeros(N, bool)
         geometry_of_digest = {}
         for i in range(N):
-            text = None if self.traj.shapes is None else str(self.traj.shapes[i])
+            text = self.traj.shape_text(i)
             key = (text, com_offset[i].tobytes())
             if key not in meshes:
                 shape = self.traj.shape(i)
