@@ -31,6 +31,10 @@ class RunResult:
         state_hash: ``checks.state_hash`` of the state at the last frame.
         error: the blow-up message (status "failed"). signal: "SIGINT"/"SIGTERM" (status "interrupted").
         out_dir: the output folder. t: simulated time of the last frame, s.
+        largest_penetration_m: m, >= 0, the deepest penetration of any contact point at any step of
+            the run (``Simulator.largest_penetration``: the contact detection's separations at each
+            step's start, every step, not only the recorded frames); None when the run found no
+            contact point.
     """
 
     status: str
@@ -45,6 +49,7 @@ class RunResult:
     out_dir: Path
     error: str | None = None
     signal: str | None = None
+    largest_penetration_m: float | None = None
 
     def figures(self) -> dict:
         drift = (self.energy_final - self.energy_initial) / max(abs(self.energy_initial), float(np.finfo(float).tiny))
@@ -57,7 +62,7 @@ class RunResult:
             "energy_final": _finite_or_none(self.energy_final),
             "energy_drift_relative": _finite_or_none(drift),  # None: E_0 = 0 and it overflowed
             "max_orthonormality_error": _finite_or_none(self.max_orthonormality_error),
-            "largest_penetration_m": None,  # no contacts yet
+            "largest_penetration_m": None if self.largest_penetration_m is None else _finite_or_none(self.largest_penetration_m),
             "state_hash": self.state_hash,
             "error": self.error,
             "signal": self.signal,

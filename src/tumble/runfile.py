@@ -107,7 +107,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
             status=status, frames=writer.frames, steps=int(sim.stats["steps"]), wall_time_s=fig["wall_time_s"],
             energy_initial=fig["energy_initial"], energy_final=fig["energy_final"],
             max_orthonormality_error=fig["max_orthonormality_error"], state_hash=checks.state_hash(w), t=w.t,
-            out_dir=out, error=error, signal=signal_name,
+            out_dir=out, error=error, signal=signal_name, largest_penetration_m=sim.largest_penetration,
         )
         write_json_atomic(out / SUMMARY, summary(result) if summary is not None else {"run": result.figures(), "settings": sim.settings()})
         return result
@@ -125,6 +125,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
     if not resume:
         w.update_derived()
         sim._reset_energy_reference()
+        sim.stats["lowest_separation"] = None  # largest_penetration: this run's (a resumed run's is in its checkpoint)
         sim._sense_now()
         record()
     elif sim.energy_reference is None:

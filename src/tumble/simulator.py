@@ -100,7 +100,9 @@ class Simulator:
         self.atol = float(atol)
         # steps of dt since t = 0: a Simulator on a world that has already run goes on from its time
         self.step_index = int(round(world.t / dt))
-        self.stats = {"steps": 0, "derivative_evaluations": 0}
+        # lowest_separation: m, the lowest contact separation at any step of the run (None: no
+        # contact point yet); ``largest_penetration`` reads it
+        self.stats = {"steps": 0, "derivative_evaluations": 0, "lowest_separation": None}
         try:
             self.max_energy_growth = float(max_energy_growth)
         except (TypeError, ValueError):
@@ -369,6 +371,12 @@ class Simulator:
                         moving[:] = all_moving & sleep.awake
                         table.body_moving[:] = moving
                         active = soft.collide(Y, t, self.dt)
+                c = soft.contacts
+                if c.contact_count:  # the deepest contact of the step, before its impulses (largest_penetration)
+                    low = float(c.contact_separation.min())
+                    seen = self.stats.get("lowest_separation")
+                    if seen is None or low < seen:
+                        self.stats["lowest_separation"] = low
                 if check is not None:
                     check("collide_pairs", t, Y=Y)
                 if active.any():
@@ -622,6 +630,16 @@ class Simulator:
         if self._event_log is None:
             raise InputError("contact events are off: make the Simulator with contact_events=True", "contact_events")
         return self._event_log.drain()
+
+    @property
+    def largest_penetration(self) -> float | None:
+        """m, >= 0: the deepest penetration of any contact point at any step since the run began
+        (``run`` and ``run_to_file`` start it afresh; a resumed run goes on from its checkpoint),
+        or None when no contact point was found (a world without contacts). Measured every step
+        from the contact detection's separations (``contacts().separation``, < 0: penetration)
+        at the step's start, before its impulses: summary.json's ``largest_penetration_m``."""
+        low = self.stats.get("lowest_separation")
+        return None if low is None else max(0.0, -float(low))
 
     def contacts(self):
         """The contacts of the last step (``tumble.solver.soft_step.Contacts``: bodies, points,
@@ -889,6 +907,7 @@ class Simulator:
         self._sense_now()
         rec.record()
         self._reset_energy_reference()
+        self.stats["lowest_separation"] = None  # largest_penetration: this run's
         started = _time.perf_counter()
         self._loop(frames, steps_per_frame, rec.record, progress)
         self.stats["wall_time_s"] = _time.perf_counter() - started
