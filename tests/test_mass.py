@@ -367,6 +367,23 @@ def test_unreadable_mesh_files(tmp_path):
     assert info.value.key == "path"
 
 
+@pytest.mark.parametrize("text, expected", [
+    ("this is not an obj\nv 1 2\nf 1 2 3\n", "line 2: a vertex has 2 coordinates, expected 3"),
+    ("v 0 0 0\nv 1 0 0\nf 1 2 7\n", "line 3: a face refers to vertex 7 of 2"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "line 4: cannot parse the face corner 'x'"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nv a b c\nf 1 2 3\n", "line 4: cannot parse the vertex 'v a b c'"),
+])
+def test_an_unreadable_obj_says_what_is_wrong_with_the_file(tmp_path, text, expected):
+    """An OBJ file trimesh cannot read gets one line naming the line of the file and its problem,
+    not NumPy's "index 1 is out of bounds for axis 0 with size 1"."""
+    path = tmp_path / "bad.obj"
+    path.write_text(text)
+    with pytest.raises(InputError) as info:
+        load_closed_mesh(path=str(path))
+    assert info.value.key == "path" and "\n" not in str(info.value)
+    assert f"cannot read mesh file {path}: {expected}" in str(info.value), str(info.value)
+
+
 def test_inline_mesh_not_closed_or_flat():
     vertices, faces = box_mesh((1.0, 1.0, 1.0))
     with pytest.raises(InputError, match="not closed .*3 boundary edges") as info:

@@ -396,10 +396,48 @@ def _read_mesh_file(path):
     try:
         mesh = trimesh.load(str(p), force="mesh", process=True)
     except Exception as exc:  # trimesh raises many types for bad files
-        raise InputError(f"cannot read mesh file {path}: {exc}", "path") from None
+        # what is wrong with the file, when we can tell (an OBJ), rather than NumPy's words for it
+        problem = _obj_problem(p) if p.suffix.lower() == ".obj" else None
+        raise InputError(f"cannot read mesh file {path}: {problem or exc}", "path") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InputError(f"mesh file holds no triangles: {path}", "path")
     return mesh
+
+
+def _obj_problem(path: Path) -> str | None:
+    """The first problem of an OBJ file that trimesh could not read, as "line N: ..." (a vertex
+    without three numbers, a face that is not numbers or has fewer than three corners, a face
+    referring to a vertex the file does not have), or None when none of these is found."""
+    try:
+        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return None
+    vertex_count = sum(1 for line in lines if line.split("#", 1)[0].split()[:1] == ["v"])
+    seen = 0  # vertices before this line: a negative index counts back from here
+    for number, line in enumerate(lines, 1):
+        words = line.split("#", 1)[0].split()
+        if not words:
+            continue
+        if words[0] == "v":
+            try:
+                coordinates = [float(x) for x in words[1:]]
+            except ValueError:
+                return f"line {number}: cannot parse the vertex {' '.join(words)!r} (expected v x y z, numbers)"
+            if len(coordinates) < 3:
+                return f"line {number}: a vertex has {len(coordinates)} coordinates, expected 3"
+            seen += 1
+        elif words[0] == "f":
+            if len(words) < 4:
+                return f"line {number}: a face has {len(words) - 1} corners, expected at least 3"
+            for corner in words[1:]:
+                try:
+                    index = int(corner.split("/", 1)[0])
+                except ValueError:
+                    return f"line {number}: cannot parse the face corner {corner!r} (expected a vertex number)"
+                k = index if index > 0 else seen + 1 + index
+                if index == 0 or not 1 <= k <= vertex_count:
+                    return f"line {number}: a face refers to vertex {index} of {vertex_count}"
+    return None
 
 
 def _mesh_source(path, vertices, faces):
