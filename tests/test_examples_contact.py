@@ -473,11 +473,17 @@ def test_ring_toss_rings_land_round_their_pegs_and_one_misses():
     Checks against the geometry: rings 0-2 end round their pegs (centre within the 0.095 m
     clearance of the peg's axis: the peg is through the hole), lying flat on the ground (tilt under
     1 degree either way up, centre at the tube's radius 0.025 m to 1 mm), at rest (1 mm/s); ring 3 ends round the
-    middle peg flat on top of ring 1 (its centre at three tube radii, 0.075 m, to 1 mm); ring 4 ends
+    middle peg on top of ring 1: flat (its centre at three tube radii, 0.075 m, to 1 mm), or leaning on
+    the peg (its centre at the clearance from the peg's axis to 3 mm, tilted under 10 degrees, between
+    two and three tube radii up: where it lands is sensitive to its drop, 1-2 cm away it leans,
+    4-7 degrees, measured when the friction's direction changed in session 41); ring 4 ends
     flat on the ground with no peg through it (farther than 0.155 m from every peg's axis). With
     the rings' convex hulls every ring would stop on a peg's top (tests/physics/test_decompose.py).
     Measured: rings 0-2 at 1.2, 4.3 and 1.6 cm from their pegs, ring 3 3.5 cm from its peg at z
-    0.0749 m, ring 4 0.54 m past the right peg; every ring slower than 1 mm/s from 2.3 s on."""
+    0.0749 m, ring 4 0.54 m past the right peg; every ring slower than 1 mm/s from 2.3 s on (figures
+    of session 40; session 41, the friction's direction changed and ring 3 dropped 1 cm farther along
+    x: rings 0-2 at 2.0, 3.7 and 1.0 cm, ring 3 1.5 cm from its peg at z 0.07496 m, flat to 0.02
+    degrees, ring 4 0.49 m past the right peg, every ring slower than 1 mm/s from 1.7 s on)."""
     scene, traj = run("ring_toss")
     pegs = [np.asarray(traj.position[-1, traj.names.tolist().index(f"peg{k}")]) for k in range(3)]
     x = {k: traj.position[-1, traj.names.tolist().index(f"ring{k}")] for k in range(5)}
@@ -489,7 +495,10 @@ def test_ring_toss_rings_land_round_their_pegs_and_one_misses():
     rings = indices(traj, "ring")
     assert speeds(traj)[rings].max() < 1e-3
     assert np.hypot(*(x[3][:2] - pegs[1][:2])) < CLEARANCE
-    assert x[3][2] == pytest.approx(3 * RING_TUBE, abs=1e-3) and flat_deg(q[3]) < 1.0  # flat on ring 1
+    # on ring 1: flat (three tube radii up), or leaning on the peg (its hole's edge on it) and tilted
+    assert x[3][2] == pytest.approx(3 * RING_TUBE, abs=1e-3) and flat_deg(q[3]) < 1.0 or (
+        2 * RING_TUBE < x[3][2] < 3 * RING_TUBE and flat_deg(q[3]) < 10.0
+        and np.hypot(*(x[3][:2] - pegs[1][:2])) > CLEARANCE - 3e-3), (x[3], flat_deg(q[3]))
     assert min(np.hypot(*(x[4][:2] - p[:2])) for p in pegs) > RING_MAJOR - RING_TUBE + PEG_RADIUS
     assert flat_deg(q[4]) < 1.0 and x[4][2] == pytest.approx(RING_TUBE, abs=1e-3)
     # the body takes the torus's own mass properties: I_zz = m (R^2 + 3/4 r^2) (a torus's closed form, to

@@ -474,20 +474,24 @@ class ContactSolver:
             skip[listed] = True
         # the restitution pass adds to the accumulated impulse: count the increment in the step's total
         self.step_normal_impulse[:] -= self.normal_impulse
-        apply_restitution_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.local_a,
-                                 self.local_b, self.normal_mass, self.restitution, self.relative_velocity,
+        self.step_tangent_impulse[:] -= self.tangent_impulse
+        apply_restitution_kernel(c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1, self.tangent2,
+                                 self.local_a, self.local_b, self.normal_mass, self.tangent_mass, self.restitution,
+                                 self.friction, self.surface_target, self.relative_velocity,
                                  self.max_normal_impulse, self.settings.restitution_threshold,
                                  self.arm_a, self.arm_b, self.world.inv_mass, self.I_inv, skip[:n], self.v, self.omega,
-                                 self.normal_impulse)
+                                 self.normal_impulse, self.tangent_impulse)
         if len(listed):
             skip[listed] = False
-            restitution_tree_kernel(listed, c.contact_body_a, c.contact_body_b, c.contact_normal, self.restitution,
+            restitution_tree_kernel(listed, c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1,
+                                    self.tangent2, self.restitution, self.friction, self.surface_target,
                                     self.relative_velocity, self.max_normal_impulse,
                                     self.settings.restitution_threshold, self.arm_a, self.arm_b, tree.slot_count,
                                     tree.slot_ref, tree.slot_resp, tree.row_mass, self.v, self.omega,
                                     joints.linear_impulse, joints.angular_impulse, joints.axial_impulse,
-                                    self.normal_impulse)
+                                    self.normal_impulse, self.tangent_impulse)
         self.step_normal_impulse[:] += self.normal_impulse
+        self.step_tangent_impulse[:] += self.tangent_impulse
 
     def accumulate_step_impulses(self):
         """After a substep's relax: the accumulated impulses are what this substep applied
