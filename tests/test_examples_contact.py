@@ -686,9 +686,10 @@ def test_toss_throws_the_ball_into_the_stack_and_drops_the_crate_on_the_pallet(t
 def test_trapdoor_crates_appear_in_turn_and_fall_when_the_floor_vanishes(tmp_path):
     """examples/trapdoor.toml, 4 s: bodies switched in and out (``enable_at``, ``disable_at``).
     Checks: each crate is absent (``Trajectory.enabled``) and held where it waits, to the bit,
-    until the first frame after its time (0.25 k s), then falls freely (z0 - g t^2 / 2, 1e-9 m
-    over its first 0.2 s: nothing else is there yet) and lands on the trapdoor (its centre 0.125 m
-    above the door's top at 1.9 s, 1 mm); the door is absent from the first frame after 2 s and
+    until the frame at its time (0.25 k s: shown there, where it starts from), then falls freely
+    (z0 - g t^2 / 2, 1e-9 m over its first 0.2 s: nothing else is there yet) and lands on the
+    trapdoor (its centre 0.125 m above the door's top at 1.9 s, 1 mm); the door is absent from
+    the frame at 2 s (before session 41, from the frame after: each switch drawn a frame late) and
     every crate rests on the ground at the end (0.125 m, 1 mm) where it stood over the door (1 cm);
     the marker is absent from 3 s on and held where it rested. The file ``tumble run`` writes
     carries the same ``enabled_changes``."""
@@ -699,17 +700,17 @@ def test_trapdoor_crates_appear_in_turn_and_fall_when_the_floor_vanishes(tmp_pat
     t = traj.time
     for k in range(6):
         c = i(f"crate{k}")
-        first = int(np.argmax(t > 0.25 * (k + 1) + 1e-9))  # the first frame after its switch
+        first = int(np.argmax(t >= 0.25 * (k + 1) - 1e-9))  # the frame at its switch: shown there
         assert not on[:first, c].any() and on[first:, c].all()
-        assert np.all(traj.position[:first, c] == traj.position[0, c])
+        assert np.all(traj.position[:first + 1, c] == traj.position[0, c])  # it starts from there
         fall = (t >= 0.25 * (k + 1)) & (t <= 0.25 * (k + 1) + 0.2)
         s = t[fall] - 0.25 * (k + 1)
         np.testing.assert_allclose(traj.position[fall, c, 2], 1.8 - 0.5 * 9.81 * s ** 2, rtol=0, atol=1e-9)
         assert abs(traj.position[int(round(1.9 * 24)), c, 2] - (1.05 + 0.125)) < 1e-3
         assert abs(w.x[c, 2] - 0.125) < 1e-3 and abs(w.x[c, 0] - (-0.9 + 0.36 * k)) < 0.01
     door, marker = i("trapdoor"), i("marker")
-    assert on[t <= 2.0, door].all() and not on[t > 2.0 + 1e-9, door].any()
-    assert on[t <= 3.0, marker].all() and not on[t > 3.0 + 1e-9, marker].any()
+    assert on[t < 2.0 - 1e-9, door].all() and not on[t >= 2.0 - 1e-9, door].any()
+    assert on[t < 3.0 - 1e-9, marker].all() and not on[t >= 3.0 - 1e-9, marker].any()
     assert np.all(traj.position[t > 3.0, marker] == traj.position[-1, marker])
     out = tmp_path / "trapdoor"
     assert cli_main(["run", str(EXAMPLES / "trapdoor.toml"), "--out", str(out), "--no-progress"]) == 0

@@ -160,8 +160,12 @@ class _Recorder:
         "total_linear_momentum": "3", "total_angular_momentum": "3", "orthonormality_error": None,
     }
 
-    def __init__(self, world: World, capacity: int, contacts_of=None, joints_of=None, sensors_of=None):
+    def __init__(self, world: World, capacity: int, contacts_of=None, joints_of=None, sensors_of=None,
+                 switches_of=None):
         self.world = world
+        # a Simulator whose shown_disabled() gives each frame's disabled bodies (its due switches
+        # taken as done), or None: World.disabled
+        self.switches_of = switches_of
         self.contacts_of = contacts_of  # a Simulator whose contacts() are recorded each frame, or None
         self.contact_frames = []
         self.joints_of = joints_of  # a Simulator whose joint_frame() is recorded each frame, or None
@@ -203,7 +207,8 @@ class _Recorder:
         for key, value in frame_values(self.world).items():
             self.arrays[key][self.count] = value
         self.fixed &= self.world.fixed
-        self.enabled_log.observe(self.count, self.world.disabled)
+        shown = self.world.disabled if self.switches_of is None else self.switches_of.shown_disabled()
+        self.enabled_log.observe(self.count, shown)
         if self.contacts_of is not None:
             self.contact_frames.append(self.contacts_of.contacts())
         if self.joints_of is not None:

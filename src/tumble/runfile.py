@@ -80,7 +80,7 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
     def record():
         values = frame_values(w)
         writer.static["fixed"] &= w.fixed  # fixed at every frame: a body whose type changed moved
-        if enabled_log.observe(writer.frames, w.disabled):
+        if enabled_log.observe(writer.frames, sim.shown_disabled()):
             writer.static["enabled_changes"] = enabled_log.array()
         if sim.record_contacts:
             values["contacts"] = sim.contacts()

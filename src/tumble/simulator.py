@@ -472,6 +472,23 @@ class Simulator:
             return []
         return [k for k, f in enumerate(w.forces) if isinstance(f, Switch) and k not in w.applied_impulses]
 
+    def shown_disabled(self) -> np.ndarray:
+        """(N,) bool: the bodies out as a frame recorded now shows them: ``World.disabled`` with
+        the ``Switch`` records due at this step taken as done (the next step applies them before
+        anything moves). NOTE: why: a body with ``enable_at = 1.0`` started falling at t = 1.0
+        but was drawn hidden in the frame at 1.0 and appeared one frame late (the frame records
+        the world before the switch's step; an audit of the exports, session 41)."""
+        w = self.world
+        if not w.switch_count:
+            return w.disabled
+        due = [k for k in self._switches_to_come() if self._impulse_step(w.forces[k]) <= self.step_index]
+        if not due:
+            return w.disabled
+        flags = w.disabled.copy()
+        for k in due:
+            flags[w.index_of(w.forces[k].body)] = not w.forces[k].enabled
+        return flags
+
     def _switch_due_bodies(self, Y: np.ndarray) -> np.ndarray:
         """Apply the ``Switch`` records due at this step, in the order they were added
         (``World.set_enabled``; each once, counted with the impulses). Y (N, W) is the state now;
@@ -902,7 +919,7 @@ class Simulator:
         checks.check_memory(2 * (frames + 1) * (n * checks.FRAME_BYTES_PER_BODY + 80), f"keeping {frames + 1} frames of {n} bodies in memory",
                             "simulation.duration")
         rec = _Recorder(self.world, frames + 1, self if self.record_contacts else None, self if self.record_joints else None,
-                        self if self._sensing() else None)
+                        self if self._sensing() else None, self)
         self.world.update_derived()
         self._sense_now()
         rec.record()

@@ -430,7 +430,7 @@ class LiveViewer(Viewer):
         # (a body disabled at the start: the type it comes back as, World.body_type)
         self._dynamic_at_start = sim.world.body_types() == "dynamic"
         self._recorder = _Recorder(sim.world, 64, sim if sim.record_contacts else None, sim if sim.record_joints else None,
-                                   sim if sim._sensing() else None)
+                                   sim if sim._sensing() else None, sim)
         n = sim.world.body_count
         self._max_frames = max(2, int((checks.memory_limit() or 2**62) // (2 * (n * checks.FRAME_BYTES_PER_BODY + 80))))
         # as Simulator.run starts: derived quantities and sensors brought up to date, then frame 0
