@@ -478,7 +478,9 @@ def friction_impulses_after(old1, old2, mass1, mass2, slip1, slip2, limit):
         if limit <= 0.0 or mass1 == mass2:  # the radial clamp is then the exact answer (and its bits)
             scale = limit / math.sqrt(mag2)
             return new1 * scale, new2 * scale
-        sigma = 0.0
+        # a start left of the root, near it: with the larger mass for both directions the edge
+        # is reached at (|t| - limit) / max(mass) (the radial case's exact sigma), no later
+        sigma = (math.sqrt(mag2) - limit) / max(mass1, mass2)
         for _ in range(FRICTION_NEWTON_STEPS):
             d1 = limit + sigma * mass1
             d2 = limit + sigma * mass2
