@@ -492,6 +492,8 @@ def friction_impulses_after(old1, old2, mass1, mass2, slip1, slip2, limit):
             if psi >= -FRICTION_NEWTON_TOLERANCE:
                 break
             dpsi = (u1 * u1 * mass1 / d1 + u2 * u2 * mass2 / d2) / (q * root)
+            if dpsi <= 0.0:  # a tree row of no response (mass 0) holding the whole slip: no root
+                break
             sigma -= psi / dpsi
         d1 = limit + sigma * mass1
         d2 = limit + sigma * mass2
