@@ -472,6 +472,11 @@ class Simulator:
             return []
         return [k for k, f in enumerate(w.forces) if isinstance(f, Switch) and k not in w.applied_impulses]
 
+    def _switches_due(self) -> list:
+        """``_switches_to_come`` due at this step (their time reached), in the order they were added."""
+        w = self.world
+        return [k for k in self._switches_to_come() if self._impulse_step(w.forces[k]) <= self.step_index]
+
     def shown_disabled(self) -> np.ndarray:
         """(N,) bool: the bodies out as a frame recorded now shows them: ``World.disabled`` with
         the ``Switch`` records due at this step taken as done (the next step applies them before
@@ -479,9 +484,7 @@ class Simulator:
         but was drawn hidden in the frame at 1.0 and appeared one frame late (the frame records
         the world before the switch's step; an audit of the exports, session 41)."""
         w = self.world
-        if not w.switch_count:
-            return w.disabled
-        due = [k for k in self._switches_to_come() if self._impulse_step(w.forces[k]) <= self.step_index]
+        due = self._switches_due()
         if not due:
             return w.disabled
         flags = w.disabled.copy()
@@ -494,7 +497,7 @@ class Simulator:
         (``World.set_enabled``; each once, counted with the impulses). Y (N, W) is the state now;
         returned as the world holds it after."""
         w = self.world
-        due = [k for k in self._switches_to_come() if self._impulse_step(w.forces[k]) <= self.step_index]
+        due = self._switches_due()
         if not due:
             return Y
         w.unpack(Y)

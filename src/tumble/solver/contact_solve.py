@@ -720,6 +720,15 @@ def solve_contacts_kernel(order, bounds, body_a, body_b, normal, tangent1, tange
                          max_normal_impulse, relative_velocity, last_normal_speed, arm_a, arm_b, gap)
 
 
+@njit(**JIT, inline="always")
+def bounces(e, approach, pushed, threshold):
+    """Whether the restitution pass acts on a contact: restitution ``e`` > 0, a pre-step approach
+    speed ``approach`` (m/s, < 0 approaching) beyond ``threshold``, and a push this step (its
+    largest normal impulse ``pushed``, N s). Shared by the free bodies' pass and the tree's
+    (``contact_tree.restitution_tree_kernel``), for their normals and their friction alike."""
+    return e != 0.0 and not approach > -threshold and pushed != 0.0
+
+
 @njit(**JIT)
 def apply_restitution_kernel(body_a, body_b, normal, tangent1, tangent2, local_a, local_b, normal_mass, tangent_mass,
                              restitution, friction, surface_target, relative_velocity, max_normal_impulse, threshold,
@@ -761,7 +770,7 @@ def apply_restitution_kernel(body_a, body_b, normal, tangent1, tangent2, local_a
             again = False
             for c in range(i, end):
                 e = restitution[c]
-                if e == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0 or skip[c]:
+                if skip[c] or not bounces(e, relative_velocity[c], max_normal_impulse[c], threshold):
                     continue
                 ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])  # the last relax's, at these poses
                 rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
@@ -781,9 +790,8 @@ def apply_restitution_kernel(body_a, body_b, normal, tangent1, tangent2, local_a
         for _ in range(MANIFOLD_PASSES):
             again = False
             for c in range(i, end):
-                e = restitution[c]
-                if (e == 0.0 or friction[c] == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0
-                        or skip[c]):
+                if (skip[c] or friction[c] == 0.0
+                        or not bounces(restitution[c], relative_velocity[c], max_normal_impulse[c], threshold)):
                     continue
                 ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
                 rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])

@@ -47,7 +47,7 @@ from numba import njit, prange
 
 from ..math3d import JIT
 from .contact_anchor import _arms
-from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, friction_impulses_after, normal_impulse_after
+from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, bounces, friction_impulses_after, normal_impulse_after
 from .joint_math import _cross, _scale
 from .joint_tree import apply_row_response, bucket_by_group, movable, tree_row
 
@@ -222,7 +222,7 @@ def restitution_tree_kernel(contacts, body_a, body_b, normal, tangent1, tangent2
         for q in range(contacts.shape[0]):
             c = contacts[q]
             e = restitution[c]
-            if e == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0:
+            if not bounces(e, relative_velocity[c], max_normal_impulse[c], threshold):
                 continue
             mass = row_mass[3 * q]
             if mass == 0.0:
@@ -243,9 +243,8 @@ def restitution_tree_kernel(contacts, body_a, body_b, normal, tangent1, tangent2
         again = False
         for q in range(contacts.shape[0]):
             c = contacts[q]
-            e = restitution[c]
-            if (e == 0.0 or friction[c] == 0.0 or relative_velocity[c] > -threshold or max_normal_impulse[c] == 0.0
-                    or row_mass[3 * q] == 0.0):
+            if (friction[c] == 0.0 or row_mass[3 * q] == 0.0
+                    or not bounces(restitution[c], relative_velocity[c], max_normal_impulse[c], threshold)):
                 continue
             ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])
             rb = (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2])
