@@ -300,3 +300,32 @@ def test_the_live_viewer_hides_a_disabled_body_and_shows_it_again():
     finally:
         v.stop()
 
+
+
+def test_the_live_viewer_shows_a_switch_at_a_frames_time_as_the_take_does():
+    """A ball put in at t = 0.125 s (frame 3 at 24 per second) by a ``Switch``: the live view at
+    that frame shows it, as the recorded run's frame 3 does (``Trajectory.enabled``: the frame at
+    a switch's time shows it done). Before, the live view read ``World.disabled``, which the
+    switch changes only in the next step: the ball appeared a frame late."""
+    pytest.importorskip("viser")
+    from tumble.viewer import live
+
+    def make():
+        w = tb.World()
+        w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+        w.add_body(tb.Sphere(radius=0.1), mass=1.0, position=(1, 0, 0.5), name="ball", enabled=False)
+        w.add_force(tb.Switch("ball", enabled=True, time=0.125))
+        return tb.Simulator(w, dt=1 / 240)
+
+    take = make().run(duration=0.25, frame_rate=24)
+    ball = 1
+    assert list(take.enabled[:, ball][:5]) == [False, False, False, True, True]
+    v = live(make, port=0, play=False)
+    try:
+        shown = [v.body_shown(ball)]
+        for _ in range(4):
+            v.step_frame()
+            shown.append(v.body_shown(ball))
+        assert shown == list(take.enabled[:5, ball])
+    finally:
+        v.stop()

@@ -522,8 +522,11 @@ class LiveViewer(Viewer):
         return self.sim.world.body_types() == "fixed"
 
     def _shown(self, k: int) -> np.ndarray:
-        """(N,) bool: the bodies in the simulation now (``World.disabled`` False): the others are hidden."""
-        return ~np.asarray(self.sim.world.disabled, dtype=bool)
+        """(N,) bool: the bodies in the simulation now (``World.disabled`` False, with a ``Switch``
+        due at this time taken as done, as a recorded take shows it: ``Simulator.shown_disabled``):
+        the others are hidden. NOTE: why: ``World.disabled`` alone showed a scene's ``enable_at``
+        one frame later live than in the run's files (session 41's note)."""
+        return ~np.asarray(self.sim.shown_disabled(), dtype=bool)
 
     def _contact_data(self) -> tuple[bool, bool, str]:
         w = self.sim.world
