@@ -486,3 +486,51 @@ def test_robot_variants_batch_bit_for_bit(tmp_path, solver):
         batched = run_sweep(scene, vary=vary, workers=0, progress=False)
         single = run_sweep(scene, vary=vary, workers=0, progress=False, batch=False)
         assert batched["batch_size"].to_pylist() == [6] * 6 and tables_equal(batched, single, ignore=("wall_time_s", "batch_size"))
+
+
+BALL_AND_FREE_MJCF = """<mujoco>
+  <worldbody>
+    <body name="upper" pos="0 0 2">
+      <joint name="shoulder" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.05" mass="1"/>
+      <body name="lower" pos="0 0 -0.5">
+        <joint name="wrist" type="ball"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.05" mass="1"/>
+      </body>
+    </body>
+    <body name="puck" pos="1 0 1">
+      <freejoint name="loose"/>
+      <geom type="box" size="0.1 0.2 0.05" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_reset_joint_positions_keeps_the_ball_and_free_joints_not_named(tmp_path):
+    """``reset_joint_positions`` of one hinge keeps an MJCF model's ball and free joints where they
+    are: compared in MuJoCo's coordinates (``robot.kinematics.qpos``) before and after, the ball's
+    and the free body's quaternions up to sign. They went back to the model's pose (the ball at
+    identity, the free body at its file position): off by 0.6 rad and 1 m. Tolerance 1e-12: the
+    values only pass through rotation matrices and quaternions (rounding, about 1e-16)."""
+    path = tmp_path / "ball.xml"
+    path.write_text(BALL_AND_FREE_MJCF)
+    world = tb.World(gravity=(0, 0, -9.81))
+    robot = tb.load_mjcf(world, path)
+    sim = tb.Simulator(world, dt=1 / 240)
+    kin = robot.kinematics
+    qpos = kin.qpos()
+    slices = {c.name: c.qpos for c in kin.coordinates}
+    ball = np.array([np.cos(0.3), np.sin(0.3) * 0.6, 0.0, np.sin(0.3) * 0.8])
+    free = np.concatenate([[0.4, -0.7, 1.3], [np.cos(0.2), 0.0, np.sin(0.2), 0.0]])
+    qpos[slices["wrist"]] = ball
+    qpos[slices["loose"]] = free
+    kin.set_state(qpos, sim=sim)
+    robot.reset_joint_positions(sim, {"shoulder": 0.5})
+    after = kin.qpos()
+    assert after[slices["shoulder"]][0] == pytest.approx(0.5, abs=1e-12)
+    for name, expected in (("wrist", ball), ("loose", free)):
+        got = after[slices[name]]
+        if got[-4:] @ expected[-4:] < 0:  # q and -q are one rotation
+            got = np.concatenate([got[:-4], -got[-4:]])
+        np.testing.assert_allclose(got, expected, atol=1e-12, err_msg=name)

@@ -238,12 +238,21 @@ class Robot:
     def reset_joint_positions(self, sim, positions: dict):
         """Put the robot at joint ``positions`` ({joint: rad or m}; the hinges and sliders not named
         keep their positions: ``joint_states``, the last step's readings or, before the first step or
-        with ``sim`` None, the present pose's) with its base where it is, every body of the robot at
+        with ``sim`` None, the present pose's; an MJCF model's ball and free joints keep their
+        present rotation and offset) with its base where it is, every body of the robot at
         rest: PyBullet's ``resetJointState``, for all the joints at once. Takes effect now; the joint
         solver's warm-start impulses of the robot's joints are cleared (they belonged to the old pose)."""
         given = _joint_values(self.model, positions, "positions", f"robot {self.name!r}")
         current = {name: state[0] for name, state in self.joint_states(sim).items()}
         current.update(given)
+        # a ball or free joint (MJCF) keeps its present motion too: its child's frame in the
+        # joint's zero frame, read from the poses. NOTE: why: _link_frames put every joint not in
+        # ``current`` at its zero, and only hinges and sliders have a coordinate there: a robot's
+        # ball joints went back to the model's pose at every reset (noted in session 41).
+        for j in self.model.joints:
+            if j.kind in ("spherical", "floating") and j.parent in self.links and j.child in self.links:
+                zero = _compose(self.link_pose(j.parent), j.origin)
+                current[j.name] = _relative(zero, self.link_pose(j.child))
         base = self.link_pose(self.model.root)
         _place(self.world, self, _link_frames(self.model, base, current), self.owners)
         world = self.world
@@ -374,7 +383,8 @@ def _joint_motion(joint: UrdfJoint, q: float):
 
 def _link_frames(model: UrdfModel, base, joint_positions: dict) -> dict:
     """{link: (position, rotation)} world, with ``base`` the root's frame and the joints at
-    ``joint_positions`` (0 where not given)."""
+    ``joint_positions`` (0 where not given): {joint: rad or m}, or for a ball or free joint its
+    child's frame in the joint's zero frame, (position (3,) m, rotation (3, 3))."""
     frames = {model.root: base}
     by_parent: dict[str, list] = {}
     for j in model.joints:
@@ -384,7 +394,8 @@ def _link_frames(model: UrdfModel, base, joint_positions: dict) -> dict:
         parent = todo.pop()
         for j in by_parent.get(parent, []):
             zero = _compose(frames[parent], j.origin)
-            frames[j.child] = _compose(zero, _joint_motion(j, joint_positions.get(j.name, 0.0)))
+            q = joint_positions.get(j.name, 0.0)
+            frames[j.child] = _compose(zero, q if isinstance(q, tuple) else _joint_motion(j, q))
             todo.append(j.child)
     return frames
 
