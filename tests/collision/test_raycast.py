@@ -87,6 +87,25 @@ def test_capsule_end_cap_and_cylinder_cap_and_cone_base():
     np.testing.assert_allclose(hits.normal[1:], [[0, 0, -1.0], [0, 0, -1.0]], atol=1e-12)
 
 
+def test_rays_on_and_near_a_cones_axis_meet_its_base_from_below_and_its_apex_from_above():
+    """A cone's axis is inside it from the base up to the apex, yet the quadratic of its side has
+    a double root there (the apex): rays up the axis from below (and 1e-9 m, 1e-9 rad and 1e-12
+    rad off it, where rounding gives the same double root) meet the base at 5 m with normal -z;
+    they went through the base and hit the apex from inside at 6 m with normal +z (an audit of the
+    scene queries, session 42). Down the axis from above: the apex at 4 m, normal +z. A ray
+    steeper than the side through the apex from below and aside (x = 0.2 at the base, 10 degrees
+    off the axis) enters by the base too. Closed forms in float64: 1e-12 m."""
+    w = tb.World()
+    w.add_body(tb.Cone(radius=0.5, height=1.0), fixed=True)
+    tilt = np.radians(10.0)
+    origins = [(0, 0, -5), (1e-9, 0, -5), (0, 0, -5), (0, 0, -5), (0, 0, 5), (0.2 - 5 * np.tan(tilt), 0, -5)]
+    directions = [(0, 0, 1), (0, 0, 1), (1e-9, 0, 1), (0, 1e-12, 1), (0, 0, -1), (np.sin(tilt), 0, np.cos(tilt))]
+    hits = w.ray_cast(origins, directions)
+    assert list(hits.hit) == [True] * 6
+    np.testing.assert_allclose(hits.distance, [5, 5, 5, 5, 4, 5 / np.cos(tilt)], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(hits.normal, [[0, 0, -1]] * 4 + [[0, 0, 1], [0, 0, -1]], atol=1e-12)
+
+
 def test_rotated_box_and_plane_at_an_angle():
     """A unit cube turned 45 degrees about x: a ray down its middle meets the top edge at
     z = c + sqrt(2) / 2 (entering by the face that faces the ray, a normal of the two at 45
