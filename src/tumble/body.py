@@ -66,6 +66,9 @@ class Body:
         except InputError as err:
             raise err.within("collision_filter") from None
         self.world.filter_version += 1
+        # NOTE: why: a sleeping body kept its island's resting contacts under a filter that no
+        # longer lets them touch, and hovered (Box2D's b2Shape_SetFilter wakes too; session 42's audit)
+        self.world.wake_requests.add(self.index)
 
     fixed = property(lambda self: not (self.world.moving[self.index] or self.world.kinematic[self.index]))
     type = property(lambda self: self.world.body_type(self.index),

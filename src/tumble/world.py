@@ -598,6 +598,7 @@ class World:
             raise InputError(f"a body cannot be excluded from itself ({self.names[a]!r})", "body_b")
         self.excluded_collisions.add((min(a, b), max(a, b)))
         self.filter_version += 1
+        self.wake_requests.update((a, b))  # a sleeping pair must let go of its kept contacts (as a filter change)
 
     def set_material(self, body, material):
         """Give ``body`` (a ``Body``, name or index) another ``Material`` (or a mapping with its

@@ -213,3 +213,36 @@ def test_a_bullet_through_a_thin_sensor_is_seen_in_the_step_it_crosses(speed):
     assert ev.end_visitor.tolist() == [bullet.index]
     assert ev.begin_time[0] == pytest.approx(t_cross, abs=1e-12) and ev.end_time[0] == pytest.approx(t_cross, abs=1e-12)
     np.testing.assert_allclose(traj.position[:, bullet.index, 0], speed * traj.time, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("far_pair", [False, True])
+@pytest.mark.parametrize("change", ["disabled", "fixed", "mask 0"])
+def test_a_zones_only_visitor_taken_away_ends_its_overlap(change, far_pair):
+    """A zone and the one crate inside it (no gravity); the crate disabled, made fixed or given a
+    filter that no longer meets the zone's, between steps: the zone reports no visitor and one end
+    event (docs/contact.md: sensors see dynamic and kinematic bodies as the filters allow; a
+    disabled body overlaps nothing). Before, with nothing else in the world that could touch, the
+    run took the free flight, which never looked at the sensors again: the zone kept its visitor
+    and no end event came (the despawned player never left the trigger); with a far pair of balls
+    it was right."""
+    w = tb.World(gravity=(0, 0, 0))
+    zone = w.add_body(tb.Box(size=(1, 1, 1)), fixed=True, sensor=True, name="zone")
+    crate = w.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, name="crate")
+    if far_pair:
+        w.add_body(tb.Sphere(0.1), mass=1.0, position=(10, 0, 0))
+        w.add_body(tb.Sphere(0.1), mass=1.0, position=(10, 0, 0.19))
+    sim = tb.Simulator(w)
+    sim.step(10)
+    assert list(sim.sensor_overlaps(zone)) == [crate.index]
+    sim.sensor_events()
+    if change == "disabled":
+        crate.enabled = False
+    elif change == "fixed":
+        crate.type = "fixed"
+    else:
+        crate.collision_filter = {"mask": 0}
+    sim.step(10)
+    assert list(sim.sensor_overlaps(zone)) == []
+    events = sim.sensor_events()
+    assert list(events.end_visitor) == [crate.index]
+    assert len(events.begin_visitor) == 0

@@ -106,3 +106,55 @@ def test_a_box_woken_and_asleep_elsewhere_reports_only_the_contacts_it_rests_on_
     c = sim.contacts()
     assert set(c.body_a.tolist()) == {0}
     assert c.force[:, 2].sum() == pytest.approx(9.81, rel=1e-3)
+
+
+G = 9.81
+
+
+def ball_asleep_on_a_platform(far_pair: bool):
+    """A 0.2 m ball asleep on a fixed 1 x 1 x 0.2 m platform (600 steps), the ground 3 m below;
+    with ``far_pair`` a second ball resting on the ground 5 m away, so that some pair can still
+    touch after the ball's and the platform's can no longer."""
+    w = tb.World(gravity=(0, 0, -G))
+    w.add_body(tb.Plane(), fixed=True, position=(0, 0, -3), name="ground")
+    w.add_body(tb.Box(size=(1, 1, 0.2)), fixed=True, name="platform")
+    w.add_body(tb.Sphere(0.2), mass=1.0, position=(0, 0, 0.3), name="ball")
+    if far_pair:
+        w.add_body(tb.Sphere(0.2), mass=1.0, position=(5, 0, -2.8), name="far")
+    sim = tb.Simulator(w, dt=DT, contact_events=True)
+    sim.step(600)
+    assert not sim.sleep.awake[w.index_of("ball")]
+    return w, sim
+
+
+@pytest.mark.parametrize("far_pair", [True, False])
+@pytest.mark.parametrize("change", ["ball mask 0", "platform category 0", "exclude"])
+def test_a_filter_change_under_a_sleeping_body_lets_it_fall(change, far_pair):
+    """A filter or an exclusion that parts a sleeping ball from its platform, between steps: the
+    ball falls freely, z0 - g t^2 / 2 after t = 0.25 s (to 1e-9 m: the steps are exact for
+    constant gravity but for the semi-implicit update's dt g t / 2, 5e-3 m here, which the
+    reference takes from a run of the same ball alone with no platform), awake, with no contact
+    reported and one end event. Box2D's b2Shape_SetFilter wakes the body. Before, the ball hovered
+    asleep on its kept contacts (with a pair elsewhere), or fell flagged asleep still reporting its
+    platform contact 4.6 m away (alone: the free flight of a world where nothing can touch)."""
+    w, sim = ball_asleep_on_a_platform(far_pair)
+    ball, platform = w.index_of("ball"), w.index_of("platform")
+    z0 = w.x[ball, 2]
+    sim.contact_events()
+    if change == "ball mask 0":
+        w.body(ball).collision_filter = {"mask": 0}
+    elif change == "platform category 0":
+        w.body(platform).collision_filter = {"category": 0}
+    else:
+        w.exclude_collision("platform", "ball")
+    sim.step(60)
+    alone = tb.World(gravity=(0, 0, -G))
+    alone.add_body(tb.Sphere(0.2), mass=1.0, position=(0, 0, z0))
+    tb.Simulator(alone, dt=DT).step(60)
+    assert w.x[ball, 2] == pytest.approx(alone.x[0, 2], abs=1e-9)
+    assert w.x[ball, 2] < z0 - 0.25
+    assert sim.sleep.awake[ball]
+    c = sim.contacts()
+    assert not np.any((c.body_a == ball) | (c.body_b == ball))
+    ends = sim.contact_events()
+    assert sorted(zip(ends.end_body_a, ends.end_body_b)) == [(platform, ball)]

@@ -443,6 +443,19 @@ class SleepState:
         found on a sleeping body at ``update`` wakes it as well.
         """
         mask = self._mask(bodies)
+        # the sleepers resting on a woken body wake with it: a fixed body (a shelf, a platform) is
+        # in no island. NOTE: why: a fixed platform's filter changed under a ball asleep on it
+        # left the ball hovering on its kept contacts (session 42's audit); a moving body's
+        # resting partners are in its island already.
+        a, b = self.resting["body_a"], self.resting["body_b"]
+        if len(a):
+            n = self.body_count
+            ia, ib = (a >= 0) & (a < n), (b >= 0) & (b < n)
+            touching = np.zeros(len(a), dtype=bool)
+            touching[ia] |= mask[a[ia]]
+            touching[ib] |= mask[b[ib]]
+            mask[a[touching & ia]] = True
+            mask[b[touching & ib]] = True
         islands = np.unique(self.sleeping_island[mask & ~self.awake])
         mask |= np.isin(self.sleeping_island, islands[islands >= 0])
         self.awake[mask] = True
