@@ -431,6 +431,66 @@ def _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind
     return v, omega, F, T
 
 
+# The splitting's closing half-kick P = P_half + h/2 F(x, P) is solved by fixed-point iteration
+# when a force reads the velocities: at most this many passes (each contracts by h c / 2m for a
+# linear damping c: 0.02 at a rate of 10/s and dt 1/240, converged in 9 passes).
+KICK_ITERATIONS = 32
+
+
+@njit(**JIT, inline="always")
+def _reads_velocity(i, uforce_kind, uforce_start):
+    """Whether a force row of body i reads its velocities (drag, wind, fluid, damping)."""
+    for r in range(uforce_start[i], uforce_start[i + 1]):
+        kind = uforce_kind[r]
+        if kind == UFORCE_DRAG or kind == UFORCE_FLUID or kind == UFORCE_DAMPING:
+            return True
+    return False
+
+
+@njit(**JIT, inline="always")
+def _closing_kick(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start, h):
+    """The splitting's closing half-kick (P, L) + h (F, tau) with the forces of its END momenta,
+    solved by fixed-point iteration when a force reads the velocities (else one explicit kick:
+    the forces do not depend on P, L and the two are the same).
+
+    NOTE: why: the opening kick is explicit Euler E(h/2) on the momenta; closing with its adjoint,
+    implicit Euler E*(h/2), makes E*(h/2) o drift(h) o E(h/2) symmetric, hence of order 2 and
+    Yoshida's composition of order 4 (Hairer, Lubich and Wanner, Geometric Numerical
+    Integration, II.3 and V.3: the Stormer-Verlet scheme of a non-separable system). Two
+    explicit kicks were not symmetric under drag or damping: both splittings measured order 1
+    (a course audit, session 42). Where the iteration does not contract (h c / 2m >= 1 for a
+    damping c) the explicit kick is kept, as before."""
+    F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
+    P0, L0 = _kick(P, L, F, T, h)
+    if not _reads_velocity(i, uforce_kind, uforce_start):
+        return P0, L0
+    P1, L1 = P0, L0
+    last = math.inf
+    for _ in range(KICK_ITERATIONS):
+        F, T = _kick_forces(layout, i, x, o, P1, L1, mass, inv_mass, ib, gravity, uforce_kind, uforce_param,
+                            uforce_start)
+        P2, L2 = _kick(P, L, F, T, h)
+        change = _kick_change(P1, L1, P2, L2, P, L)
+        P1, L1 = P2, L2
+        if change <= 4.0 * 2.220446049250313e-16:
+            return P1, L1
+        if change >= last:  # not contracting: the explicit kick (rounding near the root is below 1e-12)
+            return (P1, L1) if change <= 1e-12 else (P0, L0)
+        last = change
+    return P1, L1
+
+
+@njit(**JIT, inline="always")
+def _kick_change(P1, L1, P2, L2, P, L):
+    """The larger of |P2 - P1| and |L2 - L1| relative to the momenta the kick starts from and
+    gives (P, L and P2, L2; max norms; 0 where a change is 0)."""
+    dP = max(abs(P2[0] - P1[0]), abs(P2[1] - P1[1]), abs(P2[2] - P1[2]))
+    dL = max(abs(L2[0] - L1[0]), abs(L2[1] - L1[1]), abs(L2[2] - L1[2]))
+    sP = max(abs(P2[0]), abs(P2[1]), abs(P2[2]), abs(P[0]), abs(P[1]), abs(P[2]))
+    sL = max(abs(L2[0]), abs(L2[1]), abs(L2[2]), abs(L[0]), abs(L[1]), abs(L[2]))
+    return max(dP / sP if dP > 0.0 else 0.0, dL / sL if dL > 0.0 else 0.0)
+
+
 @njit(**JIT, inline="always")
 def _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start):
     """F, T for a kick, which needs no velocities: under gravity alone (no rows of its

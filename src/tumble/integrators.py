@@ -42,12 +42,15 @@ from numba.extending import overload
 
 from .body_motion import LAYOUT_IDS, LAYOUT_QUATERNION, STATE_WIDTH  # noqa: F401 (re-exported: World, Scene, the tests)
 from .body_motion import (  # one body in registers
+    KICK_ITERATIONS,
     LAYOUT_MATRIX,
     _axpy,
     _body_forces,
     _derivative,
     _drift,
     _kick,
+    _closing_kick,
+    _kick_change,
     _kick_forces,
     _load,
     _mat9,
@@ -56,6 +59,7 @@ from .body_motion import (  # one body in registers
     _unary_forces,
     _velocities,
 )
+from .forces import UFORCE_DAMPING, UFORCE_DRAG, UFORCE_FLUID
 from .math3d import JIT, matrix_to_quat_into, world_inertia_into
 
 (
@@ -204,8 +208,8 @@ def _step_splitting(n_sub, layout, h, i, x, o, P, L, mass, inv_mass, ib, pq, pm,
         F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
         P, L = _kick(P, L, F, T, 0.5 * hh)
         x, o = _drift(layout, True, hh, x, o, P, L, inv_mass, ib, pq, pm)
-        F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
-        P, L = _kick(P, L, F, T, 0.5 * hh)
+        P, L = _closing_kick(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param,
+                             uforce_start, 0.5 * hh)
     return x, o, P, L
 
 
@@ -511,14 +515,14 @@ def _all_semi_implicit_euler(integrator, layout, h, Y, mass, inv_mass, inertia_b
 
 def _all_splitting(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
         uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
-    _split_step(layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+    _split_step(layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, Y1, K)
 
 
 def _all_splitting4(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
         uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Y1, K, Kacc, Rs, vs, omegas, F, T):
     for sub in range(3):
         hh = _YOSHIDA_W0 * h if sub == 1 else _YOSHIDA_W1 * h
-        _split_step(layout, hh, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+        _split_step(layout, hh, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, Y1, K)
 
 
 def _one_step(integrator, layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
@@ -544,14 +548,57 @@ def _one_step_overload(integrator, layout, h, Y, mass, inv_mass, inertia_body_in
 @njit(**JIT)
 def _split_step(
     layout, h, Y, mass, inv_mass, inertia_body_inv, principal_q, principal_moments, moving, gravity,
-    uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T,
+    uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T, Y1, K,
 ):
-    """Kick (h/2) - drift (h, exact free rotation) - kick (h/2): Strang splitting of forces and free motion."""
+    """Kick (h/2) - drift (h, exact free rotation) - kick (h/2): Strang splitting of forces and
+    free motion; the closing kick with the forces of its end momenta when a force reads the
+    velocities (``body_motion._closing_kick``: fixed-point iteration over all bodies, a damped
+    spring coupling two). Y1, K (N, W): scratch."""
     accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
     kick_kernel(layout, Y, moving, F, T, 0.5 * h)
     drift_kernel(layout, Y, moving, inv_mass, inertia_body_inv, principal_q, principal_moments, True, h)
     accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+    reads_velocity = False
+    for r in range(uforce_kind.shape[0]):
+        kind = uforce_kind[r]
+        if kind == UFORCE_DRAG or kind == UFORCE_FLUID or kind == UFORCE_DAMPING:
+            reads_velocity = True
+    for s in range(spring_param.shape[0]):
+        if spring_param[s, 1] != 0.0:  # a damped spring
+            reads_velocity = True
+    if not reads_velocity:
+        kick_kernel(layout, Y, moving, F, T, 0.5 * h)
+        return
+    Y1[:, :] = Y  # the momenta the closing kick starts from
     kick_kernel(layout, Y, moving, F, T, 0.5 * h)
+    K[:, :] = Y  # the explicit kick: kept where the iteration does not contract
+    # each body stops as ``_closing_kick`` stops it (the same tests): the bits of a body alone
+    n = Y.shape[0]
+    done = ~moving
+    last = np.full(n, np.inf)
+    for _ in range(KICK_ITERATIONS):
+        accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
+        remaining = False
+        for i in range(n):
+            if done[i]:
+                continue
+            x, o, P, L = _load(layout, Y1, i)
+            x1, o1, P1, L1 = _load(layout, Y, i)
+            P2, L2 = _kick(P, L, (F[i, 0], F[i, 1], F[i, 2]), (T[i, 0], T[i, 1], T[i, 2]), 0.5 * h)
+            change = _kick_change(P1, L1, P2, L2, P, L)
+            _store(layout, Y, i, x1, o1, P2, L2)
+            if change <= 4.0 * 2.220446049250313e-16:
+                done[i] = True
+            elif change >= last[i]:
+                done[i] = True
+                if change > 1e-12:
+                    x0, o0, P0, L0 = _load(layout, K, i)
+                    _store(layout, Y, i, x1, o1, P0, L0)
+            else:
+                last[i] = change
+                remaining = True
+        if not remaining:
+            return
 
 
 _STEP_ALL = {kind: _step_kernels(kind) for kind in

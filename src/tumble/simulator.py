@@ -778,8 +778,35 @@ class Simulator:
             forces(t0, Y)
             K.kick_kernel(layout, Y, moving, s.F, s.T, 0.5 * hh)
             K.drift_kernel(layout, Y, moving, w.inv_mass, w.inertia_body_inv, w.principal_q, w.principal_moments, True, hh)
-            forces(t0 + hh, Y)
-            K.kick_kernel(layout, Y, moving, s.F, s.T, 0.5 * hh)
+            closing_kick(t0 + hh, 0.5 * hh)
+
+        def closing_kick(t1, half):
+            """P, L += half (F, tau) with the forces of the end momenta: fixed-point iteration,
+            each body stopped by ``integrators._split_step``'s tests (its bits), for forces that
+            may read the velocities (a callable's are not known; one that does not gives the
+            explicit kick's bits at the first pass)."""
+            start = Y[:, -6:].copy()
+            forces(t1, Y)
+            K.kick_kernel(layout, Y, moving, s.F, s.T, half)
+            explicit = Y[:, -6:].copy()
+            going = np.asarray(moving, dtype=bool).copy()
+            last = np.full(len(Y), np.inf)
+            for _ in range(K.KICK_ITERATIONS):
+                if not going.any():
+                    return
+                forces(t1, Y)
+                rows = np.flatnonzero(going)
+                new = start[rows].copy()
+                new[:, :3] += half * s.F[rows]
+                new[:, 3:] += half * s.T[rows]
+                change = _kick_change(Y[rows, -6:], new, start[rows])
+                Y[rows, -6:] = new
+                converged = change <= 4.0 * np.finfo(float).eps
+                stalled = ~converged & (change >= last[rows])
+                back = rows[stalled & (change > 1e-12)]
+                Y[back, -6:] = explicit[back]
+                going[rows[converged | stalled]] = False
+                last[rows] = change
 
         integ = self.integrator_id
         for _ in range(n * self.substeps):
@@ -1126,3 +1153,16 @@ class Simulator:
                 "record_contacts": self.record_contacts, "record_joints": self.record_joints,
                 "contact_events": self._event_log is not None,
                 "joint_solver": None if self.joint_settings is None else dataclasses.asdict(self.joint_settings)}
+
+
+def _kick_change(old: np.ndarray, new: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """``body_motion._kick_change`` of each row: (B,) the larger change of P or L from ``old``
+    to ``new`` (B, 6) relative to the larger of ``new``'s and ``start``'s (max norms; 0 where a
+    change is 0)."""
+    worst = np.zeros(len(new))
+    for cols in (slice(0, 3), slice(3, 6)):
+        d = np.abs(new[:, cols] - old[:, cols]).max(axis=1)
+        scale = np.maximum(np.abs(new[:, cols]).max(axis=1), np.abs(start[:, cols]).max(axis=1))
+        rel = np.divide(d, scale, out=np.zeros_like(d), where=d > 0.0)
+        worst = np.maximum(worst, rel)
+    return worst
