@@ -158,3 +158,60 @@ def test_a_filter_change_under_a_sleeping_body_lets_it_fall(change, far_pair):
     assert not np.any((c.body_a == ball) | (c.body_b == ball))
     ends = sim.contact_events()
     assert sorted(zip(ends.end_body_a, ends.end_body_b)) == [(platform, ball)]
+
+
+def test_a_body_in_free_flight_never_sleeps_however_slow():
+    """No gravity: a box drifting at 2 cm/s and turning at 0.01 rad/s (both under the sleep
+    tolerances) with a second shape 17 m away: after 3 s it is at x = 0.06 m with its velocity
+    (free flight: exact but for rounding, 1e-12). Box2D's rule (any island under the tolerances
+    for 0.5 s sleeps) stopped it at 0.0099 m (a course audit, session 42): only an island held up
+    by something that does not move sleeps. And a ball on a soft spring to the world (k/m = 1
+    /s^2) started 1 mm from rest, its top speed 1 mm/s: it oscillates as -(1 + 0.001 cos t)
+    (1e-7 m: RK4 at dt 1/240 over 6 s; a spring does not hold an island up); it froze
+    stretched."""
+    w = tb.World(gravity=(0, 0, 0))
+    box = w.add_body(tb.Box((0.2, 0.6, 1.0)), mass=2.0, velocity=(0.02, 0, 0), angular_velocity=(0, 0, 0.01))
+    w.add_body(tb.Sphere(0.1), mass=1.0, position=(10, 10, 10))
+    sim = tb.Simulator(w, dt=DT)
+    sim.step(steps(3.0))
+    assert box.x[0] == pytest.approx(0.06, abs=1e-12)
+    np.testing.assert_allclose(box.v, [0.02, 0, 0], atol=1e-15)
+    assert sim.sleep.awake.all()
+
+    w = tb.World(gravity=(0, 0, 0))
+    ball = w.add_body(tb.Sphere(0.1), mass=1.0, position=(0, 0, -1.001))
+    w.add_force(tb.Spring(ball, None, anchor_b=(0, 0, 0), stiffness=1.0, rest_length=1.0))
+    w.add_body(tb.Sphere(0.1), mass=1.0, position=(5, 5, 5))
+    sim = tb.Simulator(w, dt=DT)
+    for t in (1.5, 3.0, 4.5, 6.0):
+        sim.step(steps(1.5))
+        assert ball.x[2] == pytest.approx(-(1 + 0.001 * np.cos(t)), abs=1e-7), t
+
+
+def test_what_holds_an_island_up_lets_it_sleep():
+    """A ball hanging at rest on a ball joint to the world falls asleep after TIME_TO_SLEEP (a
+    joint to the world holds it up), as a box at rest on the ground does (the tests above). And
+    two boxes asleep on the ground, one woken by an impulse: the other stays asleep on its four
+    kept ground contacts (``sim.contacts()`` reports them, summing m g to 1e-9 N). Before, waking a
+    box on the ground forgot every island's kept contacts with the ground."""
+    w = tb.World()
+    w.add_body(tb.Sphere(0.1), mass=1.0, position=(0, 0, 1.0), name="bob")
+    w.add_joint(tb.BallJoint("bob", None, anchor=(0, 0, 1.5)))
+    sim = tb.Simulator(w, dt=DT)
+    sim.step(steps(TIME_TO_SLEEP + 0.1))
+    assert not sim.sleep.awake[0]
+
+    w = tb.World()
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, name="ground")
+    a = w.add_body(tb.Box(size=(1, 1, 1)), mass=1.0, position=(0, 0, 0.5), name="a")
+    b = w.add_body(tb.Box(size=(1, 1, 1)), mass=2.0, position=(5, 0, 0.5), name="b")
+    sim = tb.Simulator(w, dt=DT)
+    sim.step(steps(TIME_TO_SLEEP + 0.1))
+    assert not sim.sleep.awake[1] and not sim.sleep.awake[2]
+    a.apply_impulse((0, 0, 1.0))
+    sim.step(1)
+    assert sim.sleep.awake[a.index] and not sim.sleep.awake[b.index]
+    c = sim.contacts()
+    on_b = (c.body_a == b.index) | (c.body_b == b.index)
+    assert np.count_nonzero(on_b) == 4
+    assert c.force[on_b].sum(axis=0)[2] == pytest.approx(2.0 * 9.81, abs=1e-9)

@@ -377,32 +377,56 @@ class SleepState:
             ``awake`` (N,) bool (the state's own array: copy it to keep it).
         """
         self.resize(world.body_count)
-        if extra_pairs is None or keep_awake is None:
-            pairs, driven = self._world_coupling(world)
-            extra_pairs = pairs if extra_pairs is None else extra_pairs
-            keep_awake = driven if keep_awake is None else keep_awake
+        pairs, driven = self._world_coupling(world)
+        extra_pairs = pairs if extra_pairs is None else extra_pairs
+        keep_awake = driven if keep_awake is None else keep_awake
         if also_awake is not None:
             keep_awake = np.asarray(keep_awake, dtype=bool) | also_awake
         moving = world.moving if moving is None else moving
         moving = np.ascontiguousarray(moving, dtype=np.bool_)
         _speeds_kernel(world.layout_id, Y, world.inv_mass, world.inertia_body_inv, moving, self.speed, self.angular_speed)
+        # what holds the islands up besides the step's contacts: the joints (to the world or to a
+        # fixed body) and the kept contacts of the sleeping islands (not collided again)
+        joints = pairs[:len(world.joints)]  # coupling_pairs: the joints' rows first, then the springs'
+        support = np.concatenate([joints, np.stack([self.resting["body_a"], self.resting["body_b"]], axis=1)
+                                  .astype(np.int64).reshape(-1, 2)])
         awake = self.update_arrays(moving, self.speed, self.angular_speed, contact_body_a, contact_body_b, dt,
-                                   extra_pairs, keep_awake)
+                                   extra_pairs, keep_awake, support)
         if self.fell_asleep.any():
             _zero_momenta_kernel(Y, self.fell_asleep)
         return awake
 
     def update_arrays(self, moving, speed, angular_speed, contact_body_a, contact_body_b, dt: float,
-                      extra_pairs=None, keep_awake=None) -> np.ndarray:
+                      extra_pairs=None, keep_awake=None, support_pairs=None) -> np.ndarray:
         """``update`` on plain arrays (no World, no state to zero): moving (N,) bool; speed,
         angular_speed (N,) m/s, rad/s; contacts (C,) int64; extra_pairs (K, 2) int64 or None;
-        keep_awake (N,) bool or None. The caller zeroes the velocities of ``fell_asleep``."""
+        keep_awake (N,) bool or None; support_pairs (S, 2) int64 (-1: the world) or None: with
+        them, only an island held up by something that does not move may sleep (below). The
+        caller zeroes the velocities of ``fell_asleep``."""
         n = len(moving)
         self.resize(n)
         moving = np.ascontiguousarray(moving, dtype=np.bool_)
         keep = self._no_driven if keep_awake is None else np.ascontiguousarray(keep_awake, dtype=np.bool_)
         _find_islands_kernel(_indices(contact_body_a), _indices(contact_body_b), _pairs(extra_pairs),
                              self.sleeping_island, moving, self.island)
+        if support_pairs is not None:
+            # Only an island that rests on something that does not move (a contact with a fixed or
+            # kinematic body, a joint to the world or to one) may sleep: a body in free flight
+            # keeps its momentum. NOTE: why: Box2D's rule (any island slower than the tolerances
+            # for 0.5 s) stopped a box drifting at 2 cm/s with no gravity, and froze a 1 mm
+            # spring oscillation in mid-air, in any world with a second shape (a course audit,
+            # session 42): sleeping is for bodies at rest on something. Springs do not hold up.
+            ends_a = np.concatenate([_indices(contact_body_a), support_pairs[:, 0]])
+            ends_b = np.concatenate([_indices(contact_body_b), support_pairs[:, 1]])
+            held = np.zeros(n, dtype=bool)
+            for this, other in ((ends_a, ends_b), (ends_b, ends_a)):
+                on = (this >= 0) & (this < n)
+                still = (other < 0) | (other >= n)
+                still[~still] = ~moving[other[~still]]
+                on &= still
+                on[on] = moving[this[on]]
+                held[self.island[this[on]]] = True
+            keep = keep | (moving & ~held[np.maximum(self.island, 0)])
         _update_sleep_kernel(self.island, moving, self.allow_sleep, keep,
                              np.ascontiguousarray(speed, dtype=float), np.ascontiguousarray(angular_speed, dtype=float),
                              float(dt), self.linear_tolerance, self.angular_tolerance, self.time_to_sleep, self.enabled,
@@ -454,8 +478,11 @@ class SleepState:
             touching = np.zeros(len(a), dtype=bool)
             touching[ia] |= mask[a[ia]]
             touching[ib] |= mask[b[ib]]
-            mask[a[touching & ia]] = True
-            mask[b[touching & ib]] = True
+            # only the sleepers: a woken brick's ground in the mask forgot every other island's
+            # contacts with the ground (a crate tower asleep far away lost what it rests on)
+            for ends, inside in ((a, ia), (b, ib)):
+                pick = ends[touching & inside]
+                mask[pick[self.sleeping_island[pick] >= 0]] = True
         islands = np.unique(self.sleeping_island[mask & ~self.awake])
         mask |= np.isin(self.sleeping_island, islands[islands >= 0])
         self.awake[mask] = True
