@@ -57,7 +57,7 @@ class Simulator:
         dt: internal step, s (default 1/240). For ``rk45``/``dop853`` it is
             only the interval at which impulses can act; their own step is adaptive.
         integrator: one of ``integrators.INTEGRATOR_IDS`` (default "rk4":
-            fourth order, 1e-6 rad after 10 s of a tumbling box at 1/240 s;
+            fourth order, 2e-8 rad after 10 s of a tumbling box at 1/240 s;
             see docs/integrators.md).
         substeps: each step is made of this many integrator steps of dt/substeps.
         rtol, atol: tolerances of the adaptive integrators (defaults 1e-10, 1e-12).

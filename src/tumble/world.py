@@ -1114,7 +1114,9 @@ class World:
         return (self.L[m] + np.cross(self.x[m], self.P[m])).sum(axis=0)
 
     def orthonormality_error(self) -> float:
-        """Largest |R^T R - 1| entry over all bodies (of the state orientation)."""
+        """How far the state's orientations are off SO(3), over all bodies: the largest
+        |R^T R - 1| entry (matrix layout) or the largest ||q|^2 - 1| (quaternion layout, whose R
+        is made from q and is orthonormal to rounding)."""
         if self.body_count == 0:
             return 0.0
         if self.layout == "quaternion":
