@@ -13,7 +13,9 @@ What maps to what:
   nested bodies their children. Its mass, centre and inertia: its ``<inertial>`` (``mass``, ``pos``,
   orientation, ``diaginertia`` or ``fullinertia``), else its geoms' (each of uniform ``density``,
   default 1000 kg/m^3, or of the given ``mass``; visual-only geoms included, as MuJoCo's
-  ``inertiafromgeom``), combined by the parallel-axis theorem.
+  ``inertiafromgeom``), combined by the parallel-axis theorem. A geom of ``density="0"`` or
+  ``mass="0"`` is massless, as MuJoCo compiles it (the visual geoms' idiom): it adds nothing; a
+  moving body with no mass (massless geoms, no ``<inertial>``) is one line, as MuJoCo refuses it.
 - ``<geom>``: ``sphere``, ``capsule``, ``cylinder`` (``size`` radius and half-length, or ``fromto``),
   ``box`` (half-sizes), ``ellipsoid`` (semi-axes: ``tb.Ellipsoid``), ``mesh`` (an ``<asset><mesh file scale>``, or
   inline ``vertex`` points: its convex hull, as MuJoCo collides meshes), ``plane`` (in ``<worldbody>``). ``friction``'s first number is the body's
@@ -774,12 +776,17 @@ def _mass_and_shapes(reader, element, cls, key, anchor, link: UrdfLink, out: Mjc
             link.parts.append((shape, position, R))
             surfaces.append(surface)
             out.masks.setdefault(link.name, []).append(_masks(a, gkey))
+        # the geom's mass (its ``mass``, else ``density``, MuJoCo's precedence); 0 is a massless geom, as
+        # MuJoCo compiles it (the visual geoms' ``density="0"`` idiom): it adds nothing to the body's
+        # mass, centre, inertia or inertial frame (refused as "must be positive" before)
+        attr = "mass" if "mass" in a else "density"
+        amount = float(_floats(a.get(attr, str(DEFAULT_DENSITY)), f"{gkey}.{attr}", (1,))[0])
+        if amount < 0.0:
+            raise InputError(f"must be >= 0, got {amount:g}", f"{gkey}.{attr}")
+        if amount == 0.0:
+            continue
         try:
-            if "mass" in a:
-                props = mass_properties(shape, mass=float(_floats(a["mass"], f"{gkey}.mass", (1,))[0]))
-            else:
-                density = float(_floats(a.get("density", str(DEFAULT_DENSITY)), f"{gkey}.density", (1,))[0])
-                props = mass_properties(shape, density=density)
+            props = mass_properties(shape, **{attr: amount})
         except InputError as err:
             raise err.within(gkey) from None
         terms.append((props.mass, position + R @ np.asarray(props.center), R @ np.asarray(props.inertia) @ R.T))

@@ -199,6 +199,77 @@ def test_settotalmass_scales_masses_and_inertias_as_mujoco_does(tmp_path):
         tb.load_mjcf(tb.World(), bad)
 
 
+
+MASSLESS = """
+<mujoco model="massless">
+  <compiler angle="radian" inertiafromgeom="{ifg}"/>
+  <default><default class="visual"><geom contype="0" conaffinity="0" density="0"/></default></default>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="h" axis="0 1 0"/>
+      <inertial pos="0.3 0 0" mass="1.5" diaginertia="0.01 0.02 0.03"/>
+      <geom class="visual" type="capsule" fromto="0 0 0 0.6 0 0" size="0.03"/>
+      <geom type="sphere" size="0.05" pos="0.6 0 0" mass="0"/>
+      <body name="hand" pos="0.6 0 0">
+        <joint name="s" type="slide" axis="1 0 0"/>
+        <geom type="box" size="0.04 0.05 0.06" pos="0.1 0 0" euler="0 0 0.4" density="2000"/>
+        <geom class="visual" type="box" size="0.2 0.2 0.2" euler="0.3 0 0"/>
+        <geom type="sphere" size="0.3" mass="0" density="500"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("ifg", ["auto", "true"])
+def test_massless_geoms_are_accepted_and_weigh_nothing_as_in_mujoco(tmp_path, ifg):
+    """``density="0"`` and ``mass="0"`` geoms (the visual geoms' idiom: contype 0, conaffinity 0,
+    density 0) are massless, as MuJoCo compiles them: they add nothing to their body's mass, centre
+    or inertia (nor to its inertial frame: the hand's lone massive box sets it, as in MuJoCo), with
+    an ``<inertial>`` (the arm) or without (the hand), and with ``inertiafromgeom`` "true" (the
+    arm's geoms all massless: its ``<inertial>`` holds, as MuJoCo's compiler keeps it). Compared with
+    MuJoCo's compiled model of the same file; tolerances as ``test_mass_properties_...`` (the same
+    closed forms in double precision). Before, both files stopped with "must be positive, got 0"."""
+    path = write(tmp_path, MASSLESS.format(ifg=ifg))
+    ref, _ = mujoco_bodies(path)
+    assert ref["arm"][0] == 1.5 and ref["hand"][0] == pytest.approx(2000 * 0.08 * 0.1 * 0.12, rel=1e-12)
+    world = tb.World(gravity=(0, 0, -G))
+    robot = tb.load_mjcf(world, path)
+    for name in ("arm", "hand"):
+        assert_mass_properties(robot.links[name], ref[name], name)
+    # the massless geoms that collide keep their shapes; the visual ones have none
+    assert len(robot.model.links["arm"].parts) == 1 and len(robot.model.links["hand"].parts) == 2
+
+
+@pytest.mark.parametrize("geoms, key, problem", [
+    ('<geom size="0.1" density="0"/>', "link[b]", "a link that moves needs an <inertial> with a mass > 0"),
+    ('<geom size="0.1" mass="0"/><geom size="0.1" pos="0 0 1" density="0"/>', "link[b]",
+     "a link that moves needs an <inertial> with a mass > 0"),
+    ('<geom size="0.1" density="-1"/>', "body[b].geom[0].density", "must be >= 0, got -1"),
+    ('<geom size="0.1" mass="-2"/>', "body[b].geom[0].mass", "must be >= 0, got -2"),
+])
+def test_a_moving_body_of_massless_geoms_alone_is_one_line_as_mujoco_refuses_it(tmp_path, geoms, key, problem):
+    """A moving body whose geoms are all massless and that has no ``<inertial>`` has no mass: one
+    line naming it, as MuJoCo's compiler refuses it ("mass and inertia of moving bodies must be
+    larger than mjMINVAL"); a negative mass or density is one line too (MuJoCo: "negative in
+    geom"). A massless body welded to a heavy child is fine in both (tumble merges them)."""
+    path = write(tmp_path, f'<mujoco><worldbody><body name="b"><joint/>{geoms}</body></worldbody></mujoco>')
+    with pytest.raises(ValueError):
+        mujoco.MjModel.from_xml_path(str(path))
+    with pytest.raises(tb.InputError) as info:
+        tb.load_mjcf(tb.World(), path)
+    line = str(info.value)
+    assert "\n" not in line and str(path) in line and key in line and problem in line, line
+    welded = write(tmp_path, '<mujoco><worldbody><body name="b"><joint/><geom size="0.1" density="0"/>'
+                             '<body name="c" pos="1 0 0"><geom size="0.1"/></body></body></worldbody></mujoco>',
+                   "welded.xml")
+    ref, _ = mujoco_bodies(welded)
+    robot = tb.load_mjcf(tb.World(), welded)
+    assert ref["b"][0] == 0.0 and robot.links["b"] is robot.links["c"]
+    assert robot.links["b"].mass == pytest.approx(ref["c"][0], rel=1e-12)
+
+
 CHAIN = """
 <mujoco model="chain">
   <compiler angle="radian"/>
