@@ -468,8 +468,8 @@ class _Copies:
         self.fresh[copies] = True
         placed = [self.kinematics[k]._place(qp, qv) for k, qp, qv in zip(copies, qpos, qvel)]
         self.world.update_derived()
-        for k, q in zip(copies, placed):
-            self.robots[k]._restart_warm_starts(self.sim, self.kinematics[k].positions(q))
+        for k, q, qv in zip(copies, placed, qvel):
+            self.robots[k]._restart_warm_starts(self.sim, self.kinematics[k].positions(q), self.kinematics[k].rates(qv))
         solver, rows = self._rows() if self._fast is not None else (None, None)
         if solver is not None:  # the readings a step would leave, for ``state``
             solver.position[rows[1][copies]] = qpos[:, self._fast["qpos_cols"]]

@@ -375,7 +375,7 @@ class Kinematics:
         readings count turns from these angles."""
         q = self._place(qpos, qvel)
         self.world.update_derived()
-        self.robot._restart_warm_starts(sim, self.positions(q))
+        self.robot._restart_warm_starts(sim, self.positions(q), None if qvel is None else self.rates(qvel))
 
     def _place(self, qpos, qvel) -> np.ndarray:
         """``set_state`` but for the world's derived quantities and the joint solver (the caller's:
@@ -416,6 +416,11 @@ class Kinematics:
         argument."""
         q = self._check(qpos, self.nq, "qpos")
         return {c.name: float(q[c.qpos][0]) for c in self.coordinates if c.kind in ONE_DOF}
+
+    def rates(self, qvel) -> dict:
+        """{joint: rate} of the hinges and sliders of ``qvel`` (nv,), rad/s or m/s."""
+        qd = self._check(qvel, self.nv, "qvel")
+        return {c.name: float(qd[c.qvel][0]) for c in self.coordinates if c.kind in ONE_DOF}
 
     def integrate(self, qpos, qvel, h: float = 1.0) -> np.ndarray:
         """(nq,) the positions reached from ``qpos`` moving at ``qvel`` (nv,) for ``h`` s (MuJoCo's

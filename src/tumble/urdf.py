@@ -264,13 +264,14 @@ class Robot:
         world.update_derived()
         self._restart_warm_starts(sim, current)
 
-    def _restart_warm_starts(self, sim, positions: dict):
+    def _restart_warm_starts(self, sim, positions: dict, rates: dict | None = None):
         """After the robot was put in a new state: clear the joint solver's warm-start impulses of its
         joints and the contact solver's of the contacts its bodies had (they belonged to the old
         state: a contact kept from the last step would start the next one with its old impulse, so
         an episode's bits would depend on the episode before), and set the readings of the joints in
-        ``positions`` ({joint: rad or m}: a hinge's angle is unwrapped around it). Nothing before
-        the first step."""
+        ``positions`` ({joint: rad or m}: a hinge's angle is unwrapped around it) and their rates
+        (``rates`` {joint: rad/s or m/s}, default 0: placed at rest; the last step's rate was
+        read after a reset, a robotics audit, session 42). Nothing before the first step."""
         soft = None if sim is None else sim.soft_step
         if soft is not None and soft.solver.old_count:
             # its moving bodies: its fixed ones (the floor of an MJCF file) may be shared (tumble.envs'
@@ -289,6 +290,7 @@ class Robot:
                 solver.armature_rate[j] = np.nan  # the new state's rates are those derived from its momenta
                 if name in positions:
                     solver.position[j] = positions[name]
+                    solver.rate[j] = 0.0 if rates is None else rates.get(name, 0.0)
 
     def _urdf_joint(self, joint) -> UrdfJoint:
         for j in self.model.joints:
@@ -296,7 +298,12 @@ class Robot:
                 return j
         raise InputError(f"unknown joint {joint!r} of robot {self.name!r}", "joint")
 
-    def _write(self, sim, joint, values: dict):
+    def _write(self, sim, joint, values: dict, fields: dict | None = None):
+        """Write parameter ``values`` {column: value} into the joint's rows (the record's and the
+        solver's) and ``fields`` {name: value} into its record as they are, unchecked and not
+        marked edited: the record says what acts (a later ``joint.motor_speed = None`` compares
+        with it; a checkpoint keeps it). NOTE: why: the record's fields stayed as loaded, so
+        ``motor_speed = None`` after ``set_motor`` changed nothing and the motor ran on."""
         record = self.joints.get(joint)
         if record is None or not isinstance(record, (HingeJoint, SliderJoint)):
             raise InputError(f"not a moving joint of robot {self.name!r}: {joint!r}", "joint")
@@ -307,6 +314,8 @@ class Robot:
         for row in rows:
             for column, value in values.items():
                 row[column] = value
+        for name, value in (fields or {}).items():
+            object.__setattr__(record, name, value)
         # its bodies woken at the next step (a sleeping robot follows a new control; Box2D's joint
         # setters wake too); the rows are written in both places already, so no record edit to take
         # (tumble.joints.mark_edited would have every step scan the joints for it)
@@ -317,12 +326,40 @@ class Robot:
     def set_motor(self, sim, joint: str, speed: float, max_force: float | None = None):
         """Velocity control (PyBullet's ``VELOCITY_CONTROL``): drive ``joint`` at ``speed`` rad/s or
         m/s with at most ``max_force`` N m or N (default: the URDF's effort, else unlimited).
-        Takes the place of the joint's friction; ``speed=None`` switches the motor off."""
-        limit = _force_limit(self._urdf_joint(joint), max_force)
+        Takes the place of the joint's friction and of a position target (``set_position_target``:
+        one control mode a joint, as PyBullet's; the joint's own damping and spring act again);
+        ``speed=None`` switches the motor off (the joint's friction, if its file gives one, acts
+        again)."""
+        uj = self._urdf_joint(joint)
+        limit = _force_limit(uj, max_force)
         if speed is None:
-            self._write(sim, joint, {P_MOTOR_ON: 0.0})
+            self._write(sim, joint, *self._friction_motor(joint))
         else:
-            self._write(sim, joint, {P_MOTOR_ON: 1.0, P_MOTOR_SPEED: float(speed), P_MAX_MOTOR: limit})
+            columns, fields = self._passive_drive(joint)
+            max_key = self._field(joint, "max_motor")
+            speed = _finite_float(speed, "speed")
+            self._write(sim, joint, {**columns, P_MOTOR_ON: 1.0, P_MOTOR_SPEED: speed, P_MAX_MOTOR: limit},
+                        {**fields, "motor_speed": speed, max_key: limit})
+
+    def _field(self, joint: str, stem: str) -> str:
+        """The record's field of ``stem`` (``max_motor``, ``max_drive``): _torque or _force."""
+        return f"{stem}_force" if isinstance(self.joints[joint], SliderJoint) else f"{stem}_torque"
+
+    def _friction_motor(self, joint: str) -> tuple[dict, dict]:
+        """(columns, fields) of the joint's friction as the file gives it (a motor of speed 0
+        limited to it), or of no motor."""
+        friction = self._urdf_joint(joint).friction
+        if friction == 0.0:
+            return {P_MOTOR_ON: 0.0}, {"motor_speed": None}
+        return ({P_MOTOR_ON: 1.0, P_MOTOR_SPEED: 0.0, P_MAX_MOTOR: friction},
+                {"motor_speed": 0.0, self._field(joint, "max_motor"): friction})
+
+    def _passive_drive(self, joint: str) -> tuple[dict, dict]:
+        """(columns, fields) of the joint's own damping and spring (its file's), uncapped."""
+        uj = self._urdf_joint(joint)
+        return ({P_STIFFNESS: uj.stiffness, P_DAMPING: uj.damping, P_TARGET: uj.target, P_MAX_DRIVE: math.inf},
+                {"stiffness": uj.stiffness, "damping": uj.damping, "target": uj.target,
+                 self._field(joint, "max_drive"): math.inf})
 
     def set_joint_torque(self, sim, joint: str, torque: float):
         """Torque control (PyBullet's ``TORQUE_CONTROL``): apply ``torque`` N m (a revolute joint) or
@@ -330,7 +367,9 @@ class Robot:
         opposite on its parent, until changed. Not clipped (as PyBullet; the URDF's effort is the
         motors' and drives' limit); any motor, drive or friction of the joint acts as well."""
         self._urdf_joint(joint)
-        self._write(sim, joint, {P_EFFORT: _finite(torque, "torque")})
+        torque = _finite(torque, "torque")
+        self._write(sim, joint, {P_EFFORT: torque},
+                    {"force" if isinstance(self.joints[joint], SliderJoint) else "torque": torque})
 
     def set_controls(self, sim, controls: dict):
         """MuJoCo's ``data.ctrl`` by actuator name ({name: value}; MJCF models), from the next step on:
@@ -352,8 +391,15 @@ class Robot:
         limit = _force_limit(self._urdf_joint(joint), max_force)
         if stiffness < 0 or damping < 0 or not (math.isfinite(stiffness) and math.isfinite(damping)):
             raise InputError("stiffness and damping must be finite and >= 0", "stiffness")
-        self._write(sim, joint, {P_STIFFNESS: float(stiffness), P_DAMPING: float(damping), P_TARGET: float(target),
-                                 P_MAX_DRIVE: limit})
+        # one control mode a joint (PyBullet's POSITION_CONTROL replaces VELOCITY_CONTROL): a motor
+        # of set_motor gives way to the joint's friction. NOTE: why: a running motor kept winning
+        # over the target (a robotics audit, session 42)
+        motor, motor_fields = self._friction_motor(joint)
+        target = _finite_float(target, "target")
+        self._write(sim, joint, {**motor, P_STIFFNESS: float(stiffness), P_DAMPING: float(damping), P_TARGET: target,
+                                 P_MAX_DRIVE: limit},
+                    {**motor_fields, "stiffness": float(stiffness), "damping": float(damping), "target": target,
+                     self._field(joint, "max_drive"): limit})
 
 
 # The frames' products are written without BLAS (math3d.mat_vec's note): a robot is placed with
@@ -573,6 +619,17 @@ def _moving_joint(known: dict, name, key: str, whose: str) -> UrdfJoint:
     if name not in known or known[name].kind not in MOVING_KINDS:
         raise InputError(f"not a revolute, continuous or prismatic joint of {whose}", key)
     return known[name]
+
+
+def _finite_float(value, key: str) -> float:
+    """``float(value)`` (NumPy scalars too), finite, else one InputError under ``key``."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"expected a finite number, got {value!r}", key) from None
+    if isinstance(value, bool) or not math.isfinite(number):
+        raise InputError(f"expected a finite number, got {value!r}", key)
+    return number
 
 
 def _finite(value, key: str, nonnegative: bool = False) -> float:

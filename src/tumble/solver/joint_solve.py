@@ -762,6 +762,47 @@ def warm_start_joints_kernel(joint_type, joint_a, joint_b, local_a, local_b, fra
 
 
 @njit(**NO_NRT)
+def clear_idle_impulses_kernel(joint_type, param, axial_impulse):
+    """Zero the accumulated impulses of the 1-D rows that are off (a motor, a spring or PD drive,
+    a ball's drive, limits), before a step's warm start.
+
+    NOTE: why: ``warm_start_joints_kernel`` applies every stored impulse, and a row is solved
+    (its impulse updated) only while it is on: a motor switched off at its force limit kept
+    pushing with it for ever (a rotor sped from 3.8 to 328 rad/s in 1 s; a pendulum held by a
+    motor or a PD drive never fell once they were off; found by a robotics audit, session 42).
+    Rows that are on keep theirs (the same bits)."""
+    for j in range(joint_type.shape[0]):
+        t = joint_type[j]
+        if t == JOINT_GEAR:  # its impulse is GEAR_COLUMN's, its own row
+            continue
+        p = param[j]
+        motor = p[P_MOTOR_ON] != 0.0
+        spring = p[P_STIFFNESS] != 0.0 or p[P_DAMPING] != 0.0
+        motor2 = p[P_MOTOR2_ON] != 0.0
+        ball_drive = t == JOINT_BALL and (p[P_BALL_STIFFNESS] != 0.0 or p[P_BALL_DAMPING] != 0.0)
+        if not motor:
+            axial_impulse[j, A_MOTOR] = 0.0
+        if not spring:
+            axial_impulse[j, A_SPRING] = 0.0
+        if not motor2:
+            axial_impulse[j, A_MOTOR2] = 0.0
+        if p[P_LIMIT_ON] == 0.0:
+            axial_impulse[j, A_LOWER] = 0.0
+            axial_impulse[j, A_UPPER] = 0.0
+        if p[P_LIMIT2_ON] == 0.0:
+            axial_impulse[j, A_LOWER2] = 0.0
+            axial_impulse[j, A_UPPER2] = 0.0
+        # (A_EQUAL and A_ARMATURE are left: the tree solve accumulates responses there for joints
+        # of no rigid length or armature too, joint_tree.py)
+        if not ball_drive:
+            for k in range(3):
+                axial_impulse[j, A_BALL_DRIVE + k] = 0.0
+        if not (motor or spring or motor2 or ball_drive):  # the anchor's share of those rows
+            for k in range(3):
+                axial_impulse[j, A_MOTOR_ANCHOR + k] = 0.0
+
+
+@njit(**NO_NRT)
 def joint_rates_kernel(joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, position,
                        x, R, v, omega,
                        # outputs

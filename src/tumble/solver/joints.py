@@ -122,6 +122,7 @@ from .joint_solve import (
     keep_armature_state_kernel,
     solve_joints_kernel,
     twist_angle,  # noqa: F401  (public here, as before the split)
+    clear_idle_impulses_kernel,
     warm_start_joints_kernel,
 )
 from .joint_stepper import (  # noqa: F401  (public here, as before the split: tests, docs/joints.md)
@@ -710,6 +711,8 @@ class JointSolver:
             self._build(joints)
         elif self._edits_seen != edit_count():  # a record edited since (tumble.joints.edit_joint)
             self.take_edits()
+        if self.count:  # rows switched off since the last step drop their impulses (edits and robot writes alike)
+            clear_idle_impulses_kernel(self.joint_type, self.param, self.axial_impulse)
         if self.settings.method == "tree":
             key = (self.count, world.body_count, bytes(world.moving), bytes(self.enabled))
             if key != self._tree_key:
