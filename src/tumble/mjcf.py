@@ -65,7 +65,11 @@ What maps to what:
   (``gaintype`` fixed, ``biastype`` none or affine, ``dyntype`` none), with ``gear``, ``ctrlrange`` and
   ``forcerange`` (when limited: ``ctrllimited``/``forcelimited`` true, or auto with the range
   given). The bias's stiffness and damping are a PD drive on the joint (implicit, capped by the
-  forcerange), the rest its target or, without stiffness, an applied torque or force. Refused:
+  forcerange), the rest its target or, without stiffness, an applied torque or force. The joint's
+  own ``damping`` and ``stiffness`` + ``springref`` act beside them, as MuJoCo's passive forces:
+  summed into the one drive (stiffness k + kp, damping c + kv, target (k springref + kp ctrl) /
+  (k + kp), recomputed by ``set_controls``); its cap, the forcerange, then holds the sum (MuJoCo
+  caps the actuator's force alone: the same until the actuator saturates; docs/robots.md). Refused:
   other gain, bias or activation types, a negative stiffness or damping, a forcerange on a damper
   without stiffness (a velocity actuator's: MuJoCo clips the sum). Other actuators (``intvelocity``,
   ``damper``, ``cylinder``, ``muscle``, ``adhesion``...) and those on sites are left off. Fixed
@@ -866,20 +870,32 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         for link_name, surface in parsed.materials.items():
             model.links[link_name].material = surface if margins else replace(surface, margin=0.0)
     # the actuators' springs and dampers, per joint: a PD drive (its target and the applied efforts are
-    # the controls': set for ctrl = 0 once the robot is built)
-    targets = {j: {"position": 0.0, "stiffness": kp, "damping": kv,
-                   **({} if math.isinf(limit) or kp == 0.0 else {"max_force": limit})}
-               for j, (kp, kv, limit) in parsed.drives.items() if kp > 0.0 or kv > 0.0}
-    targets.update(joint_targets or {})
+    # the controls': set for ctrl = 0 once the robot is built), the joint's own spring (stiffness to
+    # springref) and damper added: MuJoCo's passive forces act beside the actuators', and both are
+    # linear in q and q', so they sum into one drive (``mjcf_control.apply_controls``). They took the
+    # drive's place before (robot audit: a servoed joint's damping=1 rang undamped, a velocity
+    # actuator's rate ignored the joint's damper). The cap: the actuators' forcerange, on the sum
+    passive = {j.name: (j.stiffness, j.target, j.damping) for j in model.joints if j.name in parsed.drives}
+    targets = {}
+    for j, (kp, kv, limit) in parsed.drives.items():
+        if kp > 0.0 or kv > 0.0:
+            k, springref, c = passive[j]
+            targets[j] = {"position": springref, "stiffness": kp + k, "damping": kv + c,
+                          **({} if math.isinf(limit) or kp == 0.0 else {"max_force": limit})}
+    given = joint_targets or {}
+    targets.update(given)
     try:
         robot = _build(world, parsed, material, targets, position=position, orientation=orientation,
                        euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
                        collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors,
                        world_geoms=world_geoms, fluid=fluid, margins=margins)
+        # the file's drives' joints' own (stiffness, springref, damping), added to the actuators' by
+        # ``resolve_dampratios`` and ``apply_controls``; not the joints given ``joint_targets``
+        robot.joint_passive = {j: v for j, v in passive.items() if j in targets and j not in given}
         resolve_dampratios(robot)
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
-        apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in (joint_targets or {})})
+        apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in given})
         if keyframe is not None:
             robot.reset_to_keyframe(keyframe)
     except InputError as err:

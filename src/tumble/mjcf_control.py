@@ -56,7 +56,11 @@ class MjcfActuator:
     kp, bias (0, -kp, -kv); ``velocity``: gain kv, bias (0, 0, -kv); ``general``: gainprm[0],
     biasprm[:3] (affine) or none. On the joint: a stiffness k = -gear^2 b1 and damping c = -gear^2
     b2 (a PD drive, implicit), the rest gear (gain ctrl + b0) as the drive's target times k when
-    k > 0, else as an applied torque or force. ``ctrl``: the control now (MuJoCo's ``data.ctrl``,
+    k > 0, else as an applied torque or force. The joint's own spring (stiffness to springref) and
+    damper are added to that drive (MuJoCo's passive forces act beside the actuators': ``mjcf.load_mjcf``
+    sums the stiffnesses and dampings, ``apply_controls`` the targets, ``resolve_dampratios`` the
+    dampings; ``Robot.joint_passive``: {joint: (stiffness, springref, damping)} of the joints so
+    driven). ``ctrl``: the control now (MuJoCo's ``data.ctrl``,
     0 at the start; ``Robot.set_controls``). On a fixed tendon (length sum coef_i q_i) the force
     acts on each of its joints with the moment arm coef_i gear (MuJoCo's transmission): an applied
     torque or force on each (motors and bias-free general actuators only)."""
@@ -138,6 +142,7 @@ def apply_controls(robot, sim, controls: dict):
     touched = []
     for actuator, _ in given:
         touched += [j for j, _c in actuator.tendon] if actuator.tendon else [actuator.joint]
+    passive = getattr(robot, "joint_passive", {})
     for joint in dict.fromkeys(touched):
         on = [a for a in robot.actuators.values() if a.joint == joint]
         stiffness = sum(a.stiffness for a in on)
@@ -146,7 +151,11 @@ def apply_controls(robot, sim, controls: dict):
         effort += sum(c * a.drive() for a in robot.actuators.values() for j, c in a.tendon if j == joint)
         values = {P_EFFORT: effort}
         if stiffness > 0.0:
-            values[P_TARGET] = servo / stiffness
+            k, springref = passive.get(joint, (0.0, 0.0, 0.0))[:2]
+            # the servos' springs and the joint's own, one spring: -K (q - target) with K their sum and
+            # the target their weighted mean, (k springref + sum gear (gain ctrl + b0)) / K (MuJoCo's
+            # passive spring acts beside the actuators'; ``mjcf.load_mjcf`` summed their stiffnesses)
+            values[P_TARGET] = (servo + k * springref) / (stiffness + k) if k > 0.0 else servo / stiffness
         robot._write(sim, joint, values)
 
 
@@ -218,8 +227,11 @@ def resolve_dampratios(robot):
         for record in (a, a.given):
             if record is not None:
                 record.bias = (record.bias[0], record.bias[1], -kv)
+    passive = getattr(robot, "joint_passive", {})
     for joint in dict.fromkeys(a.joint for a in todo):
-        damping = sum(b.damping for b in robot.actuators.values() if b.joint == joint)
+        if joint not in passive:
+            continue  # given ``joint_targets``: the caller's drive (it took the actuators' damping before)
+        damping = sum(b.damping for b in robot.actuators.values() if b.joint == joint) + passive[joint][2]
         robot._write(None, joint, {P_DAMPING: damping})
 
 
