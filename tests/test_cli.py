@@ -243,6 +243,22 @@ def _tumble(*args, cwd):
     return subprocess.run([sys.executable, "-m", "tumble.cli", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
 
 
+def test_python_dash_m_tumble_is_the_command(tmp_path):
+    """``python -m tumble`` runs the command as the console script does (a reproducibility audit
+    found it missing: "No module named tumble.__main__"): validate answers, bad input is one line
+    and exit 2."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(SRC) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    good = subprocess.run([sys.executable, "-m", "tumble", "validate", str(_bad(tmp_path, "good.toml", SCENE))],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert good.returncode == 0 and good.stdout.endswith(": ok (2 bodies, 1 force, integrator rk4, duration 1 s)\n")
+    path = _bad(tmp_path, "bad.toml", SCENE.replace("mass = 2.0", "mass = true"))
+    bad = subprocess.run([sys.executable, "-m", "tumble", "validate", str(path)], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 2
+    assert bad.stderr == f"tumble: error: {path}: bodies[0].mass: expected a number, got true (a boolean)\n"
+
+
 def test_subprocess_demo_then_refuse_then_force(tmp_path):
     out = tmp_path / "demo"
     first = _tumble("demo", "--out", str(out), "--duration", "0.5", cwd=tmp_path)
