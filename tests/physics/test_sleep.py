@@ -164,11 +164,11 @@ def test_a_body_in_free_flight_never_sleeps_however_slow():
     """No gravity: a box drifting at 2 cm/s and turning at 0.01 rad/s (both under the sleep
     tolerances) with a second shape 17 m away: after 3 s it is at x = 0.06 m with its velocity
     (free flight: exact but for rounding, 1e-12). Box2D's rule (any island under the tolerances
-    for 0.5 s sleeps) stopped it at 0.0099 m (a course audit, session 42): only an island held up
-    by something that does not move sleeps. And a ball on a soft spring to the world (k/m = 1
-    /s^2) started 1 mm from rest, its top speed 1 mm/s: it oscillates as -(1 + 0.001 cos t)
-    (1e-7 m: RK4 at dt 1/240 over 6 s; a spring does not hold an island up); it froze
-    stretched."""
+    for 0.5 s sleeps) stopped it at 0.0099 m (a course audit, session 42): only an island held by
+    something that does not move sleeps. And two balls (1 kg each) on a soft spring (k = 0.5 N/m,
+    so the separation oscillates at sqrt(2 k / m) = 1 rad/s) started 1 mm from its rest length,
+    their speeds under 1 mm/s: held by nothing fixed, they oscillate on as 1 + 0.001 cos t (1e-7
+    m: RK4 at dt 1/240 over 6 s); they froze with the spring stretched."""
     w = tb.World(gravity=(0, 0, 0))
     box = w.add_body(tb.Box((0.2, 0.6, 1.0)), mass=2.0, velocity=(0.02, 0, 0), angular_velocity=(0, 0, 0.01))
     w.add_body(tb.Sphere(0.1), mass=1.0, position=(10, 10, 10))
@@ -179,18 +179,19 @@ def test_a_body_in_free_flight_never_sleeps_however_slow():
     assert sim.sleep.awake.all()
 
     w = tb.World(gravity=(0, 0, 0))
-    ball = w.add_body(tb.Sphere(0.1), mass=1.0, position=(0, 0, -1.001))
-    w.add_force(tb.Spring(ball, None, anchor_b=(0, 0, 0), stiffness=1.0, rest_length=1.0))
-    w.add_body(tb.Sphere(0.1), mass=1.0, position=(5, 5, 5))
+    a = w.add_body(tb.Sphere(0.1), mass=1.0, position=(0, 0, 0))
+    b = w.add_body(tb.Sphere(0.1), mass=1.0, position=(1.001, 0, 0))
+    w.add_force(tb.Spring(a, b, stiffness=0.5, rest_length=1.0))
     sim = tb.Simulator(w, dt=DT)
     for t in (1.5, 3.0, 4.5, 6.0):
         sim.step(steps(1.5))
-        assert ball.x[2] == pytest.approx(-(1 + 0.001 * np.cos(t)), abs=1e-7), t
+        assert b.x[0] - a.x[0] == pytest.approx(1 + 0.001 * np.cos(t), abs=1e-7), t
 
 
 def test_what_holds_an_island_up_lets_it_sleep():
     """A ball hanging at rest on a ball joint to the world falls asleep after TIME_TO_SLEEP (a
-    joint to the world holds it up), as a box at rest on the ground does (the tests above). And
+    joint to the world holds it up), as a box at rest on the ground does (the tests above) and a
+    weight on a spring to the world (tests/physics/test_force_edit.py). And
     two boxes asleep on the ground, one woken by an impulse: the other stays asleep on its four
     kept ground contacts (``sim.contacts()`` reports them, summing m g to 1e-9 N). Before, waking a
     box on the ground forgot every island's kept contacts with the ground."""

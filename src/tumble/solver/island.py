@@ -385,10 +385,9 @@ class SleepState:
         moving = world.moving if moving is None else moving
         moving = np.ascontiguousarray(moving, dtype=np.bool_)
         _speeds_kernel(world.layout_id, Y, world.inv_mass, world.inertia_body_inv, moving, self.speed, self.angular_speed)
-        # what holds the islands up besides the step's contacts: the joints (to the world or to a
-        # fixed body) and the kept contacts of the sleeping islands (not collided again)
-        joints = pairs[:len(world.joints)]  # coupling_pairs: the joints' rows first, then the springs'
-        support = np.concatenate([joints, np.stack([self.resting["body_a"], self.resting["body_b"]], axis=1)
+        # what holds the islands up besides the step's contacts: the joints and springs (to the
+        # world or to a fixed body) and the kept contacts of the sleeping islands (not collided again)
+        support = np.concatenate([pairs, np.stack([self.resting["body_a"], self.resting["body_b"]], axis=1)
                                   .astype(np.int64).reshape(-1, 2)])
         awake = self.update_arrays(moving, self.speed, self.angular_speed, contact_body_a, contact_body_b, dt,
                                    extra_pairs, keep_awake, support)
@@ -401,7 +400,7 @@ class SleepState:
         """``update`` on plain arrays (no World, no state to zero): moving (N,) bool; speed,
         angular_speed (N,) m/s, rad/s; contacts (C,) int64; extra_pairs (K, 2) int64 or None;
         keep_awake (N,) bool or None; support_pairs (S, 2) int64 (-1: the world) or None: with
-        them, only an island held up by something that does not move may sleep (below). The
+        them, only an island held by something that does not move may sleep (below). The
         caller zeroes the velocities of ``fell_asleep``."""
         n = len(moving)
         self.resize(n)
@@ -410,12 +409,12 @@ class SleepState:
         _find_islands_kernel(_indices(contact_body_a), _indices(contact_body_b), _pairs(extra_pairs),
                              self.sleeping_island, moving, self.island)
         if support_pairs is not None:
-            # Only an island that rests on something that does not move (a contact with a fixed or
-            # kinematic body, a joint to the world or to one) may sleep: a body in free flight
-            # keeps its momentum. NOTE: why: Box2D's rule (any island slower than the tolerances
-            # for 0.5 s) stopped a box drifting at 2 cm/s with no gravity, and froze a 1 mm
-            # spring oscillation in mid-air, in any world with a second shape (a course audit,
-            # session 42): sleeping is for bodies at rest on something. Springs do not hold up.
+            # Only an island held by something that does not move (a contact with a fixed or
+            # kinematic body, a joint or a spring to the world or to one) may sleep: a body in free
+            # flight keeps its momentum. NOTE: why: Box2D's rule (any island slower than the
+            # tolerances for 0.5 s) stopped a box drifting at 2 cm/s with no gravity, in any world
+            # with a second shape (a course audit, session 42): sleeping is for bodies at rest on
+            # or hanging from something.
             ends_a = np.concatenate([_indices(contact_body_a), support_pairs[:, 0]])
             ends_b = np.concatenate([_indices(contact_body_b), support_pairs[:, 1]])
             held = np.zeros(n, dtype=bool)
