@@ -124,7 +124,7 @@ class MjcfActuator:
 def apply_controls(robot, sim, controls: dict):
     """``Robot.set_controls``: set the actuators' ``ctrl`` and write each joint they drive (its
     drive target, its applied effort) from all its actuators."""
-    from .joints import P_EFFORT, P_TARGET
+    from .joints import P_EFFORT, P_TARGET, SliderJoint
 
     given = []
     for name, value in controls.items():
@@ -150,13 +150,17 @@ def apply_controls(robot, sim, controls: dict):
         effort = sum(a.drive() for a in on if a.stiffness == 0.0)
         effort += sum(c * a.drive() for a in robot.actuators.values() for j, c in a.tendon if j == joint)
         values = {P_EFFORT: effort}
+        # the record's fields too (``Robot._write``: the record says what acts; an edit of one of its
+        # fields rewrites the whole row from them)
+        fields = {"force" if isinstance(robot.joints.get(joint), SliderJoint) else "torque": effort}
         if stiffness > 0.0:
             k, springref = passive.get(joint, (0.0, 0.0, 0.0))[:2]
             # the servos' springs and the joint's own, one spring: -K (q - target) with K their sum and
             # the target their weighted mean, (k springref + sum gear (gain ctrl + b0)) / K (MuJoCo's
             # passive spring acts beside the actuators'; ``mjcf.load_mjcf`` summed their stiffnesses)
-            values[P_TARGET] = (servo + k * springref) / (stiffness + k) if k > 0.0 else servo / stiffness
-        robot._write(sim, joint, values)
+            values[P_TARGET] = fields["target"] = \
+                (servo + k * springref) / (stiffness + k) if k > 0.0 else servo / stiffness
+        robot._write(sim, joint, values, fields)
 
 
 def _tendon_servos(out: MjcfModel):
@@ -232,7 +236,7 @@ def resolve_dampratios(robot):
         if joint not in passive:
             continue  # given ``joint_targets``: the caller's drive (it took the actuators' damping before)
         damping = sum(b.damping for b in robot.actuators.values() if b.joint == joint) + passive[joint][2]
-        robot._write(None, joint, {P_DAMPING: damping})
+        robot._write(None, joint, {P_DAMPING: damping}, {"damping": damping})
 
 
 def _limited(a: dict, flag: str, attr: str, key: str, reader):

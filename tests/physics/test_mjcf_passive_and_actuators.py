@@ -22,7 +22,7 @@ import pytest
 from scipy.linalg import expm
 
 import tumble as tb
-from tumble.joints import P_DAMPING, P_STIFFNESS, P_TARGET
+from tumble.joints import P_DAMPING, P_EFFORT, P_STIFFNESS, P_TARGET
 from tumble.solver.joints import ACCURATE
 
 mujoco = pytest.importorskip("mujoco")
@@ -175,7 +175,9 @@ def test_biased_general_dampratio_and_capped_servos_add_the_joints_spring_and_da
     actuator's force alone: the same while unreached, as here; docs/robots.md). Measured at dt
     1/240 from MuJoCo's RK4 and the closed form: 1.1e-3 m, 6.4e-4 rad, 4.7e-4 rad, 5.8e-3 rad over
     4 s (first order: a quarter at 1/960); before, off by 0.061 m, 0.099, 3.5 and 0.18 rad.
-    Tolerances about 2x; the settled values to 1e-4 (measured 1e-6)."""
+    Tolerances about 2x; the settled values to 1e-4 (measured 1e-6). And the joint record's
+    fields say what its solver row holds (the controls' target and effort, the dampratio's
+    damping: written into the row alone before)."""
     if case == "general":
         path = model(tmp_path, 'damping="3" stiffness="20" springref="0.1"',
                      '<general name="a" joint="h" gear="2" gainprm="10" biastype="affine" biasprm="0.5 -10 -1"/>',
@@ -210,6 +212,12 @@ def test_biased_general_dampratio_and_capped_servos_add_the_joints_spring_and_da
     row = robot.joints["h"].bound.param
     assert row[P_STIFFNESS] == pytest.approx(phases[0][1], rel=1e-12)
     assert row[P_DAMPING] == pytest.approx(phases[0][2], rel=1e-12)
+    # the record's fields say what its row holds (``Robot._write``: the record says what acts; the
+    # controls' target and effort and the dampratio's damping were written into the row alone)
+    record = robot.joints["h"]
+    effort = record.force if case == "general" else record.torque
+    assert (record.stiffness, record.damping, record.target, effort) == \
+        (row[P_STIFFNESS], row[P_DAMPING], row[P_TARGET], row[P_EFFORT])
 
 
 def test_joint_targets_keep_the_callers_drive_over_a_dampratio_servo(tmp_path):
