@@ -797,7 +797,7 @@ def clear_idle_impulses_kernel(joint_type, param, axial_impulse):
         if not ball_drive:
             for k in range(3):
                 axial_impulse[j, A_BALL_DRIVE + k] = 0.0
-        if not (motor or spring or motor2 or ball_drive):  # the anchor's share of those rows
+        if not (motor or spring or motor2 or ball_drive or p[P_ARMATURE] != 0.0):  # the anchor's share of those rows
             for k in range(3):
                 axial_impulse[j, A_MOTOR_ANCHOR + k] = 0.0
 
