@@ -55,8 +55,8 @@ from . import integrators as K
 from .errors import InputError
 from .scene_robots import RobotReader
 from .scene_bodies import BODY_KEYS, FORCE_KEYS, BodyReader  # noqa: F401 (the keys: sweep.spec reads them here)
-from .scene_values import _describe, _fmt, _one_line
-from .simulator import Simulator, steps_between
+from .scene_values import _describe, _fmt, _int_digits_problem, _one_line
+from .simulator import Simulator, check_step_count, steps_between
 from .solver.contact import SoftStepSettings
 from .trajectory import Trajectory
 from .usd_physics import USD_SUFFIXES
@@ -211,6 +211,8 @@ def load_scene(path) -> Scene:
             raise InputError(f"invalid TOML: {_one_line(str(exc))}", None, file) from None
         except RecursionError:
             raise InputError("invalid TOML: nested too deeply", None, file) from None
+        except ValueError as exc:  # Python's limit on the digits of an integer read from text
+            raise InputError(f"invalid TOML: {_int_digits_problem(exc)}", None, file) from None
     else:
         try:
             data = json.loads(text, object_pairs_hook=_no_duplicate_keys)
@@ -220,6 +222,8 @@ def load_scene(path) -> Scene:
             raise InputError(f"invalid JSON: duplicate key {exc.args[0]!r}", None, file) from None
         except RecursionError:
             raise InputError("invalid JSON: nested too deeply", None, file) from None
+        except ValueError as exc:  # Python's limit on the digits of an integer read from text
+            raise InputError(f"invalid JSON: {_int_digits_problem(exc)}", None, file) from None
     return parse_scene(data, file, path.parent, source=path)
 
 
@@ -309,6 +313,9 @@ def _check_settings(duration, frame_rate, dt, integrator, substeps, rtol, atol):
             raise InputError(f"must be positive, got {_fmt(v)}", f"simulation.{key}")
     if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise InputError(f"must be a whole number >= 1, got {_describe(substeps)}", "simulation.substeps")
+    # before the whole-steps tests: a run of absurdly many steps (substeps = 1e12, dt = 1e-300,
+    # duration = 1e308) is refused with the step count, not left to run for ever or overflow
+    check_step_count(duration, frame_rate, dt, substeps)
     period = 1.0 / frame_rate
     n = period / dt
     if abs(n - round(n)) > 1e-6 * max(1.0, n) or round(n) < 1:

@@ -29,6 +29,8 @@ def _describe(value) -> str:
     if isinstance(value, str):
         shown = value if len(value) <= 40 else value[:37] + "..."
         return f"{shown!r} (a string)"
+    if isinstance(value, int) and _digits(value) > 30:
+        return f"an integer of {_digits(value)} digits"
     if isinstance(value, (int, float)):
         return f"{value!r} (a number)"
     if isinstance(value, dict):
@@ -36,6 +38,25 @@ def _describe(value) -> str:
     if isinstance(value, list):
         return f"a list of {len(value)}"
     return f"{value!r} ({type(value).__name__})"
+
+
+# NOTE: whole numbers of a scene (counts, seeds, substeps) go to NumPy and compiled code as
+# 64-bit integers: a larger one overflowed there with a traceback (10**30 substeps)
+MAX_WHOLE = 2**63 - 1
+
+
+def _digits(value: int) -> int:
+    """Decimal digits of ``abs(value)`` (about; without ``str``, which refuses more than 4300)."""
+    return max(1, int(abs(value).bit_length() * 0.30103) + 1)
+
+
+def _int_digits_problem(exc: ValueError) -> str:
+    """The problem of a ValueError raised while reading a document's text: Python's limit on an
+    integer's digits (``sys.set_int_max_str_digits``) said plainly, else the error's own text."""
+    text = _one_line(str(exc))
+    if "integer string conversion" in text:
+        return "an integer of more than 4300 digits (write a number that large as a float, e.g. 1e5000)"
+    return text
 
 
 def _fmt(v: float) -> str:
@@ -84,7 +105,7 @@ class ValueReader:
         try:
             v = float(value)
         except OverflowError:  # a JSON integer beyond the float range
-            raise self.error(f"must be a finite number, got an integer of {len(str(abs(value)))} digits", key) from None
+            raise self.error(f"must be a finite number, got an integer of {_digits(value)} digits", key) from None
         if not math.isfinite(v):
             raise self.error(f"must be a finite number, got {v}", key)
         return v
@@ -106,7 +127,9 @@ class ValueReader:
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(f"expected a whole number, got {_describe(value)}", key)
         if value < minimum:
-            raise self.error(f"must be >= {minimum}, got {value}", key)
+            raise self.error(f"must be >= {minimum}, got {value if _digits(value) < 30 else f'an integer of {_digits(value)} digits'}", key)
+        if value > MAX_WHOLE:
+            raise self.error(f"must be at most 2^63 - 1, got an integer of {_digits(value)} digits", key)
         return value
 
     def boolean(self, value, key: str) -> bool:

@@ -49,6 +49,71 @@ def steps_between(interval: float, dt: float, what: str) -> int:
     return k
 
 
+# NOTE: a run of more integrator steps than this is refused before it starts (InputError naming
+# the key that makes it so many): at about 17 us a step for one body (the cheapest step
+# measured) 1e9 steps are more than 4 hours of computing, and a typo (substeps = 1e12,
+# dt = 1e-300) otherwise ran for ever while ``tumble validate`` said ok. The longest run of
+# the examples and the tests takes 80 000 steps (examples/joints/double_pendulum.toml: 10 s at
+# dt 1/1000 x 8 substeps), four orders of magnitude below.
+MAX_RUN_STEPS = 10**9
+
+
+def _as_float(value) -> float:
+    try:
+        return float(value)
+    except OverflowError:  # an integer beyond the float range
+        return math.inf
+
+
+def check_step_count(duration, frame_rate, dt, substeps, key_prefix: str = "simulation."):
+    """InputError when a run of ``duration`` s at ``frame_rate`` with steps ``dt`` of ``substeps``
+    integrator steps each would take more than ``MAX_RUN_STEPS`` integrator steps; the key named is
+    that of the largest factor (the frames: ``duration``, the steps a frame: ``dt``, ``substeps``).
+    The arguments are positive numbers already checked."""
+    with np.errstate(over="ignore"):
+        frames = _as_float(duration) * _as_float(frame_rate)
+        per_frame = (1.0 / _as_float(frame_rate)) / _as_float(dt)
+        sub = _as_float(substeps)
+        total = frames * per_frame * sub
+    if not total > MAX_RUN_STEPS and math.isfinite(total):
+        return
+    factors = (("duration", frames), ("dt", per_frame), ("substeps", sub))
+    key = max(factors, key=lambda f: f[1])[0]
+    fix = {"duration": "shorten the run", "dt": "use a larger dt", "substeps": "use fewer substeps"}[key]
+    amount = f"about {total:.3g}" if math.isfinite(total) else "more than 1e308"
+    raise InputError(f"the run would take {amount} integrator steps ({_g(_as_float(duration))} s at {_g(_as_float(frame_rate))} "
+                     f"frames a second, {_g(per_frame)} steps of dt a frame, {_g(sub)} substeps a step), more than the limit "
+                     f"of {MAX_RUN_STEPS:.0e}; {fix}", key_prefix + key)
+
+
+def _g(v: float) -> str:
+    return f"{v:.6g}" if math.isfinite(v) else "inf"
+
+
+def _whole_number(value, key: str, minimum: int, floats: bool = True) -> int:
+    """``value`` as an int >= ``minimum`` (an int, a NumPy integer, or with ``floats`` a whole float),
+    else an InputError keyed ``key``."""
+    ok = not isinstance(value, (bool, np.bool_)) and (
+        isinstance(value, (int, np.integer))
+        or (floats and isinstance(value, (float, np.floating)) and math.isfinite(value) and float(value).is_integer()))
+    if not ok or int(value) < minimum:
+        raise InputError(f"must be a whole number >= {minimum}, got {value!r}", key)
+    return int(value)
+
+
+def _positive_number(value, key: str) -> float:
+    """``value`` as a positive finite float, else an InputError keyed ``key`` (the scene file's wording)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(f"expected a number, got {value!r}", key)
+    v = _as_float(value)
+    if not math.isfinite(v):
+        raise InputError(f"must be a finite number, got {value!r}" if isinstance(value, (float, np.floating))
+                         else "must be a finite number, got an integer beyond the float range", key)
+    if v <= 0:
+        raise InputError(f"must be positive, got {v:g}", key)
+    return v
+
+
 class Simulator:
     """Steps a ``World`` in time and records frames.
 
@@ -89,15 +154,26 @@ class Simulator:
             raise InputError(f"expected a number, got {dt!r}", "simulation.dt") from None
         if not math.isfinite(dt) or dt <= 0:
             raise InputError(f"must be a positive finite number, got {dt}", "simulation.dt")
-        if int(substeps) != substeps or substeps < 1:
-            raise InputError(f"must be a whole number >= 1, got {substeps!r}", "simulation.substeps")
+        substeps = _whole_number(substeps, "simulation.substeps", 1)
+        if substeps > MAX_RUN_STEPS:
+            raise InputError(f"must be at most {MAX_RUN_STEPS:.0e} (the most integrator steps a run may take), got {substeps}",
+                             "simulation.substeps")
+        rtol = _positive_number(rtol, "simulation.rtol")
+        atol = _positive_number(atol, "simulation.atol")
+        if contact_settings is not None and not isinstance(contact_settings, SoftStepSettings):
+            raise InputError(f"expected a tumble.solver.contact.SoftStepSettings or None, got {contact_settings!r}", "contact_settings")
+        if joint_settings is not None:
+            from .solver.joints import JointSettings
+
+            if not isinstance(joint_settings, JointSettings):
+                raise InputError(f"expected a tumble.solver.joints.JointSettings or None, got {joint_settings!r}", "joint_settings")
         self.world = world
         self.dt = dt
         self.integrator = integrator
         self.integrator_id = K.INTEGRATOR_IDS[integrator]
-        self.substeps = int(substeps)
-        self.rtol = float(rtol)
-        self.atol = float(atol)
+        self.substeps = substeps
+        self.rtol = rtol
+        self.atol = atol
         # steps of dt since t = 0: a Simulator on a world that has already run goes on from its time
         self.step_index = int(round(world.t / dt))
         # lowest_separation: m, the lowest contact separation at any step of the run (None: no
@@ -149,6 +225,9 @@ class Simulator:
     def step(self, count: int = 1):
         """Advance the world by ``count`` steps of dt (applying due impulses first).
 
+        ``count`` is a whole number >= 0 (an int or a NumPy integer; 0 does nothing); anything else,
+        or more than ``MAX_RUN_STEPS`` integrator steps in one call, is an InputError keyed ``count``.
+
         Raises:
             SimulationError: the state went non-finite (``run``'s check, once at the end of the call;
                 its stage found by replaying the call stage by stage); the
@@ -156,6 +235,10 @@ class Simulator:
                 PyBullet's way of driving a robot) went on silently with NaN: PyBullet's thrower
                 model, its 1e-9 kg fingertips in contact, was NaN from step 36 on (measured).
         """
+        count = _whole_number(count, "count", 0, floats=False)
+        if count * self.substeps > MAX_RUN_STEPS:
+            raise InputError(f"{count} steps of {self.substeps} substeps would be more than the limit of {MAX_RUN_STEPS:.0e} "
+                             "integrator steps in one call", "count")
         w = self.world
         Y = w.pack()
         types = self._type_mark()
@@ -926,6 +1009,7 @@ class Simulator:
             raise InputError(f"must be a positive finite number, got {duration}", "simulation.duration")
         if not math.isfinite(frame_rate) or frame_rate <= 0:
             raise InputError(f"must be a positive finite number, got {frame_rate}", "simulation.frame_rate")
+        check_step_count(duration, frame_rate, self.dt, self.substeps)
         steps_per_frame = steps_between(1.0 / frame_rate, self.dt, "1 / frame_rate")
         frames = int(round(duration * frame_rate))
         if abs(frames - duration * frame_rate) > 1e-6 * max(1.0, frames):
@@ -1095,6 +1179,8 @@ class Simulator:
         """
         from .checkpoint import save_checkpoint
 
+        if isinstance(path, (str, Path)) and Path(path).is_dir():
+            raise InputError("is a folder, not a checkpoint file (give a file name, e.g. run/checkpoint.npz)", None, str(path))
         self._take_joint_edits()  # the rows and the wakes of records edited since the last step
         self._take_force_edits()
         return save_checkpoint(self, path, run)

@@ -1156,6 +1156,12 @@ def _override_inertia(props, inertia):
         raise InputError(f"expected 3 numbers or a 3x3 matrix, got shape {I.shape}", "inertia")
     if not np.all(np.isfinite(I)):
         raise InputError("must be finite numbers", "inertia")
+    # NOTE: only rounding is forgiven (MassProperties symmetrises what is left): a matrix whose
+    # off-diagonal pairs differ by more was silently averaged into another body's inertia
+    asym = np.abs(I - I.T)
+    if asym.max() > 1e-9 * np.abs(I).max():
+        i, j = np.unravel_index(int(np.argmax(asym)), asym.shape)
+        raise InputError(f"must be a symmetric matrix, got [{i}][{j}] = {I[i, j]:g} but [{j}][{i}] = {I[j, i]:g}", "inertia")
     return replace(props, inertia=I)
 
 
