@@ -22,6 +22,7 @@ import json
 import logging
 import math
 import os
+import re
 import shutil
 import sys
 import tomllib
@@ -31,7 +32,7 @@ from pathlib import Path
 from ..errors import InputError
 from ..scene import parse_scene
 from . import metrics as M
-from .spec import design, format_key, parse_spec, parse_vary, resolve_key
+from .spec import MAX_VARIANTS, design, format_key, parse_spec, parse_vary, resolve_key
 from .tasks import Plan, run_chunk
 
 FORMAT = "tumble-sweep/1"
@@ -87,6 +88,10 @@ def read_scene_document(scene):
             raise InputError(f"invalid JSON: {exc.msg} (at line {exc.lineno}, column {exc.colno})", None, file) from None
         except RecursionError:
             raise InputError("nested too deeply", None, file) from None
+        except ValueError as exc:  # Python's limit on the digits of an integer read from text
+            from ..scene_values import _int_digits_problem
+
+            raise InputError(f"invalid {'TOML' if suffix == '.toml' else 'JSON'}: {_int_digits_problem(exc)}", None, file) from None
     if not isinstance(data, dict):
         raise InputError("expected a table of [simulation], [[bodies]] and [[forces]]", None, file)
     section = data.pop("sweep", {})
@@ -119,6 +124,24 @@ def _vary_items(vary, where: str, file=None) -> list[tuple[str, object]]:
     raise InputError(f"expected a table of KEY = SPEC or a list of \"KEY=SPEC\", got {vary!r}", where, file)
 
 
+def _toml_key(key: str) -> str:
+    """A key of the [sweep] vary table as the file writes it: quoted when it is not a bare key."""
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else json.dumps(key)
+
+
+def _file_of(key: str, file):
+    """The file a key's value came from: the scene file for a [sweep] key, none for an option."""
+    return file if key.startswith("sweep.") else None
+
+
+def _shown(value) -> str:
+    """A value as shown in a message (never a 4300-digit number: ``repr`` refuses one)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 2**63:
+        return f"an integer of {max(1, int(abs(value).bit_length() * 0.30103) + 1)} digits"
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 class SweepDefinition:
     """A checked sweep: the plan the tasks get, the design, and what sweep.json records."""
 
@@ -138,48 +161,76 @@ class SweepDefinition:
                 raise InputError(f"key {k!r} is varied twice", "--vary")
             seen.add(k)
         merged: dict[str, object] = {}
-        for k, v in items + given:
+        from_table = set()  # keys whose spec is the [sweep] table's (a --vary of the same key replaces it)
+        for k, v in items:
             merged[k] = v
-        specs = [parse_spec(k, v) for k, v in merged.items()]
-        self.paths = [resolve_key(data, s.key) for s in specs]
+            from_table.add(k)
+        for k, v in given:
+            merged[k] = v
+            from_table.discard(k)
+        specs, self.paths = [], []
+        for k, v in merged.items():
+            try:
+                spec = parse_spec(k, v)
+                self.paths.append(resolve_key(data, spec.key))
+            except InputError as err:
+                if k in from_table:  # the scene file's [sweep] table, not a --vary option: name them
+                    raise InputError(err.problem, f"sweep.vary.{_toml_key(k)}", file) from None
+                raise
+            specs.append(spec)
         canon = [format_key(p) for p in self.paths]
         if len(set(map(str, self.paths))) != len(self.paths):
             dup = next(c for c in canon if canon.count(c) > 1)
             raise InputError(f"two keys name the same value {dup!r}", "--vary")
 
-        if samples is None:
-            samples = section.get("samples")
+        samples_key, seed_key = "--samples", "--seed"
+        if samples is None and "samples" in section:
+            samples, samples_key = section["samples"], "sweep.samples"
         if samples is not None and (isinstance(samples, bool) or not isinstance(samples, int) or samples < 1):
-            raise InputError(f"must be a whole number >= 1, got {samples!r}", "--samples")
-        if seed is None:
-            seed = section.get("seed")
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-            raise InputError(f"must be a whole number >= 0, got {seed!r}", "--seed")
+            raise InputError(f"must be a whole number >= 1, got {_shown(samples)}", samples_key, _file_of(samples_key, file))
+        if seed is None and "seed" in section:
+            seed, seed_key = section["seed"], "sweep.seed"
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= 2**63 - 1):
+            raise InputError(f"must be a whole number from 0 to 2^63 - 1, got {_shown(seed)}", seed_key, _file_of(seed_key, file))
         if seed is not None and samples is None:
-            raise InputError("--seed only matters with --samples N (a random design)", "--seed")
+            raise InputError(f"{'seed' if seed_key == 'sweep.seed' else '--seed'} only matters with --samples N "
+                             "(a random design)", seed_key, _file_of(seed_key, file))
+        try:
+            if samples is not None and samples > MAX_VARIANTS:
+                raise InputError(f"must be at most {MAX_VARIANTS}, got {_shown(samples)}", "--samples")
+        except InputError as err:
+            raise InputError(err.problem, samples_key, _file_of(samples_key, file)) from None
         if samples is not None and seed is None:
             seed = 0
         self.columns = design(specs, samples, seed)
         self.count = len(next(iter(self.columns.values())))
 
         texts = metrics if metrics else section.get("metrics")
+        metrics_key = "--metric" if metrics else "sweep.metrics"
         if texts is None:
             self.metrics = M.default_metrics(names, moving)
         else:
             if isinstance(texts, str):
                 texts = [texts]
             if not isinstance(texts, (list, tuple)) or not texts:
-                raise InputError(f"expected a list of metric names, got {texts!r}", "--metric")
+                raise InputError(f"expected a list of metric names, got {_shown(texts)}", metrics_key, _file_of(metrics_key, file))
             self.metrics = []
             for t in texts:
-                m = M.parse_metric(t, names, sensors)
+                try:
+                    m = M.parse_metric(t, names, sensors)
+                except InputError as err:
+                    if metrics_key == "--metric":
+                        raise
+                    raise InputError(err.problem, metrics_key, file) from None
                 if m.text not in [x.text for x in self.metrics]:
                     self.metrics.append(m)
 
+        chunk_key = "--chunk-size"
         if chunk_size is None:
             chunk_size = section.get("chunk_size", DEFAULT_CHUNK_SIZE)
+            chunk_key = "sweep.chunk_size" if "chunk_size" in section else chunk_key
         if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-            raise InputError(f"must be a whole number >= 1, got {chunk_size!r}", "--chunk-size")
+            raise InputError(f"must be a whole number >= 1, got {_shown(chunk_size)}", chunk_key, _file_of(chunk_key, file))
         self.chunk_size = chunk_size
         self.keys = [s.key for s in specs]
         self.specs = specs

@@ -208,6 +208,31 @@ def _number(text: str, key: str, spec: str) -> float:
     return v
 
 
+# NOTE: a swept whole number goes to the results table (a Parquet int64 column) and to the scene
+# (counts, seeds: 64-bit in NumPy and compiled code); a larger one overflowed there with a traceback
+_MAX_WHOLE = 2**63 - 1
+
+
+def _whole(v: int, key: str, spec) -> int:
+    if abs(v) > _MAX_WHOLE:
+        digits = max(1, int(abs(v).bit_length() * 0.30103) + 1)
+        raise InputError(f"bad spec {_shown(spec)}: a whole number of {digits} digits is beyond 2^63 - 1 "
+                         "(write a value that large as a float, e.g. 1e30)", f"--vary {key}")
+    return v
+
+
+def _shown(spec) -> str:
+    """A spec as shown in a message: its text (at most 60 characters), never a 4300-digit number."""
+    if isinstance(spec, list):
+        text = "[" + ", ".join(_shown(v) for v in spec) + "]"
+    elif isinstance(spec, int) and not isinstance(spec, bool) and abs(spec) > _MAX_WHOLE:
+        text = f"<an integer of {max(1, int(abs(spec).bit_length() * 0.30103) + 1)} digits>"
+    else:
+        text = spec if isinstance(spec, str) else repr(spec)
+    text = text if len(text) <= 60 else text[:57] + "..."
+    return repr(text) if isinstance(spec, str) else text
+
+
 def _item(text: str, key: str, spec: str):
     t = text.strip()
     if not t:
@@ -215,7 +240,10 @@ def _item(text: str, key: str, spec: str):
     if (t[0] == t[-1]) and t[0] in "\"'" and len(t) >= 2:
         return t[1:-1]
     if re.fullmatch(r"[+-]?\d+", t):
-        return int(t)
+        if len(t.lstrip("+-")) > 19:  # beyond 2^63 (and int() of more than 4300 digits is a ValueError)
+            raise InputError(f"bad spec {_shown(spec)}: a whole number of {len(t.lstrip('+-'))} digits is beyond 2^63 - 1 "
+                             "(write a value that large as a float, e.g. 1e30)", f"--vary {key}")
+        return _whole(int(t), key, spec)
     try:
         v = float(t)
     except ValueError:
@@ -235,6 +263,8 @@ def parse_spec(key: str, spec) -> Spec:
     if isinstance(spec, (int, float)):
         if isinstance(spec, float) and not math.isfinite(spec):
             raise InputError(f"bad spec {spec!r}: not a finite number", where)
+        if isinstance(spec, int):
+            _whole(spec, key, spec)
         return Spec(key, repr(spec), "list", (spec,))
     if isinstance(spec, list):
         if not spec:
@@ -242,9 +272,11 @@ def parse_spec(key: str, spec) -> Spec:
         vals = []
         for v in spec:
             if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-                raise InputError(f"bad spec {spec!r}: list items must be numbers or strings", where)
+                raise InputError(f"bad spec {_shown(spec)}: list items must be numbers or strings", where)
             if isinstance(v, float) and not math.isfinite(v):
-                raise InputError(f"bad spec {spec!r}: {v!r} is not a finite number", where)
+                raise InputError(f"bad spec {_shown(spec)}: {v!r} is not a finite number", where)
+            if isinstance(v, int):
+                _whole(v, key, spec)
             vals.append(v)
         return Spec(key, json.dumps(spec), "list", tuple(vals))
     if not isinstance(spec, str):
