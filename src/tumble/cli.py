@@ -30,6 +30,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import InputError, SimulationError
+from .runfile import _shown, check_run, read_run_record
 from .scene import Scene, load_scene
 from .trajectory import write_atomic
 
@@ -253,6 +254,15 @@ def cmd_run(args) -> int:
         for t in targets:
             if t.exists():
                 raise InputError("exists (pass --force to overwrite)", None, str(t))
+    sim = scene.simulator()
+    info = {"label": label, "source": None if scene.source is None else str(scene.source), "data": scene.data,
+            "settings": scene.settings(), "copy": copy_name}
+    # every check that can refuse the run (frame plan, --checkpoint-every, disk) before anything
+    # is written or removed: a refused run leaves the folder as it was, a new one uncreated
+    try:
+        check_run(sim, out, scene.duration, scene.frame_rate, checkpoint_every=args.checkpoint_every)
+    except InputError as err:
+        raise _named(err, args, None if args.command == "demo" else label) from None
     copy_path = targets[-1]
     try:
         _write_bytes_atomic(copy_path, scene_text)
@@ -261,13 +271,20 @@ def cmd_run(args) -> int:
     except OSError as exc:
         raise InputError(f"cannot write outputs: {exc.strerror or exc}", None, str(exc.filename or out)) from None
 
-    sim = scene.simulator()
-    info = {"label": label, "source": None if scene.source is None else str(scene.source), "data": scene.data,
-            "settings": scene.settings(), "copy": copy_name}
     status = _stream(sim, out, scene.duration, scene.frame_rate, args, info, resume=False)
     if status == EXIT_OK and media:
         _write_media(out, media, progress=(not args.no_progress) and sys.stderr.isatty(), scene=scene)
     return status
+
+
+def _named(err: InputError, args, scene_file) -> InputError:
+    """A refusal of the run's plan keyed ``simulation.duration`` (or ``frame_rate``) and no file:
+    the ``--duration`` typed, or the scene file the value came from."""
+    if err.file is None and err.key == "simulation.duration" and getattr(args, "duration", None) is not None:
+        return InputError(err.problem, "--duration")
+    if err.file is None and err.key in ("simulation.duration", "simulation.frame_rate") and scene_file:
+        return InputError(err.problem, err.key, scene_file)
+    return err
 
 
 def _media_requested(args) -> list[str]:
@@ -379,22 +396,51 @@ def cmd_resume(args) -> int:
         raise InputError("not a folder of a run (expected the --out folder of an earlier tumble run)", "--resume", str(out))
     # bad media flags (a missing package) are refused before the run, as for tumble run
     media = _media_requested(args)
-    sim = Simulator.load_checkpoint(out / "checkpoint.npz")
-    run = sim.checkpoint_run or {}
-    info = run.get("info")
-    if not isinstance(info, dict) or "settings" not in info:
-        raise InputError("the checkpoint was not written by tumble run (no run data)", None, str(out / "checkpoint.npz"))
+    path = out / "checkpoint.npz"
+    sim = Simulator.load_checkpoint(path)
+    # the run record (progress and tumble run's info), checked before anything is written
+    run = read_run_record(sim.checkpoint_run, path, sim.world.body_count, progress=True)
+    info = _read_run_info(run.get("info"), path)
     scene = _resumed_scene_cameras(info) if "images" in media else None
     duration = args.duration if args.duration is not None else run["duration"]
     info["settings"]["duration"] = duration
     every = args.checkpoint_every if args.checkpoint_every is not None else run.get("checkpoint_every")
     args.checkpoint_every = every
+    try:
+        check_run(sim, out, duration, run["frame_rate"], checkpoint_every=every, resume=True)
+    except InputError as err:  # a plan refused: the --duration typed, or the record's values
+        if err.file is None and err.key in ("simulation.duration", "simulation.frame_rate") and (
+                err.key == "simulation.frame_rate" or args.duration is None):
+            raise InputError(err.problem, "run." + err.key.split(".")[1], str(path)) from None
+        raise _named(err, args, None) from None
     status = _stream(sim, out, duration, run["frame_rate"], args, info, resume=True)
     if status == EXIT_OK and media:
         if scene is not None:  # the cameras of the scene file, over the resumed world (its bodies, their types now)
             scene.world = sim.world
         _write_media(out, media, progress=(not args.no_progress) and sys.stderr.isatty(), scene=scene)
     return status
+
+
+# tumble run's part of a checkpoint's run record (``run.info``): key -> (test, what it must be)
+RUN_INFO = {"label": (lambda v: isinstance(v, str), "text"),
+            "source": (lambda v: v is None or isinstance(v, str), "the scene file's path or null"),
+            "data": (lambda v: True, "the scene"),
+            "settings": (lambda v: isinstance(v, dict) and isinstance(v.get("integrator"), str),
+                         "a table of the run's settings (integrator, dt, ...)"),
+            "copy": (lambda v: isinstance(v, str) and v != "" and Path(v).name == v, "a file name")}
+
+
+def _read_run_info(info, path: Path) -> dict:
+    """``run.info`` of the checkpoint at ``path``, checked (``RUN_INFO``): InputError
+    ``PATH: run.info.KEY: problem`` for a missing or damaged entry."""
+    if not isinstance(info, dict):
+        raise InputError("not written by tumble run (no table of the run's scene and settings)", "run.info", str(path))
+    for key, (test, what) in RUN_INFO.items():
+        if key not in info:
+            raise InputError("missing (the checkpoint was not written by tumble run, or is damaged)", f"run.info.{key}", str(path))
+        if not test(info[key]):
+            raise InputError(f"must be {what}, got {_shown(info[key])}", f"run.info.{key}", str(path))
+    return info
 
 
 def _resumed_scene_cameras(info: dict):

@@ -8,6 +8,7 @@ trajectory file always holds at least the frames the checkpoint has reached.
 
 from __future__ import annotations
 
+import math
 import shutil
 import signal
 import threading
@@ -34,36 +35,16 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
 
     out = Path(out_dir)
     w = sim.world
-    total, steps_per_frame = sim._frame_plan(duration, frame_rate)
-    if checkpoint_every is not None:
-        if not (isinstance(checkpoint_every, (int, float)) and checkpoint_every > 0):
-            raise InputError(f"must be a positive number of seconds, got {checkpoint_every!r}", "--checkpoint-every")
-        per_flush = max(1, int(round(checkpoint_every * float(frame_rate))))
-    else:
-        per_flush = None
-
-    if resume:
-        meta = sim.checkpoint_run
-        if not isinstance(meta, dict) or "frames" not in meta:
-            raise InputError("the checkpoint holds no run progress (it was not written by run_to_file)", None, str(out / CHECKPOINT))
-        recorded = int(meta["frames"])
-        fig = dict(meta["figures"])
-        t_start = float(meta["t_start"])
-    else:
-        recorded = 0
+    plan = check_run(sim, out, duration, frame_rate, checkpoint_every=checkpoint_every, resume=resume)
+    steps_per_frame, per_flush, remaining = plan["steps_per_frame"], plan["per_flush"], plan["remaining"]
+    meta, recorded, fig, t_start = plan["meta"], plan["recorded"], plan["figures"], plan["t_start"]
+    if not resume:
         t_start = w.t
         fig = {"energy_initial": None, "energy_final": None, "max_orthonormality_error": 0.0, "wall_time_s": 0.0}
-    remaining = total - max(recorded - 1, 0)
-    if remaining < 0:
-        raise InputError(f"the run has already reached t = {w.t:g} s, past its requested duration ({float(duration):g} s)", "--duration")
-    _check_disk(out, (total + 1) * frame_bytes(w.body_count))
 
     sensing = sim._sensing()
     # the bodies fixed at every frame so far: a resumed run's earlier frames are in its checkpoint
     fixed_so_far = meta.get("fixed") if resume else None
-    if fixed_so_far is not None and len(fixed_so_far) != w.body_count:
-        raise InputError(f"the checkpoint's run lists {len(fixed_so_far)} bodies, its world {w.body_count}", None,
-                         str(out / CHECKPOINT))
     fixed = None if fixed_so_far is None else np.asarray(fixed_so_far, dtype=bool) & w.fixed
     writer = TrajectoryWriter(out / TRAJECTORY, static_values(w, fixed), w.body_count, keep_frames=recorded if resume else None,
                               contacts=sim.record_contacts, joints=len(w.joints) if sim.record_joints else None,
@@ -154,6 +135,116 @@ def stream_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, pro
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+def check_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, resume=False) -> dict:
+    """Every check that can refuse ``stream_run`` (InputError), made before anything is written or
+    removed: the frame plan, ``checkpoint_every``, a resumed run's record (``read_run_record``) and
+    progress against ``duration``, the disk the trajectory needs. Writes nothing; ``tumble run``
+    calls it before it writes the scene copy or removes the replaced run's media, so a refused run
+    leaves the output folder as it was (and a new one uncreated). Returns the plan: ``total``
+    frames, ``steps_per_frame``, ``per_flush``, ``remaining`` frames to run and, for ``resume``,
+    the record's ``meta``, ``recorded`` frames, ``figures`` and ``t_start`` (else None, 0, None, None)."""
+    out = Path(out_dir)
+    w = sim.world
+    meta, recorded, fig, t_start = None, 0, None, None
+    if resume:  # the record first: a damaged one is named as the checkpoint's, not as a setting
+        meta = read_run_record(sim.checkpoint_run, out / CHECKPOINT, w.body_count, progress=True)
+        recorded, fig, t_start = meta["frames"], dict(meta["figures"]), meta["t_start"]
+    total, steps_per_frame = sim._frame_plan(duration, frame_rate)
+    if checkpoint_every is not None:
+        if not (isinstance(checkpoint_every, (int, float)) and not isinstance(checkpoint_every, bool)
+                and math.isfinite(checkpoint_every) and checkpoint_every > 0):
+            raise InputError(f"must be a positive number of seconds, got {checkpoint_every!r}", "--checkpoint-every")
+        per_flush = max(1, int(round(checkpoint_every * float(frame_rate))))
+    else:
+        per_flush = None
+    remaining = total - max(recorded - 1, 0)
+    if remaining < 0:
+        raise InputError(f"the run has already reached t = {w.t:g} s, past its requested duration ({float(duration):g} s)", "--duration")
+    _check_disk(out, (total + 1) * frame_bytes(w.body_count))
+    return {"total": total, "steps_per_frame": steps_per_frame, "per_flush": per_flush, "remaining": remaining,
+            "meta": meta, "recorded": recorded, "figures": fig, "t_start": t_start}
+
+
+# The run record run_to_file keeps in its checkpoint (``meta.run``): key -> (test, what it must be).
+# ``info`` (tumble run's: the scene and its settings) is the caller's, checked by the CLI.
+def _shown(v) -> str:
+    text = " ".join(repr(v).split())
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _count(v):
+    return isinstance(v, int) and not isinstance(v, bool) and v >= 0
+
+
+def _positive(v):
+    return _number(v) and v > 0
+
+
+def _figure(v):  # a figure of a failed run may be inf or nan (JSON's NaN, Infinity): still a number
+    return v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+
+
+FIGURES = {"energy_initial": (_figure, "a number or null"), "energy_final": (_figure, "a number or null"),
+           "max_orthonormality_error": (lambda v: v is not None and _figure(v), "a number"),
+           "wall_time_s": (_number, "a finite number")}
+RUN_RECORD = {"t_start": (_number, "a finite number"), "frames": (lambda v: _count(v) and v >= 1, "a whole number of frames, at least 1"),
+              "duration": (_positive, "a positive finite number of seconds"),
+              "frame_rate": (_positive, "a positive finite number of frames per second"),
+              "checkpoint_every": (lambda v: v is None or _positive(v), "a positive finite number of seconds or null")}
+
+
+def read_run_record(run, path, body_count: int, progress: bool = False) -> dict:
+    """The run record of the checkpoint at ``path`` (``meta.run``), checked: a JSON object with
+    ``duration``, ``frame_rate``, ``checkpoint_every`` and, with ``progress`` (what ``stream_run``
+    resumes from), ``t_start``, ``frames``, ``figures`` (``FIGURES``), ``fixed`` (null or one bool
+    per body) and ``enabled_changes`` (rows [frame, body, enabled]). InputError
+    ``PATH: run.KEY: problem`` for a missing or damaged entry: nothing is written before it."""
+    path = str(path)
+    if not isinstance(run, dict):
+        raise InputError("not the checkpoint of a tumble run (its run record is "
+                         f"{'missing' if run is None else 'not a table'})", "run", path)
+    keys = ["duration", "frame_rate", "checkpoint_every"]
+    if progress:
+        keys = ["t_start", "frames"] + keys
+    for key in keys:
+        if key not in run:
+            raise InputError("missing (the checkpoint was not written by run_to_file, or is damaged)", f"run.{key}", path)
+        test, what = RUN_RECORD[key]
+        if not test(run[key]):
+            raise InputError(f"must be {what}, got {_shown(run[key])}", f"run.{key}", path)
+    if not progress:
+        return run
+    figures = run.get("figures")
+    if not isinstance(figures, dict):
+        raise InputError("missing" if figures is None else f"must be a table of the run's figures, got {_shown(figures)}",
+                         "run.figures", path)
+    for key, (test, what) in FIGURES.items():
+        if key not in figures:
+            raise InputError("missing", f"run.figures.{key}", path)
+        if not test(figures[key]):
+            raise InputError(f"must be {what}, got {_shown(figures[key])}", f"run.figures.{key}", path)
+    fixed = run.get("fixed")
+    if fixed is not None:
+        if not (isinstance(fixed, list) and all(isinstance(f, bool) for f in fixed)):
+            raise InputError("must be a list of true/false, one per body", "run.fixed", path)
+        if len(fixed) != body_count:
+            raise InputError(f"lists {len(fixed)} bodies, the checkpoint's world {body_count}", "run.fixed", path)
+    changes = run.get("enabled_changes")
+    if changes is not None:
+        if not isinstance(changes, list):
+            raise InputError(f"must be a list of [frame, body, enabled] rows, got {_shown(changes)}", "run.enabled_changes", path)
+        for i, row in enumerate(changes):
+            if not (isinstance(row, list) and len(row) == 3 and all(_count(v) for v in row[:2])
+                    and row[1] < body_count and (isinstance(row[2], bool) or row[2] in (0, 1))):
+                raise InputError(f"must be [frame, body, enabled] (body below {body_count}), got {_shown(row)}",
+                                 f"run.enabled_changes[{i}]", path)
+    return run
 
 
 def _install_handlers(state) -> dict:
