@@ -97,3 +97,9 @@ def test_the_cli_says_one_line_for_a_bad_sweep_table(tmp_path):  # H6, through t
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert r.stderr.splitlines() == [f'tumble: error: {path}: sweep.vary."{KEY}": bad spec []: an empty list']
+
+
+def test_too_many_samples_in_the_table_names_the_table(tmp_path):
+    path = scene(tmp_path, f'[sweep]\nvary = {{ "{KEY}" = "uniform(0, 1)" }}\nsamples = 1000000000000000000000000000000\n')
+    err = refused(lambda: SweepDefinition(path), "sweep.samples", "must be at most")
+    assert "integer of 31 digits" in err.problem and err.file == str(path)

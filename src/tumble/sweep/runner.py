@@ -195,11 +195,8 @@ class SweepDefinition:
         if seed is not None and samples is None:
             raise InputError(f"{'seed' if seed_key == 'sweep.seed' else '--seed'} only matters with --samples N "
                              "(a random design)", seed_key, _file_of(seed_key, file))
-        try:
-            if samples is not None and samples > MAX_VARIANTS:
-                raise InputError(f"must be at most {MAX_VARIANTS}, got {_shown(samples)}", "--samples")
-        except InputError as err:
-            raise InputError(err.problem, samples_key, _file_of(samples_key, file)) from None
+        if samples is not None and samples > MAX_VARIANTS:  # design() says it too, as --samples
+            raise InputError(f"must be at most {MAX_VARIANTS}, got {_shown(samples)}", samples_key, _file_of(samples_key, file))
         if samples is not None and seed is None:
             seed = 0
         self.columns = design(specs, samples, seed)
