@@ -205,3 +205,23 @@ def test_library_resume_refuses_a_damaged_record(tmp_path, scene, capsys):
         sim.run_to_file(out, 0.5, 24.0, resume=True)
     assert str(err.value).startswith(f"{out / 'checkpoint.npz'}: run.frames: ")
     assert tree(out) == before
+
+
+WORLD_RECORD = [  # the simulator's own entries, read by load_checkpoint and used only once the run goes on
+    ("stats-steps", _put("x", "stats", "steps"), "stats.steps"),
+    ("stats-table", _put([1], "stats"), "stats"),
+    ("energy-reference", _put("x", "energy_reference"), "energy_reference"),
+    ("energy-reference-short", _put([1.0], "energy_reference"), "energy_reference"),
+]
+
+
+@pytest.mark.parametrize("case, edit, key", WORLD_RECORD, ids=[c[0] for c in WORLD_RECORD])
+def test_resume_refuses_damaged_statistics_before_writing(tmp_path, scene, capsys, case, edit, key):
+    """A checkpoint's ``energy_reference`` or ``stats`` damaged: a ValueError (energy check) or TypeError
+    (step count) traceback once the run went on, or a line without the key (``stats`` not a table).
+    Now load_checkpoint refuses them: one line naming the file and key, the folder as it was."""
+    out = _doctored(tmp_path, scene, capsys, edit)
+    before = tree(out)
+    assert main(["run", "--resume", str(out), "--duration", "0.5", "--no-progress"]) == 2
+    refusal(capsys, f"tumble: error: {out / 'checkpoint.npz'}: checkpoint does not rebuild: {key}: ")
+    assert tree(out) == before

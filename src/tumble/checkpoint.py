@@ -495,7 +495,39 @@ def _rebuild(cls, meta: dict, arrays: dict, custom_forces):
     sim.step_index = int(meta["step_index"])
     if not math.isclose(sim.step_index * sim.dt, w.t, rel_tol=1e-12, abs_tol=1e-12):
         raise InputError(f"step index {sim.step_index} does not match t = {w.t}")
-    sim.stats.update(meta["stats"])
-    sim.energy_reference = meta["energy_reference"]
+    sim.stats.update(_checked_stats(meta["stats"]))
+    sim.energy_reference = _checked_energy_reference(meta["energy_reference"])
     sim.checkpoint_run = meta["run"]
     return sim
+
+
+def _is_number(v, finite=True) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and (not finite or math.isfinite(v))
+
+
+def _checked_stats(stats) -> dict:
+    """The simulator's statistics from a checkpoint: a table whose ``steps`` and
+    ``derivative_evaluations`` are whole numbers >= 0, ``lowest_separation`` a number or null and
+    any other entry a number (a damaged one failed at the end of a resumed run, after its writes)."""
+    if not isinstance(stats, dict):
+        raise InputError("expected a table of the simulator's statistics", "stats")
+    for key, v in stats.items():
+        if key in ("steps", "derivative_evaluations"):
+            ok = isinstance(v, int) and not isinstance(v, bool) and v >= 0
+        else:
+            ok = (v is None and key == "lowest_separation") or _is_number(v, finite=False)
+        if not ok:
+            raise InputError(f"expected {'a whole number >= 0' if key in ('steps', 'derivative_evaluations') else 'a number'}, "
+                             f"got {' '.join(repr(v).split())[:60]}", f"stats.{key}")
+    return stats
+
+
+def _checked_energy_reference(ref):
+    """``[E0 J, scale J, impulses applied]`` or null (``Simulator.energy_reference``)."""
+    if ref is None:
+        return None
+    if not (isinstance(ref, list) and len(ref) == 3 and _is_number(ref[0]) and _is_number(ref[1]) and ref[1] >= 0
+            and isinstance(ref[2], int) and not isinstance(ref[2], bool) and ref[2] >= 0):
+        raise InputError(f"expected null or [E0 J, scale J >= 0, impulses applied], got {' '.join(repr(ref).split())[:60]}",
+                         "energy_reference")
+    return ref
