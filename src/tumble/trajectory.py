@@ -301,8 +301,12 @@ def pad_contacts(counts, rows: dict) -> dict:
     return out
 
 
-def load_trajectory(path) -> Trajectory:
-    """Read a trajectory file written by ``Trajectory.save`` (no pickles)."""
+def load_trajectory(path, check: bool = True) -> Trajectory:
+    """Read a trajectory file written by ``Trajectory.save`` (no pickles).
+
+    ``check`` (default): refuse a file whose values cannot be drawn or exported (``check_trajectory``:
+    non-finite positions or times, times not increasing, orientations not unit quaternions, a shape
+    text that is not a shape's JSON) with an ``InputError`` naming the file and the key."""
     path = Path(path)
     if not path.is_file():
         raise InputError("trajectory file not found", None, str(path))
@@ -331,7 +335,61 @@ def load_trajectory(path) -> Trajectory:
         values["shape_index"] = index.astype(np.int64)
     if "contact_count" in values:  # streamed files keep it as float64 beside the other frame keys
         values["contact_count"] = np.asarray(values["contact_count"]).astype(np.int64)
-    return Trajectory(**values)
+    traj = Trajectory(**values)
+    if check:
+        check_trajectory(traj, str(path))
+    return traj
+
+
+#: how far |q| of a recorded orientation may be from 1 (runs keep it within 1e-9; a file beyond
+#: this was not written by a run, and its rotations cannot be drawn)
+QUATERNION_NORM_TOLERANCE = 1e-3
+
+
+def check_trajectory(traj, file: str | None = None) -> None:
+    """Raise ``InputError`` (``FILE: KEY: problem``) if ``traj``'s values cannot be drawn or
+    exported: ``time`` not finite or not strictly increasing, ``position`` not finite,
+    ``orientation`` not unit quaternions (within ``QUATERNION_NORM_TOLERANCE``), a
+    ``shape_table`` row that is not the JSON text of a shape. Vectorised: one pass over each
+    array (the first bad frame and body are located only on failure)."""
+    time = np.asarray(traj.time)
+    if time.dtype.kind not in "fiu":
+        raise InputError(f"expected numbers, got {time.dtype}", "time", file)
+    time = time.reshape(-1).astype(float, copy=False)
+    finite = np.isfinite(time)
+    if not finite.all():
+        k = int(np.flatnonzero(~finite)[0])
+        raise InputError(f"not finite at frame {k} ({time[k]})", "time", file)
+    if len(time) > 1:
+        step = np.diff(time)
+        if not (step > 0).all():
+            k = int(np.flatnonzero(~(step > 0))[0]) + 1
+            raise InputError(f"not increasing at frame {k} (t = {time[k]:.9g} after {time[k - 1]:.9g}): frame "
+                             f"times must increase", "time", file)
+    position = np.asarray(traj.position)
+    with np.errstate(all="ignore"):
+        finite = np.isfinite(position).all(axis=-1)
+        if not finite.all():
+            k, i = (int(v) for v in np.argwhere(~finite)[0])
+            raise InputError(f"not finite at frame {k}, body {i}", "position", file)
+        q = np.asarray(traj.orientation, dtype=float)
+        norm = np.sqrt(np.einsum("...k,...k->...", q, q))
+        good = np.abs(norm - 1.0) <= QUATERNION_NORM_TOLERANCE  # False for NaN
+    if not good.all():
+        k, i = (int(v) for v in np.argwhere(~good)[0])
+        raise InputError(f"not a unit quaternion at frame {k}, body {i} (|q| = {norm[k, i]:.6g})", "orientation", file)
+    if traj.shape_table is not None:
+        from .shapes import SHAPE_TYPES
+
+        for row, text in enumerate(np.asarray(traj.shape_table).reshape(-1).tolist()):
+            try:
+                d = json.loads(str(text))
+            except (ValueError, RecursionError) as exc:  # JSONDecodeError is a ValueError
+                raise InputError(f"row {row} is not JSON text ({type(exc).__name__}: {exc})", "shape_table", file) from None
+            kind = d.get("type") if isinstance(d, dict) else None
+            if not isinstance(kind, str) or kind not in SHAPE_TYPES:
+                raise InputError(f"row {row} is not a shape (expected an object whose type is one of "
+                                 f"{', '.join(SHAPE_TYPES)}, got {kind!r})", "shape_table", file)
 
 
 @contextlib.contextmanager

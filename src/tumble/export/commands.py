@@ -97,6 +97,8 @@ def cmd_export(args) -> int:
             except ImportError:
                 raise InputError("USD export needs usd-core (pip install 'tumble[export]')", None, str(out)) from None
         write(traj, out)
+    except InputError as err:  # a value of the file that cannot be written (a shape_table row): name the file
+        raise err if err.file else err.within(file=str(source)) from None
     except OSError as exc:
         raise InputError(f"cannot write: {exc.strerror or exc}", None, str(exc.filename or out)) from None
 

@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
 from .meshes import (
     absent_flags,
     body_color,
@@ -62,6 +63,7 @@ GLB_MAGIC, GLB_VERSION, CHUNK_JSON, CHUNK_BIN = 0x46546C67, 2, 0x4E4F534A, 0x004
 # Rotation of the root node, glTF (x, y, z, w): -90 degrees about x, z up -> y up.
 Z_UP_TO_Y_UP = (-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))
 ROOT_NAME = "tumble (z up)"
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 ANIMATION_NAME = "trajectory"
 
 
@@ -104,7 +106,9 @@ class _Builder:
 def gltf_document(traj) -> tuple[dict, bytes]:
     """The glTF JSON (as a dict) and the binary buffer of ``traj`` (see the module's docstring)."""
     from .. import __version__
+    from ..trajectory import check_trajectory
 
+    check_trajectory(traj)  # InputError (key: time, position, ...) rather than a failure inside json.dumps
     names = [str(n) for n in traj.names]
     n_bodies = len(names)
     fixed = fixed_flags(traj)
@@ -116,6 +120,12 @@ def gltf_document(traj) -> tuple[dict, bytes]:
     n_frames = len(time)
     if n_frames == 0 and n_bodies:
         raise ValueError("the trajectory has no frames")
+    for key, values in (("time", time), ("position", position)):  # accessors are float32 (max 3.4e38)
+        too_big = ~(np.abs(values) <= FLOAT32_MAX)
+        if too_big.any():
+            where = np.argwhere(too_big)[0]
+            at = f"frame {where[0]}" + (f", body {where[1]}" if len(where) > 1 else "")
+            raise InputError(f"too large for glTF's 32-bit floats at {at} (|value| > {FLOAT32_MAX:.3g})", key)
     q_cont = continuous_quaternions(orientation)
     q_xyzw = q_cont[..., [1, 2, 3, 0]]
     enabled = enabled_flags(traj)

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import visual
+from ..errors import InputError
 from ..visual import MARKER_RADIUS, PLANE_MIN_SIZE, SHARP_ANGLE_DEG, shape_dict, shape_trimesh  # noqa: F401 (re-exported)
 
 
@@ -127,7 +128,13 @@ def body_meshes(traj) -> list[tuple[VisualMesh, str]]:
         size = plane_size_for(traj, i) if plane else PLANE_MIN_SIZE
         key = json.dumps([raw, offset.tolist(), size if plane else None])
         if key not in cache:
-            cache[key] = visual_mesh(shape_trimesh(d, plane_size=size), offset, double_sided=plane or sheet)
+            try:
+                tm = shape_trimesh(d, plane_size=size)
+            except (ValueError, TypeError, KeyError, AttributeError, IndexError) as exc:  # a shape text not from tumble
+                row = None if traj.shape_index is None else int(traj.shape_index[i])
+                problem = exc.problem if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+                raise InputError(f"row {row} (body {i}) is not a shape that can be drawn ({problem})", "shape_table") from None
+            cache[key] = visual_mesh(tm, offset, double_sided=plane or sheet)
         out.append((cache[key], key))
     return out
 

@@ -64,6 +64,9 @@ def build_stage(traj, stage) -> None:
     """Fill ``stage`` (an empty ``Usd.Stage``) with ``traj``: see the module's docstring."""
     from pxr import Gf, Sdf, UsdGeom, Vt
 
+    from ..trajectory import check_trajectory
+
+    check_trajectory(traj)  # InputError naming the key of a value that cannot be written
     names = [str(n) for n in traj.names]
     fixed = fixed_flags(traj)
     sensor = sensor_flags(traj)

@@ -67,7 +67,7 @@ def cmd_render(args) -> int:
     except InputError as err:
         if err.key in CLI_KEYS:  # name the option the user typed
             raise InputError(err.problem, CLI_KEYS[err.key], err.file) from None
-        raise
+        raise err if err.file else err.within(file=str(traj_path)) from None  # a value of the trajectory file
     except OSError as exc:
         raise InputError(f"cannot write the video: {exc.strerror or exc}", None, str(out)) from None
     fps = trajectory_fps(traj) if args.fps is None else args.fps

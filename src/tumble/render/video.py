@@ -243,8 +243,14 @@ class _Stage:
         for i in range(n):
             key = traj.shape_text(i)
             if key not in cache:
-                shape = traj.shape(i)
-                cache[key] = (shape, _shaded(visual_mesh(shape)))
+                try:
+                    shape = traj.shape(i)
+                    mesh = visual_mesh(shape)
+                except (ValueError, TypeError, KeyError, AttributeError, IndexError) as exc:  # a shape text not from tumble
+                    problem = exc.problem if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+                    raise InputError(f"row {int(traj.shape_index[i])} (body {i}) is not a shape that can be drawn "
+                                     f"({problem})", "shape_table") from None
+                cache[key] = (shape, _shaded(mesh))
             shape, mesh = cache[key]
             if mesh is not None:  # points in the body frame (origin at the centre of mass), normals, triangles
                 mesh = (mesh[0] - offset[i], mesh[1], mesh[2])
@@ -484,6 +490,9 @@ def render_video(traj, path, width: int = 1280, height: int = 720, fps: float | 
     suffix = path.suffix.lower()
     if suffix not in VIDEO_SUFFIXES:
         raise InputError(f"video must end in {' or '.join(VIDEO_SUFFIXES)}, got {path.suffix or 'no suffix'!r}", None, str(path))
+    from ..trajectory import check_trajectory
+
+    check_trajectory(traj)  # InputError naming the key (time, position, ...) of a value that cannot be drawn
     stage = _Stage(traj, width, height, camera, colors, antialias)
     if suffix == ".mp4" and (stage.width % 2 or stage.height % 2):
         raise InputError(f"width and height must be even for .mp4 (yuv420p), got {stage.width}x{stage.height}", None, str(path))
