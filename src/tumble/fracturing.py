@@ -70,9 +70,13 @@ class Fractured:
         return len(self.cells)
 
 
+#: rounds of 4 x pieces random points ``fracture`` draws at most to find the seeds inside the shape
+SAMPLING_ROUNDS = 1000
+
+
 def _shape_hull(shape):
     """(vertices (V, 3), halfspaces (H, 4) as a x + b <= 0) of the convex shape, its frame."""
-    from scipy.spatial import ConvexHull
+    from scipy.spatial import ConvexHull, QhullError
 
     from .shapes import Box, Capsule, Cone, Convex, Cylinder, Ellipsoid, Sphere
 
@@ -84,12 +88,31 @@ def _shape_hull(shape):
     elif isinstance(shape, (Sphere, Capsule, Cylinder, Cone, Ellipsoid)):
         from .visual import shape_trimesh
 
-        verts = np.asarray(shape_trimesh(shape).vertices, dtype=float)
+        with np.errstate(all="ignore"):  # a 1e308 radius: inf vertices, refused below (no NumPy warning)
+            verts = np.asarray(shape_trimesh(shape).vertices, dtype=float)
     else:
         raise InputError(f"cannot fracture a {type(shape).__name__}: a Box, Convex, Sphere, Capsule, Cylinder, "
                          "Cone or Ellipsoid", "shape")
-    hull = ConvexHull(verts)
+    from .mass import _dimension_key
+    from .shapes import MAX_COORDINATE
+
+    with np.errstate(all="ignore"):  # a 1e308 box: its extent overflows to inf, refused just below
+        size = float(np.max(verts.max(axis=0) - verts.min(axis=0)))
+    if not size <= MAX_COORDINATE:  # Qhull's arithmetic (and the cells' volumes) would overflow
+        across = f"{size:g} m across" if math.isfinite(size) else "its extent overflows a float"
+        raise InputError(f"too large to fracture: {across} (at most {MAX_COORDINATE:g} m)", _dimension_key(shape))
+    try:
+        hull = ConvexHull(verts)
+    except (QhullError, ValueError) as err:
+        raise InputError(f"cannot be cut into cells: its hull cannot be built ({_qhull_words(err)})",
+                         _dimension_key(shape)) from None
     return verts[hull.vertices], hull.equations
+
+
+def _qhull_words(err) -> str:
+    """The first line of a Qhull error, without Qhull's option dump (or the exception's type)."""
+    text = str(err).strip()
+    return text.splitlines()[0].split(" While executing")[0] if text else type(err).__name__
 
 
 # The cells' arithmetic is written out column by column (``math3d.rows_dot``, ``norm3``) rather
@@ -115,7 +138,14 @@ def fracture(shape, pieces: int = 16, seed: int = 0, points=None) -> Fractured:
         rng = np.random.default_rng(seed)
         lo, hi = verts.min(axis=0), verts.max(axis=0)
         seeds = np.zeros((0, 3))
+        rounds = 0
         while len(seeds) < pieces:  # rejection sampling in the bounding box: uniform in the shape
+            rounds += 1
+            if rounds > SAMPLING_ROUNDS:  # a shape far thinner than it is wide has no inside at the margin: no end
+                from .mass import _dimension_key
+
+                raise InputError(f"too thin to cut into cells: {len(seeds)} of {pieces} points found inside it "
+                                 f"({size:g} m across, far more than its thickness)", _dimension_key(shape))
             trial = rng.uniform(lo, hi, size=(4 * pieces, 3))
             seeds = np.vstack([seeds, trial[_inside(trial, walls, 1e-6 * size)]])
         seeds = seeds[:pieces]
@@ -138,8 +168,8 @@ def fracture(shape, pieces: int = 16, seed: int = 0, points=None) -> Fractured:
             cell = HalfspaceIntersection(halfspaces, seeds[i]).intersections
             hull = ConvexHull(cell)
         except (QhullError, ValueError) as err:  # a flat or vanishing cell: points nearly together
-            first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-            raise InputError(f"cell {i} could not be cut (points too close together?): {first}", "points") from None
+            raise InputError(f"cell {i} could not be cut (points too close together?): {_qhull_words(err)}",
+                             "points") from None
         cells.append(cell[hull.vertices])
         volume[i] = hull.volume
     faces, area, centroid, facing = [], [], [], []

@@ -8,6 +8,7 @@ Also validates and builds the closed triangle meshes that ``Mesh`` and ``Convex`
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from .errors import InputError
 from .math3d import mat_vec, rotate_tensor
-from .shapes import Box, Capsule, Compound, Cone, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere
+from .shapes import Box, Capsule, Compound, Cone, Cylinder, Ellipsoid, Mesh, Particles, Plane, Sphere, check_coordinates
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,12 +147,29 @@ def mass_properties(shape, mass=None, density=None) -> MassProperties:
     }
     if type(shape) not in volume_of:
         raise InputError(f"cannot compute mass properties of {type(shape).__name__}", "shape")
+    too_large = InputError("too large: the shape's mass properties (volume, inertia) overflow a float",
+                           _dimension_key(shape))
     try:
-        if mass is None:
-            mass = density * volume_of[type(shape)](shape)
-        return _primitive_mass_properties(shape, mass)
+        with np.errstate(over="ignore", invalid="ignore"):  # NumPy's overflow gives inf: checked below
+            if mass is None:
+                mass = density * volume_of[type(shape)](shape)
+            props = _primitive_mass_properties(shape, mass)
     except OverflowError:  # Python's float power raises where NumPy would give inf (a 1e300 m radius)
-        raise InputError("the shape is too large: its volume or inertia overflows a float", "shape") from None
+        raise too_large from None
+    if not (math.isfinite(props.mass) and np.all(np.isfinite(props.inertia)) and np.all(np.isfinite(props.center))):
+        raise too_large  # a box of size 1e308: its moments are inf (was blamed on the body's inertia, a key not given)
+    return props
+
+
+def _dimension_key(shape) -> str:
+    """``shape.KEY`` of the largest dimension of a primitive (``size`` of a box, ``radii`` of an
+    ellipsoid, else ``radius``, ``length`` or ``height``): the key to blame when it is too large."""
+    if isinstance(shape, Box):
+        return "shape.size"
+    if isinstance(shape, Ellipsoid):
+        return "shape.radii"
+    dims = {k: abs(float(getattr(shape, k))) for k in ("radius", "length", "height") if hasattr(shape, k)}
+    return f"shape.{max(dims, key=dims.get)}" if dims else "shape"
 
 
 def _primitive_mass_properties(shape, m: float) -> MassProperties:
@@ -222,7 +240,14 @@ def _compound_mass_properties(shape, mass: float | None, density: float | None) 
     the parallel axis theorem, sum R_i I_i R_i^T + m_i (|d_i|^2 1 - d_i d_i^T) with
     d_i = p_i + R_i c_i - C. Overlapping parts are counted twice.
     """
-    unit = [(mass_properties(part, density=1.0), pos, _quat_matrix(q)) for part, pos, q in shape.parts]
+    unit = []
+    for i, (part, pos, q) in enumerate(shape.parts):
+        try:
+            unit.append((mass_properties(part, density=1.0), pos, _quat_matrix(q)))
+        except InputError as err:
+            if not err.problem.startswith("too large"):
+                raise
+            raise InputError(f"part {i} is too large: its volume or inertia is past the float range", "parts") from None
     for i, (props, _, _) in enumerate(unit):
         # a huge part (a ball of 1e80 m, a mesh scaled by 1e51) has moments past the float range: inf, then
         # 0 x inf = NaN in the sums below (the URDF fuzz test found it)
@@ -369,6 +394,7 @@ def _inline_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(f"expected a non-empty (V, 3) array of vertices, got shape {v.shape}", "vertices")
     if not np.all(np.isfinite(v)):
         raise InputError("vertices must be finite numbers", "vertices")
+    check_coordinates(v, "vertices", "vertices")
     whole = InputError("faces must be whole numbers (vertex indices)", "faces")
     try:
         f_raw = np.asarray(faces)
@@ -394,13 +420,17 @@ def _read_mesh_file(path):
     if not p.is_file():
         raise InputError(f"mesh file not found: {path}", "path")
     try:
-        mesh = trimesh.load(str(p), force="mesh", process=True)
+        # quiet: a file's absurd coordinates (1e308) overflow in trimesh's merging; checked just below
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore", RuntimeWarning)
+            mesh = trimesh.load(str(p), force="mesh", process=True)
     except Exception as exc:  # trimesh raises many types for bad files
         # what is wrong with the file, when we can tell (an OBJ), rather than NumPy's words for it
         problem = _obj_problem(p) if p.suffix.lower() == ".obj" else None
         raise InputError(f"cannot read mesh file {path}: {problem or exc}", "path") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InputError(f"mesh file holds no triangles: {path}", "path")
+    check_coordinates(mesh.vertices, "path", f"mesh file {path}: vertex coordinates", rows=False)
     return mesh
 
 
@@ -620,6 +650,7 @@ def convex_hull_mesh(path=None, points=None):
             raise InputError(f"expected a list of [x, y, z] points, got shape {pts.shape}", "points")
         if not np.all(np.isfinite(pts)):
             raise InputError("points must be finite numbers", "points")
+        check_coordinates(pts, "points", "points")
     degenerate = InputError("convex hull needs at least 4 points not all in one plane", "points")
     if len(pts) < 4:
         raise degenerate

@@ -225,7 +225,14 @@ class BodyReader(ValueReader):
         seed = self.integer(f["seed"], f"{where}.seed", 0) if "seed" in f else 0
         strength = self.positive(f["strength"], f"{where}.strength") if "strength" in f else float("inf")
         min_face = self.nonnegative(f["min_face"], f"{where}.min_face") if "min_face" in f else MIN_FACE
-        cells = self.library(where, fracture, shape, pieces, seed)
+        try:
+            cells = fracture(shape, pieces, seed)
+        except InputError as err:
+            # the shape's own keys (shape.size: too large to cut) are the body's; the scene gives no points, so
+            # a cell that cannot be cut is the fracture table's (its pieces, its seed)
+            if err.key and err.key.startswith("shape"):
+                raise InputError(err.problem, f"{key}.{err.key}", self.file) from None
+            raise InputError(err.problem, where if err.key == "points" else f"{where}.{err.key}", self.file) from None
         name = kw.pop("name")
         density = kw.pop("density") if "density" in kw else kw.pop("mass") / float(cells.volume.sum())
         kw.pop("fixed", None)

@@ -18,6 +18,25 @@ import numpy as np
 
 from .errors import InputError
 
+#: largest |coordinate| (m) a mesh vertex, a hull point, a heightfield's height or size, a fractured
+#: shape's extent may have: 10 million km, far beyond any scene; small enough that trimesh's vertex
+#: merging (coordinates times 1e8, as 64-bit integers: at most 9.2e18) and the volume and inertia
+#: integrals (coordinates to the 5th power) stay in range. Beyond it: InputError.
+MAX_COORDINATE = 1e10
+
+
+def check_coordinates(values, key: str, what: str = "coordinates", rows: bool = True) -> None:
+    """InputError (``key``) unless every number of ``values`` is finite and within ``MAX_COORDINATE``
+    m, naming the first bad row when ``rows`` (vectorised; checked before any arithmetic, so no NumPy warning)."""
+    a = np.asarray(values, dtype=float)
+    bad = ~(np.abs(a) <= MAX_COORDINATE)  # NaN is bad too
+    if bad.any():
+        where = np.argwhere(bad)[0]
+        value = a[tuple(where)]
+        row = f" (row {int(where[0])}" + (f", column {int(where[1])})" if len(where) > 1 else ")") if a.ndim and rows else ""
+        problem = "must be finite" if not np.isfinite(value) else f"must be at most {MAX_COORDINATE:g} m in magnitude"
+        raise InputError(f"{what} {problem}, got {value:g}{row}", key)
+
 # Type ids in the order collision pair routines will dispatch on (STYLE 5.2).
 # NOTE: a pair's routine is found with its two ids in this order (narrowphase.collide_shapes: the
 # smaller id is a; the convex family spans SHAPE_SPHERE..SHAPE_CONVEX, a mesh comes last), so a new
@@ -439,8 +458,11 @@ def heightfield(heights, size, base: float = 0.5) -> Mesh:
         raise InputError(f"expected at least 2 rows of at least 2 heights, got shape {H.shape}", "heights")
     if not np.all(np.isfinite(H)):
         raise InputError("heights must be finite numbers", "heights")
+    check_coordinates(H, "heights", "heights")  # 1e308: the mesh's arithmetic would overflow (warnings, inf)
     sx, sy = (positive(v, "size") for v in finite_vector(size, "size", 2))
+    check_coordinates((sx, sy), "size", "size")
     base = positive(base, "base")
+    check_coordinates(base, "base", "base")
     ny, nx = H.shape
     xs = (np.arange(nx) / (nx - 1) - 0.5) * sx
     ys = (np.arange(ny) / (ny - 1) - 0.5) * sy

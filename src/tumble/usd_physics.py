@@ -93,6 +93,14 @@ USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 DEFAULT_DENSITY = 1000.0  # kg/m^3, the schema's density when nothing sets one (its overview)
 MAX_GROUPS = 31  # collision groups: bit 0 is "no group", 31 bits are left for groups
 
+#: the authored size attributes of each collider kind's UsdGeom prim, refused when negative or not finite
+#: (zero goes on to the shape's own check: "must be positive", or a capsule of no spine, a ball)
+GEOM_SIZE_ATTRIBUTES = {
+    "CubeShape": ("size",), "SphereShape": ("radius",), "CapsuleShape": ("radius", "height"),
+    "CylinderShape": ("radius", "height"), "ConeShape": ("radius", "height"),
+    "Capsule1Shape": ("radiusTop", "radiusBottom", "height"), "Cylinder1Shape": ("radiusTop", "radiusBottom", "height"),
+}
+
 
 @dataclass
 class UsdScene:
@@ -323,6 +331,11 @@ class _Reader:
         s = self.mpu
         pos = _vec(d.localPos) * s
         q = _quat(d.localRot)
+        for name in GEOM_SIZE_ATTRIBUTES.get(kind, ()):
+            # the parser's sizes are magnitudes (a Cube of size -1 came out a unit box): the prim's own value
+            v = self.attr(path, name)
+            if v is not None and not (math.isfinite(float(v)) and float(v) >= 0.0):
+                raise self.error(f"{name}: must be positive, got {float(v):g}", path)
         if kind == "CubeShape":
             return Box(size=tuple(2.0 * _vec(d.halfExtents) * s)), pos, q
         if kind == "SphereShape":
