@@ -385,7 +385,7 @@ def check_trajectory(traj, file: str | None = None) -> None:
             try:
                 d = json.loads(str(text))
             except (ValueError, RecursionError) as exc:  # JSONDecodeError is a ValueError
-                raise InputError(f"row {row} is not JSON text ({type(exc).__name__}: {exc})", "shape_table", file) from None
+                raise InputError(f"row {row} is not JSON text ({exc})", "shape_table", file) from None
             kind = d.get("type") if isinstance(d, dict) else None
             if not isinstance(kind, str) or kind not in SHAPE_TYPES:
                 raise InputError(f"row {row} is not a shape (expected an object whose type is one of "
