@@ -1,5 +1,5 @@
 """Bad input to the library and the scene check: one InputError line, never another exception
-(input audit, /work/notes/findings_input.md, groups A, B, C, G, H1)."""
+(an input audit, session 42: its groups A, B, C, G, H1)."""
 
 import json
 import subprocess
@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 import tumble as tb
-from tumble.errors import InputError
 from tumble.scene import load_scene, parse_scene
+
+from .refusals import refused
 
 
 def ball_world():
@@ -19,17 +20,6 @@ def ball_world():
     return w
 
 
-def refused(call, key, problem=None) -> InputError:
-    """``call()`` raises an InputError keyed ``key`` (and nothing else), one line."""
-    with pytest.raises(Exception) as info:
-        call()
-    err = info.value
-    assert type(err) is InputError, f"{type(err).__name__}: {err}"
-    assert err.key == key, str(err)
-    assert "\n" not in str(err)
-    if problem is not None:
-        assert problem in err.problem, str(err)
-    return err
 
 
 # ---------------------------------------------------------------------- G: Simulator arguments

@@ -1,4 +1,4 @@
-"""Absurd sizes in a scene (input audit, findings_input.md, H2-H5, H7): one line naming the key the
+"""Absurd sizes in a scene (an input audit, session 42: its cases H2-H5, H7): one line naming the key the
 file has, a plain problem, exit status 2, and nothing else on stderr (no NumPy or trimesh
 RuntimeWarning before it). Before: a box of size 1e308 was blamed on ``bodies[1].inertia`` (a key
 the file does not have); an OBJ of 1e308 coordinates and a heightfield height of 1e308 printed 22

@@ -1,14 +1,15 @@
 """Sweep specs and [sweep] tables: a bad value is one InputError line naming where it came from
-(input audit, /work/notes/findings_input.md: A3, B2, H6)."""
+(an input audit, session 42: its cases A3, B2, H6)."""
 
 import subprocess
 import sys
 
 import pytest
 
-from tumble.errors import InputError
 from tumble.sweep.runner import SweepDefinition
 from tumble.sweep.spec import parse_spec
+
+from .refusals import refused
 
 SCENE = """\
 [simulation]
@@ -20,18 +21,6 @@ mass = 1.0
 """
 KEY = "bodies.ball.mass"
 BIG = "1" + "0" * 5000  # over Python's 4300-digit limit on reading an integer
-
-
-def refused(call, key, problem=None) -> InputError:
-    with pytest.raises(Exception) as info:
-        call()
-    err = info.value
-    assert type(err) is InputError, f"{type(err).__name__}: {err}"
-    assert err.key == key, str(err)
-    assert "\n" not in str(err)
-    if problem is not None:
-        assert problem in err.problem, str(err)
-    return err
 
 
 def scene(tmp_path, table: str = "", name="s.toml"):

@@ -1,7 +1,7 @@
 """A trajectory file whose values cannot be drawn (NaN positions or times, times not increasing,
 orientations that are not unit quaternions, a shape text that is not a shape) is refused when it is
 loaded for export, render, plot or view: one line ``FILE: KEY: problem``, exit status 2, no output
-file (input audit, findings_input.md, F1-F5). Before, export failed inside ``json.dumps`` with a
+file (an input audit, session 42: its cases F1-F5). Before, export failed inside ``json.dumps`` with a
 traceback (F1-F4) or wrote an invalid glTF (F5)."""
 
 from __future__ import annotations
