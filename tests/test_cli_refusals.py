@@ -188,6 +188,17 @@ def test_resume_refuses_a_damaged_run_record_before_writing(tmp_path, scene, cap
     assert tree(out) == before
 
 
+@pytest.mark.parametrize("entry", ["settings", "names"])
+def test_resume_names_an_entry_missing_from_the_checkpoint(tmp_path, scene, capsys, entry):
+    """An entry the rebuild needs taken out of the checkpoint's record: one line naming it (it said
+    "checkpoint does not rebuild (KeyError: 'settings')"), exit 2, the folder as it was."""
+    out = _doctored(tmp_path, scene, capsys, _pop(entry))
+    before = tree(out)
+    assert main(["run", "--resume", str(out), "--duration", "0.5", "--no-progress"]) == 2
+    refusal(capsys, f"tumble: error: {out / 'checkpoint.npz'}: {entry}: missing from the checkpoint")
+    assert tree(out) == before
+
+
 def test_resume_of_an_intact_record_still_continues(tmp_path, scene, capsys):
     """The checks accept what tumble run writes: the same run resumes to its end."""
     out = _doctored(tmp_path, scene, capsys, lambda meta: None)

@@ -327,6 +327,9 @@ def load_checkpoint(cls, path, custom_forces=None):
         raise InputError(f"checkpoint does not rebuild: {err}", None, file) from None
     except SimulationError as err:
         raise InputError(f"checkpoint state is invalid: {err}", None, file) from None
+    except KeyError as exc:  # an entry the rebuild needs is gone: name it (the line said "KeyError: 'settings'")
+        key = str(exc.args[0]) if exc.args else None
+        raise InputError("missing from the checkpoint (it does not rebuild without it)", key, file) from None
     except Exception as exc:
         raise InputError(f"checkpoint does not rebuild ({type(exc).__name__}: {' '.join(str(exc).split())})", None, file) from None
     return sim
