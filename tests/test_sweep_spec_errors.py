@@ -92,3 +92,18 @@ def test_too_many_samples_in_the_table_names_the_table(tmp_path):
     path = scene(tmp_path, f'[sweep]\nvary = {{ "{KEY}" = "uniform(0, 1)" }}\nsamples = 1000000000000000000000000000000\n')
     err = refused(lambda: SweepDefinition(path), "sweep.samples", "must be at most")
     assert "integer of 31 digits" in err.problem and err.file == str(path)
+
+
+@pytest.mark.parametrize("table, key, problem", [
+    (f'vary = {{ "{KEY}" = "uniform(1, 2)" }}', f'sweep.vary."{KEY}"', "is a distribution: random sampling needs"),
+    (f'vary = {{ "{KEY}" = "linspace(1, 2, 20000)", "simulation.duration" = "linspace(0.1, 0.2, 20000)" }}',
+     "sweep.vary", "variants (more than"),
+])
+def test_the_designs_errors_name_the_table_when_the_values_are_its(tmp_path, table, key, problem):
+    """Errors of the design itself (a distribution with no samples, a grid too large) named the
+    command-line options (``--vary``) when the values came from the file's ``[sweep]`` table: now its
+    key and the file; a ``--vary`` option's stay its own."""
+    path = scene(tmp_path, "[sweep]\n" + table + "\n")
+    err = refused(lambda: SweepDefinition(path), key, problem)
+    assert err.file == str(path)
+    refused(lambda: SweepDefinition(scene(tmp_path, name="o.toml"), vary=[f"{KEY}=uniform(1,2)"]), f"--vary {KEY}")

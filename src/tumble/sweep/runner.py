@@ -129,6 +129,20 @@ def _toml_key(key: str) -> str:
     return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else json.dumps(key)
 
 
+def _table_error(err: InputError, from_table: set, varied: set, samples_key: str, file) -> InputError:
+    """``design()``'s error keyed as the scene file's ``[sweep]`` table when the values it is about
+    came from it (``--vary K`` -> ``sweep.vary.K``; ``--vary`` -> ``sweep.vary`` when every varied
+    key is the table's; ``--samples`` -> ``sweep.samples``), with the file; else as it was."""
+    key = err.key or ""
+    if key == "--samples" and samples_key == "sweep.samples":
+        return InputError(err.problem, "sweep.samples", file)
+    if key.startswith("--vary ") and key[len("--vary "):] in from_table:
+        return InputError(err.problem, f"sweep.vary.{_toml_key(key[len('--vary '):])}", file)
+    if key == "--vary" and varied and varied <= from_table:
+        return InputError(err.problem, "sweep.vary", file)
+    return err
+
+
 def _file_of(key: str, file):
     """The file a key's value came from: the scene file for a [sweep] key, none for an option."""
     return file if key.startswith("sweep.") else None
@@ -199,7 +213,10 @@ class SweepDefinition:
             raise InputError(f"must be at most {MAX_VARIANTS}, got {_shown(samples)}", samples_key, _file_of(samples_key, file))
         if samples is not None and seed is None:
             seed = 0
-        self.columns = design(specs, samples, seed)
+        try:
+            self.columns = design(specs, samples, seed)
+        except InputError as err:  # design() names the options; the values may be the [sweep] table's
+            raise _table_error(err, from_table, set(merged), samples_key, file) from None
         self.count = len(next(iter(self.columns.values())))
 
         texts = metrics if metrics else section.get("metrics")
