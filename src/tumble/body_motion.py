@@ -435,16 +435,34 @@ def _body_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind
 # when a force reads the velocities: at most this many passes (each contracts by h c / 2m for a
 # linear damping c: 0.02 at a rate of 10/s and dt 1/240, converged in 9 passes).
 KICK_ITERATIONS = 32
+# A pass that changes the momenta by at most this (relative, ``_kick_change``) has converged; one
+# that stops contracting above KICK_STALLED keeps the explicit kick (below it, rounding near the root).
+KICK_CONVERGED = 4.0 * 2.220446049250313e-16
+KICK_STALLED = 1e-12
+# what the next pass does (``_kick_verdict``)
+KICK_GO_ON, KICK_KEEP, KICK_EXPLICIT = 0, 1, 2
 
 
 @njit(**JIT, inline="always")
-def _reads_velocity(i, uforce_kind, uforce_start):
-    """Whether a force row of body i reads its velocities (drag, wind, fluid, damping)."""
-    for r in range(uforce_start[i], uforce_start[i + 1]):
+def _velocity_rows(uforce_kind, first, stop):
+    """Whether a force row among ``first:stop`` reads the velocities (drag, wind, fluid, damping)."""
+    for r in range(first, stop):
         kind = uforce_kind[r]
         if kind == UFORCE_DRAG or kind == UFORCE_FLUID or kind == UFORCE_DAMPING:
             return True
     return False
+
+
+@njit(**JIT, inline="always")
+def _kick_verdict(change, last):
+    """After a pass of the closing kick's iteration that changed the momenta by ``change`` (the
+    pass before: ``last``): KICK_GO_ON, KICK_KEEP (converged, or stalled at rounding) or
+    KICK_EXPLICIT (not contracting: the explicit kick)."""
+    if change <= KICK_CONVERGED:
+        return KICK_KEEP
+    if change >= last:
+        return KICK_KEEP if change <= KICK_STALLED else KICK_EXPLICIT
+    return KICK_GO_ON
 
 
 @njit(**JIT, inline="always")
@@ -462,7 +480,7 @@ def _closing_kick(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kin
     damping c) the explicit kick is kept, as before."""
     F, T = _kick_forces(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kind, uforce_param, uforce_start)
     P0, L0 = _kick(P, L, F, T, h)
-    if not _reads_velocity(i, uforce_kind, uforce_start):
+    if not _velocity_rows(uforce_kind, uforce_start[i], uforce_start[i + 1]):
         return P0, L0
     P1, L1 = P0, L0
     last = math.inf
@@ -472,10 +490,11 @@ def _closing_kick(layout, i, x, o, P, L, mass, inv_mass, ib, gravity, uforce_kin
         P2, L2 = _kick(P, L, F, T, h)
         change = _kick_change(P1, L1, P2, L2, P, L)
         P1, L1 = P2, L2
-        if change <= 4.0 * 2.220446049250313e-16:
+        verdict = _kick_verdict(change, last)
+        if verdict == KICK_KEEP:
             return P1, L1
-        if change >= last:  # not contracting: the explicit kick (rounding near the root is below 1e-12)
-            return (P1, L1) if change <= 1e-12 else (P0, L0)
+        if verdict == KICK_EXPLICIT:
+            return P0, L0
         last = change
     return P1, L1
 

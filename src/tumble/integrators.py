@@ -42,7 +42,11 @@ from numba.extending import overload
 
 from .body_motion import LAYOUT_IDS, LAYOUT_QUATERNION, STATE_WIDTH  # noqa: F401 (re-exported: World, Scene, the tests)
 from .body_motion import (  # one body in registers
+    KICK_CONVERGED,  # noqa: F401 (the Python stages' closing kick reads it here)
+    KICK_EXPLICIT,
+    KICK_GO_ON,
     KICK_ITERATIONS,
+    KICK_STALLED,  # noqa: F401 (as KICK_CONVERGED)
     LAYOUT_MATRIX,
     _axpy,
     _body_forces,
@@ -52,14 +56,15 @@ from .body_motion import (  # one body in registers
     _closing_kick,
     _kick_change,
     _kick_forces,
+    _kick_verdict,
     _load,
     _mat9,
     _project,
     _store,
     _unary_forces,
     _velocities,
+    _velocity_rows,
 )
-from .forces import UFORCE_DAMPING, UFORCE_DRAG, UFORCE_FLUID
 from .math3d import JIT, matrix_to_quat_into, world_inertia_into
 
 (
@@ -558,11 +563,7 @@ def _split_step(
     kick_kernel(layout, Y, moving, F, T, 0.5 * h)
     drift_kernel(layout, Y, moving, inv_mass, inertia_body_inv, principal_q, principal_moments, True, h)
     accumulate_forces_kernel(layout, Y, mass, inv_mass, inertia_body_inv, moving, gravity, uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param, Rs, vs, omegas, F, T)
-    reads_velocity = False
-    for r in range(uforce_kind.shape[0]):
-        kind = uforce_kind[r]
-        if kind == UFORCE_DRAG or kind == UFORCE_FLUID or kind == UFORCE_DAMPING:
-            reads_velocity = True
+    reads_velocity = _velocity_rows(uforce_kind, 0, uforce_kind.shape[0])
     for s in range(spring_param.shape[0]):
         if spring_param[s, 1] != 0.0:  # a damped spring
             reads_velocity = True
@@ -587,16 +588,15 @@ def _split_step(
             P2, L2 = _kick(P, L, (F[i, 0], F[i, 1], F[i, 2]), (T[i, 0], T[i, 1], T[i, 2]), 0.5 * h)
             change = _kick_change(P1, L1, P2, L2, P, L)
             _store(layout, Y, i, x1, o1, P2, L2)
-            if change <= 4.0 * 2.220446049250313e-16:
-                done[i] = True
-            elif change >= last[i]:
-                done[i] = True
-                if change > 1e-12:
-                    x0, o0, P0, L0 = _load(layout, K, i)
-                    _store(layout, Y, i, x1, o1, P0, L0)
-            else:
+            verdict = _kick_verdict(change, last[i])
+            if verdict == KICK_GO_ON:
                 last[i] = change
                 remaining = True
+            else:
+                done[i] = True
+                if verdict == KICK_EXPLICIT:
+                    x0, o0, P0, L0 = _load(layout, K, i)
+                    _store(layout, Y, i, x1, o1, P0, L0)
         if not remaining:
             return
 

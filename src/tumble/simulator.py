@@ -884,9 +884,9 @@ class Simulator:
                 new[:, 3:] += half * s.T[rows]
                 change = _kick_change(Y[rows, -6:], new, start[rows])
                 Y[rows, -6:] = new
-                converged = change <= 4.0 * np.finfo(float).eps
+                converged = change <= K.KICK_CONVERGED  # body_motion._kick_verdict's tests
                 stalled = ~converged & (change >= last[rows])
-                back = rows[stalled & (change > 1e-12)]
+                back = rows[stalled & (change > K.KICK_STALLED)]
                 Y[back, -6:] = explicit[back]
                 going[rows[converged | stalled]] = False
                 last[rows] = change

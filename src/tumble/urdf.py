@@ -333,9 +333,9 @@ class Robot:
         uj = self._urdf_joint(joint)
         limit = _force_limit(uj, max_force)
         if speed is None:
-            self._write(sim, joint, *self._friction_motor(joint))
+            self._write(sim, joint, *self._friction_motor(joint, uj))
         else:
-            columns, fields = self._passive_drive(joint)
+            columns, fields = self._passive_drive(joint, uj)
             max_key = self._field(joint, "max_motor")
             speed = _finite_float(speed, "speed")
             self._write(sim, joint, {**columns, P_MOTOR_ON: 1.0, P_MOTOR_SPEED: speed, P_MAX_MOTOR: limit},
@@ -345,18 +345,17 @@ class Robot:
         """The record's field of ``stem`` (``max_motor``, ``max_drive``): _torque or _force."""
         return f"{stem}_force" if isinstance(self.joints[joint], SliderJoint) else f"{stem}_torque"
 
-    def _friction_motor(self, joint: str) -> tuple[dict, dict]:
-        """(columns, fields) of the joint's friction as the file gives it (a motor of speed 0
-        limited to it), or of no motor."""
-        friction = self._urdf_joint(joint).friction
+    def _friction_motor(self, joint: str, uj: UrdfJoint) -> tuple[dict, dict]:
+        """(columns, fields) of the joint's friction as its file ``uj`` gives it (a motor of speed
+        0 limited to it), or of no motor."""
+        friction = uj.friction
         if friction == 0.0:
             return {P_MOTOR_ON: 0.0}, {"motor_speed": None}
         return ({P_MOTOR_ON: 1.0, P_MOTOR_SPEED: 0.0, P_MAX_MOTOR: friction},
                 {"motor_speed": 0.0, self._field(joint, "max_motor"): friction})
 
-    def _passive_drive(self, joint: str) -> tuple[dict, dict]:
-        """(columns, fields) of the joint's own damping and spring (its file's), uncapped."""
-        uj = self._urdf_joint(joint)
+    def _passive_drive(self, joint: str, uj: UrdfJoint) -> tuple[dict, dict]:
+        """(columns, fields) of the joint's own damping and spring (its file's, ``uj``), uncapped."""
         return ({P_STIFFNESS: uj.stiffness, P_DAMPING: uj.damping, P_TARGET: uj.target, P_MAX_DRIVE: math.inf},
                 {"stiffness": uj.stiffness, "damping": uj.damping, "target": uj.target,
                  self._field(joint, "max_drive"): math.inf})
@@ -388,13 +387,14 @@ class Robot:
         """Position control (PyBullet's ``POSITION_CONTROL``, a PD drive): pull ``joint`` to ``target``
         rad or m with ``stiffness`` N m/rad (N/m) and ``damping`` N m s/rad (N s/m), at most
         ``max_force`` (default the URDF's effort). Takes the place of the joint's damping."""
-        limit = _force_limit(self._urdf_joint(joint), max_force)
+        uj = self._urdf_joint(joint)
+        limit = _force_limit(uj, max_force)
         if stiffness < 0 or damping < 0 or not (math.isfinite(stiffness) and math.isfinite(damping)):
             raise InputError("stiffness and damping must be finite and >= 0", "stiffness")
         # one control mode a joint (PyBullet's POSITION_CONTROL replaces VELOCITY_CONTROL): a motor
         # of set_motor gives way to the joint's friction. NOTE: why: a running motor kept winning
         # over the target (a robotics audit, session 42)
-        motor, motor_fields = self._friction_motor(joint)
+        motor, motor_fields = self._friction_motor(joint, uj)
         target = _finite_float(target, "target")
         self._write(sim, joint, {**motor, P_STIFFNESS: float(stiffness), P_DAMPING: float(damping), P_TARGET: target,
                                  P_MAX_DRIVE: limit},
