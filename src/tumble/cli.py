@@ -30,8 +30,9 @@ from pathlib import Path
 
 from . import __version__
 from .errors import InputError, SimulationError
-from .runfile import _shown, check_run, read_run_record
+from .runfile import check_run, read_run_record
 from .scene import Scene, load_scene
+from .scene_values import shown
 from .trajectory import write_atomic
 
 EXIT_OK, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 2, 3, 130, 143
@@ -439,7 +440,7 @@ def _read_run_info(info, path: Path) -> dict:
         if key not in info:
             raise InputError("missing (the checkpoint was not written by tumble run, or is damaged)", f"run.info.{key}", str(path))
         if not test(info[key]):
-            raise InputError(f"must be {what}, got {_shown(info[key])}", f"run.info.{key}", str(path))
+            raise InputError(f"must be {what}, got {shown(info[key])}", f"run.info.{key}", str(path))
     return info
 
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from . import checks
 from .errors import InputError, SimulationError
+from .scene_values import shown
 from .trajectory import EnabledLog, TrajectoryWriter, frame_bytes, write_json_atomic
 
 TRAJECTORY, CHECKPOINT, SUMMARY = "trajectory.npz", "checkpoint.npz", "summary.json"
@@ -169,11 +170,6 @@ def check_run(sim, out_dir, duration, frame_rate, *, checkpoint_every=None, resu
 
 # The run record run_to_file keeps in its checkpoint (``meta.run``): key -> (test, what it must be).
 # ``info`` (tumble run's: the scene and its settings) is the caller's, checked by the CLI.
-def _shown(v) -> str:
-    text = " ".join(repr(v).split())
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
 def _number(v):
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -217,18 +213,18 @@ def read_run_record(run, path, body_count: int, progress: bool = False) -> dict:
             raise InputError("missing (the checkpoint was not written by run_to_file, or is damaged)", f"run.{key}", path)
         test, what = RUN_RECORD[key]
         if not test(run[key]):
-            raise InputError(f"must be {what}, got {_shown(run[key])}", f"run.{key}", path)
+            raise InputError(f"must be {what}, got {shown(run[key])}", f"run.{key}", path)
     if not progress:
         return run
     figures = run.get("figures")
     if not isinstance(figures, dict):
-        raise InputError("missing" if figures is None else f"must be a table of the run's figures, got {_shown(figures)}",
+        raise InputError("missing" if figures is None else f"must be a table of the run's figures, got {shown(figures)}",
                          "run.figures", path)
     for key, (test, what) in FIGURES.items():
         if key not in figures:
             raise InputError("missing", f"run.figures.{key}", path)
         if not test(figures[key]):
-            raise InputError(f"must be {what}, got {_shown(figures[key])}", f"run.figures.{key}", path)
+            raise InputError(f"must be {what}, got {shown(figures[key])}", f"run.figures.{key}", path)
     fixed = run.get("fixed")
     if fixed is not None:
         if not (isinstance(fixed, list) and all(isinstance(f, bool) for f in fixed)):
@@ -238,11 +234,11 @@ def read_run_record(run, path, body_count: int, progress: bool = False) -> dict:
     changes = run.get("enabled_changes")
     if changes is not None:
         if not isinstance(changes, list):
-            raise InputError(f"must be a list of [frame, body, enabled] rows, got {_shown(changes)}", "run.enabled_changes", path)
+            raise InputError(f"must be a list of [frame, body, enabled] rows, got {shown(changes)}", "run.enabled_changes", path)
         for i, row in enumerate(changes):
             if not (isinstance(row, list) and len(row) == 3 and all(_count(v) for v in row[:2])
                     and row[1] < body_count and (isinstance(row[2], bool) or row[2] in (0, 1))):
-                raise InputError(f"must be [frame, body, enabled] (body below {body_count}), got {_shown(row)}",
+                raise InputError(f"must be [frame, body, enabled] (body below {body_count}), got {shown(row)}",
                                  f"run.enabled_changes[{i}]", path)
     return run
 

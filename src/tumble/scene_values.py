@@ -50,6 +50,15 @@ def _digits(value: int) -> int:
     return max(1, int(abs(value).bit_length() * 0.30103) + 1)
 
 
+def shown(value) -> str:
+    """A value as a message shows it: its repr on one line, at most 60 characters, and a whole
+    number beyond ``MAX_WHOLE`` by its digits (``repr`` refuses one of more than 4300)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > MAX_WHOLE:
+        return f"an integer of {_digits(value)} digits"
+    text = " ".join(repr(value).split())
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _int_digits_problem(exc: ValueError) -> str:
     """The problem of a ValueError raised while reading a document's text: Python's limit on an
     integer's digits (``sys.set_int_max_str_digits``) said plainly, else the error's own text."""

@@ -31,6 +31,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..scene import parse_scene
+from ..scene_values import MAX_WHOLE, shown
 from . import metrics as M
 from .spec import MAX_VARIANTS, design, format_key, parse_spec, parse_vary, resolve_key
 from .tasks import Plan, run_chunk
@@ -148,14 +149,6 @@ def _file_of(key: str, file):
     return file if key.startswith("sweep.") else None
 
 
-def _shown(value) -> str:
-    """A value as shown in a message (never a 4300-digit number: ``repr`` refuses one)."""
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 2**63:
-        return f"an integer of {max(1, int(abs(value).bit_length() * 0.30103) + 1)} digits"
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
 class SweepDefinition:
     """A checked sweep: the plan the tasks get, the design, and what sweep.json records."""
 
@@ -201,16 +194,16 @@ class SweepDefinition:
         if samples is None and "samples" in section:
             samples, samples_key = section["samples"], "sweep.samples"
         if samples is not None and (isinstance(samples, bool) or not isinstance(samples, int) or samples < 1):
-            raise InputError(f"must be a whole number >= 1, got {_shown(samples)}", samples_key, _file_of(samples_key, file))
+            raise InputError(f"must be a whole number >= 1, got {shown(samples)}", samples_key, _file_of(samples_key, file))
         if seed is None and "seed" in section:
             seed, seed_key = section["seed"], "sweep.seed"
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= 2**63 - 1):
-            raise InputError(f"must be a whole number from 0 to 2^63 - 1, got {_shown(seed)}", seed_key, _file_of(seed_key, file))
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_WHOLE):
+            raise InputError(f"must be a whole number from 0 to 2^63 - 1, got {shown(seed)}", seed_key, _file_of(seed_key, file))
         if seed is not None and samples is None:
             raise InputError(f"{'seed' if seed_key == 'sweep.seed' else '--seed'} only matters with --samples N "
                              "(a random design)", seed_key, _file_of(seed_key, file))
         if samples is not None and samples > MAX_VARIANTS:  # design() says it too, as --samples
-            raise InputError(f"must be at most {MAX_VARIANTS}, got {_shown(samples)}", samples_key, _file_of(samples_key, file))
+            raise InputError(f"must be at most {MAX_VARIANTS}, got {shown(samples)}", samples_key, _file_of(samples_key, file))
         if samples is not None and seed is None:
             seed = 0
         try:
@@ -227,7 +220,7 @@ class SweepDefinition:
             if isinstance(texts, str):
                 texts = [texts]
             if not isinstance(texts, (list, tuple)) or not texts:
-                raise InputError(f"expected a list of metric names, got {_shown(texts)}", metrics_key, _file_of(metrics_key, file))
+                raise InputError(f"expected a list of metric names, got {shown(texts)}", metrics_key, _file_of(metrics_key, file))
             self.metrics = []
             for t in texts:
                 try:
@@ -244,7 +237,7 @@ class SweepDefinition:
             chunk_size = section.get("chunk_size", DEFAULT_CHUNK_SIZE)
             chunk_key = "sweep.chunk_size" if "chunk_size" in section else chunk_key
         if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-            raise InputError(f"must be a whole number >= 1, got {_shown(chunk_size)}", chunk_key, _file_of(chunk_key, file))
+            raise InputError(f"must be a whole number >= 1, got {shown(chunk_size)}", chunk_key, _file_of(chunk_key, file))
         self.chunk_size = chunk_size
         self.keys = [s.key for s in specs]
         self.specs = specs

@@ -38,6 +38,7 @@ from ..errors import InputError
 
 # Keys a table of each kind may take (from the scene format; read here, never changed).
 from ..scene import BODY_KEYS, FORCE_KEYS, SIMULATION_KEYS
+from ..scene_values import MAX_WHOLE, _digits, shown
 
 _TOKEN = re.compile(r"\s*(?:([A-Za-z_][A-Za-z0-9_\-]*)|\[\s*(-?\d+)\s*\])\s*")
 
@@ -208,14 +209,11 @@ def _number(text: str, key: str, spec: str) -> float:
     return v
 
 
-# NOTE: a swept whole number goes to the results table (a Parquet int64 column) and to the scene
-# (counts, seeds: 64-bit in NumPy and compiled code); a larger one overflowed there with a traceback
-_MAX_WHOLE = 2**63 - 1
-
-
 def _whole(v: int, key: str, spec) -> int:
-    if abs(v) > _MAX_WHOLE:
-        digits = max(1, int(abs(v).bit_length() * 0.30103) + 1)
+    # NOTE: a swept whole number goes to the results table (a Parquet int64 column) and to the
+    # scene (counts, seeds: 64-bit in NumPy and compiled code); a larger one overflowed there
+    if abs(v) > MAX_WHOLE:
+        digits = _digits(v)
         raise InputError(f"bad spec {_shown(spec)}: a whole number of {digits} digits is beyond 2^63 - 1 "
                          "(write a value that large as a float, e.g. 1e30)", f"--vary {key}")
     return v
@@ -225,8 +223,8 @@ def _shown(spec) -> str:
     """A spec as shown in a message: its text (at most 60 characters), never a 4300-digit number."""
     if isinstance(spec, list):
         text = "[" + ", ".join(_shown(v) for v in spec) + "]"
-    elif isinstance(spec, int) and not isinstance(spec, bool) and abs(spec) > _MAX_WHOLE:
-        text = f"<an integer of {max(1, int(abs(spec).bit_length() * 0.30103) + 1)} digits>"
+    elif isinstance(spec, int) and not isinstance(spec, bool) and abs(spec) > MAX_WHOLE:
+        text = f"<{shown(spec)}>"
     else:
         text = spec if isinstance(spec, str) else repr(spec)
     text = text if len(text) <= 60 else text[:57] + "..."
