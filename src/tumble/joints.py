@@ -64,12 +64,17 @@ P_BALL_STIFFNESS, P_BALL_DAMPING, P_BALL_MAX_DRIVE, P_BALL_TARGET = 21, 22, 23, 
 # and its target velocity: body_b's angular velocity relative to body_a that the damping pulls to,
 # rad/s in body_a's axes (x, y, z in P_BALL_RATE..P_BALL_RATE+2)
 P_BALL_RATE = 28
-PARAM_COUNT = 31
+# a hinge's or slider's passive spring and damper (MuJoCo's joint ``stiffness`` to ``springref`` and
+# ``damping``: its qfrc_passive), acting beside the drive and never capped by ``max_drive_*``: the
+# drive row solves them together, and a saturated drive keeps them (``joint_solve._solve_axial``)
+P_PASSIVE_STIFFNESS, P_PASSIVE_DAMPING, P_SPRINGREF = 31, 32, 33
+PARAM_COUNT = 34
 # the columns a parameter row had in older versions (checkpoints): before the effort and
 # armature (their joints get none), and before the ball joints' drive (none either)
 PARAM_COUNT_V1 = 19
 PARAM_COUNT_V2 = 21
-OLD_PARAM_COUNTS = (PARAM_COUNT_V1, PARAM_COUNT_V2, 28)  # 28: the ball drive without its target velocity
+# 28: the ball drive without its target velocity; 31: no passive spring and damper
+OLD_PARAM_COUNTS = (PARAM_COUNT_V1, PARAM_COUNT_V2, 28, 31)
 # a gear's parameter row (``GearJoint``): the indices in ``world.joints`` of the joint that follows and of
 # the joint it follows, and the coefficients a0..a4 of q_joint = a0 + a1 q + ... + a4 q^4 (q = q_follows)
 # in columns G_COEF..G_COEF+4 (P_STIFFNESS..P_MAX_FORCE). Columns no other row of a gear is read from (every kernel takes a gear's
@@ -186,6 +191,9 @@ def _drive_params(p, j, motor_key, drive_key, effort_key):
     p[P_MAX_DRIVE] = _number(getattr(j, drive_key), drive_key, minimum=0.0, allow_inf=True)
     p[P_EFFORT] = _number(getattr(j, effort_key), effort_key)
     p[P_ARMATURE] = _number(j.armature, "armature", minimum=0.0)
+    p[P_PASSIVE_STIFFNESS] = _number(j.passive_stiffness, "passive_stiffness", minimum=0.0)
+    p[P_PASSIVE_DAMPING] = _number(j.passive_damping, "passive_damping", minimum=0.0)
+    p[P_SPRINGREF] = _number(j.springref, "springref")
 
 
 def lower_or_upper(lower, upper) -> bool:
@@ -347,6 +355,11 @@ class HingeJoint(Joint):
         armature: kg m^2, >= 0: an inertia added to the angle's own (MuJoCo's joint
             ``armature``: a geared motor's rotor), so that the angle obeys
             (I_angle + armature) angle'' = torques. Default 0.
+        passive_stiffness: N m/rad, passive_damping: N m s/rad, both >= 0: the joint's own
+            spring to ``springref`` (rad) and damper (MuJoCo's joint ``stiffness``,
+            ``springref`` and ``damping``), acting beside the drive and never capped by
+            ``max_drive_torque``: a drive saturated at its cap still has them (MuJoCo caps an
+            actuator's force alone). Default 0.
     """
 
     axis: Any = (0.0, 0.0, 1.0)
@@ -360,6 +373,9 @@ class HingeJoint(Joint):
     max_drive_torque: float = math.inf
     torque: float = 0.0
     armature: float = 0.0
+    passive_stiffness: float = 0.0
+    passive_damping: float = 0.0
+    springref: float = 0.0
     kind: ClassVar[str] = "hinge"
 
     def _frame_world(self, axis_to_world):
@@ -385,6 +401,9 @@ class SliderJoint(Joint):
         force: N, a force applied along the axis at the anchor, on body_b and its opposite
             on body_a, every substep until changed (``JointSolver.set_effort``). Default 0.
         armature: kg, >= 0: a mass added to the displacement's own (MuJoCo's armature).
+        passive_stiffness: N/m, passive_damping: N s/m, both >= 0: the joint's own spring to
+            ``springref`` (m) and damper, beside the drive and never capped by
+            ``max_drive_force`` (as the hinge's).
     """
 
     axis: Any = (0.0, 0.0, 1.0)
@@ -398,6 +417,9 @@ class SliderJoint(Joint):
     max_drive_force: float = math.inf
     force: float = 0.0
     armature: float = 0.0
+    passive_stiffness: float = 0.0
+    passive_damping: float = 0.0
+    springref: float = 0.0
     kind: ClassVar[str] = "slider"
 
     def _frame_world(self, axis_to_world):

@@ -66,10 +66,10 @@ What maps to what:
   ``forcerange`` (when limited: ``ctrllimited``/``forcelimited`` true, or auto with the range
   given). The bias's stiffness and damping are a PD drive on the joint (implicit, capped by the
   forcerange), the rest its target or, without stiffness, an applied torque or force. The joint's
-  own ``damping`` and ``stiffness`` + ``springref`` act beside them, as MuJoCo's passive forces:
-  summed into the one drive (stiffness k + kp, damping c + kv, target (k springref + kp ctrl) /
-  (k + kp), recomputed by ``set_controls``); its cap, the forcerange, then holds the sum (MuJoCo
-  caps the actuator's force alone: the same until the actuator saturates; docs/robots.md). Refused:
+  own ``damping`` and ``stiffness`` + ``springref`` act beside them, as MuJoCo's passive forces: the
+  joint's passive spring-damper (``passive_damping``, ``passive_stiffness``, ``springref``), solved
+  with the drive as one row whose cap, the forcerange, holds the drive's share alone (MuJoCo caps
+  the actuator's force alone; ``joint_solve._drive_and_passive``; docs/robots.md). Refused:
   other gain, bias or activation types, a negative stiffness or damping, a forcerange on a damper
   without stiffness (a velocity actuator's: MuJoCo clips the sum). Other actuators (``intvelocity``,
   ``damper``, ``cylinder``, ``muscle``, ``adhesion``...) and those on sites are left off. Fixed
@@ -121,6 +121,7 @@ import numpy as np
 
 from . import checks
 from .errors import InputError
+from .joints import P_DAMPING, P_MAX_DRIVE, P_PASSIVE_DAMPING, P_PASSIVE_STIFFNESS, P_SPRINGREF, P_STIFFNESS
 from .material import CONDIMS, Material
 from .math3d import matrix_to_quat, quat_to_matrix
 from .mjcf_hfield import read_hfields
@@ -870,17 +871,17 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
         for link_name, surface in parsed.materials.items():
             model.links[link_name].material = surface if margins else replace(surface, margin=0.0)
     # the actuators' springs and dampers, per joint: a PD drive (its target and the applied efforts are
-    # the controls': set for ctrl = 0 once the robot is built), the joint's own spring (stiffness to
-    # springref) and damper added: MuJoCo's passive forces act beside the actuators', and both are
-    # linear in q and q', so they sum into one drive (``mjcf_control.apply_controls``). They took the
-    # drive's place before (robot audit: a servoed joint's damping=1 rang undamped, a velocity
-    # actuator's rate ignored the joint's damper). The cap: the actuators' forcerange, on the sum
+    # the controls': set for ctrl = 0 once the robot is built), and the joint's own spring (stiffness
+    # to springref) and damper beside it as the joint's passive spring-damper (MuJoCo's passive
+    # forces act beside the actuators'), which the actuators' forcerange, the drive's cap, does not
+    # hold (``joint_solve._drive_and_passive``). History: the passive terms took the drive's place
+    # first (robot audit: a servoed joint's damping=1 rang undamped), then were summed into the drive
+    # and capped with it (session 42: a saturated servo lost its joint's damper)
     passive = {j.name: (j.stiffness, j.target, j.damping) for j in model.joints if j.name in parsed.drives}
     targets = {}
     for j, (kp, kv, limit) in parsed.drives.items():
         if kp > 0.0 or kv > 0.0:
-            k, springref, c = passive[j]
-            targets[j] = {"position": springref, "stiffness": kp + k, "damping": kv + c,
+            targets[j] = {"position": 0.0, "stiffness": kp, "damping": kv,
                           **({} if math.isinf(limit) or kp == 0.0 else {"max_force": limit})}
     given = joint_targets or {}
     targets.update(given)
@@ -889,10 +890,28 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
                        euler_deg=euler_deg, self_collision=self_collision, joint_positions=joint_positions,
                        collision_filter=collision_filter, name=name, inertia=inertia, joint_motors=joint_motors,
                        world_geoms=world_geoms, fluid=fluid, margins=margins)
-        # the file's drives' joints' own (stiffness, springref, damping), added to the actuators' by
-        # ``resolve_dampratios`` and ``apply_controls``; not the joints given ``joint_targets``
+        # the file's drives' joints' own (stiffness, springref, damping), as their passive spring-damper;
+        # not the joints given ``joint_targets`` (the caller's drive takes the place of their own, as
+        # ``load_urdf``'s)
         robot.joint_passive = {j: v for j, v in passive.items() if j in targets and j not in given}
+        for joint, (k, springref, c) in robot.joint_passive.items():
+            robot._write(None, joint, {P_PASSIVE_STIFFNESS: k, P_SPRINGREF: springref, P_PASSIVE_DAMPING: c},
+                         {"passive_stiffness": k, "springref": springref, "passive_damping": c})
         resolve_dampratios(robot)
+        # each servoed joint's drive as the file makes it (the actuators' stiffness, damping and cap,
+        # the joint's friction motor): ``set_controls`` writes it back over a ``set_motor`` or
+        # ``set_position_target`` (one control mode a joint). NOTE: why: a servo's ctrl written after a
+        # set_motor went into the motor's drive of stiffness 0 and the servo never acted (session 43)
+        robot.servo_drives = {}
+        for joint in robot.joint_passive:
+            record = robot.joints[joint]
+            max_drive = robot._field(joint, "max_drive")
+            columns, fields = robot._friction_motor(joint, robot._urdf_joint(joint))
+            robot.servo_drives[joint] = (
+                {**columns, P_STIFFNESS: record.stiffness, P_DAMPING: record.damping,
+                 P_MAX_DRIVE: getattr(record, max_drive)},
+                {**fields, "stiffness": record.stiffness, "damping": record.damping,
+                 max_drive: getattr(record, max_drive)})
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
         apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in given})

@@ -57,9 +57,9 @@ class MjcfActuator:
     biasprm[:3] (affine) or none. On the joint: a stiffness k = -gear^2 b1 and damping c = -gear^2
     b2 (a PD drive, implicit), the rest gear (gain ctrl + b0) as the drive's target times k when
     k > 0, else as an applied torque or force. The joint's own spring (stiffness to springref) and
-    damper are added to that drive (MuJoCo's passive forces act beside the actuators': ``mjcf.load_mjcf``
-    sums the stiffnesses and dampings, ``apply_controls`` the targets, ``resolve_dampratios`` the
-    dampings; ``Robot.joint_passive``: {joint: (stiffness, springref, damping)} of the joints so
+    damper act beside that drive as the joint's passive spring-damper, which the drive's cap (the
+    forcerange) does not hold (MuJoCo's passive forces act beside the actuators': ``mjcf.load_mjcf``
+    writes them; ``Robot.joint_passive``: {joint: (stiffness, springref, damping)} of the joints so
     driven). ``ctrl``: the control now (MuJoCo's ``data.ctrl``,
     0 at the start; ``Robot.set_controls``). On a fixed tendon (length sum coef_i q_i) the force
     acts on each of its joints with the moment arm coef_i gear (MuJoCo's transmission): an applied
@@ -142,7 +142,6 @@ def apply_controls(robot, sim, controls: dict):
     touched = []
     for actuator, _ in given:
         touched += [j for j, _c in actuator.tendon] if actuator.tendon else [actuator.joint]
-    passive = getattr(robot, "joint_passive", {})
     for joint in dict.fromkeys(touched):
         on = [a for a in robot.actuators.values() if a.joint == joint]
         stiffness = sum(a.stiffness for a in on)
@@ -153,13 +152,15 @@ def apply_controls(robot, sim, controls: dict):
         # the record's fields too (``Robot._write``: the record says what acts; an edit of one of its
         # fields rewrites the whole row from them)
         fields = {"force" if isinstance(robot.joints.get(joint), SliderJoint) else "torque": effort}
+        if joint in getattr(robot, "servo_drives", {}):  # the file's drive back (after a set_motor...)
+            columns, drive_fields = robot.servo_drives[joint]
+            values.update(columns)
+            fields.update(drive_fields)
         if stiffness > 0.0:
-            k, springref = passive.get(joint, (0.0, 0.0, 0.0))[:2]
-            # the servos' springs and the joint's own, one spring: -K (q - target) with K their sum and
-            # the target their weighted mean, (k springref + sum gear (gain ctrl + b0)) / K (MuJoCo's
-            # passive spring acts beside the actuators'; ``mjcf.load_mjcf`` summed their stiffnesses)
-            values[P_TARGET] = fields["target"] = \
-                (servo + k * springref) / (stiffness + k) if k > 0.0 else servo / stiffness
+            # the servos' springs, one spring: -K (q - target) with K their sum and the target their
+            # weighted mean, sum gear (gain ctrl + b0) / K (the joint's own spring to springref is its
+            # passive spring, beside the drive: ``mjcf.load_mjcf``)
+            values[P_TARGET] = fields["target"] = servo / stiffness
         robot._write(sim, joint, values, fields)
 
 
@@ -235,7 +236,8 @@ def resolve_dampratios(robot):
     for joint in dict.fromkeys(a.joint for a in todo):
         if joint not in passive:
             continue  # given ``joint_targets``: the caller's drive (it took the actuators' damping before)
-        damping = sum(b.damping for b in robot.actuators.values() if b.joint == joint) + passive[joint][2]
+        # the actuators' dampings (the joint's own damper is its passive one, beside them)
+        damping = sum(b.damping for b in robot.actuators.values() if b.joint == joint)
         robot._write(None, joint, {P_DAMPING: damping}, {"damping": damping})
 
 

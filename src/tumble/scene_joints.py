@@ -52,14 +52,15 @@ from .scene_values import _describe  # the scene parser's wording for a value of
 
 COMMON_KEYS = ("type", "name", "body_a", "body_b", "anchor", "anchor_b", "frame", "collide_connected",
                "max_force", "max_torque")
-DRIVE_KEYS = ("lower", "upper", "motor_speed", "stiffness", "damping", "target")
+DRIVE_KEYS = ("lower", "upper", "motor_speed", "stiffness", "damping", "target", "passive_stiffness",
+              "passive_damping", "springref")
 # per type: its own keys besides COMMON_KEYS
 TYPE_KEYS = {
     "ball": ("axis", "cone_limit", "cone_limit_deg", "twist_lower", "twist_upper", "twist_lower_deg",
              "twist_upper_deg", "stiffness", "damping", "target", "target_euler_deg", "target_velocity",
              "max_drive_torque"),
-    "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "motor_speed_deg", "max_motor_torque",
-              "max_drive_torque", "torque", "armature"),
+    "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "springref_deg", "motor_speed_deg",
+              "max_motor_torque", "max_drive_torque", "torque", "armature"),
     "slider": ("axis", *DRIVE_KEYS, "max_motor_force", "max_drive_force", "force", "armature"),
     "fixed": (),
     "distance": ("min_length", "max_length", "stiffness", "damping", "target", "max_drive_force"),
@@ -76,8 +77,8 @@ ROTATION_KEYS = ("target_euler_deg", "target_velocity")
 # keys that may be inf (TOML "inf")
 UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_force", "max_drive_torque",
                   "max_drive_force", "max_motor_torque_b")
-DEGREE_KEYS = {"lower_deg": "lower", "upper_deg": "upper", "target_deg": "target", "cone_limit_deg": "cone_limit",
-               "motor_speed_deg": "motor_speed", "twist_lower_deg": "twist_lower", "twist_upper_deg": "twist_upper",
+DEGREE_KEYS = {"lower_deg": "lower", "upper_deg": "upper", "target_deg": "target", "springref_deg": "springref",
+               "cone_limit_deg": "cone_limit", "motor_speed_deg": "motor_speed", "twist_lower_deg": "twist_lower", "twist_upper_deg": "twist_upper",
                "lower_b_deg": "lower_b", "upper_b_deg": "upper_b", "motor_speed_b_deg": "motor_speed_b"}
 SOLVER_KEYS = ("method", "hertz", "damping_ratio", "velocity_iterations", "relax_iterations", "bias_factor",
                "partitions", "partition_min_joints", "limit_hertz", "limit_damping_ratio")

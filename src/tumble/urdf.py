@@ -355,10 +355,13 @@ class Robot:
                 {"motor_speed": 0.0, self._field(joint, "max_motor"): friction})
 
     def _passive_drive(self, joint: str, uj: UrdfJoint) -> tuple[dict, dict]:
-        """(columns, fields) of the joint's own damping and spring (its file's, ``uj``), uncapped."""
-        return ({P_STIFFNESS: uj.stiffness, P_DAMPING: uj.damping, P_TARGET: uj.target, P_MAX_DRIVE: math.inf},
-                {"stiffness": uj.stiffness, "damping": uj.damping, "target": uj.target,
-                 self._field(joint, "max_drive"): math.inf})
+        """(columns, fields) of the joint's own damping and spring (its file's, ``uj``), uncapped: the
+        drive's, or no drive where they act as the joint's passive spring-damper already (an MJCF
+        joint its file's actuators drive: ``joint_passive``)."""
+        k, c, target = (0.0, 0.0, 0.0) if joint in getattr(self, "joint_passive", {}) else \
+            (uj.stiffness, uj.damping, uj.target)
+        return ({P_STIFFNESS: k, P_DAMPING: c, P_TARGET: target, P_MAX_DRIVE: math.inf},
+                {"stiffness": k, "damping": c, "target": target, self._field(joint, "max_drive"): math.inf})
 
     def set_joint_torque(self, sim, joint: str, torque: float):
         """Torque control (PyBullet's ``TORQUE_CONTROL``): apply ``torque`` N m (a revolute joint) or
@@ -386,7 +389,9 @@ class Robot:
                             max_force: float | None = None):
         """Position control (PyBullet's ``POSITION_CONTROL``, a PD drive): pull ``joint`` to ``target``
         rad or m with ``stiffness`` N m/rad (N/m) and ``damping`` N m s/rad (N s/m), at most
-        ``max_force`` (default the URDF's effort). Takes the place of the joint's damping."""
+        ``max_force`` (default the URDF's effort). Takes the place of the joint's damping (a URDF's, and an
+        MJCF joint's without actuators; an MJCF joint that its file's actuators drive keeps its own
+        damping and spring beside the drive, as its passive spring-damper, as in MuJoCo)."""
         uj = self._urdf_joint(joint)
         limit = _force_limit(uj, max_force)
         if stiffness < 0 or damping < 0 or not (math.isfinite(stiffness) and math.isfinite(damping)):

@@ -1,10 +1,13 @@
 """An MJCF joint's own passive forces (``damping``, ``stiffness`` towards ``springref``) beside the
 actuators that drive it (``<position>``, ``<velocity>``, biased ``<general>``): in MuJoCo they act in
-addition to the actuator's force. Both are linear in q and q', so tumble sums them into the joint's
-one drive (stiffness k_j + kp, damping c_j + kv, target (k_j springref + kp ctrl) / (k_j + kp),
-recomputed by ``set_controls``). Before, the actuator's kp and kv took the joint's drive fields
-and the joint's own spring and damper were dropped (robot audit, item 3: a servo on a joint with
-damping 1 rang undamped; a velocity actuator reached ctrl instead of kv ctrl / (kv + c)).
+addition to the actuator's force. tumble's joint has both: the drive (kp, kv to the controls'
+target, capped by the ``forcerange``) and its passive spring-damper (``passive_stiffness``,
+``passive_damping`` to ``springref``, uncapped), solved as one row whose cap holds the drive's
+share alone (``joint_solve._drive_and_passive``). Before session 42 the actuator's kp and kv took
+the joint's drive fields and the joint's own spring and damper were dropped (robot audit, item 3:
+a servo on a joint with damping 1 rang undamped; a velocity actuator reached ctrl instead of kv
+ctrl / (kv + c)); in session 42 they were summed into the drive, whose cap then held them too (a
+saturated servo lost its joint's damper: ``test_a_saturated_servo_keeps_its_joints_damper``).
 
 Each model is compared with two references: MuJoCo's own simulation of the same file (RK4 at
 dt 1/4000 s: 1e-12 from the closed form here, measured) and the closed form of the same linear equation
@@ -22,7 +25,8 @@ import pytest
 from scipy.linalg import expm
 
 import tumble as tb
-from tumble.joints import P_DAMPING, P_EFFORT, P_STIFFNESS, P_TARGET
+from tumble.joints import (P_DAMPING, P_EFFORT, P_MAX_MOTOR, P_MOTOR_ON, P_MOTOR_SPEED, P_PASSIVE_DAMPING,
+                           P_PASSIVE_STIFFNESS, P_SPRINGREF, P_STIFFNESS, P_TARGET)
 from tumble.solver.joints import ACCURATE
 
 mujoco = pytest.importorskip("mujoco")
@@ -110,7 +114,8 @@ def test_a_position_servo_on_a_damped_joint_settles_as_mujocos_does(tmp_path):
     assert np.abs(got[:, 0] - closed[:, 0]).max() < 1.5e-2
     assert got[-1, 0] == pytest.approx(1.0, abs=1e-3)
     row = robot.joints["h"].bound.param
-    assert (row[P_STIFFNESS], row[P_DAMPING], row[P_TARGET]) == (10.0, 1.0, 1.0)
+    assert (row[P_STIFFNESS], row[P_DAMPING], row[P_TARGET]) == (10.0, 0.0, 1.0)  # the servo's drive
+    assert (row[P_PASSIVE_STIFFNESS], row[P_PASSIVE_DAMPING]) == (0.0, 1.0)  # the joint's own damper
 
 
 def test_a_servo_and_the_joints_spring_pull_to_their_weighted_mean_as_mujocos_do(tmp_path):
@@ -135,8 +140,9 @@ def test_a_servo_and_the_joints_spring_pull_to_their_weighted_mean_as_mujocos_do
     assert got[settled, 0] == pytest.approx(k * r / (k + kp), abs=5e-4)  # 0.00873: the table's
     assert got[-1, 0] == pytest.approx((k * r + kp * 0.5) / (k + kp), abs=2e-3)
     row = robot.joints["h"].bound.param
-    assert row[P_STIFFNESS] == 20.0 and row[P_DAMPING] == 1.5
-    assert row[P_TARGET] == pytest.approx((k * r + kp * 0.5) / (k + kp), rel=1e-14)
+    assert (row[P_STIFFNESS], row[P_DAMPING], row[P_TARGET]) == (10.0, 0.5, 0.5)  # the servo's, at ctrl 0.5
+    assert (row[P_PASSIVE_STIFFNESS], row[P_PASSIVE_DAMPING]) == (10.0, 1.0)
+    assert row[P_SPRINGREF] == pytest.approx(r, rel=1e-14)
 
 
 def test_a_velocity_actuator_on_a_damped_joint_reaches_mujocos_steady_rate(tmp_path):
@@ -171,8 +177,7 @@ def test_biased_general_dampratio_and_capped_servos_add_the_joints_spring_and_da
     the inertia at qpos0, ``resolve_dampratios``, then the joint's damping added: it wrote the
     actuators' alone before); a velocity actuator on a joint with a spring (the spring kept, its
     target springref: the velocity actuator's drive had stiffness 0 before); a servo whose
-    ``forcerange`` it never reaches (tumble's one drive caps the sum where MuJoCo caps the
-    actuator's force alone: the same while unreached, as here; docs/robots.md). Measured at dt
+    ``forcerange`` it never reaches (reached: ``test_a_saturated_servo_keeps_its_joints_damper``). Measured at dt
     1/240 from MuJoCo's RK4 and the closed form: 1.1e-3 m, 6.4e-4 rad, 4.7e-4 rad, 5.8e-3 rad over
     4 s (first order: a quarter at 1/960); before, off by 0.061 m, 0.099, 3.5 and 0.18 rad.
     Tolerances about 2x; the settled values to 1e-4 (measured 1e-6). And the joint record's
@@ -209,9 +214,9 @@ def test_biased_general_dampratio_and_capped_servos_add_the_joints_spring_and_da
     assert np.abs(got[:, 0] - closed[:, 0]).max() < tol
     if settled is not None:
         assert got[-1, 0] == pytest.approx(settled, abs=1e-4)
-    row = robot.joints["h"].bound.param
-    assert row[P_STIFFNESS] == pytest.approx(phases[0][1], rel=1e-12)
-    assert row[P_DAMPING] == pytest.approx(phases[0][2], rel=1e-12)
+    row = robot.joints["h"].bound.param  # the drive and the passive spring-damper: the equation's K and C
+    assert row[P_STIFFNESS] + row[P_PASSIVE_STIFFNESS] == pytest.approx(phases[0][1], rel=1e-12)
+    assert row[P_DAMPING] + row[P_PASSIVE_DAMPING] == pytest.approx(phases[0][2], rel=1e-12)
     # the record's fields say what its row holds (``Robot._write``: the record says what acts; the
     # controls' target and effort and the dampratio's damping were written into the row alone)
     record = robot.joints["h"]
@@ -228,3 +233,55 @@ def test_joint_targets_keep_the_callers_drive_over_a_dampratio_servo(tmp_path):
     robot = tb.load_mjcf(tb.World(), path, joint_targets={"h": {"position": 0.3, "stiffness": 7.0, "damping": 0.9}})
     row = robot.joints["h"].bound.param
     assert (row[P_STIFFNESS], row[P_DAMPING], row[P_TARGET]) == (7.0, 0.9, 0.3)
+
+
+@pytest.mark.parametrize("case", ["damped", "undamped_servo", "spring"])
+def test_a_saturated_servo_keeps_its_joints_damper(tmp_path, case):
+    """A servo that reaches its ``forcerange``: MuJoCo caps the actuator's force alone and the
+    joint's damper and spring act on, uncapped. Swinging the arm from 0 to ctrl 1 rad: ``damped``
+    (kp 200, kv 20, cap 5 N m, joint damping 1), ``undamped_servo`` (kp 200, no kv, cap 1 N m:
+    the joint's damper is all that settles it), ``spring`` (kp 100, kv 5, cap 2 N m, joint damping
+    0.5 and a spring of 4 N m/rad to -20 deg that the servo cannot overcome: it stops where the
+    spring's pull and the cap meet, and swings there). Compared with MuJoCo's RK4 of the same file
+    over 3 s. Measured at dt 1/240: 1.8e-3, 7.1e-3 and 9.4e-4 rad at most (at 1/960: 4.8e-4, 2.1e-3,
+    2.4e-4: first order). Before (session 42: the cap held the drive and the passive terms summed):
+    0.17 rad ahead at 0.3 s, 0.92 rad off (the arm swung on where MuJoCo's settled) and 1.3 rad off
+    (the spring lost under saturation). Tolerances about 2x the measured."""
+    joint, actuator, tol = {
+        "damped": ('damping="1"', '<position name="a" joint="h" kp="200" kv="20" forcerange="-5 5"/>', 4e-3),
+        "undamped_servo": ('damping="1"', '<position name="a" joint="h" kp="200" forcerange="-1 1"/>', 1.5e-2),
+        "spring": ('damping="0.5" stiffness="4" springref="-20"',
+                   '<position name="a" joint="h" kp="100" kv="5" forcerange="-2 2"/>', 2e-3),
+    }[case]
+    times, ref, got, robot = run_both(model(tmp_path, joint, actuator), [(0.0, 1.0)], 3.0)
+    assert np.abs(got[:, 0] - ref[:, 0]).max() < tol
+    row = robot.joints["h"].bound.param
+    # the drive holds the servo's kv, the passive columns the joint's damper
+    kv, c = {"damped": (20.0, 1.0), "undamped_servo": (0.0, 1.0), "spring": (5.0, 0.5)}[case]
+    assert (row[P_DAMPING], row[P_PASSIVE_DAMPING]) == (kv, c)
+
+
+def test_set_controls_after_set_motor_gives_the_joint_back_to_its_servo(tmp_path):
+    """One control mode a joint: ``set_motor`` takes a servoed joint (its drive off, the joint's
+    passive damper kept), and a later ``set_controls`` gives it back to its actuator (the file's
+    drive written back, the motor off). The servo kp 10 on a joint with damping 1 then settles at
+    its ctrl 0.5 as MuJoCo's does (time constant 2 I / c = 0.52 s: 5e-4 of the step left after 4 s,
+    tolerance 2e-3 rad), the row's drive that of the load. Before: the ctrl went into the motor's
+    drive of stiffness 0 and the motor ran on at 2 rad/s (the arm 10 rad away after 4 s)."""
+    path = model(tmp_path, 'damping="1"', '<position name="a" joint="h" kp="10"/>')
+    world = tb.World(gravity=(0, 0, -9.81))
+    world.sleeping = False
+    robot = tb.load_mjcf(world, path)
+    loaded = robot.joints["h"].bound.param.copy()
+    sim = tb.Simulator(world, dt=DT, joint_settings=ACCURATE)
+    robot.set_motor(sim, "h", 2.0, max_force=50.0)
+    sim.step(240)
+    assert robot.joint_states(sim)["h"][1] == pytest.approx(2.0, abs=1e-6)  # the motor's, against the damper
+    robot.set_controls(sim, {"a": 0.5})
+    sim.step(4 * 240)
+    assert robot.joint_states(sim)["h"][0] == pytest.approx(0.5, abs=2e-3)
+    row = robot.joints["h"].bound.param.copy()
+    assert row[P_MOTOR_ON] == 0.0  # (its speed and limit columns are left as set_motor wrote them: read when on)
+    loaded[P_TARGET] = 0.5
+    row[[P_MOTOR_SPEED, P_MAX_MOTOR]] = loaded[[P_MOTOR_SPEED, P_MAX_MOTOR]]
+    np.testing.assert_array_equal(row, loaded)

@@ -35,7 +35,10 @@ from ..joints import (
     P_MOTOR2_SPEED,
     P_MOTOR_ON,
     P_MOTOR_SPEED,
+    P_PASSIVE_DAMPING,
+    P_PASSIVE_STIFFNESS,
     P_RIGID,
+    P_SPRINGREF,
     P_STIFFNESS,
     P_TARGET,
     P_UPPER,
@@ -245,7 +248,7 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     out here."""
     limit_on = param[j, P_LIMIT_ON] != 0.0 and not (in_tree and tree_limited(t))
     if (param[j, P_STIFFNESS] == 0.0 and param[j, P_DAMPING] == 0.0 and param[j, P_MOTOR_ON] == 0.0
-            and param[j, P_RIGID] == 0.0 and not limit_on):
+            and param[j, P_RIGID] == 0.0 and not limit_on and not _has_passive(param, j)):
         return  # PERF: most joints (a net, a chain) have no 1-D rows; skip their geometry
     p = param[j]
     has, linear, n, ra, rb, pos = _coordinate_row(t, j, a, b, x, R, local_a, local_b, frame_a, frame_b, position)
@@ -254,7 +257,7 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     if t == JOINT_UNIVERSAL and p[P_LIMIT_ON] != 0.0:
         pos = _centred_angle(pos, p[P_LOWER], p[P_UPPER])
     if (p[P_STIFFNESS] == 0.0 and p[P_DAMPING] == 0.0 and p[P_MOTOR_ON] == 0.0 and p[P_RIGID] == 0.0
-            and limit_rows_idle(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos,
+            and not _has_passive(param, j) and limit_rows_idle(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos,
                                 _row_velocity(v, omega, a, b, linear, n, ra, rb), inv_h, axial_impulse)):
         # PERF: only limits, both apart and not closing within the substep, with no impulse: their
         # rows would add nothing; skip the row's mass (a 3x3 solve with the anchor block): a sweep of
@@ -287,7 +290,16 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     m_eff = 1.0 / k
     ks = p[P_STIFFNESS]
     cs = p[P_DAMPING]
-    if ks > 0.0 or cs > 0.0:
+    if _has_passive(param, j):
+        # the drive and the joint's passive spring-damper in one row: their impulse is the sum of
+        # the two implicit laws, and the cap holds the drive's share alone (``_drive_and_passive``)
+        cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
+        old = axial_impulse[j, A_SPRING]
+        new = _drive_and_passive(p, k, h, cdot, pos, old)
+        axial_impulse[j, A_SPRING] = new
+        _axial_apply(v, omega, inv_mass, I_inv, a, b, linear, n, ra, rb, comp, j, axial_impulse, A_MOTOR_ANCHOR,
+                     new - old, keep, axial_impulse)
+    elif ks > 0.0 or cs > 0.0:
         # implicit spring-damper as a soft row (Catto, GDC 2011): gamma = 1 / (h (c + h k))
         # is the compliance, k / (c + h k) the rate at which the error feeds the bias
         gamma = 1.0 / (h * (cs + h * ks))
@@ -314,6 +326,46 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
     elif limit_on:
         _solve_limit_rows(j, A_LOWER, p[P_LOWER], p[P_UPPER], pos, a, b, linear, n, ra, rb, comp, keep, m_eff, soft,
                           inv_h, inv_mass, I_inv, v, omega, linear_impulse, axial_impulse)
+
+
+@njit(**NO_NRT)
+def _has_passive(param, j):
+    """Whether joint j has a passive spring or damper of its own (``P_PASSIVE_STIFFNESS``,
+    ``P_PASSIVE_DAMPING``: MuJoCo's joint stiffness and damping beside an actuator's drive)."""
+    return param[j, P_PASSIVE_STIFFNESS] != 0.0 or param[j, P_PASSIVE_DAMPING] != 0.0
+
+
+@njit(**NO_NRT)
+def _drive_and_passive(p, k, h, cdot, pos, old):
+    """The accumulated impulse (N s or N m s) of a 1-D coordinate's drive (stiffness ks, damping cs
+    to ``P_TARGET``, at most ``P_MAX_DRIVE``) and passive spring-damper (kp, cp to ``P_SPRINGREF``,
+    uncapped) together, solved locally: ``k`` the row's inverse mass, ``cdot`` its velocity with
+    ``old`` (the accumulated impulse) applied, ``pos`` the coordinate, ``h`` the substep.
+
+    Each law is implicit (Catto's soft row, GDC 2011): an impulse lambda with end velocity
+    v+ = cdot + k (lambda - old) obeys lambda = -h ((c + h s) v+ + s (pos - rest)). Their sum is one
+    soft row of stiffness ks + kp, damping cs + cp (MuJoCo sums a joint's passive force and its
+    actuator's; until session 43 tumble's MJCF reader summed them into the drive, whose cap then
+    held the passive share too: a servo saturated at 5 N m lost its joint's damping, 0.17 rad ahead
+    of MuJoCo's at 0.3 s; with a 1 N m cap and no kv it swung on where MuJoCo's settled). When the
+    drive's share, lambda - lambda_passive(v+), passes the cap L, the drive gives s L (s its sign)
+    and the passive law alone decides the rest: lambda = s L + lambda_passive(v+), that is
+    lambda = (a (k old - cdot) - h kp (pos - springref) + s L) / (1 + a k), a = h (cp + h kp)."""
+    ks, cs = p[P_STIFFNESS], p[P_DAMPING]
+    kp, cp = p[P_PASSIVE_STIFFNESS], p[P_PASSIVE_DAMPING]
+    stiffness, damping = ks + kp, cs + cp
+    gamma = 1.0 / (h * (damping + h * stiffness))
+    error = (ks * (pos - p[P_TARGET]) + kp * (pos - p[P_SPRINGREF])) / (damping + h * stiffness)
+    new = old - (cdot + error + gamma * old) / (k + gamma)
+    lim = p[P_MAX_DRIVE] * h
+    if lim < math.inf:
+        a = h * (cp + h * kp)
+        passive = -(a * (cdot + k * (new - old)) + h * kp * (pos - p[P_SPRINGREF]))
+        drive = new - passive
+        if drive > lim or drive < -lim:
+            cap = lim if drive > 0.0 else -lim
+            new = (a * (k * old - cdot) - h * kp * (pos - p[P_SPRINGREF]) + cap) / (1.0 + a * k)
+    return new
 
 
 @njit(**NO_NRT)
@@ -777,7 +829,7 @@ def clear_idle_impulses_kernel(joint_type, param, axial_impulse):
             continue
         p = param[j]
         motor = p[P_MOTOR_ON] != 0.0
-        spring = p[P_STIFFNESS] != 0.0 or p[P_DAMPING] != 0.0
+        spring = p[P_STIFFNESS] != 0.0 or p[P_DAMPING] != 0.0 or _has_passive(param, j)
         motor2 = p[P_MOTOR2_ON] != 0.0
         ball_drive = t == JOINT_BALL and (p[P_BALL_STIFFNESS] != 0.0 or p[P_BALL_DAMPING] != 0.0)
         if not motor:

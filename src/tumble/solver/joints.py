@@ -63,6 +63,8 @@ from ..joints import (
     P_LOWER,
     P_MAX_FORCE,
     P_MAX_TORQUE,
+    P_PASSIVE_STIFFNESS,
+    P_SPRINGREF,
     P_STIFFNESS,
     P_TARGET,
     P_UPPER,
@@ -411,14 +413,16 @@ def joint_spring_energy(world) -> float:
             theta = ball_drive_error(R, b.body_a, b.body_b, b.frame_a[None], b.frame_b[None], p[None], 0)
             energy += 0.5 * p[P_BALL_STIFFNESS] * (theta[0] ** 2 + theta[1] ** 2 + theta[2] ** 2)
             continue
-        if p[P_STIFFNESS] == 0.0:
-            continue
-        # the hinge's angle unwrapped around its target: last_position = the target
-        has, _linear, _n, _ra, _rb, q = _coordinate_row(b.type_id, 0, b.body_a, b.body_b, x, R, b.local_a[None],
-                                                        b.local_b[None], b.frame_a[None], b.frame_b[None],
-                                                        np.array([p[P_TARGET]]))
-        if has:
-            energy += 0.5 * p[P_STIFFNESS] * (q - p[P_TARGET]) ** 2
+        # the drive's spring to its target and the passive spring to springref (hinges, sliders)
+        for stiffness, rest in ((p[P_STIFFNESS], p[P_TARGET]), (p[P_PASSIVE_STIFFNESS], p[P_SPRINGREF])):
+            if stiffness == 0.0:
+                continue
+            # the hinge's angle unwrapped around the spring's rest: last_position = the rest
+            has, _linear, _n, _ra, _rb, q = _coordinate_row(b.type_id, 0, b.body_a, b.body_b, x, R, b.local_a[None],
+                                                            b.local_b[None], b.frame_a[None], b.frame_b[None],
+                                                            np.array([rest]))
+            if has:
+                energy += 0.5 * stiffness * (q - rest) ** 2
     return float(energy)
 
 
