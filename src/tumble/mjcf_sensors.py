@@ -286,6 +286,18 @@ def _sites_and_cameras(reader, element, cls: str, key: str, link: str, anchor: n
             table[name] = (link, position - anchor, R, fovy, size, mode)
 
 
+class _SubtreeCom:
+    """A ``trackcom`` camera's ``track``: the world centre of mass (3,) m of ``link``'s subtree of
+    ``robot`` now (MuJoCo's ``subtree_com``). A class rather than a closure, so that the camera, the
+    robot holding it and an environment made of them pickle with the standard pickler."""
+
+    def __init__(self, robot, link: str):
+        self.robot, self.link = robot, link
+
+    def __call__(self, world) -> np.ndarray:
+        return subtree_com(self.robot, self.link, *self.robot.kinematics._frames(None))
+
+
 def _camera(robot, link, position, R, fovy, size, mode):
     """A ``tb.Camera`` on ``link``'s body from an MJCF camera (its frame in the link's): mounted
     (``fixed``), or following the body's frame origin (``track``) or its subtree's centre of mass
@@ -311,9 +323,7 @@ def _camera(robot, link, position, R, fovy, size, mode):
     else:
         bodies = ()
         followed = subtree_com(robot, link, o, Rf)
-
-        def track(world, robot=robot, link=link):
-            return subtree_com(robot, link, *robot.kinematics._frames(None))
+        track = _SubtreeCom(robot, link)
     offset = eye_w - followed
     return Camera(position=offset, target=offset - R_w[:, 2], up=R_w[:, 1], track=track, point=body_origin,
                   bodies=bodies, **common)
