@@ -4,6 +4,7 @@ and a vector environment's info on autoreset steps (compared with Gymnasium's ow
 ``SyncVectorEnv`` of the same single environments)."""
 
 import pickle
+import warnings
 
 import numpy as np
 import pytest
@@ -11,6 +12,50 @@ import pytest
 gym = pytest.importorskip("gymnasium")
 
 import tumble.envs as te  # noqa: E402
+from tumble.errors import InputError  # noqa: E402
+
+
+def test_metadata_declares_render_fps_as_mujocos_envs_do():
+    """``metadata["render_fps"]`` is ``int(round(1 / dt))`` per instance (MujocoEnv's rule and
+    values: 25 for the pendulum's 0.04 s, 125 for the hopper's 0.008 s, 20 for a pendulum made with
+    ``frame_skip=``2.5x), so ``RecordVideo`` plays the steps in real time and ``check_env`` does not
+    warn "No render fps was declared"; the class's own metadata is left alone."""
+    from gymnasium.utils.env_checker import check_env
+
+    pendulum, hopper = te.InvertedPendulum(render_mode="rgb_array"), te.Hopper()
+    assert pendulum.metadata["render_fps"] == 25 and hopper.metadata["render_fps"] == 125
+    assert te.InvertedPendulum(frame_skip=5).metadata["render_fps"] == 10
+    assert pendulum.metadata["render_modes"] == ["rgb_array"]
+    assert "render_fps" not in te.ModelEnv.metadata
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        check_env(pendulum)
+    assert not [w for w in seen if "fps" in str(w.message)]
+    # as Gymnasium's MuJoCo environment of the same task declares
+    pytest.importorskip("mujoco")
+    assert gym.make("InvertedPendulum-v5").unwrapped.metadata["render_fps"] == 25
+    assert gym.make("tumble/InvertedPendulum-v5").metadata["render_fps"] == 25
+
+
+def test_human_render_mode_goes_through_gymnasiums_human_rendering():
+    """``gymnasium.make(id, render_mode="human")`` wraps the ``rgb_array`` environment in
+    Gymnasium's ``HumanRendering`` (it needs ``render_fps``: a ValueError before); showing a frame
+    needs pygame and a display, so without pygame the reset says so (DependencyNotInstalled). The
+    environment made directly with ``"human"`` refuses it in one line that names the way."""
+    from gymnasium.error import DependencyNotInstalled
+
+    with pytest.warns(UserWarning, match="HumanRendering wrapper is being applied"):
+        env = gym.make("tumble/InvertedPendulum-v5", render_mode="human")
+    assert isinstance(env, gym.wrappers.HumanRendering)
+    assert env.unwrapped.render_mode == "rgb_array" and env.render_mode == "human"
+    try:
+        import pygame  # noqa: F401
+    except ImportError:
+        with pytest.raises(DependencyNotInstalled, match="pygame"):
+            env.reset(seed=0)
+    with pytest.raises(InputError, match="HumanRendering") as caught:
+        te.InvertedPendulum(render_mode="human")
+    assert "\n" not in str(caught.value)
 
 
 @pytest.mark.parametrize("name", ["Hopper", "Swimmer", "Humanoid"])

@@ -552,6 +552,9 @@ class ModelEnv(gymnasium.Env):
         joint_settings, contact_settings: the Simulator's (``tumble.solver``'s settings).
         render_mode: None or ``"rgb_array"`` (``render()`` returns a (H, W, 3) uint8 image from
             ``camera``, a ``tb.Camera``; default one looking at the model's start from the side).
+            ``metadata["render_fps"]`` is ``int(round(1 / dt))`` (MujocoEnv's), the rate a video of
+            the steps plays at; ``gymnasium.make(id, render_mode="human")`` shows the frames in a
+            window through Gymnasium's ``HumanRendering`` (it needs pygame and a display).
 
     Attributes:
         world, sim, robot: the World, its Simulator and the model (``urdf.Robot``).
@@ -573,6 +576,10 @@ class ModelEnv(gymnasium.Env):
 
         self.frame_skip, self.timestep, self.reset_noise_scale = _check_settings(
             frame_skip, timestep, reset_noise_scale, model)
+        if render_mode == "human":
+            raise InputError("'human' is not drawn by tumble (it draws off screen, 'rgb_array'); "
+                             "gymnasium.make(id, render_mode='human') shows the 'rgb_array' frames in a "
+                             "pygame window (Gymnasium's HumanRendering wrapper)", "render_mode")
         if render_mode not in (None, "rgb_array"):
             raise InputError(f"expected None or 'rgb_array', got {render_mode!r}", "render_mode")
         self.model = str(model)
@@ -583,6 +590,8 @@ class ModelEnv(gymnasium.Env):
         self.init_qpos = self._copies.init_qpos
         self.init_qvel = np.zeros(self._copies.nv)
         self.action_space, self.observation_space = _spaces(self)
+        # frames per second of a video of steps (RecordVideo, HumanRendering): MujocoEnv's rule
+        self.metadata = {**type(self).metadata, "render_fps": int(round(1.0 / self.dt))}
         if camera is None:
             camera = tb.Camera(position=(0.0, -3.0, 1.0), target=(0.0, 0.0, 0.3), width=320, height=240)
         self.camera = camera
