@@ -105,3 +105,50 @@ def test_vector_env_pickles_and_goes_on_bit_for_bit():
         one, two = venv.step(a), copy.step(a)
         for x, y in zip(one[:4], two[:4]):
             assert np.array_equal(x, y)
+
+
+def _same_info(mine: dict, ref: dict):
+    """``mine`` is ``ref``: the same keys in the same order, each array of the same dtype, shape
+    and bits."""
+    assert list(mine) == list(ref)
+    for key in ref:
+        a, b = np.asarray(mine[key]), np.asarray(ref[key])
+        assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b), key
+
+
+@pytest.mark.parametrize("name, n, steps, limit, seed", [
+    ("Hopper", 8, 200, 40, 5),
+    ("Humanoid", 3, 60, 20, 2),
+    ("InvertedPendulum", 4, 40, 7, 1),
+])
+def test_vector_info_equals_sync_vector_envs_on_autoreset_steps(name, n, steps, limit, seed):
+    """``ModelVectorEnv.step`` returns Gymnasium's ``SyncVectorEnv`` (NEXT_STEP) infos of the same
+    single environments bit for bit, keys, order, masks and dtypes: a copy restarting reports its
+    reset's info (the hoppers' x_position and z_distance_from_origin, the humanoid's positions,
+    distance and tendons; they were masked out, 144 (copy, key) entries over these 200 hopper
+    steps), a copy that stepped its step's info; with episodes ended by terminations and the
+    limit (counted). Observations, rewards and ends are compared too."""
+    from gymnasium.vector import AutoresetMode, SyncVectorEnv
+    from gymnasium.wrappers import TimeLimit
+
+    task = getattr(te, name)
+    venv = te.ModelVectorEnv(task, n, max_episode_steps=limit)
+    ref = SyncVectorEnv([lambda: TimeLimit(task(), limit) for _ in range(n)], autoreset_mode=AutoresetMode.NEXT_STEP)
+    o1, i1 = venv.reset(seed=seed)
+    o2, i2 = ref.reset(seed=seed)
+    assert np.array_equal(o1, o2)
+    _same_info(i1, i2)
+    rng = np.random.default_rng(1)
+    high = venv.single_action_space.high
+    restarts = partial = 0
+    for _ in range(steps):
+        a = (rng.uniform(-1, 1, (n, *high.shape)) * high).astype(np.float32)
+        restarting = venv._ended.copy()
+        one, two = venv.step(a), ref.step(a)
+        for x, y in zip(one[:4], two[:4]):
+            assert np.array_equal(x, y)
+        _same_info(one[4], two[4])
+        restarts += restarting.sum()
+        partial += restarting.any() and not restarting.all()
+    assert restarts >= {"Hopper": 60, "Humanoid": 6, "InvertedPendulum": 20}[name]
+    assert partial >= 3

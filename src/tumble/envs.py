@@ -1246,7 +1246,8 @@ class ModelVectorEnv(VectorEnv):
     Gymnasium's vector API (observations (num_envs, d), actions (num_envs, nu), rewards,
     terminations and truncations (num_envs,)) with Gymnasium's default autoreset (``NEXT_STEP``:
     the step after a copy's episode ended resets it, ignoring its action, and reports its start
-    with reward 0). Brax's and MuJoCo's MJX way, on the CPU: one compiled step for all copies
+    with reward 0 and its reset's info, as ``SyncVectorEnv`` does; the only autoreset mode, and no
+    ``render``). Brax's and MuJoCo's MJX way, on the CPU: one compiled step for all copies
     instead of a Python loop over environments (``gymnasium.vector.SyncVectorEnv``).
 
     Each copy is the single environment of its seed, bit for bit: ``reset(seed=s)`` seeds copy i
@@ -1336,7 +1337,8 @@ class ModelVectorEnv(VectorEnv):
         (num_envs, nu); the copies whose episode ended at the last step are reset instead (their
         action ignored, reward 0, neither terminated nor truncated): (observations, rewards,
         terminations, truncations, info {key: (num_envs,)}, with ``"_key"`` masks of the copies
-        that report it)."""
+        that report it: a copy reset here reports its reset's info, the others their step's;
+        ``SyncVectorEnv``'s, bit for bit, ``_vector_info``)."""
         n = self.num_envs
         u = _check_actions(actions, n, len(self.template.actuators))
         restart = np.flatnonzero(self._ended)
@@ -1360,12 +1362,42 @@ class ModelVectorEnv(VectorEnv):
         reward[~stepped] = 0.0
         terminated &= stepped
         self._ended = terminated | truncated
-        out = {}
-        for key, value in info.items():
-            value = np.array(value)
-            value[~stepped] = 0
-            out[key], out["_" + key] = value, stepped.copy()
-        return obs, reward, terminated, truncated, out
+        restart_info = self.template.reset_info(*starts) if starts is not None else {}
+        return obs, reward, terminated, truncated, _vector_info(info, stepped, restart_info, restart)
+
+
+def _vector_info(info: dict, stepped: np.ndarray, restart_info: dict, restart: np.ndarray) -> dict:
+    """A vector step's info as ``SyncVectorEnv`` (NEXT_STEP) gathers its copies' ``_add_info``: each
+    copy that stepped reports ``info`` (its row of each value (n, ...)), each copy restarted
+    (``restart``, its rows of ``restart_info`` (K, ...)) its single environment's reset info; a key's
+    array holds zeros where a copy does not report it, and ``"_key"`` marks the copies that do. The
+    keys come in the order the copies first report them (copy 0's keys first), a key that no copy
+    reports is left out, and a key's dtype is that of its first reporting copy's value (as a
+    single environment returns it: a Python number, or an array)."""
+    n = len(stepped)
+    step_keys = list(info) if stepped.any() else []
+    reset_keys = list(restart_info) if len(restart) else []
+    first_restarted = len(restart) > 0 and restart[0] == 0
+    keys = list(dict.fromkeys(reset_keys + step_keys if first_restarted else step_keys + reset_keys))
+    at = np.full(n, -1)  # each restarted copy's row in restart_info
+    at[restart] = np.arange(len(restart))
+    out = {}
+    for key in keys:
+        mask = np.zeros(n, dtype=bool)
+        if key in step_keys:
+            mask |= stepped
+        if key in reset_keys:
+            mask[restart] = True
+        j = int(np.argmax(mask))  # the first copy that reports it: its value as a single env gives it
+        source, row = (info[key], j) if stepped[j] else (restart_info[key], at[j])
+        first = _one(np.asarray(source)[row:row + 1])
+        array = np.zeros((n, *np.shape(first)), dtype=np.asarray(first).dtype)
+        if key in step_keys:
+            array[stepped] = np.asarray(info[key])[stepped]
+        if key in reset_keys:
+            array[restart] = np.asarray(restart_info[key])
+        out[key], out["_" + key] = array, mask
+    return out
 
 
 # the ids tumble adds, with Gymnasium's episode limits and reward thresholds for its own v5 tasks
