@@ -543,10 +543,35 @@ def _check_reachable(address: str):
         raise InputError(f"cannot connect to the Dask scheduler at {address} ({exc.strerror or exc})", "--scheduler") from None
 
 
+logger = logging.getLogger("tumble.sweep")
+
+
+def run_chunk_on_worker(plan: Plan, chunk: list, numba_threads: int | None = None):
+    """``run_chunk`` as a Dask task: (rows, the Numba thread count the chunk ran with). With
+    ``numba_threads`` the task's thread runs Numba's parallel kernels on that many threads
+    (``numba.set_num_threads``: per thread, so here, in the thread that runs the task; set back
+    after). The sweep's own LocalCluster asks for 1: its workers are one per core, and Numba's
+    default (a thread per core in each worker) oversubscribes the cores, whose parallel regions then
+    wait on descheduled threads (4-28x slower measured, docs/sweeps.md). The results do not depend
+    on the thread count (docs/reliability.md)."""
+    import numba
+
+    before = numba.get_num_threads()
+    if numba_threads is not None:
+        numba.set_num_threads(min(int(numba_threads), numba.config.NUMBA_NUM_THREADS))
+    try:
+        rows = run_chunk(plan, chunk)
+        return rows, numba.get_num_threads()
+    finally:
+        numba.set_num_threads(before)
+
+
 def _run_dask(plan, chunks, todo: deque, finished, state: _Progress, client, scheduler, workers):
     from distributed import Client, LocalCluster, as_completed
 
     own_cluster = own_client = None
+    numba_threads = None  # Numba's default on a cluster of the caller's (docs/sweeps.md)
+    seen_threads: set = set()
     where: dict = {}
     try:
         if client is None:
@@ -562,12 +587,13 @@ def _run_dask(plan, chunks, todo: deque, finished, state: _Progress, client, sch
                 own_cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                                            silence_logs=logging.ERROR)
                 client = own_client = Client(own_cluster)
+                numba_threads = 1  # one worker per core: one Numba thread each (run_chunk_on_worker)
         slots = max(2, 2 * max(1, len(client.scheduler_info().get("workers", {})) or 1))
         ac = as_completed()
 
         def submit():
             c = todo.popleft()
-            fut = client.submit(run_chunk, plan, chunks[c], pure=False)
+            fut = client.submit(run_chunk_on_worker, plan, chunks[c], numba_threads, pure=False)
             where[fut] = c
             ac.add(fut)
 
@@ -577,16 +603,19 @@ def _run_dask(plan, chunks, todo: deque, finished, state: _Progress, client, sch
         for fut in ac:
             c = where.pop(fut)
             try:
-                rows = fut.result()
+                rows, threads = fut.result()
             except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the chunk is lost, not its sweep
                 fut.release()
                 finished(c, None, f"task lost: {type(exc).__name__}: {' '.join(str(exc).split())}")
             else:
                 fut.release()
+                seen_threads.add(threads)
                 finished(c, rows)
             while todo and len(where) < slots:
                 submit()
             state.running(len(where))
+        if seen_threads:
+            logger.info("sweep: Dask tasks ran Numba on %s thread(s)", "/".join(map(str, sorted(seen_threads))))
     finally:
         if where and client is not None:  # interrupted: leave nothing of ours running on the cluster
             with contextlib.suppress(Exception):
