@@ -206,14 +206,14 @@ class Robot:
         """``sim.joint_readings()`` and {URDF joint name: its row in them}. Before the first step (or
         without a ``sim``), the readings of the present state (``solver.joints.present_readings``):
         the Simulator's own are zeros until a step has stored them."""
-        index = {id(j): k for k, j in enumerate(self.world.joints)}
         if self._solver(sim) is None:
             from .solver.joints import present_readings
 
-            readings = present_readings(self.world)
-        else:
-            readings = sim.joint_readings()
-        return readings, {name: index[id(j)] for name, j in self.joints.items()}
+            # the robot's own joints alone (a world of many copies: each copy's read is its own)
+            records = list(self.joints.values())
+            return present_readings(self.world, records), {name: k for k, name in enumerate(self.joints)}
+        index = {id(j): k for k, j in enumerate(self.world.joints)}
+        return sim.joint_readings(), {name: index[id(j)] for name, j in self.joints.items()}
 
     def _solver(self, sim):
         """The simulator's JointSolver once it holds every joint of the world, else None (before the
