@@ -301,6 +301,23 @@ def pad_contacts(counts, rows: dict) -> dict:
     return out
 
 
+def pad_contact_frames(frames) -> dict:
+    """``pad_contacts`` of frames given one by one: ``frames`` a list of tuples of each frame's rows,
+    one array per ``CONTACT_FIELDS`` field in its order. Fills the padded arrays frame by frame
+    (PERF: no concatenated copy of every row first: the peak held the rows three times over, 4.75
+    GB for 1.2 GB of contacts; a performance audit, session 43)."""
+    counts = np.array([len(f[0]) for f in frames], dtype=np.int64)
+    F = len(counts)
+    C = int(counts.max()) if F else 0
+    out = {"contact_count": counts}
+    for i, (key, shape, dtype, pad) in enumerate(CONTACT_FIELDS.values()):
+        a = np.full((F, C) + shape, pad, dtype=dtype)
+        for k, frame in enumerate(frames):
+            a[k, : counts[k]] = frame[i]
+        out[key] = a
+    return out
+
+
 def load_trajectory(path, check: bool = True) -> Trajectory:
     """Read a trajectory file written by ``Trajectory.save`` (no pickles).
 
