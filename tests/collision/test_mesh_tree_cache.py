@@ -1,7 +1,7 @@
 """A static mesh's BVH: built once per mesh content and shared by every shape table (a Simulator's, a ray
 cast's, each one after a spawn), never served stale after an edit; the compiled build gives the
-tree the recursive Python build gave, node for node (docs/benchmarks.md, "Static mesh trees: built
-once, faster")."""
+tree the recursive Python build gave, node for node; closest_points' nearest-first walk gives the
+brute-force answer over every triangle (docs/benchmarks.md, "Static mesh trees: built once, faster")."""
 
 from __future__ import annotations
 
@@ -12,7 +12,11 @@ import pytest
 
 import tumble as tb
 from tumble.collision import geometry
+from tumble.collision.distance import convex_distance, shape_poses
 from tumble.collision.geometry import build_bvh, build_shape_table, mesh_tree
+from tumble.collision.pairs.gjk import gjk_scratch
+from tumble.collision.pairs.mesh import TRIANGLE
+from tumble.shapes import SHAPE_CONVEX
 
 
 def _reference_bvh(triangles, leaf_size=4):
@@ -183,3 +187,52 @@ def test_the_tree_answers_box_and_ray_queries_as_every_triangle_does():
             assert body == 0 and dist == pytest.approx(t[inside].min(), abs=1e-9)
         else:
             assert body == -1
+
+
+def _brute_force_distance(table, pos, rot, sa, sm):
+    """Shape row sa (convex) against every triangle of mesh row sm: the smallest distance, the first
+    triangle on a tie, and its points and normal."""
+    ta = table.shape_type[sa]
+    v0, nv = table.shape_data[sa, 0], table.shape_data[sa, 1]
+    verts = table.hull_vertex[v0:v0 + nv] if ta == SHAPE_CONVEX else table.hull_vertex[0:0]
+    t0, nt = table.shape_data[sm, 0], table.shape_data[sm, 1]
+    scratch, work = gjk_scratch(), np.empty(9)
+    best, out = np.inf, None
+    for t in range(t0, t0 + nt):
+        d = convex_distance(ta, pos[sa], rot[sa], table.shape_params[sa], verts, TRIANGLE, pos[sm], rot[sm],
+                            table.shape_params[sm], table.mesh_triangle[t], np.inf, scratch, work)
+        if d < best:
+            best, out = d, work.copy()
+    return best, out
+
+
+def test_nearest_first_closest_points_equal_brute_force_over_every_triangle():
+    rng = np.random.default_rng(9)
+    hull = tb.Convex(points=0.15 * rng.normal(size=(16, 3)))
+    shapes = [tb.Box(size=(0.3, 0.2, 0.1)), tb.Sphere(radius=0.12), tb.Capsule(radius=0.05, length=0.3),
+              tb.Cylinder(radius=0.1, length=0.2), hull]
+    for terrain in (_terrain(10, cells=16, amplitude=0.3, size=3.0), tb.heightfield(np.zeros((7, 7)), (2.0, 2.0))):
+        w = tb.World()
+        w.add_body(terrain, fixed=True, position=(0.1, -0.1, 0.02), orientation=(0.995, 0.07, 0.05, 0.0))
+        bodies = []
+        for k in range(60):
+            q = rng.normal(size=4) if k % 3 else np.array([1.0, 0.0, 0.0, 0.0])
+            z = (rng.uniform(-0.2, 0.5), rng.uniform(0.5, 2.0), rng.uniform(2.0, 10.0))[k % 3]
+            xy = rng.uniform(-1.8, 1.8, 2) if terrain.faces.shape[0] > 200 else np.round(rng.uniform(-1, 1, 2), 1)
+            body = w.add_body(shapes[k % len(shapes)], mass=1.0, position=(*xy, z), orientation=q / np.linalg.norm(q))
+            bodies.append(w.index_of(body))
+        cp = w.closest_points(np.array(bodies), np.zeros(len(bodies), dtype=np.int64))
+        scene, pos, rot, _ = shape_poses(w)
+        table = scene.table
+        for row, b in enumerate(bodies):
+            sa = int(np.flatnonzero(table.shape_body == b)[0])
+            d, out = _brute_force_distance(table, pos, rot, sa, 0)
+            assert cp.distance[row] == pytest.approx(d, abs=1e-12)
+            # the same witness points (triangles that meet at the nearest corner or edge give the same
+            # distance to round-off: which of them answers may differ in the last bits)
+            np.testing.assert_allclose(cp.point_a[row], out[0:3], rtol=0, atol=1e-9)
+            np.testing.assert_allclose(cp.point_b[row], out[3:6], rtol=0, atol=1e-9)
+            np.testing.assert_allclose(cp.normal[row], out[6:9], rtol=0, atol=1e-6)
+        near = w.closest_points(np.array(bodies), np.zeros(len(bodies), dtype=np.int64), max_distance=0.3)
+        within = cp.distance <= 0.3
+        assert np.array_equal(near.distance[within], cp.distance[within]) and np.all(np.isinf(near.distance[~within]))

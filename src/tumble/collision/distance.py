@@ -213,12 +213,66 @@ def _plane_distance(pos_p, rot_p, params_p, t, pos, rot, params, verts, tri_firs
 
 
 @njit(**NO_NRT)
+def _node_gap(node_aabb, i, lo, hi):
+    """Squared distances from the box ``lo``, ``hi`` to node i's box, and from its centre to node i's box."""
+    gap = 0.0
+    centre = 0.0
+    for k in range(3):
+        g = max(node_aabb[i, 0, k] - hi[k], lo[k] - node_aabb[i, 1, k], 0.0)
+        gap += g * g
+        c = 0.5 * (lo[k] + hi[k])
+        g = max(node_aabb[i, 0, k] - c, c - node_aabb[i, 1, k], 0.0)
+        centre += g * g
+    return gap, centre
+
+
+@njit(**NO_NRT)
+def _leaf_distance(ta, pos_a, rot_a, params_a, verts_a, pos_m, rot_m, params_m, mesh_triangle, t0, t1, lo, hi, best,
+                   found, found_t, scratch, work, out):
+    """Triangles t0 to t1 - 1 of a leaf against convex shape a, whose box in the mesh frame is ``lo``,
+    ``hi`` (``_mesh_distance``): the smallest distance, the first triangle on a tie, updates ``found``
+    (its points in ``out``), ``found_t`` and ``best`` (the cutoff of the triangles after it). A
+    triangle whose own box is farther than ``best`` from a's is passed over as a node is: a
+    heightfield's leaves can mix its surface with its long base and side triangles, boxes that span
+    the field (a box resting on 8192 triangles: 68 triangles in the leaves the walk reaches, 3 within
+    reach by their own boxes)."""
+    for t in range(t0, t1):
+        gap = 0.0
+        for k in range(3):
+            tlo = min(mesh_triangle[t, 0, k], mesh_triangle[t, 1, k], mesh_triangle[t, 2, k])
+            thi = max(mesh_triangle[t, 0, k], mesh_triangle[t, 1, k], mesh_triangle[t, 2, k])
+            g = max(tlo - hi[k], lo[k] - thi, 0.0)
+            gap += g * g
+        if gap > 0.0 and math.sqrt(gap) > best:
+            continue
+        d = convex_distance(ta, pos_a, rot_a, params_a, verts_a, TRIANGLE, pos_m, rot_m, params_m,
+                            mesh_triangle[t], best, scratch, work)
+        if d < found or (d == found and t < found_t):
+            found = d
+            found_t = t
+            best = min(best, d)
+            for c in range(9):
+                out[c] = work[c]
+    return best, found, found_t
+
+
+@njit(**NO_NRT)
 def _mesh_distance(ta, pos_a, rot_a, params_a, verts_a, pos_m, rot_m, params_m, m, shape_data, mesh_triangle,
                    node_aabb, node_first, node_count, node_skip, cutoff, scratch, lo, hi, work, out):
     """Signed distance of convex shape a to static mesh shape row m (module docstring: through the
     nearest triangle), inf above cutoff; points and normal (a to the mesh) in ``out`` as
     ``convex_distance``. ``lo``, ``hi`` (3,), ``work`` (9,) scratch. Walks the mesh's BVH, passing over
-    nodes whose box is farther from a's box (mesh frame) than the best distance so far."""
+    nodes whose box is farther from a's box (mesh frame) than the best distance so far.
+
+    Nearest first: the best distance starts at the triangles of the leaf reached by going down to
+    the nearer child each time (by their boxes' distance to a's box, then to its centre), so the walk
+    prunes from its first node (before, it started at the cutoff, inf by default: 0.3-1.2 ms per
+    box-heightfield pair at any height), and in a leaf only the triangles whose own box is within
+    reach are measured (``_leaf_distance``). The answer is the smallest triangle distance, the lowest
+    triangle on a tie (the walk's order before): the same bits as the walk from the cutoff on 1200
+    random pairs (box, sphere, capsule, cylinder, hull against a heightfield, a flat grid, a torus).
+    Both prune by boxes, so of two triangles within round-off of each other (meeting at the nearest
+    corner) either may answer, the points then differing in the last bits."""
     ra = core_radius(ta, params_a)
     for k in range(3):  # a's box in the mesh frame, from its supports along the mesh axes
         ax, ay, az = rot_m[0, k], rot_m[1, k], rot_m[2, k]
@@ -228,8 +282,20 @@ def _mesh_distance(ta, pos_a, rot_a, params_a, verts_a, pos_m, rot_m, params_m, 
         lo[k] = (q[0] - pos_m[0]) * ax + (q[1] - pos_m[1]) * ay + (q[2] - pos_m[2]) * az - ra
     best = cutoff
     found = np.inf
-    i = shape_data[m, 2]
-    n_end = i + shape_data[m, 3]
+    found_t = -1
+    root = shape_data[m, 2]
+    n_end = root + shape_data[m, 3]
+    seed = root  # the nearer child down to a leaf (preorder: the left child is next, the right after its subtree)
+    while node_count[seed] == 0:
+        left = seed + 1
+        right = node_skip[left]
+        gl, cl = _node_gap(node_aabb, left, lo, hi)
+        gr, cr = _node_gap(node_aabb, right, lo, hi)
+        seed = right if gr < gl or (gr == gl and cr < cl) else left
+    best, found, found_t = _leaf_distance(ta, pos_a, rot_a, params_a, verts_a, pos_m, rot_m, params_m, mesh_triangle,
+                                          node_first[seed], node_first[seed] + node_count[seed], lo, hi, best, found,
+                                          found_t, scratch, work, out)
+    i = root
     while i < n_end:
         # the boxes' distance is a lower bound of any triangle's under the node
         gap = 0.0
@@ -239,14 +305,10 @@ def _mesh_distance(ta, pos_a, rot_a, params_a, verts_a, pos_m, rot_m, params_m, 
         if gap > 0.0 and math.sqrt(gap) > best:
             i = node_skip[i]
             continue
-        for t in range(node_first[i], node_first[i] + node_count[i]):
-            d = convex_distance(ta, pos_a, rot_a, params_a, verts_a, TRIANGLE, pos_m, rot_m, params_m,
-                                mesh_triangle[t], best, scratch, work)
-            if d < found:
-                found = d
-                best = min(best, d)
-                for c in range(9):
-                    out[c] = work[c]
+        if node_count[i] > 0 and i != seed:
+            best, found, found_t = _leaf_distance(ta, pos_a, rot_a, params_a, verts_a, pos_m, rot_m, params_m,
+                                                  mesh_triangle, node_first[i], node_first[i] + node_count[i], lo, hi, best,
+                                                  found, found_t, scratch, work, out)
         i += 1
     return found
 
