@@ -204,7 +204,10 @@ def test_a_fast_small_sphere_does_not_pass_through_a_sheet_of_no_thickness(side)
 def test_bodies_inside_a_closed_shell_held_open_stay_inside():
     """A closed icosphere (radius 1 m, wound outwards) given as closed = false is a hollow shell: balls
     and boxes dropped inside it meet the triangles' backs and come to rest on its inside bottom,
-    every point of them within the sphere (a solid mesh would throw them out)."""
+    every point of them within the sphere (a solid mesh would throw them out). Run 4 s: at 3 s a body
+    of the six thrown at random still moves at over 0.05 m/s on 4 of seeds 0-9 (0.10-0.39 m/s; a
+    chaotic scene: session 43's crease reduction in the mesh manifold moved this seed's 0.033 m/s to
+    0.073); this seed's bodies are all asleep at 4 s, with and without it."""
     import trimesh
 
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
@@ -214,7 +217,7 @@ def test_bodies_inside_a_closed_shell_held_open_stay_inside():
     for k in range(6):
         shape = tb.Sphere(0.12) if k % 2 else tb.Box(size=(0.2, 0.15, 0.1))
         w.add_body(shape, mass=1.0, position=rng.uniform(-0.3, 0.3, 3), velocity=rng.uniform(-2, 2, 3), name=f"b{k}")
-    tb.Simulator(w).run(3.0, frame_rate=8)
+    tb.Simulator(w).run(4.0, frame_rate=8)
     corners = 0.5 * np.array([[sx * 0.2, sy * 0.15, sz * 0.1] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     for i in range(1, w.body_count):
         if isinstance(w.shapes[i], tb.Sphere):

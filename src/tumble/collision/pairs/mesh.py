@@ -33,8 +33,8 @@ import numpy as np
 from numba import njit
 
 from ...math3d import NO_NRT
-from ...shapes import SHAPE_SPHERE
-from ..constants import MESH_POINTS
+from ...shapes import SHAPE_BOX, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_SPHERE
+from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS, MESH_POINTS
 from .convex import (
     FEATURE_SINGLE,
     SLOT_DEEPEST,
@@ -53,6 +53,10 @@ EDGE_WEIGHT = 1e-6
 SLOT_FACE = 30
 # Points of two triangles closer than this (m) are one point (0.1 mm: below any useful lever arm).
 SAME_POINT = 1e-4
+# On faces of several planes, the points within this (m) of the deepest are the touching patch, whose
+# corners the manifold keeps before any speculative point (LINEAR_SLOP: a resting body's points lie
+# within micrometres of each other; a clipped side face's speculative points lie up to 2 cm away).
+TOUCH = LINEAR_SLOP
 
 # COMPILE: NumPy integers, not Python literals, for the triangle's type and its empty hull range: a
 # literal argument makes Numba compile convex_contact, face_manifold and everything under them
@@ -261,9 +265,84 @@ def _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats):
 
 
 @njit(**NO_NRT)
-def _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature, point_normal, keep):
+def _touching_first(count, cand, cand_n, seps, feats, bound):
+    """Moves the gathered points whose separation is at most ``bound`` to the front, each group in its
+    order (a stable partition); returns how many there are."""
+    near = 0
+    for m in range(count):
+        if seps[m] > bound:
+            continue
+        if m != near:
+            px, py, pz = cand[m, 0], cand[m, 1], cand[m, 2]
+            qx, qy, qz = cand_n[m, 0], cand_n[m, 1], cand_n[m, 2]
+            sm, fm = seps[m], feats[m]
+            for q in range(m, near, -1):
+                for k in range(3):
+                    cand[q, k] = cand[q - 1, k]
+                    cand_n[q, k] = cand_n[q - 1, k]
+                seps[q] = seps[q - 1]
+                feats[q] = feats[q - 1]
+            cand[near, 0], cand[near, 1], cand[near, 2] = px, py, pz
+            cand_n[near, 0], cand_n[near, 1], cand_n[near, 2] = qx, qy, qz
+            seps[near], feats[near] = sm, fm
+        near += 1
+    return near
+
+
+@njit(**NO_NRT)
+def _wastes_a_slot(count, total, seps, keep, bound):
+    """Whether the ``count`` points kept (``keep``) of ``total`` hold one whose separation passes ``bound``
+    (a speculative one) while a point within it is left out."""
+    far = 0
+    near_kept = 0
+    for c in range(count):
+        if seps[keep[c]] > bound:
+            far += 1
+        else:
+            near_kept += 1
+    if far == 0:
+        return False
+    near = 0
+    for m in range(total):
+        if seps[m] <= bound:
+            near += 1
+    return near > near_kept
+
+
+@njit(**NO_NRT)
+def _touching_first_reduce(total, cand, cand_n, seps, feats, nx, ny, nz, bound, keep):
+    """The touching points (separation within ``bound``) moved to the front, their corners kept
+    (``reduce_points``), then the deepest of the others in what slots are left; returns the count kept."""
+    near = _touching_first(total, cand, cand_n, seps, feats, bound)
+    for c in range(near):
+        keep[c] = c
+    kept = near
+    if near > 2:
+        kept = reduce_points(cand, seps, near, nx, ny, nz, keep)
+    for _ in range(MAX_MANIFOLD_POINTS - kept):
+        j = -1
+        for m in range(near, total):
+            if j < 0 or seps[m] < seps[j]:
+                used = False
+                for q in range(kept):
+                    if keep[q] == m:
+                        used = True
+                if not used:
+                    j = m
+        if j < 0:
+            break
+        keep[kept] = j
+        kept += 1
+    return kept
+
+
+@njit(**NO_NRT)
+def _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature, point_normal, keep,
+            faceted):
     """Reduce the gathered points to a manifold (each point with its own triangle's normal, and the
-    manifold's normal their weighted mean); returns its point count. keep: (MESH_POINTS,) int scratch."""
+    manifold's normal their weighted mean); returns its point count. keep: (MESH_POINTS,) int scratch.
+    ``faceted``: the shape has flat faces (a box, hull, cylinder or cone), whose clipping can leave a side
+    face's points in the speculative band."""
     deepest = 0
     for m in range(1, count):
         if seps[m] < seps[deepest]:
@@ -271,8 +350,25 @@ def _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separa
     nx, ny, nz = cand_n[deepest, 0], cand_n[deepest, 1], cand_n[deepest, 2]
     for c in range(count):
         keep[c] = c
+    total = count
     if count > 2:
         count = reduce_points(cand, seps, count, nx, ny, nz, keep)
+    # the points kept leave a touching one (within TOUCH of the deepest) out for one in the speculative band,
+    # on faces of more than one plane (a crease, a groove, a funnel): the touching points first, in their
+    # order, their corners kept, then the deepest of the others in what slots are left. A sphere, ellipsoid or
+    # capsule has no flat side face to clip (its points are its lowest point or segment on each triangle):
+    # those keep the one reduction, and their bits.
+    # DEAD END (before session 43): the one reduction alone. A box wedged on its edges in a V-groove clips
+    # its steep side face against each face, leaving a speculative point 18 mm off that was the farthest
+    # from the deepest and so always kept; the box then stood on three of its four edge ends, the deepest
+    # face alternated, the kept points with it every step (no warm start), and the box rocked at 1.3 cm/s
+    # for ever (tests/collision/test_open_mesh_rest.py).
+    bound = seps[deepest] + TOUCH
+    if faceted and _wastes_a_slot(count, total, seps, keep, bound):
+        for m in range(total):
+            if cand_n[m, 0] * nx + cand_n[m, 1] * ny + cand_n[m, 2] * nz < 1.0 - FACE_COS:
+                count = _touching_first_reduce(total, cand, cand_n, seps, feats, nx, ny, nz, bound, keep)
+                break
     # the manifold's normal (a summary for the record; the solver pushes each point along its own):
     # the kept points' normals weighted by how far inside the speculative band they are
     sx, sy, sz = 0.0, 0.0, 0.0
@@ -419,4 +515,4 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
     if count == 0:
         return 0
     return _finish(count, cand, cand_n, seps, feats, speculative, normal, point, separation, feature, point_normal,
-                   keep)
+                   keep, ta == SHAPE_BOX or ta == SHAPE_CONVEX or ta == SHAPE_CYLINDER or ta == SHAPE_CONE)
