@@ -32,6 +32,14 @@ PINNED_BLAS_CORE = "Haswell"
 if "numpy" not in sys.modules and _cpu_has("avx2", "fma"):
     os.environ["OPENBLAS_CORETYPE"] = PINNED_BLAS_CORE
 
+# The suite runs two worker processes (pytest-xdist) on a 2-core machine, each with Numba's two
+# threads: GNU OpenMP's waiting threads spin, and a parallel region whose other thread was
+# descheduled waited out a scheduler slice. Passive waiting, before OpenMP is loaded (the first
+# parallel kernel), in this process and the tests' subprocesses. Measured (session 43, the 1000-box
+# pile at Box3D's step, 2 threads): beside two busy processes, 0.41 -> 1.41 times real time; idle,
+# 2.70 -> 2.26 (docs/benchmarks.md, "Threads on shared cores"). Results do not depend on it.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 
 def pytest_configure(config):
     # here, not in pyproject.toml: resolving the class imports Numba and NumPy (module docstring)
