@@ -278,3 +278,19 @@ def test_a_body_without_weight_goes_out_as_physx_disable_gravity_and_comes_back(
     x = back.body("floating").x.copy()
     tb.Simulator(back).step(120)
     assert np.array_equal(back.body("floating").x, x)
+
+
+def test_a_joints_passive_spring_and_damper_go_out_summed_into_its_drive(tmp_path):
+    """UsdPhysics has one drive a joint: a hinge's drive (stiffness 2, damping 0.1 to 0.4 rad) and its
+    passive spring and damper (0.5, 0.04 to -1 rad: MuJoCo's joint stiffness and damping, the MJCF
+    reader's servoed joints) are written as one drive of their sums, the target the
+    stiffness-weighted rest, which is the same law (both linear in q and q'; tumble solves them as
+    one row below a cap): read back, the joint's drive holds 2.5, 0.14 and (2 x 0.4 - 0.5) / 2.5
+    (single precision: 1e-6 relative). Before, the passive pair was left out of the file."""
+    world = tb.World()
+    arm = world.add_body(tb.Box(size=(0.1, 0.1, 0.5)), mass=1.0, position=(0, 0, 1))
+    world.add_joint(tb.HingeJoint(arm, None, anchor=(0, 0, 1.25), axis=(1, 0, 0), stiffness=2.0, damping=0.1,
+                                  target=0.4, passive_stiffness=0.5, passive_damping=0.04, springref=-1.0))
+    back = round_trip(world, tmp_path)
+    (joint,) = back.joints
+    assert (joint.stiffness, joint.damping, joint.target) == pytest.approx((2.5, 0.14, (2 * 0.4 - 0.5) / 2.5), rel=1e-6)

@@ -62,7 +62,8 @@ from ..errors import InputError, TumbleWarning
 from ..joints import (JOINT_BALL, JOINT_DISTANCE, JOINT_FIXED, JOINT_HINGE, JOINT_SLIDER, P_BALL_DAMPING,
                       P_BALL_STIFFNESS, P_DAMPING, P_LIMIT_ON,
                       P_LOWER, P_LIMIT2_ON, P_MAX_DRIVE, P_MAX_FORCE, P_MAX_MOTOR, P_MAX_TORQUE, P_MOTOR_ON,
-                      P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_UPPER, P_EFFORT, P_ARMATURE)
+                      P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_UPPER, P_EFFORT, P_ARMATURE, P_PASSIVE_DAMPING,
+                      P_PASSIVE_STIFFNESS, P_SPRINGREF)
 from ..joints import _frame_from_z
 from ..mass import _quat_matrix
 from ..math3d import matrix_to_quat
@@ -316,14 +317,26 @@ class _Writer:
                     j.CreateLowerLimitAttr(float(p[P_LOWER] * unit))
                 if math.isfinite(p[P_UPPER]):
                     j.CreateUpperLimitAttr(float(p[P_UPPER] * unit))
-            pd = p[P_STIFFNESS] > 0.0 or p[P_DAMPING] > 0.0
+            # the drive and the joint's passive spring-damper (``passive_*``): the schema has one drive a
+            # joint, so the two go out summed (linear in q and q': the same law below the cap), the
+            # target their stiffness-weighted rest; a drive's cap then holds the sum (PhysX's, as
+            # tumble's MJCF reader did before session 43)
+            stiffness, damping, target = p[P_STIFFNESS], p[P_DAMPING], p[P_TARGET]
+            if p[P_PASSIVE_STIFFNESS] != 0.0 or p[P_PASSIVE_DAMPING] != 0.0:
+                stiffness, damping = stiffness + p[P_PASSIVE_STIFFNESS], damping + p[P_PASSIVE_DAMPING]
+                if stiffness > 0.0:
+                    target = (p[P_STIFFNESS] * p[P_TARGET] + p[P_PASSIVE_STIFFNESS] * p[P_SPRINGREF]) / stiffness
+                if math.isfinite(p[P_MAX_DRIVE]):
+                    self.left_out.add("a joint's passive spring and damper beside a capped drive (written summed "
+                                      "into the drive, under its cap)")
+            pd = stiffness > 0.0 or damping > 0.0
             if pd or p[P_MOTOR_ON]:
                 drive = P.DriveAPI.Apply(prim, "angular" if angular else "linear")
                 drive.CreateTypeAttr("force")
                 if pd:  # gains per degree for angles
-                    drive.CreateStiffnessAttr(float(p[P_STIFFNESS] / unit))
-                    drive.CreateDampingAttr(float(p[P_DAMPING] / unit))
-                    drive.CreateTargetPositionAttr(float(p[P_TARGET] * unit))
+                    drive.CreateStiffnessAttr(float(stiffness / unit))
+                    drive.CreateDampingAttr(float(damping / unit))
+                    drive.CreateTargetPositionAttr(float(target * unit))
                     if math.isfinite(p[P_MAX_DRIVE]):
                         drive.CreateMaxForceAttr(float(p[P_MAX_DRIVE]))
                     if p[P_MOTOR_ON]:
