@@ -640,3 +640,16 @@ def test_a_few_rays_cast_on_the_calling_thread_meet_what_a_batch_meets():
         raycast.ray_cast_serial = serial
     assert calls["serial"] == len(range(0, 200, 7))
     assert (batch.body >= 0).sum() > 100  # most rays meet something
+
+
+def test_a_ray_starting_on_a_surface_reports_distance_plus_zero():
+    """A ray starting on a box's face going in reported -0.0 (a sphere's 0.0): now +0.0 for both
+    (``math.copysign`` tells them apart; the hit is the face itself, as before)."""
+    import math
+
+    w = tb.World()
+    w.add_body(tb.Box(size=(1.0, 1.0, 1.0)), fixed=True)
+    w.add_body(tb.Sphere(radius=0.5), fixed=True, position=(5.0, 0.0, 0.0))
+    for origin in ((0.0, 0.0, 0.5), (5.0, 0.0, 0.5)):
+        hit = w.ray_cast(origin, (0.0, 0.0, -1.0))
+        assert hit.body[0] >= 0 and hit.distance[0] == 0.0 and math.copysign(1.0, hit.distance[0]) == 1.0

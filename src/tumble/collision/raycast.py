@@ -269,7 +269,8 @@ def _cast_one(r, origin, direction, max_distance, exclude, seen, planes, items, 
             n1 = rs[1, 0] * hit[2] + rs[1, 1] * hit[3] + rs[1, 2] * hit[4]
             n2 = rs[2, 0] * hit[2] + rs[2, 1] * hit[3] + rs[2, 2] * hit[4]
     hit_shape[r] = best_s
-    hit_distance[r] = best if best_s >= 0 else np.inf
+    # + 0.0: a ray starting on a surface and going in reported -0.0 for a box (0.0 for a sphere)
+    hit_distance[r] = best + 0.0 if best_s >= 0 else np.inf
     hit_normal[r, 0] = n0
     hit_normal[r, 1] = n1
     hit_normal[r, 2] = n2
