@@ -121,7 +121,8 @@ import numpy as np
 
 from . import checks
 from .errors import InputError
-from .joints import P_DAMPING, P_MAX_DRIVE, P_PASSIVE_DAMPING, P_PASSIVE_STIFFNESS, P_SPRINGREF, P_STIFFNESS
+from .joints import (P_DAMPING, P_MAX_DRIVE, P_MAX_MOTOR, P_MOTOR_ON, P_MOTOR_SPEED, P_PASSIVE_DAMPING,
+                     P_PASSIVE_STIFFNESS, P_SPRINGREF, P_STIFFNESS)
 from .material import CONDIMS, Material
 from .math3d import matrix_to_quat, quat_to_matrix
 from .mjcf_hfield import read_hfields
@@ -898,20 +899,22 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
             robot._write(None, joint, {P_PASSIVE_STIFFNESS: k, P_SPRINGREF: springref, P_PASSIVE_DAMPING: c},
                          {"passive_stiffness": k, "springref": springref, "passive_damping": c})
         resolve_dampratios(robot)
-        # each servoed joint's drive as the file makes it (the actuators' stiffness, damping and cap,
-        # the joint's friction motor): ``set_controls`` writes it back over a ``set_motor`` or
-        # ``set_position_target`` (one control mode a joint). NOTE: why: a servo's ctrl written after a
-        # set_motor went into the motor's drive of stiffness 0 and the servo never acted (session 43)
+        # each servoed joint's drive as loaded (the actuators' stiffness, damping and cap, and the motor
+        # it has now: the file's friction or the caller's ``joint_motors``): ``set_controls`` writes it
+        # back over a ``set_motor`` or ``set_position_target`` (one control mode a joint). NOTE: why: a
+        # servo's ctrl written after a set_motor went into the motor's drive of stiffness 0 and the
+        # servo never acted (session 43)
         robot.servo_drives = {}
         for joint in robot.joint_passive:
             record = robot.joints[joint]
-            max_drive = robot._field(joint, "max_drive")
-            columns, fields = robot._friction_motor(joint, robot._urdf_joint(joint))
+            max_drive, max_motor = robot._field(joint, "max_drive"), robot._field(joint, "max_motor")
+            motor_on = record.motor_speed is not None
             robot.servo_drives[joint] = (
-                {**columns, P_STIFFNESS: record.stiffness, P_DAMPING: record.damping,
+                {P_MOTOR_ON: float(motor_on), P_MOTOR_SPEED: record.motor_speed if motor_on else 0.0,
+                 P_MAX_MOTOR: getattr(record, max_motor), P_STIFFNESS: record.stiffness, P_DAMPING: record.damping,
                  P_MAX_DRIVE: getattr(record, max_drive)},
-                {**fields, "stiffness": record.stiffness, "damping": record.damping,
-                 max_drive: getattr(record, max_drive)})
+                {"motor_speed": record.motor_speed, max_motor: getattr(record, max_motor),
+                 "stiffness": record.stiffness, "damping": record.damping, max_drive: getattr(record, max_drive)})
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
         apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in given})

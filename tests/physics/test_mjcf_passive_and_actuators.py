@@ -285,3 +285,19 @@ def test_set_controls_after_set_motor_gives_the_joint_back_to_its_servo(tmp_path
     loaded[P_TARGET] = 0.5
     row[[P_MOTOR_SPEED, P_MAX_MOTOR]] = loaded[[P_MOTOR_SPEED, P_MAX_MOTOR]]
     np.testing.assert_array_equal(row, loaded)
+
+
+def test_a_callers_motor_on_a_servoed_joint_stays_on_at_load_and_after_set_controls(tmp_path):
+    """``load_mjcf(joint_motors=)`` on a joint a servo drives: the motor the caller gave stays on
+    through the load's controls at 0 and a later ``set_controls`` (which writes back the drive as
+    loaded, motor included); an earlier form of that write-back put the file's friction motor (none)
+    in its place."""
+    path = model(tmp_path, 'damping="1"', '<position name="a" joint="h" kp="10"/>')
+    world = tb.World(gravity=(0, 0, -9.81))
+    robot = tb.load_mjcf(world, path, joint_motors={"h": {"speed": 1.5, "max_force": 5.0}})
+    sim = tb.Simulator(world, dt=DT, joint_settings=ACCURATE)
+    for _ in range(2):
+        row = robot.joints["h"].bound.param
+        assert (row[P_MOTOR_ON], row[P_MOTOR_SPEED], row[P_MAX_MOTOR]) == (1.0, 1.5, 5.0)
+        assert robot.joints["h"].motor_speed == 1.5
+        robot.set_controls(sim, {"a": 0.2})
