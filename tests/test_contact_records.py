@@ -302,8 +302,8 @@ def test_a_recording_keeps_the_contact_rows_alone_and_pads_them_as_before():
     """The in-memory recording keeps each frame's ``CONTACT_FIELDS`` rows, not the whole
     ``Contacts`` (whose body names and parts made a 1000-box, 60 s run hold 1.8 GB for 1.2 GB of
     contact data; peak 4.75 GB with the padding's copies: a performance audit, session 43); the
-    padded arrays are those of ``pad_contacts`` on the concatenated rows, bit for bit."""
-    from tumble.trajectory import CONTACT_FIELDS, pad_contacts
+    padded arrays are each frame's rows then the field's padding, bit for bit."""
+    from tumble.trajectory import CONTACT_FIELDS
 
     from tumble.recording import _Recorder
 
@@ -316,7 +316,11 @@ def test_a_recording_keeps_the_contact_rows_alone_and_pads_them_as_before():
     frames = recorder.contact_frames
     assert all(isinstance(f, tuple) and len(f) == len(CONTACT_FIELDS) for f in frames)
     assert sum(len(f[0]) for f in frames) > 25  # the boxes touch the ground in most frames
-    rows = {field: np.concatenate([f[i] for f in frames]) for i, field in enumerate(CONTACT_FIELDS)}
-    before = pad_contacts([len(f[0]) for f in frames], rows)
-    for key, value in before.items():
-        np.testing.assert_array_equal(getattr(traj, key), value)
+    # the padded arrays written out here, by hand: each frame's rows, then the field's padding
+    C = max(len(f[0]) for f in frames)
+    for i, (key, shape, dtype, pad) in enumerate(CONTACT_FIELDS.values()):
+        expected = np.full((len(frames), C) + shape, pad, dtype=dtype)
+        for k, f in enumerate(frames):
+            expected[k, :len(f[0])] = f[i]
+        np.testing.assert_array_equal(getattr(traj, key), expected)
+    np.testing.assert_array_equal(traj.contact_count, [len(f[0]) for f in frames])

@@ -287,18 +287,11 @@ CONTACT_FIELDS = {
 def pad_contacts(counts, rows: dict) -> dict:
     """The padded (F, C, ...) contact arrays of a trajectory from per-frame counts (F,) and the
     frames' rows laid end to end, ``rows[field]`` (sum(counts), ...) per ``CONTACT_FIELDS`` field."""
-    counts = np.asarray(counts, dtype=np.int64)
-    F = len(counts)
-    C = int(counts.max()) if F else 0
-    starts = np.concatenate([[0], np.cumsum(counts)])
-    out = {"contact_count": counts.copy()}
-    for field, (key, shape, dtype, pad) in CONTACT_FIELDS.items():
-        a = np.full((F, C) + shape, pad, dtype=dtype)
-        src = np.asarray(rows[field], dtype=dtype)
-        for k in range(F):
-            a[k, : counts[k]] = src[starts[k]:starts[k + 1]]
-        out[key] = a
-    return out
+    starts = np.concatenate([[0], np.cumsum(np.asarray(counts, dtype=np.int64))])
+    # each frame's rows as views of ``rows`` (no copy), padded by ``pad_contact_frames``
+    src = [np.asarray(rows[field]) for field in CONTACT_FIELDS]
+    frames = [tuple(a[starts[k]:starts[k + 1]] for a in src) for k in range(len(starts) - 1)]
+    return pad_contact_frames(frames)
 
 
 def pad_contact_frames(frames) -> dict:
