@@ -293,6 +293,31 @@ def hull_polygons(vertices, faces):
     return np.asarray(planes, dtype=float).reshape(-1, 4), polygons
 
 
+def hull_faces(convex):
+    """``hull_polygons`` of a ``Convex`` record, merged on the first call and then kept on the record
+    with a digest of the arrays it was merged from (an array edited in place has another digest and
+    is merged again). Every shape table (each Simulator's first step, each step after a spawn, a ray
+    cast's) took each distinct hull's faces anew: 7-8 ms a hull in trimesh's facets, so a spawn into
+    a world of 1000 distinct hulls (fractured cells, decomposed pieces, rocks) stalled 7.5 s
+    (docs/benchmarks.md, "Hull faces kept")."""
+    v = np.ascontiguousarray(convex.vertices, dtype=float)
+    f = np.ascontiguousarray(convex.faces, dtype=np.int64)
+    h = hashlib.blake2b(digest_size=20)
+    h.update(np.array([v.shape[0], f.shape[0]], dtype=np.int64).tobytes())
+    h.update(memoryview(v).cast("B"))
+    h.update(memoryview(f).cast("B"))
+    key = h.digest()
+    kept = convex.__dict__.get("_hull_faces")
+    if kept is not None and kept[0] == key:
+        return kept[1], kept[2]
+    planes, polygons = hull_polygons(v, f)
+    planes.setflags(write=False)
+    for poly in polygons:
+        poly.setflags(write=False)
+    object.__setattr__(convex, "_hull_faces", (key, planes, polygons))
+    return planes, polygons
+
+
 # mesh_edge_active bit of a two-sided triangle (an open mesh's, ``Mesh(closed=False)``): bits 0-2 hold its
 # edges' activity seen from the front, bits 3-5 seen from the back, numbered as the edges of the turned
 # triangle (corners 0, 2, 1) that collision/pairs/mesh.py collides a shape behind it with
@@ -550,7 +575,7 @@ class _Builder:
         if type_id in (SHAPE_CONVEX, SHAPE_MESH) and id(shape) in self.seen:
             data = self.seen[id(shape)][1]
         elif type_id == SHAPE_CONVEX:
-            planes, polygons = hull_polygons(shape.vertices, shape.faces)
+            planes, polygons = hull_faces(shape)  # merged once per record and content, not per table
             v = np.asarray(shape.vertices, dtype=float)
             data = (self.n_hv, len(v), self.n_hf, len(planes))
             for poly in polygons:
