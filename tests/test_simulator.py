@@ -152,3 +152,30 @@ def test_a_blow_up_inside_the_soft_step_is_reported_by_its_span_of_steps():
         sim.step(24)
     assert info.value.stage == "soft_step" and "between steps 0 and 24" in str(info.value)
     assert np.array_equal(w.pack(), start) and sim.step_index == 0
+
+
+@pytest.mark.parametrize("compress", [True, False])
+def test_a_saved_trajectory_is_the_same_bytes_whenever_it_is_saved(compress, tmp_path, monkeypatch):
+    """``Trajectory.save`` stamps its zip entries with a fixed time (as np.savez does), so the same run
+    saved at two times is the same file: a checksum tells two runs apart, not two saves. Stored
+    (``compress=False``: big contact recordings save 8x faster, docs/benchmarks.md "Saving a
+    trajectory") or deflated, ``np.load`` reads the same arrays back, bit for bit."""
+    import time
+    import zipfile
+
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
+    w.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=(0, 0, 0.5), name="box")
+    traj = tb.Simulator(w, record_contacts=True).run(0.5)
+    clock = [1.0e9]
+    monkeypatch.setattr(time, "time", lambda: clock[0])  # zipfile reads the clock through time.time
+    first = traj.save(tmp_path / "a.npz", compress=compress).read_bytes()
+    clock[0] += 3600.0  # an hour later
+    second = traj.save(tmp_path / "b.npz", compress=compress).read_bytes()
+    assert first == second
+    with zipfile.ZipFile(tmp_path / "a.npz") as zf:
+        kinds = {info.compress_type for info in zf.infolist()}
+    assert kinds == ({zipfile.ZIP_DEFLATED} if compress else {zipfile.ZIP_STORED})
+    back = tb.load_trajectory(tmp_path / "a.npz")
+    for key in ("time", "position", "orientation", "contact_point", "contact_normal_impulse", "contact_body_a"):
+        np.testing.assert_array_equal(getattr(back, key), getattr(traj, key), err_msg=key)
