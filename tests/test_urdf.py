@@ -218,6 +218,27 @@ def test_a_sleeping_robot_wakes_to_a_new_control(tmp_path):
     assert position == pytest.approx(0.25, abs=1e-3) and abs(rate) < 1e-3
 
 
+def test_position_control_with_a_target_velocity_and_a_motor_after_it(tmp_path):
+    # PyBullet's POSITION_CONTROL with a targetVelocity and no position gain: the drive's damping c
+    # pulls the rate to w, capped at max_force: the wheel (I = 0.00667 kg m^2) spins up at the cap,
+    # 0.01 / I = 1.5 rad/s^2, until c (w - rate) falls below it (rate 2 - 0.01 / 0.05 = 1.8 rad/s
+    # at 1.2 s), then settles at w = 2 rad/s (exp(-c t / I) = exp(-7.5 s-1 t): 1e-13 after 4 s more).
+    # A motor set after it takes the joint alone: the target velocity is cleared with the drive
+    # (the wheel stops at the motor's speed 0.5 rad/s, not pulled on towards 2).
+    world, robot, sim = wheel_robot(tmp_path)
+    robot.set_position_target(sim, "spin", target=0.0, stiffness=0.0, damping=0.05, max_force=0.01,
+                              target_velocity=2.0)
+    sim.step(240)
+    assert robot.joint_states(sim)["spin"][1] == pytest.approx(1.5, abs=1e-9)
+    assert robot.joints["spin"].target_velocity == 2.0  # the record says what acts
+    sim.step(5 * 240)
+    assert robot.joint_states(sim)["spin"][1] == pytest.approx(2.0, abs=1e-9)
+    robot.set_motor(sim, "spin", 0.5)
+    sim.step(480)
+    assert robot.joint_states(sim)["spin"][1] == pytest.approx(0.5, abs=1e-9)
+    assert robot.joints["spin"].target_velocity == 0.0
+
+
 def test_torque_control(tmp_path):
     # PyBullet's TORQUE_CONTROL: the same cube (I = 0.00667 kg m^2) under a joint torque of 0.01 N m
     # spins up at 0.01 / I = 1.5 rad/s^2 (exactly: no gyroscopic term about a principal axis), not

@@ -294,3 +294,39 @@ def test_a_joints_passive_spring_and_damper_go_out_summed_into_its_drive(tmp_pat
     back = round_trip(world, tmp_path)
     (joint,) = back.joints
     assert (joint.stiffness, joint.damping, joint.target) == pytest.approx((2.5, 0.14, (2 * 0.4 - 0.5) / 2.5), rel=1e-6)
+
+
+def test_a_drives_target_velocity_goes_out_as_the_drives_target_velocity_and_comes_back(tmp_path):
+    """A hinge's PD drive with a target velocity (stiffness 2, damping 0.1 to 0.4 rad and 3 rad/s) is
+    UsdPhysics' drive law stiffness (tp - q) + damping (tv - q') as it is: written as the drive's
+    targetVelocity (per degree, as its angles), and read back as the drive's ``target_velocity``
+    (single precision: 1e-6 relative); with the passive damper summed into the drive (0.04), the
+    velocity written is the pull c w over the summed damping, 0.1 x 3 / 0.14, the same law. Before,
+    the exporter left it out, and the reader refused a drive with a stiffness and a target velocity.
+    A slider's drive without stiffness goes out the same way and comes back a drive (damping 4 N s/m
+    towards 0.5 m/s; before, a motor: infinite gain), a motor as a motor (the stiff damping the
+    exporter writes a motor with)."""
+    world = tb.World()
+    arm = world.add_body(tb.Box(size=(0.1, 0.1, 0.5)), mass=1.0, position=(0, 0, 1))
+    world.add_joint(tb.HingeJoint(arm, None, anchor=(0, 0, 1.25), axis=(1, 0, 0), stiffness=2.0, damping=0.1,
+                                  target=0.4, target_velocity=3.0))
+    (joint,) = round_trip(world, tmp_path).joints
+    assert (joint.stiffness, joint.damping, joint.target, joint.target_velocity) == \
+        pytest.approx((2.0, 0.1, 0.4, 3.0), rel=1e-6)
+
+    world = tb.World()
+    arm = world.add_body(tb.Box(size=(0.1, 0.1, 0.5)), mass=1.0, position=(0, 0, 1))
+    world.add_joint(tb.HingeJoint(arm, None, anchor=(0, 0, 1.25), axis=(1, 0, 0), stiffness=2.0, damping=0.1,
+                                  target=0.4, target_velocity=3.0, passive_damping=0.04))
+    (joint,) = round_trip(world, tmp_path / "passive").joints
+    assert (joint.damping, joint.target_velocity) == pytest.approx((0.14, 0.1 * 3.0 / 0.14), rel=1e-6)
+
+    world = tb.World()
+    block = world.add_body(tb.Box(size=(0.1, 0.1, 0.1)), mass=1.0, position=(0, 0, 1))
+    wheel = world.add_body(tb.Cylinder(0.1, 0.05), mass=1.0, position=(1, 0, 1))
+    world.add_joint(tb.SliderJoint(block, None, anchor=(0, 0, 1), axis=(1, 0, 0), damping=4.0, target_velocity=0.5))
+    world.add_joint(tb.HingeJoint(wheel, None, anchor=(1, 0, 1), axis=(0, 0, 1), motor_speed=2.0, max_motor_torque=3.0))
+    slider, motor = round_trip(world, tmp_path / "velocity").joints
+    assert (slider.damping, slider.target_velocity) == pytest.approx((4.0, 0.5), rel=1e-6)
+    assert slider.motor_speed is None
+    assert (motor.motor_speed, motor.max_motor_torque, motor.damping) == pytest.approx((2.0, 3.0, 0.0), rel=1e-6)

@@ -68,13 +68,18 @@ P_BALL_RATE = 28
 # ``damping``: its qfrc_passive), acting beside the drive and never capped by ``max_drive_*``: the
 # drive row solves them together, and a saturated drive keeps them (``joint_solve._solve_axial``)
 P_PASSIVE_STIFFNESS, P_PASSIVE_DAMPING, P_SPRINGREF = 31, 32, 33
-PARAM_COUNT = 34
+# a hinge's or slider's drive target velocity (rad/s or m/s): the rate its damping pulls to, so the
+# drive is -stiffness (q - target) - damping (q' - target_velocity) (PyBullet's POSITION_CONTROL
+# targetVelocity, MuJoCo's velocity actuator, UsdPhysics' drive targetVelocity), capped whole
+P_TARGET_RATE = 34
+PARAM_COUNT = 35
 # the columns a parameter row had in older versions (checkpoints): before the effort and
 # armature (their joints get none), and before the ball joints' drive (none either)
 PARAM_COUNT_V1 = 19
 PARAM_COUNT_V2 = 21
-# 28: the ball drive without its target velocity; 31: no passive spring and damper
-OLD_PARAM_COUNTS = (PARAM_COUNT_V1, PARAM_COUNT_V2, 28, 31)
+# 28: the ball drive without its target velocity; 31: no passive spring and damper; 34: no drive
+# target velocity
+OLD_PARAM_COUNTS = (PARAM_COUNT_V1, PARAM_COUNT_V2, 28, 31, 34)
 # a gear's parameter row (``GearJoint``): the indices in ``world.joints`` of the joint that follows and of
 # the joint it follows, and the coefficients a0..a4 of q_joint = a0 + a1 q + ... + a4 q^4 (q = q_follows)
 # in columns G_COEF..G_COEF+4 (P_STIFFNESS..P_MAX_FORCE). Columns no other row of a gear is read from (every kernel takes a gear's
@@ -188,6 +193,7 @@ def _drive_params(p, j, motor_key, drive_key, effort_key):
     p[P_STIFFNESS] = _number(j.stiffness, "stiffness", minimum=0.0)
     p[P_DAMPING] = _number(j.damping, "damping", minimum=0.0)
     p[P_TARGET] = _number(j.target, "target")
+    p[P_TARGET_RATE] = _number(j.target_velocity, "target_velocity")
     p[P_MAX_DRIVE] = _number(getattr(j, drive_key), drive_key, minimum=0.0, allow_inf=True)
     p[P_EFFORT] = _number(getattr(j, effort_key), effort_key)
     p[P_ARMATURE] = _number(j.armature, "armature", minimum=0.0)
@@ -349,6 +355,11 @@ class HingeJoint(Joint):
             ``max_motor_torque`` N m (default inf).
         stiffness: N m/rad, damping: N m s/rad: a spring-damper (PD drive) pulling the
             angle to ``target`` (rad, default 0), at most ``max_drive_torque`` N m.
+        target_velocity: rad/s, the rate the drive's damping pulls the angle's to: the drive's
+            torque is -stiffness (angle - target) - damping (rate - target_velocity), capped
+            whole at ``max_drive_torque`` (PyBullet's POSITION_CONTROL with a targetVelocity;
+            with stiffness 0, MuJoCo's velocity actuator with a forcerange: unlike
+            ``motor_speed``, a finite gain). Default 0.
         torque: N m, a torque applied about the axis, on body_b and its opposite on body_a
             (PyBullet's ``TORQUE_CONTROL``, MuJoCo's ``motor`` actuator), every substep
             until changed (``JointSolver.set_effort``). Default 0.
@@ -376,6 +387,7 @@ class HingeJoint(Joint):
     passive_stiffness: float = 0.0
     passive_damping: float = 0.0
     springref: float = 0.0
+    target_velocity: float = 0.0
     kind: ClassVar[str] = "hinge"
 
     def _frame_world(self, axis_to_world):
@@ -398,6 +410,8 @@ class SliderJoint(Joint):
         motor_speed: m/s, optional target rate, with at most ``max_motor_force`` N.
         stiffness: N/m, damping: N s/m: spring-damper / PD drive to ``target`` (m), at
             most ``max_drive_force`` N.
+        target_velocity: m/s, the rate the drive's damping pulls the displacement's to (as the
+            hinge's). Default 0.
         force: N, a force applied along the axis at the anchor, on body_b and its opposite
             on body_a, every substep until changed (``JointSolver.set_effort``). Default 0.
         armature: kg, >= 0: a mass added to the displacement's own (MuJoCo's armature).
@@ -420,6 +434,7 @@ class SliderJoint(Joint):
     passive_stiffness: float = 0.0
     passive_damping: float = 0.0
     springref: float = 0.0
+    target_velocity: float = 0.0
     kind: ClassVar[str] = "slider"
 
     def _frame_world(self, axis_to_world):
@@ -867,7 +882,9 @@ def set_record_target(joint: Joint, value, velocity=None) -> np.ndarray:
     parameter row (a checkpoint carries both; the record marked edited): rad or m (``P_TARGET``)
     for a hinge, slider or distance joint; a rotation (``ball_target_quaternion``: rotation vector
     or quaternion) for a ball joint, and ``velocity`` (3,) rad/s its target velocity (None: left as
-    it is). Returns the row's target column(s) (a ball joint's: quaternion then velocity, (7,)).
+    it is; a hinge's or slider's: one number, rad/s or m/s, ``P_TARGET_RATE``). Returns the row's
+    target column(s) (a ball joint's: quaternion then velocity, (7,); a hinge's or slider's: target
+    and target velocity, (2,); a distance joint's: (1,)).
     InputError: not a target of that joint."""
     p = joint.bound.param
     t = joint.bound.type_id
@@ -882,16 +899,20 @@ def set_record_target(joint: Joint, value, velocity=None) -> np.ndarray:
         p[P_BALL_TARGET:P_BALL_TARGET + 4] = q
         mark_edited(joint)
         return np.concatenate([q, p[P_BALL_RATE:P_BALL_RATE + 3]])
-    if velocity is not None:
-        raise InputError(f"only a ball joint's drive takes a target velocity, not a {joint.kind} joint's",
-                         "target_velocity")
+    if velocity is not None and t not in (JOINT_HINGE, JOINT_SLIDER):
+        raise InputError(f"a {joint.kind} joint's drive takes no target velocity (a hinge's, slider's or ball "
+                         "joint's does)", "target_velocity")
     if t not in (JOINT_HINGE, JOINT_SLIDER, JOINT_DISTANCE):
         raise InputError(f"a {joint.kind} joint has no drive target", "joint")
     target = _number(value, "target", minimum=0.0 if t == JOINT_DISTANCE else None)
+    if velocity is not None:
+        rate = _number(velocity, "target_velocity")
+        object.__setattr__(joint, "target_velocity", rate)
+        p[P_TARGET_RATE] = rate
     object.__setattr__(joint, "target", target)
     p[P_TARGET] = target
     mark_edited(joint)
-    return np.array([target])
+    return np.array([target, p[P_TARGET_RATE]]) if t != JOINT_DISTANCE else np.array([target])
 
 
 def set_record_effort(joint: Joint, value) -> float:

@@ -65,13 +65,14 @@ What maps to what:
   (``gaintype`` fixed, ``biastype`` none or affine, ``dyntype`` none), with ``gear``, ``ctrlrange`` and
   ``forcerange`` (when limited: ``ctrllimited``/``forcelimited`` true, or auto with the range
   given). The bias's stiffness and damping are a PD drive on the joint (implicit, capped by the
-  forcerange), the rest its target or, without stiffness, an applied torque or force. The joint's
+  forcerange), the rest its target or, without stiffness, an applied torque or force (a damper's
+  with a forcerange, a velocity actuator's, the drive's target velocity: its force clipped whole,
+  as MuJoCo clips it). The joint's
   own ``damping`` and ``stiffness`` + ``springref`` act beside them, as MuJoCo's passive forces: the
   joint's passive spring-damper (``passive_damping``, ``passive_stiffness``, ``springref``), solved
   with the drive as one row whose cap, the forcerange, holds the drive's share alone (MuJoCo caps
   the actuator's force alone; ``joint_solve._drive_and_passive``; docs/robots.md). Refused:
-  other gain, bias or activation types, a negative stiffness or damping, a forcerange on a damper
-  without stiffness (a velocity actuator's: MuJoCo clips the sum). Other actuators (``intvelocity``,
+  other gain, bias or activation types, a negative stiffness or damping. Other actuators (``intvelocity``,
   ``damper``, ``cylinder``, ``muscle``, ``adhesion``...) and those on sites are left off. Fixed
   tendons (``<tendon><fixed>``) are read for the motors on them (each joint gets coef gear f), and
   need no more when they have no range, stiffness, damping or friction loss (MuJoCo's default).
@@ -122,7 +123,7 @@ import numpy as np
 from . import checks
 from .errors import InputError
 from .joints import (P_DAMPING, P_MAX_DRIVE, P_MAX_MOTOR, P_MOTOR_ON, P_MOTOR_SPEED, P_PASSIVE_DAMPING,
-                     P_PASSIVE_STIFFNESS, P_SPRINGREF, P_STIFFNESS)
+                     P_PASSIVE_STIFFNESS, P_SPRINGREF, P_STIFFNESS, P_TARGET_RATE)
 from .material import CONDIMS, Material
 from .math3d import matrix_to_quat, quat_to_matrix
 from .mjcf_hfield import read_hfields
@@ -883,7 +884,8 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
     for j, (kp, kv, limit) in parsed.drives.items():
         if kp > 0.0 or kv > 0.0:
             targets[j] = {"position": 0.0, "stiffness": kp, "damping": kv,
-                          **({} if math.isinf(limit) or kp == 0.0 else {"max_force": limit})}
+                          # capped by a forcerange: a position servo's, or a velocity servo's
+                          **({} if math.isinf(limit) or (kp == 0.0 and limit == 0.0) else {"max_force": limit})}
     given = joint_targets or {}
     targets.update(given)
     try:
@@ -912,9 +914,10 @@ def load_mjcf(world, path, *, position=(0.0, 0.0, 0.0), orientation=None, euler_
             robot.servo_drives[joint] = (
                 {P_MOTOR_ON: float(motor_on), P_MOTOR_SPEED: record.motor_speed if motor_on else 0.0,
                  P_MAX_MOTOR: getattr(record, max_motor), P_STIFFNESS: record.stiffness, P_DAMPING: record.damping,
-                 P_MAX_DRIVE: getattr(record, max_drive)},
+                 P_MAX_DRIVE: getattr(record, max_drive), P_TARGET_RATE: 0.0},
                 {"motor_speed": record.motor_speed, max_motor: getattr(record, max_motor),
-                 "stiffness": record.stiffness, "damping": record.damping, max_drive: getattr(record, max_drive)})
+                 "stiffness": record.stiffness, "damping": record.damping, max_drive: getattr(record, max_drive),
+                 "target_velocity": 0.0})
         # the controls at 0 (MuJoCo's start): a general actuator's bias b0 is a target or an effort; the
         # joints given ``joint_targets`` keep the caller's drive
         apply_controls(robot, None, {n: 0.0 for n, a in robot.actuators.items() if a.joint not in given})

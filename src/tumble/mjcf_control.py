@@ -106,6 +106,13 @@ class MjcfActuator:
         return tuple((j, a.gear * c) for j, c in a.tendon) if a.tendon else ((a.joint, a.gear),)
 
     @property
+    def rate_servo(self) -> bool:
+        """A damper without a spring whose force is clipped whole (a velocity actuator with a
+        forcerange): on its joint a drive of damping gear^2 kv pulling to the target velocity
+        ctrl / gear, capped at the forcerange (``P_TARGET_RATE``), not an effort beside a damper."""
+        return self.forcerange is not None and self.stiffness == 0.0 and self.damping > 0.0
+
+    @property
     def stiffness(self) -> float:
         return -self.gear * self.gear * self.bias[1]
 
@@ -124,7 +131,7 @@ class MjcfActuator:
 def apply_controls(robot, sim, controls: dict):
     """``Robot.set_controls``: set the actuators' ``ctrl`` and write each joint they drive (its
     drive target, its applied effort) from all its actuators."""
-    from .joints import P_EFFORT, P_TARGET, SliderJoint
+    from .joints import P_EFFORT, P_TARGET, P_TARGET_RATE, SliderJoint
 
     given = []
     for name, value in controls.items():
@@ -146,7 +153,7 @@ def apply_controls(robot, sim, controls: dict):
         on = [a for a in robot.actuators.values() if a.joint == joint]
         stiffness = sum(a.stiffness for a in on)
         servo = sum(a.drive() for a in on if a.stiffness > 0.0)
-        effort = sum(a.drive() for a in on if a.stiffness == 0.0)
+        effort = sum(a.drive() for a in on if a.stiffness == 0.0 and not a.rate_servo)
         effort += sum(c * a.drive() for a in robot.actuators.values() for j, c in a.tendon if j == joint)
         values = {P_EFFORT: effort}
         # the record's fields too (``Robot._write``: the record says what acts; an edit of one of its
@@ -161,6 +168,14 @@ def apply_controls(robot, sim, controls: dict):
             # weighted mean, sum gear (gain ctrl + b0) / K (the joint's own spring to springref is its
             # passive spring, beside the drive: ``mjcf.load_mjcf``)
             values[P_TARGET] = fields["target"] = servo / stiffness
+        rate = [a for a in on if a.rate_servo]
+        if rate:
+            # the velocity servos' pull, sum gear (gain ctrl + b0) = sum d_i w_i (d_i = gear^2 kv, w_i =
+            # ctrl / gear + ...), as the drive's damping (every actuator's on the joint) times its
+            # target velocity: clipped whole by the drive's cap, as MuJoCo clips the force
+            damping = sum(a.damping for a in on)
+            pull = sum(a.gear * (a.gain * a.ctrl + a.bias[0]) for a in rate)
+            values[P_TARGET_RATE] = fields["target_velocity"] = pull / damping
         robot._write(sim, joint, values, fields)
 
 
@@ -195,13 +210,11 @@ def _tendon_servos(out: MjcfModel):
             C += c * a1
         gear = actuator.gear * C
         b0, b1, b2 = actuator.bias
-        if actuator.forcerange is not None and b2 != 0.0 and b1 == 0.0:  # as on a joint (``_actuators``)
-            raise InputError("a forcerange on a damping actuator without stiffness is not supported", key)
         joint_actuator = MjcfActuator(name, actuator.kind, leader, gear, actuator.ctrlrange, actuator.forcerange,
                                       actuator.gain, (b0 + b1 * actuator.gear * L0, b1, b2), given=actuator,
                                       dampratio=actuator.dampratio)
         k, c, limit = out.drives.get(leader, (0.0, 0.0, 0.0))
-        if joint_actuator.stiffness > 0.0:
+        if joint_actuator.stiffness > 0.0 or joint_actuator.rate_servo:
             fr = actuator.forcerange
             limit += math.inf if fr is None else abs(gear) * max(abs(fr[0]), abs(fr[1]))
         out.drives[leader] = (k + joint_actuator.stiffness, c + joint_actuator.damping, limit)
@@ -348,11 +361,10 @@ def _actuators(reader, root, out: MjcfModel, joint_names):
                 if actuator.stiffness or actuator.damping:
                     out.tendon_servos.append((name, key))  # after the equalities: ``_tendon_servos``
                 continue
-            if forcerange is not None and actuator.damping > 0.0 and actuator.stiffness == 0.0:
-                # f = kv (ctrl - l') clipped whole: here an effort and a damper, each of its own
-                raise InputError("a forcerange on a damping actuator without stiffness is not supported", key)
             k, c, limit = out.drives.get(joint, (0.0, 0.0, 0.0))
-            if actuator.stiffness > 0.0:
+            # a servo's cap: its forcerange (a velocity actuator's too: f = kv (ctrl - l') clipped
+            # whole, the drive's target velocity; refused before the drive had one)
+            if actuator.stiffness > 0.0 or actuator.rate_servo:
                 limit += math.inf if forcerange is None else abs(gear) * max(abs(forcerange[0]), abs(forcerange[1]))
             out.drives[joint] = (k + actuator.stiffness, c + actuator.damping, limit)
             out.actuators[name] = actuator

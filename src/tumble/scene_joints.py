@@ -52,14 +52,14 @@ from .scene_values import _describe  # the scene parser's wording for a value of
 
 COMMON_KEYS = ("type", "name", "body_a", "body_b", "anchor", "anchor_b", "frame", "collide_connected",
                "max_force", "max_torque")
-DRIVE_KEYS = ("lower", "upper", "motor_speed", "stiffness", "damping", "target", "passive_stiffness",
-              "passive_damping", "springref")
+DRIVE_KEYS = ("lower", "upper", "motor_speed", "stiffness", "damping", "target", "target_velocity",
+              "passive_stiffness", "passive_damping", "springref")
 # per type: its own keys besides COMMON_KEYS
 TYPE_KEYS = {
     "ball": ("axis", "cone_limit", "cone_limit_deg", "twist_lower", "twist_upper", "twist_lower_deg",
              "twist_upper_deg", "stiffness", "damping", "target", "target_euler_deg", "target_velocity",
              "max_drive_torque"),
-    "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "springref_deg", "motor_speed_deg",
+    "hinge": ("axis", *DRIVE_KEYS, "lower_deg", "upper_deg", "target_deg", "springref_deg", "motor_speed_deg", "target_velocity_deg",
               "max_motor_torque", "max_drive_torque", "torque", "armature"),
     "slider": ("axis", *DRIVE_KEYS, "max_motor_force", "max_drive_force", "force", "armature"),
     "fixed": (),
@@ -78,7 +78,7 @@ ROTATION_KEYS = ("target_euler_deg", "target_velocity")
 UNBOUNDED_KEYS = ("max_force", "max_torque", "max_motor_torque", "max_motor_force", "max_drive_torque",
                   "max_drive_force", "max_motor_torque_b")
 DEGREE_KEYS = {"lower_deg": "lower", "upper_deg": "upper", "target_deg": "target", "springref_deg": "springref",
-               "cone_limit_deg": "cone_limit", "motor_speed_deg": "motor_speed", "twist_lower_deg": "twist_lower", "twist_upper_deg": "twist_upper",
+               "cone_limit_deg": "cone_limit", "motor_speed_deg": "motor_speed", "target_velocity_deg": "target_velocity", "twist_lower_deg": "twist_lower", "twist_upper_deg": "twist_upper",
                "lower_b_deg": "lower_b", "upper_b_deg": "upper_b", "motor_speed_b_deg": "motor_speed_b"}
 SOLVER_KEYS = ("method", "hertz", "damping_ratio", "velocity_iterations", "relax_iterations", "bias_factor",
                "partitions", "partition_min_joints", "limit_hertz", "limit_damping_ratio")
@@ -166,7 +166,8 @@ def _parse_one(entry: dict, key: str, world, file, names: set):
             kw["collide_connected"] = v
         elif k in VECTOR_KEYS:
             kw[k] = _vector(v, sub, file)
-        elif k in ROTATION_KEYS or (k == "target" and kind == "ball"):
+        elif (k in ROTATION_KEYS and kind == "ball") or (k == "target" and kind == "ball"):
+            # (a hinge's or slider's target_velocity is one number: its coordinate's rate)
             kw[k] = _numbers(v, sub, file)
         elif k in DEGREE_KEYS:
             target = DEGREE_KEYS[k]

@@ -717,7 +717,9 @@ class Simulator:
         for a ball joint a rotation of body_b relative to body_a from their pose at creation, in
         body_a's axes (the world's when body_a is the world): a rotation vector (3,) rad or a unit
         quaternion (4,) w, x, y, z (``BallJoint.target``), and ``velocity`` (3,) rad/s its target
-        velocity (``BallJoint.target_velocity``, body_a's axes; None: unchanged). The drive's
+        velocity (``BallJoint.target_velocity``, body_a's axes; None: unchanged); a hinge's or
+        slider's ``velocity`` one number, rad/s or m/s (``target_velocity``: the rate its damping
+        pulls to, PyBullet's ``targetVelocity``). The drive's
         stiffness and damping are the joint's own. ``joint``: its record, name or index in
         ``world.joints``. Before the first step too."""
         from .joints import joint_index, set_record_target

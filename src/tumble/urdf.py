@@ -57,7 +57,7 @@ import numpy as np
 from .collision.filter import CollisionFilter
 from .errors import InputError
 from .joints import BallJoint, FixedJoint, HingeJoint, SliderJoint, P_DAMPING, P_EFFORT, P_MAX_DRIVE, P_MAX_MOTOR, \
-    P_MOTOR_ON, P_MOTOR_SPEED, P_STIFFNESS, P_TARGET
+    P_MOTOR_ON, P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_TARGET_RATE
 from .material import Material
 from .mass import combine_mass_properties
 from .math3d import (
@@ -360,8 +360,9 @@ class Robot:
         joint its file's actuators drive: ``joint_passive``)."""
         k, c, target = (0.0, 0.0, 0.0) if joint in getattr(self, "joint_passive", {}) else \
             (uj.stiffness, uj.damping, uj.target)
-        return ({P_STIFFNESS: k, P_DAMPING: c, P_TARGET: target, P_MAX_DRIVE: math.inf},
-                {"stiffness": k, "damping": c, "target": target, self._field(joint, "max_drive"): math.inf})
+        return ({P_STIFFNESS: k, P_DAMPING: c, P_TARGET: target, P_TARGET_RATE: 0.0, P_MAX_DRIVE: math.inf},
+                {"stiffness": k, "damping": c, "target": target, "target_velocity": 0.0,
+                 self._field(joint, "max_drive"): math.inf})
 
     def set_joint_torque(self, sim, joint: str, torque: float):
         """Torque control (PyBullet's ``TORQUE_CONTROL``): apply ``torque`` N m (a revolute joint) or
@@ -386,9 +387,10 @@ class Robot:
         apply_controls(self, sim, controls)
 
     def set_position_target(self, sim, joint: str, target: float, stiffness: float, damping: float,
-                            max_force: float | None = None):
+                            max_force: float | None = None, target_velocity: float = 0.0):
         """Position control (PyBullet's ``POSITION_CONTROL``, a PD drive): pull ``joint`` to ``target``
-        rad or m with ``stiffness`` N m/rad (N/m) and ``damping`` N m s/rad (N s/m), at most
+        rad or m with ``stiffness`` N m/rad (N/m) and ``damping`` N m s/rad (N s/m) towards
+        ``target_velocity`` rad/s (m/s; PyBullet's ``targetVelocity``, default 0), at most
         ``max_force`` (default the URDF's effort). Takes the place of the joint's damping (a URDF's, and an
         MJCF joint's without actuators; an MJCF joint that its file's actuators drive keeps its own
         damping and spring beside the drive, as its passive spring-damper, as in MuJoCo)."""
@@ -401,10 +403,11 @@ class Robot:
         # over the target (a robotics audit, session 42)
         motor, motor_fields = self._friction_motor(joint, uj)
         target = _finite_float(target, "target")
+        rate = _finite_float(target_velocity, "target_velocity")
         self._write(sim, joint, {**motor, P_STIFFNESS: float(stiffness), P_DAMPING: float(damping), P_TARGET: target,
-                                 P_MAX_DRIVE: limit},
+                                 P_TARGET_RATE: rate, P_MAX_DRIVE: limit},
                     {**motor_fields, "stiffness": float(stiffness), "damping": float(damping), "target": target,
-                     self._field(joint, "max_drive"): limit})
+                     "target_velocity": rate, self._field(joint, "max_drive"): limit})
 
 
 # The frames' products are written without BLAS (math3d.mat_vec's note): a robot is placed with

@@ -92,6 +92,9 @@ USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
 DEFAULT_DENSITY = 1000.0  # kg/m^3, the schema's density when nothing sets one (its overview)
 MAX_GROUPS = 31  # collision groups: bit 0 is "no group", 31 bits are left for groups
+# a drive's damping from which a target velocity without stiffness is a motor (infinite gain): PhysX's
+# velocity drives' stiff damping (save_usd writes tumble's motors with 1e10, export.usd_scene)
+STIFF_DAMPING = 1e9
 
 #: the authored size attributes of each collider kind's UsdGeom prim, refused when negative or not finite
 #: (zero goes on to the shape's own check: "must be positive", or a capsule of no spine, a ball)
@@ -985,12 +988,18 @@ def _joint(r, kind, d, jpath, F0, F1, p0, p1, common, flipped: bool):
         limit = math.inf if not math.isfinite(limit) or limit > 1e30 else limit
         # per degree in the schema for angles: N m / deg -> N m / rad
         per = 180.0 / math.pi if kind == "RevoluteJoint" else 1.0 / r.mpu
-        if stiffness > 0.0 or (damping > 0.0 and drive.targetVelocity == 0.0):
+        # a velocity motor: a target velocity with no stiffness and a damping of none or PhysX's stiff
+        # kind (at least STIFF_DAMPING: taken as infinite; what save_usd writes a motor as); any
+        # other drive is the schema's law, stiffness (tp - q) + damping (tv - q'), tumble's drive
+        # with its target velocity (session 44: a finite damping with a target velocity was read as
+        # a motor, of infinite gain, and a stiffness with one was refused)
+        motor = drive.targetVelocity != 0.0 and stiffness == 0.0 and not 0.0 < damping < STIFF_DAMPING
+        if not motor and (stiffness > 0.0 or damping > 0.0):
             kw.update(stiffness=stiffness * per, damping=damping * per, target=_f(drive.targetPosition) * scale - start)
             kw["max_drive_torque" if kind == "RevoluteJoint" else "max_drive_force"] = limit
-        if drive.targetVelocity != 0.0:
-            if stiffness > 0.0:
-                raise r.error("a drive with both a stiffness and a target velocity is not supported", jpath)
+            if drive.targetVelocity != 0.0:
+                kw["target_velocity"] = _f(drive.targetVelocity) * scale
+        if motor:
             kw["motor_speed"] = _f(drive.targetVelocity) * scale
             kw["max_motor_torque" if kind == "RevoluteJoint" else "max_motor_force"] = limit
     if flipped:

@@ -670,7 +670,6 @@ def actuated_zero(tmp_path):
     ('<general joint="h" dyntype="filter"/>', "actuator.general[h].dyntype", "'filter' is not supported"),
     ('<general joint="h" gaintype="user"/>', "actuator.general[h].gaintype", "'user' is not supported"),
     ('<general joint="h" biastype="affine" biasprm="0 5 0"/>', "actuator.general[h]", "negative stiffness"),
-    ('<velocity joint="h" kv="2" forcerange="-1 1"/>', "actuator.velocity[h]", "forcerange on a damping"),
     ('<position joint="h" kp="x"/>', "actuator.position[h].kp", "expected numbers"),
     ('<motor joint="b"/>', "actuator.motor[b].joint", "an actuator on a spherical joint is not supported"),
 ])

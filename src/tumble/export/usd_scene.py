@@ -62,7 +62,7 @@ from ..errors import InputError, TumbleWarning
 from ..joints import (JOINT_BALL, JOINT_DISTANCE, JOINT_FIXED, JOINT_HINGE, JOINT_SLIDER, P_BALL_DAMPING,
                       P_BALL_STIFFNESS, P_DAMPING, P_LIMIT_ON,
                       P_LOWER, P_LIMIT2_ON, P_MAX_DRIVE, P_MAX_FORCE, P_MAX_MOTOR, P_MAX_TORQUE, P_MOTOR_ON,
-                      P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_UPPER, P_EFFORT, P_ARMATURE, P_PASSIVE_DAMPING,
+                      P_MOTOR_SPEED, P_STIFFNESS, P_TARGET, P_TARGET_RATE, P_UPPER, P_EFFORT, P_ARMATURE, P_PASSIVE_DAMPING,
                       P_PASSIVE_STIFFNESS, P_SPRINGREF)
 from ..joints import _frame_from_z
 from ..mass import _quat_matrix
@@ -322,6 +322,8 @@ class _Writer:
             # target their stiffness-weighted rest; a drive's cap then holds the sum (PhysX's, as
             # tumble's MJCF reader did before session 43)
             stiffness, damping, target = p[P_STIFFNESS], p[P_DAMPING], p[P_TARGET]
+            # the drive's target velocity w: its damping's pull c w, over the damping written
+            rate_pull = p[P_DAMPING] * p[P_TARGET_RATE]
             if p[P_PASSIVE_STIFFNESS] != 0.0 or p[P_PASSIVE_DAMPING] != 0.0:
                 stiffness, damping = stiffness + p[P_PASSIVE_STIFFNESS], damping + p[P_PASSIVE_DAMPING]
                 if stiffness > 0.0:
@@ -337,6 +339,8 @@ class _Writer:
                     drive.CreateStiffnessAttr(float(stiffness / unit))
                     drive.CreateDampingAttr(float(damping / unit))
                     drive.CreateTargetPositionAttr(float(target * unit))
+                    if rate_pull != 0.0:
+                        drive.CreateTargetVelocityAttr(float(rate_pull / damping * unit))
                     if math.isfinite(p[P_MAX_DRIVE]):
                         drive.CreateMaxForceAttr(float(p[P_MAX_DRIVE]))
                     if p[P_MOTOR_ON]:

@@ -41,6 +41,7 @@ from ..joints import (
     P_SPRINGREF,
     P_STIFFNESS,
     P_TARGET,
+    P_TARGET_RATE,
     P_UPPER,
     P_UPPER2,
 )
@@ -306,7 +307,12 @@ def _solve_axial(j, t, a, b, x, R, local_a, local_b, frame_a, frame_b, param, po
         eff = 1.0 / (k + gamma)
         cdot = _row_velocity(v, omega, a, b, linear, n, ra, rb)
         old = axial_impulse[j, A_SPRING]
-        imp = -eff * (cdot + ks / (cs + h * ks) * (pos - p[P_TARGET])) - gamma * eff * old
+        bias = ks / (cs + h * ks) * (pos - p[P_TARGET])
+        if p[P_TARGET_RATE] != 0.0:
+            # the damping pulls the rate to the target velocity w: -c (v+ - w) is -c v+ and a bias
+            # c w; kept apart so that a drive without one keeps its bits
+            bias -= cs * p[P_TARGET_RATE] / (cs + h * ks)
+        imp = -eff * (cdot + bias) - gamma * eff * old
         lim = p[P_MAX_DRIVE] * h
         new = min(max(old + imp, -lim), lim)
         axial_impulse[j, A_SPRING] = new
@@ -350,12 +356,16 @@ def _drive_and_passive(p, k, h, cdot, pos, old):
     of MuJoCo's at 0.3 s; with a 1 N m cap and no kv it swung on where MuJoCo's settled). When the
     drive's share, lambda - lambda_passive(v+), passes the cap L, the drive gives s L (s its sign)
     and the passive law alone decides the rest: lambda = s L + lambda_passive(v+), that is
-    lambda = (a (k old - cdot) - h kp (pos - springref) + s L) / (1 + a k), a = h (cp + h kp)."""
+    lambda = (a (k old - cdot) - h kp (pos - springref) + s L) / (1 + a k), a = h (cp + h kp).
+    The drive's damping pulls to ``P_TARGET_RATE`` w (its law -ks (q - target) - cs (q' - w)), the
+    passive damper to rest."""
     ks, cs = p[P_STIFFNESS], p[P_DAMPING]
     kp, cp = p[P_PASSIVE_STIFFNESS], p[P_PASSIVE_DAMPING]
     stiffness, damping = ks + kp, cs + cp
     gamma = 1.0 / (h * (damping + h * stiffness))
     error = (ks * (pos - p[P_TARGET]) + kp * (pos - p[P_SPRINGREF])) / (damping + h * stiffness)
+    if p[P_TARGET_RATE] != 0.0:  # the drive's damping pulls to the target velocity (``_solve_axial``)
+        error -= cs * p[P_TARGET_RATE] / (damping + h * stiffness)
     new = old - (cdot + error + gamma * old) / (k + gamma)
     lim = p[P_MAX_DRIVE] * h
     if lim < math.inf:

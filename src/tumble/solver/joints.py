@@ -67,6 +67,7 @@ from ..joints import (
     P_SPRINGREF,
     P_STIFFNESS,
     P_TARGET,
+    P_TARGET_RATE,
     P_UPPER,
     PARAM_COUNT,
     edit_count,
@@ -972,6 +973,8 @@ class JointSolver:
             self.param[j, P_BALL_TARGET:P_BALL_TARGET + 7] = columns  # the quaternion, then P_BALL_RATE
         else:
             self.param[j, P_TARGET] = columns[0]
+            if len(columns) > 1:  # a hinge's or slider's target velocity
+                self.param[j, P_TARGET_RATE] = columns[1]
 
     def set_effort(self, joint, effort: float):
         """Set the torque (N m, a hinge) or force (N, a slider) a joint applies along its
