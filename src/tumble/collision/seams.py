@@ -10,12 +10,17 @@ feature is the top edge ahead, whose normal tilts up to 23 degrees while the gap
 at 3 m/s, 229 mm at 10 m/s), the ball jumps (680 mm at 10 m/s). Within ONE mesh the
 internal-edge flags handle this (``pairs/mesh.py``); between separate bodies no single pair
 routine can, so this stage looks at all of one body's contacts with static shapes at once.
-Box2D calls these "ghost collisions" (Catto, "Ghost Collisions", box2d.org 2020: the chain
-shape's ghost vertices are its answer within one shape); Jolt's "enhanced internal edge
-removal" (``InternalEdgeRemovingCollector``) does it across the shapes of one body pair by
-voiding the features that a face contact already covers; Bullet's
-``btAdjustInternalEdgeContacts`` corrects a triangle's edge normal towards its neighbour's
-face. This stage is our own form of the same rule, across bodies.
+Box2D calls these "ghost collisions" (Catto, "Ghost Collisions",
+https://box2d.org/posts/2020/06/ghost-collisions/: a box sliding over two connected edges is
+pushed back by the second; the chain shape's ghost vertices are its answer within one shape).
+Jolt's "enhanced internal edge removal" (``InternalEdgeRemovingCollector``, after Terdiman,
+"Contact generation for meshes", https://www.codercorner.com/MeshContacts.pdf) does it across
+the sub-shapes of one body pair: a face contact voids its face's vertices, and a later edge or
+vertex contact on voided vertices is dropped; it matches vertices, so tiles of different
+tessellation (T-edges) escape it (jrouwe/JoltPhysics discussion 2047). Bullet's
+``btAdjustInternalEdgeContacts`` bends a triangle's edge normal towards its neighbour's face.
+This stage is our own form of the rule, across bodies, and on planes rather than shared
+vertices (two tiles need not share their vertices along the seam).
 
 The rule, for one moving body and its contacts this step with fixed shapes. A contact S
 (the "support") is a face contact: its normal is a face normal of its static shape (a
