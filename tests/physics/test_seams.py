@@ -189,3 +189,27 @@ def test_a_fast_small_ball_along_the_floor_does_not_pass_a_thin_plate():
     for _ in range(60):
         sim.step(1)
         assert body.x[0] < 2.0, body.x
+
+
+def test_the_slider_s_contacts_at_the_seam_all_push_up():
+    """The stage itself, seen through ``Simulator.contacts``: every step of a box sliding at 3 m/s over
+    two flush static boxes, each of its contacts with either box is pushed along the floor's normal
+    (+z to 1e-6 in cos). Before the stage, the box ahead's speculative manifold had the normal
+    (-1, 0, 0) (the audit's seam_normals.py) in the steps before the trip."""
+    world = tb.World(gravity=(0, 0, -G))
+    world.sleeping = False
+    material = tb.Material(friction=0.1)
+    _floor(world, "boxes", material)
+    body = world.add_body(tb.Box((0.2, 0.2, 0.2)), mass=1.0, position=(-0.5, 0, 0.1), velocity=(3, 0, 0),
+                          material=material)
+    sim = tb.Simulator(world, dt=DT)
+    seen_right = 0
+    for _ in range(80):
+        sim.step(1)
+        c = sim.contacts()
+        mine = (c.body_a == body.index) | (c.body_b == body.index)
+        # the normal from the floor to the box: +normal when the floor is a, -normal when it is b
+        up = np.where((c.body_b == body.index)[:, None], c.normal, -c.normal)[mine]
+        assert np.all(up[:, 2] >= 1.0 - 1e-6), up
+        seen_right += int(np.count_nonzero(((c.body_a == 1) | (c.body_b == 1)) & mine))
+    assert seen_right > 0  # the box ahead was met (its contacts were checked)
