@@ -2,8 +2,10 @@
 
 ``build_shape_table`` turns a World into flat shape arrays; then, each step,
 ``update_bounds`` (world poses and AABBs) -> ``find_pairs`` (sort-and-sweep
-broadphase) -> ``collide_pairs`` (narrowphase, contact manifolds). The
-``CollisionPipeline`` class holds the growing buffers and runs the three in order.
+broadphase) -> ``collide_pairs`` (narrowphase, contact manifolds) ->
+``flatten_seam_ghosts`` (a moving body's contacts at the seam of two flush static
+shapes take the floor's normal, ``seams.py``). The ``CollisionPipeline`` class holds
+the growing buffers and runs the four in order.
 Not yet wired into the Simulator; no contact solver here.
 """
 

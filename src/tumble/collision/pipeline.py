@@ -1,4 +1,4 @@
-"""``CollisionPipeline``: the three collision stages in order, with their buffers kept between steps.
+"""``CollisionPipeline``: the four collision stages in order, with their buffers kept between steps.
 
 Reads a World's ``x`` and ``R``; writes shape poses, AABBs, pairs and a ``ContactManifolds``.
 """
@@ -14,11 +14,12 @@ from .filter import NO_FILTER, exclusion_keys, filter_table, live_filters
 from .geometry import build_shape_table
 from .manifold import ContactManifolds
 from .narrowphase import collide_pairs
+from .seams import flatten_seam_ghosts
 from .sensor import sensor_filter_table
 
 
 class CollisionPipeline:
-    """update_bounds -> find_pairs -> collide_pairs over one World.
+    """update_bounds -> find_pairs -> collide_pairs -> flatten_seam_ghosts over one World.
 
     Args:
         world: the ``tumble.World``; its shape table is rebuilt when bodies are added.
@@ -143,7 +144,7 @@ class CollisionPipeline:
         return excluded, self._user_filter
 
     def detect(self, x=None, R=None, v=None, omega=None, dt: float = 0.0) -> ContactManifolds:
-        """Run the three stages; returns the contacts.
+        """Run the four stages; returns the contacts.
 
         Args:
             x: (N, 3) or the packed state (N, W), m; R: (N, 3, 3). Default: the world's
@@ -169,6 +170,12 @@ class CollisionPipeline:
         if lanes is not None:  # a shared shape stretched over the lanes met every copy beside it
             kept = keep_overlapping(self.pair_a, self.pair_b, aabb)
             self.pair_a, self.pair_b = self.pair_a[:kept], self.pair_b[:kept]
-        return collide_pairs(self.pair_a, self.pair_b, table, self.shape_pos, self.shape_rot, self.shape_aabb,
-                             self.speculative, self.contacts, shape_margin=self.shape_margin,
-                             excluded_pairs=excluded, body_filter=body_filter)
+        contacts = collide_pairs(self.pair_a, self.pair_b, table, self.shape_pos, self.shape_rot, self.shape_aabb,
+                                 self.speculative, self.contacts, shape_margin=self.shape_margin,
+                                 excluded_pairs=excluded, body_filter=body_filter)
+        # each pair routine sees two shapes; a seam between two flush static shapes needs a body's
+        # contacts with both at once (collision/seams.py: Jolt's internal-edge removal, across bodies)
+        # fixed bodies: no mass and not kinematic (``World.fixed`` would count the sleepers as fixed
+        # here: the Simulator masks them out of ``World.moving`` while it collides)
+        flatten_seam_ghosts(contacts, table, self.shape_pos, self.shape_rot, (world.inv_mass == 0.0) & ~world.kinematic)
+        return contacts
