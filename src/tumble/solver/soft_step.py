@@ -44,7 +44,7 @@ import numpy as np
 from numba import njit
 
 from ..collision.manifold import KEY_BITS, match_contacts
-from ..collision.pipeline import CollisionPipeline
+from ..collision.pipeline import CollisionPipeline, any_at_kernel, any_pair_moving_kernel
 from ..body_motion import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
 from ..integrators import accumulate_forces_kernel
 from ..math3d import JIT, start_threads
@@ -479,6 +479,8 @@ class SoftStep:
         self._n = -1
         self.dt = 0.0
         self.contacts = None
+        self._live_key = None  # (table, World.filter_version, body count) of _live_bodies_rows
+        self._live_bodies_rows = None
 
     def _buffers(self):
         n = self.world.body_count
@@ -498,19 +500,50 @@ class SoftStep:
         if not getattr(w, "collisions", True):
             return False
         table = self.pipeline.refresh()
-        if table.shape_count < 2:
+        bodies = self._live_bodies(table)
+        if bodies is None:
             return False
-        live = self.pipeline.live_shapes()  # shapes whose filter meets some body (None: all)
-        if live is None:
-            return bool(np.any(table.body_moving[table.shape_body])) or bool(w.kinematic.any() and
-                                                                            w.kinematic_moving.any())
-        # PERF: a robot whose links have no collision shape (marker spheres that touch nothing) ran the
-        # collision stages every step for nothing: an MJCF cable of visual geoms, minima of
-        # 15 runs each: 10 links 140 -> 113 us a step, 30 links 244 -> 196 (benchmarks/ball_drive.py's cable)
-        if np.count_nonzero(live) < 2:
+        # PERF: the bodies of the live shapes are kept (``_live_bodies``); asked twice a step (the
+        # Simulator's ``_contact_on``, then ``collide`` with the sleepers masked out): 2.4 and
+        # 4.8 us a call for a box on a plane and the cartpole, with its NumPy indexing each time
+        return bool(any_at_kernel(table.body_moving, bodies)) or bool(w.kinematic.any() and w.kinematic_moving.any())
+
+    def _live_bodies(self, table):
+        """(K,) int64 the body of each live shape (``CollisionPipeline.live_shapes``: all shapes
+        under the default filters), or None when fewer than two shapes are live. Kept until the
+        table, the filters or the body count change (``World.filter_version``: a filter set, a
+        body disabled or retyped)."""
+        w = self.world
+        key = self._live_key
+        if key is None or key[0] is not table or key[1] != w.filter_version or key[2] != w.body_count:
+            bodies = None
+            if table.shape_count >= 2:
+                live = self.pipeline.live_shapes()  # shapes whose filter meets some body (None: all)
+                # PERF: a robot whose links have no collision shape (marker spheres that touch nothing) ran the
+                # collision stages every step for nothing: an MJCF cable of visual geoms, minima of
+                # 15 runs each: 10 links 140 -> 113 us a step, 30 links 244 -> 196 (benchmarks/ball_drive.py's cable)
+                if live is None:
+                    bodies = np.ascontiguousarray(table.shape_body, dtype=np.int64)
+                elif np.count_nonzero(live) >= 2:
+                    bodies = np.ascontiguousarray(table.shape_body[live], dtype=np.int64)
+            self._live_bodies_rows = bodies
+            self._live_key = (table, w.filter_version, w.body_count)
+        return self._live_bodies_rows
+
+    def _can_touch(self) -> bool:
+        """``has_collisions``, and some pair of shapes that the filters and the exclusions let meet
+        (``CollisionPipeline.meeting_pairs``) has a moving body: else the collision stages could
+        find no contact. PERF: the cartpole's cart and pole are jointed to each other and the rail
+        (no contact between them), and the collision stages ran every step to find nothing (19 us of
+        its step; the performance audit's S2). A moving kinematic body keeps them (its margins wake
+        the sleepers it nears: kinematic.touched_by_kinematic)."""
+        if not self.has_collisions():
             return False
-        return bool(np.any(table.body_moving[table.shape_body[live]])) or bool(w.kinematic.any() and
-                                                                               w.kinematic_moving.any())
+        w = self.world
+        if w.kinematic.any() and w.kinematic_moving.any():
+            return True
+        pairs = self.pipeline.meeting_pairs()
+        return pairs is None or bool(any_pair_moving_kernel(pairs, self.pipeline.table.body_moving))
 
     def has_joints(self) -> bool:
         return bool(getattr(self.world, "joints", None))
@@ -549,7 +582,7 @@ class SoftStep:
             self._refresh_joints()
         else:
             self.pipeline.excluded_pairs = None
-        if self.has_collisions():
+        if self._can_touch():
             self.contacts = self.pipeline.detect(Y, s.R, s.v, s.omega, dt)
         else:
             self.contacts = self.pipeline.contacts
