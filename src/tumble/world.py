@@ -117,6 +117,7 @@ class World:
         self.collisions = True
         # islands at rest fall asleep (stop moving, cost nothing) and wake when touched (solver/island.py)
         self.sleeping = True
+        self._views: dict[str, np.ndarray] = {}  # the array properties' views, kept (``_array_property``)
         self.body_count = 0
         self._capacity = 0
         self._arrays: dict[str, np.ndarray] = {}
@@ -170,7 +171,24 @@ class World:
                 flag[: self.body_count] = self._arrays[name][: self.body_count]
             new[name] = flag
         self._arrays = new
+        self._views.clear()  # views of the old storage
         self._capacity = capacity
+
+    @property
+    def body_count(self) -> int:
+        """How many bodies the world holds (the rows of the array properties)."""
+        return self._body_count
+
+    @body_count.setter
+    def body_count(self, n: int):
+        self._body_count = n
+        self._views.clear()  # views of the old row count
+
+    def __getstate__(self):
+        # the kept views are left out: a copy's views must be of the copy's storage, made anew
+        state = self.__dict__.copy()
+        state["_views"] = {}
+        return state
 
     @property
     def fixed(self) -> np.ndarray:
@@ -1166,8 +1184,16 @@ def _override_inertia(props, inertia):
 
 
 def _array_property(name):
+    # PERF: the view is made once and kept until the storage or the body count changes (``_allocate``,
+    # the ``body_count`` setter drop them all): a box on a plane read 49 of them a step and the
+    # cartpole 105, a new view each time (the performance audit's S2). The kept view shares the
+    # storage, so an edit through it or through a Body handle is the world's at once.
     def get(self):
-        return self._arrays[name][: self.body_count]
+        views = self._views
+        view = views.get(name)
+        if view is None:
+            view = views[name] = self._arrays[name][: self._body_count]
+        return view
 
     get.__doc__ = f"``{name}``: a view of the rows of the existing bodies."
     return property(get)
@@ -1209,17 +1235,27 @@ def _check_inertia(I):
 
 
 class Scratch:
-    """Work arrays for one force/derivative evaluation of N bodies (allocated once per run)."""
+    """Work arrays for one force/derivative evaluation of N bodies (allocated once per run):
+    R (N, 3, 3), v, omega, F, T (N, 3), Y1, K, Kacc (N, W), zeros.
+
+    PERF: each is allocated at its first read (``__getattr__``), zeros as before: a
+    ``Simulator.step()`` makes one for the call and a body in contact never reads it (the soft
+    step has its own), 8 allocations a step for nothing (the performance audit's S2)."""
+
+    _SHAPES = {"R": (3, 3), "v": (3,), "omega": (3,), "F": (3,), "T": (3,), "Y1": None, "K": None, "Kacc": None}
 
     def __init__(self, n: int, width: int):
-        self.R = np.zeros((n, 3, 3))
-        self.v = np.zeros((n, 3))
-        self.omega = np.zeros((n, 3))
-        self.F = np.zeros((n, 3))
-        self.T = np.zeros((n, 3))
-        self.Y1 = np.zeros((n, width))
-        self.K = np.zeros((n, width))
-        self.Kacc = np.zeros((n, width))
+        self._n = n
+        self._width = width
+
+    def __getattr__(self, name):  # (only for an array not read yet)
+        shapes = Scratch._SHAPES
+        if name not in shapes:
+            raise AttributeError(name)
+        tail = shapes[name]
+        arr = np.zeros((self._n,) + (tail if tail is not None else (self._width,)))
+        setattr(self, name, arr)
+        return arr
 
 
 class _StageBody:

@@ -205,8 +205,13 @@ class ContactSolver:
     def count(self) -> int:
         return self._count
 
+    # PERF: a count set again to its value keeps its views (the buffers are replaced only by
+    # ``_reserve``, which renews every view itself): two renewals of 27 and 3 views a step, 4 us each
+    # under the profiler, for a box on a plane whose count never changed
     @count.setter
     def count(self, n: int):
+        if self.__dict__.get("_count") == n:
+            return
         self._count = n
         self._refresh_views(old=False)
 
@@ -216,6 +221,8 @@ class ContactSolver:
 
     @old_count.setter
     def old_count(self, n: int):
+        if self.__dict__.get("_old_count") == n:
+            return
         self._old_count = n
         self._refresh_views(new=False)
 
