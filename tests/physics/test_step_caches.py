@@ -1,5 +1,5 @@
 """What a step keeps from the last one to save its fixed cost (the performance audit's S2) must follow
-the world's edits between steps: the World's array views (``world._array_property``: kept until
+the world's edits between steps: the World's array views (``world._ArrayView``: kept until
 the storage or the body count changes), the bodies of the live shapes (``SoftStep._live_bodies``:
 until the table, the filters or the body count change) and the shape pairs that may meet
 (``CollisionPipeline.meeting_pairs``: until the table, the filters or the exclusions change).
