@@ -375,7 +375,7 @@ class ContactSolver:
         """``surface_target`` (C, 2) m/s: t . (R_a s_a - R_b s_b) along the two tangents, s the
         bodies' ``surface_velocity`` (body frame); zeros (left as they are) in a world without one."""
         n = self.count
-        used = bool(np.any(world.surface_velocity))
+        used = bool(world.surface_velocity.any())  # (not np.any: its Python wrapper, every step)
         if used:
             surface_target_kernel(contacts.contact_body_a, contacts.contact_body_b, self.tangent1, self.tangent2,
                                   self.R, world.surface_velocity, self.surface_target)

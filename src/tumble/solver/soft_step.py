@@ -45,6 +45,8 @@ from numba import njit
 
 from ..collision.manifold import KEY_BITS, match_contacts
 from ..collision.pipeline import CollisionPipeline, any_at_kernel, any_pair_moving_kernel
+# PERF: at the top, not in ``_refresh_joints``: an import statement run every step cost ~1 us
+from ..joints import jointed_body_pairs, pair_edit_count
 from ..body_motion import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
 from ..integrators import accumulate_forces_kernel
 from ..math3d import JIT, start_threads
@@ -552,13 +554,12 @@ class SoftStep:
         """The JointSolver and the sorted keys lo * N + hi of the body pairs that must not collide
         (joints with collide_connected=False); rebuilt when joints are added or break, or a
         record's collide_connected is set."""
-        from ..joints import jointed_body_pairs, pair_edit_count
-        from .joints import JointSolver
-
         w = self.world
         key = (len(w.joints), sum(1 for j in w.joints if j.broken), w.body_count, pair_edit_count())
         if key == self._joint_key:
             return
+        from .joints import JointSolver  # (here: made on the first step with joints)
+
         if self.joints is None:
             self.joints = JointSolver(self.joint_settings) if self.joint_settings is not None else JointSolver()
         pairs = jointed_body_pairs(w)
