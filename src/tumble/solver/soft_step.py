@@ -291,19 +291,25 @@ def _substeps_kernel(with_joints: bool):
         substep's forces; the first substep's from ``armature_rate`` (J,) where known).
         ``contacts``: ``ContactSolver``'s per-contact arrays as
         ``contact_solve.solve_contacts_kernel`` takes them, then the step's impulse totals (C rows;
-        C = 0: none), ``rolling``: its rolling-resistance rows.
+        C = 0: none), ``rolling``: its rolling-resistance rows. The kernel without joints
+        (``with_joints`` False) reads none of the joint arguments: ``joints``, ``tree_parts``,
+        ``soft_bias``, ``soft_relax``, ``armature_rate`` and ``impulses`` are None there. PERF: a call
+        unboxes each array of its arguments (about 60 ns each, 100 arrays a call for a box on a plane,
+        47 of them an empty joint solver's): a world without joints passes none of those.
         """
         uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param = forces
-        (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
-         position, rate0) = joints
-        linear_impulse, angular_impulse, axial_impulse = impulses
+        n_joints = 0
+        if with_joints:  # (pruned without joints, whose tables are then None)
+            (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+             gauss_seidel, position, rate0) = joints
+            linear_impulse, angular_impulse, axial_impulse = impulses
+            n_joints = joint_type.shape[0]
         (c_order, c_bounds, body_a, body_b, normal, tangent1, tangent2, c_local_a, c_local_b, anchor_offset, separation,
          normal_mass, tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
          relative_velocity, last_normal_speed, arm_a, arm_b, gap, step_normal_impulse, step_tangent_impulse) = contacts
         rolling_rows, rolling_impulse, rolling_mass, rolling_limit = rolling
         s_order, s_bounds, tree_listed = tree_contacts[0], tree_contacts[1], tree_contacts[2]
         n_tree = tree_listed.shape[0]
-        n_joints = joint_type.shape[0]
         n_contacts = c_order.shape[0]
         n_rolling = rolling_rows.shape[0]
         inv_h = 1.0 / h
@@ -674,15 +680,21 @@ class SoftStep:
         w = self.world
         s = self.scratch
         tb = w.tables
-        if joints is None:
-            joints = self._no_joints()
+        contacts, rolling = self._contact_tables()
+        forces = (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param)
+        if joints is None:  # the kernel without joint stages reads none of the joint arguments
+            SUBSTEPS_KERNELS[False](
+                w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
+                w.moving, w.gravity, forces, w.kinematic_v, w.kinematic_omega, h, substeps,
+                None, False, None, None, None, 0, 0, False, None, contacts, rolling,
+                float(self.settings.contact_speed), self.tree_contacts.parts(), s.R, s.v, s.omega, s.F, s.T, self.I_inv,
+                self.I_world, None)
+            return
         st = joints.settings
         tables = self._joint_tables(joints)
-        contacts, rolling = self._contact_tables()
-        SUBSTEPS_KERNELS[self.has_joints()](
+        SUBSTEPS_KERNELS[True](
             w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
-            w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
-                                  tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
+            w.moving, w.gravity, forces, w.kinematic_v, w.kinematic_omega, h, substeps,
             tables, st.method == "tree", joints.tree_parts(), joints.soft_bias, joints.soft_relax,
             int(st.velocity_iterations), int(st.relax_iterations), armature, joints.armature_rate, contacts, rolling,
             float(self.settings.contact_speed), self.tree_contacts.parts(), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
