@@ -889,9 +889,10 @@ class JointSolver:
         """The ``axial_impulse`` columns of the limit rows some joint has (empty: none)."""
         p = self.param
         columns = []
-        if p.shape[0] and np.any(p[:, P_LIMIT_ON] != 0.0):
+        # (the arrays' own any, not np.any's Python wrapper: asked at every step by tree_parts)
+        if p.shape[0] and (p[:, P_LIMIT_ON] != 0.0).any():
             columns += [A_LOWER, A_UPPER]
-        if p.shape[0] and np.any(p[:, P_LIMIT2_ON] != 0.0):
+        if p.shape[0] and (p[:, P_LIMIT2_ON] != 0.0).any():
             columns += [A_LOWER2, A_UPPER2]
         if self.has_gears:
             # a gear is a Gauss-Seidel row around the exact tree solve, as a limit is: sweep on while its
