@@ -134,6 +134,13 @@ class ContactManifolds:
         self._refresh_views(_CONTACT_ARRAYS, n)
         d["_contact_views"] = key
 
+    def __setstate__(self, state):
+        # a pickled or deep-copied view is an array of its own: made again from the buffers (the
+        # count setters keep views while a count stays, so a copy's must be its buffers')
+        self.__dict__.update(state)
+        self._refresh_views(_MANIFOLD_ARRAYS, self._manifold_count)
+        self._refresh_views(_CONTACT_ARRAYS, self._contact_count)
+
     def _refresh_views(self, names, n: int):
         d = self.__dict__
         buffers = d.get("_buffers", {})

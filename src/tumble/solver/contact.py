@@ -226,6 +226,12 @@ class ContactSolver:
         self._old_count = n
         self._refresh_views(new=False)
 
+    def __setstate__(self, state):
+        # a pickled or deep-copied view is an array of its own: made again from the buffers (the
+        # count setters keep views while a count stays, so a copy's must be its buffers')
+        self.__dict__.update(state)
+        self._refresh_views()
+
     def _refresh_views(self, new: bool = True, old: bool = True):
         d = self.__dict__
         buf = d.get("_buf")
