@@ -2,8 +2,12 @@
 benchmarks ``step_overhead.py``, ``env_ab.py``, ``ragdolls_tree.py``): each revision a checkout
 (``git worktree add --detach DIR REV``), its ``src`` on the path."""
 import json
+import os
 import subprocess
 import sys
+
+# passed on to the runs when set: a private Numba cache, the thread count, OpenMP's wait policy
+PASSED_ON = ("NUMBA_CACHE_DIR", "NUMBA_NUM_THREADS", "OMP_WAIT_POLICY")
 
 
 def take_rounds(args: list, default: int) -> int:
@@ -24,8 +28,10 @@ def interleaved(code: str, old: str, new: str, cases: list, rounds: int) -> dict
     for _ in range(rounds):
         for case in cases:
             for rev, folder in (("old", old), ("new", new)):
+                env = {"PYTHONPATH": "src", "PATH": "/usr/bin:/bin"}
+                env.update({k: os.environ[k] for k in PASSED_ON if k in os.environ})
                 out = subprocess.run([sys.executable, "-c", code, *map(str, case)], cwd=folder,
-                                     env={"PYTHONPATH": "src", "PATH": "/usr/bin:/bin"}, capture_output=True, text=True)
+                                     env=env, capture_output=True, text=True)
                 if out.returncode:
                     raise SystemExit(f"{case} at {folder}: {out.stderr.strip().splitlines()[-1]}")
                 results.setdefault((case, rev), []).append(json.loads(out.stdout.strip().splitlines()[-1]))

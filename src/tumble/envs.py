@@ -534,7 +534,7 @@ def _check_settings(frame_skip, timestep, reset_noise_scale, model):
 
 def _check_actions(a, n: int, nu: int):
     u = np.asarray(a, dtype=np.float64)
-    if u.shape != (n, nu) or not np.all(np.isfinite(u)):
+    if u.shape != (n, nu) or not np.isfinite(u).all():  # (not np.all: its Python wrapper, every env step)
         want = f"({nu},)" if n == 1 else f"({n}, {nu})"
         raise InputError(f"expected finite controls of shape {want}, got {np.asarray(a)!r}", "action")
     return u

@@ -322,8 +322,11 @@ class Simulator:
             self._apply_due_impulses(Y)
             if check is not None:
                 check("apply_impulses", self.step_index * self.dt, Y=Y)
-            nxt = min([end] + [k for k in self._impulse_steps() if k > self.step_index]
-                      + [k for k, _ in self._release_steps() if k > self.step_index])
+            if self.world.forces or self.world.paths:  # (the impulses are among the forces)
+                nxt = min([end] + [k for k in self._impulse_steps() if k > self.step_index]
+                          + [k for k, _ in self._release_steps() if k > self.step_index])
+            else:  # PERF: no list of nothing to make, every step of a world without forces or paths
+                nxt = end
             if floating:
                 # buoyancy and drag for this step (at the mid-step pose foreseen from its start:
                 # tumble.buoyancy), held over it; so one step at a time

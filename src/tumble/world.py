@@ -117,6 +117,7 @@ class World:
         self.collisions = True
         # islands at rest fall asleep (stop moving, cost nothing) and wake when touched (solver/island.py)
         self.sleeping = True
+        self._body_count = 0
         self.body_count = 0
         self._capacity = 0
         self._arrays: dict[str, np.ndarray] = {}
@@ -170,7 +171,33 @@ class World:
                 flag[: self.body_count] = self._arrays[name][: self.body_count]
             new[name] = flag
         self._arrays = new
+        self._drop_views()  # views of the old storage
         self._capacity = capacity
+
+    @property
+    def body_count(self) -> int:
+        """How many bodies the world holds (the rows of the array properties)."""
+        return self._body_count
+
+    @body_count.setter
+    def body_count(self, n: int):
+        self._body_count = n
+        self._drop_views()  # views of the old row count
+
+    def _drop_views(self):
+        """Forget the kept views of the array properties (``_ArrayView``): made again at their next read."""
+        d = self.__dict__
+        for name in _ARRAY_NAMES.intersection(d):
+            del d[name]
+
+    def __setattr__(self, name, value):
+        if name in _ARRAY_NAMES:  # the array properties are read-only (their rows are written in place)
+            raise AttributeError(f"property {name!r} of 'World' object has no setter")
+        object.__setattr__(self, name, value)
+
+    def __getstate__(self):
+        # the kept views are left out: a copy's views must be of the copy's storage, made anew
+        return {k: v for k, v in self.__dict__.items() if k not in _ARRAY_NAMES}
 
     @property
     def fixed(self) -> np.ndarray:
@@ -1165,16 +1192,31 @@ def _override_inertia(props, inertia):
     return replace(props, inertia=I)
 
 
-def _array_property(name):
-    def get(self):
-        return self._arrays[name][: self.body_count]
+class _ArrayView:
+    """A World array property: ``world.x`` is a view of the rows of the existing bodies.
 
-    get.__doc__ = f"``{name}``: a view of the rows of the existing bodies."
-    return property(get)
+    PERF: the view is made at the first read and kept in the instance's ``__dict__`` (this
+    descriptor has no ``__set__``, so the kept view is found without a call), until the storage or
+    the body count changes (``World._drop_views``: ``_allocate``, the ``body_count`` setter): a box
+    on a plane read 49 views a step and the cartpole 105, each made anew by a property (the
+    performance audit's S2). The kept view shares the storage, so an edit through it or through a
+    Body handle is the world's at once. Setting one (``world.x = ...``) stays an AttributeError
+    (``World.__setattr__``), as with the property it replaces."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.__doc__ = f"``{name}``: a view of the rows of the existing bodies."
+
+    def __get__(self, world, owner=None):
+        if world is None:
+            return self
+        view = world.__dict__[self.name] = world._arrays[self.name][: world._body_count]
+        return view
 
 
-for _name in (*_CONSTANT_ARRAYS, *_STATE_ARRAYS, *_DERIVED_ARRAYS, *_KINEMATIC_ARRAYS, *_FLAG_ARRAYS):
-    setattr(World, _name, _array_property(_name))
+_ARRAY_NAMES = frozenset((*_CONSTANT_ARRAYS, *_STATE_ARRAYS, *_DERIVED_ARRAYS, *_KINEMATIC_ARRAYS, *_FLAG_ARRAYS))
+for _name in _ARRAY_NAMES:
+    setattr(World, _name, _ArrayView(_name))
 
 
 def _check_can_disable(shape):
@@ -1209,17 +1251,27 @@ def _check_inertia(I):
 
 
 class Scratch:
-    """Work arrays for one force/derivative evaluation of N bodies (allocated once per run)."""
+    """Work arrays for one force/derivative evaluation of N bodies (allocated once per run):
+    R (N, 3, 3), v, omega, F, T (N, 3), Y1, K, Kacc (N, W), zeros.
+
+    PERF: each is allocated at its first read (``__getattr__``), zeros as before: a
+    ``Simulator.step()`` makes one for the call and a body in contact never reads it (the soft
+    step has its own), 8 allocations a step for nothing (the performance audit's S2)."""
+
+    _SHAPES = {"R": (3, 3), "v": (3,), "omega": (3,), "F": (3,), "T": (3,), "Y1": None, "K": None, "Kacc": None}
 
     def __init__(self, n: int, width: int):
-        self.R = np.zeros((n, 3, 3))
-        self.v = np.zeros((n, 3))
-        self.omega = np.zeros((n, 3))
-        self.F = np.zeros((n, 3))
-        self.T = np.zeros((n, 3))
-        self.Y1 = np.zeros((n, width))
-        self.K = np.zeros((n, width))
-        self.Kacc = np.zeros((n, width))
+        self._n = n
+        self._width = width
+
+    def __getattr__(self, name):  # (only for an array not read yet)
+        shapes = Scratch._SHAPES
+        if name not in shapes:
+            raise AttributeError(name)
+        tail = shapes[name]
+        arr = np.zeros((self._n,) + (tail if tail is not None else (self._width,)))
+        setattr(self, name, arr)
+        return arr
 
 
 class _StageBody:

@@ -6,12 +6,14 @@ Reads a World's ``x`` and ``R``; writes shape poses, AABBs, pairs and a ``Contac
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
+from ..math3d import JIT
 from .bounds import update_bounds
 from .broadphase import PairBuffer, find_pairs, keep_overlapping, lane_bounds
 from .constants import SPECULATIVE_DISTANCE
-from .filter import NO_FILTER, exclusion_keys, filter_table, live_filters
-from .geometry import build_shape_table
+from .filter import NO_FILTER, exclusion_keys, filter_allows, filter_table, live_filters
+from .geometry import SHAPE_PLANE, build_shape_table
 from .manifold import ContactManifolds
 from .narrowphase import collide_pairs
 from .seams import flatten_seam_ghosts
@@ -50,6 +52,8 @@ class CollisionPipeline:
         self._joint_keys = None
         self._body_filter = NO_FILTER
         self._user_filter = NO_FILTER  # the filters as the user set them (sensors' included)
+        self._meet_key = None  # (table, excluded keys, body filter) of ``_meet`` (``meeting_pairs``)
+        self._meet = None
 
     def refresh(self):
         """Rebuild the shape table if bodies were added since the last call."""
@@ -137,6 +141,25 @@ class CollisionPipeline:
             self._live_key = key
         return self._live
 
+    def meeting_pairs(self):
+        """(K, 2) int64: the body pairs of the shape pairs that the filters and the exclusions (the
+        World's and the jointed pairs') let meet, one row per pair of shapes (two shapes of one body,
+        two planes: none), or None when the table has more than ``MEETING_SHAPES_MAX`` shapes (not
+        worked out). Made again when the table, the filters or the exclusions change (new objects).
+        A shape pair not listed never gets a contact (``narrowphase._candidate_pair`` culls it):
+        ``SoftStep.collide`` skips the collision stages when no listed pair has a moving body."""
+        excluded, body_filter = self._filters()
+        table = self.refresh()
+        key = self._meet_key
+        if key is None or key[0] is not table or key[1] is not excluded or key[2] is not body_filter:
+            if table.shape_count > MEETING_SHAPES_MAX:
+                self._meet = None
+            else:
+                self._meet = _meeting_pairs_kernel(table.shape_type, table.shape_body, table.body_moving.shape[0],
+                                                   _NO_KEYS if excluded is None else excluded, body_filter)
+            self._meet_key = (table, excluded, body_filter)
+        return self._meet
+
     def user_filters(self):
         """(excluded keys or None, filter table) as the user set them, without the rows that keep
         sensors out of contact: what a sensor's overlaps obey (collision/sensor.py)."""
@@ -179,3 +202,54 @@ class CollisionPipeline:
         # here: the Simulator masks them out of ``World.moving`` while it collides)
         flatten_seam_ghosts(contacts, table, self.shape_pos, self.shape_rot, (world.inv_mass == 0.0) & ~world.kinematic)
         return contacts
+
+
+# PERF: above this many shapes the pairs are not listed (S^2 / 2 of them; the collision stages then
+# run whenever a shape of a moving body is live, as before)
+MEETING_SHAPES_MAX = 64
+_NO_KEYS = np.zeros(0, dtype=np.int64)
+
+
+@njit(**JIT)
+def _meeting_pairs_kernel(shape_type, shape_body, N, excluded, body_filter):
+    """``CollisionPipeline.meeting_pairs`` of the shape table's ``shape_type``, ``shape_body`` (S,):
+    (K, 2) int64 body rows; ``excluded`` sorted keys lo * N + hi, ``body_filter`` (N, 4) or empty."""
+    S = shape_type.shape[0]
+    out = np.empty((max(S * (S - 1) // 2, 1), 2), dtype=np.int64)
+    k = 0
+    for a in range(S):
+        for b in range(a + 1, S):
+            ba = shape_body[a]
+            bb = shape_body[b]
+            if ba == bb or (shape_type[a] == SHAPE_PLANE and shape_type[b] == SHAPE_PLANE):
+                continue
+            if excluded.shape[0] > 0:
+                key = min(ba, bb) * N + max(ba, bb)
+                i = np.searchsorted(excluded, key)
+                if i < excluded.shape[0] and excluded[i] == key:
+                    continue
+            if not filter_allows(body_filter, ba, bb):
+                continue
+            out[k, 0] = ba
+            out[k, 1] = bb
+            k += 1
+    return out[:k].copy()
+
+
+@njit(**JIT)
+def any_pair_moving_kernel(pairs, body_moving) -> bool:
+    """Whether a row of ``pairs`` (K, 2) int64 has a body that ``body_moving`` (N,) bool marks."""
+    for k in range(pairs.shape[0]):
+        if body_moving[pairs[k, 0]] or body_moving[pairs[k, 1]]:
+            return True
+    return False
+
+
+@njit(**JIT)
+def any_at_kernel(flags, rows) -> bool:
+    """Whether ``flags`` (N,) bool is True at one of ``rows`` (K,) int64 (``np.any(flags[rows])``
+    without the copy)."""
+    for k in range(rows.shape[0]):
+        if flags[rows[k]]:
+            return True
+    return False

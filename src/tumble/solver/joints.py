@@ -783,7 +783,8 @@ class JointSolver:
 
     def has_armature(self) -> bool:
         """Whether a joint has armature (then ``capture_rates`` must run before each substep's forces)."""
-        return bool(self.count) and bool(np.any(self.param[:, P_ARMATURE] > 0.0))
+        # (the array's own any: np.any's Python wrapper cost more than the test, twice a step)
+        return bool(self.count) and bool((self.param[:, P_ARMATURE] > 0.0).any())
 
     def effort_bodies(self, body_count: int):
         """(N,) bool: the bodies of the enabled joints applying a torque or force (``P_EFFORT``), or
@@ -889,9 +890,10 @@ class JointSolver:
         """The ``axial_impulse`` columns of the limit rows some joint has (empty: none)."""
         p = self.param
         columns = []
-        if p.shape[0] and np.any(p[:, P_LIMIT_ON] != 0.0):
+        # (the arrays' own any, not np.any's Python wrapper: asked at every step by tree_parts)
+        if p.shape[0] and (p[:, P_LIMIT_ON] != 0.0).any():
             columns += [A_LOWER, A_UPPER]
-        if p.shape[0] and np.any(p[:, P_LIMIT2_ON] != 0.0):
+        if p.shape[0] and (p[:, P_LIMIT2_ON] != 0.0).any():
             columns += [A_LOWER2, A_UPPER2]
         if self.has_gears:
             # a gear is a Gauss-Seidel row around the exact tree solve, as a limit is: sweep on while its

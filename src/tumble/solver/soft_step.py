@@ -44,7 +44,9 @@ import numpy as np
 from numba import njit
 
 from ..collision.manifold import KEY_BITS, match_contacts
-from ..collision.pipeline import CollisionPipeline
+from ..collision.pipeline import CollisionPipeline, any_at_kernel, any_pair_moving_kernel
+# PERF: at the top, not in ``_refresh_joints``: an import statement run every step cost ~1 us
+from ..joints import jointed_body_pairs, pair_edit_count
 from ..body_motion import _load, _mat9, _matrix, _project, _rotate, _store, _velocities
 from ..integrators import accumulate_forces_kernel
 from ..math3d import JIT, start_threads
@@ -289,19 +291,25 @@ def _substeps_kernel(with_joints: bool):
         substep's forces; the first substep's from ``armature_rate`` (J,) where known).
         ``contacts``: ``ContactSolver``'s per-contact arrays as
         ``contact_solve.solve_contacts_kernel`` takes them, then the step's impulse totals (C rows;
-        C = 0: none), ``rolling``: its rolling-resistance rows.
+        C = 0: none), ``rolling``: its rolling-resistance rows. The kernel without joints
+        (``with_joints`` False) reads none of the joint arguments: ``joints``, ``tree_parts``,
+        ``soft_bias``, ``soft_relax``, ``armature_rate`` and ``impulses`` are None there. PERF: a call
+        unboxes each array of its arguments (about 60 ns each, 100 arrays a call for a box on a plane,
+        47 of them an empty joint solver's): a world without joints passes none of those.
         """
         uforce_kind, uforce_param, uforce_start, spring_body, spring_anchor, spring_param = forces
-        (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled, gauss_seidel,
-         position, rate0) = joints
-        linear_impulse, angular_impulse, axial_impulse = impulses
+        n_joints = 0
+        if with_joints:  # (pruned without joints, whose tables are then None)
+            (order, bounds, joint_type, joint_a, joint_b, local_a, local_b, frame_a, frame_b, param, enabled,
+             gauss_seidel, position, rate0) = joints
+            linear_impulse, angular_impulse, axial_impulse = impulses
+            n_joints = joint_type.shape[0]
         (c_order, c_bounds, body_a, body_b, normal, tangent1, tangent2, c_local_a, c_local_b, anchor_offset, separation,
          normal_mass, tangent_mass, soft, friction, surface_target, normal_impulse, tangent_impulse, max_normal_impulse,
          relative_velocity, last_normal_speed, arm_a, arm_b, gap, step_normal_impulse, step_tangent_impulse) = contacts
         rolling_rows, rolling_impulse, rolling_mass, rolling_limit = rolling
         s_order, s_bounds, tree_listed = tree_contacts[0], tree_contacts[1], tree_contacts[2]
         n_tree = tree_listed.shape[0]
-        n_joints = joint_type.shape[0]
         n_contacts = c_order.shape[0]
         n_rolling = rolling_rows.shape[0]
         inv_h = 1.0 / h
@@ -479,6 +487,8 @@ class SoftStep:
         self._n = -1
         self.dt = 0.0
         self.contacts = None
+        self._live_key = None  # (table, World.filter_version, body count) of _live_bodies_rows
+        self._live_bodies_rows = None
 
     def _buffers(self):
         n = self.world.body_count
@@ -498,19 +508,50 @@ class SoftStep:
         if not getattr(w, "collisions", True):
             return False
         table = self.pipeline.refresh()
-        if table.shape_count < 2:
+        bodies = self._live_bodies(table)
+        if bodies is None:
             return False
-        live = self.pipeline.live_shapes()  # shapes whose filter meets some body (None: all)
-        if live is None:
-            return bool(np.any(table.body_moving[table.shape_body])) or bool(w.kinematic.any() and
-                                                                            w.kinematic_moving.any())
-        # PERF: a robot whose links have no collision shape (marker spheres that touch nothing) ran the
-        # collision stages every step for nothing: an MJCF cable of visual geoms, minima of
-        # 15 runs each: 10 links 140 -> 113 us a step, 30 links 244 -> 196 (benchmarks/ball_drive.py's cable)
-        if np.count_nonzero(live) < 2:
+        # PERF: the bodies of the live shapes are kept (``_live_bodies``); asked twice a step (the
+        # Simulator's ``_contact_on``, then ``collide`` with the sleepers masked out): 2.4 and
+        # 4.8 us a call for a box on a plane and the cartpole, with its NumPy indexing each time
+        return bool(any_at_kernel(table.body_moving, bodies)) or bool(w.kinematic.any() and w.kinematic_moving.any())
+
+    def _live_bodies(self, table):
+        """(K,) int64 the body of each live shape (``CollisionPipeline.live_shapes``: all shapes
+        under the default filters), or None when fewer than two shapes are live. Kept until the
+        table, the filters or the body count change (``World.filter_version``: a filter set, a
+        body disabled or retyped)."""
+        w = self.world
+        key = self._live_key
+        if key is None or key[0] is not table or key[1] != w.filter_version or key[2] != w.body_count:
+            bodies = None
+            if table.shape_count >= 2:
+                live = self.pipeline.live_shapes()  # shapes whose filter meets some body (None: all)
+                # PERF: a robot whose links have no collision shape (marker spheres that touch nothing) ran the
+                # collision stages every step for nothing: an MJCF cable of visual geoms, minima of
+                # 15 runs each: 10 links 140 -> 113 us a step, 30 links 244 -> 196 (benchmarks/ball_drive.py's cable)
+                if live is None:
+                    bodies = np.ascontiguousarray(table.shape_body, dtype=np.int64)
+                elif np.count_nonzero(live) >= 2:
+                    bodies = np.ascontiguousarray(table.shape_body[live], dtype=np.int64)
+            self._live_bodies_rows = bodies
+            self._live_key = (table, w.filter_version, w.body_count)
+        return self._live_bodies_rows
+
+    def _can_touch(self) -> bool:
+        """``has_collisions``, and some pair of shapes that the filters and the exclusions let meet
+        (``CollisionPipeline.meeting_pairs``) has a moving body: else the collision stages could
+        find no contact. PERF: the cartpole's cart and pole are jointed to each other and the rail
+        (no contact between them), and the collision stages ran every step to find nothing (19 us of
+        its step; the performance audit's S2). A moving kinematic body keeps them (its margins wake
+        the sleepers it nears: kinematic.touched_by_kinematic)."""
+        if not self.has_collisions():
             return False
-        return bool(np.any(table.body_moving[table.shape_body[live]])) or bool(w.kinematic.any() and
-                                                                               w.kinematic_moving.any())
+        w = self.world
+        if w.kinematic.any() and w.kinematic_moving.any():
+            return True
+        pairs = self.pipeline.meeting_pairs()
+        return pairs is None or bool(any_pair_moving_kernel(pairs, self.pipeline.table.body_moving))
 
     def has_joints(self) -> bool:
         return bool(getattr(self.world, "joints", None))
@@ -519,13 +560,12 @@ class SoftStep:
         """The JointSolver and the sorted keys lo * N + hi of the body pairs that must not collide
         (joints with collide_connected=False); rebuilt when joints are added or break, or a
         record's collide_connected is set."""
-        from ..joints import jointed_body_pairs, pair_edit_count
-        from .joints import JointSolver
-
         w = self.world
         key = (len(w.joints), sum(1 for j in w.joints if j.broken), w.body_count, pair_edit_count())
         if key == self._joint_key:
             return
+        from .joints import JointSolver  # (here: made on the first step with joints)
+
         if self.joints is None:
             self.joints = JointSolver(self.joint_settings) if self.joint_settings is not None else JointSolver()
         pairs = jointed_body_pairs(w)
@@ -549,7 +589,7 @@ class SoftStep:
             self._refresh_joints()
         else:
             self.pipeline.excluded_pairs = None
-        if self.has_collisions():
+        if self._can_touch():
             self.contacts = self.pipeline.detect(Y, s.R, s.v, s.omega, dt)
         else:
             self.contacts = self.pipeline.contacts
@@ -640,15 +680,21 @@ class SoftStep:
         w = self.world
         s = self.scratch
         tb = w.tables
-        if joints is None:
-            joints = self._no_joints()
+        contacts, rolling = self._contact_tables()
+        forces = (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param)
+        if joints is None:  # the kernel without joint stages reads none of the joint arguments
+            SUBSTEPS_KERNELS[False](
+                w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
+                w.moving, w.gravity, forces, w.kinematic_v, w.kinematic_omega, h, substeps,
+                None, False, None, None, None, 0, 0, False, None, contacts, rolling,
+                float(self.settings.contact_speed), self.tree_contacts.parts(), s.R, s.v, s.omega, s.F, s.T, self.I_inv,
+                self.I_world, None)
+            return
         st = joints.settings
         tables = self._joint_tables(joints)
-        contacts, rolling = self._contact_tables()
-        SUBSTEPS_KERNELS[self.has_joints()](
+        SUBSTEPS_KERNELS[True](
             w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
-            w.moving, w.gravity, (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor,
-                                  tb.spring_param), w.kinematic_v, w.kinematic_omega, h, substeps,
+            w.moving, w.gravity, forces, w.kinematic_v, w.kinematic_omega, h, substeps,
             tables, st.method == "tree", joints.tree_parts(), joints.soft_bias, joints.soft_relax,
             int(st.velocity_iterations), int(st.relax_iterations), armature, joints.armature_rate, contacts, rolling,
             float(self.settings.contact_speed), self.tree_contacts.parts(), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
