@@ -57,6 +57,28 @@ SAME_POINT = 1e-4
 # corners the manifold keeps before any speculative point (LINEAR_SLOP: a resting body's points lie
 # within micrometres of each other; a clipped side face's speculative points lie up to 2 cm away).
 TOUCH = LINEAR_SLOP
+# A sphere whose centre is beside a triangle, beyond its inactive (flat or concave) edges only, by at most
+# this (m, measured in the triangle's plane), still gets the triangle's face contact: the plane of a face
+# across a concave seam bounds the shape there as much as the face itself (near a concave seam the free
+# space is the intersection of the two faces' half-spaces), and across a flat one it is the neighbour's own
+# plane (the same point: ``_gather`` merges the two).
+# NOTE: why (the energy of a ball in a finely faceted bowl, contact audit 6c): beside the face, the contact
+# was left to the triangle the centre is over, so the next facet of a concave surface was seen only once the
+# centre had crossed onto it. But the ball sags into the face it rests on (its soft contact: g / omega^2 =
+# 4.3 um at the default substep) and moves up to 0.6 mm a step at 1/240 s, so it was already in the next
+# facet's plane when that facet first made a contact (483 of 496 new contacts in 6 s were made at a
+# penetration, none as speculative ones), and the soft push-out then lifted it without the kinetic energy the
+# climb costs: a frictionless ball (r 0.1, 0.05 rad in a bowl of R 1 m) GAINED +2.02 mJ in 15 s on a 4 mm
+# heightfield (+18 % of its 11.0 mJ), +4.4 mJ on 2 mm cells, +5.5 mJ in 30 s on a 256 x 128 sheet. The
+# window closes with stiffer contacts (a smaller substep) and coarser facets (the sag is a shorter run along
+# a steeper next facet): why 1/960 s and coarse meshes lost energy. With this contact: -1.29 mJ, -0.95 mJ,
+# -1.18 mJ (tests/physics/test_bowl_energy.py). 0.2 LINEAR_SLOP = 1 mm: the sag's run (4.3 um over the 4 mm
+# facets' 0.23 degree turn) plus the step's travel at 0.1 m/s; a far wider band gathers a sphere many
+# speculative points of the facets around it, which the reduction to 4 spreads out (deepest, then area).
+# Dead ends (measured by energy per stage, step by step, in the same run): the kick, warm start, biased
+# solve, drift, relax and restitution stages each move the energy by 1-80 mJ per 1.5 s in and out, their sum
+# by 0.1-0.25 mJ: no one stage's trend shows the gain; the restitution pass does nothing here (e = 0).
+BESIDE_SPHERE = 0.2 * LINEAR_SLOP
 
 # COMPILE: NumPy integers, not Python literals, for the triangle's type and its empty hull range: a
 # literal argument makes Numba compile convex_contact, face_manifold and everything under them
@@ -193,8 +215,11 @@ def _sphere_triangle(c, r, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, lam, s
 
 
 @njit(**NO_NRT)
-def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b, speculative, tn, tp, ts, tf):
-    """The internal-edge and back-face rule (module docstring) on one triangle's contact; returns its new count."""
+def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b, speculative, beside, tn, tp,
+                       ts, tf):
+    """The internal-edge and back-face rule (module docstring) on one triangle's contact; returns its new count.
+    ``beside`` (m): a sphere's centre beside the face, beyond inactive edges only, by at most this, still
+    gets the face contact (BESIDE_SPHERE); 0: none."""
     facing = tn[0] * Nx + tn[1] * Ny + tn[2] * Nz
     if facing > -(1.0 - FACE_COS):
         # not a face contact: on an inactive edge or vertex take the face normal instead; so too
@@ -210,14 +235,18 @@ def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, ro
         mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
         my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
         mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
-        if facing >= 0.0 or _on_inactive_feature(tri, mx, my, mz, active):
+        inactive = _on_inactive_feature(tri, mx, my, mz, active)
+        if facing >= 0.0 or inactive:
             tn[0], tn[1], tn[2] = -Nx, -Ny, -Nz
             # the shape's deepest point below the plane, in the mesh frame
             qx, qy, qz = low[0] - pos_b[0], low[1] - pos_b[1], low[2] - pos_b[2]
             mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
             my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
             mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
-            if _over_triangle(tri, mx, my, mz):
+            # the centre's distance from the face's plane along it, beside the triangle (a sphere: n = 1)
+            near = (beside > 0.0 and inactive and facing < 0.0
+                    and (ts[j] + ra) ** 2 - (depth_sep + ra) ** 2 <= beside * beside)
+            if near or _over_triangle(tri, mx, my, mz):
                 # over the face: a face contact at the plane's depth
                 ts[0] = depth_sep
                 for k in range(3):
@@ -509,7 +538,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             if n == 0:
                 continue
             n = _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b,
-                                   speculative, tn, tp, ts, tf)
+                                   speculative, BESIDE_SPHERE if ta == SHAPE_SPHERE else 0.0, tn, tp, ts, tf)
             count = _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats)
         i += 1
     if count == 0:
