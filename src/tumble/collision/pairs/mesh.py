@@ -63,22 +63,26 @@ TOUCH = LINEAR_SLOP
 # space is the intersection of the two faces' half-spaces), and across a flat one it is the neighbour's own
 # plane (the same point: ``_gather`` merges the two).
 # NOTE: why (the energy of a ball in a finely faceted bowl, contact audit 6c): beside the face, the contact
-# was left to the triangle the centre is over, so the next facet of a concave surface was seen only once the
-# centre had crossed onto it. But the ball sags into the face it rests on (its soft contact: g / omega^2 =
-# 4.3 um at the default substep) and moves up to 0.6 mm a step at 1/240 s, so it was already in the next
-# facet's plane when that facet first made a contact (483 of 496 new contacts in 6 s were made at a
-# penetration, none as speculative ones), and the soft push-out then lifted it without the kinetic energy the
-# climb costs: a frictionless ball (r 0.1, 0.05 rad in a bowl of R 1 m) GAINED +2.02 mJ in 15 s on a 4 mm
-# heightfield (+18 % of its 11.0 mJ), +4.4 mJ on 2 mm cells, +5.5 mJ in 30 s on a 256 x 128 sheet. The
-# window closes with stiffer contacts (a smaller substep) and coarser facets (the sag is a shorter run along
-# a steeper next facet): why 1/960 s and coarse meshes lost energy. With this contact: -1.29 mJ, -0.95 mJ,
-# -1.18 mJ (tests/physics/test_bowl_energy.py; let go 0.2 rad, 2.5 mm a step: +29.3 mJ of 176 in 15 s, now
-# -9.2). 0.2 LINEAR_SLOP = 1 mm: about the sag's run on the 4 mm facets (4.3 um over their 0.23 degree turn:
-# 1.1 mm). Not tried: a wider band, which gathers more of the facets around a sphere as speculative points
-# for the reduction to 4 (deepest, then area) to choose from; beyond the band the contact is as before.
-# Dead ends (measured by energy per stage, step by step, in the same run): the kick, warm start, biased
-# solve, drift, relax and restitution stages each move the energy by 1-80 mJ per 1.5 s in and out, their sum
-# by 0.1-0.25 mJ: no one stage's trend shows the gain; the restitution pass does nothing here (e = 0).
+# was left to the triangle the centre is over, and on a concave surface the centre's projection reaches the
+# next facet only r * (the facets' turn) / 2 before the ball reaches that facet's plane: 0.2 mm for a ball of
+# r 0.1 on 4 mm facets of a bowl of R 1 m (0.23 degrees). At 1/240 s the ball moves up to 0.6 mm a step (and
+# sags 4.3 um into its soft contacts), so it ran into the next facet's plane within the step before that facet
+# made a contact: 483 of 496 new contacts in 6 s were made at a penetration, none as speculative ones. The
+# push-out then lifted it without the kinetic energy the climb costs: a frictionless ball let go 0.05 rad up
+# that bowl GAINED +2.02 mJ in 15 s on a 4 mm heightfield (+18 % of its 11.0 mJ), +4.4 mJ on 2 mm cells,
+# +5.5 mJ in 30 s on a 256 x 128 sheet; let go 0.2 rad (2.5 mm a step), +29.3 mJ of 176. With this contact:
+# -1.29, -0.95, -1.18 and -9.2 mJ (tests/physics/test_bowl_energy.py). At 1/960 s (0.15 mm a step) and on
+# coarse facets (a wider 0.2 mm) the next facet was seen in time, and energy was lost, as it should be.
+# 0.2 LINEAR_SLOP = 1 mm: the step's travel at 0.24 m/s at 1/240 s (beyond the band the contact is as
+# before). Not tried: a wider band, which gathers more of the facets around a sphere as speculative points
+# for the reduction to 4 (deepest, then area) to choose from.
+# Measured on the code before, 4 mm heightfield, E - E0 at 6 s (+0.69 mJ as is): a speculative distance of
+# 0.05 m: +0.69 (the band is not what leaves the facet out); contacts twice as stiff (hertz_cap_per_substep
+# 0.25: a quarter of the sag): +0.63, so the sag is a small part; no warm start (impulses zeroed after
+# prepare_contacts): +0.36, half (not the cause: the gain stays); the restitution pass does nothing here
+# (e = 0); energy per stage (kick, warm start, biased solve, drift, relax) swings 1-80 mJ per 1.5 s in and
+# out, their sum 0.1-0.25 mJ: no stage's trend shows it. Not explained: 16 solver substeps at 1/240 s (the
+# same step's travel) lost 0.14 mJ instead (the audit's substep_check.py found the same).
 BESIDE_SPHERE = 0.2 * LINEAR_SLOP
 
 # COMPILE: NumPy integers, not Python literals, for the triangle's type and its empty hull range: a
