@@ -62,27 +62,27 @@ def bowl_heightfield(half=0.6):
     return tb.heightfield(R - np.sqrt(R ** 2 - X ** 2 - Y ** 2), (2 * half, 2 * half), base=0.1)
 
 
-def oscillate(shape):
-    """E(t) - E(0) (J) after each step, the ball's x (m) and the times (s)."""
+def oscillate(shape, dt=DT):
+    """E(t) - E(0) (J) after each step of ``dt`` (s), the ball's x (m) and the times (s)."""
     w = tb.World(gravity=(0, 0, -G))
     w.sleeping = False
     w.add_body(shape, fixed=True, material=tb.Material(friction=0.0))
     c = np.array([0.0, 0.0, R]) + (R - RADIUS) * np.array([math.sin(THETA0), 0.0, -math.cos(THETA0)])
     ball = w.add_body(tb.Sphere(RADIUS), mass=1.0, position=tuple(c), material=tb.Material(friction=0.0))
-    sim = tb.Simulator(w, dt=DT)
+    sim = tb.Simulator(w, dt=dt)
 
     def energy():
         return 0.5 * float(np.dot(ball.v, ball.v)) + 0.5 * float(np.dot(ball.omega, np.array(ball.L))) \
             + G * float(ball.x[2])
 
     e0 = energy()
-    steps = int(round(SECONDS / DT))
+    steps = int(round(SECONDS / dt))
     de, xs = np.zeros(steps), np.zeros(steps)
     for k in range(steps):
         sim.step(1)
         de[k] = energy() - e0
         xs[k] = ball.x[0]
-    return de, xs, DT * np.arange(1, steps + 1)
+    return de, xs, dt * np.arange(1, steps + 1)
 
 
 @pytest.mark.parametrize("kind", ["sheet", "heightfield"])
@@ -97,3 +97,11 @@ def test_ball_in_a_fine_faceted_bowl_gains_no_energy(kind):
     period = 2.0 * np.mean(np.diff(crossings))
     expected = 2.0 * math.pi * math.sqrt((R - RADIUS) / G) * (1.0 + THETA0 ** 2 / 16.0)
     assert period == pytest.approx(expected, rel=0.01)
+
+
+@pytest.mark.xfail(strict=True, reason="the band beside a face (collision/pairs/mesh.py, BESIDE_SPHERE: 1 mm) covers "
+                   "the step's travel at 1/240 s; at 1/60 s the ball moves 2.5 mm a step and still runs into the "
+                   "next facet's plane before it makes a contact: +2.2 mJ in 3 s (+20 %; before the band +2.15)")
+def test_ball_in_a_fine_faceted_bowl_gains_no_energy_at_dt_1_60():
+    de, _, ts = oscillate(bowl_heightfield(), dt=1.0 / 60.0)
+    assert de.max() <= TOLERANCE, f"gained {de.max() * 1e3:.3f} mJ at t = {ts[de.argmax()]:.3f} s"
