@@ -34,7 +34,7 @@ from numba import njit
 
 from ...math3d import NO_NRT
 from ...shapes import SHAPE_BOX, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_SPHERE
-from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS, MESH_POINTS
+from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS, MESH_POINTS, SPECULATIVE_DISTANCE
 from .convex import (
     FEATURE_SINGLE,
     SLOT_DEEPEST,
@@ -57,6 +57,35 @@ SAME_POINT = 1e-4
 # corners the manifold keeps before any speculative point (LINEAR_SLOP: a resting body's points lie
 # within micrometres of each other; a clipped side face's speculative points lie up to 2 cm away).
 TOUCH = LINEAR_SLOP
+# A sphere whose centre is beside a triangle, beyond its inactive (flat or concave) edges only, by at most
+# this plus the step's motion bound (m, measured in the triangle's plane), still gets the triangle's face
+# contact: the plane of a face
+# across a concave seam bounds the shape there as much as the face itself (near a concave seam the free
+# space is the intersection of the two faces' half-spaces), and across a flat one it is the neighbour's own
+# plane (the same point: ``_gather`` merges the two).
+# NOTE: why (the energy of a ball in a finely faceted bowl, contact audit 6c): beside the face, the contact
+# was left to the triangle the centre is over, and on a concave surface the centre's projection reaches the
+# next facet only r * (the facets' turn) / 2 before the ball reaches that facet's plane: 0.2 mm for a ball of
+# r 0.1 on 4 mm facets of a bowl of R 1 m (0.23 degrees). At 1/240 s the ball moves up to 0.6 mm a step (and
+# sags 4.3 um into its soft contacts), so it ran into the next facet's plane within the step before that facet
+# made a contact: 483 of 496 new contacts in 6 s were made at a penetration, none as speculative ones. The
+# push-out then lifted it without the kinetic energy the climb costs: a frictionless ball let go 0.05 rad up
+# that bowl GAINED +2.02 mJ in 15 s on a 4 mm heightfield (+18 % of its 11.0 mJ), +4.4 mJ on 2 mm cells,
+# +5.5 mJ in 30 s on a 256 x 128 sheet; let go 0.2 rad (2.5 mm a step), +29.3 mJ of 176; at dt 1/120 s
+# +9.8 mJ, at 1/60 s +19.6. With this contact: -1.30, -1.73, -0.58, -22.5, -1.9 and +6.0 mJ (docs/contact.md,
+# tests/physics/test_bowl_energy.py; 1/60 s is left, a strict xfail there). At 1/960 s (0.15 mm a step) and
+# on coarse facets (a wider 0.2 mm) the next facet was seen in time, and energy was lost, as it should be.
+# 1 mm (0.2 LINEAR_SLOP) and the motion bound (the pair's speculative distance beyond the default): the
+# step's travel, and the 0.2 mm window with the sag's run at 1/240 s. With 1 mm alone: -1.29, -0.95, -1.18,
+# -9.2, but +5.7 mJ at 1/120 s and +17.8 at 1/60 s. Beyond the band the contact is as before.
+# Measured on the code before, 4 mm heightfield, E - E0 at 6 s (+0.69 mJ as is): a speculative distance of
+# 0.05 m: +0.69 (the band is not what leaves the facet out); contacts twice as stiff (hertz_cap_per_substep
+# 0.25: a quarter of the sag): +0.63, so the sag is a small part; no warm start (impulses zeroed after
+# prepare_contacts): +0.36, half (not the cause: the gain stays); the restitution pass does nothing here
+# (e = 0); energy per stage (kick, warm start, biased solve, drift, relax) swings 1-80 mJ per 1.5 s in and
+# out, their sum 0.1-0.25 mJ: no stage's trend shows it. Not explained: 16 solver substeps at 1/240 s (the
+# same step's travel) lost 0.14 mJ instead (the audit's substep_check.py found the same).
+BESIDE_SPHERE = 0.2 * LINEAR_SLOP
 
 # COMPILE: NumPy integers, not Python literals, for the triangle's type and its empty hull range: a
 # literal argument makes Numba compile convex_contact, face_manifold and everything under them
@@ -193,8 +222,11 @@ def _sphere_triangle(c, r, pos_b, rot_b, tri, Nx, Ny, Nz, speculative, W, lam, s
 
 
 @njit(**NO_NRT)
-def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b, speculative, tn, tp, ts, tf):
-    """The internal-edge and back-face rule (module docstring) on one triangle's contact; returns its new count."""
+def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b, speculative, beside, tn, tp,
+                       ts, tf):
+    """The internal-edge and back-face rule (module docstring) on one triangle's contact; returns its new count.
+    ``beside`` (m): a sphere's centre beside the face, beyond inactive edges only, by at most this, still
+    gets the face contact (BESIDE_SPHERE); 0: none."""
     facing = tn[0] * Nx + tn[1] * Ny + tn[2] * Nz
     if facing > -(1.0 - FACE_COS):
         # not a face contact: on an inactive edge or vertex take the face normal instead; so too
@@ -210,14 +242,18 @@ def _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, ro
         mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
         my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
         mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
-        if facing >= 0.0 or _on_inactive_feature(tri, mx, my, mz, active):
+        inactive = _on_inactive_feature(tri, mx, my, mz, active)
+        if facing >= 0.0 or inactive:
             tn[0], tn[1], tn[2] = -Nx, -Ny, -Nz
             # the shape's deepest point below the plane, in the mesh frame
             qx, qy, qz = low[0] - pos_b[0], low[1] - pos_b[1], low[2] - pos_b[2]
             mx = rot_b[0, 0] * qx + rot_b[1, 0] * qy + rot_b[2, 0] * qz
             my = rot_b[0, 1] * qx + rot_b[1, 1] * qy + rot_b[2, 1] * qz
             mz = rot_b[0, 2] * qx + rot_b[1, 2] * qy + rot_b[2, 2] * qz
-            if _over_triangle(tri, mx, my, mz):
+            # the centre's distance from the face's plane along it, beside the triangle (a sphere: n = 1)
+            near = (beside > 0.0 and inactive and facing < 0.0
+                    and (ts[j] + ra) ** 2 - (depth_sep + ra) ** 2 <= beside * beside)
+            if near or _over_triangle(tri, mx, my, mz):
                 # over the face: a face contact at the plane's depth
                 ts[0] = depth_sep
                 for k in range(3):
@@ -413,6 +449,9 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
     # the routine's arrays: the mesh part of the convex scratch (convex.convex_scratch)
     lo, hi, cand, cand_n, seps, feats, tn, tp, ts, tf, W, lam, sub, keep, turned = scratch[11]
     _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, speculative, lo, hi)
+    # a sphere's band beside a face: BESIDE_SPHERE and the step's motion bound (the pair's speculative
+    # distance beyond the default's: bounds.update_bounds)
+    beside = BESIDE_SPHERE + max(speculative - SPECULATIVE_DISTANCE, 0.0) if ta == SHAPE_SPHERE else 0.0
     count = np.int64(0)  # not a literal (see TRIANGLE)
     n0 = shape_data[b, 2]
     n_end = n0 + shape_data[b, 3]
@@ -509,7 +548,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             if n == 0:
                 continue
             n = _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b,
-                                   speculative, tn, tp, ts, tf)
+                                   speculative, beside, tn, tp, ts, tf)
             count = _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats)
         i += 1
     if count == 0:
