@@ -58,8 +58,7 @@ SAME_POINT = 1e-4
 # within micrometres of each other; a clipped side face's speculative points lie up to 2 cm away).
 TOUCH = LINEAR_SLOP
 # A sphere whose centre is beside a triangle, beyond its inactive (flat or concave) edges only, by at most
-# this plus the step's motion bound (m, measured in the triangle's plane), still gets the triangle's face
-# contact: the plane of a face
+# this (m, measured in the triangle's plane), still gets the triangle's face contact: the plane of a face
 # across a concave seam bounds the shape there as much as the face itself (near a concave seam the free
 # space is the intersection of the two faces' half-spaces), and across a flat one it is the neighbour's own
 # plane (the same point: ``_gather`` merges the two).
@@ -71,13 +70,13 @@ TOUCH = LINEAR_SLOP
 # made a contact: 483 of 496 new contacts in 6 s were made at a penetration, none as speculative ones. The
 # push-out then lifted it without the kinetic energy the climb costs: a frictionless ball let go 0.05 rad up
 # that bowl GAINED +2.02 mJ in 15 s on a 4 mm heightfield (+18 % of its 11.0 mJ), +4.4 mJ on 2 mm cells,
-# +5.5 mJ in 30 s on a 256 x 128 sheet; let go 0.2 rad (2.5 mm a step), +29.3 mJ of 176; at dt 1/120 s
-# +9.8 mJ, at 1/60 s +19.6. With this contact: -1.30, -1.73, -0.58, -22.5, -1.9 and +6.0 mJ (docs/contact.md,
-# tests/physics/test_bowl_energy.py; 1/60 s is left, a strict xfail there). At 1/960 s (0.15 mm a step) and
-# on coarse facets (a wider 0.2 mm) the next facet was seen in time, and energy was lost, as it should be.
-# 1 mm (0.2 LINEAR_SLOP) and the motion bound (the pair's speculative distance beyond the default): the
-# step's travel, and the 0.2 mm window with the sag's run at 1/240 s. With 1 mm alone: -1.29, -0.95, -1.18,
-# -9.2, but +5.7 mJ at 1/120 s and +17.8 at 1/60 s. Beyond the band the contact is as before.
+# +5.5 mJ in 30 s on a 256 x 128 sheet; let go 0.2 rad (2.5 mm a step), +29.3 mJ of 176. With this contact:
+# -1.29, -0.95, -1.18 and -9.2 mJ (tests/physics/test_bowl_energy.py). At 1/960 s (0.15 mm a step) and on
+# coarse facets (a wider 0.2 mm) the next facet was seen in time, and energy was lost, as it should be.
+# 0.2 LINEAR_SLOP = 1 mm: the step's travel at 0.24 m/s at 1/240 s (beyond the band the contact is as
+# before). LEFT: larger steps outrun it (4 mm heightfield, 15 s: dt 1/120 s +5.7 mJ, before +9.8; dt 1/60 s
+# +17.8, before +19.6: a strict xfail in the test). Not tried: a band grown by the step's motion bound, which
+# gathers more of the facets around a sphere for the reduction to 4 (deepest, then area) to choose from.
 # Measured on the code before, 4 mm heightfield, E - E0 at 6 s (+0.69 mJ as is): a speculative distance of
 # 0.05 m: +0.69 (the band is not what leaves the facet out); contacts twice as stiff (hertz_cap_per_substep
 # 0.25: a quarter of the sag): +0.63, so the sag is a small part; no warm start (impulses zeroed after
