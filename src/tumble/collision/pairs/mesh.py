@@ -34,7 +34,7 @@ from numba import njit
 
 from ...math3d import NO_NRT
 from ...shapes import SHAPE_BOX, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_SPHERE
-from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS, MESH_POINTS, SPECULATIVE_DISTANCE
+from ..constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS, MESH_POINTS
 from .convex import (
     FEATURE_SINGLE,
     SLOT_DEEPEST,
@@ -448,9 +448,6 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
     # the routine's arrays: the mesh part of the convex scratch (convex.convex_scratch)
     lo, hi, cand, cand_n, seps, feats, tn, tp, ts, tf, W, lam, sub, keep, turned = scratch[11]
     _mesh_box(ta, pos_a, rot_a, params_a, verts_a, pos_b, rot_b, speculative, lo, hi)
-    # a sphere's band beside a face: BESIDE_SPHERE and the step's motion bound (the pair's speculative
-    # distance beyond the default's: bounds.update_bounds)
-    beside = BESIDE_SPHERE + max(speculative - SPECULATIVE_DISTANCE, 0.0) if ta == SHAPE_SPHERE else 0.0
     count = np.int64(0)  # not a literal (see TRIANGLE)
     n0 = shape_data[b, 2]
     n_end = n0 + shape_data[b, 3]
@@ -547,7 +544,7 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
             if n == 0:
                 continue
             n = _fix_internal_edge(tri, active, n, Nx, Ny, Nz, low, depth_sep, ra, pos_b, rot_b,
-                                   speculative, beside, tn, tp, ts, tf)
+                                   speculative, BESIDE_SPHERE if ta == SHAPE_SPHERE else 0.0, tn, tp, ts, tf)
             count = _gather(t, n, tn, tp, ts, tf, count, cand, cand_n, seps, feats)
         i += 1
     if count == 0:
