@@ -75,8 +75,15 @@ TOUCH = LINEAR_SLOP
 # coarse facets (a wider 0.2 mm) the next facet was seen in time, and energy was lost, as it should be.
 # 0.2 LINEAR_SLOP = 1 mm: the step's travel at 0.24 m/s at 1/240 s (beyond the band the contact is as
 # before). LEFT: larger steps outrun it (4 mm heightfield, 15 s: dt 1/120 s +5.7 mJ, before +9.8; dt 1/60 s
-# +17.8, before +19.6: a strict xfail in the test). Not tried: a band grown by the step's motion bound, which
-# gathers more of the facets around a sphere for the reduction to 4 (deepest, then area) to choose from.
+# +17.8, before +19.6: a strict xfail in the test). DEAD END (tried, then reverted in review, session 44): a
+# band grown by the step's motion bound (the pair's speculative distance beyond the default's) cured dt 1/120 s
+# (-1.9 mJ) and halved 1/60 s (+6.0), but a face's plane is a bound only near its inactive edge: a few cells
+# away, past a convex crest, it cuts into free space. A frictionless ball (r 0.05) rolling at 3 and 10 m/s
+# along the grooves of a fine corrugation (a heightfield of 0.08 mm rows across the path, 0.5 mm deep, 1 mm
+# apart) then gained up to +97 and +235 mJ and hopped 13 and 18 mm, where this 1 mm band and the code before
+# gained nothing and kept within 1.0-1.3 mm of the surface. (Over ripples across the path, 0.5 mm high and
+# 5 cm long on 4 mm cells, at 3 m/s, it hopped less: 3.6 mm against 39; the 1 mm band is the one that never
+# gained energy in these runs.)
 # Measured on the code before, 4 mm heightfield, E - E0 at 6 s (+0.69 mJ as is): a speculative distance of
 # 0.05 m: +0.69 (the band is not what leaves the facet out); contacts twice as stiff (hertz_cap_per_substep
 # 0.25: a quarter of the sag): +0.63, so the sag is a small part; no warm start (impulses zeroed after
