@@ -302,11 +302,7 @@ def hull_faces(convex):
     (docs/benchmarks.md, "Hull faces kept")."""
     v = np.ascontiguousarray(convex.vertices, dtype=float)
     f = np.ascontiguousarray(convex.faces, dtype=np.int64)
-    h = hashlib.blake2b(digest_size=20)
-    h.update(np.array([v.shape[0], f.shape[0]], dtype=np.int64).tobytes())
-    h.update(memoryview(v).cast("B"))
-    h.update(memoryview(f).cast("B"))
-    key = h.digest()
+    key = _mesh_digest(v, f, True)  # (a hull is closed)
     kept = convex.__dict__.get("_hull_faces")
     if kept is not None and kept[0] == key:
         return kept[1], kept[2]

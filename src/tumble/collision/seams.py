@@ -189,15 +189,8 @@ def flatten_seam_ghosts_kernel(shape_type, shape_body, shape_params, shape_pos, 
     if candidates == 0:
         return 0
     # pass 2: those bodies' static manifolds, grouped by body (stable: manifold order within a body)
-    rows = 0
-    for m in range(manifold_count):
-        a = m_shape_a[m]
-        b = m_shape_b[m]
-        fa = body_fixed[shape_body[a]]
-        if fa != body_fixed[shape_body[b]] and several[shape_body[b] if fa else shape_body[a]]:
-            rows += 1
-    group = np.empty(rows, dtype=np.int64)
-    group_body = np.empty(rows, dtype=np.int64)
+    group = np.empty(manifold_count, dtype=np.int64)
+    group_body = np.empty(manifold_count, dtype=np.int64)
     rows = 0
     for m in range(manifold_count):
         a = m_shape_a[m]
@@ -208,7 +201,7 @@ def flatten_seam_ghosts_kernel(shape_type, shape_body, shape_params, shape_pos, 
             group[rows] = m
             group_body[rows] = body
             rows += 1
-    order = np.argsort(group_body, kind="mergesort")
+    order = np.argsort(group_body[:rows], kind="mergesort")
     # per contact of the group: normal towards the moving body, and the face planes (n_f, d_f)
     changed = 0
     start = 0

@@ -683,22 +683,18 @@ class SoftStep:
         contacts, rolling = self._contact_tables()
         forces = (tb.uforce_kind, tb.uforce_param, tb.uforce_start, tb.spring_body, tb.spring_anchor, tb.spring_param)
         if joints is None:  # the kernel without joint stages reads none of the joint arguments
-            SUBSTEPS_KERNELS[False](
-                w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
-                w.moving, w.gravity, forces, w.kinematic_v, w.kinematic_omega, h, substeps,
-                None, False, None, None, None, 0, 0, False, None, contacts, rolling,
-                float(self.settings.contact_speed), self.tree_contacts.parts(), s.R, s.v, s.omega, s.F, s.T, self.I_inv,
-                self.I_world, None)
-            return
-        st = joints.settings
-        tables = self._joint_tables(joints)
-        SUBSTEPS_KERNELS[True](
+            joint_args, impulses = (None, False, None, None, None, 0, 0, False, None), None
+        else:
+            st = joints.settings
+            joint_args = (self._joint_tables(joints), st.method == "tree", joints.tree_parts(), joints.soft_bias,
+                          joints.soft_relax, int(st.velocity_iterations), int(st.relax_iterations), armature,
+                          joints.armature_rate)
+            impulses = (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse)
+        SUBSTEPS_KERNELS[joints is not None](
             w.layout_id, Y, self.active, kinematic, w.mass, w.inv_mass, w.inertia_body, w.inertia_body_inv,
-            w.moving, w.gravity, forces, w.kinematic_v, w.kinematic_omega, h, substeps,
-            tables, st.method == "tree", joints.tree_parts(), joints.soft_bias, joints.soft_relax,
-            int(st.velocity_iterations), int(st.relax_iterations), armature, joints.armature_rate, contacts, rolling,
-            float(self.settings.contact_speed), self.tree_contacts.parts(), s.R, s.v, s.omega, s.F, s.T, self.I_inv, self.I_world,
-            (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
+            w.moving, w.gravity, forces, w.kinematic_v, w.kinematic_omega, h, substeps, *joint_args, contacts, rolling,
+            float(self.settings.contact_speed), self.tree_contacts.parts(), s.R, s.v, s.omega, s.F, s.T, self.I_inv,
+            self.I_world, impulses)
 
     @staticmethod
     def _joint_tables(joints) -> tuple:
@@ -733,19 +729,6 @@ class SoftStep:
             _solve_tree_contacts(bool(use_bias), tree.parts(), self._contact_tables()[0], sol.x, sol.R, 1.0 / sol.h,
                                  float(self.settings.contact_speed), sol.v, sol.omega,
                                  (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse))
-
-    def _no_joints(self):
-        """A JointSolver of no joints: the joint tables of ``substeps_kernel`` for a world without
-        joints (empty arrays of the same types)."""
-        from .joints import JointSolver
-
-        if self.__dict__.get("_empty_joints") is None:
-            empty = JointSolver()
-            empty._build([])
-            empty.gauss_seidel = np.zeros(0, dtype=bool)
-            empty.soft_bias = empty.soft_relax = np.zeros(3)
-            self._empty_joints = empty
-        return self._empty_joints
 
     def _no_contacts(self):
         """``substeps_kernel``'s contact tables with no rows (the types of ``ContactSolver``'s)."""
