@@ -442,10 +442,10 @@ dropped round its rim, roll over the ripples and gather towards the bottom, brak
 rolling resistance. See docs/contact.md, "Heightfields".
 
 What to watch: the balls run down, over and between the ripples, knock into each other and settle
-in the ripples' pits within 1 m of the middle; all are at rest (asleep) by 15 s; none sinks into
+in the ripples' pits within 1 m of the middle; all are at rest (asleep) by 18 s; none sinks into
 the surface.""")
     text += f"""[simulation]
-duration = 16.0
+duration = 20.0
 gravity = [0, 0, -9.81]
 
 [[bodies]]

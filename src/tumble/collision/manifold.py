@@ -55,6 +55,9 @@ class ContactManifolds:
             while the same features of the same shapes touch (warm starting).
     """
 
+    # the contacts given an allowance by the last ``delay_speculative_ghosts`` (collision/speculative.py)
+    allowance_count = 0
+
     def __init__(self, manifold_capacity: int = 64):
         self.manifold_count = 0
         self.contact_count = 0
@@ -158,6 +161,22 @@ class ContactManifolds:
 
     def __len__(self):
         return self.contact_count
+
+    def allowance_buffer(self) -> np.ndarray:
+        """The buffer ``delay_speculative_ghosts`` writes (one row per contact of the capacity)."""
+        buf = self.__dict__.get("_allowance")
+        if buf is None or buf.shape[0] != self._c_capacity:
+            buf = self._allowance = np.zeros(self._c_capacity)
+        return buf
+
+    @property
+    def contact_allowance(self) -> np.ndarray:
+        """(C,) m: the gap beyond ``contact_separation`` the solver lets each contact close before it
+        holds (collision/speculative.py: a speculative contact whose shape a sweep shows touching
+        later than its linear gap says); zeros but after ``delay_speculative_ghosts`` gave some."""
+        if not self.allowance_count:
+            return np.zeros(self.contact_count)
+        return self._allowance[: self.contact_count]
 
 
 def match_contacts(old_key, new_key) -> np.ndarray:

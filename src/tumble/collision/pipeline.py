@@ -17,6 +17,7 @@ from .geometry import SHAPE_PLANE, build_shape_table
 from .manifold import ContactManifolds
 from .narrowphase import collide_pairs
 from .seams import flatten_seam_ghosts
+from .speculative import delay_speculative_ghosts
 from .sensor import sensor_filter_table
 
 
@@ -166,14 +167,16 @@ class CollisionPipeline:
         excluded, _ = self._filters()
         return excluded, self._user_filter
 
-    def detect(self, x=None, R=None, v=None, omega=None, dt: float = 0.0) -> ContactManifolds:
-        """Run the four stages; returns the contacts.
+    def detect(self, x=None, R=None, v=None, omega=None, dt: float = 0.0, force=None) -> ContactManifolds:
+        """Run the five stages; returns the contacts.
 
         Args:
             x: (N, 3) or the packed state (N, W), m; R: (N, 3, 3). Default: the world's
                 current ``x`` and ``R``.
             v, omega: (N, 3) m/s, rad/s and dt (s): widen each shape's margin by the distance
                 it can travel in the step (continuous collision); default none.
+            force: (N, 3) N, the step's first applied forces (``Scratch.F``): bounds each body's
+                acceleration for the sweeps of ``delay_speculative_ghosts``; default gravity alone.
         """
         world = self.world
         table = self.refresh()
@@ -201,6 +204,13 @@ class CollisionPipeline:
         # fixed bodies: no mass and not kinematic (``World.fixed`` would count the sleepers as fixed
         # here: the Simulator masks them out of ``World.moving`` while it collides)
         flatten_seam_ghosts(contacts, table, self.shape_pos, self.shape_rot, (world.inv_mass == 0.0) & ~world.kinematic)
+        # a speculative contact's linear gap closes before the shapes meet where its feature is an edge or
+        # a corner they pass by (collision/speculative.py): its gap may close no earlier than a sweep touches
+        if v is not None and dt > 0.0:
+            delay_speculative_ghosts(contacts, table, self.shape_pos, self.shape_rot, x, v, omega, dt, world.inv_mass,
+                                     world.gravity, force)
+        else:
+            contacts.allowance_count = 0
         return contacts
 
 

@@ -327,6 +327,8 @@ class ContactSolver:
             self.tangent1, self.tangent2, self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
+        if contacts.allowance_count:  # speculative gaps a sweep shows closing later (collision/speculative.py)
+            self.separation_base[:n] += contacts.contact_allowance
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
         self._contact_shapes = None
         if table.has_part_materials:

@@ -590,7 +590,7 @@ class SoftStep:
         else:
             self.pipeline.excluded_pairs = None
         if self._can_touch():
-            self.contacts = self.pipeline.detect(Y, s.R, s.v, s.omega, dt)
+            self.contacts = self.pipeline.detect(Y, s.R, s.v, s.omega, dt, force=s.F)
         else:
             self.contacts = self.pipeline.contacts
             self.contacts.manifold_count = self.contacts.contact_count = 0
