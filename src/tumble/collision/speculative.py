@@ -43,7 +43,12 @@ does not move its surface), the centre's arc about the body's centre of mass, dt
 / 2, and the step's acceleration, dt^2 |F| / m / 2 for each body (its applied forces and
 gravity at the step's start; joint and contact forces within the step are not known here), plus
 ``SWEEP_SLOP``. A contact already touching (s within the tolerance) is left alone, as are
-planes (a plane's gap is linear in any translation) and pairs not closing.
+planes (a plane's gap is linear in any translation), pairs not closing, and pairs of two dynamic
+bodies: each may be turned within the step by its other contacts, which the straight sweep does
+not see (in a pile all are), and a contact made to wait met a deeper overlap: the 1000-box pile's
+energy rose between two frames (7.8 mJ of 22 563 J), which it never does. So the stage is for a
+body passing by fixed and kinematic ones (terrain, level geometry, a moving platform), where the
+ghosts were found.
 
 Cost: only points whose linear gap closes within the step are swept: none for bodies at rest,
 sliding along faces or falling onto a plane. Each sweep is a few GJK distances.
