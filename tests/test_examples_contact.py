@@ -217,11 +217,31 @@ def test_dice_come_to_rest_on_a_face():
 EGG_SHORT, EGG_LONG, PEBBLE_THIN = 0.022, 0.03, 0.012  # m: semi-axes
 
 
+def egg_hold_tilt(c=0.1, a=EGG_LONG, b=EGG_SHORT):
+    """The largest tilt (degrees) of an egg's long axis at which rolling resistance c holds it on a
+    floor (docs/contact.md, "Rolling resistance": a torque of at most c rho N, rho the radius of
+    curvature along the rolling). Tilted by t, the ellipse (semi-axes a, b) touches the floor at a
+    horizontal distance d(t) = (a^2 - b^2) sin t cos t / sqrt(a^2 sin^2 t + b^2 cos^2 t) from its
+    centre, where its radius of curvature is rho(t) = a^2 b^2 / (a^2 sin^2 t + b^2 cos^2 t)^(3/2):
+    gravity's torque m g d(t) is held while d(t) <= c rho(t). Bisection on [0, 45] degrees."""
+    def excess(t):
+        s2, c2 = np.sin(t) ** 2, np.cos(t) ** 2
+        q = a * a * s2 + b * b * c2
+        return (a * a - b * b) * np.sin(t) * np.cos(t) / np.sqrt(q) - c * a * a * b * b / q ** 1.5
+    lo, hi = 0.0, np.radians(45.0)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if excess(mid) <= 0.0 else (lo, mid)
+    return np.degrees(lo)
+
+
 def test_eggs_roll_down_and_settle_on_their_sides_and_pebbles_flat():
     """examples/eggs.toml (ellipsoids), 4 s. Checks: every egg rolled down the ramp and off it
     (x past the ramp's foot, 0.39 m), and rests on its side: centre EGG_SHORT above the floor
-    within 1 mm and its long axis within 10 degrees of level (rolling resistance 0.1 can hold
-    an egg a few degrees off: measured up to 8.4); the egg laid straight across the ramp rolled
+    within 1 mm and its long axis within the tilt its rolling resistance (0.1, the max of the egg's
+    and the floor's 0) can hold it at, 12.3 degrees (``egg_hold_tilt``; measured up to 10.3; before
+    session 45, whose rotation update changed where they stop, up to 8.4 with an observed bound of
+    10 degrees in this test); the egg laid straight across the ramp rolled
     straight (y kept within 1 cm); the pebbles rest flat, centre PEBBLE_THIN up within 1 mm, short
     axis within 6 degrees of vertical (measured 5.3); all slower than 1 mm/s (measured: asleep
     from about 3 s)."""
@@ -235,7 +255,7 @@ def test_eggs_roll_down_and_settle_on_their_sides_and_pebbles_flat():
     R = rotations(traj.orientation[-1])
     for i in eggs:
         k = int(np.argmax(traj.shape(i).radii))  # the long axis (y, or z for the one stood on end)
-        assert np.degrees(np.arcsin(abs(R[i, 2, k]))) < 10.0, traj.names[i]
+        assert np.degrees(np.arcsin(abs(R[i, 2, k]))) < egg_hold_tilt(), traj.names[i]
     assert np.all(np.abs(x[pebbles, 2] - PEBBLE_THIN) < 1e-3), x[pebbles, 2]
     assert np.all(np.degrees(np.arccos(np.abs(R[pebbles, 2, 2]))) < 6.0)
     assert speeds(traj)[eggs + pebbles].max() < 1e-3
