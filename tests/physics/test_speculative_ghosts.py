@@ -135,3 +135,55 @@ def test_a_fast_ball_over_fine_ripples_rises_no_higher_than_their_slope_lets_it(
     # ball's weight (g / omega^2 at 240 Hz, 4 um: 4e-5 J) and the facets' sagitta (CELL^2 / (8 R_curv), R_curv =
     # WAVE^2 / (4 pi^2 A) = 0.34 m: 6 um: 6e-5 J); 1e-4 J per kg
     assert gain <= 1e-4, gain
+
+
+HULL = [[0.016143525291687607, 0.02189337662948521, -0.003118975803303714],
+        [0.0051198320692196165, 0.014178224712263508, 0.02091697897446174],
+        [0.002096471140552566, -0.014452843742381137, 0.01248779309516354],
+        [0.0177072425422926, 0.0035806871172243907, 0.012114421195453171],
+        [0.03255793547024477, -0.009434582977082731, -0.013395987367484609],
+        [-0.021068745477816363, 0.007693160203808464, 0.019689689486841123],
+        [-0.009426887683507315, 0.03701363413065097, -0.010904007414286062],
+        [0.006183401383022803, -0.001506117886710797, 0.028548644099933185],
+        [-0.011798902786767084, 0.0338637552633279, -0.0026468396963419175],
+        [-0.02600579265791966, -0.010550556647509384, -0.002361049007058592],
+        [0.034536269790597006, -0.008739209256551422, 0.0006664281363254735],
+        [0.04244133740614176, 0.003963550973906894, -0.011813659730861644]]
+
+
+def test_a_small_hull_thrown_at_a_heightfield_does_not_fall_through():
+    """A hull of 12 random points (about 6 cm across, 1 kg) thrown at 16 m/s, 56 degrees down, at a
+    heightfield of 1 cm cells with bumps 1 cm high (found by a fuzz of fast bodies at terrain): it
+    bounces, spinning at some 400 rad/s, and stays on the surface. The sweep of this stage once
+    carried every shape along the face it landed on (as it does a sphere): the hull's other corners
+    then lost their contacts, it went 39 mm in, and, wholly below the surface (a closed
+    heightfield's top pushes out only what is not entirely behind it), fell through. Compared
+    with: the surface's height under its centre at every step, which its centre must stay above
+    within the hull's own size less its smallest reach below its centre (it never sinks wholly
+    in: measured 29 mm at the deepest, as before the stage; the bound is its farthest vertex from
+    the vertices' mean plus 2 cm, 5.9 cm)."""
+    cell, size = 0.01, 2.0
+    xs = np.linspace(-size / 2, size / 2, int(round(size / cell)) + 1)
+    X, Y = np.meshgrid(xs, xs)
+    bumps = lambda x, y: 0.01 * np.sin(2.0 * np.pi * x / 0.3) * np.cos(2.0 * np.pi * y / 0.4)  # noqa: E731
+    w = tb.World(gravity=(0.0, 0.0, -G))
+    w.sleeping = False
+    material = tb.Material(friction=0.6099325085043968, restitution=0.4789614994789859)
+    w.add_body(tb.heightfield(bumps(X, Y), (size, size), base=0.1), fixed=True, material=material)
+    hull = tb.Convex(points=np.array(HULL))
+    b = w.add_body(hull, mass=1.0, position=(-0.3581403669410097, 0.34184961448298745, 0.3),
+                   velocity=(-5.106633454142241, -7.425449604840987, -13.220051612219882),
+                   angular_velocity=(7.790102560563056, 0.796945063264078, -3.093429153502522), material=material)
+    sim = tb.Simulator(w, dt=DT)
+    # the hull's farthest point from its centre of mass: a centre deeper than that below the surface is
+    # a body wholly in it
+    extent = float(np.linalg.norm(np.array(HULL) - np.mean(np.array(HULL), axis=0), axis=1).max()) + 0.02
+    deepest = 0.0
+    for _ in range(240):
+        sim.step()
+        x = np.asarray(b.x)
+        if abs(x[0]) > 0.95 * size / 2 or abs(x[1]) > 0.95 * size / 2:
+            break  # it bounced off the patch (after 0.2-0.3 s)
+        deepest = min(deepest, float(x[2] - bumps(x[0], x[1])))
+    assert deepest > -extent, (deepest, extent)
+    assert x[2] > -0.05  # not below the heightfield's solid
