@@ -1,4 +1,4 @@
-"""Stage ``delay_speculative_ghosts``: a speculative contact closes its gap no earlier than a sweep of the shape says it touches.
+"""Stage ``delay_speculative_ghosts``: a speculative contact closes its gap no earlier than a sweep says it touches.
 
 Why. A speculative contact (Catto, GDC 2014; ``bounds.py``) is a linearization: the solver
 follows its gap as s(t) = s0 - w t / dt along its normal n, w = T . n the step's closing
@@ -62,9 +62,9 @@ import numpy as np
 from numba import njit
 
 from ..math3d import JIT
-from ..shapes import (SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_ELLIPSOID, SHAPE_MESH,
+from ..shapes import (SHAPE_PLANE, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAPE_CYLINDER, SHAPE_ELLIPSOID, SHAPE_MESH,
                       SHAPE_SPHERE)
-from .distance import convex_distance, convex_to_shape
+from .distance import convex_distance
 from .pairs.convex import shape_arrays
 from .pairs.gjk import core_radius, gjk_scratch
 from .pairs.mesh import TRIANGLE, _on_inactive_feature, _to_mesh
@@ -98,8 +98,7 @@ def _turning_radius(t, params):
 
 @njit(**JIT)
 def _sweep(ta, pos_a, rot_a, params_a, verts_a, sb, tri, T, tol, shape_type, shape_params, shape_pos, shape_rot,
-           shape_data, hull_vertex, mesh_triangle, node_aabb, node_first, node_count, node_skip, scratch, lo, hi,
-           work, pos, out):
+           shape_data, hull_vertex, mesh_triangle, scratch, pos, out):
     """The first fraction t in [0, 1) of translation T (3,) (m, world) at which convex shape a comes
     within ``tol`` of shape row sb (of its triangle row ``tri`` when tri >= 0), or inf when it does
     not within the step. Conservative advancement (module docstring)."""
@@ -113,9 +112,11 @@ def _sweep(ta, pos_a, rot_a, params_a, verts_a, sb, tri, T, tol, shape_type, sha
             d = convex_distance(ta, pos, rot_a, params_a, verts_a, TRIANGLE, shape_pos[sb], shape_rot[sb],
                                 shape_params[sb], mesh_triangle[tri], cutoff, scratch, out)
         else:
-            d = convex_to_shape(ta, pos, rot_a, params_a, verts_a, sb, shape_type, shape_params, shape_pos,
-                                shape_rot, shape_data, hull_vertex, mesh_triangle, node_aabb, node_first, node_count,
-                                node_skip, cutoff, scratch, lo, hi, work, out)
+            # b is convex here (a plane is never swept, a mesh triangle by triangle): GJK alone (PERF: not
+            # distance.convex_to_shape, whose mesh and plane branches cost a first run seconds of compilation)
+            d = convex_distance(ta, pos, rot_a, params_a, verts_a, shape_type[sb], shape_pos[sb], shape_rot[sb],
+                                shape_params[sb], shape_arrays(shape_type[sb], sb, shape_data, hull_vertex)[0],
+                                cutoff, scratch, out)
         if d == np.inf:
             return np.inf
         if d <= tol:
@@ -211,7 +212,7 @@ def _face_if_inactive(tri, active, pos_m, rot_m, touch, turned):
 
 @njit(**JIT)
 def delay_speculative_kernel(shape_type, shape_body, shape_params, shape_pos, shape_rot, shape_data, hull_vertex,
-                             mesh_triangle, mesh_edge_active, node_aabb, node_first, node_count, node_skip, x, v, omega, gravity, dt,
+                             mesh_triangle, mesh_edge_active, x, v, omega, gravity, dt,
                              manifold_count, m_shape_a, m_shape_b, m_normal, m_first, m_count, c_point, c_normal,
                              c_separation, c_feature, inv_mass, force,
                              # output
@@ -222,9 +223,6 @@ def delay_speculative_kernel(shape_type, shape_body, shape_params, shape_pos, sh
     applied forces (``Scratch.F``), or (0, 3) for ``gravity`` (3,) m/s^2 alone; dt s. Returns the
     number of contacts given an allowance."""
     scratch = gjk_scratch()
-    lo = np.empty(3)
-    hi = np.empty(3)
-    work = np.empty(9)
     pos = np.empty(3)
     out = np.empty(9)
     T = np.empty(3)
@@ -334,7 +332,7 @@ def delay_speculative_kernel(shape_type, shape_body, shape_params, shape_pos, sh
                     # the lead up to t_land, then the path beyond it from where the lead ends
                     t = _sweep(ta, shape_pos[a], shape_rot[a], shape_params[a], verts_a, b, rows[i], lead, reach,
                                shape_type, shape_params, shape_pos, shape_rot, shape_data, hull_vertex, mesh_triangle,
-                               node_aabb, node_first, node_count, node_skip, scratch, lo, hi, work, pos, out)
+                               scratch, pos, out)
                     if t < np.inf:
                         t *= land
                     else:
@@ -342,8 +340,7 @@ def delay_speculative_kernel(shape_type, shape_body, shape_params, shape_pos, sh
                             start[k] = shape_pos[a, k] + lead[k]
                         t = _sweep(ta, start, shape_rot[a], shape_params[a], verts_a, b, rows[i], path, reach,
                                    shape_type, shape_params, shape_pos, shape_rot, shape_data, hull_vertex,
-                                   mesh_triangle, node_aabb, node_first, node_count, node_skip, scratch, lo, hi, work,
-                                   pos, out)
+                                   mesh_triangle, scratch, pos, out)
                         t = land + (1.0 - land) * t
                     if t < first:
                         first = t
@@ -355,8 +352,7 @@ def delay_speculative_kernel(shape_type, shape_body, shape_params, shape_pos, sh
                 if whole < 0.0:
                     whole = _sweep(ta, shape_pos[a], shape_rot[a], shape_params[a], verts_a, b, np.int64(-1), T, tol,
                                    shape_type, shape_params, shape_pos, shape_rot, shape_data, hull_vertex,
-                                   mesh_triangle, node_aabb, node_first, node_count, node_skip, scratch, lo, hi, work,
-                                   pos, out)
+                                   mesh_triangle, scratch, pos, out)
                     for k in range(9):
                         touch[k] = out[k]
                     land = 1.0
@@ -411,11 +407,23 @@ def delay_speculative_ghosts(contacts, table, shape_pos, shape_rot, x, v, omega,
     # PERF: only a speculative point can be swept (a box resting on a plane: none, and no kernel call)
     if not (c_separation[:C] > SWEEP_SLOP).any():
         return 0
+    # PERF: and only a pair of a moving shape and a fixed or kinematic one, neither a plane (boxes on a
+    # plane, the 1000-box pile: none, and no kernel call: it and the GJK routines it calls cost a first
+    # run 18 s of compilation, and a step ~20 us)
+    M = contacts.manifold_count
+    sa, sb = m_shape_a[:M], m_shape_b[:M]
+    types = table.shape_type
+    swept = (types[sa] != SHAPE_PLANE) & (types[sb] != SHAPE_PLANE) & (types[sb] <= SHAPE_MESH)
+    if not swept.any():
+        return 0
+    body = table.shape_body
+    if not (swept & ((inv_mass[body[sa]] == 0.0) | (inv_mass[body[sb]] == 0.0))).any():
+        return 0
     allowance = contacts.allowance_buffer()
     g = table.geometry
     force = _NO_FORCE if force is None else force
     changed = int(delay_speculative_kernel(table.shape_type, table.shape_body, table.shape_params, shape_pos, shape_rot,
-                                           g[0], g[1], g[6], g[7], g[8], g[9], g[10], g[11], x, v, omega,
+                                           g[0], g[1], g[6], g[7], x, v, omega,
                                            np.asarray(gravity, dtype=float), float(dt), contacts.manifold_count,
                                            m_shape_a, m_shape_b, m_normal, m_first, m_count, c_point, c_normal,
                                            c_separation, c_feature, inv_mass, force, allowance))
