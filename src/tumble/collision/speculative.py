@@ -67,9 +67,9 @@ from ..shapes import (SHAPE_PLANE, SHAPE_CAPSULE, SHAPE_CONE, SHAPE_CONVEX, SHAP
 from .distance import convex_distance
 from .pairs.convex import shape_arrays
 from .pairs.gjk import core_radius, gjk_scratch
-from .pairs.mesh import TRIANGLE, _on_inactive_feature, _to_mesh
+from .pairs.mesh import TRIANGLE, _box_meets, _on_inactive_feature, _to_mesh
 from .constants import LINEAR_SLOP, MAX_MANIFOLD_POINTS
-from .seams import FACE_COS, MESH_FEATURE_TRIANGLES, _triangle_normal
+from .seams import FACE_COS, MESH_FEATURE_TRIANGLES, _mesh_triangle_row, _triangle_normal
 from .geometry import BACK_SHIFT, TWO_SIDED
 
 # m: what the sweep's tolerance adds to the motion it leaves out (above); a contact whose gap is
@@ -136,13 +136,13 @@ def _point_triangles(s, feature, shape_data, mesh_triangle, a, shape_pos, shape_
     """The triangle rows of mesh row s that a contact's feature may name (pairs/mesh: the row mod 2**16):
     one for a mesh of up to 2**16 triangles; beyond, those whose box (mesh frame) meets shape a's
     box swept by T (3,) and grown by ``grow`` (m). Written into ``rows``; their number returned."""
-    first = shape_data[s, 0]
-    count = shape_data[s, 1]
-    t = (feature >> 5) & 0xFFFF
-    row = first + ((t - first) & 0xFFFF)
-    if count <= MESH_FEATURE_TRIANGLES:
+    row = _mesh_triangle_row(s, feature, shape_data)
+    if row >= 0:
         rows[0] = row
         return 1
+    first = shape_data[s, 0]
+    count = shape_data[s, 1]
+    row = first + ((((feature >> 5) & 0xFFFF) - first) & 0xFFFF)  # the lowest row of that residue
     # a's box in the mesh frame: a ball of its reach around its origin, swept by T
     ta = shape_type[a]
     reach = _turning_radius(ta, shape_params[a]) + core_radius(ta, shape_params[a]) + grow
@@ -155,12 +155,7 @@ def _point_triangles(s, feature, shape_data, mesh_triangle, a, shape_pos, shape_
         box_hi[k] = ck + reach + max(tk, 0.0)
     n = 0
     while row < first + count and n < rows.shape[0]:
-        tri = mesh_triangle[row]
-        meets = True
-        for k in range(3):
-            if min(tri[0, k], tri[1, k], tri[2, k]) > box_hi[k] or max(tri[0, k], tri[1, k], tri[2, k]) < box_lo[k]:
-                meets = False
-        if meets:
+        if _box_meets(mesh_triangle[row], box_lo, box_hi):
             rows[n] = row
             n += 1
         row += MESH_FEATURE_TRIANGLES
@@ -168,14 +163,12 @@ def _point_triangles(s, feature, shape_data, mesh_triangle, a, shape_pos, shape_
 
 
 @njit(**JIT)
-def _is_face(s, feature, normal, shape_data, mesh_triangle, a, shape_pos, shape_rot, shape_type, shape_params, T, grow,
-             box_lo, box_hi, rows):
-    """Whether a mesh contact's ``normal`` (3,) is the face normal of the triangle its feature names (either
-    side): a face contact, whose gap is its plane's."""
-    n = _point_triangles(s, feature, shape_data, mesh_triangle, a, shape_pos, shape_rot, shape_type, shape_params, T,
-                         grow, box_lo, box_hi, rows)
+def _is_face(normal, rows, n, mesh_triangle, rot_m):
+    """Whether a mesh contact's ``normal`` (3,) is the face normal (either side) of one of the ``n``
+    triangle rows ``rows`` its feature names (``_point_triangles``): a face contact, whose gap is its
+    plane's."""
     for i in range(n):
-        nx, ny, nz = _triangle_normal(mesh_triangle[rows[i]], shape_rot[s])
+        nx, ny, nz = _triangle_normal(mesh_triangle[rows[i]], rot_m)
         if abs(nx * normal[0] + ny * normal[1] + nz * normal[2]) >= 1.0 - FACE_COS:
             return True
     return False
@@ -228,7 +221,8 @@ def delay_speculative_kernel(shape_type, shape_body, shape_params, shape_pos, sh
     T = np.empty(3)
     box_lo = np.empty(3)
     box_hi = np.empty(3)
-    rows = np.empty(16, dtype=np.int64)
+    point_rows = np.empty((MAX_MANIFOLD_POINTS, 16), dtype=np.int64)
+    point_n = np.zeros(MAX_MANIFOLD_POINTS, dtype=np.int64)
     touch = np.empty(9)
     path = np.empty(3)
     lead = np.empty(3)
@@ -296,9 +290,12 @@ def delay_speculative_kernel(shape_type, shape_body, shape_params, shape_pos, sh
             # one thrown at 16 m/s at a heightfield went in 39 mm, spun up to 325 rad/s and fell through)
             round_a = ta == SHAPE_SPHERE
             for c in range(f, f + m_count[m]):
-                face_point[c - f] = _is_face(b, c_feature[c], c_normal[c], shape_data, mesh_triangle, a, shape_pos,
-                                             shape_rot, shape_type, shape_params, T, tol + c_separation[c], box_lo,
-                                             box_hi, rows)
+                # each point's triangle rows, found once (the sweeps below use them)
+                point_n[c - f] = _point_triangles(b, c_feature[c], shape_data, mesh_triangle, a, shape_pos, shape_rot,
+                                                  shape_type, shape_params, T, tol + c_separation[c], box_lo, box_hi,
+                                                  point_rows[c - f])
+                face_point[c - f] = _is_face(c_normal[c], point_rows[c - f], point_n[c - f], mesh_triangle,
+                                             shape_rot[b])
                 if round_a:
                     reach = min(reach, tol + max(c_separation[c], -LINEAR_SLOP))
                 w = T[0] * c_normal[c, 0] + T[1] * c_normal[c, 1] + T[2] * c_normal[c, 2]
@@ -325,10 +322,9 @@ def delay_speculative_kernel(shape_type, shape_body, shape_params, shape_pos, sh
                 # triangles beside it (which a pass beyond this one triangle would meet without a contact)
                 if face_point[c - f]:
                     continue
-                n = _point_triangles(b, c_feature[c], shape_data, mesh_triangle, a, shape_pos, shape_rot,
-                                     shape_type, shape_params, T, tol + s0, box_lo, box_hi, rows)
+                rows = point_rows[c - f]
                 first = np.inf
-                for i in range(n):
+                for i in range(point_n[c - f]):
                     # the lead up to t_land, then the path beyond it from where the lead ends
                     t = _sweep(ta, shape_pos[a], shape_rot[a], shape_params[a], verts_a, b, rows[i], lead, reach,
                                shape_type, shape_params, shape_pos, shape_rot, shape_data, hull_vertex, mesh_triangle,

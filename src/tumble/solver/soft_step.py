@@ -117,16 +117,22 @@ def integrate_velocities_kernel(layout, Y, active, inv_mass, inertia_body, inert
 
 
 @njit(**JIT, inline="always")
+def _place_row(layout, Y, i, x, o, P, L, R):
+    """Row i of Y set to (x, o, P, L); R[i] from its orientation o."""
+    _store(layout, Y, i, x, o, P, L)
+    Rm = _matrix(layout, o)
+    for k in range(9):
+        R[i, k // 3, k % 3] = Rm[k]
+
+
+@njit(**JIT, inline="always")
 def _drift_row(layout, Y, i, v0, v1, v2, w0, w1, w2, h, R):
     """Row i of Y: x += h v; the orientation turned by the exact rotation of omega over h and
     put back on SO(3); R[i] from it."""
     x, o, P, L = _load(layout, Y, i)
     x = (x[0] + h * v0, x[1] + h * v1, x[2] + h * v2)
     o = _project(layout, _rotate(layout, o, (w0, w1, w2), h))
-    _store(layout, Y, i, x, o, P, L)
-    Rm = _matrix(layout, o)
-    for k in range(9):
-        R[i, k // 3, k % 3] = Rm[k]
+    _place_row(layout, Y, i, x, o, P, L, R)
 
 
 # rad: a moving body's turn in a substep is taken in pieces of at most this (``_turn_free``): the
@@ -224,10 +230,7 @@ def integrate_positions_kernel(layout, Y, active, kinematic, jointed, v, omega, 
         L2 = I_world[i, 2, 0] * w0 + I_world[i, 2, 1] * w1 + I_world[i, 2, 2] * w2
         o = _turn_free(layout, o, L0, L1, L2, inertia_body_inv[i], h)
         x = (x[0] + h * v[i, 0], x[1] + h * v[i, 1], x[2] + h * v[i, 2])
-        _store(layout, Y, i, x, o, P, L)
-        Rm = _matrix(layout, o)
-        for k in range(9):
-            R[i, k // 3, k % 3] = Rm[k]
+        _place_row(layout, Y, i, x, o, P, L, R)
 
 
 @njit(**JIT)

@@ -162,6 +162,26 @@ def _to_mesh(x, y, z, pos_b, rot_b):
 
 
 @njit(**NO_NRT)
+def _box_meets(tri, lo, hi):
+    """Whether the box of triangle ``tri`` (3, 3) meets the box ``lo``, ``hi`` (3,) (the same frame)."""
+    for k in range(3):
+        if min(tri[0, k], tri[1, k], tri[2, k]) > hi[k] or max(tri[0, k], tri[1, k], tri[2, k]) < lo[k]:
+            return False
+    return True
+
+
+@njit(**NO_NRT)
+def _box_gap2(tri, px, py, pz):
+    """The squared distance (m^2) from p (mesh frame) to the box of triangle ``tri`` (3, 3): 0 inside it."""
+    gap2 = 0.0
+    for k in range(3):
+        pk = px if k == 0 else (py if k == 1 else pz)
+        g = max(min(tri[0, k], tri[1, k], tri[2, k]) - pk, pk - max(tri[0, k], tri[1, k], tri[2, k]), 0.0)
+        gap2 += g * g
+    return gap2
+
+
+@njit(**NO_NRT)
 def _over_triangle(tri, px, py, pz):
     """Whether p (mesh frame) projects into the triangle (barycentric weights >= -1e-9)."""
     ok, b1, b2 = _barycentric(tri, px, py, pz)
@@ -473,22 +493,13 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
         for t in range(node_first[i], node_first[i] + node_count[i]):
             tri = mesh_triangle[t]
             # the triangle's own box against the shape's (a leaf holds several triangles)
-            apart = False
-            for k in range(3):
-                if min(tri[0, k], tri[1, k], tri[2, k]) > hi[k] or max(tri[0, k], tri[1, k], tri[2, k]) < lo[k]:
-                    apart = True
-            if apart:
+            if not _box_meets(tri, lo, hi):
                 continue
             if ta == SHAPE_SPHERE:
                 # PERF: a triangle whose box is farther from the centre than r + speculative has no point that
                 # near (_sphere_triangle would return 0 for it): the corners of the shape's box, about half of
                 # its triangles on a fine grid under a ball (a ball on 4 mm heightfield cells: ~2700 in its box)
-                gap2 = 0.0
-                for k in range(3):
-                    ck = cmx if k == 0 else (cmy if k == 1 else cmz)
-                    g = max(min(tri[0, k], tri[1, k], tri[2, k]) - ck, ck - max(tri[0, k], tri[1, k], tri[2, k]), 0.0)
-                    gap2 += g * g
-                if gap2 >= reach2:
+                if _box_gap2(tri, cmx, cmy, cmz) >= reach2:
                     continue
             # face normal N (world) and the shape's extent along it
             ux, uy, uz = tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2]
@@ -543,12 +554,8 @@ def collide_convex_mesh(ta, pos_a, rot_a, params_a, pos_b, rot_b, params_b, spec
                 # farther than that from the triangle's box, no contact (on a fine grid, most triangles under
                 # a ball; the same contacts as the full test)
                 d = lx * (cmx - tri[0, 0]) + ly * (cmy - tri[0, 1]) + lz * (cmz - tri[0, 2])
-                gap2 = 0.0
-                for k in range(3):
-                    pk = (cmx if k == 0 else (cmy if k == 1 else cmz)) - d * (lx if k == 0 else (ly if k == 1 else lz))
-                    g = max(min(tri[0, k], tri[1, k], tri[2, k]) - pk, pk - max(tri[0, k], tri[1, k], tri[2, k]), 0.0)
-                    gap2 += g * g
-                if gap2 > BESIDE_SPHERE * BESIDE_SPHERE * (1.0 + 1e-9):
+                beside2 = _box_gap2(tri, cmx - d * lx, cmy - d * ly, cmz - d * lz)
+                if beside2 > BESIDE_SPHERE * BESIDE_SPHERE * (1.0 + 1e-9):
                     continue
             if ta != SHAPE_SPHERE and active == 0:
                 # PERF: inside a flat or concave patch (no active edge) the normal is the face's (the
