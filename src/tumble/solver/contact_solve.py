@@ -161,11 +161,45 @@ def combine_materials_kernel(index_a, index_b, friction_of, restitution_of, comb
                                           RESTITUTION_DEFAULT_MODE)
 
 
+@njit(**JIT)
+def soft_from_omega(omega, zeta, h):
+    """(bias_rate 1/s, mass_scale, impulse_scale) of a soft constraint of natural frequency
+    ``omega`` (rad/s) and damping ratio ``zeta`` stepped implicitly over ``h`` (s)
+    (``solver.contact.soft_coefficients``: Catto, GDC 2011; Box2D ``b2MakeSoft``)."""
+    a1 = 2.0 * zeta + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3
+
+
+# LOAD (opt-in: ``SoftStepSettings.load_hertz_cap_per_substep``, 0 by default): the soft contact is a
+# spring of stiffness m_eff omega^2 (m_eff the row's effective mass, ``normal_mass``), so it rests
+# compressed by load / (m_eff omega^2): a row holding up more than its own bodies' weight sinks in
+# proportion. A 100 kg box on a 1 kg one (dt 1/60 s) sinks 27 mm into it, the boxes at the bottom of
+# the 1000-box pile overlap 8-19 mm at Box3D's step. A row whose last step's normal impulse shows a
+# load F = lambda / h above m_eff |g| (``load_soft``) is stiffened to omega sqrt(F / (m_eff |g|)), which
+# keeps its sag at that of a body resting under its own weight, g / omega^2, up to the cap (0.1875 / h
+# advised; the rows with a fixed body are at 0.25 / h already). Measured: tests/physics/test_contact_load.py,
+# docs/contact.md and docs/benchmarks.md "Loaded contacts".
+# DEAD END: the cap at Box2D's own bound on a contact's hertz, 0.25 / h (the same for every row is the
+# "60 Hz at h = 1/240 s" that shook the 20-row pyramid: SoftStepSettings' note): with only the loaded
+# rows at it, the pyramid at Box3D's step (sleeping off) still shook at 0.6 m/s after 10 s, the large
+# pyramid at 2.5 m/s; at 0.1875 / h they settle (2-4 mm/s after 10 s).
+# WHY NOT BY DEFAULT: an impact's impulse is read as a load too, and the stiffened rows of the MJCF
+# pendulum's strike through a 4-block tower (examples/mjcf_pendulum.toml) tipped the bottom block over
+# (0.1 m), where MuJoCo, on the same scene, and the soft rows leave it within 0.3 mm. DEAD END: resting
+# rows only (normal speed under 0.1 m/s at the step's start): the pendulum's block stayed, but rows then
+# switched between soft and stiff as boxes moved, and each switch to stiff pushes its compression out,
+# raising the bodies: the pile's energy rose 19 mJ between two frames (tests/test_examples_contact.py,
+# which allows none); the stiffness of every loaded row, as here, never raised it there.
+LOAD_OFF = np.zeros(7)
+
+
 @njit(**JIT, parallel=True)
 def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, old_normal_impulse,
                             old_friction_impulse, x, R, v, omega, inv_mass, I_inv, moving,
                             body_friction, body_restitution, body_combine, body_margin, soft_dynamic, soft_static,
-                            anchor_offset,
+                            load_soft, anchor_offset,
                             # outputs
                             anchor_a, anchor_b, local_a, local_b, separation_base, tangent1, tangent2, normal_mass,
                             tangent_mass, soft, friction, restitution, relative_velocity,
@@ -176,6 +210,9 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
     ``body_friction``, ``body_restitution`` (N,), ``body_combine`` (N, 3) int64 (friction mode,
     restitution mode, condim: ``Material.combine_codes``), ``body_margin`` (N,) m
     (``Material.margin``: the separation the solver sees is the gap less the pair's two).
+    ``load_soft`` (7,): |g| h (m/s; 0: rows keep ``soft_dynamic`` / ``soft_static``), the dynamic rows'
+    omega (rad/s) and damping ratio, the static rows' omega and damping ratio, the loaded rows' cap
+    on omega, h (s): a row holding more than its own weight is stiffened (LOAD above).
 
     The anchors that follow the bodies through the step (``local_a``, ``local_b``, body frames,
     less each round surface's world offset ``anchor_offset``: ``contact_anchor``) start at the
@@ -265,6 +302,15 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         m = match[c]
         if m >= 0:
             normal_impulse[c] = old_normal_impulse[m]
+            # a loaded row's stiffness (LOAD)
+            weight = load_soft[0] * normal_mass[c]
+            if weight > 0.0 and old_normal_impulse[m] > weight:
+                static = not (moving[a] and moving[b])
+                w0 = load_soft[3] if static else load_soft[1]
+                w = min(w0 * math.sqrt(old_normal_impulse[m] / weight), load_soft[5])
+                if w > w0 * (1.0 + 1e-9):  # not a row at the cap already (the static ones by default)
+                    zeta = load_soft[4] if static else load_soft[2]
+                    soft[c, 0], soft[c, 1], soft[c, 2] = soft_from_omega(w, zeta, load_soft[6])
             f0, f1, f2 = old_friction_impulse[m, 0], old_friction_impulse[m, 1], old_friction_impulse[m, 2]
             tangent_impulse[c, 0] = f0 * t0 + f1 * t1 + f2 * t2
             tangent_impulse[c, 1] = f0 * s0 + f1 * s1 + f2 * s2
