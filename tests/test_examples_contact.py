@@ -159,6 +159,50 @@ def test_pile_only_loses_energy_and_nothing_sinks():
     assert x[:, 2].min() > 0.1 - 0.005, x[:, 2].min()
 
 
+# ---------------------------------------------------------------------- safe
+
+
+def test_safe_on_crates_gives_way_as_the_stiffened_springs_say():
+    """examples/safe.toml: a 400 kg safe on three 8 kg cubic crates (0.5 m) at dt 1/60 s with the
+    loaded contacts stiffened. Each contact between two moving bodies holds 51-104 times its rows'
+    own weight, so its rows are at the cap, omega = 2 pi 0.1875 / h (h = 1/240 s), and at rest its
+    overlap is its spring's, F / (sum of its four corner rows' m_eff x omega^2) with F the weight
+    above it (tests/physics/test_contact_load.py: the fixed point is exact; tolerance 1.5 %, the
+    geometric deficit under 1 % at these 6-13 mm). A corner row's 1 / m_eff is 1/m + 3/m for a cube
+    (its arm's turn), and for the safe on the crate's top face 1/M + 2 (0.25 m)^2 / I_safe. The
+    same file with the [contact] table's default: each gives way more than twice as far (2.25 at
+    the fixed point, less that deficit, 2 % at the default's 29 mm). The crate on the ground, whose
+    rows against a fixed body are at 0.25 / h either way, sinks its spring's 424 g / (8 kg omega^2)
+    in both (1.5 %; measured -0.3 % and +0.1 %). All at rest after the 4 s."""
+    from tumble.solver.contact import SoftStepSettings
+
+    def overlaps(default):
+        scene = load_scene(EXAMPLES / "safe.toml")
+        if default:
+            scene.contact = SoftStepSettings()
+        else:
+            assert scene.contact.load_hertz_cap_per_substep == 0.1875
+        w = scene.world
+        scene.simulator().step(int(round(scene.duration / scene.dt)))
+        z = [w.x[w.names.index(n), 2] for n in ("crate1", "crate2", "crate3", "safe")]
+        assert np.abs(w.v).max() < 1e-3
+        return 0.25 - z[0], np.array([z[0] + 0.5 - z[1], z[1] + 0.5 - z[2], z[2] + 0.65 - z[3]])
+
+    g, m, M = 9.81, 8.0, 400.0
+    omega = 2.0 * math.pi * 0.1875 * 240.0
+    i_safe = M * (0.6 ** 2 + 0.8 ** 2) / 12.0
+    crate_row = 4.0 / m  # 1/m + 3/m
+    rows = np.array([4.0 / (2 * crate_row), 4.0 / (2 * crate_row), 4.0 / (crate_row + 1.0 / M + 2 * 0.25 ** 2 / i_safe)])
+    load = g * np.array([M + 2 * m, M + m, M])
+    ground_on, on = overlaps(False)
+    ground_off, off = overlaps(True)
+    np.testing.assert_allclose(on, load / (rows * omega ** 2), rtol=0.015)
+    assert np.all(off > 2.0 * on)
+    ground = (M + 3 * m) * g / (4.0 / crate_row * (2.0 * math.pi * 0.25 * 240.0) ** 2)
+    assert ground_on == pytest.approx(ground, rel=0.015)
+    assert ground_off == pytest.approx(ground, rel=0.015)
+
+
 # ---------------------------------------------------------------------- bowling
 
 
