@@ -290,7 +290,7 @@ def test_pile_of_1000_boxes_has_no_penetration_over_5_mm_at_4_s(pile_after_4_s):
     no two boxes overlapping 5 mm (separating-axis depth). Measured at the default step: 0.16 mm
     and 1.14 mm. (At Box3D's coarser step, dt 1/60 s, the box-box overlap is 8-19 mm over seeds 0-4,
     measured in session 46: soft contacts of 30 Hz compress under the weight above them, 0.28 mm per
-    box of load; 4.5-5.8 mm with the loaded contacts stiffened; docs/contact.md.)"""
+    box of load; 3.9-5.8 mm with the loaded contacts stiffened; docs/contact.md.)"""
     from tumble.scenes.contact import box_corners, max_box_overlap
 
     w, _, _ = pile_after_4_s
