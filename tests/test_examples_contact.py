@@ -168,10 +168,10 @@ def test_safe_on_crates_gives_way_as_the_stiffened_springs_say():
     own weight, so its rows are at the cap, omega = 2 pi 0.1875 / h (h = 1/240 s), and at rest its
     overlap is its spring's, F / (sum of its four corner rows' m_eff x omega^2) with F the weight
     above it (tests/physics/test_contact_load.py: the fixed point is exact; tolerance 1.5 %, the
-    geometric deficit under 1 % at these 6-13 mm). A corner row's 1 / m_eff is 1/m + 3/m for a cube
+    shortfall under 1 % at these 6-13 mm). A corner row's 1 / m_eff is 1/m + 3/m for a cube
     (its arm's turn), and for the safe on the crate's top face 1/M + 2 (0.25 m)^2 / I_safe. The
     same file with the [contact] table's default: each gives way more than twice as far (2.25 at
-    the fixed point, less that deficit, 2 % at the default's 29 mm). The crate on the ground, whose
+    the fixed point, less that shortfall, 2 % at the default's 29 mm). The crate on the ground, whose
     rows against a fixed body are at 0.25 / h either way, sinks its spring's 424 g / (8 kg omega^2)
     in both (1.5 %; measured -0.3 % and +0.1 %). All at rest after the 4 s."""
     from tumble.solver.contact import SoftStepSettings

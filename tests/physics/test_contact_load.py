@@ -53,9 +53,9 @@ def test_a_heavy_box_on_a_light_one_sinks_only_as_far_as_the_stiffened_spring(M,
     """The overlap of the two boxes is the spring's at the cap, (M/m + 1) g / omega_cap^2: at
     dt 1/60 s and M = 100 kg 12.3 mm (27.3 mm before: the contact's own 30 Hz). Tolerance 1.5 %:
     the fixed point is exact, and the run's 6 s are 80 time constants of the over-damped settle
-    (2 zeta / omega = 0.07 s at the cap's 45 Hz); what is left is geometric, growing with the
-    overlap against the box's size: measured 0.03 % at 0.8 mm, 0.7-0.9 % at 1.3-12 mm, and 2.1 %
-    at the 27 mm of the code before (the same deficit, not from the stiffening; not analysed).
+    (2 zeta / omega = 0.07 s at the cap's 45 Hz); what is left, the overlap falling short of the
+    spring's, grows with the overlap against the box's size: measured 0.03 % at 0.8 mm, 0.7-0.9 %
+    at 1.3-12 mm, and 2.1 % at the default's 27 mm (so not from the stiffening; not analysed).
     Both boxes at rest (the landing shifts the heavy box 3 mm sideways, a creep that dies out:
     0.7 mm/s at 3 s, 7e-7 m/s at 10 s; by default the same)."""
     w, light, heavy = heavy_on_light(M, dt)
