@@ -289,7 +289,8 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
         normal_mass[c] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, n0, n1, n2)
         tangent_mass[c, 0] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, t0, t1, t2)
         tangent_mass[c, 1] = _effective_mass(inv_mass, I_inv, a, b, ra, rb, s0, s1, s2)
-        src = soft_static if not (moving[a] and moving[b]) else soft_dynamic
+        static = not (moving[a] and moving[b])
+        src = soft_static if static else soft_dynamic
         soft[c, 0], soft[c, 1], soft[c, 2] = src[0], src[1], src[2]
         friction[c] = combine_friction(body_friction[a], body_friction[b], body_combine[a, 0], body_combine[b, 0],
                                        body_combine[a, 2], body_combine[b, 2])
@@ -305,7 +306,6 @@ def prepare_contacts_kernel(body_a, body_b, point, normal, separation, match, ol
             # a loaded row's stiffness (LOAD)
             weight = load_soft[0] * normal_mass[c]
             if weight > 0.0 and old_normal_impulse[m] > weight:
-                static = not (moving[a] and moving[b])
                 w0 = load_soft[3] if static else load_soft[1]
                 w = min(w0 * math.sqrt(old_normal_impulse[m] / weight), load_soft[5])
                 if w > w0 * (1.0 + 1e-9):  # not a row at the cap already (the static ones by default)
