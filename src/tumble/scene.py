@@ -433,6 +433,8 @@ class _Parser(BodyReader, RobotReader):
                 kw[k] = self.integer(v, f"contact.{k}", 0)
             elif k in ("contact_hertz", "hertz_cap_per_substep", "speculative_distance"):
                 kw[k] = self.positive(v, f"contact.{k}")
+            elif k == "impact_chains":
+                kw[k] = self.boolean(v, f"contact.{k}")
             else:
                 kw[k] = self.nonnegative(v, f"contact.{k}")
         return SoftStepSettings(**kw)

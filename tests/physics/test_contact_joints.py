@@ -32,11 +32,10 @@ def test_newtons_cradle_sends_one_ball_out_keeping_momentum_and_energy():
     the end (the last ball up on the far side) within 1 % of the start.
 
     The balls hang 7 mm apart (about u dt at dt = 1/240 s), so that each impact falls in its own
-    step and the restitution pass exchanges the two balls' velocities pair by pair. Touching
-    balls are solved as one simultaneous impact and the row moves on together (measured: the
-    last three at 0.65 m/s and half the energy lost with 1 mm gaps): velocity-level contact
-    solvers (Box2D, MuJoCo) share this. Measured: last ball 1.6181 vs 1.6204 m/s (-0.15 %),
-    others below 1e-3 m/s, energy -0.67 % after 1.2 s."""
+    step and the restitution pass exchanges the two balls' velocities pair by pair (lone
+    impacts: no chain for ``impact_chain``). Touching balls: tests/physics/test_impact_chain.py.
+    Measured: last ball 1.6181 vs 1.6204 m/s (-0.15 %), others below 1e-3 m/s, energy -0.67 %
+    after 1.2 s."""
     w = cradle(gap=0.007)
     e0 = w.kinetic_energy() + w.potential_energy()
     traj = tb.Simulator(w, joint_settings=ACCURATE).run(1.2, frame_rate=240)

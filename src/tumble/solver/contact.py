@@ -51,6 +51,8 @@ from .contact_solve import (
     warm_start_kernel,
 )
 from .contact_tree import restitution_tree_kernel
+from .impact_chain import chain_passes, chain_rows_kernel, impact_chain_kernel
+from .joint_solve import AXIAL_COUNT
 from .partition import (
     SweepOrder,
 )
@@ -85,6 +87,11 @@ class SoftStepSettings:
         "Loaded contacts").
     contact_speed: m/s, largest push-out speed of the bias (Box2D ``contactSpeed``, 3).
     restitution_threshold: m/s, see RESTITUTION_THRESHOLD.
+    impact_chains: (True) an impact reaching bodies that already touch (three bodies or more,
+        with restitution) is solved as the sequence of pairwise impacts the wave through them
+        makes: a Newton's cradle of touching balls sends the last ball out. False: the
+        restitution pass alone (Box2D's), under which the touching row moves on together
+        (``impact_chain``; docs/contact.md "Impacts through touching chains").
     speculative_distance: m, contacts are made this far apart (plus the motion bound of the
         step) and AABBs grown by it (collision.constants.SPECULATIVE_DISTANCE, 0.02).
     partitions: (2) a step with at least ``partition_min_contacts`` (1024) contact points solves
@@ -112,6 +119,7 @@ class SoftStepSettings:
     load_hertz_cap_per_substep: float = 0.0
     contact_speed: float = 3.0
     restitution_threshold: float = RESTITUTION_THRESHOLD
+    impact_chains: bool = True
     speculative_distance: float = SPECULATIVE_DISTANCE
     partitions: int = 2
     partition_min_contacts: int = 1024
@@ -504,6 +512,9 @@ class ContactSolver:
         if skip is None or skip.shape[0] < n:
             skip = self._no_skip = np.zeros(2 * n, dtype=bool)
         listed = tree.contacts if tree is not None else ()
+        chains = self._impact_chains(n)  # (C,) bool, the contacts of impacts through touching chains, or None
+        if chains is not None:
+            skip[:n] = chains  # left to impact_chain_kernel, below
         if len(listed):
             skip[listed] = True
         # the restitution pass adds to the accumulated impulse: count the increment in the step's total
@@ -517,15 +528,57 @@ class ContactSolver:
                                  self.normal_impulse, self.tangent_impulse)
         if len(listed):
             skip[listed] = False
+            if chains is not None:
+                skip[:n] = chains
             restitution_tree_kernel(listed, c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1,
                                     self.tangent2, self.restitution, self.friction, self.surface_target,
                                     self.relative_velocity, self.max_normal_impulse,
                                     self.settings.restitution_threshold, self.arm_a, self.arm_b, tree.slot_count,
-                                    tree.slot_ref, tree.slot_resp, tree.row_mass, self.v, self.omega,
+                                    tree.slot_ref, tree.slot_resp, tree.row_mass, skip[:n], self.v, self.omega,
                                     joints.linear_impulse, joints.angular_impulse, joints.axial_impulse,
                                     self.normal_impulse, self.tangent_impulse)
         self.step_normal_impulse[:] += self.normal_impulse
         self.step_tangent_impulse[:] += self.tangent_impulse
+        if chains is not None:
+            skip[:n] = False
+            self._impact_chain(n, chains, listed, tree, joints)
+
+    def _impact_chains(self, n: int):
+        """(C,) bool: the contacts of this step's impacts through touching chains (``impact_chain.
+        chain_rows_kernel``), or None when there are none (or ``settings.impact_chains`` is off):
+        then the restitution pass is as it was, bit for bit."""
+        if not self.settings.impact_chains:
+            return None
+        sc = self.__dict__.get("_chain_scratch")
+        N = self.world.body_count
+        if sc is None or sc[0].shape[0] != N or sc[3].shape[0] < n:
+            sc = self._chain_scratch = (np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64),
+                                        np.zeros(N, dtype=bool), np.zeros(2 * n, dtype=bool))
+        c = self.contacts
+        chain = sc[3][:n]
+        count = chain_rows_kernel(c.contact_body_a, c.contact_body_b, self.restitution, self.relative_velocity,
+                                  self.max_normal_impulse, self.settings.restitution_threshold, self.world.inv_mass,
+                                  sc[0], sc[1], sc[2], chain)
+        return chain if count else None
+
+    def _impact_chain(self, n: int, chains, listed, tree, joints):
+        """The impacts through the touching chains ``chains`` (C,) bool, in sequence
+        (``impact_chain.impact_chain_kernel``), after the restitution pass has done the rest."""
+        c = self.contacts
+        rows = np.flatnonzero(chains)
+        tree_row = np.full(n, -1, dtype=np.int64)
+        if len(listed):
+            tree_row[listed] = np.arange(len(listed))
+            slots = (tree.slot_count, tree.slot_ref, tree.slot_resp, tree.row_mass)
+            impulses = (joints.linear_impulse, joints.angular_impulse, joints.axial_impulse)
+        else:
+            slots = (np.zeros(0, dtype=np.int64), np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0, 8)), np.zeros(0))
+            impulses = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, AXIAL_COUNT)))
+        K = len(rows)
+        impact_chain_kernel(rows, tree_row, c.contact_body_a, c.contact_body_b, c.contact_normal, self.restitution,
+                            self.normal_mass, self.settings.restitution_threshold, self.arm_a, self.arm_b,
+                            self.world.inv_mass, self.I_inv, *slots, chain_passes(K), self.v, self.omega, *impulses,
+                            self.step_normal_impulse, self.normal_impulse, np.zeros(K), np.zeros(K), np.zeros(K))
 
     def accumulate_step_impulses(self):
         """After a substep's relax: the accumulated impulses are what this substep applied

@@ -206,14 +206,15 @@ def solve_tree_contacts_groups_kernel(group_start, group_q, contacts, body_a, bo
 @njit(**JIT)
 def restitution_tree_kernel(contacts, body_a, body_b, normal, tangent1, tangent2, restitution, friction,
                             surface_target, relative_velocity, max_normal_impulse, threshold, arm_a, arm_b, slot_count,
-                            slot_ref, slot_resp, row_mass,
+                            slot_ref, slot_resp, row_mass, skip,
                             # outputs
                             v, omega, linear_impulse, angular_impulse, axial_impulse, normal_impulse, tangent_impulse):
     """The restitution pass of the contacts of jointed bodies (``contact_solve.apply_restitution_kernel``'s
     rule: where the approach speed was above ``threshold`` and the contact pushed this step, the normal
     speed set to -e times it; then the friction solved again within mu times the normal impulse the
     bounce added to), each row through the tree, passed over until no impulse changes a
-    speed by more than MANIFOLD_PASS_SPEED (at most MANIFOLD_PASSES). NOTE: why: with the free bodies'
+    speed by more than MANIFOLD_PASS_SPEED (at most MANIFOLD_PASSES); contacts with ``skip`` (C,) set
+    are left (a chain's: ``impact_chain``). NOTE: why: with the free bodies'
     masses, a ball (1 kg, 3 m/s, e = 1) striking a hinged bar (0.2 kg, 1 m) 0.8 m from its hinge left
     at 2.452 m/s against the 2.433 of the bar's inertia about the hinge, 1.2 % of the energy lost
     (measured, session 35)."""
@@ -222,7 +223,7 @@ def restitution_tree_kernel(contacts, body_a, body_b, normal, tangent1, tangent2
         for q in range(contacts.shape[0]):
             c = contacts[q]
             e = restitution[c]
-            if not bounces(e, relative_velocity[c], max_normal_impulse[c], threshold):
+            if skip[c] or not bounces(e, relative_velocity[c], max_normal_impulse[c], threshold):
                 continue
             mass = row_mass[3 * q]
             if mass == 0.0:
@@ -243,7 +244,7 @@ def restitution_tree_kernel(contacts, body_a, body_b, normal, tangent1, tangent2
         again = False
         for q in range(contacts.shape[0]):
             c = contacts[q]
-            if (friction[c] == 0.0 or row_mass[3 * q] == 0.0
+            if (skip[c] or friction[c] == 0.0 or row_mass[3 * q] == 0.0
                     or not bounces(restitution[c], relative_velocity[c], max_normal_impulse[c], threshold)):
                 continue
             ra = (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2])

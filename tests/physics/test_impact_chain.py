@@ -1,0 +1,137 @@
+"""Impacts through touching chains (``tumble.solver.impact_chain``): an impact that reaches bodies
+already touching is solved as the sequence of pairwise impacts through them (Newton's cradle of
+touching balls), where the restitution pass alone (Box2D's) moved the row on together.
+
+Each expected outcome is the sequential model's closed form: two balls of masses m1, m2 meeting
+at relative speed u along the line of centres leave with v1' = v1 - (1 + e) m2 / (m1 + m2) u and
+v2' = v2 + (1 + e) m1 / (m1 + m2) u, one pair after the other as the wave runs down the row; a
+pair approaching slower than the restitution threshold (1 m/s) ends together (inelastic).
+Momentum is conserved by every impulse; with e = 1 the energy too. The tolerances are round-off
+(the spheres' contacts are on the line of centres, no gravity, no friction): 1e-12 m/s on speeds
+of 3 m/s, where the restitution pass alone was off by metres per second."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import tumble as tb
+from tumble.errors import InputError
+from tumble.scene import parse_scene
+from tumble.solver.contact import SoftStepSettings
+from tumble.solver.joints import ACCURATE
+
+OFF = SoftStepSettings(impact_chains=False)
+
+
+def row(masses, v=3.0, e=1.0, settings=None, r=0.05):
+    """Balls of ``masses`` (kg) in a row along x, touching, no gravity, no friction, restitution
+    ``e``; the first 0.2 m before the others at ``v`` m/s. Run 0.25 s: every impact is over."""
+    w = tb.World(gravity=(0, 0, 0))
+    mat = tb.Material(friction=0.0, restitution=e)
+    w.add_body(tb.Sphere(radius=r), mass=masses[0], position=(-0.3, 0, 0), velocity=(v, 0, 0), material=mat)
+    for i, m in enumerate(masses[1:]):
+        w.add_body(tb.Sphere(radius=r), mass=m, position=(i * 2 * r, 0, 0), material=mat)
+    tb.Simulator(w, contact_settings=settings).run(0.25, 24, progress=False)
+    return w
+
+
+def test_five_touching_balls_send_the_last_one_out_at_the_first_ones_speed():
+    w = row([1.0] * 5)
+    np.testing.assert_allclose(w.v[:, 0], [0, 0, 0, 0, 3.0], atol=1e-12)
+    assert np.abs(w.v[:, 1:]).max() == 0.0 and np.abs(w.omega).max() == 0.0
+    assert w.kinetic_energy() == pytest.approx(4.5, rel=1e-12)
+
+
+def test_without_impact_chains_the_touching_row_moves_on_together_and_loses_energy():
+    """The control (``impact_chains=False``, the restitution pass alone): what this module
+    mends. Measured: -0.375, -0.277, 0.827, 0.827, 1.998 m/s, 38 % of the energy lost."""
+    w = row([1.0] * 5, settings=OFF)
+    assert w.v[4, 0] < 2.5 and w.v[0, 0] < -0.1
+    assert w.kinetic_energy() < 0.7 * 4.5
+    assert w.v[:, 0].sum() == pytest.approx(3.0, rel=1e-12)  # momentum either way
+
+
+def test_unequal_masses_follow_the_pairwise_sequence():
+    """1, 2, 1 kg at 3 m/s, e = 1: the first leaves at (1 - 2) / 3 v = -1, the middle takes 2 v / 3
+    and passes it on: (2 - 1) / 3 of it stays (2 / 9 v), the last leaves at 2 * 2 / 3 * 2 v / 3 =
+    8 / 9 v; momentum and energy kept."""
+    w = row([1.0, 2.0, 1.0])
+    np.testing.assert_allclose(w.v[:, 0], [-1.0, 2.0 / 3.0, 8.0 / 3.0], atol=1e-12)
+    m = np.array([1.0, 2.0, 1.0])
+    assert (m * w.v[:, 0]).sum() == pytest.approx(3.0, rel=1e-12)
+    assert w.kinetic_energy() == pytest.approx(4.5, rel=1e-12)
+
+
+def test_a_partly_elastic_chain_ends_as_the_sequence_and_the_threshold_say():
+    """Three equal balls, e = 0.5, 3 m/s: the first pair leaves at v / 4 and 3 v / 4, the second at
+    3 v / 16 and 9 v / 16; the first two then approach at v / 16 = 0.19 m/s, below the threshold:
+    they end together at 7 v / 32. Momentum kept, energy lost (never gained)."""
+    w = row([1.0, 1.0, 1.0], e=0.5)
+    np.testing.assert_allclose(w.v[:, 0], [21.0 / 32.0, 21.0 / 32.0, 27.0 / 16.0], atol=1e-12)
+    assert w.v[:, 0].sum() == pytest.approx(3.0, rel=1e-12)
+    assert w.kinetic_energy() < 4.5
+
+
+def test_lone_impacts_keep_the_restitution_pass_bit_for_bit():
+    """Two balls meeting, and a ball bouncing on the ground (gravity on), are no chain: the same
+    bits with impact chains on and off."""
+    a = row([1.0, 1.0])
+    b = row([1.0, 1.0], settings=OFF)
+    assert np.array_equal(a.pack(), b.pack())
+    np.testing.assert_allclose(a.v[:, 0], [0.0, 3.0], atol=1e-12)
+    states = []
+    for settings in (None, OFF):
+        w = tb.World(gravity=(0, 0, -9.81))
+        w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True)
+        w.add_body(tb.Sphere(radius=0.5), mass=1.0, position=(0, 0, 2.0),
+                   material=tb.Material(friction=0.0, restitution=0.8))
+        tb.Simulator(w, contact_settings=settings).run(2.0, 24, progress=False)
+        states.append(w.pack())
+    assert np.array_equal(*states)
+
+
+def hung_cradle(lift_deg=30.0, length=1.0, radius=0.05):
+    """Newton's cradle of touching balls: 5 balls of 1 kg on hinges ``length`` above them, e = 1,
+    no friction, the first lifted by ``lift_deg`` (tests/physics/test_contact_joints.py's cradle
+    with no gap)."""
+    w = tb.World(gravity=(0, 0, -9.81))
+    mat = tb.Material(friction=0.0, restitution=1.0)
+    th = math.radians(lift_deg)
+    for i in range(5):
+        x0 = i * 2 * radius
+        pos = (x0 - length * math.sin(th), 0, length - length * math.cos(th)) if i == 0 else (x0, 0, 0)
+        w.add_body(tb.Sphere(radius=radius), mass=1.0, position=pos, material=mat, name=f"ball{i}")
+        w.add_joint(tb.HingeJoint(f"ball{i}", None, anchor=(x0, 0, length), axis=(0, 1, 0)))
+    return w
+
+
+@pytest.mark.parametrize("method", ["tree", "gauss_seidel"])
+def test_touching_cradle_on_hinges_sends_one_ball_out(method):
+    """The cradle of touching balls on hinges, with the joint tree (``ACCURATE``: the contacts solved
+    through the tree's responses) and with the default Gauss-Seidel joints: the lifted ball strikes
+    at u = sqrt(2 g l (1 - cos 30)) = 1.62 m/s, the last leaves within 1 % of u and the other four
+    stay below 1 % of u; the energy after 1.2 s within 1 % (issue 4's bounds for the cradle hung
+    apart, test_contact_joints.py). Measured: last ball +0.002 % (tree) and +0.1 % (Gauss-Seidel),
+    energy -0.14 % and -0.35 %. The restitution pass alone: 0.57 m/s, 44 % of the energy lost."""
+    w = hung_cradle()
+    e0 = w.kinetic_energy() + w.potential_energy()
+    traj = tb.Simulator(w, joint_settings=ACCURATE if method == "tree" else None).run(1.2, 240, progress=False)
+    vx = traj.velocity[:, :, 0]
+    u = math.sqrt(2 * 9.81 * (1 - math.cos(math.radians(30))))
+    assert vx[:, 0].max() == pytest.approx(u, rel=1e-3)
+    k = int(np.argmax(vx[:, 4]))
+    assert vx[k, 4] == pytest.approx(u, rel=0.01)
+    assert np.abs(vx[k, :4]).max() < 0.01 * u
+    assert traj.total_energy[-1] == pytest.approx(e0, rel=0.01)
+
+
+def test_the_scene_key_turns_impact_chains_off_and_bad_values_are_one_line():
+    scene = parse_scene({"contact": {"impact_chains": False},
+                         "bodies": [{"name": "b", "shape": {"type": "sphere", "radius": 0.1}, "mass": 1.0}]})
+    assert scene.contact.impact_chains is False
+    with pytest.raises(InputError, match=r"contact\.impact_chains: expected true or false"):
+        parse_scene({"contact": {"impact_chains": "yes"},
+                     "bodies": [{"name": "b", "shape": {"type": "sphere", "radius": 0.1}, "mass": 1.0}]})
