@@ -135,3 +135,36 @@ def test_the_scene_key_turns_impact_chains_off_and_bad_values_are_one_line():
     with pytest.raises(InputError, match=r"contact\.impact_chains: expected true or false"):
         parse_scene({"contact": {"impact_chains": "yes"},
                      "bodies": [{"name": "b", "shape": {"type": "sphere", "radius": 0.1}, "mass": 1.0}]})
+
+
+def bouncy_bin(seed=0, e=0.8):
+    """216 boxes (0.2 m, 1 kg, friction 0.3, restitution ``e``) in a 6 x 6 x 6 grid, randomly turned,
+    dropped into a 2 m bin whose floor and walls have restitution ``e`` too."""
+    rng = np.random.default_rng(seed)
+    w = tb.World(gravity=(0, 0, -9.81))
+    w.add_body(tb.Plane(normal=(0, 0, 1)), fixed=True, material=tb.Material(restitution=e))
+    for x, y, sx, sy in ((1.05, 0, 0.1, 2.2), (-1.05, 0, 0.1, 2.2), (0, 1.05, 2.2, 0.1), (0, -1.05, 2.2, 0.1)):
+        w.add_body(tb.Box(size=(sx, sy, 1.0)), fixed=True, position=(x, y, 0.5), material=tb.Material(restitution=e))
+    mat = tb.Material(friction=0.3, restitution=e)
+    for k in range(6):
+        for i in range(6):
+            for j in range(6):
+                p = (-0.75 + 0.3 * i + rng.uniform(-0.02, 0.02), -0.75 + 0.3 * j + rng.uniform(-0.02, 0.02),
+                     0.2 + 0.3 * k)
+                w.add_body(tb.Box(size=(0.2, 0.2, 0.2)), mass=1.0, position=p, euler_deg=tuple(rng.uniform(0, 90, 3)),
+                           material=mat)
+    return w
+
+
+def test_a_bouncy_pile_settles_and_sleeps():
+    """The chains an impact makes in a pile follow the contacts that carried it (``carries_impact``),
+    and the step's friction is bounded by the sequence's normal impulses. Before both, every contact
+    of the pile joined the chain of any impact in it and the solve's friction was kept whole: these
+    216 bouncing boxes still moved at 6 cm/s after 4 s and never slept (measured; without impact
+    chains they sleep by 3 s). Now: all asleep at 5 s, none through the floor (5 mm: the issue's
+    penetration bound for the pile)."""
+    w = bouncy_bin()
+    sim = tb.Simulator(w)
+    sim.step(int(round(5.0 / sim.dt)))
+    assert not sim.sleep.awake[5:].any(), np.abs(w.v[5:]).max()
+    assert w.x[5:, 2].min() > 0.1 - 0.005

@@ -354,6 +354,7 @@ class ContactSolver:
             self.tangent1, self.tangent2, self.normal_mass, self.tangent_mass, self.soft, self.friction, self.restitution,
             self.relative_velocity, self.normal_impulse, self.tangent_impulse, self.max_normal_impulse,
         )
+        self._match = match  # the last step's row of each contact (-1: new), for the impact chains' loads
         if contacts.allowance_count:  # speculative gaps a sweep shows closing later (collision/speculative.py)
             self.separation_base[:n] += contacts.contact_allowance
         b["last_normal_speed"][:n] = b["relative_velocity"][:n]
@@ -501,9 +502,11 @@ class ContactSolver:
                                  self.tangent1, self.tangent2, self.normal_impulse, self.rolling_mass,
                                  self.rolling_limit, self.I_inv, self.omega, self.rolling_impulse)
 
-    def apply_restitution(self, tree=None, joints=None):
+    def apply_restitution(self, tree=None, joints=None, substeps: int = 1):
         """The restitution pass; the contacts of jointed bodies (``tree``, a split
-        ``contact_tree.TreeContacts``, and its ``joints``) through the tree."""
+        ``contact_tree.TreeContacts``, and its ``joints``) through the tree; then the impacts through
+        touching chains (``impact_chain``; ``substeps``: the step's substeps, for the loads the
+        contacts carried in the last step)."""
         if not self.count:
             return
         c = self.contacts
@@ -512,7 +515,7 @@ class ContactSolver:
         if skip is None or skip.shape[0] < n:
             skip = self._no_skip = np.zeros(2 * n, dtype=bool)
         listed = tree.contacts if tree is not None else ()
-        chains = self._impact_chains(n)  # (C,) bool, the contacts of impacts through touching chains, or None
+        chains = self._impact_chains(n, substeps)  # (C,) bool, the contacts of impacts through touching chains, or None
         if chains is not None:
             skip[:n] = chains  # left to impact_chain_kernel, below
         if len(listed):
@@ -543,10 +546,11 @@ class ContactSolver:
             skip[:n] = False
             self._impact_chain(n, chains, listed, tree, joints)
 
-    def _impact_chains(self, n: int):
+    def _impact_chains(self, n: int, substeps: int = 1):
         """(C,) bool: the contacts of this step's impacts through touching chains (``impact_chain.
         chain_rows_kernel``), or None when there are none (or ``settings.impact_chains`` is off):
-        then the restitution pass is as it was, bit for bit."""
+        then the restitution pass is as it was, bit for bit. A contact's load before the step: its
+        last step's last substep impulse (``old_normal_impulse`` by ``match``) times ``substeps``."""
         if not self.settings.impact_chains:
             return None
         sc = self.__dict__.get("_chain_scratch")
@@ -558,6 +562,8 @@ class ContactSolver:
         chain = sc[3][:n]
         count = chain_rows_kernel(c.contact_body_a, c.contact_body_b, self.restitution, self.relative_velocity,
                                   self.max_normal_impulse, self.settings.restitution_threshold, self.world.inv_mass,
+                                  self.normal_mass, self.step_normal_impulse, self._match,
+                                  self._buf["old_normal_impulse"][: self.old_count], float(substeps),
                                   sc[0], sc[1], sc[2], chain)
         return chain if count else None
 
@@ -575,10 +581,12 @@ class ContactSolver:
             slots = (np.zeros(0, dtype=np.int64), np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0, 8)), np.zeros(0))
             impulses = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, AXIAL_COUNT)))
         K = len(rows)
-        impact_chain_kernel(rows, tree_row, c.contact_body_a, c.contact_body_b, c.contact_normal, self.restitution,
-                            self.normal_mass, self.settings.restitution_threshold, self.arm_a, self.arm_b,
-                            self.world.inv_mass, self.I_inv, *slots, chain_passes(K), self.v, self.omega, *impulses,
-                            self.step_normal_impulse, self.normal_impulse, np.zeros(K), np.zeros(K), np.zeros(K))
+        impact_chain_kernel(rows, tree_row, c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1,
+                            self.tangent2, self.restitution, self.friction, self.normal_mass,
+                            self.settings.restitution_threshold, self.arm_a, self.arm_b, self.world.inv_mass,
+                            self.I_inv, *slots, chain_passes(K), self.v, self.omega, *impulses,
+                            self.step_normal_impulse, self.normal_impulse, self.step_tangent_impulse,
+                            self.tangent_impulse, np.zeros(K), np.zeros(K), np.zeros(K))
 
     def accumulate_step_impulses(self):
         """After a substep's relax: the accumulated impulses are what this substep applied

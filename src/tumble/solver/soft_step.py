@@ -756,7 +756,7 @@ class SoftStep:
             solver.accumulate_step_impulses()
             if check is not None:
                 check("solve_contacts", t + (k + 1) * h, Y=Y)
-        solver.apply_restitution(tree, joints)
+        solver.apply_restitution(tree, joints, int(round(dt / h)))
         store_momenta_kernel(layout, Y, active, w.mass, s.v, s.omega, self.I_world)
         solver.store_impulses()
         if joints is not None:
