@@ -814,24 +814,30 @@ def test_balloons_stand_over_their_weights_and_the_feather_sinks_at_its_terminal
 def test_billiards_break_runs_through_the_touching_rack():
     """examples/billiards.toml: the cue ball rolled at 6 m/s into a touching rack of 15 balls (e =
     0.95). Just after the strike (0.25 s; it lands at 0.21 s) the impact has run through the rack
-    as a sequence of pairwise impacts (docs/contact.md, "Impacts through touching chains"): a ball
-    flies out faster than 3 m/s, more than 60 % of the cue ball's energy is still in the balls, and
-    the cue ball is left at under 1 m/s along the table. Measured: 4.44 m/s, 70 %, -0.47 m/s; with
-    the restitution pass alone (``impact_chains = false``: Box2D's, and PyBullet's and MuJoCo's
-    outcome on a touching row, docs/benchmarks.md "Touching cradle") 1.24 m/s, 40 % and -2.13 m/s:
-    the rack pushed on as one lump. The bounds lie between the two. At the end every ball is still
-    on the table, inside the cushions and on the cloth."""
+    in waves of pairwise impacts (docs/contact.md, "Impacts through touching chains"): a rack ball
+    flies out faster than 2 m/s, more than 60 % of the cue ball's energy is still in the balls,
+    the cue ball is left at under 1 m/s along the table, and the two back corners, struck
+    alike, leave within 5 % of each other's speed. Measured: 3.00 m/s, 67 %, -0.57 m/s, the
+    corners 3.00 and 2.97 m/s. With the restitution pass alone (``impact_chains = false``: Box2D's,
+    and PyBullet's and MuJoCo's outcome on a touching row, docs/benchmarks.md "Touching cradle")
+    1.24 m/s, 40 % and -2.13 m/s: the rack pushed on as one lump; with the impacts taken a
+    manifold at a time in the contacts' order (before the waves), the corners left at 4.44 and
+    1.50 m/s. The bounds lie between. At the end every ball is still on the table, inside the
+    cushions and on the cloth."""
     scene = load_scene(EXAMPLES / "billiards.toml")
     w = scene.world
     sim = scene.simulator()
     balls = indices_of(w, ("cue", "ball"))
+    rack = indices_of(w, ("ball",))
     cue = w.names.index("cue")
     ke0 = w.kinetic_energy()
     sim.step(int(round(0.25 / sim.dt)))
-    speed = np.linalg.norm(w.v[balls], axis=1)
-    assert speed.max() > 3.0
+    speed = np.linalg.norm(w.v, axis=1)
+    assert speed[rack].max() > 2.0
     assert w.kinetic_energy() > 0.6 * ke0
     assert abs(w.v[cue, 0]) < 1.0
+    corners = speed[[w.names.index("ball11"), w.names.index("ball15")]]
+    assert abs(corners[0] - corners[1]) < 0.05 * corners.max(), corners
     sim.step(int(round((scene.duration - 0.25) / sim.dt)))
     r = 0.028575
     assert np.all(np.abs(w.x[balls, 0]) < 1.27 - r + 1e-3) and np.all(np.abs(w.x[balls, 1]) < 0.635 - r + 1e-3)

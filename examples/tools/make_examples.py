@@ -443,12 +443,11 @@ them; the cloth (a plane) with friction 0.2 against a ball and rolling resistanc
 cushions (boxes, restitution 0.75) around a {num(length)} x {num(width)} m table.
 
 What to watch: the strike runs through the touching rack as a sequence of impacts (docs/contact.md,
-"Impacts through touching chains"): a ball of the back row flies out at 4.4 m/s, the cue ball all
-but stops at the rack (0.5 m/s back), and the balls scatter over the table, off the cushions, and
-roll on. Which back ball flies fastest follows the order the contacts are listed in (the
-sequential model's order; a real break's follows the rack's hairline gaps). With `[contact]
-impact_chains = false` (the restitution pass alone, as in Box2D, Bullet and MuJoCo) the rack is
-pushed on as one lump at 1.2 m/s and the cue ball springs back at 2.1 m/s.
+"Impacts through touching chains"), in waves: the two back corners fly out at 3 m/s, the cue ball
+all but stops at the rack (0.6 m/s back), and the balls scatter over the table, off the cushions,
+and roll on. With `[contact] impact_chains = false` (the restitution pass alone, as in Box2D,
+Bullet and MuJoCo) the rack is pushed on as one lump at 1.2 m/s and the cue ball springs back at
+2.1 m/s.
 
 Contacts: sphere on sphere, sphere on plane, sphere on box.
 

@@ -586,7 +586,7 @@ class ContactSolver:
                             self.settings.restitution_threshold, self.arm_a, self.arm_b, self.world.inv_mass,
                             self.I_inv, *slots, chain_passes(K), self.v, self.omega, *impulses,
                             self.step_normal_impulse, self.normal_impulse, self.step_tangent_impulse,
-                            self.tangent_impulse, np.zeros(K), np.zeros(K), np.zeros(K))
+                            self.tangent_impulse, np.zeros(K), np.zeros(K), np.zeros(K), np.zeros(K, dtype=bool))
 
     def accumulate_step_impulses(self):
         """After a substep's relax: the accumulated impulses are what this substep applied
