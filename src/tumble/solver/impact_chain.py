@@ -47,6 +47,7 @@ from numba import njit
 from ..math3d import JIT
 from .contact_solve import MANIFOLD_PASS_SPEED, MANIFOLD_PASSES, _apply_impulse, bounces
 from .contact_tree import _speed
+from .island import _root
 from .joint_tree import apply_row_response
 
 #: at least this many passes over a chain's manifolds in ``impact_chain_kernel`` (more for a long
@@ -57,15 +58,6 @@ MIN_CHAIN_PASSES = 32
 #: m/s: a contact whose step's impulse exceeds twice its last step's load by more than its effective
 #: mass times this carried an impact (``carries_impact``)
 CARRY_SPEED = 0.01
-
-
-@njit(**JIT)
-def _root(parent, i):
-    """The root of body i's group (union-find with path halving)."""
-    while parent[i] != i:
-        parent[i] = parent[parent[i]]
-        i = parent[i]
-    return i
 
 
 @njit(**JIT)
@@ -149,6 +141,12 @@ def _row_speed(c, v, omega, body_a, body_b, normal, arm_a, arm_b):
     """The normal speed (m/s) of contact c's point on b over a's (< 0: approaching)."""
     return _speed(v, omega, body_a[c], body_b[c], (arm_a[c, 0], arm_a[c, 1], arm_a[c, 2]),
                   (arm_b[c, 0], arm_b[c, 1], arm_b[c, 2]), (normal[c, 0], normal[c, 1], normal[c, 2]))
+
+
+@njit(**JIT)
+def _row_mass(c, q, normal_mass, row_mass):
+    """The effective mass (kg) of contact c's normal row: its free bodies' (q < 0), or its tree row q's."""
+    return normal_mass[c] if q < 0 else row_mass[3 * q]
 
 
 @njit(**JIT)
@@ -240,7 +238,7 @@ def impact_chain_kernel(rows, tree_row, body_a, body_b, normal, tangent1, tangen
                     continue
                 c = rows[j]
                 q = tree_row[c]
-                mass = normal_mass[c] if q < 0 else row_mass[3 * q]
+                mass = _row_mass(c, q, normal_mass, row_mass)
                 if mass == 0.0:
                     continue
                 speed = _row_speed(c, v, omega, body_a, body_b, normal, arm_a, arm_b)
@@ -264,7 +262,7 @@ def impact_chain_kernel(rows, tree_row, body_a, body_b, normal, tangent1, tangen
         for k in range(K):
             c = rows[k]
             q = tree_row[c]
-            mass = normal_mass[c] if q < 0 else row_mass[3 * q]
+            mass = _row_mass(c, q, normal_mass, row_mass)
             if mass == 0.0:
                 continue
             speed = _row_speed(c, v, omega, body_a, body_b, normal, arm_a, arm_b)
