@@ -326,6 +326,7 @@ class ContactSolver:
             self.body_margin = np.array([m.margin for m in world.materials[:nb]], dtype=float)
             self.body_resists_rolling = np.array([m.resists_rolling for m in world.materials[:nb]], dtype=bool)
             self.any_resists_rolling = bool(self.body_resists_rolling.any())
+            self.any_restitution = bool(self.body_restitution.any())  # (else no chain: _impact_chains)
             self._material_bodies = (nb, world.material_version)
         b = self._buf
         b["step_normal_impulse"][:n] = 0.0
@@ -553,6 +554,8 @@ class ContactSolver:
         last step's last substep impulse (``old_normal_impulse`` by ``match``) times ``substeps``."""
         if not self.settings.impact_chains:
             return None
+        if not (self.__dict__.get("any_restitution", True) or self.world.pair_materials):
+            return None  # PERF: no body has restitution, and no pair a material of its own: no chain (3.4 us a step)
         sc = self.__dict__.get("_chain_scratch")
         N = self.world.body_count
         if sc is None or sc[0].shape[0] != N or sc[3].shape[0] < n:
