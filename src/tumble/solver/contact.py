@@ -87,11 +87,13 @@ class SoftStepSettings:
         "Loaded contacts").
     contact_speed: m/s, largest push-out speed of the bias (Box2D ``contactSpeed``, 3).
     restitution_threshold: m/s, see RESTITUTION_THRESHOLD.
-    impact_chains: (True) an impact reaching bodies that already touch (three bodies or more,
-        with restitution) is solved as the sequence of pairwise impacts the wave through them
-        makes: a Newton's cradle of touching balls sends the last ball out. False: the
-        restitution pass alone (Box2D's), under which the touching row moves on together
-        (``impact_chain``; docs/contact.md "Impacts through touching chains").
+    impact_chains: (False) True: an impact reaching bodies that already touch (three bodies or
+        more, with restitution) is solved as the sequence of pairwise impacts the wave through
+        them makes: a Newton's cradle of touching balls sends the last ball out, a pool break
+        runs through the rack. False: the restitution pass alone (Box2D's), under which the
+        touching row moves on together. Off by default: a body struck while it rests on a
+        support is taken as free during the strike, then bounced off the support (``impact_chain``;
+        docs/contact.md "Impacts through touching chains").
     speculative_distance: m, contacts are made this far apart (plus the motion bound of the
         step) and AABBs grown by it (collision.constants.SPECULATIVE_DISTANCE, 0.02).
     partitions: (2) a step with at least ``partition_min_contacts`` (1024) contact points solves
@@ -119,7 +121,7 @@ class SoftStepSettings:
     load_hertz_cap_per_substep: float = 0.0
     contact_speed: float = 3.0
     restitution_threshold: float = RESTITUTION_THRESHOLD
-    impact_chains: bool = True
+    impact_chains: bool = False
     speculative_distance: float = SPECULATIVE_DISTANCE
     partitions: int = 2
     partition_min_contacts: int = 1024
