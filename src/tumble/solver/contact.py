@@ -534,13 +534,12 @@ class ContactSolver:
                                  self.normal_impulse, self.tangent_impulse)
         if len(listed):
             skip[listed] = False
-            if chains is not None:
-                skip[:n] = chains
             restitution_tree_kernel(listed, c.contact_body_a, c.contact_body_b, c.contact_normal, self.tangent1,
                                     self.tangent2, self.restitution, self.friction, self.surface_target,
                                     self.relative_velocity, self.max_normal_impulse,
                                     self.settings.restitution_threshold, self.arm_a, self.arm_b, tree.slot_count,
-                                    tree.slot_ref, tree.slot_resp, tree.row_mass, skip[:n], self.v, self.omega,
+                                    tree.slot_ref, tree.slot_resp, tree.row_mass,
+                                    skip[:n] if chains is None else chains, self.v, self.omega,
                                     joints.linear_impulse, joints.angular_impulse, joints.axial_impulse,
                                     self.normal_impulse, self.tangent_impulse)
         self.step_normal_impulse[:] += self.normal_impulse

@@ -99,11 +99,12 @@ def chain_rows_kernel(body_a, body_b, restitution, relative_velocity, max_normal
         impact[i] = False
     joined = False
     for c in range(C):
+        # chain[c] first holds whether c pushed and carried an impact (the marking below reads it again)
+        chain[c] = max_normal_impulse[c] != 0.0 and carries_impact(c, normal_mass, step_normal_impulse, match,
+                                                                   old_normal_impulse, substeps)
         a = body_a[c]
         b = body_b[c]
-        if max_normal_impulse[c] == 0.0 or restitution[c] == 0.0 or inv_mass[a] == 0.0 or inv_mass[b] == 0.0:
-            continue
-        if not carries_impact(c, normal_mass, step_normal_impulse, match, old_normal_impulse, substeps):
+        if not chain[c] or restitution[c] == 0.0 or inv_mass[a] == 0.0 or inv_mass[b] == 0.0:
             continue
         ra = _root(parent, a)
         rb = _root(parent, b)
@@ -126,8 +127,7 @@ def chain_rows_kernel(body_a, body_b, restitution, relative_velocity, max_normal
                     impact[_root(parent, i)] = True
     for c in range(C):
         marked = False
-        if max_normal_impulse[c] != 0.0 and carries_impact(c, normal_mass, step_normal_impulse, match,
-                                                          old_normal_impulse, substeps):
+        if chain[c]:
             for i in (body_a[c], body_b[c]):
                 if inv_mass[i] != 0.0:
                     r = _root(parent, i)
@@ -233,12 +233,12 @@ def impact_chain_kernel(rows, tree_row, body_a, body_b, normal, tangent1, tangen
                 wave[j] = speed < 0.0  # NOTE: approaching points only (WAVE_ROWS)
                 if speed < -threshold:
                     hit = True
-            if not hit:
-                for j in range(k, end):
-                    wave[j] = False
             if hit:
                 impacts += 1
                 struck = True
+            else:
+                for j in range(k, end):
+                    wave[j] = False
             k = end
         if not struck:
             break
