@@ -24,6 +24,8 @@ from tumble.scene import parse_scene
 from tumble.solver.contact import SoftStepSettings
 from tumble.solver.joints import ACCURATE
 
+from .test_contact_joints import cradle  # Newton's cradle: 5 balls on hinges, e = 1, no friction
+
 ON = SoftStepSettings(impact_chains=True)
 OFF = SoftStepSettings()  # the default: the restitution pass alone
 
@@ -95,21 +97,6 @@ def test_lone_impacts_keep_the_restitution_pass_bit_for_bit():
     assert np.array_equal(*states)
 
 
-def hung_cradle(lift_deg=30.0, length=1.0, radius=0.05):
-    """Newton's cradle of touching balls: 5 balls of 1 kg on hinges ``length`` above them, e = 1,
-    no friction, the first lifted by ``lift_deg`` (tests/physics/test_contact_joints.py's cradle
-    with no gap)."""
-    w = tb.World(gravity=(0, 0, -9.81))
-    mat = tb.Material(friction=0.0, restitution=1.0)
-    th = math.radians(lift_deg)
-    for i in range(5):
-        x0 = i * 2 * radius
-        pos = (x0 - length * math.sin(th), 0, length - length * math.cos(th)) if i == 0 else (x0, 0, 0)
-        w.add_body(tb.Sphere(radius=radius), mass=1.0, position=pos, material=mat, name=f"ball{i}")
-        w.add_joint(tb.HingeJoint(f"ball{i}", None, anchor=(x0, 0, length), axis=(0, 1, 0)))
-    return w
-
-
 @pytest.mark.parametrize("method", ["tree", "gauss_seidel"])
 def test_touching_cradle_on_hinges_sends_one_ball_out(method):
     """The cradle of touching balls on hinges, with the joint tree (``ACCURATE``: the contacts solved
@@ -118,7 +105,7 @@ def test_touching_cradle_on_hinges_sends_one_ball_out(method):
     stay below 1 % of u; the energy after 1.2 s within 1 % (issue 4's bounds for the cradle hung
     apart, test_contact_joints.py). Measured: last ball +0.002 % (tree) and +0.1 % (Gauss-Seidel),
     energy -0.14 % and -0.35 %. The restitution pass alone: 0.57 m/s, 44 % of the energy lost."""
-    w = hung_cradle()
+    w = cradle(gap=0.0)  # touching
     e0 = w.kinetic_energy() + w.potential_energy()
     traj = tb.Simulator(w, joint_settings=ACCURATE if method == "tree" else None, contact_settings=ON).run(
         1.2, 240, progress=False)
